@@ -1,0 +1,217 @@
+"""Assembly of the out-of-plane FE model of a structure from its spec.
+
+The model is Eq. (3.1) of the dissertation without damping and control:
+``m q'' + k q = U u`` with ``q`` the free out-of-plane DOFs (``w``, ``rx``,
+``ry`` per node, as the spec activates them). Contents:
+
+- grillage beam elements (bending + torsion, optional shear flexibility, rigid
+  inserts) with geometric stiffness from the in-plane gravity pre-stress
+  (:mod:`vlab.fe.statics`), Sec. 2.1.1 and 2.2.1;
+- strings in tension to ground (Sec. 2.1.1);
+- lumped masses and rotary inertias; grounded springs (the plates' W*Y,
+  Sec. 2.2.1); the crosspiece as a single-DOF spring-mass (Sec. 2.1.1);
+- supports removing DOFs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from ..spec import StructureSpec
+from .dofmap import DofMap, Node
+from .elements import beam_matrices, local_to_global, rigid_offset
+from .mesh import Mesh, build_mesh
+from .statics import GravityState, solve_gravity
+
+#: Effective tip mass of a uniform cantilever in its static deflection shape
+#: (Rayleigh), as a fraction of the arm mass: 33/140.
+CANTILEVER_EFFECTIVE_MASS = 33.0 / 140.0
+
+
+@dataclass(frozen=True)
+class FEModel:
+    """An assembled out-of-plane FE model, SI.
+
+    Attributes
+    ----------
+    spec : StructureSpec
+        The definition it was built from.
+    m, k : ndarray, shape (n, n)
+        Mass [kg, kg*m, kg*m^2] and stiffness [N/m, N, N*m/rad] matrices, symmetric.
+    dofs : DofMap
+        Labels of the n free DOFs.
+    mesh : Mesh
+        Nodes and elements.
+    gravity : GravityState
+        In-plane pre-stress used for the geometric stiffness.
+    """
+
+    spec: StructureSpec
+    m: np.ndarray
+    k: np.ndarray
+    dofs: DofMap
+    mesh: Mesh
+    gravity: GravityState
+
+    @property
+    def n(self) -> int:
+        """Number of free DOFs."""
+        return self.m.shape[0]
+
+    def force_input(self, points: list[int] | tuple[int, ...]) -> np.ndarray:
+        """Load distribution matrix U of Eq. (3.1) for out-of-plane forces at ``points``.
+
+        Returns
+        -------
+        ndarray, shape (n, len(points))
+            ``U[i, j] = 1`` where DOF ``i`` is ``w`` at ``points[j]``.
+
+        Raises
+        ------
+        ModelError
+            For an unknown point id or a point whose ``w`` is constrained.
+        """
+        u = np.zeros((self.n, len(points)))
+        for j, p in enumerate(points):
+            u[self.dofs.index(p, "w"), j] = 1.0
+        return u
+
+
+def build_fe_model(spec: StructureSpec) -> FEModel:
+    """Assemble the FE model of ``spec``.
+
+    Returns
+    -------
+    FEModel
+
+    Raises
+    ------
+    ModelError
+        For a support on an unknown DOF, a rigid insert longer than its element,
+        a structure not held in its plane, or an assembled matrix that is not
+        symmetric positive (semi)definite.
+    """
+    mesh = build_mesh(spec)
+    gravity = solve_gravity(spec, mesh)
+    active = spec.active_dofs
+    fixed = {(s.point, d) for s in spec.supports for d in s.fixed}
+    for p, d in fixed:
+        if d not in active:
+            raise ModelError(f"{spec.name}: support at point {p} fixes inactive DOF {d!r}")
+    labels: list[tuple[Node, str]] = []
+    for node in mesh.nodes:
+        for d in ("w", "rx", "ry"):
+            if d in active and (node, d) not in fixed:
+                labels.append((node, d))
+    for c in spec.crosspieces:
+        labels.append((c.id, "w"))
+    dofs = DofMap(tuple(labels))
+    n = len(dofs)
+    m = np.zeros((n, n))
+    k = np.zeros((n, n))
+
+    def gidx(node: Node) -> list[int | None]:
+        out: list[int | None] = []
+        for d in ("w", "rx", "ry"):
+            out.append(dofs.index(node, d) if (node, d) in dofs else None)
+        return out
+
+    def scatter(target: np.ndarray, local: np.ndarray, idx: list[int | None]) -> None:
+        keep = [i for i, g in enumerate(idx) if g is not None]
+        g = [idx[i] for i in keep]
+        target[np.ix_(g, g)] += local[np.ix_(keep, keep)]
+
+    for el, forces in zip(mesh.elements, gravity.element_forces):
+        sec = spec.sections[el.section]
+        kl, ml = beam_matrices(
+            ei=sec.ei.si,
+            gj=sec.gj.si,
+            rho_a=sec.rho_a,
+            rho_ip=sec.rho_ip,
+            length=el.flexible_length,
+            shear_stiffness=sec.shear_stiffness.si if sec.shear_stiffness else None,
+            axial_force=forces.axial,
+        )
+        a1, a2 = el.offsets
+        ml = ml + _insert_mass(sec.rho_a, a1, a2)
+        t = rigid_offset(a1, a2) @ local_to_global(*el.direction)
+        idx = gidx(el.a) + gidx(el.b)
+        scatter(k, t.T @ kl @ t, idx)
+        scatter(m, t.T @ ml @ t, idx)
+
+    for s in spec.strings:
+        i = dofs.index(s.point, "w")
+        tension = gravity.string_tensions[s.id]
+        k[i, i] += tension / s.length.si
+        m[i, i] += s.rho_a.si * s.length.si / 3.0
+    for lm in spec.masses:
+        m[dofs.index(lm.point, "w"), dofs.index(lm.point, "w")] += lm.mass.si
+        for d, inertia in (("rx", lm.inertia_rx), ("ry", lm.inertia_ry)):
+            if inertia is not None and (lm.point, d) in dofs:
+                i = dofs.index(lm.point, d)
+                m[i, i] += inertia.si
+    for sp in spec.springs:
+        i = dofs.index(sp.point, sp.dof)
+        k[i, i] += sp.stiffness.si
+    for c in spec.crosspieces:
+        kc, m_eff, m_rest = crosspiece_sdof(spec, c)
+        i, j = dofs.index(c.point, "w"), dofs.index(c.id, "w")
+        k[np.ix_([i, j], [i, j])] += kc * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        m[j, j] += m_eff
+        m[i, i] += m_rest
+    m = 0.5 * (m + m.T)
+    k = 0.5 * (k + k.T)
+    _check_definite(spec.name, dofs, m, k)
+    return FEModel(spec, m, k, dofs, mesh, gravity)
+
+
+def crosspiece_sdof(spec: StructureSpec, c) -> tuple[float, float, float]:
+    """Single-DOF equivalent of a crosspiece (Sec. 2.1.1).
+
+    Two cantilever arms of length L and rigidity EI with tip masses:
+    ``k = 2 * 3 EI / L^3`` [N/m], ``m_eff = 2 (m_tip + 33/140 m_arm)`` [kg] on the
+    oscillator DOF, and the rest of the arm mass plus the clamp mass at the
+    attachment point [kg].
+
+    Returns
+    -------
+    (k, m_eff, m_rest) : tuple of float
+    """
+    sec = spec.sections[c.section]
+    L = c.arm_length.si
+    m_arm = sec.rho_a * L
+    kc = 2.0 * 3.0 * sec.ei.si / L**3
+    m_eff = 2.0 * (c.tip_mass.si + CANTILEVER_EFFECTIVE_MASS * m_arm)
+    m_rest = 2.0 * (1.0 - CANTILEVER_EFFECTIVE_MASS) * m_arm + c.clamp_mass.si
+    return kc, m_eff, m_rest
+
+
+def _insert_mass(rho_a: float, a1: float, a2: float) -> np.ndarray:
+    """Mass of the beam over rigid inserts, as rigid bars on the nodes' (w, b)."""
+    ml = np.zeros((6, 6))
+    for a, (iw, ib), sign in ((a1, (0, 1), 1.0), (a2, (3, 4), -1.0)):
+        if a > 0.0:
+            mass = rho_a * a
+            ml[np.ix_([iw, ib], [iw, ib])] += mass * np.array(
+                [[1.0, sign * a / 2.0], [sign * a / 2.0, a**2 / 3.0]]
+            )
+    return ml
+
+
+def _check_definite(name: str, dofs: DofMap, m: np.ndarray, k: np.ndarray) -> None:
+    wm = np.linalg.eigvalsh(m)
+    if wm.min() <= 1e-12 * max(wm.max(), 1e-300):
+        i = int(np.argmin(np.abs(np.diag(m))))
+        raise ModelError(
+            f"{name}: mass matrix is singular (e.g. no mass on DOF {dofs.name(i)}): "
+            "every free DOF needs inertia"
+        )
+    wk = np.linalg.eigvalsh(k)
+    if wk.min() < -1e-9 * wk.max():
+        raise ModelError(
+            f"{name}: stiffness matrix is not positive semidefinite (min eigenvalue "
+            f"{wk.min():.3g}): a member is in compression beyond buckling or a spring is negative"
+        )

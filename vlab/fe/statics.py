@@ -1,0 +1,192 @@
+"""In-plane static analysis under gravity: the pre-stress of every element.
+
+Sec. 2.2.1: "Gravity-induced in-plane forces, shear forces, and bending
+moments have significant influence on the out-of-plane stiffnesses of the
+thin aluminum grid members." This module solves the plane-frame problem
+(DOFs ``u, v, theta_z`` per node, standard 2-D frame elements with EA and the
+in-plane EI) loaded by the self-weight of members, lumped masses and
+crosspieces, and by strings of given tension, and returns the end forces of
+every element. Points of strings whose tension is "reaction" and supports
+marked ``inplane`` are pinned in the plane.
+
+Source: Przemieniecki (1968) Ch. 5 (plane frame element); consistent nodal
+loads of a uniformly distributed load.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from ..spec import StructureSpec
+from ..units import G_SI
+from .mesh import Element, Mesh
+
+
+@dataclass(frozen=True)
+class ElementForces:
+    """Gravity pre-stress of one element.
+
+    Attributes
+    ----------
+    axial : (float, float)
+        Axial force at ends a and b [N], tension positive.
+    shear : (float, float)
+        In-plane shear force at ends a and b [N] (local +y on the cut face
+        whose outward normal is +x, beam sign convention).
+    moment : (float, float)
+        In-plane bending moment at ends a and b [N*m] (beam sign convention,
+        sagging positive).
+    """
+
+    axial: tuple[float, float]
+    shear: tuple[float, float]
+    moment: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class GravityState:
+    """Result of :func:`solve_gravity`: element forces and string tensions [N]."""
+
+    element_forces: tuple[ElementForces, ...]
+    string_tensions: dict[str, float]
+    displacements: dict[object, tuple[float, float, float]]
+
+
+def _frame_local_stiffness(ea: float, ei: float, L: float) -> np.ndarray:
+    k = np.zeros((6, 6))
+    a = ea / L
+    k[np.ix_([0, 3], [0, 3])] = a * np.array([[1, -1], [-1, 1]])
+    b = ei / L**3
+    idx = [1, 2, 4, 5]
+    k[np.ix_(idx, idx)] = b * np.array(
+        [[12, 6 * L, -12, 6 * L], [6 * L, 4 * L**2, -6 * L, 2 * L**2],
+         [-12, -6 * L, 12, -6 * L], [6 * L, 2 * L**2, -6 * L, 4 * L**2]]
+    )
+    return k
+
+
+def _rotation(e: tuple[float, float]) -> np.ndarray:
+    c, s = e
+    r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    t = np.zeros((6, 6))
+    t[:3, :3] = r
+    t[3:, 3:] = r
+    return t
+
+
+def _distributed_load_local(q_local: np.ndarray, L: float) -> np.ndarray:
+    """Consistent nodal loads of a uniform load (qx, qy) [N/m] in local axes."""
+    qx, qy = q_local
+    return np.array([qx * L / 2, qy * L / 2, qy * L**2 / 12, qx * L / 2, qy * L / 2, -qy * L**2 / 12])
+
+
+def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
+    """Solve the in-plane frame under gravity and string tensions.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Loads (masses, sections' mass per length), strings and supports.
+    mesh : Mesh
+        The elements (from :func:`vlab.fe.mesh.build_mesh`).
+
+    Returns
+    -------
+    GravityState
+        Per element (same order as ``mesh.elements``) axial force, in-plane
+        shear and moment at both ends; the tension of every string [N].
+
+    Raises
+    ------
+    ModelError
+        If the structure is not held in its plane (loads not in equilibrium with
+        the supports: a rigid-body motion would be loaded).
+    """
+    nodes = list(mesh.nodes)
+    pos = {n: i for i, n in enumerate(nodes)}
+    ndof = 3 * len(nodes)
+    k = np.zeros((ndof, ndof))
+    f = np.zeros(ndof)
+    g = G_SI * np.asarray(spec.gravity_direction)  # acceleration vector in plane
+
+    fixed_eq: list[np.ndarray] = []
+    for el in mesh.elements:
+        sec = spec.sections[el.section]
+        kl = _frame_local_stiffness(sec.ea, sec.ei_inplane, el.length)
+        t = _rotation(el.direction)
+        idx = [3 * pos[el.a] + j for j in range(3)] + [3 * pos[el.b] + j for j in range(3)]
+        k[np.ix_(idx, idx)] += t.T @ kl @ t
+        q_global = sec.rho_a * g
+        q_local = t[:2, :2] @ q_global
+        feq = _distributed_load_local(q_local, el.length)
+        fixed_eq.append(feq)
+        f[idx] += t.T @ feq
+
+    def add_point_force(point: int, force: np.ndarray) -> None:
+        f[3 * pos[point]: 3 * pos[point] + 2] += force
+
+    for m in spec.masses:
+        add_point_force(m.point, m.mass.si * g)
+    for c in spec.crosspieces:
+        arm_mass = spec.sections[c.section].rho_a * c.arm_length.si
+        add_point_force(c.point, (2 * (arm_mass + c.tip_mass.si) + c.clamp_mass.si) * g)
+    pinned: list[int] = []
+    reaction_strings = []
+    for s in spec.strings:
+        if s.tension is None:
+            pinned.append(s.point)
+            reaction_strings.append(s)
+        else:
+            add_point_force(s.point, s.tension.si * np.asarray(s.direction))
+    pinned += [sup.point for sup in spec.supports if sup.inplane]
+    fixed = sorted({3 * pos[p] + j for p in pinned for j in (0, 1)})
+    free = np.setdiff1d(np.arange(ndof), fixed)
+    if not fixed:
+        raise ModelError(
+            f"{spec.name}: nothing holds the structure in its plane: give a string with "
+            "tension = \"reaction\" or a support with inplane = true"
+        )
+    kff = k[np.ix_(free, free)]
+    u = np.zeros(ndof)
+    sol, *_ = np.linalg.lstsq(kff, f[free], rcond=None)
+    resid = np.linalg.norm(kff @ sol - f[free])
+    if resid > 1e-6 * max(np.linalg.norm(f), 1.0):
+        raise ModelError(
+            f"{spec.name}: the in-plane gravity problem has no equilibrium "
+            f"(residual {resid:.3g} N): the supports do not carry the weight"
+        )
+    u[free] = sol
+    reactions = k @ u - f
+
+    forces = []
+    for el, feq in zip(mesh.elements, fixed_eq):
+        sec = spec.sections[el.section]
+        kl = _frame_local_stiffness(sec.ea, sec.ei_inplane, el.length)
+        t = _rotation(el.direction)
+        idx = [3 * pos[el.a] + j for j in range(3)] + [3 * pos[el.b] + j for j in range(3)]
+        fe = kl @ (t @ u[idx]) - feq  # forces the nodes exert on the element, local axes
+        forces.append(
+            ElementForces(
+                axial=(-fe[0], fe[3]),
+                shear=(fe[1], -fe[4]),
+                moment=(-fe[2], fe[5]),
+            )
+        )
+    tensions = {}
+    for s in spec.strings:
+        if s.tension is None:
+            r = reactions[3 * pos[s.point]: 3 * pos[s.point] + 2]
+            # the string pulls the point towards its anchor: reaction force = T * direction
+            tensions[s.id] = float(np.dot(r, s.direction))
+            if tensions[s.id] <= 0.0:
+                raise ModelError(
+                    f"{spec.name}: string {s.id!r} would be in compression "
+                    f"({tensions[s.id]:.3g} N): it cannot hold the structure"
+                )
+        else:
+            tensions[s.id] = s.tension.si
+    disp = {n: tuple(u[3 * pos[n]: 3 * pos[n] + 3]) for n in nodes}
+    return GravityState(tuple(forces), tensions, disp)

@@ -1,0 +1,354 @@
+"""The output of an experiment: sampled time histories of named channels.
+
+A :class:`Recording` is what the virtual laboratory hands to measurement
+(:mod:`vlab.measure`) and diagnosis: uniformly sampled force and motion
+channels, each tied to a structure point, plus free-form metadata (structure,
+controller, excitation, seed, ...). It mirrors a UFF 58 file of function
+type 1 (one record per channel, node = point id, direction 3 = out of plane),
+see :mod:`vlab.io.uff`.
+
+Channel names follow ``<prefix><point id>``: ``force4`` (force at point 4),
+``vel1`` (velocity at point 1), ``disp6``, ``acc2``. Units are SI and fixed
+by the quantity (Sec. 5.4: force voltage and velocity-sensor voltage were
+recorded; vlab records them already converted to N and m/s).
+
+Both classes are immutable: sample arrays are copied and made read-only.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeasurementError
+
+#: SI unit of each recorded quantity.
+QUANTITY_UNITS: Mapping[str, str] = MappingProxyType({
+    "force": "N",
+    "displacement": "m",
+    "velocity": "m/s",
+    "acceleration": "m/s^2",
+})
+
+#: Channel-name prefix of each quantity (``force4``, ``vel1``, ...).
+QUANTITY_PREFIXES: Mapping[str, str] = MappingProxyType({
+    "force": "force",
+    "displacement": "disp",
+    "velocity": "vel",
+    "acceleration": "acc",
+})
+
+_NAME_RE = re.compile(r"^(force|disp|vel|acc)(\d+)$")
+_PREFIX_QUANTITY = {p: q for q, p in QUANTITY_PREFIXES.items()}
+
+
+def channel_name(quantity: str, point_id: int) -> str:
+    """Conventional channel name, e.g. ``channel_name("velocity", 1) == "vel1"``.
+
+    Raises
+    ------
+    MeasurementError
+        If ``quantity`` is not one of :data:`QUANTITY_UNITS`.
+    """
+    if quantity not in QUANTITY_PREFIXES:
+        raise MeasurementError(
+            f"unknown quantity {quantity!r}; known: {', '.join(QUANTITY_PREFIXES)}")
+    return f"{QUANTITY_PREFIXES[quantity]}{int(point_id)}"
+
+
+def parse_channel_name(name: str) -> tuple[str, int]:
+    """Split a conventional channel name into ``(quantity, point_id)``.
+
+    ``"force4" -> ("force", 4)``, ``"vel12" -> ("velocity", 12)``.
+
+    Raises
+    ------
+    MeasurementError
+        If ``name`` does not follow ``<force|disp|vel|acc><point id>``.
+    """
+    m = _NAME_RE.match(name)
+    if m is None:
+        raise MeasurementError(
+            f"channel name {name!r} does not follow '<force|disp|vel|acc><point id>'; "
+            "pass point_ids and quantities explicitly")
+    return _PREFIX_QUANTITY[m.group(1)], int(m.group(2))
+
+
+def _frozen_array(values: Any, *, what: str) -> np.ndarray:
+    arr = np.array(values, dtype=float, copy=True)
+    if arr.ndim != 1:
+        raise MeasurementError(f"{what}: expected a 1-D array of samples, got shape {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Channel:
+    """One recorded signal.
+
+    Parameters
+    ----------
+    name : str
+        Unique name within the recording (``"force4"``, ``"vel1"``).
+    point_id : int
+        Structure point (dissertation numbering, see DESIGN.md) where it is measured.
+    quantity : {"force", "displacement", "velocity", "acceleration"}
+        What is measured; fixes the unit (:data:`QUANTITY_UNITS`).
+    samples : array_like, shape (n_samples,)
+        Values in SI units ([N], [m], [m/s], [m/s^2]). Copied, read-only.
+    direction : int
+        UFF direction code; 3 = +Z, out of the structure's plane (default).
+
+    Raises
+    ------
+    MeasurementError
+        Empty name, unknown quantity, samples not 1-D, or non-finite samples.
+    """
+
+    name: str
+    point_id: int
+    quantity: str
+    samples: np.ndarray
+    direction: int = 3
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise MeasurementError(f"channel name must be a non-empty string, got {self.name!r}")
+        if self.quantity not in QUANTITY_UNITS:
+            raise MeasurementError(
+                f"channel {self.name!r}: unknown quantity {self.quantity!r}; "
+                f"known: {', '.join(QUANTITY_UNITS)}")
+        if isinstance(self.point_id, bool) or int(self.point_id) != self.point_id:
+            raise MeasurementError(f"channel {self.name!r}: point_id must be an integer, "
+                                   f"got {self.point_id!r}")
+        object.__setattr__(self, "point_id", int(self.point_id))
+        object.__setattr__(self, "direction", int(self.direction))
+        arr = _frozen_array(self.samples, what=f"channel {self.name!r}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise MeasurementError(
+                f"channel {self.name!r}: {bad.size} non-finite sample(s), first at index {bad[0]}")
+        object.__setattr__(self, "samples", arr)
+
+    @property
+    def unit(self) -> str:
+        """SI unit of the samples (``"N"``, ``"m/s"``, ...)."""
+        return QUANTITY_UNITS[self.quantity]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Channel):
+            return NotImplemented
+        return (self.name == other.name and self.point_id == other.point_id
+                and self.quantity == other.quantity and self.direction == other.direction
+                and np.array_equal(self.samples, other.samples))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """Uniformly sampled time histories of several channels (one experiment run).
+
+    Parameters
+    ----------
+    dt_s : float
+        Sampling interval [s] (0.5e-3 for the PC-1000 at 2 kHz, Sec. 5.3).
+    channels : sequence of Channel
+        At least one; unique names; all with the same number of samples.
+    metadata : mapping, optional
+        Free-form description of the run (structure, controller, excitation,
+        seed, ...). Stored as a read-only mapping; JSON-serialisable values
+        are needed to write it next to a UFF file.
+
+    Raises
+    ------
+    MeasurementError
+        Non-positive or non-finite ``dt_s``, no channels, duplicate names or
+        channels of different lengths (the message names the channel).
+
+    Notes
+    -----
+    Sample ``k`` of every channel is taken at ``t_k = k * dt_s``. The record
+    length used for frequency resolution is ``duration_s = n_samples * dt_s``
+    (resolution ``1 / duration_s`` [Hz] for one block).
+    """
+
+    dt_s: float
+    channels: tuple[Channel, ...]
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        dt = float(self.dt_s)
+        if not math.isfinite(dt) or dt <= 0.0:
+            raise MeasurementError(f"Recording.dt_s must be a positive finite time step [s], got {self.dt_s!r}")
+        object.__setattr__(self, "dt_s", dt)
+        chans = tuple(self.channels)
+        if not chans:
+            raise MeasurementError("Recording needs at least one channel")
+        for c in chans:
+            if not isinstance(c, Channel):
+                raise MeasurementError(f"Recording.channels must hold Channel objects, got {type(c).__name__}")
+        names = [c.name for c in chans]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise MeasurementError(f"Recording: duplicate channel name(s) {dup}")
+        n0 = chans[0].samples.size
+        for c in chans[1:]:
+            if c.samples.size != n0:
+                raise MeasurementError(
+                    f"Recording: channel {c.name!r} has {c.samples.size} samples, "
+                    f"channel {chans[0].name!r} has {n0}")
+        object.__setattr__(self, "channels", chans)
+        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+
+    # -- construction -----------------------------------------------------
+    @classmethod
+    def from_signals(cls, dt_s: float, signals: Mapping[str, Any], *,
+                     metadata: Mapping[str, Any] | None = None,
+                     point_ids: Mapping[str, int] | None = None,
+                     quantities: Mapping[str, str] | None = None,
+                     direction: int = 3) -> Recording:
+        """Build a recording from named arrays.
+
+        Parameters
+        ----------
+        dt_s : float
+            Sampling interval [s].
+        signals : mapping of str to array_like, each shape (n_samples,)
+            Channel name -> samples in SI units. Names like ``force4`` or
+            ``vel1`` give quantity and point id; other names need entries in
+            ``point_ids`` and ``quantities``.
+        metadata : mapping, optional
+            Run description.
+        point_ids, quantities : mapping, optional
+            Override the values parsed from the names.
+        direction : int
+            UFF direction code of all channels (3 = +Z, out of plane).
+
+        Raises
+        ------
+        MeasurementError
+            Unparseable name without explicit point id/quantity, or any
+            error of :class:`Channel` / :class:`Recording`.
+        """
+        point_ids = dict(point_ids or {})
+        quantities = dict(quantities or {})
+        chans = []
+        for name, values in signals.items():
+            if name in point_ids and name in quantities:
+                q, p = quantities[name], point_ids[name]
+            else:
+                q, p = parse_channel_name(name)
+                q, p = quantities.get(name, q), point_ids.get(name, p)
+            chans.append(Channel(name=name, point_id=p, quantity=q, samples=values,
+                                 direction=direction))
+        return cls(dt_s=dt_s, channels=tuple(chans), metadata=dict(metadata or {}))
+
+    def with_metadata(self, **items: Any) -> Recording:
+        """Copy with ``items`` added to (or replacing keys of) the metadata."""
+        return Recording(self.dt_s, self.channels, {**self.metadata, **items})
+
+    def select(self, names: Sequence[str]) -> Recording:
+        """Copy holding only the channels ``names`` (in that order).
+
+        Raises
+        ------
+        MeasurementError
+            If a name is not in the recording.
+        """
+        return Recording(self.dt_s, tuple(self.channel(n) for n in names), self.metadata)
+
+    # -- access -------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Channel names in recording order."""
+        return tuple(c.name for c in self.channels)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples per channel."""
+        return int(self.channels[0].samples.size)
+
+    @property
+    def n_channels(self) -> int:
+        """Number of channels."""
+        return len(self.channels)
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """Sampling rate ``1 / dt_s`` [Hz]."""
+        return 1.0 / self.dt_s
+
+    @property
+    def duration_s(self) -> float:
+        """Record length ``n_samples * dt_s`` [s]."""
+        return self.n_samples * self.dt_s
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Sample instants ``k * dt_s`` [s], shape (n_samples,)."""
+        return np.arange(self.n_samples) * self.dt_s
+
+    def channel(self, name: str) -> Channel:
+        """The :class:`Channel` called ``name``.
+
+        Raises
+        ------
+        MeasurementError
+            If there is no such channel (the message lists the channels).
+        """
+        for c in self.channels:
+            if c.name == name:
+                return c
+        raise MeasurementError(f"no channel {name!r} in recording; channels: {', '.join(self.names)}")
+
+    def find(self, point_id: int, quantity: str) -> Channel:
+        """The channel measuring ``quantity`` at ``point_id``.
+
+        Raises
+        ------
+        MeasurementError
+            If none or more than one channel matches.
+        """
+        hits = [c for c in self.channels if c.point_id == point_id and c.quantity == quantity]
+        if len(hits) != 1:
+            raise MeasurementError(
+                f"{'no' if not hits else len(hits)} {quantity} channel(s) at point {point_id}; "
+                f"channels: {', '.join(self.names)}")
+        return hits[0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Samples of channel ``name``, shape (n_samples,), read-only."""
+        return self.channel(name).samples
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
+
+    def __iter__(self) -> Iterator[Channel]:
+        return iter(self.channels)
+
+    def __len__(self) -> int:
+        return len(self.channels)
+
+    def as_array(self, names: Sequence[str] | None = None) -> np.ndarray:
+        """Samples stacked as columns, shape (n_samples, n_selected), in ``names`` order."""
+        names = self.names if names is None else names
+        return np.column_stack([self[n] for n in names])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Recording):
+            return NotImplemented
+        return (self.dt_s == other.dt_s and self.channels == other.channels
+                and dict(self.metadata) == dict(other.metadata))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (f"Recording(dt_s={self.dt_s!r}, n_samples={self.n_samples}, "
+                f"channels={list(self.names)!r})")

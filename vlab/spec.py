@@ -1,0 +1,680 @@
+"""StructureSpec: the one definition of a laboratory structure.
+
+``assets/structures/<name>.toml`` describes a structure once; the FE model
+(:mod:`vlab.fe`) and the MuJoCo plant (:mod:`vlab.sim`) are both built from
+the :class:`StructureSpec` loaded here. Every physical value in the file is an
+inline table ``{ value = ..., unit = "...", source = "..." }``; the source is a
+section or table of the dissertation, ``"assumed: <reason>"`` or
+``"calibrated: <data>"``. Values are converted to SI on loading.
+
+Coordinates: the structure lies in the plane (x, y), y up; ``w`` is the
+out-of-plane (z) translation, ``rx``/``ry`` the rotations about x and y.
+
+Errors: :class:`vlab.errors.SpecError` naming the file and the dotted field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from . import units
+from .errors import SpecError
+
+DOF_NAMES = ("w", "rx", "ry")
+
+#: Folder of the shipped structure definitions and published tables.
+ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets"
+STRUCTURES_DIR = ASSETS_DIR / "structures"
+DATA_DIR = ASSETS_DIR / "data"
+
+_KIND_UNITS = {
+    "length": {"m", "in", "mm"},
+    "force": {"N", "lbf"},
+    "mass": {"kg", "lbf*s^2/in", "lbm", "lbf", "N"},  # lbf/N: a weight, divided by g
+    "stiffness": {"N/m", "lbf/in"},
+    "rot_stiffness": {"N*m/rad", "lbf*in/rad"},
+    "rigidity": {"N*m^2", "lbf*in^2"},
+    "modulus": {"Pa", "psi"},
+    "density": {"kg/m^3", "lbf/in^3"},
+    "inertia": {"kg*m^2", "lbf*s^2*in"},
+    "shear_force": {"N", "lbf"},
+    "ratio": {"1"},
+}
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A value in SI with its provenance.
+
+    Attributes
+    ----------
+    si : float
+        Value in SI units.
+    source : str
+        Where it comes from ("Table 1", "assumed: ...", "calibrated: ...").
+    """
+
+    si: float
+    source: str
+
+    @property
+    def calibrated(self) -> bool:
+        """True when the value was fitted to data (source starts with 'calibrated')."""
+        return self.source.lower().startswith("calibrated")
+
+
+@dataclass(frozen=True)
+class Section:
+    """A rectangular bar section: geometry and material, SI.
+
+    ``ei`` is the out-of-plane (weak-axis) flexural rigidity, ``ei_inplane`` the
+    in-plane one (for the gravity statics), ``gj`` the St-Venant torsional
+    rigidity, ``rho_a`` mass per length [kg/m], ``rho_ip`` polar mass moment of
+    inertia per length [kg*m], ``ea`` the axial rigidity [N], and
+    ``shear_stiffness`` kGA [N] or None for Euler-Bernoulli.
+    """
+
+    name: str
+    width: Quantity
+    thickness: Quantity
+    ei: Quantity
+    ei_inplane: float
+    gj: Quantity
+    ea: float
+    rho_a: float
+    rho_ip: float
+    shear_stiffness: Quantity | None
+
+
+@dataclass(frozen=True)
+class RigidInsert:
+    """A rigid insert of ``length`` [m] at ``point`` on each element end touching it."""
+
+    point: int
+    length: Quantity
+
+
+@dataclass(frozen=True)
+class Member:
+    """A polyline of beam elements through ``points`` (ids), one section."""
+
+    id: str
+    points: tuple[int, ...]
+    section: str
+    elements_per_segment: int
+    rigid_inserts: tuple[RigidInsert, ...] = ()
+
+
+@dataclass(frozen=True)
+class StringElement:
+    """A string in tension from ``point`` to a ground anchor in ``direction``.
+
+    ``tension`` is a :class:`Quantity` or None when the string is a support
+    whose tension follows from equilibrium under gravity ("reaction").
+    """
+
+    id: str
+    point: int
+    direction: tuple[float, float]
+    length: Quantity
+    tension: Quantity | None
+    rho_a: Quantity
+
+
+@dataclass(frozen=True)
+class LumpedMass:
+    """A rigid mass at a point: ``mass`` [kg], rotary inertias [kg*m^2]."""
+
+    id: str
+    point: int
+    mass: Quantity
+    inertia_rx: Quantity | None = None
+    inertia_ry: Quantity | None = None
+
+
+@dataclass(frozen=True)
+class Crosspiece:
+    """Symmetric cantilever arms with tip masses clamped at ``point``.
+
+    The FE model represents it as a single-DOF spring-mass (Sec. 2.1.1); the
+    MuJoCo plant as two flexible arms.
+    """
+
+    id: str
+    point: int
+    arm_length: Quantity
+    section: str
+    tip_mass: Quantity
+    clamp_mass: Quantity
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A grounded spring on one DOF of a point (N/m or N*m/rad)."""
+
+    id: str
+    point: int
+    dof: str
+    stiffness: Quantity
+
+
+@dataclass(frozen=True)
+class Support:
+    """Out-of-plane DOFs fixed at a point, and whether it is pinned in-plane."""
+
+    point: int
+    fixed: tuple[str, ...]
+    inplane: bool
+
+
+@dataclass(frozen=True)
+class Instrumentation:
+    """Actuator/sensor point ids, excitation and response points (Sec. 5.4)."""
+
+    actuators: tuple[int, ...]
+    sensors: tuple[int, ...]
+    excitation: int
+    response: int
+    source: str
+
+
+@dataclass(frozen=True)
+class Damping:
+    """Open-loop modal damping ratios for the first modes, and a default for the rest."""
+
+    modal_ratios: tuple[float, ...]
+    default_ratio: float
+    source: str
+
+
+@dataclass(frozen=True)
+class StructureSpec:
+    """The whole definition of one structure, SI. Immutable; use :meth:`replace`."""
+
+    name: str
+    title: str
+    path: Path | None
+    active_dofs: tuple[str, ...]
+    gravity_direction: tuple[float, float]
+    points: dict[int, tuple[float, float]]
+    sections: dict[str, Section]
+    members: tuple[Member, ...]
+    strings: tuple[StringElement, ...] = ()
+    masses: tuple[LumpedMass, ...] = ()
+    crosspieces: tuple[Crosspiece, ...] = ()
+    springs: tuple[Spring, ...] = ()
+    supports: tuple[Support, ...] = ()
+    instrumentation: Instrumentation | None = None
+    damping: Damping | None = None
+    reference: dict[str, str] = field(default_factory=dict)
+    mujoco: dict[str, Any] = field(default_factory=dict)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def replace(self, **changes: Any) -> "StructureSpec":
+        """Return a copy with fields replaced (the spec itself never changes)."""
+        return dataclasses.replace(self, **changes)
+
+    def check_point(self, point: int, where: str) -> int:
+        """Return ``point`` if it exists, else raise SpecError naming ``where``."""
+        if point not in self.points:
+            raise SpecError(
+                f"{self._file()}: {where}: unknown point id {point!r}; "
+                f"points are {sorted(self.points)}"
+            )
+        return point
+
+    def calibrated_quantities(self) -> dict[str, Quantity]:
+        """All values whose source says 'calibrated', keyed by a dotted path."""
+        out: dict[str, Quantity] = {}
+
+        def walk(prefix: str, obj: Any) -> None:
+            if isinstance(obj, Quantity):
+                if obj.calibrated:
+                    out[prefix] = obj
+            elif dataclasses.is_dataclass(obj):
+                for f in dataclasses.fields(obj):
+                    walk(f"{prefix}.{f.name}", getattr(obj, f.name))
+            elif isinstance(obj, (tuple, list)):
+                for item in obj:
+                    walk(f"{prefix}.{getattr(item, 'id', getattr(item, 'name', ''))}", item)
+            elif isinstance(obj, dict):
+                for k, v in obj.items():
+                    walk(f"{prefix}.{k}", v)
+
+        for name in ("sections", "strings", "masses", "crosspieces", "springs"):
+            walk(name, getattr(self, name))
+        return out
+
+    def _file(self) -> str:
+        return str(self.path) if self.path else f"<spec {self.name}>"
+
+
+# ---------------------------------------------------------------- reading ---
+
+
+class _Reader:
+    """Reads one TOML table with field-path aware errors."""
+
+    def __init__(self, file: str, table: dict[str, Any], path: str):
+        self.file, self.table, self.path = file, table, path
+        if not isinstance(table, dict):
+            self.fail("", f"expected a table, got {type(table).__name__}")
+        self._used: set[str] = set()
+
+    def fail(self, key: str, msg: str) -> None:
+        where = f"{self.path}.{key}" if key and self.path else (key or self.path)
+        raise SpecError(f"{self.file}: field '{where}': {msg}")
+
+    def has(self, key: str) -> bool:
+        return key in self.table
+
+    def raw(self, key: str, default: Any = ..., *, types: tuple[type, ...] = ()) -> Any:
+        self._used.add(key)
+        if key not in self.table:
+            if default is ...:
+                self.fail(key, "missing")
+            return default
+        v = self.table[key]
+        if types and not isinstance(v, types):
+            self.fail(key, f"expected {'/'.join(t.__name__ for t in types)}, got {v!r}")
+        return v
+
+    def str(self, key: str, default: Any = ...) -> str:
+        return self.raw(key, default, types=(str,))
+
+    def int(self, key: str, default: Any = ...) -> int:
+        v = self.raw(key, default, types=(int,))
+        if isinstance(v, bool):
+            self.fail(key, f"expected an integer, got {v!r}")
+        return v
+
+    def sub(self, key: str, default: Any = ...) -> "_Reader | None":
+        v = self.raw(key, default, types=(dict,))
+        if v is None:
+            return None
+        return _Reader(self.file, v, f"{self.path}.{key}" if self.path else key)
+
+    def quantity(self, key: str, kind: str, *, positive: bool = True, optional: bool = False) -> Quantity | None:
+        if optional and key not in self.table:
+            self._used.add(key)
+            return None
+        q = self.sub(key)
+        value = q.raw("value", types=(int, float))
+        if isinstance(value, bool) or not math.isfinite(value):
+            q.fail("value", f"expected a finite number, got {value!r}")
+        unit = q.str("unit")
+        source = q.str("source")
+        if not source.strip():
+            q.fail("source", "empty: every value needs its source (table, section, 'assumed: ...' or 'calibrated: ...')")
+        q.done()
+        if unit not in _KIND_UNITS[kind]:
+            q.fail("unit", f"{unit!r} is not a unit of {kind}; use one of {sorted(_KIND_UNITS[kind])}")
+        si = float(value) * units.factor(unit, where=f"{self.file}: field '{q.path}.unit'")
+        if kind == "mass" and unit in ("lbf", "N"):
+            si = units.weight_to_mass(float(value) * units.factor(unit))
+        if positive and si <= 0.0:
+            q.fail("value", f"must be positive, got {value!r}")
+        if not positive and si < 0.0:
+            q.fail("value", f"must not be negative, got {value!r}")
+        return Quantity(si, source)
+
+    def done(self) -> None:
+        extra = set(self.table) - self._used
+        if extra:
+            self.fail(sorted(extra)[0], f"unknown field (known here: {sorted(self._used)})")
+
+
+def _section(r: _Reader, name: str) -> Section:
+    b = r.quantity("width", "length")
+    t = r.quantity("thickness", "length")
+    rho = r.quantity("density", "density")
+    e = r.quantity("modulus", "modulus")
+    g = r.quantity("shear_modulus", "modulus")
+    ei = r.quantity("ei", "rigidity", optional=True)
+    gj = r.quantity("gj", "rigidity", optional=True)
+    kga = r.quantity("shear_stiffness", "shear_force", optional=True)
+    r.done()
+    bw, tk = b.si, t.si
+    if tk > bw:
+        r.fail("thickness", "thickness larger than width: the out-of-plane axis is the thin one")
+    area = bw * tk
+    if ei is None:
+        ei = Quantity(e.si * bw * tk**3 / 12.0, f"E*b*t^3/12 ({e.source})")
+    if gj is None:
+        j = bw * tk**3 / 3.0 * (1.0 - 0.63 * tk / bw)
+        gj = Quantity(g.si * j, f"G*b*t^3/3*(1-0.63 t/b) ({g.source})")
+    return Section(
+        name=name,
+        width=b,
+        thickness=t,
+        ei=ei,
+        ei_inplane=e.si * tk * bw**3 / 12.0,
+        gj=gj,
+        ea=e.si * area,
+        rho_a=rho.si * area,
+        rho_ip=rho.si * area * (bw**2 + tk**2) / 12.0,
+        shear_stiffness=kga,
+    )
+
+
+def _direction(r: _Reader, key: str) -> tuple[float, float]:
+    v = r.raw(key, types=(list,))
+    if len(v) != 2 or not all(isinstance(x, (int, float)) for x in v):
+        r.fail(key, f"expected [x, y], got {v!r}")
+    n = math.hypot(*v)
+    if n == 0:
+        r.fail(key, "zero vector")
+    return (v[0] / n, v[1] / n)
+
+
+def _dof(r: _Reader, key: str, value: str) -> str:
+    if value not in DOF_NAMES:
+        r.fail(key, f"unknown DOF {value!r}; use one of {DOF_NAMES}")
+    return value
+
+
+def load_spec(name_or_path: str | Path) -> StructureSpec:
+    """Load a structure definition.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        ``"bcc"``/``"grid"`` (a file in ``assets/structures``) or a path to a TOML file.
+
+    Returns
+    -------
+    StructureSpec
+        All values in SI.
+
+    Raises
+    ------
+    SpecError
+        If the file is missing, is not valid TOML, has a missing, unknown or
+        mistyped field, a non-positive stiffness/mass, or an unknown point id;
+        the message names the file and field.
+    """
+    path = Path(name_or_path)
+    if path.suffix != ".toml":
+        path = STRUCTURES_DIR / f"{name_or_path}.toml"
+        if not path.exists():
+            known = sorted(p.stem for p in STRUCTURES_DIR.glob("*.toml"))
+            raise SpecError(f"unknown structure {str(name_or_path)!r}; known: {known}")
+    if not path.exists():
+        raise SpecError(f"{path}: file not found")
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{path}: not valid TOML: {exc}") from None
+    return spec_from_dict(doc, path=path)
+
+
+def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> StructureSpec:
+    """Build a :class:`StructureSpec` from a parsed TOML document (see :func:`load_spec`)."""
+    file = str(path) if path else "<dict>"
+    top = _Reader(file, doc, "")
+    s = top.sub("structure")
+    name = s.str("name")
+    title = s.str("title")
+    s.str("source")
+    active = tuple(_dof(s, "dofs", d) for d in s.raw("dofs", types=(list,)))
+    if "w" not in active:
+        s.fail("dofs", "the out-of-plane translation 'w' must be active")
+    grav = _direction(s, "gravity")
+    s.done()
+
+    p = top.sub("points")
+    unit = p.str("unit")
+    scale = units.factor(unit, where=f"{file}: field 'points.unit'")
+    p.str("source")
+    coords = p.sub("coordinates")
+    points: dict[int, tuple[float, float]] = {}
+    for key in list(coords.table):
+        xy = coords.raw(key, types=(list,))
+        if not key.isdigit():
+            coords.fail(key, "point ids must be positive integers")
+        if len(xy) != 2 or not all(isinstance(x, (int, float)) for x in xy):
+            coords.fail(key, f"expected [x, y], got {xy!r}")
+        points[int(key)] = (xy[0] * scale, xy[1] * scale)
+    p.done()
+
+    sections = {}
+    sec_tab = top.sub("sections")
+    for key in list(sec_tab.table):
+        sections[key] = _section(sec_tab.sub(key), key)
+    sec_tab.done()
+
+    def point_of(r: _Reader, key: str) -> int:
+        pid = r.int(key)
+        if pid not in points:
+            r.fail(key, f"unknown point id {pid}; points are {sorted(points)}")
+        return pid
+
+    members = []
+    for i, t in enumerate(top.raw("members", types=(list,))):
+        r = _Reader(file, t, f"members[{i}]")
+        pts = r.raw("points", types=(list,))
+        if len(pts) < 2:
+            r.fail("points", "a member needs at least two points")
+        for pid in pts:
+            if pid not in points:
+                r.fail("points", f"unknown point id {pid!r}; points are {sorted(points)}")
+        sec = r.str("section")
+        if sec not in sections:
+            r.fail("section", f"unknown section {sec!r}; sections are {sorted(sections)}")
+        n = r.int("elements_per_segment", 1)
+        if n < 1:
+            r.fail("elements_per_segment", f"must be >= 1, got {n}")
+        inserts = []
+        for j, ins in enumerate(r.raw("rigid_inserts", [], types=(list,))):
+            ri = _Reader(file, ins, f"{r.path}.rigid_inserts[{j}]")
+            pid = point_of(ri, "point")
+            if pid not in pts:
+                ri.fail("point", f"point {pid} is not on this member")
+            inserts.append(RigidInsert(pid, ri.quantity("length", "length")))
+            ri.done()
+        members.append(Member(r.str("id"), tuple(pts), sec, n, tuple(inserts)))
+        r.done()
+
+    strings = []
+    for i, t in enumerate(top.raw("strings", [], types=(list,))):
+        r = _Reader(file, t, f"strings[{i}]")
+        tension = None
+        if r.has("tension") and r.table["tension"] == "reaction":
+            r.raw("tension")
+        else:
+            tension = r.quantity("tension", "force")
+        strings.append(
+            StringElement(
+                id=r.str("id"),
+                point=point_of(r, "point"),
+                direction=_direction(r, "direction"),
+                length=r.quantity("length", "length"),
+                tension=tension,
+                rho_a=_mass_per_length(r),
+            )
+        )
+        r.done()
+
+    masses = []
+    for i, t in enumerate(top.raw("masses", [], types=(list,))):
+        r = _Reader(file, t, f"masses[{i}]")
+        masses.append(
+            LumpedMass(
+                id=r.str("id"),
+                point=point_of(r, "point"),
+                mass=r.quantity("mass", "mass"),
+                inertia_rx=r.quantity("inertia_rx", "inertia", optional=True),
+                inertia_ry=r.quantity("inertia_ry", "inertia", optional=True),
+            )
+        )
+        r.done()
+
+    crosspieces = []
+    for i, t in enumerate(top.raw("crosspieces", [], types=(list,))):
+        r = _Reader(file, t, f"crosspieces[{i}]")
+        sec = r.str("section")
+        if sec not in sections:
+            r.fail("section", f"unknown section {sec!r}; sections are {sorted(sections)}")
+        crosspieces.append(
+            Crosspiece(
+                id=r.str("id"),
+                point=point_of(r, "point"),
+                arm_length=r.quantity("arm_length", "length"),
+                section=sec,
+                tip_mass=r.quantity("tip_mass", "mass"),
+                clamp_mass=r.quantity("clamp_mass", "mass", positive=False),
+            )
+        )
+        r.done()
+
+    springs = []
+    for i, t in enumerate(top.raw("springs", [], types=(list,))):
+        r = _Reader(file, t, f"springs[{i}]")
+        dof = _dof(r, "dof", r.str("dof"))
+        kind = "stiffness" if dof == "w" else "rot_stiffness"
+        springs.append(Spring(r.str("id"), point_of(r, "point"), dof, r.quantity("stiffness", kind)))
+        r.done()
+
+    supports = []
+    for i, t in enumerate(top.raw("supports", [], types=(list,))):
+        r = _Reader(file, t, f"supports[{i}]")
+        fixed = tuple(_dof(r, "fixed", d) for d in r.raw("fixed", types=(list,)))
+        supports.append(Support(point_of(r, "point"), fixed, bool(r.raw("inplane", False, types=(bool,)))))
+        r.done()
+
+    instr = None
+    ir = top.sub("instrumentation", None)
+    if ir is not None:
+        acts = tuple(ir.raw("actuators", types=(list,)))
+        sens = tuple(ir.raw("sensors", types=(list,)))
+        for key, ids in (("actuators", acts), ("sensors", sens)):
+            for pid in ids:
+                if pid not in points:
+                    ir.fail(key, f"unknown point id {pid!r}; points are {sorted(points)}")
+        exc = point_of(ir, "excitation")
+        if exc not in acts:
+            ir.fail("excitation", f"excitation point {exc} must be one of the actuators {list(acts)}")
+        instr = Instrumentation(acts, sens, exc, point_of(ir, "response"), ir.str("source"))
+        ir.done()
+
+    damping = None
+    dr = top.sub("damping", None)
+    if dr is not None:
+        ratios = dr.raw("modal_ratios", types=(list,))
+        for z in ratios:
+            if not isinstance(z, (int, float)) or not 0.0 <= z < 1.0:
+                dr.fail("modal_ratios", f"damping ratios must be in [0, 1), got {z!r}")
+        default = dr.raw("default_ratio", types=(int, float))
+        damping = Damping(tuple(float(z) for z in ratios), float(default), dr.str("source"))
+        dr.done()
+
+    reference = dict(top.raw("reference", {}, types=(dict,)))
+    for key, fname in reference.items():
+        if not (DATA_DIR / fname).exists():
+            top.fail(f"reference.{key}", f"data file {fname!r} not found in {DATA_DIR}")
+    mj = dict(top.raw("mujoco", {}, types=(dict,)))
+    top.raw("calibration", {}, types=(dict,))
+    top.done()
+
+    ids = [m.id for m in members]
+    if len(set(ids)) != len(ids):
+        raise SpecError(f"{file}: field 'members': duplicate member ids {ids}")
+    return StructureSpec(
+        name=name,
+        title=title,
+        path=path,
+        active_dofs=active,
+        gravity_direction=grav,
+        points=points,
+        sections=sections,
+        members=tuple(members),
+        strings=tuple(strings),
+        masses=tuple(masses),
+        crosspieces=tuple(crosspieces),
+        springs=tuple(springs),
+        supports=tuple(supports),
+        instrumentation=instr,
+        damping=damping,
+        reference=reference,
+        mujoco=mj,
+        raw=doc,
+    )
+
+
+def _mass_per_length(r: _Reader) -> Quantity:
+    """Mass per length of a string from its diameter and density (SI)."""
+    d = r.quantity("diameter", "length")
+    rho = r.quantity("density", "density")
+    count = r.int("count", 1)
+    if count < 1:
+        r.fail("count", f"must be >= 1, got {count}")
+    return Quantity(
+        count * rho.si * math.pi * d.si**2 / 4.0,
+        f"{count} x pi d^2/4 x density ({d.source}; {rho.source})",
+    )
+
+
+_COLLECTIONS = ("strings", "masses", "crosspieces", "springs")
+
+
+def with_quantity(spec: StructureSpec, path: str, value_si: float, source: str | None = None) -> StructureSpec:
+    """Return a copy of ``spec`` with one quantity changed.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    path : str
+        ``"<collection>.<id>.<field>"`` with collection one of strings, masses,
+        crosspieces, springs (e.g. ``"strings.bottom_cables.tension"``), or
+        ``"sections.<name>.<field>"`` for ``ei``, ``gj``, ``shear_stiffness``.
+    value_si : float
+        New value in SI.
+    source : str, optional
+        New provenance; defaults to the old one.
+
+    Returns
+    -------
+    StructureSpec
+        A new spec; ``spec`` is unchanged.
+
+    Raises
+    ------
+    SpecError
+        If the path names no quantity of the spec.
+    """
+    parts = path.split(".")
+    if len(parts) != 3:
+        raise SpecError(f"{spec._file()}: quantity path {path!r} must be '<collection>.<id>.<field>'")
+    coll, ident, fld = parts
+
+    def new_q(old: Any) -> Quantity:
+        if not isinstance(old, Quantity):
+            raise SpecError(f"{spec._file()}: {path!r} is not a quantity")
+        return Quantity(float(value_si), source if source is not None else old.source)
+
+    if coll == "sections":
+        if ident not in spec.sections:
+            raise SpecError(f"{spec._file()}: {path!r}: unknown section {ident!r}")
+        sec = spec.sections[ident]
+        if fld not in ("ei", "gj", "shear_stiffness"):
+            raise SpecError(f"{spec._file()}: {path!r}: only ei, gj, shear_stiffness can be changed")
+        old = getattr(sec, fld)
+        q = new_q(old) if old is not None else Quantity(float(value_si), source or "modified")
+        secs = dict(spec.sections)
+        secs[ident] = dataclasses.replace(sec, **{fld: q})
+        return spec.replace(sections=secs)
+    if coll not in _COLLECTIONS:
+        raise SpecError(f"{spec._file()}: {path!r}: unknown collection {coll!r}; use {_COLLECTIONS + ('sections',)}")
+    items = list(getattr(spec, coll))
+    for i, item in enumerate(items):
+        if item.id == ident:
+            if not hasattr(item, fld):
+                raise SpecError(f"{spec._file()}: {path!r}: {coll} have no field {fld!r}")
+            items[i] = dataclasses.replace(item, **{fld: new_q(getattr(item, fld))})
+            return spec.replace(**{coll: tuple(items)})
+    raise SpecError(f"{spec._file()}: {path!r}: no {coll} with id {ident!r}")
