@@ -38,7 +38,6 @@ import scipy.linalg as sla
 from .errors import ModelError
 from .reduction import (
     ReducedModel,
-    _check_shape,
     _damping_ratios,
     _freqs,
     _frozen,

@@ -702,12 +702,14 @@ class ExactReduction(_Reductor):
             if cond <= self.max_cond:
                 return
         else:
-            cond = np.inf
+            cond = np.linalg.cond(phi_r / np.where(col_full > 0, col_full, 1.0)[None, :])
         what = []
         if dead_modes.size:
-            what.append(f"{_mode_names(dead_modes, freq)} vanish(es) at all master DOFs (not observable there)")
+            verb = "is" if dead_modes.size == 1 else "are"
+            what.append(f"{_mode_names(dead_modes, freq)} {verb} zero at every master DOF (not observable there)")
         if dead_masters.size:
-            what.append(f"{_dof_names(dead_masters, self.labels)} do(es) not move in any of the first {self.n_R} modes")
+            verb = "does" if dead_masters.size == 1 else "do"
+            what.append(f"{_dof_names(dead_masters, self.labels)} {verb} not move in any of the first {self.n_R} modes")
         if not what:
             a = phi_r / col[None, :]
             a = a / np.linalg.norm(a, axis=1)[:, None]

@@ -169,7 +169,7 @@ class Support:
 
     point: int
     fixed: tuple[str, ...]
-    inplane: bool
+    inplane: str  # "free", "pinned" or "clamped" in the in-plane gravity statics
 
 
 @dataclass(frozen=True)
@@ -212,6 +212,7 @@ class StructureSpec:
     instrumentation: Instrumentation | None = None
     damping: Damping | None = None
     reference: dict[str, str] = field(default_factory=dict)
+    master_dofs: dict[str, tuple[tuple[int, str], ...]] = field(default_factory=dict)
     mujoco: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
@@ -368,6 +369,8 @@ def _direction(r: _Reader, key: str) -> tuple[float, float]:
         r.fail(key, f"expected [x, y], got {v!r}")
     n = math.hypot(*v)
     if n == 0:
+        if key == "gravity":
+            return (0.0, 0.0)  # no gravity: for validation models
         r.fail(key, "zero vector")
     return (v[0] / n, v[1] / n)
 
@@ -544,7 +547,11 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     for i, t in enumerate(top.raw("supports", [], types=(list,))):
         r = _Reader(file, t, f"supports[{i}]")
         fixed = tuple(_dof(r, "fixed", d) for d in r.raw("fixed", types=(list,)))
-        supports.append(Support(point_of(r, "point"), fixed, bool(r.raw("inplane", False, types=(bool,)))))
+        inplane = r.raw("inplane", "free", types=(bool, str))
+        inplane = {True: "pinned", False: "free"}.get(inplane, inplane)
+        if inplane not in ("free", "pinned", "clamped"):
+            r.fail("inplane", f"expected true/false or 'free', 'pinned', 'clamped', got {inplane!r}")
+        supports.append(Support(point_of(r, "point"), fixed, inplane))
         r.done()
 
     instr = None
@@ -577,6 +584,23 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     for key, fname in reference.items():
         if not (DATA_DIR / fname).exists():
             top.fail(f"reference.{key}", f"data file {fname!r} not found in {DATA_DIR}")
+    masters: dict[str, tuple[tuple[int, str], ...]] = {}
+    rr = top.sub("reduction", None)
+    if rr is not None:
+        rr.str("source")
+        for key in [k for k in rr.table if k != "source"]:
+            if key not in ("exact", "guyan"):
+                rr.fail(key, "unknown reduction; use 'exact' or 'guyan'")
+            labels = []
+            for item in rr.raw(key, types=(list,)):
+                if (not isinstance(item, list) or len(item) != 2 or not isinstance(item[0], int)
+                        or item[1] not in DOF_NAMES):
+                    rr.fail(key, f"expected [point, dof] pairs, got {item!r}")
+                if item[0] not in points:
+                    rr.fail(key, f"unknown point id {item[0]}; points are {sorted(points)}")
+                labels.append((item[0], item[1]))
+            masters[key] = tuple(labels)
+        rr.done()
     mj = dict(top.raw("mujoco", {}, types=(dict,)))
     top.raw("calibration", {}, types=(dict,))
     top.done()
@@ -601,6 +625,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         instrumentation=instr,
         damping=damping,
         reference=reference,
+        master_dofs=masters,
         mujoco=mj,
         raw=doc,
     )

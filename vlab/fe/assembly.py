@@ -143,12 +143,15 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
         scatter(m, t.T @ ml @ t, idx)
 
     for s in spec.strings:
+        if (s.point, "w") not in dofs:
+            continue  # the string ends on a support: its stiffness and mass go to ground
         i = dofs.index(s.point, "w")
         tension = gravity.string_tensions[s.id]
         k[i, i] += tension / s.length.si
         m[i, i] += s.rho_a.si * s.length.si / 3.0
     for lm in spec.masses:
-        m[dofs.index(lm.point, "w"), dofs.index(lm.point, "w")] += lm.mass.si
+        if (lm.point, "w") in dofs:
+            m[dofs.index(lm.point, "w"), dofs.index(lm.point, "w")] += lm.mass.si
         for d, inertia in (("rx", lm.inertia_rx), ("ry", lm.inertia_ry)):
             if inertia is not None and (lm.point, d) in dofs:
                 i = dofs.index(lm.point, d)

@@ -7,7 +7,8 @@ thin aluminum grid members." This module solves the plane-frame problem
 in-plane EI) loaded by the self-weight of members, lumped masses and
 crosspieces, and by strings of given tension, and returns the end forces of
 every element. Points of strings whose tension is "reaction" and supports
-marked ``inplane`` are pinned in the plane.
+marked ``inplane = "pinned"`` (or ``true``) are pinned in the plane, ``"clamped"``
+ones also fixed in in-plane rotation.
 
 Source: Przemieniecki (1968) Ch. 5 (plane frame element); consistent nodal
 loads of a uniformly distributed load.
@@ -141,10 +142,11 @@ def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
             reaction_strings.append(s)
         else:
             add_point_force(s.point, s.tension.si * np.asarray(s.direction))
-    pinned += [sup.point for sup in spec.supports if sup.inplane]
-    fixed = sorted({3 * pos[p] + j for p in pinned for j in (0, 1)})
+    pinned += [sup.point for sup in spec.supports if sup.inplane in ("pinned", "clamped")]
+    clamped = [sup.point for sup in spec.supports if sup.inplane == "clamped"]
+    fixed = sorted({3 * pos[p] + j for p in pinned for j in (0, 1)} | {3 * pos[p] + 2 for p in clamped})
     free = np.setdiff1d(np.arange(ndof), fixed)
-    if not fixed:
+    if not fixed and np.any(f):
         raise ModelError(
             f"{spec.name}: nothing holds the structure in its plane: give a string with "
             "tension = \"reaction\" or a support with inplane = true"

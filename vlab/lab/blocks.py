@@ -1,0 +1,504 @@
+"""Blocks of the digital control loop of Fig. 21 (Sec. 5.3).
+
+The physical chain from sensor to structure in the dissertation's laboratory
+is::
+
+    velocity sensor --(+ noise)--> PC-1000 [sample, Eq. (5.1), DAC with
+    zero-order hold, total delay 1.35 dt] --> RC low-pass (677 Hz) -->
+    controlled-current amplifier --> force coil
+
+Each block here is a small object in the style of Drake's
+``ZeroOrderHold``/``DiscreteTimeDelay``: its update equation in the
+docstring, named signals (``u`` in, ``y`` out), an explicit period or step in
+seconds, ``update(u)`` to advance the state and ``output()`` to read it. Every
+block carries a vector of ``size`` channels; inputs must have shape
+``(size,)``.
+
+Two clocks meet in the loop: the controller period ``period_s`` (0.5 ms at
+2 kHz) and the physics step ``step_s`` of the plant integration, which
+divides it (e.g. 0.5 ms / 10). :meth:`SampleDelay.output_at` gives the
+held-and-delayed DAC voltage at any physics time, so a plant stepped at
+``step_s`` sees the switch that happens 1.35 dt after each sample instant.
+
+A typical loop (controller period ``dt``, ``n_sub`` physics steps per period)::
+
+    for k in range(n_periods):
+        t_k = k * dt
+        y_k = noise.output(sensor(plant))          # sample at t_k
+        u_k = engine.step(y_k)                     # Eq. (5.1)
+        dac.update(u_k)                            # DAC switches at t_k + 1.35 dt
+        for s in range(n_sub):
+            t = t_k + s * h
+            rc.update(dac.output_at(t))            # 677 Hz smoothing over [t, t+h)
+            plant.step(h, amp.output(rc.output()))
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ModelError, SimulationError
+
+#: Sampling period of the PC-1000 at its maximum rate of 2000 samples/s [s] (Sec. 5.3).
+PC1000_PERIOD_S = 0.5e-3
+#: Delay through the PC-1000 from sample to DAC output, in sampling periods (Sec. 5.3).
+PC1000_DELAY_PERIODS = 1.35
+#: Corner frequency of the passive RC smoothing filters [Hz] (Sec. 5.3).
+RC_CORNER_HZ = 677.0
+
+#: Relative tolerance, in periods, for deciding on which side of a switch instant a time lies.
+_TIME_TOL = 1e-9
+
+
+def _positive(value: float, *, what: str) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v <= 0.0:
+        raise ModelError(f"{what} must be a positive finite number, got {value!r}")
+    return v
+
+
+def _size(size: int, *, what: str) -> int:
+    if isinstance(size, bool) or int(size) != size or size < 1:
+        raise ModelError(f"{what}: size must be a positive integer, got {size!r}")
+    return int(size)
+
+
+class _Block:
+    """Shared plumbing: a name, a channel count, input checks."""
+
+    #: Name of the input signal.
+    INPUT = "u"
+    #: Name of the output signal.
+    OUTPUT = "y"
+
+    def __init__(self, *, size: int, name: str) -> None:
+        self.name = str(name)
+        self.size = _size(size, what=self.name)
+
+    def _vector(self, value, *, signal: str) -> np.ndarray:
+        """``value`` as a float vector of shape (size,), or a ModelError naming the signal."""
+        arr = np.asarray(value, dtype=float)
+        if arr.shape != (self.size,):
+            raise ModelError(f"{self.name}.{signal}: expected shape ({self.size},), got {arr.shape}")
+        return arr
+
+    def _input(self, u) -> np.ndarray:
+        arr = self._vector(u, signal=self.INPUT)
+        if not np.all(np.isfinite(arr)):
+            raise SimulationError(f"{self.name}.{self.INPUT}: non-finite input {arr}")
+        return arr.copy()
+
+    def _initial(self, value, *, what: str = "initial_value") -> np.ndarray:
+        """A scalar (broadcast) or a (size,) vector of finite parameter values."""
+        arr = np.asarray(value, dtype=float)
+        arr = np.full(self.size, float(arr)) if arr.ndim == 0 else self._vector(arr, signal=what).copy()
+        if not np.all(np.isfinite(arr)):
+            raise ModelError(f"{self.name}.{what} must be finite, got {arr}")
+        return arr
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, size={self.size})"
+
+
+class ZeroOrderHold(_Block):
+    """Sample-and-hold of a signal at a fixed period.
+
+    Update and output (sample ``n`` at ``t_n = offset_s + n * period_s``)::
+
+        x[n+1] = u[n]                   (update, at t_n)
+        y(t)   = x[n+1] = u[n]          for t_n <= t < t_{n+1}
+
+    Before the first update ``y = initial_value``.
+
+    Parameters
+    ----------
+    period_s : float
+        Sampling period [s], e.g. :data:`PC1000_PERIOD_S`.
+    size : int
+        Number of channels; ``u`` and ``y`` have shape (size,).
+    initial_value : float or array_like, shape (size,)
+        Held value before the first sample.
+    offset_s : float
+        Time of sample 0 [s].
+    name : str
+        Used in error messages (``"zoh.u: ..."``).
+
+    Raises
+    ------
+    ModelError
+        Non-positive period, bad size or shapes.
+    SimulationError
+        Non-finite input (the loop diverged).
+
+    Notes
+    -----
+    Source: the PC-1000's zero-order-hold DAC, Sec. 5.3; block layout after
+    Drake's ``ZeroOrderHold``.
+    """
+
+    def __init__(self, *, period_s: float, size: int = 1, initial_value=0.0,
+                 offset_s: float = 0.0, name: str = "zoh") -> None:
+        super().__init__(size=size, name=name)
+        self.period_s = _positive(period_s, what=f"{name}.period_s")
+        self.offset_s = float(offset_s)
+        self._x0 = self._initial(initial_value)
+        self.reset()
+
+    def reset(self) -> None:
+        """Return to the initial state (held ``initial_value``, no sample taken)."""
+        self._x = self._x0.copy()
+        self.n_samples = 0
+
+    @property
+    def state(self) -> np.ndarray:
+        """Held value ``x``, shape (size,) (a copy)."""
+        return self._x.copy()
+
+    def sample_time(self, n: int) -> float:
+        """Instant of sample ``n`` [s]: ``offset_s + n * period_s``."""
+        return self.offset_s + n * self.period_s
+
+    def update(self, u) -> None:
+        """Latch sample ``u[n]``, shape (size,): ``x <- u``."""
+        self._x = self._input(u)
+        self.n_samples += 1
+
+    def output(self) -> np.ndarray:
+        """Held value ``y = x``, shape (size,)."""
+        return self._x.copy()
+
+
+class SampleDelay(_Block):
+    """Zero-order hold followed by a pure delay of ``delay_periods`` sampling periods.
+
+    Models the PC-1000 DAC, whose output changes ``D * dt`` after the sample
+    instant (``D = 1.35``, Sec. 5.3). Write ``D = m + f`` with integer
+    ``m = floor(D)`` and ``0 <= f < 1``. Samples ``u[n]`` enter at
+    ``t_n = offset_s + n * dt``; the continuous-time output is piecewise
+    constant::
+
+        y(t) = u[j],  j = floor((t - offset_s) / dt - D)      (u[j<0] = initial_value)
+
+    i.e. inside each period ``[t_n, t_{n+1})`` it is ``u[n-m-1]`` for the
+    first ``f * dt`` and ``u[n-m]`` for the rest: one switch per period, at
+    ``t_n + f * dt``. :meth:`output_at` returns this exact value at any
+    (physics) time and :meth:`mean_over` its average over an interval.
+
+    Discrete-time output (the average of ``y(t)`` over ``[t_n, t_{n+1})``,
+    equal to linear interpolation between the two delayed samples)::
+
+        y[n] = (1 - f) u[n-m] + f u[n-m-1]
+
+    For integer ``D`` this is Drake's ``DiscreteTimeDelay``: ``y[n] = u[n-D]``.
+
+    Parameters
+    ----------
+    period_s : float
+        Sampling period ``dt`` [s].
+    delay_periods : float
+        Delay ``D >= 0`` in sampling periods (may be fractional; 1.35 for the PC-1000).
+    size : int
+        Number of channels.
+    initial_value : float or array_like, shape (size,)
+        Output before the first delayed sample arrives.
+    offset_s : float
+        Time of sample 0 [s].
+    name : str
+        Used in error messages.
+
+    Raises
+    ------
+    ModelError
+        Bad period, negative or non-finite delay, bad shapes.
+    SimulationError
+        Non-finite input; :meth:`output_at` asked for a time whose sample
+        has not been pushed yet or has already left the buffer.
+
+    Notes
+    -----
+    State: a buffer of the last ``m + 2`` samples. Switch instants are taken
+    as right-continuous within ``1e-9 * dt`` so that a physics step landing
+    on a switch (e.g. ``0.35 dt = 7 * dt/20``) sees the new value.
+    """
+
+    def __init__(self, *, period_s: float, delay_periods: float, size: int = 1,
+                 initial_value=0.0, offset_s: float = 0.0, name: str = "delay") -> None:
+        super().__init__(size=size, name=name)
+        self.period_s = _positive(period_s, what=f"{name}.period_s")
+        d = float(delay_periods)
+        if not math.isfinite(d) or d < 0.0:
+            raise ModelError(f"{name}.delay_periods must be finite and >= 0, got {delay_periods!r}")
+        if abs(d - round(d)) < _TIME_TOL:
+            d = float(round(d))
+        self.delay_periods = d
+        self._m = int(math.floor(d))
+        self._f = d - self._m
+        self.offset_s = float(offset_s)
+        self._x0 = self._initial(initial_value)
+        self.reset()
+
+    @property
+    def delay_s(self) -> float:
+        """Delay ``D * dt`` [s]."""
+        return self.delay_periods * self.period_s
+
+    def reset(self) -> None:
+        """Fill the buffer with ``initial_value``; no sample pushed."""
+        # _buf[i] = u[n - i], n = index of the newest sample (n = -1 before any update)
+        self._buf = np.tile(self._x0, (self._m + 2, 1))
+        self.n_samples = 0
+
+    @property
+    def state(self) -> np.ndarray:
+        """Buffer ``[u[n], u[n-1], ..., u[n-m-1]]``, shape (m+2, size) (a copy)."""
+        return self._buf.copy()
+
+    def update(self, u) -> None:
+        """Push sample ``u[n]``, shape (size,), taken at ``t_n``."""
+        u = self._input(u)
+        self._buf = np.roll(self._buf, 1, axis=0)
+        self._buf[0] = u
+        self.n_samples += 1
+
+    def output(self) -> np.ndarray:
+        """Discrete output ``y[n] = (1-f) u[n-m] + f u[n-m-1]``, shape (size,)."""
+        return (1.0 - self._f) * self._buf[self._m] + self._f * self._buf[self._m + 1]
+
+    def _sample_index(self, t_s: float) -> int:
+        x = (float(t_s) - self.offset_s) / self.period_s - self.delay_periods
+        return int(math.floor(x + _TIME_TOL))
+
+    def _value(self, j: int, t_s: float) -> np.ndarray:
+        newest = self.n_samples - 1
+        if j > newest:
+            raise SimulationError(
+                f"{self.name}: output at t = {t_s!r} s needs sample {j}, but only samples "
+                f"0..{newest} were pushed; call update() at each sample instant first")
+        if j < 0:
+            return self._x0.copy()
+        i = newest - j
+        if i >= self._buf.shape[0]:
+            raise SimulationError(
+                f"{self.name}: output at t = {t_s!r} s needs sample {j}, which has left the "
+                f"buffer (newest sample {newest}); query times within the current period")
+        return self._buf[i].copy()
+
+    def output_at(self, t_s: float) -> np.ndarray:
+        """Held-and-delayed output ``y(t)`` at time ``t_s`` [s], shape (size,).
+
+        After pushing sample ``n`` it is defined for
+        ``t_{n-1} + f * dt <= t_s < t_{n+1} + D * dt``, which includes the
+        whole current period ``[t_n, t_{n+1})``.
+        """
+        return self._value(self._sample_index(t_s), t_s)
+
+    def mean_over(self, t_start_s: float, t_end_s: float) -> np.ndarray:
+        """Average of ``y(t)`` over ``[t_start_s, t_end_s]``, shape (size,).
+
+        Gives a plant integrator the exact impulse of the switched signal over
+        a physics step that contains a switch instant.
+        """
+        t0, t1 = float(t_start_s), float(t_end_s)
+        if t1 < t0:
+            raise ModelError(f"{self.name}.mean_over: t_end_s {t1} < t_start_s {t0}")
+        if t1 - t0 <= _TIME_TOL * self.period_s:
+            return self.output_at(t0)
+        j0, j1 = self._sample_index(t0), self._sample_index(t1 - _TIME_TOL * self.period_s)
+        acc = np.zeros(self.size)
+        for j in range(j0, j1 + 1):
+            a = max(t0, self.offset_s + (j + self.delay_periods) * self.period_s)
+            b = min(t1, self.offset_s + (j + 1 + self.delay_periods) * self.period_s)
+            if b > a:
+                acc += (b - a) * self._value(j, t0 if j == j0 else a)
+        return acc / (t1 - t0)
+
+
+class RCLowPass(_Block):
+    """Single-stage passive RC low-pass, exactly discretised at the physics step.
+
+    Continuous: ``tau * dy/dt = u - y`` with ``tau = 1 / (2 pi f_c)``.
+    For ``u`` held constant over a step ``h``::
+
+        y[k+1] = a y[k] + (1 - a) u[k],     a = exp(-2 pi f_c h)
+
+    which is exact (step response ``y[k] = 1 - a**k = 1 - exp(-t_k / tau)``).
+
+    Parameters
+    ----------
+    step_s : float
+        Integration step ``h`` [s] (the physics step, e.g. 0.5 ms / 10).
+    corner_hz : float
+        Corner frequency ``f_c`` [Hz]; 677 Hz in the laboratory (Sec. 5.3).
+    size : int
+        Number of channels.
+    initial_value : float or array_like, shape (size,)
+        Initial capacitor voltage ``y[0]``.
+    name : str
+        Used in error messages.
+
+    Raises
+    ------
+    ModelError
+        Non-positive step or corner frequency, bad shapes.
+    SimulationError
+        Non-finite input.
+
+    Notes
+    -----
+    In a loop, apply ``output()`` (the value at the start of the step) to the
+    plant over ``[t_k, t_k + h)`` and call ``update(u)`` with the input held
+    over that step.
+    """
+
+    def __init__(self, *, step_s: float, corner_hz: float = RC_CORNER_HZ, size: int = 1,
+                 initial_value=0.0, name: str = "rc") -> None:
+        super().__init__(size=size, name=name)
+        self.step_s = _positive(step_s, what=f"{name}.step_s")
+        self.corner_hz = _positive(corner_hz, what=f"{name}.corner_hz")
+        self.a = math.exp(-2.0 * math.pi * self.corner_hz * self.step_s)
+        self._x0 = self._initial(initial_value)
+        self.reset()
+
+    @property
+    def time_constant_s(self) -> float:
+        """``tau = RC = 1 / (2 pi f_c)`` [s]."""
+        return 1.0 / (2.0 * math.pi * self.corner_hz)
+
+    def reset(self) -> None:
+        """Return to ``y = initial_value``."""
+        self._y = self._x0.copy()
+
+    @property
+    def state(self) -> np.ndarray:
+        """Filter output ``y[k]``, shape (size,) (a copy)."""
+        return self._y.copy()
+
+    def update(self, u) -> None:
+        """Advance one step with ``u`` (shape (size,)) held: ``y <- a y + (1-a) u``."""
+        self._y = self.a * self._y + (1.0 - self.a) * self._input(u)
+
+    def output(self) -> np.ndarray:
+        """Filter output ``y[k]``, shape (size,)."""
+        return self._y.copy()
+
+
+class CurrentAmplifier(_Block):
+    """Controlled-current power amplifier driving the force coils (memoryless).
+
+    ::
+
+        y = clip(gain * u, -limit, +limit)
+
+    The current is controlled, so the coil's back-EMF does not change the
+    force (Sec. 5.2). vlab's controllers output force commands in [N], so the
+    default ``gain = 1`` makes the amplifier transparent; a physical
+    amplifier + coil has ``gain = g_amp [A/V] * k_f [N/A]``.
+
+    Parameters
+    ----------
+    gain : float or array_like, shape (size,)
+        Output per unit input (e.g. [N/N] or [A/V]).
+    limit : float or array_like, shape (size,), optional
+        Saturation level (> 0) in output units; ``None`` for a linear amplifier.
+    size : int
+        Number of channels.
+    name : str
+        Used in error messages.
+
+    Attributes
+    ----------
+    saturation_count : int
+        Number of channel-samples clipped since the last :meth:`reset`.
+
+    Raises
+    ------
+    ModelError
+        Non-finite gain, non-positive limit, bad shapes.
+    SimulationError
+        Non-finite input.
+    """
+
+    def __init__(self, *, gain=1.0, limit=None, size: int = 1, name: str = "amp") -> None:
+        super().__init__(size=size, name=name)
+        self.gain = self._initial(gain, what="gain")
+        if limit is None:
+            self.limit = None
+        else:
+            lim = self._initial(limit, what="limit")
+            if np.any(lim <= 0):
+                raise ModelError(f"{name}.limit must be > 0, got {lim}")
+            self.limit = lim
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear :attr:`saturation_count`."""
+        self.saturation_count = 0
+
+    def output(self, u) -> np.ndarray:
+        """Amplified (and possibly clipped) output for input ``u``, shape (size,)."""
+        y = self.gain * self._input(u)
+        if self.limit is not None:
+            clipped = np.abs(y) > self.limit
+            self.saturation_count += int(np.count_nonzero(clipped))
+            y = np.clip(y, -self.limit, self.limit)
+        return y
+
+
+class SensorNoise(_Block):
+    """Additive white Gaussian measurement noise on the velocity sensors.
+
+    ::
+
+        y[n] = u[n] + sigma * w[n],     w[n] ~ N(0, I) independent
+
+    MuJoCo does not apply sensor noise (DESIGN.md), so the lab adds it here.
+    The sequence is fully determined by ``seed``.
+
+    Parameters
+    ----------
+    sigma_m_s : float or array_like, shape (size,)
+        Standard deviation [m/s] per channel, >= 0.
+    seed : int or numpy.random.Generator
+        Seed of (or) the generator; required so runs are reproducible.
+    size : int
+        Number of channels.
+    name : str
+        Used in error messages.
+
+    Raises
+    ------
+    ModelError
+        Negative or non-finite sigma, a seed that is neither int nor Generator.
+    SimulationError
+        Non-finite input.
+
+    Notes
+    -----
+    Source: Sec. 5.1 (radio-frequency and 60 Hz pick-up on the coil leads);
+    only the broadband part is modelled here.
+    """
+
+    def __init__(self, *, sigma_m_s, seed, size: int = 1, name: str = "noise") -> None:
+        super().__init__(size=size, name=name)
+        sig = self._initial(sigma_m_s, what="sigma_m_s")
+        if np.any(sig < 0):
+            raise ModelError(f"{name}.sigma_m_s must be >= 0, got {sig}")
+        self.sigma_m_s = sig
+        if isinstance(seed, np.random.Generator):
+            self._seed = seed
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            self._seed = int(seed)
+        else:
+            raise ModelError(f"{name}.seed must be an int or numpy.random.Generator, got {seed!r}")
+        self.reset()
+
+    def reset(self) -> None:
+        """Restart the noise sequence (only reproducible for an int seed)."""
+        self._rng = self._seed if isinstance(self._seed, np.random.Generator) \
+            else np.random.default_rng(self._seed)
+
+    def output(self, u) -> np.ndarray:
+        """Noisy measurement ``u + sigma * w``, shape (size,); draws a new ``w``."""
+        return self._input(u) + self.sigma_m_s * self._rng.standard_normal(self.size)
