@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
@@ -78,7 +78,6 @@ class FRF:
     output_point: int | None = None
     input_point: int | None = None
     n_averages: int | None = None
-    _unused: None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         f = _frozen(self.freq_hz, float)
