@@ -2,4 +2,16 @@
 
 Depends on numpy, scipy, python-control and osqp only -- never on mujoco or
 vlab -- and takes plain matrices (m, c, k, U, sensor selection).
+
+Modules (import them directly; nothing is imported here, so importing the
+package has no side effects and costs nothing):
+
+* :mod:`controllers.statespace`  -- (m, c, k, U) -> A, B, C (Eqs. 3.2-3.3), time scaling,
+  modal initial states
+* :mod:`controllers.lq`          -- LQR, alpha-shifted Kalman filter, LQG, reduced
+  controller on the full model (Eq. 4.24), spillover
+* :mod:`controllers.drf`         -- MFDRF, LQDRF (coupled, diagonal, LQR-normalised)
+* :mod:`controllers.performance` -- performance index by Lyapunov equations, damping ratios
+* :mod:`controllers.realization` -- discrete F11/F12/F21/F22 (Eqs. 5.1-5.13)
+* :mod:`controllers.errors`      -- exceptions (all subclass ValueError) and input checks
 """

@@ -5,8 +5,9 @@ The model is Eq. (3.1) of the dissertation without damping and control:
 ``ry`` per node, as the spec activates them). Contents:
 
 - grillage beam elements (bending + torsion, optional shear flexibility, rigid
-  inserts) with geometric stiffness from the in-plane gravity pre-stress
-  (:mod:`vlab.fe.statics`), Sec. 2.1.1 and 2.2.1;
+  inserts) with the full out-of-plane geometric stiffness of the in-plane
+  gravity pre-stress (axial force with Wagner term, in-plane shear and moment:
+  :mod:`vlab.fe.geometric`, from :mod:`vlab.fe.statics`), Sec. 2.1.1 and 2.2.1;
 - strings in tension to ground (Sec. 2.1.1);
 - lumped masses and rotary inertias; grounded springs (the plates' W*Y,
   Sec. 2.2.1); the crosspiece as a single-DOF spring-mass (Sec. 2.1.1);
@@ -23,6 +24,7 @@ from ..errors import ModelError
 from ..spec import StructureSpec
 from .dofmap import DofMap, Node
 from .elements import beam_matrices, local_to_global, rigid_offset
+from .geometric import geometric_stiffness, polar_radius_sq
 from .mesh import Mesh, build_mesh
 from .statics import GravityState, solve_gravity
 
@@ -133,7 +135,13 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
             rho_ip=sec.rho_ip,
             length=el.flexible_length,
             shear_stiffness=sec.shear_stiffness.si if sec.shear_stiffness else None,
-            axial_force=forces.axial,
+        )
+        kl = kl + geometric_stiffness(
+            length=el.flexible_length,
+            axial=forces.axial,
+            shear=forces.shear,
+            moment=forces.moment,
+            polar_radius_sq=polar_radius_sq(sec.width.si, sec.thickness.si),
         )
         a1, a2 = el.offsets
         ml = ml + _insert_mass(sec.rho_a, a1, a2)

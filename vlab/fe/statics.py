@@ -35,11 +35,14 @@ class ElementForces:
     axial : (float, float)
         Axial force at ends a and b [N], tension positive.
     shear : (float, float)
-        In-plane shear force at ends a and b [N] (local +y on the cut face
-        whose outward normal is +x, beam sign convention).
+        In-plane shear force at ends a and b [N], beam sign convention:
+        ``V = dM/ds`` along the element axis ``s`` (a -> b); positive shear
+        acts in local -y (``y = e_z x e_x``) on the cut face whose outward
+        normal is +x.
     moment : (float, float)
-        In-plane bending moment at ends a and b [N*m] (beam sign convention,
-        sagging positive).
+        In-plane bending moment at ends a and b [N*m], beam sign convention:
+        positive when the fibres on the local -y side are in tension (sagging
+        for a member along +x with y up).
     """
 
     axial: tuple[float, float]

@@ -1,0 +1,23 @@
+"""Modal-test measurement: FRFs, modal parameters, peak levels, MAC/COMAC.
+
+Modules
+-------
+frf
+    :class:`~vlab.measure.frf.FRF`, H1 estimator with coherence, VFRF -> DFRF (Sec. 5.4.1).
+modal
+    Peak picking, half-power and curve-fit damping, decay damping, peak level
+    ratios (Tables 10, 19-21).
+mac
+    MAC matrix, COMAC, mode pairing.
+"""
+
+from .frf import FRF, h1, measure_frfs
+from .mac import comac, mac, pair_modes
+from .modal import (average_peak_error, decay_damping, find_peaks, fit_modes, half_power_damping,
+                    peak_level_ratios, peak_levels)
+
+__all__ = [
+    "FRF", "h1", "measure_frfs", "mac", "comac", "pair_modes", "find_peaks",
+    "half_power_damping", "fit_modes", "decay_damping", "peak_levels",
+    "peak_level_ratios", "average_peak_error",
+]

@@ -1,0 +1,610 @@
+"""Universal File Format (UFF) input/output with pyuff.
+
+Formats (DESIGN.md, "Data formats"):
+
+* **Recordings** — dataset 58, function type 1 (time response), one record
+  per channel: ``rsp_node`` = point id, ``rsp_dir`` = 3 (+Z, out of plane),
+  ordinate force [N] (specific data type 13), velocity [m/s] (11),
+  displacement [m] (8) or acceleration [m/s^2] (12); abscissa time [s] (17),
+  evenly spaced.
+* **FRFs** — dataset 58, function type 4, ``ref_node`` = force point,
+  ``rsp_node`` = response point, complex ordinate per force (denominator
+  type 13), explicit frequency abscissa [Hz]; the coherence follows each FRF
+  as a function type 6 record with the same nodes.
+* **Mode shapes** — dataset 55, normal modes (analysis type 2, real shapes)
+  or complex modes (type 3), 3-DOF nodal data with the shape in Z.
+
+vlab writes datasets 58 in binary form ("58b", doubles) by default, so a
+written file reloads bit-identical. Two values the fixed-width UFF header
+keeps only to 6 digits are stored exactly in ID lines: ``id4 =
+"dt_s=<repr>"`` for time step; and ``id5 = "record i of n"`` lets the
+reader detect a file truncated at a record boundary. ID line 1 holds the
+channel name (``force4``), or ``output/input`` for an FRF. Dataset 55 is
+ASCII ``E13.5``: mode shapes keep 6 significant digits.
+
+A recording's metadata goes to a JSON sidecar next to the UFF file
+(``run.uff`` -> ``run.uff.json``), because UFF ID lines hold 80 characters.
+
+Writing never replaces an existing file unless ``overwrite=True``; files are
+written to a temporary name and moved into place, so a failed write leaves
+no partial file.
+
+Source: UFF dataset descriptions (SDRC/I-DEAS, https://www.ceas3.uc.edu/sdrluff/);
+pyuff (Slavič et al., https://github.com/ladisk/pyuff).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import uuid
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyuff
+
+from ..errors import DataFileError, MeasurementError
+from ..lab.recording import Channel, Recording, channel_name
+from ..measure.frf import FRF
+
+#: UFF specific data type code of each quantity.
+SPEC_DATA_TYPE = {"displacement": 8, "velocity": 11, "acceleration": 12, "force": 13}
+_CODE_QUANTITY = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force", 9: "force"}
+_UNIT_EXP = {  # (length exponent, force exponent) of each quantity
+    "displacement": (1, 0), "velocity": (1, 0), "acceleration": (1, 0), "force": (0, 1)}
+_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+_TIME, _FREQ = 17, 18
+_FUNC_TIME, _FUNC_FRF, _FUNC_COH = 1, 4, 6
+_RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
+_DT_RE = re.compile(r"^dt_s=(\S+)$")
+_NAVG_RE = re.compile(r"^n_averages=(\d+)$")
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+# --------------------------------------------------------------------------- files
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """Path of the JSON metadata sidecar of a UFF file: ``<path>.json``."""
+    p = Path(path)
+    return p.with_name(p.name + ".json")
+
+
+def _check_target(path: Path, overwrite: bool, *others: Path) -> None:
+    for p in (path, *others):
+        if p.exists() and not overwrite:
+            raise DataFileError(f"{p}: file exists; pass overwrite=True to replace it")
+    if not path.parent.is_dir():
+        raise DataFileError(f"{path}: directory {path.parent} does not exist")
+
+
+def _tmp_path(path: Path) -> str:
+    """An unused name next to ``path`` for writing before the final move."""
+    return str(path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp"))
+
+
+def _write_uff(path: Path, dsets: list[dict]) -> None:
+    """Write datasets to a fresh temporary file and move it to ``path``.
+
+    pyuff's 'overwrite' mode truncates the header of a binary first record,
+    so the records are always appended ('add') to the new temporary file.
+    """
+    tmp = _tmp_path(path)
+    try:
+        pyuff.UFF(tmp).write_sets(dsets, mode="add")
+        os.replace(tmp, path)
+    except Exception as exc:  # pyuff raises bare Exception
+        raise DataFileError(f"{path}: writing UFF failed: {exc}") from exc
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = _tmp_path(path)
+    try:
+        with open(tmp, "x", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
+    """All datasets of a UFF file, after checks for existence and truncation."""
+    p = Path(path)
+    if not p.is_file():
+        raise DataFileError(f"{p}: no such file")
+    with open(p, "rb") as fh:
+        fh.seek(0, os.SEEK_END)
+        size = fh.tell()
+        fh.seek(max(0, size - 16))
+        tail = fh.read()
+    if size == 0:
+        raise DataFileError(f"{p}: empty file")
+    if not tail.rstrip().endswith(b"    -1"):  # every dataset closes with '%6i' % -1
+        raise DataFileError(f"{p}: truncated or malformed UFF (does not end with the '-1' delimiter)")
+    try:
+        sets = pyuff.UFF(str(p)).read_sets()
+    except Exception as exc:  # pyuff raises bare Exception
+        raise DataFileError(f"{p}: malformed UFF: {exc}") from exc
+    if isinstance(sets, dict):
+        sets = [sets]
+    sets = [s for s in sets if s]  # pyuff returns {} for unsupported datasets
+    _check_record_count(p, [s for s in sets if s.get("type") == 58])
+    return p, sets
+
+
+def _check_record_count(path: Path, sets: list[dict]) -> None:
+    """Use vlab's ``id5 = 'record i of n'`` to detect missing records."""
+    counts = set()
+    for s in sets:
+        m = _RECORD_RE.match(str(s.get("id5", "")).strip())
+        if m:
+            counts.add(int(m.group(2)))
+    if counts and (len(counts) > 1 or counts.pop() != len(sets)):
+        raise DataFileError(f"{path}: truncated UFF: {len(sets)} dataset-58 record(s) found, "
+                            "the ID lines announce a different number")
+
+
+def _ids(name: str, kind: str, i: int, n: int, id3: str = "NONE", id4: str = "NONE") -> dict:
+    for line in (name, kind, id3, id4):
+        if len(line) > 80:
+            raise DataFileError(f"UFF ID line longer than 80 characters: {line!r}")
+    return {"id1": name, "id2": kind, "id3": id3, "id4": id4, "id5": f"record {i} of {n}"}
+
+
+def _label(dset: dict, fallback: str) -> str:
+    name = str(dset.get("id1", "")).strip()
+    return name if name and name.upper() != "NONE" else fallback
+
+
+# --------------------------------------------------------------------------- recordings
+def write_recording(path: str | os.PathLike, recording: Recording, *, overwrite: bool = False,
+                    binary: bool = True) -> Path:
+    """Write a recording as UFF 58 time histories (one record per channel) plus a JSON sidecar.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target ``.uff`` file.
+    recording : Recording
+        Data to write.
+    overwrite : bool
+        Replace existing files (the UFF and its sidecar).
+    binary : bool
+        Write dataset 58b (exact doubles, default) or ASCII 58 (12 digits).
+
+    Returns
+    -------
+    Path
+        The written UFF file.
+
+    Raises
+    ------
+    DataFileError
+        Target exists and ``overwrite`` is False; missing directory;
+        metadata not JSON-serialisable (names the key); pyuff failure.
+    """
+    p = Path(path)
+    side = sidecar_path(p)
+    _check_target(p, overwrite, side)
+    try:
+        meta_text = json.dumps(dict(recording.metadata), sort_keys=True, indent=2, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        bad = [k for k, v in recording.metadata.items() if not _jsonable(v)]
+        raise DataFileError(f"{side}: metadata key(s) {bad} not JSON-serialisable: {exc}") from exc
+    n = recording.n_samples
+    x = np.arange(n) * recording.dt_s
+    dsets = []
+    for i, ch in enumerate(recording.channels, start=1):
+        le, fe = _UNIT_EXP[ch.quantity]
+        d = dict(type=58, binary=int(binary), func_type=_FUNC_TIME, rsp_node=ch.point_id,
+                 rsp_dir=ch.direction, ref_node=0, ref_dir=0, x=x, data=np.array(ch.samples),
+                 abscissa_spacing=1, abscissa_spec_data_type=_TIME, abscissa_axis_lab="Time",
+                 abscissa_axis_units_lab="s",
+                 ordinate_spec_data_type=SPEC_DATA_TYPE[ch.quantity], ordinate_len_unit_exp=le,
+                 ordinate_force_unit_exp=fe, ordinate_axis_lab=ch.quantity.capitalize(),
+                 ordinate_axis_units_lab=ch.unit, orddenom_spec_data_type=0,
+                 z_axis_spec_data_type=0)
+        d.update(_ids(ch.name, "vlab Recording", i, recording.n_channels,
+                      id4=f"dt_s={recording.dt_s!r}"))
+        dsets.append(d)
+    _write_uff(p, dsets)
+    _write_text(side, meta_text + "\n")
+    return p
+
+
+def _jsonable(v: Any) -> bool:
+    try:
+        json.dumps(v, allow_nan=False)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def read_recording(path: str | os.PathLike) -> Recording:
+    """Read UFF 58 time histories (function type 1) into a :class:`Recording`.
+
+    Channel names come from ID line 1 when it is a valid identifier (vlab
+    files), else from quantity and node (``vel1``). The time step is the
+    exact ``dt_s=`` of ID line 4 when present, else the header's abscissa
+    increment. Metadata come from the JSON sidecar if it exists (plus
+    ``"source_file"``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF file.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    DataFileError
+        Missing, empty, malformed or truncated file; no time-response
+        record; unknown ordinate type; uneven or mismatched sampling
+        intervals; mismatched lengths; NaN/inf samples; duplicate channel
+        names; unreadable sidecar. The message names the file and channel.
+    """
+    p, sets = _read_uff(path)
+    recs = [s for s in sets if s.get("type") == 58 and s.get("func_type") == _FUNC_TIME]
+    if not recs:
+        raise DataFileError(f"{p}: no dataset-58 time-response (function type 1) record")
+    channels = []
+    dt_ref = None
+    ref_name = None
+    for s in recs:
+        code = int(s.get("ordinate_spec_data_type", 0))
+        node = int(s["rsp_node"])
+        if code not in _CODE_QUANTITY:
+            raise DataFileError(f"{p}: record {_label(s, f'node {node}')!r}: unsupported ordinate "
+                                f"specific data type {code} (known: {sorted(_CODE_QUANTITY)})")
+        quantity = _CODE_QUANTITY[code]
+        fallback = channel_name(quantity, node)
+        name = _label(s, fallback)
+        if not _NAME_RE.match(name):
+            name = fallback
+        data = np.asarray(s["data"])
+        if np.iscomplexobj(data):
+            raise DataFileError(f"{p}: channel {name}: complex samples in a time response")
+        if data.size != int(s.get("num_pts", data.size)):
+            raise DataFileError(f"{p}: channel {name}: {data.size} samples, header announces "
+                                f"{s['num_pts']} (truncated file)")
+        bad = np.flatnonzero(~np.isfinite(data))
+        if bad.size:
+            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]}")
+        dt = _time_step(p, name, s)
+        if dt_ref is None:
+            dt_ref, ref_name = dt, name
+        elif not math.isclose(dt, dt_ref, rel_tol=1e-9):
+            raise DataFileError(f"{p}: channel {name} is sampled every {dt!r} s, "
+                                f"channel {ref_name} every {dt_ref!r} s")
+        if channels and data.size != channels[0].samples.size:
+            raise DataFileError(f"{p}: channel {name} has {data.size} samples, channel "
+                                f"{channels[0].name} has {channels[0].samples.size}")
+        if any(c.name == name for c in channels):
+            raise DataFileError(f"{p}: duplicate channel {name}")
+        channels.append(Channel(name=name, point_id=node, quantity=quantity,
+                                samples=data.astype(float), direction=int(s.get("rsp_dir", 3))))
+    metadata = _read_sidecar(p)
+    try:
+        return Recording(dt_s=dt_ref, channels=tuple(channels), metadata=metadata)
+    except MeasurementError as exc:
+        raise DataFileError(f"{p}: {exc}") from exc
+
+
+def _time_step(p: Path, name: str, s: dict) -> float:
+    m = _DT_RE.match(str(s.get("id4", "")).strip())
+    if int(s.get("abscissa_spacing", 1)) == 1:
+        inc = float(s.get("abscissa_inc", 0.0))
+    else:
+        x = np.asarray(s["x"], dtype=float)
+        if x.size < 2:
+            raise DataFileError(f"{p}: channel {name}: fewer than two samples")
+        d = np.diff(x)
+        inc = float(d.mean())
+        if np.any(np.abs(d - inc) > 1e-6 * abs(inc)):
+            raise DataFileError(f"{p}: channel {name}: unevenly spaced time samples")
+    if m:
+        try:
+            exact = float(m.group(1))
+        except ValueError:
+            raise DataFileError(f"{p}: channel {name}: bad time step in ID line 4: {s['id4']!r}") from None
+        if inc > 0 and not math.isclose(exact, inc, rel_tol=1e-5):
+            raise DataFileError(f"{p}: channel {name}: ID line time step {exact} s disagrees with "
+                                f"the header's {inc} s")
+        inc = exact
+    if not (math.isfinite(inc) and inc > 0):
+        raise DataFileError(f"{p}: channel {name}: sampling interval {inc} s is not positive")
+    return inc
+
+
+def _read_sidecar(p: Path) -> dict:
+    side = sidecar_path(p)
+    meta: dict = {}
+    if side.is_file():
+        try:
+            meta = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise DataFileError(f"{side}: unreadable metadata sidecar: {exc}") from exc
+        if not isinstance(meta, dict):
+            raise DataFileError(f"{side}: metadata sidecar must hold a JSON object")
+    return meta
+
+
+# --------------------------------------------------------------------------- FRFs
+def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF], *,
+               overwrite: bool = False, binary: bool = True) -> Path:
+    """Write FRFs as UFF 58 function type 4 records (each followed by its coherence, type 6).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file.
+    frfs : sequence of FRF or mapping of str to FRF
+        FRFs with ``output_point`` and ``input_point`` set.
+    overwrite : bool
+        Replace an existing file.
+    binary : bool
+        Dataset 58b (exact doubles, default) or ASCII.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    DataFileError
+        Target exists, no FRFs, an FRF without point ids (names it), pyuff failure.
+    """
+    p = Path(path)
+    _check_target(p, overwrite)
+    items = list(frfs.values()) if isinstance(frfs, Mapping) else list(frfs)
+    if not items:
+        raise DataFileError(f"{p}: no FRF to write")
+    n_rec = sum(2 if f.coherence is not None else 1 for f in items)
+    dsets = []
+    i = 0
+    for frf in items:
+        if frf.output_point is None or frf.input_point is None:
+            raise DataFileError(f"{p}: FRF {frf.name} has no output_point/input_point for the UFF nodes")
+        le, fe = _UNIT_EXP[frf.response]
+        navg = "NONE" if frf.n_averages is None else f"n_averages={frf.n_averages}"
+        base = dict(type=58, binary=int(binary), rsp_node=frf.output_point, rsp_dir=3,
+                    ref_node=frf.input_point, ref_dir=3, x=np.array(frf.freq_hz), abscissa_spacing=0,
+                    abscissa_spec_data_type=_FREQ, abscissa_axis_lab="Frequency",
+                    abscissa_axis_units_lab="Hz", z_axis_spec_data_type=0)
+        i += 1
+        d = dict(base, func_type=_FUNC_FRF, data=np.array(frf.h, dtype=complex),
+                 ordinate_spec_data_type=SPEC_DATA_TYPE[frf.response], ordinate_len_unit_exp=le,
+                 ordinate_axis_lab=frf.response.capitalize(),
+                 ordinate_axis_units_lab=_UNITS[frf.response],
+                 orddenom_spec_data_type=SPEC_DATA_TYPE["force"], orddenom_force_unit_exp=1,
+                 orddenom_axis_lab="Force", orddenom_axis_units_lab="N")
+        d.update(_ids(frf.name, "vlab FRF", i, n_rec, id3=navg))
+        dsets.append(d)
+        if frf.coherence is not None:
+            i += 1
+            c = dict(base, func_type=_FUNC_COH, data=np.array(frf.coherence, dtype=float),
+                     ordinate_spec_data_type=0, ordinate_axis_lab="Coherence",
+                     ordinate_axis_units_lab="1", orddenom_spec_data_type=0)
+            c.update(_ids(frf.name, "vlab coherence", i, n_rec, id3=navg))
+            dsets.append(c)
+    _write_uff(p, dsets)
+    return p
+
+
+def read_frfs(path: str | os.PathLike) -> list[FRF]:
+    """Read UFF 58 FRFs (function type 4), attaching coherence records (type 6) with the same nodes.
+
+    Returns
+    -------
+    list of FRF
+        In file order.
+
+    Raises
+    ------
+    DataFileError
+        Missing, malformed or truncated file; no FRF record; unknown
+        response type; a denominator that is not force; non-finite values;
+        a coherence on a different frequency axis (names the FRF).
+    """
+    p, sets = _read_uff(path)
+    sets = [s for s in sets if s.get("type") == 58]
+    frf_sets = [s for s in sets if s.get("func_type") == _FUNC_FRF]
+    if not frf_sets:
+        raise DataFileError(f"{p}: no dataset-58 FRF (function type 4) record")
+    cohs = [s for s in sets if s.get("func_type") == _FUNC_COH]
+    out = []
+    for s in frf_sets:
+        code = int(s.get("ordinate_spec_data_type", 0))
+        if code not in (8, 11, 12):
+            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: unsupported response "
+                                f"specific data type {code} (8, 11 or 12 expected)")
+        response = _CODE_QUANTITY[code]
+        den = int(s.get("orddenom_spec_data_type", 0))
+        if den not in (0, 9, 13):
+            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: denominator type {den} is not a force")
+        out_node, in_node = int(s["rsp_node"]), int(s["ref_node"])
+        default = f"{channel_name(response, out_node)}/{channel_name('force', in_node)}"
+        label = _label(s, default)
+        if label.count("/") != 1:
+            label = default
+        out_name, in_name = label.split("/")
+        f = np.asarray(s["x"], dtype=float)
+        h = np.asarray(s["data"])
+        if h.size != int(s.get("num_pts", h.size)) or f.size != h.size:
+            raise DataFileError(f"{p}: FRF {label}: {h.size} values, header announces {s.get('num_pts')}")
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))):
+            raise DataFileError(f"{p}: FRF {label}: non-finite values")
+        c = _coherence_for(s, f, sets, cohs)
+        if c is not None and not np.all(np.isfinite(c)):
+            raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values")
+        m = _NAVG_RE.match(str(s.get("id3", "")).strip())
+        try:
+            out.append(FRF(freq_hz=f, h=h.astype(complex), response=response, coherence=c,
+                           output_name=out_name, input_name=in_name, output_point=out_node,
+                           input_point=in_node, n_averages=int(m.group(1)) if m else None))
+        except MeasurementError as exc:
+            raise DataFileError(f"{p}: FRF {label}: {exc}") from exc
+    return out
+
+
+def _node_key(s: dict) -> tuple[int, int, int, int]:
+    return int(s["rsp_node"]), int(s["rsp_dir"]), int(s["ref_node"]), int(s["ref_dir"])
+
+
+def _coherence_for(frf_set: dict, f: np.ndarray, sets: list[dict], cohs: list[dict]) -> np.ndarray | None:
+    """Coherence record of an FRF: the record right after it (as vlab writes), else the
+    only coherence record with the same nodes and frequencies; ``None`` if there is none."""
+    def matches(c: dict) -> bool:
+        cx = np.asarray(c["x"], dtype=float)
+        return (_node_key(c) == _node_key(frf_set) and cx.shape == f.shape
+                and np.array_equal(cx, f))
+    i = next(k for k, s in enumerate(sets) if s is frf_set)
+    if i + 1 < len(sets) and sets[i + 1].get("func_type") == _FUNC_COH and matches(sets[i + 1]):
+        return np.real(np.asarray(sets[i + 1]["data"]))
+    hits = [c for c in cohs if matches(c)]
+    if len(hits) == 1:
+        return np.real(np.asarray(hits[0]["data"]))
+    return None
+
+
+# --------------------------------------------------------------------------- mode shapes
+@dataclass(frozen=True, eq=False)
+class ModeShapes:
+    """Mode shapes at structure points (the content of UFF 55 records).
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_modes,)
+        Natural frequencies [Hz].
+    shapes : array_like, shape (n_points, n_modes)
+        Out-of-plane (Z) shape values, real (normal modes) or complex.
+    point_ids : array_like of int, shape (n_points,)
+        Structure point of each row.
+    damping_ratio : array_like, shape (n_modes,), optional
+        Viscous damping ratios [-]; zeros by default.
+    description : str
+        Free text (UFF ID line 1, at most 80 characters).
+
+    Raises
+    ------
+    DataFileError
+        Inconsistent shapes, duplicate point ids, non-finite values.
+    """
+
+    freq_hz: np.ndarray
+    shapes: np.ndarray
+    point_ids: np.ndarray
+    damping_ratio: np.ndarray | None = None
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        f = np.array(self.freq_hz, dtype=float).reshape(-1)
+        sh = np.array(self.shapes)
+        sh = sh.astype(complex if np.iscomplexobj(sh) else float)
+        pid = np.array(self.point_ids)
+        if sh.ndim != 2 or sh.shape[1] != f.size or pid.shape != (sh.shape[0],):
+            raise DataFileError(f"ModeShapes: shapes {sh.shape} must be (n_points={pid.size}, "
+                                f"n_modes={f.size})")
+        if not np.all(np.equal(np.mod(pid, 1), 0)) or len(set(pid.tolist())) != pid.size:
+            raise DataFileError(f"ModeShapes: point_ids must be distinct integers, got {pid.tolist()}")
+        z = np.zeros(f.size) if self.damping_ratio is None else np.array(self.damping_ratio, dtype=float)
+        if z.shape != f.shape:
+            raise DataFileError(f"ModeShapes: damping_ratio shape {z.shape} != ({f.size},)")
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(sh)) and np.all(np.isfinite(z))):
+            raise DataFileError("ModeShapes: non-finite values")
+        for name, arr in (("freq_hz", f), ("shapes", sh), ("point_ids", pid.astype(int)),
+                          ("damping_ratio", z)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of modes."""
+        return int(self.freq_hz.size)
+
+
+def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: bool = False) -> Path:
+    """Write mode shapes as UFF 55 records, one per mode (values in Z, 6 significant digits).
+
+    Real shapes are written as normal modes (analysis type 2: frequency,
+    viscous damping ratio); complex shapes as complex modes (type 3,
+    eigenvalue ``-zeta omega_n + i omega_n sqrt(1 - zeta^2)``).
+
+    Raises
+    ------
+    DataFileError
+        Target exists and ``overwrite`` is False, description too long, pyuff failure.
+    """
+    p = Path(path)
+    _check_target(p, overwrite)
+    cplx = np.iscomplexobj(modes.shapes)
+    desc = modes.description or "NONE"
+    dsets = []
+    nodes = modes.point_ids
+    for r in range(modes.n_modes):
+        z = modes.shapes[:, r]
+        zeros = np.zeros_like(z)
+        d = dict(type=55, model_type=1, data_ch=2, spec_data_type=8, node_nums=nodes,
+                 r1=zeros, r2=zeros, r3=z, load_case=1, mode_n=r + 1)
+        if cplx:
+            wn = 2 * np.pi * modes.freq_hz[r]
+            zeta = modes.damping_ratio[r]
+            d.update(analysis_type=3, eig=complex(-zeta * wn, wn * math.sqrt(max(1 - zeta**2, 0.0))))
+        else:
+            d.update(analysis_type=2, freq=modes.freq_hz[r], modal_m=0.0,
+                     modal_damp_vis=modes.damping_ratio[r], modal_damp_his=0.0)
+        d.update(_ids(desc, "vlab ModeShapes", r + 1, modes.n_modes))
+        dsets.append(d)
+    _write_uff(p, dsets)
+    return p
+
+
+def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
+    """Read UFF 55 normal or complex modes (Z component) into :class:`ModeShapes`.
+
+    Raises
+    ------
+    DataFileError
+        Missing, malformed or truncated file; no dataset 55 of analysis
+        type 2 or 3; records over different nodes; non-finite values.
+    """
+    p, sets = _read_uff(path)
+    recs = [s for s in sets if s.get("type") == 55 and s.get("analysis_type") in (2, 3)]
+    if not recs:
+        raise DataFileError(f"{p}: no dataset-55 normal or complex mode record")
+    counts = {int(m.group(2)) for s in recs if (m := _RECORD_RE.match(str(s.get("id5", "")).strip()))}
+    if counts and counts != {len(recs)}:
+        raise DataFileError(f"{p}: truncated UFF: {len(recs)} mode record(s), ID lines announce {counts}")
+    nodes = np.asarray(recs[0]["node_nums"], dtype=int)
+    freqs, zetas, cols = [], [], []
+    for s in recs:
+        nn = np.asarray(s["node_nums"], dtype=int)
+        if not np.array_equal(nn, nodes):
+            raise DataFileError(f"{p}: mode {s.get('mode_n')} is given at different nodes than mode 1")
+        z = np.asarray(s["r3"])
+        if z.size != nodes.size:
+            raise DataFileError(f"{p}: mode {s.get('mode_n')}: {z.size} values for {nodes.size} nodes")
+        if s["analysis_type"] == 2:
+            freqs.append(float(s["freq"]))
+            zetas.append(float(s.get("modal_damp_vis", 0.0)))
+        else:
+            lam = complex(s["eig"])
+            freqs.append(abs(lam) / (2 * np.pi))
+            zetas.append(-lam.real / abs(lam) if lam != 0 else 0.0)
+        cols.append(z)
+    desc = _label(recs[0], "")
+    try:
+        return ModeShapes(freq_hz=np.array(freqs), shapes=np.column_stack(cols), point_ids=nodes,
+                          damping_ratio=np.array(zetas), description=desc)
+    except DataFileError as exc:
+        raise DataFileError(f"{p}: {exc}") from exc

@@ -1,0 +1,343 @@
+"""Static figures (PNG/SVG/PDF) with matplotlib, without a display.
+
+The FRF figures follow the dissertation's Figs. 22-31: FRF magnitude on a
+logarithmic axis against frequency on a linear axis (e.g. Fig. 23: 0-10 Hz,
+0.1-1000 (in/s)/lbf), analysis and experiment of the same FRF in one plot;
+here analysis is dashed and drawn over the solid experimental curve.
+
+The figures are built on :class:`matplotlib.figure.Figure` with the Agg
+canvas directly, not through ``pyplot``: no global backend is selected, no
+window is opened, nothing is kept alive after the file is written, and
+importing this module changes no matplotlib state.
+
+Every function writes one file and returns its path. The pixel size of a
+PNG is exactly ``figsize * dpi`` (constrained layout, no tight bounding box).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataFileError, MeasurementError
+
+__all__ = ["comparison_bar", "frf_figure", "misfit_overlay"]
+
+_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+#: Labels containing one of these words are drawn dashed by :func:`frf_figure` (analysis over experiment).
+ANALYSIS_WORDS = ("analysis", "analytical", "model", "fe", "predicted")
+
+
+def _new_figure(figsize: tuple[float, float], dpi: float, nrows: int = 1, **subplot_kw: Any):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, 1, squeeze=False, **subplot_kw)[:, 0]
+    return fig, axes
+
+
+def _save(fig, path: str | Path, dpi: float) -> Path:
+    p = Path(path)
+    fmt = _FORMATS.get(p.suffix.lower())
+    if fmt is None:
+        raise DataFileError(f"{p}: figure format {p.suffix!r} not supported; use one of {sorted(_FORMATS)}")
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(p, dpi=dpi, format=fmt)
+    return p
+
+
+def _magnitude(values: Any, what: str, n: int | None) -> np.ndarray:
+    """|values| as float, 1-D of length n; zeros become NaN (no point on a log axis)."""
+    v = np.asarray(values)
+    if v.ndim != 1 or (n is not None and v.size != n):
+        expect = f"({n},)" if n is not None else "(n_freq,)"
+        raise MeasurementError(f"{what}: expected shape {expect}, got {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise MeasurementError(f"{what}: non-finite values")
+    mag = np.abs(v).astype(float)
+    mag[mag == 0.0] = np.nan
+    return mag
+
+
+def _freq(values: Any, what: str) -> np.ndarray:
+    f = np.asarray(values, dtype=float)
+    if f.ndim != 1 or f.size < 2:
+        raise MeasurementError(f"{what}: expected a 1-D array of at least 2 frequencies [Hz], got shape {f.shape}")
+    if not np.all(np.isfinite(f)) or np.any(np.diff(f) <= 0):
+        raise MeasurementError(f"{what}: frequencies must be finite and strictly increasing")
+    return f
+
+
+def _curve(label: str, value: Any, freq_hz: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(freq, magnitude) of one curve: an array on ``freq_hz``, a (freq, values) pair or an FRF object."""
+    if hasattr(value, "freq_hz") and hasattr(value, "h"):
+        f = _freq(value.freq_hz, f"curve {label!r} freq_hz")
+        return f, _magnitude(value.h, f"curve {label!r}", f.size)
+    if isinstance(value, tuple) and len(value) == 2:
+        f = _freq(value[0], f"curve {label!r} freq_hz")
+        return f, _magnitude(value[1], f"curve {label!r}", f.size)
+    if freq_hz is None:
+        raise MeasurementError(f"curve {label!r}: freq_hz is None, so the curve must be a (freq_hz, values) pair")
+    return freq_hz, _magnitude(value, f"curve {label!r}", freq_hz.size)
+
+
+def _is_analysis(label: str) -> bool:
+    words = label.lower().replace("-", " ").replace("_", " ").split()
+    return any(w in ANALYSIS_WORDS for w in words)
+
+
+def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel: str = "|H|",
+               path: str | Path = "frf.png", *, dashed: Sequence[str] | None = None,
+               peaks_hz: Mapping[str, Sequence[float]] | None = None,
+               xlim_hz: tuple[float, float] | None = None, ylim: tuple[float, float] | None = None,
+               xlabel: str = "Frequency [Hz]", figsize: tuple[float, float] = (7.0, 4.5),
+               dpi: float = 120.0) -> Path:
+    """Log-magnitude FRF plot in the style of the dissertation's Figs. 22-31.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,), or None
+        Common frequency grid [Hz], strictly increasing. May be None when
+        every curve carries its own grid.
+    curves : mapping of str to FRF
+        Legend label -> one of: an array shape (n_freq,) on ``freq_hz``
+        (complex FRF or magnitude; ``|.|`` is plotted); a pair
+        ``(freq_hz_i, values_i)`` on its own grid; an object with
+        ``freq_hz`` and ``h`` (:class:`vlab.measure.frf.FRF`). Plotted in
+        the given order; zero magnitudes are left out (log axis).
+    title, ylabel : str
+        Axes title and y label (give the unit, e.g. ``"|H| [(m/s)/N]"``).
+    path : str or Path
+        Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
+    dashed : sequence of str, optional
+        Labels drawn dashed (analysis). Default: labels containing a word
+        of :data:`ANALYSIS_WORDS` ("analysis", "model", ...). Dashed curves
+        are drawn over solid ones.
+    peaks_hz : mapping of str to sequence of float, optional
+        Label -> frequencies [Hz] to mark on that curve (e.g. the modal
+        frequencies), at the curve's magnitude interpolated in log.
+    xlim_hz, ylim : (float, float), optional
+        Axis limits ([Hz]; magnitude in the FRF's unit). Default: the data.
+    xlabel : str
+        x label.
+    figsize : (float, float)
+        Figure size [in]; the PNG is ``figsize * dpi`` pixels.
+    dpi : float
+        Resolution [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    MeasurementError
+        No curves, a curve whose shape does not match its frequency grid
+        (names the curve), non-finite values, non-increasing frequencies,
+        or a ``peaks_hz``/``dashed`` label that is not a curve.
+    DataFileError
+        Unsupported file suffix.
+    """
+    if not curves:
+        raise MeasurementError("frf_figure: no curves to plot")
+    f_common = None if freq_hz is None else _freq(freq_hz, "freq_hz")
+    data = {label: _curve(label, v, f_common) for label, v in curves.items()}
+    dashed_set = {lb for lb in curves if _is_analysis(lb)} if dashed is None else set(dashed)
+    for lb in list(dashed_set) + list(peaks_hz or {}):
+        if lb not in data:
+            raise MeasurementError(f"frf_figure: label {lb!r} is not a curve; curves: {list(data)}")
+
+    fig, (ax,) = _new_figure(figsize, dpi)
+    colors = [f"C{i % 10}" for i in range(len(data))]
+    order = [lb for lb in data if lb not in dashed_set] + [lb for lb in data if lb in dashed_set]
+    color_of = dict(zip(data, colors))
+    for z, lb in enumerate(order):
+        f, mag = data[lb]
+        ax.semilogy(f, mag, color=color_of[lb], lw=1.6 if lb in dashed_set else 1.2,
+                    ls="--" if lb in dashed_set else "-", label=lb, zorder=2 + z)
+    for lb, fp in (peaks_hz or {}).items():
+        f, mag = data[lb]
+        fp = np.asarray(fp, dtype=float)
+        with np.errstate(invalid="ignore"):
+            m = 10.0 ** np.interp(fp, f, np.log10(mag))
+        ax.plot(fp, m, ls="none", marker="v", ms=6, color=color_of[lb], zorder=10 + len(order))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    if xlim_hz is not None:
+        ax.set_xlim(*xlim_hz)
+    else:
+        lo = min(d[0][0] for d in data.values())
+        hi = max(d[0][-1] for d in data.values())
+        ax.set_xlim(lo, hi)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.grid(True, which="major", alpha=0.4)
+    ax.grid(True, which="minor", alpha=0.15)
+    ax.legend(loc="best", fontsize="small")
+    return _save(fig, path, dpi)
+
+
+def _log_misfit(measured: np.ndarray, model: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.log10(model) - np.log10(measured)
+
+
+def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, title: str = "",
+                   ylabel: str = "|H|", path: str | Path = "misfit.png",
+                   labels: tuple[str, str, str] = ("measured", "model before", "model after"),
+                   xlim_hz: tuple[float, float] | None = None, figsize: tuple[float, float] = (7.0, 6.0),
+                   dpi: float = 120.0) -> Path:
+    """Measured FRF with the model before and after a fit, and their log-magnitude misfit.
+
+    Top panel: ``|H|`` on a log axis, measured solid black, model before
+    dashed red, model after dashed blue. Bottom panel: the misfit
+    ``e(f) = log10|H_model(f)| - log10|H_measured(f)|`` (decades; 0.1 is
+    26 %) before and after, with its root mean square over the plotted band
+    in the legend.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,)
+        Frequency grid [Hz], strictly increasing, common to all three.
+    measured, before, after : array_like, shape (n_freq,)
+        Complex FRFs or magnitudes in the same unit.
+    title, ylabel : str
+        Title and y label of the top panel.
+    path : str or Path
+        Output file (``.png``, ``.svg``, ``.pdf``).
+    labels : (str, str, str)
+        Legend labels of measured, before, after.
+    xlim_hz : (float, float), optional
+        Frequency band shown and used for the RMS [Hz].
+    figsize : (float, float)
+        Figure size [in].
+    dpi : float
+        Resolution.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    MeasurementError
+        An array whose shape is not ``(n_freq,)`` (named: ``measured``,
+        ``before`` or ``after``), non-finite values.
+    DataFileError
+        Unsupported file suffix.
+    """
+    f = _freq(freq_hz, "freq_hz")
+    meas = _magnitude(measured, "measured", f.size)
+    b = _magnitude(before, "before", f.size)
+    a = _magnitude(after, "after", f.size)
+    band = np.ones(f.size, bool) if xlim_hz is None else (f >= xlim_hz[0]) & (f <= xlim_hz[1])
+    e_b, e_a = _log_misfit(meas, b), _log_misfit(meas, a)
+
+    def rms(e: np.ndarray) -> float:
+        v = e[band & np.isfinite(e)]
+        return float(np.sqrt(np.mean(v**2))) if v.size else float("nan")
+
+    fig, (ax, ax2) = _new_figure(figsize, dpi, nrows=2, sharex=True,
+                                 gridspec_kw={"height_ratios": (2.0, 1.0)})
+    ax.semilogy(f, meas, "k-", lw=1.3, label=labels[0], zorder=2)
+    ax.semilogy(f, b, color="tab:red", ls="--", lw=1.3, label=labels[1], zorder=3)
+    ax.semilogy(f, a, color="tab:blue", ls="--", lw=1.5, label=labels[2], zorder=4)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.grid(True, which="major", alpha=0.4)
+    ax.legend(loc="best", fontsize="small")
+    ax2.axhline(0.0, color="k", lw=0.8)
+    ax2.plot(f, e_b, color="tab:red", ls="--", lw=1.1, label=f"{labels[1]}: RMS {rms(e_b):.3g}")
+    ax2.plot(f, e_a, color="tab:blue", ls="--", lw=1.3, label=f"{labels[2]}: RMS {rms(e_a):.3g}")
+    ax2.set_ylabel("log10 misfit [decades]")
+    ax2.set_xlabel("Frequency [Hz]")
+    ax2.grid(True, alpha=0.4)
+    ax2.legend(loc="best", fontsize="small")
+    ax2.set_xlim(*(xlim_hz if xlim_hz is not None else (f[0], f[-1])))
+    return _save(fig, path, dpi)
+
+
+def comparison_bar(labels: Sequence[str], before: Any, after: Any, *, title: str = "",
+                   ylabel: str = "", path: str | Path = "comparison.png",
+                   names: tuple[str, str] = ("before", "after"), reference: Any = None,
+                   reference_name: str = "measured", figsize: tuple[float, float] = (7.0, 4.0),
+                   dpi: float = 120.0) -> Path:
+    """Grouped bars of one quantity per item before and after a fit (optionally with the measured value).
+
+    Typical use: per-mode frequency error [%] or peak-level ratio (Tables
+    20-21) before and after a diagnosis fit.
+
+    Parameters
+    ----------
+    labels : sequence of str, shape (n_items,)
+        Item names on the x axis (``"mode 1"``, ...).
+    before, after : array_like, shape (n_items,)
+        Values before and after.
+    title, ylabel : str
+        Title and y label (give the unit).
+    path : str or Path
+        Output file (``.png``, ``.svg``, ``.pdf``).
+    names : (str, str)
+        Legend names of ``before`` and ``after``.
+    reference : array_like, shape (n_items,), optional
+        A third bar per item, e.g. the measured value.
+    reference_name : str
+        Legend name of ``reference``.
+    figsize : (float, float)
+        Figure size [in].
+    dpi : float
+        Resolution.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    MeasurementError
+        No labels, or ``before``/``after``/``reference`` not of shape
+        ``(n_items,)`` or not finite (names the array).
+    DataFileError
+        Unsupported file suffix.
+    """
+    labels = [str(x) for x in labels]
+    n = len(labels)
+    if n == 0:
+        raise MeasurementError("comparison_bar: no labels")
+    series = [(names[0], before, "before"), (names[1], after, "after")]
+    if reference is not None:
+        series.insert(0, (reference_name, reference, "reference"))
+    values = []
+    for _, v, what in series:
+        arr = np.asarray(v, dtype=float)
+        if arr.shape != (n,):
+            raise MeasurementError(f"{what}: expected shape ({n},) (one value per label), got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise MeasurementError(f"{what}: non-finite values")
+        values.append(arr)
+    colors = {"reference": "0.3", "before": "tab:red", "after": "tab:blue"}
+
+    fig, (ax,) = _new_figure(figsize, dpi)
+    x = np.arange(n)
+    width = 0.8 / len(series)
+    for i, ((name, _, what), arr) in enumerate(zip(series, values)):
+        ax.bar(x + (i - (len(series) - 1) / 2) * width, arr, width, label=name, color=colors[what])
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xticks(x, labels, rotation=30 if n > 8 else 0)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.grid(True, axis="y", alpha=0.4)
+    ax.legend(loc="best", fontsize="small")
+    return _save(fig, path, dpi)
