@@ -446,7 +446,7 @@ def _check_reachable(A, B, C, zeta_min, n_modes, time_unit_s):
     return sens
 
 
-def _first_start(prob: _Problem, sens, diagonal: bool) -> tuple[float, str]:
+def _first_start(prob: _Problem, sens) -> tuple[float, str]:
     """Scale c of the start D = c I: the smallest c on a log grid meeting the damping bounds."""
     need = []
     for lk, z, dl in sens:
@@ -455,7 +455,7 @@ def _first_start(prob: _Problem, sens, diagonal: bool) -> tuple[float, str]:
     c0 = float(np.median(need)) if need else 1.0
     best_c, best_margin = c0, -np.inf
     for c in c0 * np.logspace(-2, 2.5, 46):
-        zeta = prob.evaluate(np.full(prob.p, 0.0) + _diag_vector(prob, c))["zeta"]
+        zeta = prob.evaluate(_diag_vector(prob, c))["zeta"]
         margin = float(np.min(zeta)) - prob.zl
         if margin >= 1e-3 * prob.zl:
             return float(c), "c I meets the damping bounds"
@@ -528,29 +528,57 @@ def _phase_one(prob: _Problem, d0: np.ndarray, c: float, eps: float, maxiter: in
     return d, float(np.min(ev["zeta"]) - zl) / zl, int(res.nit)
 
 
-def _base_start(prob: _Problem, sens, diagonal: bool, min_eig, maxiter: int, time_unit_s: float):
+def _base_start(prob: _Problem, sens, diagonal: bool, min_eig, maxiter: int, time_unit_s: float,
+                rng: np.random.Generator, n_starts: int):
     """Scale ``c``, bound ``eps``, a base gain and a note on feasibility of the damping bounds.
 
     ``c I`` from the scan of :func:`_first_start`; if no ``c I`` meets the bounds a
-    phase-one problem (:func:`_phase_one`) looks for a ``D > 0`` that does.
+    phase-one problem (:func:`_phase_one`) from ``c I`` and from ``n_starts - 1``
+    random gains looks for a ``D > 0`` that does. ``note`` is empty when a
+    feasible base was found, else it names the modes that fall short.
     """
-    c, _ = _first_start(prob, sens, diagonal)
+    c, _ = _first_start(prob, sens)
     eps = 1e-6 * c if min_eig is None else float(min_eig)
     d = _diag_vector(prob, c)
     margin = float(np.min(prob.evaluate(d)["zeta"]) - prob.zl) / prob.zl
     if margin >= 0:
         return c, eps, d, ""
-    d, margin, _ = _phase_one(prob, d, c, eps, maxiter)
-    if margin >= 0:
-        return c, eps, d, ""
-    ev = prob.evaluate(d)
+    best_d, best_m = d, margin
+    for s in range(max(int(n_starts), 1)):
+        d0 = d if s == 0 else _random_start(prob, rng, d, diagonal)
+        d1, m1, _ = _phase_one(prob, d0, c, eps, maxiter)
+        if m1 > best_m:
+            best_d, best_m = d1, m1
+        if m1 >= 0:
+            return c, eps, d1, ""
+    ev = prob.evaluate(best_d)
     zeta = ev["zeta"]
     _, _, lam = _damping_and_gradient(prob.A, prob.B, prob.C, ev["D"], prob.nm)
     worst = [f"mode {j + 1} ({abs(lam[j]) / (2 * np.pi * time_unit_s):.4g} Hz) zeta = {zeta[j]:.4g}"
              for j in np.flatnonzero(zeta < prob.zl)]
     note = (f"no D > 0 found that meets zeta_L = {prob.zl:g} on the first {prob.nm} modes "
-            f"(phase-one optimum short on: {', '.join(worst)})")
-    return c, eps, d, note
+            f"from {max(int(n_starts), 1)} phase-one starts (best reaches: {', '.join(worst)}); "
+            "the bound is probably beyond what these actuators can give")
+    return c, eps, best_d, note
+
+
+def _infeasible_design(prob, kind, d_base, eps, c, t, t0, note, active_fn, objective_of):
+    """The design returned when phase one found no feasible gain: converged=False, best effort gain."""
+    D = prob.D(d_base)
+    viol, _ = _violations(prob, D, eps, c)
+    md = modes(prob.A - prob.B @ D @ prob.C, time_unit_s=t)
+    zeta_c, _, _ = _damping_and_gradient(prob.A, prob.B, prob.C, D, prob.nm)
+    rows = np.sum(np.abs(D), axis=1)
+    return DrfDesign(
+        kind=kind, gain=readonly(D), objective=float(objective_of(D)), gamma=float(np.max(rows)),
+        row_sums=readonly(rows), beta=None, constrained_damping=readonly(zeta_c),
+        eigenvalues=md.eigenvalues, damping_ratios=md.damping_ratios,
+        frequencies_hz=md.frequencies_hz, zeta_min=prob.zl, n_modes=prob.nm, min_eig=float(eps),
+        performance_index=None, performance_ratio=None, converged=False,
+        message=f"infeasible: {note}; violated: {'; '.join(viol)}", iterations=0,
+        evaluations=prob.n_eval, active_constraints=tuple(active_fn(D)), starts=(),
+        wall_time_s=time.perf_counter() - t0, time_unit_s=t,
+    )
 
 
 def _validate_common(A, B, C, zeta_min, n_modes, min_eig, n_starts, time_unit_s):
@@ -596,12 +624,10 @@ def _violations(prob: _Problem, D: np.ndarray, min_eig: float, scale: float) -> 
     return out, float(size)
 
 
-def _finish(prob, kind, records, x_to_D, objective_of, min_eig, scale, t, t0, active_fn,
-            note="", fallback=None):
+def _finish(prob, kind, records, x_to_D, objective_of, min_eig, scale, t, t0, active_fn):
     """Pick the best start, verify it, and build the DrfDesign.
 
     Ranking: converged and feasible < feasible < infeasible (by total violation).
-    ``fallback`` (a gain) competes only when no start is feasible.
     """
     starts = []
     best = None
@@ -623,14 +649,8 @@ def _finish(prob, kind, records, x_to_D, objective_of, min_eig, scale, t, t0, ac
         msg = (f"feasible but the optimiser did not report convergence: {res.message} "
                f"(start {s} of {len(records)})")
     else:
-        if fallback is not None:
-            fviol, fsize = _violations(prob, fallback, min_eig, scale)
-            if fsize < best[0][1]:
-                D, viol, iterations = fallback, fviol, 0
-        msg = (f"no start reached a feasible point (last SLSQP message: {res.message}); "
+        msg = (f"no start reached a feasible point (best start {s}: {res.message}); "
                f"violated: {'; '.join(viol)}")
-        if note:
-            msg += f"; {note}"
     md = modes(prob.A - prob.B @ D @ prob.C, time_unit_s=t)
     zeta_c, _, _ = _damping_and_gradient(prob.A, prob.B, prob.C, D, prob.nm)
     rows = np.sum(np.abs(D), axis=1)
@@ -745,7 +765,8 @@ def mfdrf(
     perf = _optional_perf(A, B, Q, R, initial_states)
     sens = _check_reachable(A, B, C, zl, nm, t)
     prob = _Problem(A, B, C, zeta_min=zl, n_modes=nm, diagonal=False)
-    c, eps, d_base, note = _base_start(prob, sens, False, min_eig, maxiter, t)
+    rng = np.random.default_rng(seed)
+    c, eps, d_base, note = _base_start(prob, sens, False, min_eig, maxiter, t, rng, n_starts)
     p, off, nc = prob.p, prob.off, prob.nc
     n_off = off.size
     n_var = p + n_off + 1
@@ -791,27 +812,31 @@ def mfdrf(
         {"type": "ineq", "fun": mfun, "jac": mjac},
     ]
     bounds = [(None, None)] * p + [(0.0, None)] * n_off + [(0.0, None)]
-    rng = np.random.default_rng(seed)
-    x0s = []
-    for s in range(int(n_starts)):
-        d = d_base if s == 0 else _random_start(prob, rng, d_base, False)
-        x = np.zeros(n_var)
-        x[:p] = d / c
-        x[p:p + n_off] = np.abs(d[off]) / c
-        x[ig] = np.max(np.sum(np.abs(prob.D(d)), axis=1)) / c
-        x0s.append(x)
-    records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
-
     def active(D):
         names = _damping_active(prob, D, eps, c)
         rows = np.sum(np.abs(D), axis=1)
         gam = rows.max()
-        names += [f"row[{i + 1}]: sum|d| <= gamma" for i in np.flatnonzero((gam - rows) / gam <= _ACTIVE_TOL)]
+        names += [f"row[{i + 1}]: sum|d| <= gamma"
+                  for i in np.flatnonzero((gam - rows) / gam <= _ACTIVE_TOL)]
         return names
 
-    design = _finish(prob, "MFDRF", records, lambda x: prob.D(c * x[:p]),
-                     lambda D: float(np.max(np.sum(np.abs(D), axis=1))), eps, c, t, t0, active,
-                     note=note, fallback=prob.D(d_base) if note else None)
+    def gamma_of(D):
+        return float(np.max(np.sum(np.abs(D), axis=1)))
+
+    if note:
+        design = _infeasible_design(prob, "MFDRF", d_base, eps, c, t, t0, note, active, gamma_of)
+    else:
+        x0s = []
+        for s in range(int(n_starts)):
+            d = d_base if s == 0 else _random_start(prob, rng, d_base, False)
+            x = np.zeros(n_var)
+            x[:p] = d / c
+            x[p:p + n_off] = np.abs(d[off]) / c
+            x[ig] = gamma_of(prob.D(d)) / c
+            x0s.append(x)
+        records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
+        design = _finish(prob, "MFDRF", records, lambda x: prob.D(c * x[:p]), gamma_of, eps, c, t,
+                         t0, active)
     if perf is not None:
         Qm, Rm, X0 = perf
         J = _safe_perf(A, B, C, design.gain, Qm, Rm, X0)
@@ -910,7 +935,8 @@ def lqdrf(
     if lqr_normalised:
         ref = lqr(A, B, Q, R, time_unit_s=t).performance_index(X0)
     prob = _Problem(A, B, C, zeta_min=zl, n_modes=nm, diagonal=diagonal, Q=Q, R=R, X0=X0)
-    c, eps, d_base, note = _base_start(prob, sens, diagonal, min_eig, maxiter, t)
+    rng = np.random.default_rng(seed)
+    c, eps, d_base, note = _base_start(prob, sens, diagonal, min_eig, maxiter, t, rng, n_starts)
     p, nc = prob.p, prob.nc
     if not lqr_normalised:
         j0 = prob.perf(d_base)["J"]
@@ -959,17 +985,6 @@ def lqdrf(
             return out
 
         cons.append({"type": "ineq", "fun": mfun, "jac": mjac})
-    rng = np.random.default_rng(seed)
-    x0s = []
-    for s in range(int(n_starts)):
-        d = d_base if s == 0 else _random_start(prob, rng, d_base, diagonal)
-        x = np.zeros(n_var)
-        x[:p] = d / c
-        J = prob.perf(d)["J"]
-        x[ib] = float(np.max(J / ref)) if np.all(np.isfinite(J)) else 10.0
-        x0s.append(x)
-    records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
-
     def objective_of(D):
         J = _safe_perf(A, B, C, D, Q, R, X0)
         return float(np.max(J / ref)) * (1.0 if lqr_normalised else float(ref[0]))
@@ -978,12 +993,25 @@ def lqdrf(
         names = _damping_active(prob, D, eps, c)
         J = _safe_perf(A, B, C, D, Q, R, X0) / ref
         b = J.max()
-        names += [f"J[{i + 1}] <= beta" for i in np.flatnonzero((b - J) / b <= _ACTIVE_TOL)]
+        if np.isfinite(b):
+            names += [f"J[{i + 1}] <= beta" for i in np.flatnonzero((b - J) / b <= _ACTIVE_TOL)]
         return names
 
     kind = "LQDRF" + ("-diagonal" if diagonal else "") + ("-LQR-normalised" if lqr_normalised else "")
-    design = _finish(prob, kind, records, lambda x: prob.D(c * x[:p]), objective_of, eps, c, t,
-                     t0, active, note=note, fallback=prob.D(d_base) if note else None)
+    if note:
+        design = _infeasible_design(prob, kind, d_base, eps, c, t, t0, note, active, objective_of)
+    else:
+        x0s = []
+        for s in range(int(n_starts)):
+            d = d_base if s == 0 else _random_start(prob, rng, d_base, diagonal)
+            x = np.zeros(n_var)
+            x[:p] = d / c
+            J = prob.perf(d)["J"]
+            x[ib] = float(np.max(J / ref)) if np.all(np.isfinite(J)) else 10.0
+            x0s.append(x)
+        records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
+        design = _finish(prob, kind, records, lambda x: prob.D(c * x[:p]), objective_of, eps, c,
+                         t, t0, active)
     J = _safe_perf(A, B, C, design.gain, Q, R, X0)
     return replace(
         design,

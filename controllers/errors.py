@@ -136,7 +136,18 @@ def check_matrix(
 def check_symmetric(name: str, a: np.ndarray, *, rtol: float = 1e-10) -> np.ndarray:
     """Check that square ``a`` is symmetric to ``rtol`` (relative to max |a_ij|).
 
-    Returns the exactly symmetrised matrix ``(a + a.T) / 2``.
+    Parameters
+    ----------
+    name : str
+        Name of the matrix for the message.
+    a : ndarray, shape (N, N)
+    rtol : float
+        Allowed asymmetry relative to ``max |a_ij|``.
+
+    Returns
+    -------
+    ndarray, shape (N, N)
+        The exactly symmetrised matrix ``(a + a.T) / 2``.
 
     Raises
     ------
@@ -158,6 +169,14 @@ def check_symmetric(name: str, a: np.ndarray, *, rtol: float = 1e-10) -> np.ndar
 def check_positive_definite(name: str, a: np.ndarray, *, rtol: float = 1e-12) -> np.ndarray:
     """Check that symmetric ``a`` is positive definite; return it symmetrised.
 
+    Parameters
+    ----------
+    name : str
+        Name of the matrix for the message.
+    a : ndarray, shape (N, N)
+    rtol : float
+        ``min eig(a)`` must exceed ``rtol * max |eig(a)|``.
+
     Raises
     ------
     MatrixPropertyError
@@ -178,6 +197,14 @@ def check_positive_definite(name: str, a: np.ndarray, *, rtol: float = 1e-12) ->
 def check_positive_semidefinite(name: str, a: np.ndarray, *, rtol: float = 1e-10) -> np.ndarray:
     """Check that symmetric ``a`` is positive semi-definite; return it symmetrised.
 
+    Parameters
+    ----------
+    name : str
+        Name of the matrix for the message.
+    a : ndarray, shape (N, N)
+    rtol : float
+        ``min eig(a)`` may be as low as ``-rtol * max |eig(a)|`` (round-off).
+
     Raises
     ------
     MatrixPropertyError
@@ -197,6 +224,14 @@ def check_positive_semidefinite(name: str, a: np.ndarray, *, rtol: float = 1e-10
 def check_positive_scalar(name: str, value, *, allow_zero: bool = False) -> float:
     """Return ``value`` as a float after checking it is finite and > 0 (or >= 0).
 
+    Parameters
+    ----------
+    name : str
+        Name of the parameter for the message.
+    value : float
+    allow_zero : bool
+        Accept 0.
+
     Raises
     ------
     MatrixPropertyError
@@ -214,7 +249,17 @@ def check_positive_scalar(name: str, value, *, allow_zero: bool = False) -> floa
 
 
 def readonly(a: np.ndarray) -> np.ndarray:
-    """Return a read-only copy of ``a`` (for the fields of frozen result objects)."""
+    """Return a read-only copy of ``a`` (for the fields of frozen result objects).
+
+    Parameters
+    ----------
+    a : array_like
+        Any array.
+
+    Raises
+    ------
+    Nothing beyond NumPy's own errors for non-array input.
+    """
     out = np.array(a, copy=True)
     out.setflags(write=False)
     return out

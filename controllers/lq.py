@@ -81,10 +81,16 @@ def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> Non
     StabilizabilityError
         If ``rank [A - lambda I, B] < N`` (smallest singular value below
         ``1e-9 * max(|A|, |B|, |lambda|)``) for such an eigenvalue; names it.
+
+    Notes
+    -----
+    Only eigenvalues with ``Re >= -shift`` (to ``1e-9 |lambda|``) are tested: the
+    others are stable already. Undamped structures have all eigenvalues on the
+    imaginary axis, so every mode must be reachable.
     """
-    A = np.asarray(A, dtype=float)
-    B = np.asarray(B, dtype=float)
+    A = _square("A", A, "N")
     n = A.shape[0]
+    B = check_matrix("B", B, (n, None), ("N", "m"))
     eigs = scipy.linalg.eigvals(A)
     scale = max(np.linalg.norm(A, 2), np.linalg.norm(B, 2), 1e-300)
     for lam in eigs:
@@ -105,13 +111,23 @@ def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> Non
 def check_detectable(A, C, *, shift: float = 0.0, what: str = "(A, C)") -> None:
     """PBH test for detectability of ``(A + shift I, C)`` (dual of :func:`check_stabilizable`).
 
+    Parameters
+    ----------
+    A : array_like, shape (N, N)
+    C : array_like, shape (p, N)
+    shift : float
+        ``alpha`` of the alpha-shifted filter.
+    what : str
+        Name of the pair for the message.
+
     Raises
     ------
     StabilizabilityError
         If an eigenvalue with ``Re + shift >= 0`` is unobservable; names it.
     """
-    check_stabilizable(np.asarray(A, dtype=float).T, np.asarray(C, dtype=float).T,
-                       shift=shift, what=what)
+    A = _square("A", A, "N")
+    C = check_matrix("C", C, (None, A.shape[0]), ("p", "N"))
+    check_stabilizable(A.T, C.T, shift=shift, what=what)
 
 
 def _care(a, b, q, r, name: str) -> np.ndarray:

@@ -27,6 +27,7 @@ import scipy.linalg
 from scipy.optimize import linear_sum_assignment
 
 from .errors import (
+    MatrixPropertyError,
     ShapeError,
     check_matrix,
     check_positive_scalar,
@@ -85,8 +86,19 @@ def select_modes(eigs, n_modes: int | None = None) -> np.ndarray:
     -------
     ndarray of int
         Indices sorted by ``|lambda|``.
+
+    Raises
+    ------
+    ShapeError
+        ``eigs`` not one-dimensional.
+    MatrixPropertyError
+        Negative ``n_modes``.
     """
     eigs = np.asarray(eigs)
+    if eigs.ndim != 1:
+        raise ShapeError(f"eigs: expected shape (N,), found {eigs.shape}")
+    if n_modes is not None and n_modes < 0:
+        raise MatrixPropertyError(f"n_modes: expected >= 0, found {n_modes}")
     order = _mode_order(eigs)
     if n_modes is None:
         return order

@@ -362,7 +362,8 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
     Raises
     ------
     DataFileError
-        Target exists, no FRFs, an FRF without point ids (names it), pyuff failure.
+        Target exists, no FRFs, an FRF without point ids or with non-finite
+        values (names it; pyuff would write NaN as 0), pyuff failure.
     """
     p = Path(path)
     _check_target(p, overwrite)
@@ -375,6 +376,11 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
     for frf in items:
         if frf.output_point is None or frf.input_point is None:
             raise DataFileError(f"{p}: FRF {frf.name} has no output_point/input_point for the UFF nodes")
+        if not np.all(np.isfinite(frf.h)) or (frf.coherence is not None
+                                              and not np.all(np.isfinite(frf.coherence))):
+            # pyuff would silently write NaN as 0
+            raise DataFileError(f"{p}: FRF {frf.name}: non-finite values cannot be written "
+                                "(restrict it with FRF.band() to the excited lines)")
         le, fe = _UNIT_EXP[frf.response]
         navg = "NONE" if frf.n_averages is None else f"n_averages={frf.n_averages}"
         base = dict(type=58, binary=int(binary), rsp_node=frf.output_point, rsp_dir=3,
@@ -403,6 +409,11 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
 
 def read_frfs(path: str | os.PathLike) -> list[FRF]:
     """Read UFF 58 FRFs (function type 4), attaching coherence records (type 6) with the same nodes.
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF file.
 
     Returns
     -------
@@ -540,6 +551,19 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
     viscous damping ratio); complex shapes as complex modes (type 3,
     eigenvalue ``-zeta omega_n + i omega_n sqrt(1 - zeta^2)``).
 
+    Parameters
+    ----------
+    path : str or path-like
+        Target file.
+    modes : ModeShapes
+        Shapes to write; ``point_ids`` become the UFF nodes.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+
     Raises
     ------
     DataFileError
@@ -571,6 +595,15 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
 
 def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
     """Read UFF 55 normal or complex modes (Z component) into :class:`ModeShapes`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF file.
+
+    Returns
+    -------
+    ModeShapes
 
     Raises
     ------

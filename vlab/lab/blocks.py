@@ -29,8 +29,10 @@ A typical loop (controller period ``dt``, ``n_sub`` physics steps per period)::
         dac.update(u_k)                            # DAC switches at t_k + 1.35 dt
         for s in range(n_sub):
             t = t_k + s * h
-            rc.update(dac.output_at(t))            # 677 Hz smoothing over [t, t+h)
-            plant.step(h, amp.output(rc.output()))
+            f = amp.output(rc.output() + f_exc(t))  # coil force over [t, t+h); the
+                                                   # excitation joins before the amplifier (Fig. 21)
+            rc.update(dac.output_at(t))            # 677 Hz smoothing (or dac.mean_over(t, t + h))
+            plant.step(h, f)
 """
 
 from __future__ import annotations

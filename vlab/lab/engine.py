@@ -207,7 +207,7 @@ class ControllerEngine:
         self.n_ticks += 1
 
     def step(self, y) -> np.ndarray:
-        """One tick of Eq. (5.1): return ``u_k`` (shape (n_u,)) and update ``x``."""
+        """One tick of Eq. (5.1): return ``u_k`` (shape (n_u,)) for sensors ``y`` (shape (n_y,)); update ``x``."""
         yk = self._y(y)
         u = self.F11 @ yk + self.F12 @ self._x
         self._x = self.F21 @ yk + self.F22 @ self._x

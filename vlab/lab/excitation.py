@@ -91,6 +91,17 @@ def _rng(seed) -> np.random.Generator:
 def multisine_lines_hz(band_hz: tuple[float, float], resolution_hz: float) -> np.ndarray:
     """Frequencies [Hz] of the lines of :func:`pseudo_random`: multiples ``k * df`` in the band, ``k >= 1``.
 
+    Parameters
+    ----------
+    band_hz : (float, float)
+        Band [Hz], edges included.
+    resolution_hz : float
+        Line spacing ``df`` [Hz].
+
+    Returns
+    -------
+    ndarray, shape (n_lines,)
+
     Raises
     ------
     ModelError

@@ -49,7 +49,7 @@ _PREFIX_QUANTITY = {p: q for q, p in QUANTITY_PREFIXES.items()}
 
 
 def channel_name(quantity: str, point_id: int) -> str:
-    """Conventional channel name, e.g. ``channel_name("velocity", 1) == "vel1"``.
+    """Conventional channel name of ``quantity`` at ``point_id``, e.g. ``channel_name("velocity", 1) == "vel1"``.
 
     Raises
     ------

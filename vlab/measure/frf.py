@@ -183,7 +183,7 @@ class FRF:
 
 
 def block_length(sample_rate_hz: float, resolution_hz: float) -> int:
-    """Samples per analysis block for a frequency resolution: ``round(fs / df)``.
+    """Samples per analysis block: ``round(sample_rate_hz / resolution_hz)``.
 
     Raises
     ------

@@ -91,6 +91,22 @@ class Peak:
 def refine_peak(freq_hz, h, index: int, *, name: str = "frf") -> Peak:
     """Refine the peak at line ``index`` by a parabola through ``ln|H|`` of its three lines.
 
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,)
+        Frequencies [Hz].
+    h : array_like, shape (n_freq,)
+        FRF.
+    index : int
+        Line of the local maximum.
+    name : str
+        FRF name for messages.
+
+    Returns
+    -------
+    Peak
+        The line itself at the ends of the FRF or if the parabola opens upwards.
+
     Raises
     ------
     MeasurementError
@@ -324,8 +340,8 @@ def _lscf(f: np.ndarray, hh: np.ndarray, peaks: np.ndarray, response: str, band:
         from sdypy import EMA  # optional dependency
     except ImportError:  # pragma: no cover - depends on the environment
         raise MeasurementError(f"{name}: method='lscf' needs sdypy-EMA (pip install sdypy-EMA)") from None
-    lo, hi = band
-    keep = f <= hi
+    keep = f <= band[1]
+    lo, hi = band[0], float(f[keep][-1])
     model = EMA.Model(frf=hh[keep][None, :], freq=f[keep], lower=lo, upper=hi,
                       pol_order_high=max(20, 4 * peaks.size), frf_form=_FRF_FORMS[response])
     with contextlib.redirect_stderr(io.StringIO()):  # sdypy-EMA's stabilisation prints a progress bar

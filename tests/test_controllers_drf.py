@@ -1,0 +1,242 @@
+"""controllers.drf: MFDRF (Eqs. 4.30-4.32) and LQDRF (Eqs. 4.37-4.38) with analytic gradients."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from controllers.drf import closed_loop_damping, lqdrf, mfdrf, performance_gradient
+from controllers.errors import InfeasibleDampingError, ShapeError
+from controllers.lq import lqr
+from controllers.statespace import modal_initial_states, state_space
+
+ZL = 0.05
+NM = 5
+
+
+def chain(n=5, zeta=0.01, act=None):
+    """Fixed-free chain of masses and springs with modal damping ``zeta`` (synthetic test plant)."""
+    m = np.diag(np.linspace(1.0, 1.5, n))
+    ks = np.linspace(2.0, 1.0, n)
+    k = np.zeros((n, n))
+    for i in range(n):
+        k[i, i] += ks[i]
+        if i + 1 < n:
+            k[i, i] += ks[i + 1]
+            k[i, i + 1] -= ks[i + 1]
+            k[i + 1, i] -= ks[i + 1]
+    w2, phi = scipy.linalg.eigh(k, m)
+    c = m @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ m
+    act = (0, n // 2, n - 1) if act is None else act
+    U = np.zeros((n, len(act)))
+    for j, a in enumerate(act):
+        U[a, j] = 1.0
+    return m, c, k, U
+
+
+@pytest.fixture(scope="module")
+def plant():
+    m, c, k, U = chain(6, zeta=0.005, act=(0, 2, 5))
+    return m, k, state_space(m, c, k, U)
+
+
+@pytest.fixture(scope="module")
+def weights(plant):
+    m, k, ss = plant
+    return np.eye(12), np.eye(3), modal_initial_states(m, k, 4)
+
+
+def assert_feasible(design, ss, zeta_min=ZL, n_modes=NM):
+    """Every constraint of Eqs. (4.32)/(4.38), checked independently of the optimiser."""
+    D = design.gain
+    np.testing.assert_array_equal(D, D.T)
+    assert np.linalg.eigvalsh(D)[0] > 0
+    zeta, _ = closed_loop_damping(ss.A, ss.B, ss.C, D, n_modes=n_modes)
+    assert zeta.min() >= zeta_min - 1e-6
+    lam = scipy.linalg.eigvals(ss.A - ss.B @ D @ ss.C)
+    assert lam.real.max() < 0
+    assert np.all(np.sum(np.abs(D), axis=1) <= design.gamma + 1e-12)
+
+
+# --------------------------------------------------------------------------- gradients
+def test_damping_gradient_matches_finite_differences(plant):
+    _, _, ss = plant
+    D = np.array([[0.5, 0.1, -0.05], [0.1, 0.3, 0.02], [-0.05, 0.02, 0.4]])
+    E = np.random.default_rng(3).normal(size=(3, 3))
+    z, g = closed_loop_damping(ss.A, ss.B, ss.C, D, n_modes=NM)
+    h = 1e-6
+    zp, _ = closed_loop_damping(ss.A, ss.B, ss.C, D + h * E, n_modes=NM)
+    zm, _ = closed_loop_damping(ss.A, ss.B, ss.C, D - h * E, n_modes=NM)
+    np.testing.assert_allclose(np.einsum("kij,ij->k", g, E), (zp - zm) / (2 * h), rtol=1e-5,
+                               atol=1e-9)
+
+
+def test_performance_gradient_matches_finite_differences(plant, weights):
+    _, _, ss = plant
+    Q, R, X0 = weights
+    D = np.array([[0.5, 0.1, -0.05], [0.1, 0.3, 0.02], [-0.05, 0.02, 0.4]])
+    E = np.random.default_rng(4).normal(size=(3, 3))
+    J, g = performance_gradient(ss.A, ss.B, ss.C, D, Q, 2 * R, X0)
+    h = 1e-6
+    Jp, _ = performance_gradient(ss.A, ss.B, ss.C, D + h * E, Q, 2 * R, X0)
+    Jm, _ = performance_gradient(ss.A, ss.B, ss.C, D - h * E, Q, 2 * R, X0)
+    np.testing.assert_allclose(np.einsum("kij,ij->k", g, E), (Jp - Jm) / (2 * h), rtol=1e-5)
+
+
+# --------------------------------------------------------------------------- MFDRF
+@pytest.fixture(scope="module")
+def mf(plant):
+    _, _, ss = plant
+    return mfdrf(ss.A, ss.B, ss.C, zeta_min=ZL, n_modes=NM, n_starts=3, seed=1)
+
+
+def test_mfdrf_satisfies_every_constraint(mf, plant):
+    _, _, ss = plant
+    assert mf.converged, mf.message
+    assert mf.kind == "MFDRF"
+    assert_feasible(mf, ss)
+    assert mf.objective == pytest.approx(mf.gamma)
+    assert np.max(mf.row_sums) == pytest.approx(mf.gamma)
+    # at the minimum some damping constraint and the max-force constraint must be active
+    assert any(a.startswith("zeta[") for a in mf.active_constraints)
+    assert any(a.startswith("row[") for a in mf.active_constraints)
+    assert len(mf.starts) == 3 and mf.iterations > 0
+    assert mf.constrained_damping.shape == (NM,)
+
+
+def test_mfdrf_is_locally_optimal(mf, plant):
+    """Scaling the optimum down by 1 % violates the damping bound (gamma cannot shrink that way)."""
+    _, _, ss = plant
+    z, _ = closed_loop_damping(ss.A, ss.B, ss.C, 0.99 * mf.gain, n_modes=NM)
+    assert z.min() < ZL
+
+
+def test_mfdrf_is_reproducible(plant, mf):
+    _, _, ss = plant
+    again = mfdrf(ss.A, ss.B, ss.C, zeta_min=ZL, n_modes=NM, n_starts=3, seed=1)
+    np.testing.assert_array_equal(again.gain, mf.gain)
+
+
+def test_mfdrf_time_unit_invariance():
+    """Designing in centiseconds gives the same physical gain (D_s = T D_cs) and damping."""
+    m, c, k, U = chain(5, zeta=0.005, act=(1, 4))
+    s = state_space(m, c, k, U)
+    cs = state_space(m, c, k, U, time_unit_s=0.01)
+    d_s = mfdrf(s.A, s.B, s.C, zeta_min=0.025, n_modes=4, n_starts=2)
+    d_cs = mfdrf(cs.A, cs.B, cs.C, zeta_min=0.025, n_modes=4, n_starts=2, time_unit_s=0.01)
+    assert d_s.converged and d_cs.converged
+    assert d_cs.gamma * 0.01 == pytest.approx(d_s.gamma, rel=1e-5)
+    np.testing.assert_allclose(d_cs.frequencies_hz, d_s.frequencies_hz, rtol=1e-8)
+    np.testing.assert_allclose(d_cs.gain_per_s, d_s.gain_per_s, rtol=1e-4, atol=1e-6 * d_s.gamma)
+
+
+def test_unreachable_damping_level_is_reported_not_returned_silently():
+    """Two dampers cannot give mode 3 of this chain 4 % (the best is about 3.2 %)."""
+    m, c, k, U = chain(5, zeta=0.005, act=(1, 4))
+    s = state_space(m, c, k, U)
+    d = mfdrf(s.A, s.B, s.C, zeta_min=0.04, n_modes=4, n_starts=2)
+    assert not d.converged
+    assert "mode 3" in d.message and "infeasible" in d.message
+    assert d.constrained_damping[2] < 0.04
+
+
+def test_mfdrf_reports_performance_when_weights_given(plant, weights):
+    _, _, ss = plant
+    Q, R, X0 = weights
+    d = mfdrf(ss.A, ss.B, ss.C, zeta_min=ZL, n_modes=NM, n_starts=1, Q=Q, R=R, initial_states=X0)
+    assert d.performance_index.shape == (4,)
+    J, _ = performance_gradient(ss.A, ss.B, ss.C, d.gain, Q, R, X0)
+    np.testing.assert_allclose(d.performance_index, J)
+
+
+def test_mfdrf_not_converged_is_reported(plant):
+    _, _, ss = plant
+    d = mfdrf(ss.A, ss.B, ss.C, zeta_min=ZL, n_modes=NM, n_starts=1, maxiter=1)
+    assert not d.converged
+    assert "limit" in d.message.lower()
+
+
+def test_unreachable_mode_raises_and_names_it():
+    """Middle actuator of a symmetric fixed-fixed chain: mode 2 has a node there."""
+    n = 5
+    m = np.eye(n)
+    k = 2 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1)
+    w2, phi = scipy.linalg.eigh(k, m)
+    c = phi @ np.diag(0.02 * np.sqrt(w2)) @ phi.T
+    U = np.zeros((n, 1))
+    U[2, 0] = 1.0
+    ss = state_space(m, c, k, U)
+    with pytest.raises(InfeasibleDampingError, match=r"mode 2 .*actuator"):
+        mfdrf(ss.A, ss.B, ss.C, zeta_min=0.03, n_modes=3)
+    # asking only for mode 1 is fine
+    d = mfdrf(ss.A, ss.B, ss.C, zeta_min=0.03, n_modes=1, n_starts=1)
+    assert d.converged and d.constrained_damping[0] >= 0.03 - 1e-6
+
+
+def test_non_square_gain_rejected(plant):
+    _, _, ss = plant
+    with pytest.raises(ShapeError, match=r"C: expected shape \(n_c, 2n\) = \(3, 12\)"):
+        mfdrf(ss.A, ss.B, ss.C[:2], zeta_min=ZL, n_modes=NM)
+
+
+# --------------------------------------------------------------------------- LQDRF
+@pytest.mark.parametrize(
+    "diagonal, normalised",
+    [(False, False), (True, False), (False, True), (True, True)],
+)
+def test_lqdrf_variants_satisfy_constraints(plant, weights, diagonal, normalised):
+    _, _, ss = plant
+    Q, R, X0 = weights
+    d = lqdrf(ss.A, ss.B, ss.C, Q, R, X0, zeta_min=ZL, n_modes=NM, diagonal=diagonal,
+              lqr_normalised=normalised, n_starts=2, seed=0)
+    assert d.converged, d.message
+    assert_feasible(d, ss)
+    if diagonal:
+        np.testing.assert_array_equal(d.gain, np.diag(np.diag(d.gain)))
+    J, _ = performance_gradient(ss.A, ss.B, ss.C, d.gain, Q, R, X0)
+    np.testing.assert_allclose(d.performance_index, J)
+    if normalised:
+        ref = lqr(ss.A, ss.B, Q, R).performance_index(X0)
+        np.testing.assert_allclose(d.performance_ratio, J / ref)
+        assert d.beta == pytest.approx(np.max(J / ref))
+        assert d.beta >= 1.0 - 1e-9  # LQR is the best possible
+    else:
+        assert d.beta == pytest.approx(np.max(J))
+    assert any(a.startswith("J[") for a in d.active_constraints)
+
+
+def test_lqdrf_beats_mfdrf_on_its_own_objective(plant, weights, mf):
+    _, _, ss = plant
+    Q, R, X0 = weights
+    d = lqdrf(ss.A, ss.B, ss.C, Q, R, X0, zeta_min=ZL, n_modes=NM, n_starts=2)
+    J_mf, _ = performance_gradient(ss.A, ss.B, ss.C, mf.gain, Q, R, X0)
+    assert d.beta <= np.max(J_mf) * (1 + 1e-8)
+    dd = lqdrf(ss.A, ss.B, ss.C, Q, R, X0, zeta_min=ZL, n_modes=NM, diagonal=True, n_starts=2)
+    assert d.beta <= dd.beta * (1 + 1e-6)  # coupled D can do at least as well as diagonal
+
+
+def test_drf_realization_is_minus_T_D(mf):
+    r = mf.realize(0.0005)
+    np.testing.assert_array_equal(r.F11, -mf.gain)
+    assert r.n_states == 0 and r.dt_s == 0.0005
+
+
+# --------------------------------------------------------------------------- property
+_SMALL = chain(4, zeta=0.002, act=(0, 1, 3))
+_SS = state_space(*_SMALL)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=9, max_size=9),
+    st.floats(1e-3, 1.0),
+)
+def test_any_spd_gain_gives_a_stable_loop(entries, shift):
+    """Collocated rate feedback with D = L L^T + s I > 0 only dissipates: stable (Sec. 4.2.1)."""
+    L = np.array(entries).reshape(3, 3)
+    D = L @ L.T + shift * np.eye(3)
+    lam = scipy.linalg.eigvals(_SS.A - _SS.B @ D @ _SS.C)
+    assert lam.real.max() < 0

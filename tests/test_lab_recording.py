@@ -1,0 +1,75 @@
+"""Recording and Channel (vlab.lab.recording)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vlab.errors import MeasurementError
+from vlab.lab.recording import Channel, Recording, channel_name, parse_channel_name
+
+
+def _rec():
+    return Recording.from_signals(
+        0.5e-3, {"force4": np.arange(5.0), "vel1": np.ones(5), "vel12": np.zeros(5)},
+        metadata={"structure": "grid", "seed": 1})
+
+
+def test_from_signals_parses_names():
+    rec = _rec()
+    assert rec.names == ("force4", "vel1", "vel12")
+    c = rec.channel("vel12")
+    assert (c.quantity, c.point_id, c.unit, c.direction) == ("velocity", 12, "m/s", 3)
+    assert rec.channel("force4").unit == "N"
+    assert rec.find(4, "force").name == "force4"
+    assert rec.n_samples == 5 and rec.n_channels == 3 and len(rec) == 3
+    assert rec.duration_s == pytest.approx(2.5e-3)
+    assert rec.sample_rate_hz == pytest.approx(2000.0)
+    np.testing.assert_allclose(rec.time_s, np.arange(5) * 0.5e-3)
+    assert rec.as_array(["vel1", "force4"]).shape == (5, 2)
+    assert "vel1" in rec and "vel2" not in rec
+    assert parse_channel_name("disp6") == ("displacement", 6)
+    assert channel_name("acceleration", 3) == "acc3"
+
+
+def test_recording_is_immutable():
+    rec = _rec()
+    with pytest.raises(ValueError):
+        rec["force4"][0] = 1.0
+    with pytest.raises(TypeError):
+        rec.metadata["seed"] = 2
+    with pytest.raises(AttributeError):
+        rec.dt_s = 1.0
+    src = np.ones(3)
+    ch = Channel(name="vel1", point_id=1, quantity="velocity", samples=src)
+    src[0] = 5.0
+    assert ch.samples[0] == 1.0
+
+
+def test_copies_and_equality():
+    rec = _rec()
+    assert rec == _rec()
+    sub = rec.select(["vel1"])
+    assert sub.names == ("vel1",) and sub.metadata == rec.metadata
+    more = rec.with_metadata(controller="MFDRF")
+    assert more.metadata["controller"] == "MFDRF" and "controller" not in rec.metadata
+    assert more != rec
+
+
+def test_errors_name_the_channel():
+    with pytest.raises(MeasurementError, match="channel 'vel1' has 4 samples"):
+        Recording.from_signals(1e-3, {"force4": np.zeros(5), "vel1": np.zeros(4)})
+    with pytest.raises(MeasurementError, match="channel 'vel1': 1 non-finite"):
+        Recording.from_signals(1e-3, {"vel1": [0.0, np.nan]})
+    with pytest.raises(MeasurementError, match="does not follow"):
+        Recording.from_signals(1e-3, {"sensorA": [0.0]})
+    with pytest.raises(MeasurementError, match="dt_s"):
+        Recording.from_signals(0.0, {"vel1": [0.0]})
+    with pytest.raises(MeasurementError, match="no channel 'vel9'"):
+        _rec().channel("vel9")
+    with pytest.raises(MeasurementError, match="duplicate"):
+        c = Channel(name="vel1", point_id=1, quantity="velocity", samples=[0.0])
+        Recording(1e-3, (c, c))
+    ok = Recording.from_signals(1e-3, {"sensorA": [0.0]}, point_ids={"sensorA": 3},
+                                quantities={"sensorA": "velocity"})
+    assert ok.channel("sensorA").point_id == 3

@@ -1,0 +1,1238 @@
+"""Build the MuJoCo plant of a structure from its :class:`~vlab.spec.StructureSpec`.
+
+The plant is assembled with :class:`mujoco.MjSpec` (never string XML) and
+models the **out-of-plane** motion only: the structure lies in the world
+plane (x, y), ``w`` is the world z translation, and every joint is a hinge
+about an in-plane axis or a slide along z. Gravity (magnitude 9.80665 m/s^2)
+acts in the plane along the spec's gravity direction, so its geometric
+stiffness comes out of the simulation itself.
+
+Discretisation (the "midpoint" hinge chain)
+-------------------------------------------
+Each member segment between two consecutive points, of flexible length
+``L_f = L - a_1 - a_2`` (rigid inserts ``a`` at its ends, Sec. 2.1.1), is cut
+into ``n`` links of length ``l = L_f / n``. Hinges sit at the *midpoints*
+``a_1 + l/2 + k l`` (k = 0..n-1), so every hinge represents the curvature of
+one link length and gets
+
+* bending stiffness ``EI / l`` about the in-plane axis perpendicular to the
+  member, ``(e_y, -e_x, 0)`` (a positive angle is a positive slope dw/ds);
+* torsion stiffness ``GJ / l`` about the member axis ``e``, where the
+  spec's active DOFs contain the rotation about that axis.
+
+Every structure point is the centre of a rigid **junction body** that carries
+the half links (and rigid inserts) of all members meeting there, its lumped
+masses, its sites and its actuator. A clamped end is therefore represented
+exactly as a free one: the first hinge is half a link away from the clamp and
+carries ``EI/l`` -- the half link of flexibility on the clamp side plus the
+half link on the other side (equivalently ``2EI/l`` for a hinge placed at
+the clamp itself, as DESIGN.md puts it). Both layouts converge as ``1/n^2``;
+the static tip deflection of a cantilever with ``n`` links is
+``P L^3 / (3 EI) * (1 - 1/(4 n^2))``.
+
+Link inertia comes from the section: mass ``rho_a l``, torsional inertia
+``rho_ip l`` about the member axis, ``m (l^2 + t^2)/12`` about the bending
+axis, combined with point masses by the parallel-axis theorem into one
+explicit inertia per body.
+
+Topology
+--------
+The kinematic tree is rooted at the point held in the plane (a support with
+``inplane = true`` or the point of a string with ``tension = "reaction"``);
+its free out-of-plane DOFs become a slide (w) and hinges (rx, ry). The tree is
+grown breadth first; a member segment whose far end is already in the tree
+closes a loop: its last link ("stub") is welded to the junction with
+``solref = (2 dt, 1)``, ``solimp = (0.9999, 0.9999, 0.001, 0.5, 2)``
+(DESIGN.md). Other supports are ``connect`` (w fixed) or ``weld`` (all fixed)
+equalities to the world.
+
+Because the tree has no in-plane DOFs, MuJoCo cannot decide how a statically
+indeterminate structure shares its in-plane loads: the in-plane rows of the
+loop-closing welds have a zero Jacobian in the flat state and carry no force,
+so all of the weight would flow down the spanning tree. The geometric
+stiffness depends on that load path, so the in-plane *redundant* forces of
+the FE gravity statics (:func:`vlab.fe.statics.solve_gravity`: the internal
+force and moment at each loop cut, the reaction at each further in-plane
+support) are applied as constant world-frame loads (``prestress*``
+actuators with a constant bias force): the tree then carries the same in-plane
+forces as the frame, and gravity does the rest. Statically determinate
+structures (the BCC) need none.
+
+Other elements
+--------------
+* Strings (cables) are spatial tendons from a world anchor at the string
+  length ``L`` along the string direction, with stiffness ``T/L`` and zero rest
+  length: the tendon pulls with exactly ``T`` and its transverse stiffness is
+  exactly ``T/L`` at any deflection. The tension is carried into the beam,
+  whose hinge chain gets its geometric stiffness from it. ``"reaction"``
+  tensions come from the FE statics. A third of the string mass is lumped at
+  its point, as in the FE string element.
+* Crosspieces are two flexible cantilever arms (bending only; rigid in
+  torsion) with tip masses, clamped to the junction at the crosspiece point,
+  starting ``crosspiece_root_offset`` from its centre (default: the rigid
+  insert length at that point, i.e. half the clamp).
+* Grounded springs become joint stiffness at the root, a *pendulum plate*
+  (mass hung below the point so that gravity gives ``W Y``) where the spec's
+  ``[mujoco] pendulum_plates`` names the plate mass, or otherwise a fixed
+  tendon with the first-order kinematic coefficients of that DOF.
+* Voice coils: ``general`` actuator ``coil<ID>`` on site ``coil<ID>`` with the
+  world-fixed refsite ``coil<ID>_ref``, gear along +z: ``ctrl`` is the force in N
+  along world +z. Velocity sensors ``vel<ID>``: ``actuatorvel`` at actuator
+  points, ``framelinvel`` (world frame; its z component is the velocity) at
+  the other measured points. Site ``p<ID>`` at every point.
+
+Damping
+-------
+Hinge springs get a stiffness-proportional damping ``beta * k`` (``beta``
+small, for the discretisation's high modes). The spec's modal damping ratios
+are then imposed exactly (in the linear range) with one fixed tendon per mode
+``r``: coefficients ``M phi_r`` (mass-normalised undamped mode ``phi_r`` in
+joint coordinates, settled state), damping ``c_r = 2 zeta_r omega_r - phi_r^T
+C_beta phi_r``, so that ``Phi^T C Phi = diag(2 zeta omega)`` for the damped
+modes; see :mod:`vlab.sim.damping`.
+
+Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
+dissertation; MuJoCo documentation (``doc/XMLreference.rst``: tendon,
+equality, actuator/general refsite; ``doc/computation/index.rst``:
+integrators).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from ..errors import ModelError, SimulationError
+from ..spec import StructureSpec
+from ..units import G_SI
+
+#: Weld/connect constraint impedance that makes a weld behave as rigid (DESIGN.md).
+RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+#: Defaults of the build options (overridden by the spec's [mujoco] table, then by SimOptions).
+DEFAULT_SEGMENTS_PER_ELEMENT = 3
+DEFAULT_CROSSPIECE_SEGMENTS = 3
+DEFAULT_TIMESTEP_S = 2.5e-4
+
+#: Largest allowed omega_max * dt (semi-implicit Euler is stable for omega*dt < 2).
+STABILITY_LIMIT = 1.8
+
+_INTEGRATORS = {
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+}
+
+_AXIS = {"rx": np.array([1.0, 0.0, 0.0]), "ry": np.array([0.0, 1.0, 0.0])}
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+# ------------------------------------------------------------------ options ---
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """How a plant is discretised and simulated. ``None`` fields take the spec's
+    ``[mujoco]`` value, else the module default.
+
+    Attributes
+    ----------
+    segments_per_element : int, optional
+        Hinge-chain links per member segment (between consecutive points).
+        ``[mujoco] segments_per_element``; default 3.
+    crosspiece_segments : int, optional
+        Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default 3.
+    timestep_s : float, optional
+        Integration step [s]. ``[mujoco] timestep``; default 2.5e-4 (the lab's
+        2 kHz sample period divided by 2).
+    integrator : str
+        ``"implicitfast"`` (default), ``"implicit"``, ``"euler"`` or ``"rk4"``.
+    stiffness_damping_s : float, optional
+        ``beta`` [s] of the hinge damping ``beta * k``. ``[mujoco]
+        stiffness_damping``; default: chosen so that it gives at most 20 % of
+        the smallest target damping ratio at the highest damped mode.
+    modal_damping : bool
+        Impose the spec's modal damping ratios with modal tendons (default True).
+    n_damped_modes : int, optional
+        Modes given their damping ratio; default ``len(spec.damping.modal_ratios)``
+        (ratios beyond those use ``default_ratio``).
+    inplane_redundants : bool
+        Apply the FE statics' in-plane redundant forces at loop cuts and extra
+        in-plane supports (default True; no effect on determinate structures).
+    gravity : bool
+        Gravity on (default). Off removes the gravity geometric stiffness.
+    check_timestep : bool
+        Raise :class:`SimulationError` before running when ``omega_max * dt``
+        exceeds :data:`STABILITY_LIMIT` (default True).
+    """
+
+    segments_per_element: int | None = None
+    crosspiece_segments: int | None = None
+    timestep_s: float | None = None
+    integrator: str = "implicitfast"
+    stiffness_damping_s: float | None = None
+    modal_damping: bool = True
+    n_damped_modes: int | None = None
+    inplane_redundants: bool = True
+    gravity: bool = True
+    check_timestep: bool = True
+
+    def resolved(self, spec: StructureSpec) -> "SimOptions":
+        """Options with every ``None`` replaced by the spec's [mujoco] value or the default.
+
+        Raises
+        ------
+        SimulationError
+            A non-positive segment count or timestep, an unknown integrator, or a
+            [mujoco] value of the wrong type (the message names the key).
+        """
+        mj = spec.mujoco
+
+        def pick(name: str, key: str, default: Any, kind: type) -> Any:
+            v = getattr(self, name)
+            if v is None:
+                v = mj.get(key, default)
+                if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float) if kind is float else int)):
+                    raise SimulationError(f"{spec._file()}: [mujoco] {key} = {v!r}: expected a {kind.__name__}")
+            return v if v is None else kind(v)
+
+        out = dataclasses.replace(
+            self,
+            segments_per_element=pick("segments_per_element", "segments_per_element", DEFAULT_SEGMENTS_PER_ELEMENT, int),
+            crosspiece_segments=pick("crosspiece_segments", "crosspiece_segments", DEFAULT_CROSSPIECE_SEGMENTS, int),
+            timestep_s=pick("timestep_s", "timestep", DEFAULT_TIMESTEP_S, float),
+            stiffness_damping_s=pick("stiffness_damping_s", "stiffness_damping", None, float),
+        )
+        if out.segments_per_element < 1 or out.crosspiece_segments < 1:
+            raise SimulationError(
+                f"segments_per_element and crosspiece_segments must be >= 1, got "
+                f"{out.segments_per_element} and {out.crosspiece_segments}"
+            )
+        if not (math.isfinite(out.timestep_s) and out.timestep_s > 0):
+            raise SimulationError(f"timestep_s must be a positive time [s], got {out.timestep_s!r}")
+        if out.integrator not in _INTEGRATORS:
+            raise SimulationError(f"unknown integrator {out.integrator!r}; use one of {sorted(_INTEGRATORS)}")
+        if out.stiffness_damping_s is not None and not out.stiffness_damping_s >= 0:
+            raise SimulationError(f"stiffness_damping_s must be >= 0, got {out.stiffness_damping_s!r}")
+        return out
+
+
+# --------------------------------------------------------------------- plan ---
+
+
+@dataclass
+class _Item:
+    """A rigid mass item, world coordinates: mass [kg], centre [m], inertia about the centre [kg m^2]."""
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass
+class _Joint:
+    name: str
+    kind: str  # "hinge" | "slide"
+    axis: np.ndarray
+    pos: np.ndarray  # world
+    stiffness: float = 0.0
+    elastic: bool = False  # a hinge spring of the discretisation (gets beta damping)
+    info: str = ""
+
+
+@dataclass
+class _Visual:
+    kind: str  # "box" | "sphere"
+    pos: np.ndarray
+    size: tuple[float, ...]
+    angle: float = 0.0  # rotation about z [rad]
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.65, 1.0)
+
+
+@dataclass
+class _Body:
+    name: str
+    origin: np.ndarray  # world position of the body frame (axes = world axes)
+    parent: str | None  # None = world
+    info: str
+    joints: list[_Joint] = field(default_factory=list)
+    items: list[_Item] = field(default_factory=list)
+    sites: list[tuple[str, np.ndarray, str]] = field(default_factory=list)
+    visuals: list[_Visual] = field(default_factory=list)
+
+
+@dataclass
+class _Plan:
+    bodies: dict[str, _Body]
+    junction: dict[int, str]  # point -> body name
+    world_sites: list[tuple[str, np.ndarray, str]]
+    strings: list[tuple[str, str, str, float, float, str]]  # name, world site, body site, k, tension, info
+    welds: list[tuple[str, str, str, str]]  # name, site1, site2, info
+    connects: list[tuple[str, str, str, str]]  # name, site1, site2 (world), info
+    prestress: list[tuple[str, str, str, np.ndarray, str]]  # name, site, refsite, gear(6) * force, info
+    fixed_springs: list[tuple[str, dict[str, float], float, str]]  # name, joint coefs, k, info
+    n_loops: int
+
+
+def _p3(xy: tuple[float, float]) -> np.ndarray:
+    return np.array([xy[0], xy[1], 0.0])
+
+
+def _rod(p0: np.ndarray, p1: np.ndarray, rho_a: float, rho_ip: float, width: float, thick: float) -> _Item:
+    """Mass item of a straight bar piece from p0 to p1 (section width in plane, thickness out of plane)."""
+    d = p1 - p0
+    length = float(np.linalg.norm(d))
+    e = d / length
+    n = np.array([-e[1], e[0], 0.0])
+    m = rho_a * length
+    local = np.diag([rho_ip * length, m * (length**2 + thick**2) / 12.0, m * (length**2 + width**2) / 12.0])
+    r = np.column_stack([e, n, _Z])
+    return _Item(m, 0.5 * (p0 + p1), r @ local @ r.T)
+
+
+def _point_mass(p: np.ndarray, mass: float, irx: float = 0.0, iry: float = 0.0) -> _Item:
+    return _Item(mass, p.copy(), np.diag([irx, iry, irx + iry]))
+
+
+def _combine(items: list[_Item], origin: np.ndarray, name: str) -> tuple[float, np.ndarray, np.ndarray]:
+    """Total mass, centre relative to ``origin`` and inertia about the centre of a list of items."""
+    mass = sum(it.mass for it in items)
+    if not mass > 0.0:
+        raise SimulationError(f"body {name!r} has no mass: every moving body needs inertia")
+    com = sum(it.mass * it.com for it in items) / mass
+    inertia = np.zeros((3, 3))
+    for it in items:
+        r = it.com - com
+        inertia += it.inertia + it.mass * (np.dot(r, r) * np.eye(3) - np.outer(r, r))
+    # keep strictly positive definite (a point mass alone has zero inertia)
+    floor = 1e-12 + 1e-9 * max(np.trace(inertia), 0.0)
+    inertia += floor * np.eye(3)
+    return mass, com - origin, inertia
+
+
+@dataclass(frozen=True)
+class _Edge:
+    member: Any
+    seg: int
+    a: int
+    b: int
+
+
+def _inserts(member) -> dict[int, float]:
+    return {ri.point: ri.length.si for ri in member.rigid_inserts}
+
+
+def _choose_root(spec: StructureSpec) -> int:
+    for s in spec.supports:
+        if s.inplane:
+            return s.point
+    for s in spec.strings:
+        if s.tension is None:
+            return s.point
+    raise SimulationError(
+        f"{spec._file()}: nothing holds the structure in its plane (no support with inplane = true "
+        "and no string with tension = \"reaction\"): the MuJoCo tree has no root"
+    )
+
+
+def _representable(axis: np.ndarray, active: tuple[str, ...], tol: float = 1e-9) -> bool:
+    """True when a rotation about the in-plane ``axis`` only involves active rotations."""
+    return (abs(axis[0]) < tol or "rx" in active) and (abs(axis[1]) < tol or "ry" in active)
+
+
+class _Planner:
+    """Turns a StructureSpec into a plan of bodies, joints and constraints."""
+
+    def __init__(self, spec: StructureSpec, opts: SimOptions, gravity_state, mesh):
+        self.spec = spec
+        self.opts = opts
+        self.gs = gravity_state
+        self.mesh = mesh
+        self.bodies: dict[str, _Body] = {}
+        self.junction: dict[int, str] = {}
+        self.world_sites: list[tuple[str, np.ndarray, str]] = []
+        self.strings: list = []
+        self.welds: list = []
+        self.connects: list = []
+        self.prestress: list = []
+        self.fixed_springs: list = []
+        self.n_loops = 0
+        self.active = spec.active_dofs
+
+    # -- helpers
+    def _add(self, body: _Body) -> _Body:
+        if body.name in self.bodies:
+            raise SimulationError(f"duplicate body name {body.name!r} (two members with the same id?)")
+        self.bodies[body.name] = body
+        return body
+
+    def _section(self, name: str):
+        return self.spec.sections[name]
+
+    def _bar_visual(self, body: _Body, p0: np.ndarray, p1: np.ndarray, sec, rgba=(0.6, 0.6, 0.65, 1.0)) -> None:
+        d = p1 - p0
+        length = float(np.linalg.norm(d))
+        if length <= 0:
+            return
+        body.visuals.append(
+            _Visual("box", 0.5 * (p0 + p1), (length / 2, sec.width.si / 2, sec.thickness.si / 2),
+                    math.atan2(d[1], d[0]), rgba)
+        )
+
+    # -- the plan
+    def plan(self) -> _Plan:
+        spec = self.spec
+        root = _choose_root(spec)
+        self.root = root
+        edges = [
+            _Edge(m, i, pa, pb)
+            for m in spec.members
+            for i, (pa, pb) in enumerate(zip(m.points[:-1], m.points[1:]))
+        ]
+        incident: dict[int, list[_Edge]] = {p: [] for p in spec.points}
+        for e in edges:
+            incident[e.a].append(e)
+            incident[e.b].append(e)
+        # pieces of each edge end owned by the junction (tree) or by a stub (cut)
+        self.cut_ends: set[tuple[int, int]] = set()  # (edge index, point) whose end piece is a stub
+        # BFS
+        order: list[tuple[_Edge, int, int, bool]] = []  # edge, from, to, is_tree
+        visited = {root}
+        queue = deque([root])
+        done: set[int] = set()
+        while queue:
+            p = queue.popleft()
+            for e in incident[p]:
+                if id(e) in done:
+                    continue
+                done.add(id(e))
+                q = e.b if e.a == p else e.a
+                tree = q not in visited
+                if tree:
+                    visited.add(q)
+                    queue.append(q)
+                else:
+                    self.cut_ends.add((id(e), q))
+                order.append((e, p, q, tree))
+        used = {p for e in edges for p in (e.a, e.b)} | {root}
+        unreached = sorted(used - visited)
+        if unreached:
+            raise SimulationError(
+                f"{spec._file()}: points {unreached} are not connected to the root point {root} by members"
+            )
+        needed = {m.point for m in spec.masses} | {c.point for c in spec.crosspieces} | {
+            s.point for s in spec.strings} | {s.point for s in spec.springs}
+        if spec.instrumentation:
+            needed |= set(spec.instrumentation.actuators) | set(spec.instrumentation.sensors)
+        for p in sorted(needed - visited):
+            raise SimulationError(f"{spec._file()}: point {p} carries a mass, string, spring or sensor "
+                                  "but no member reaches it")
+        self.visited = visited
+
+        # root junction
+        self._junction(root, parent=None, joints=self._root_joints(root))
+        for e, p, q, tree in order:
+            self._edge(e, p, q, tree)
+        for c in spec.crosspieces:
+            self._crosspiece(c)
+        self._masses()
+        self._strings()
+        self._supports()
+        self._springs()
+        self._instrumentation()
+        if self.opts.inplane_redundants:
+            self._redundants(order)
+        # every point gets its p<ID> site
+        for p in sorted(visited):
+            b = self.bodies[self.junction[p]]
+            b.sites.append((f"p{p}", _p3(spec.points[p]), f"spec: point {p}"))
+        return _Plan(self.bodies, self.junction, self.world_sites, self.strings, self.welds,
+                     self.connects, self.prestress, self.fixed_springs, self.n_loops)
+
+    def _root_joints(self, root: int) -> list[_Joint]:
+        fixed = {d for s in self.spec.supports if s.point == root for d in s.fixed}
+        pos = _p3(self.spec.points[root])
+        joints = []
+        if "w" not in fixed:
+            joints.append(_Joint(f"root{root}.w", "slide", _Z, pos, info=f"spec: point {root} out-of-plane translation w (root)"))
+        for d in ("rx", "ry"):
+            if d in self.active and d not in fixed:
+                joints.append(_Joint(f"root{root}.{d}", "hinge", _AXIS[d], pos,
+                                     info=f"spec: point {root} rotation {d} (root)"))
+        return joints
+
+    def _junction(self, p: int, parent: str | None, joints: list[_Joint]) -> _Body:
+        b = self._add(_Body(f"J{p}", _p3(self.spec.points[p]), parent, f"spec: point {p} (junction)", joints))
+        self.junction[p] = b.name
+        return b
+
+    def _edge(self, e: _Edge, p: int, q: int, tree: bool) -> None:
+        """Chain of links from junction p (in the tree) to q (new junction, or a stub welded to q)."""
+        spec, m = self.spec, e.member
+        sec = self._section(m.section)
+        ins = _inserts(m)
+        pp, pq = _p3(spec.points[p]), _p3(spec.points[q])
+        length = float(np.linalg.norm(pq - pp))
+        if length == 0.0:
+            raise SimulationError(f"{spec._file()}: member {m.id!r}: points {p} and {q} coincide")
+        ev = (pq - pp) / length
+        ap, aq = ins.get(p, 0.0), ins.get(q, 0.0)
+        lf = length - ap - aq
+        if lf <= 0.0:
+            raise SimulationError(f"{spec._file()}: member {m.id!r}: rigid inserts leave no flexible length "
+                                  f"between points {p} and {q}")
+        n = self.opts.segments_per_element
+        link = lf / n
+        bend_axis = np.array([ev[1], -ev[0], 0.0])
+        if not _representable(bend_axis, self.active):
+            raise SimulationError(
+                f"{spec._file()}: member {m.id!r} ({p}-{q}) bends about {bend_axis[:2].round(3).tolist()}, "
+                f"which needs a rotation DOF the spec does not activate (dofs = {list(self.active)})"
+            )
+        twist = _representable(ev, self.active) and sec.gj is not None
+        tag = f"{m.id}.{min(p, q)}-{max(p, q)}" if len(m.points) > 2 or True else m.id
+        k_bend = sec.ei.si / link
+        k_twist = sec.gj.si / link
+        hinges = [pp + (ap + link / 2 + k * link) * ev for k in range(n)]
+        # the junction p owns its end piece
+        jp = self.bodies[self.junction[p]]
+        end_p = hinges[0]
+        jp.items.append(_rod(pp, end_p, sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
+        self._bar_visual(jp, pp, end_p, sec)
+        parent = jp.name
+        for k in range(n):
+            h = hinges[k]
+            joints = [_Joint(f"{tag}.h{k + 1}.bend", "hinge", bend_axis, h, k_bend, True,
+                             f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: bending EI/l = {k_bend:.6g} N*m/rad")]
+            if twist:
+                joints.append(_Joint(f"{tag}.h{k + 1}.twist", "hinge", ev.copy(), h, k_twist, True,
+                                     f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: torsion GJ/l = {k_twist:.6g} N*m/rad"))
+            if k < n - 1:
+                b = self._add(_Body(f"{tag}.link{k + 1}", h, parent,
+                                    f"spec: member {m.id} segment {p}-{q} link {k + 1}/{n - 1}", joints))
+                b.items.append(_rod(h, hinges[k + 1], sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
+                self._bar_visual(b, h, hinges[k + 1], sec)
+                parent = b.name
+            else:
+                if tree:
+                    b = self._junction(q, parent, joints)
+                else:
+                    b = self._add(_Body(f"{tag}.stub{q}", h, parent,
+                                        f"spec: member {m.id} segment {p}-{q}: end at point {q} welded to J{q} (loop)",
+                                        joints))
+                    self.n_loops += 1
+                b.items.append(_rod(h, pq, sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
+                self._bar_visual(b, h, pq, sec)
+                if not tree:
+                    s1, s2 = f"{tag}.stub{q}.weld", f"J{q}.weld.{tag}"
+                    b.sites.append((s1, pq, f"loop closure of member {m.id} at point {q}"))
+                    self._pending_sites.append((q, s2, pq, f"loop closure of member {m.id} at point {q}"))
+                    self.welds.append((f"weld.{tag}.{q}", s1, s2, f"spec: member {m.id} segment {p}-{q} closes a loop at point {q}"))
+                    self._cuts.append((e, q, b.name, s1))
+
+    _pending_sites: list
+    _cuts: list
+
+    def _crosspiece(self, c) -> None:
+        spec = self.spec
+        sec = self._section(c.section)
+        pj = _p3(spec.points[c.point])
+        jb = self.bodies[self.junction[c.point]]
+        # member direction through the point -> arms perpendicular in the plane
+        ev = None
+        for m in spec.members:
+            if c.point in m.points:
+                i = m.points.index(c.point)
+                a, b = (m.points[i - 1], m.points[i]) if i > 0 else (m.points[0], m.points[1])
+                d = _p3(spec.points[b]) - _p3(spec.points[a])
+                ev = d / np.linalg.norm(d)
+                break
+        if ev is None:
+            raise SimulationError(f"{spec._file()}: crosspiece {c.id!r}: no member passes through point {c.point}")
+        perp = np.array([-ev[1], ev[0], 0.0])
+        off_default = max([ri.length.si for m in spec.members for ri in m.rigid_inserts if ri.point == c.point] or [0.0])
+        offset = float(spec.mujoco.get("crosspiece_root_offset", off_default))
+        n = self.opts.crosspiece_segments
+        L = c.arm_length.si
+        link = L / n
+        k_bend = sec.ei.si / link
+        jb.items.append(_point_mass(pj, c.clamp_mass.si))
+        for sign, label in ((1.0, "a"), (-1.0, "b")):
+            d = sign * perp
+            axis = np.array([d[1], -d[0], 0.0])
+            root = pj + offset * d
+            hinges = [root + (link / 2 + k * link) * d for k in range(n)]
+            jb.items.append(_rod(root, hinges[0], sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
+            self._bar_visual(jb, pj, hinges[0], sec, (0.75, 0.75, 0.8, 1.0))
+            parent = jb.name
+            for k in range(n):
+                h = hinges[k]
+                joint = _Joint(f"{c.id}.arm{label}.h{k + 1}.bend", "hinge", axis, h, k_bend, True,
+                               f"spec: crosspiece {c.id} arm {label} hinge {k + 1}/{n}: bending EI/l = {k_bend:.6g} N*m/rad")
+                end = hinges[k + 1] if k < n - 1 else root + L * d
+                b = self._add(_Body(f"{c.id}.arm{label}.link{k + 1}", h, parent,
+                                    f"spec: crosspiece {c.id} arm {label} link {k + 1}/{n}", [joint]))
+                b.items.append(_rod(h, end, sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
+                self._bar_visual(b, h, end, sec, (0.75, 0.75, 0.8, 1.0))
+                if k == n - 1:
+                    b.items.append(_point_mass(end, c.tip_mass.si))
+                    b.visuals.append(_Visual("sphere", end, (0.012,), rgba=(0.8, 0.3, 0.2, 1.0)))
+                    b.sites.append((f"{c.id}.tip{label}", end, f"spec: crosspiece {c.id} tip {label}"))
+                parent = b.name
+
+    def _masses(self) -> None:
+        for lm in self.spec.masses:
+            b = self.bodies[self.junction[lm.point]]
+            if lm.id in self._plate_masses:
+                continue  # realised as a pendulum plate in _springs
+            p = _p3(self.spec.points[lm.point])
+            b.items.append(_point_mass(p, lm.mass.si, lm.inertia_rx.si if lm.inertia_rx else 0.0,
+                                       lm.inertia_ry.si if lm.inertia_ry else 0.0))
+            b.visuals.append(_Visual("sphere", p, (0.008,), rgba=(0.2, 0.3, 0.8, 1.0)))
+
+    def _strings(self) -> None:
+        for s in self.spec.strings:
+            tension = float(self.gs.string_tensions[s.id])
+            L = s.length.si
+            p = _p3(self.spec.points[s.point])
+            anchor = p + L * np.array([s.direction[0], s.direction[1], 0.0])
+            b = self.bodies[self.junction[s.point]]
+            ws, bs = f"{s.id}.anchor", f"{s.id}.end"
+            self.world_sites.append((ws, anchor, f"spec: string {s.id} ground anchor"))
+            b.sites.append((bs, p, f"spec: string {s.id} attachment"))
+            b.items.append(_point_mass(p, s.rho_a.si * L / 3.0))  # as the FE string element
+            self.strings.append((f"string.{s.id}", ws, bs, tension / L, tension,
+                                 f"spec: string {s.id}: T = {tension:.6g} N, L = {L:.6g} m, T/L = {tension / L:.6g} N/m"))
+
+    def _supports(self) -> None:
+        for s in self.spec.supports:
+            if s.point == self.root:
+                continue
+            fixed = set(s.fixed)
+            rot_active = {d for d in ("rx", "ry") if d in self.active}
+            b = self.bodies[self.junction[s.point]]
+            p = _p3(self.spec.points[s.point])
+            if fixed == {"w"}:
+                kind = "connect"
+            elif fixed == {"w"} | rot_active:
+                kind = "weld"
+            elif not fixed:
+                continue
+            else:
+                raise SimulationError(
+                    f"{self.spec._file()}: support at point {s.point} fixes {sorted(fixed)}: the MuJoCo plant "
+                    "can fix w alone (connect) or w with all active rotations (weld) at a non-root point"
+                )
+            s1, s2 = f"support{s.point}", f"support{s.point}.ground"
+            b.sites.append((s1, p, f"spec: support at point {s.point}"))
+            self.world_sites.append((s2, p, f"spec: support at point {s.point} (ground)"))
+            (self.connects if kind == "connect" else self.welds).append(
+                (f"support{s.point}", s1, s2, f"spec: support at point {s.point} fixes {sorted(fixed)}"))
+
+    @property
+    def _plate_masses(self) -> set[str]:
+        return set(self._plates().values())
+
+    def _plates(self) -> dict[str, str]:
+        plates = self.spec.mujoco.get("pendulum_plates", {})
+        if not isinstance(plates, dict):
+            raise SimulationError(f"{self.spec._file()}: [mujoco] pendulum_plates must be a table "
+                                  "{ <spring id> = \"<mass id>\" }")
+        return plates
+
+    def _springs(self) -> None:
+        spec = self.spec
+        plates = self._plates()
+        masses = {m.id: m for m in spec.masses}
+        for sp in spec.springs:
+            p = _p3(spec.points[sp.point])
+            b = self.bodies[self.junction[sp.point]]
+            if sp.id in plates:
+                mid = plates[sp.id]
+                if mid not in masses or masses[mid].point != sp.point:
+                    raise SimulationError(f"{spec._file()}: [mujoco] pendulum_plates.{sp.id} = {mid!r}: "
+                                          f"no mass of that id at point {sp.point}")
+                if sp.dof not in ("rx", "ry"):
+                    raise SimulationError(f"{spec._file()}: pendulum plate for spring {sp.id!r} on DOF {sp.dof!r}: "
+                                          "only a rotation can be a pendulum")
+                lm = masses[mid]
+                g = np.array([*spec.gravity_direction, 0.0])
+                axis = _AXIS[sp.dof]
+                if abs(np.dot(axis, g)) > 1e-9:
+                    raise SimulationError(f"{spec._file()}: spring {sp.id!r}: a pendulum about {sp.dof} needs "
+                                          "gravity perpendicular to that axis")
+                ecc = sp.stiffness.si / (lm.mass.si * G_SI)  # W * Y = k  ->  Y = k / W
+                irot = lm.inertia_rx if sp.dof == "rx" else lm.inertia_ry
+                i_axis = irot.si if irot is not None else lm.mass.si * ecc**2
+                i_own = i_axis - lm.mass.si * ecc**2
+                if i_own < -1e-12 * max(i_axis, 1e-30):
+                    raise SimulationError(
+                        f"{spec._file()}: pendulum plate {mid!r}: its inertia about the axis ({i_axis:.4g} kg*m^2) "
+                        f"is less than m*Y^2 = {lm.mass.si * ecc**2:.4g} with Y = k/W = {ecc:.4g} m"
+                    )
+                c = p + ecc * g
+                other = "ry" if sp.dof == "rx" else "rx"
+                iother = (lm.inertia_ry if sp.dof == "rx" else lm.inertia_rx)
+                it = _Item(lm.mass.si, c, np.diag([max(i_own, 0.0) if sp.dof == "rx" else (iother.si if iother else 0.0),
+                                                   max(i_own, 0.0) if sp.dof == "ry" else (iother.si if iother else 0.0),
+                                                   max(i_own, 0.0)]))
+                del other
+                b.items.append(it)
+                b.visuals.append(_Visual("box", c, (0.05, 0.05, 0.009), rgba=(0.7, 0.7, 0.3, 1.0)))
+                b.sites.append((f"{sp.id}.plate", c, f"spec: spring {sp.id} as pendulum plate {mid}: "
+                                f"W = {lm.mass.si * G_SI:.5g} N at Y = {ecc:.5g} m"))
+                continue
+            if sp.point == self.root:
+                name = f"root{sp.point}.{sp.dof}"
+                for j in b.joints:
+                    if j.name == name:
+                        j.stiffness += sp.stiffness.si
+                        j.info += f"; spring {sp.id} {sp.stiffness.si:.6g}"
+                        break
+                else:
+                    raise SimulationError(f"{spec._file()}: spring {sp.id!r} acts on DOF {sp.dof!r} of point "
+                                          f"{sp.point}, which is fixed or inactive")
+                continue
+            self._pending_springs.append(sp)
+
+    _pending_springs: list
+
+    def _instrumentation(self) -> None:
+        ins = self.spec.instrumentation
+        if ins is None:
+            return
+        for p in ins.actuators:
+            b = self.bodies[self.junction[p]]
+            pos = _p3(self.spec.points[p])
+            b.sites.append((f"coil{p}", pos, f"spec: voice-coil actuator at point {p}"))
+            self.world_sites.append((f"coil{p}_ref", pos, f"spec: voice-coil magnet (ground) at point {p}"))
+
+    def _redundants(self, order) -> None:
+        """Constant in-plane loads that reproduce the FE statics' redundant forces."""
+        spec, gs, mesh = self.spec, self.gs, self.mesh
+        el_index = {}
+        for i, el in enumerate(mesh.elements):
+            el_index.setdefault((el.member, el.a), []).append(i)
+            el_index.setdefault((el.member, el.b), []).append(i)
+
+        def end_force(member, seg, a, b, at):
+            """Force [N] and moment [N m] (world) that node ``at`` exerts on the member segment a-b."""
+            for i in el_index.get((member.id, at), []):
+                el = mesh.elements[i]
+                other = el.b if el.a == at else el.a
+                inner = isinstance(other, str) and other.startswith(f"{member.id}.{seg}.")
+                if not (inner or other in (a, b)):
+                    continue
+                f = gs.element_forces[i]
+                ex, ey = el.direction
+                if el.a == at:
+                    fx, fy, mz = -f.axial[0], f.shear[0], -f.moment[0]
+                else:
+                    fx, fy, mz = f.axial[1], -f.shear[1], f.moment[1]
+                force = fx * np.array([ex, ey, 0.0]) + fy * np.array([-ey, ex, 0.0])
+                return force, mz
+            raise SimulationError(f"internal: no FE element of member {member.id} at point {at}")
+
+        scale = max(1.0, sum(it.mass for b in self.bodies.values() for it in b.items) * G_SI)
+        for e, q, stub, _site in self._cuts:
+            force, mz = end_force(e.member, e.seg, e.a, e.b, q)
+            pos = _p3(spec.points[q])
+            tag = f"{e.member.id}.{min(e.a, e.b)}-{max(e.a, e.b)}"
+            for body, sgn, who in ((stub, 1.0, "member end"), (self.junction[q], -1.0, "junction")):
+                self._dead_load(f"prestress.{tag}.{q}.{'end' if sgn > 0 else 'node'}", body, pos,
+                                sgn * force, sgn * mz, scale,
+                                f"FE statics: in-plane force at the loop cut of member {e.member.id} at point {q} ({who})")
+        for s in spec.supports:
+            if s.inplane and s.point != self.root:
+                r = self._reaction(s.point, end_force)
+                self._dead_load(f"prestress.support{s.point}", self.junction[s.point], _p3(spec.points[s.point]),
+                                r, 0.0, scale, f"FE statics: in-plane reaction of the support at point {s.point}")
+
+    def _reaction(self, point: int, end_force) -> np.ndarray:
+        spec = self.spec
+        total = np.zeros(3)
+        for m in spec.members:
+            for i, (a, b) in enumerate(zip(m.points[:-1], m.points[1:])):
+                if point in (a, b):
+                    total += end_force(m, i, a, b, point)[0]
+        g = G_SI * np.array([*spec.gravity_direction, 0.0])
+        ext = np.zeros(3)
+        for lm in spec.masses:
+            if lm.point == point:
+                ext += lm.mass.si * g
+        for c in spec.crosspieces:
+            if c.point == point:
+                arm = spec.sections[c.section].rho_a * c.arm_length.si
+                ext += (2 * (arm + c.tip_mass.si) + c.clamp_mass.si) * g
+        for s in spec.strings:
+            if s.point == point and s.tension is not None:
+                ext += s.tension.si * np.array([*s.direction, 0.0])
+        return total - ext
+
+    def _dead_load(self, name, body, pos, force, moment, scale, info) -> None:
+        tol = 1e-9 * scale
+        b = self.bodies[body]
+        if np.linalg.norm(force) > tol:
+            site, ref = f"{name}.F", f"{name}.F_ref"
+            b.sites.append((site, pos, info))
+            self.world_sites.append((ref, pos, info + " (ground frame)"))
+            self.prestress.append((f"{name}.F", site, ref, np.array([*force, 0.0, 0.0, 0.0]), info + ": force"))
+        if abs(moment) > tol:
+            site, ref = f"{name}.M", f"{name}.M_ref"
+            b.sites.append((site, pos, info))
+            self.world_sites.append((ref, pos, info + " (ground frame)"))
+            self.prestress.append((f"{name}.M", site, ref, np.array([0.0, 0.0, 0.0, 0.0, 0.0, moment]),
+                                   info + ": moment"))
+
+
+def plan_structure(spec: StructureSpec, opts: SimOptions) -> tuple[_Plan, Any]:
+    """The body/joint plan of ``spec`` (internal; see :func:`build_mjspec`)."""
+    from ..fe.mesh import build_mesh
+    from ..fe.statics import solve_gravity
+
+    try:
+        mesh = build_mesh(spec)
+        gs = solve_gravity(spec, mesh)
+    except ModelError as exc:
+        raise SimulationError(f"{spec._file()}: the in-plane gravity statics failed: {exc}") from exc
+    pl = _Planner(spec, opts, gs, mesh)
+    pl._pending_sites = []
+    pl._cuts = []
+    pl._pending_springs = []
+    plan = pl.plan()
+    for q, name, pos, info in pl._pending_sites:
+        plan.bodies[plan.junction[q]].sites.append((name, pos, info))
+    pl.pending_springs = pl._pending_springs
+    return plan, pl
+
+
+# --------------------------------------------------------------------- emit ---
+
+
+@dataclass(frozen=True)
+class BuildInfo:
+    """What the builder made (counts and derived numbers), for reports and tests.
+
+    Attributes
+    ----------
+    n_bodies, n_joints, n_loops : int
+        Moving bodies, joints (= DOFs), loop-closing welds.
+    root : int
+        Root point of the kinematic tree.
+    segments_per_element, crosspiece_segments : int
+        Links per member segment and per crosspiece arm.
+    timestep_s : float
+        Integration step [s].
+    omega_max : float
+        Highest natural circular frequency of the joint springs [rad/s]
+        (dense eigen-analysis of ``(K_hinge, M)`` at qpos0).
+    stiffness_damping_s : float
+        ``beta`` [s] used for the hinge damping.
+    string_tensions_n : dict
+        String id -> tension [N].
+    n_prestress : int
+        Number of constant in-plane loads (redundant forces).
+    """
+
+    n_bodies: int
+    n_joints: int
+    n_loops: int
+    root: int
+    segments_per_element: int
+    crosspiece_segments: int
+    timestep_s: float
+    omega_max: float
+    stiffness_damping_s: float
+    string_tensions_n: dict[str, float]
+    n_prestress: int
+
+
+def _quat_z(angle: float) -> list[float]:
+    return [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
+
+
+def _emit(spec: StructureSpec, plan: _Plan, planner: _Planner, opts: SimOptions, beta: float) -> mujoco.MjSpec:
+    ms = mujoco.MjSpec()
+    ms.modelname = f"vlab_{spec.name}"
+    ms.compiler.degree = False  # radians everywhere (compiler angle="radian")
+    ms.compiler.autolimits = True
+    ms.option.timestep = opts.timestep_s
+    ms.option.integrator = _INTEGRATORS[opts.integrator]
+    g = np.array([*spec.gravity_direction, 0.0]) * G_SI if opts.gravity else np.zeros(3)
+    ms.option.gravity = g.tolist()
+    ms.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    ms.comment = (
+        f"vlab MuJoCo plant of '{spec.title}' built from {spec._file()} by vlab.sim.builder "
+        f"(segments_per_element={opts.segments_per_element}, crosspiece_segments={opts.crosspiece_segments}, "
+        f"timestep={opts.timestep_s}, beta={beta:.3g} s). Out-of-plane motion only; SI units."
+    )
+    ms.stat.extent = 2.5
+    made: dict[str, Any] = {"": ms.worldbody}
+    for name, pos, info in plan.world_sites:
+        s = ms.worldbody.add_site(name=name, pos=pos.tolist(), size=[0.004, 0, 0], group=4)
+        s.info = info
+    for b in plan.bodies.values():
+        parent = made[b.parent] if b.parent is not None else ms.worldbody
+        porigin = plan.bodies[b.parent].origin if b.parent is not None else np.zeros(3)
+        body = parent.add_body(name=b.name, pos=(b.origin - porigin).tolist())
+        body.info = b.info
+        made[b.name] = body
+        mass, ipos, inertia = _combine(b.items, b.origin, b.name)
+        body.explicitinertial = True
+        body.mass = mass
+        body.ipos = ipos.tolist()
+        body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+        for j in b.joints:
+            jt = mujoco.mjtJoint.mjJNT_HINGE if j.kind == "hinge" else mujoco.mjtJoint.mjJNT_SLIDE
+            joint = body.add_joint(name=j.name, type=jt, axis=j.axis.tolist(), pos=(j.pos - b.origin).tolist())
+            joint.stiffness = [j.stiffness, 0.0, 0.0]
+            joint.damping = [beta * j.stiffness if j.elastic else 0.0, 0.0, 0.0]
+            joint.info = j.info
+        for v in b.visuals:
+            if v.kind == "box":
+                geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(v.size),
+                                     pos=(v.pos - b.origin).tolist(), quat=_quat_z(v.angle), rgba=list(v.rgba))
+            else:
+                geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[v.size[0], 0, 0],
+                                     pos=(v.pos - b.origin).tolist(), rgba=list(v.rgba))
+            geom.contype = 0
+            geom.conaffinity = 0
+            geom.group = 1
+            geom.density = 0.0
+        for name, pos, info in b.sites:
+            s = body.add_site(name=name, pos=(pos - b.origin).tolist(), size=[0.004, 0, 0], group=3)
+            s.info = info
+    for name, ws, bs, k, tension, info in plan.strings:
+        t = ms.add_tendon(name=name)
+        t.wrap_site(ws)
+        t.wrap_site(bs)
+        t.stiffness = [k, 0.0, 0.0]
+        t.springlength = [0.0, 0.0]
+        t.width = 0.0015
+        t.info = info
+    dt = opts.timestep_s
+    for name, s1, s2, info in plan.welds:
+        eq = ms.add_equality(name=name, type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                             name1=s1, name2=s2)
+        eq.solref = [2 * dt, 1.0]
+        eq.solimp = list(RIGID_SOLIMP)
+        eq.info = info
+    for name, s1, s2, info in plan.connects:
+        eq = ms.add_equality(name=name, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                             name1=s1, name2=s2)
+        eq.solref = [2 * dt, 1.0]
+        eq.solimp = list(RIGID_SOLIMP)
+        eq.info = info
+    ins = spec.instrumentation
+    if ins is not None:
+        for p in ins.actuators:
+            a = ms.add_actuator(name=f"coil{p}", trntype=mujoco.mjtTrn.mjTRN_SITE, target=f"coil{p}",
+                                refsite=f"coil{p}_ref")
+            a.gear = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+            a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+            a.gainprm[0] = 1.0
+            a.biastype = mujoco.mjtBias.mjBIAS_NONE
+            a.dyntype = mujoco.mjtDyn.mjDYN_NONE
+            a.info = f"spec: voice-coil actuator at point {p}: ctrl = force [N] along world +z"
+    for name, site, ref, wrench, info in plan.prestress:
+        mag = float(np.linalg.norm(wrench))
+        a = ms.add_actuator(name=name, trntype=mujoco.mjtTrn.mjTRN_SITE, target=site, refsite=ref)
+        a.gear = (wrench / mag).tolist()
+        a.gainprm[0] = 0.0
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.biasprm[0] = mag
+        a.ctrllimited = True
+        a.ctrlrange = [0.0, 0.0]
+        a.group = 5
+        a.info = info + f" (constant {mag:.6g})"
+    if ins is not None:
+        for p in ins.actuators:
+            s = ms.add_sensor(name=f"vel{p}", type=mujoco.mjtSensor.mjSENS_ACTUATORVEL,
+                              objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname=f"coil{p}")
+            s.info = f"spec: collocated velocity sensor at point {p} [m/s], +z"
+        for p in ins.sensors:
+            if p in ins.actuators:
+                continue
+            s = ms.add_sensor(name=f"vel{p}", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL,
+                              objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"p{p}")
+            s.info = f"spec: velocity sensor at point {p}: world-frame velocity, z component = w' [m/s]"
+    return ms
+
+
+def _fixed_spring_coefs(model: mujoco.MjModel, data: mujoco.MjData, site: str, dof: str) -> dict[str, float]:
+    """First-order coefficients d(dof at site)/dq of every joint (hinge/slide only)."""
+    jacp = np.zeros((3, model.nv))
+    jacr = np.zeros((3, model.nv))
+    mujoco.mj_jacSite(model, data, jacp, jacr, model.site(site).id)
+    row = jacp[2] if dof == "w" else jacr[0 if dof == "rx" else 1]
+    out = {}
+    for j in range(model.njnt):
+        c = row[model.jnt_dofadr[j]]
+        if abs(c) > 1e-12:
+            out[model.joint(j).name] = float(c)
+    return out
+
+
+def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
+    """Highest natural frequency of the joint springs with the full mass matrix, at qpos0.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+
+    Returns
+    -------
+    omega_max : float
+        Largest ``omega`` [rad/s] of ``K_hinge phi = omega^2 M phi`` (``K_hinge`` the
+        diagonal of joint stiffnesses; geometric and cable stiffness, which are
+        far softer, are left out).
+    joint : str
+        Name of the joint with the largest share of that mode.
+
+    Source: semi-implicit Euler is stable for ``omega * dt < 2``
+    (``doc/computation/index.rst``, "Numerical integration").
+    """
+    import scipy.linalg
+
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    m = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, m, data.qM)
+    k = np.zeros(model.nv)
+    for j in range(model.njnt):
+        k[model.jnt_dofadr[j]] = model.jnt_stiffness[j, 0] if model.jnt_stiffness.ndim == 2 else model.jnt_stiffness[j]
+    if not np.any(k > 0):
+        return 0.0, ""
+    lam, vec = scipy.linalg.eigh(np.diag(k), m, subset_by_index=(model.nv - 1, model.nv - 1))
+    share = k * vec[:, 0] ** 2
+    dof = int(np.argmax(share))
+    return float(math.sqrt(max(lam[0], 0.0))), model.joint(int(model.dof_jntid[dof])).name
+
+
+def check_timestep(model: mujoco.MjModel, *, limit: float = STABILITY_LIMIT) -> float:
+    """Raise if the timestep is too large for the stiffest hinge of the chain.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    limit : float
+        Largest allowed ``omega_max * dt`` (default :data:`STABILITY_LIMIT`).
+
+    Returns
+    -------
+    float
+        ``omega_max * dt`` [-].
+
+    Raises
+    ------
+    SimulationError
+        When ``omega_max * dt > limit``; names the stiffest joint, the largest
+        stable timestep and the remedy (fewer links or a smaller timestep).
+    """
+    omega, joint = hinge_omega_max(model)
+    dt = float(model.opt.timestep)
+    ratio = omega * dt
+    if ratio > limit:
+        raise SimulationError(
+            f"timestep {dt:.3g} s is too large for the hinge chain: the stiffest mode "
+            f"({omega / (2 * math.pi):.4g} Hz, mostly joint {joint!r}) needs dt < {limit / omega:.3g} s "
+            f"(omega*dt = {ratio:.3g} > {limit}); use fewer segments per element or a smaller timestep"
+        )
+    return ratio
+
+
+# --------------------------------------------------------------------- plant ---
+
+
+@dataclass(frozen=True)
+class Plant:
+    """A compiled MuJoCo plant and what it is made of.
+
+    Attributes
+    ----------
+    spec : StructureSpec
+        The structure it was built from.
+    options : SimOptions
+        Resolved build options.
+    mjspec : mujoco.MjSpec
+        The editable model definition (compile it again after changes).
+    model : mujoco.MjModel
+        The compiled model.
+    actuator_points : tuple of int
+        Point ids of the voice coils, in ``ctrl`` order (actuators ``coil<ID>``
+        come first; the ``prestress*`` actuators after them take no control).
+    sensor_points : tuple of int
+        Point ids of the velocity sensors ``vel<ID>`` (actuator points first).
+    sensor_rows : dict of int to int
+        Point id -> row in ``MjData.sensordata`` of its out-of-plane velocity [m/s].
+    info : BuildInfo
+    damping : DampingReport or None
+        Modal damping targets and coefficients (None when disabled).
+    """
+
+    spec: StructureSpec
+    options: SimOptions
+    mjspec: mujoco.MjSpec
+    model: mujoco.MjModel
+    actuator_points: tuple[int, ...]
+    sensor_points: tuple[int, ...]
+    sensor_rows: dict[int, int]
+    info: BuildInfo
+    damping: Any = None
+
+    @property
+    def timestep_s(self) -> float:
+        """Integration step [s]."""
+        return float(self.model.opt.timestep)
+
+    def point_sites(self) -> dict[int, int]:
+        """Point id -> site id of ``p<ID>``."""
+        return {p: self.model.site(f"p{p}").id for p in self.spec.points}
+
+    def make_data(self) -> mujoco.MjData:
+        """A fresh MjData at the reference (flat) configuration, forward-evaluated."""
+        d = mujoco.MjData(self.model)
+        mujoco.mj_forward(self.model, d)
+        return d
+
+    def velocities(self, data: mujoco.MjData) -> np.ndarray:
+        """Out-of-plane velocities [m/s] at ``sensor_points``, shape (n_sensors,)."""
+        return np.array([data.sensordata[self.sensor_rows[p]] for p in self.sensor_points])
+
+
+def _sensor_rows(model: mujoco.MjModel, points: tuple[int, ...], actuators: tuple[int, ...]) -> dict[int, int]:
+    rows = {}
+    for p in points:
+        s = model.sensor(f"vel{p}")
+        adr = int(s.adr[0])
+        rows[p] = adr if p in actuators else adr + 2  # framelinvel: z component
+    return rows
+
+
+def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
+                 beta: float = 0.0) -> tuple[mujoco.MjSpec, dict[str, Any]]:
+    """Build the MjSpec of ``spec`` without modal-damping tendons.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    options : SimOptions, optional
+    beta : float
+        Stiffness-proportional hinge damping factor [s].
+
+    Returns
+    -------
+    mjspec : mujoco.MjSpec
+    extra : dict
+        ``"plan"``, ``"options"`` (resolved), ``"root"``, ``"string_tensions"``.
+
+    Raises
+    ------
+    SimulationError
+        For a spec the plant cannot represent (see :func:`build_plant`).
+    """
+    opts = (options or SimOptions()).resolved(spec)
+    plan, planner = plan_structure(spec, opts)
+    ms = _emit(spec, plan, planner, opts, beta)
+    if planner.pending_springs:
+        # grounded springs away from the root: fixed tendons with first-order coefficients
+        model = _compile(ms, spec)
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        for sp in planner.pending_springs:
+            coefs = _fixed_spring_coefs(model, data, f"p{sp.point}", sp.dof)
+            if not coefs:
+                raise SimulationError(f"{spec._file()}: spring {sp.id!r}: DOF {sp.dof} of point {sp.point} "
+                                      "does not move in the plant")
+            t = ms.add_tendon(name=f"spring.{sp.id}")
+            for jn, c in coefs.items():
+                t.wrap_joint(jn, c)
+            t.stiffness = [sp.stiffness.si, 0.0, 0.0]
+            t.springlength = [0.0, 0.0]
+            t.info = f"spec: spring {sp.id} at point {sp.point} on {sp.dof} (first-order kinematics)"
+    extra = {"plan": plan, "options": opts, "root": planner.root,
+             "string_tensions": dict(planner.gs.string_tensions)}
+    return ms, extra
+
+
+def _compile(ms: mujoco.MjSpec, spec: StructureSpec) -> mujoco.MjModel:
+    try:
+        return ms.compile()
+    except Exception as exc:  # mujoco raises ValueError with the compiler message
+        raise SimulationError(f"{spec._file()}: MuJoCo could not compile the plant: {exc}") from exc
+
+
+def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant:
+    """Build and compile the MuJoCo plant of a structure.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure (``load_spec("bcc")``).
+    options : SimOptions, optional
+        Discretisation, timestep, damping; defaults from the spec's [mujoco] table.
+
+    Returns
+    -------
+    Plant
+        Compiled model with its MjSpec, actuator/sensor maps and build info.
+
+    Raises
+    ------
+    SimulationError
+        For a spec the plant cannot represent (no in-plane root, members that bend
+        about an inactive rotation, a partial support away from the root, rigid
+        inserts longer than a segment, a rotational spring without a pendulum
+        plate that no joint carries), a failed compilation, or -- with
+        ``check_timestep`` -- a timestep too large for the stiffest hinge
+        (see :func:`check_timestep`).
+
+    Notes
+    -----
+    With ``modal_damping`` the model is built twice: once undamped, to settle
+    and linearise it (:mod:`vlab.sim.linearize`), then with the modal tendons
+    of :func:`vlab.sim.damping.modal_damping_tendons`.
+    """
+    from .damping import apply_modal_damping, default_beta
+
+    opts = (options or SimOptions()).resolved(spec)
+    beta = opts.stiffness_damping_s
+    ms, extra = build_mjspec(spec, opts, beta=beta or 0.0)
+    model = _compile(ms, spec)
+    omega, _ = hinge_omega_max(model)
+    if opts.check_timestep:
+        check_timestep(model)
+    report = None
+    if (opts.modal_damping and spec.damping is not None) or beta is None:
+        if beta is None:
+            beta = default_beta(spec, model, opts)
+            ms, extra = build_mjspec(spec, opts, beta=beta)
+            model = _compile(ms, spec)
+        if opts.modal_damping and spec.damping is not None:
+            report = apply_modal_damping(ms, model, spec, opts, beta)
+            model = _compile(ms, spec)
+    ins = spec.instrumentation
+    acts = tuple(ins.actuators) if ins else ()
+    sens = tuple(dict.fromkeys(list(acts) + (list(ins.sensors) if ins else [])))
+    info = BuildInfo(
+        n_bodies=model.nbody - 1,
+        n_joints=model.njnt,
+        n_loops=extra["plan"].n_loops,
+        root=extra["root"],
+        segments_per_element=opts.segments_per_element,
+        crosspiece_segments=opts.crosspiece_segments,
+        timestep_s=opts.timestep_s,
+        omega_max=omega,
+        stiffness_damping_s=float(beta or 0.0),
+        string_tensions_n=extra["string_tensions"],
+        n_prestress=len(extra["plan"].prestress),
+    )
+    return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=float(beta or 0.0)), ms, model, acts, sens,
+                 _sensor_rows(model, sens, acts), info, report)

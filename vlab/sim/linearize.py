@@ -1,0 +1,310 @@
+"""Settle a plant under gravity, linearise it and extract its out-of-plane modes.
+
+The plant's reference configuration is flat; gravity acts in the plane, so
+the settled state is the flat one up to round-off -- but the geometric
+stiffness of gravity and of the string tensions only appears in a
+linearisation *around the loaded state*, which is why the state is settled
+first (DESIGN.md: "let the model settle before linearising").
+
+The linearisation is :func:`mujoco.mjd_transitionFD` (centred finite
+differences of one step): ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k``
+with ``x = (dq, v)`` (``dq`` the position tangent, ``v = qvel``; size ``2 nv``).
+For one mode of a semi-implicit Euler step with implicit damping ``c`` (per
+unit mass) the eigenvalue pair ``lambda`` satisfies::
+
+    |lambda|^2 = 1 / (1 + h c)
+    2 Re(lambda) = 1 + |lambda|^2 - h^2 omega^2 |lambda|^2
+
+which is inverted here for the continuous natural frequency ``omega`` and
+damping ratio ``zeta = c / (2 omega)`` -- exact for an undamped or
+implicitly damped mode, so the frequencies carry no discretisation bias
+``O((omega h)^2)`` of a plain ``log(lambda)/h``.
+
+Sources: ``doc/computation/index.rst`` (semi-implicit Euler, implicit
+damping), ``doc/APIreference/functions.rst`` (``mjd_transitionFD``).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..errors import SimulationError
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """Discrete-time linearisation ``x+ = A x + B u``, ``y = C x + D u`` of one step.
+
+    Attributes
+    ----------
+    A : ndarray, shape (2 nv + na, 2 nv + na)
+    B : ndarray, shape (2 nv + na, nu)
+    C : ndarray, shape (nsensordata, 2 nv + na)
+    D : ndarray, shape (nsensordata, nu)
+    dt : float
+        Step [s].
+    qpos : ndarray, shape (nq,)
+        Linearisation point (settled configuration).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    dt: float
+    qpos: np.ndarray
+
+
+@dataclass(frozen=True)
+class SimModes:
+    """Out-of-plane modes of a plant, sorted by natural frequency.
+
+    Attributes
+    ----------
+    frequencies_hz : ndarray, shape (n_modes,)
+        Undamped natural frequencies [Hz].
+    damping_ratios : ndarray, shape (n_modes,)
+        Modal damping ratios [-].
+    points : tuple of int
+        Point ids of the rows of ``shapes``.
+    shapes : ndarray, shape (n_points, n_modes)
+        Real out-of-plane displacement shapes ``w`` at the ``p<ID>`` sites,
+        scaled to unit maximum |w|, largest entry positive.
+    joint_shapes : ndarray, shape (nv, n_modes)
+        Real shapes in joint coordinates, mass-normalised (``phi^T M phi = 1``).
+    mass_matrix : ndarray, shape (nv, nv)
+        Joint-space mass matrix at the settled state [kg, kg m, kg m^2].
+    """
+
+    frequencies_hz: np.ndarray
+    damping_ratios: np.ndarray
+    points: tuple[int, ...]
+    shapes: np.ndarray
+    joint_shapes: np.ndarray
+    mass_matrix: np.ndarray
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Circular natural frequencies [rad/s], shape (n_modes,)."""
+        return 2 * np.pi * self.frequencies_hz
+
+
+def _check_state(model: mujoco.MjModel, data: mujoco.MjData, what: str) -> None:
+    bad = [w for w in ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL")
+           if data.warning[int(getattr(mujoco.mjtWarning, w))].number > 0]
+    if bad or not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+        raise SimulationError(
+            f"{what}: the simulation diverged (MuJoCo warnings {bad or 'none'}, non-finite state: "
+            f"{not np.all(np.isfinite(data.qvel))}); the timestep is likely too large for the hinge "
+            "chain (see vlab.sim.builder.check_timestep)"
+        )
+
+
+def settle(model: mujoco.MjModel, data: mujoco.MjData | None = None, *, max_time_s: float = 5.0,
+           tol_qvel: float = 1e-9, tol_qacc: float = 1e-7) -> mujoco.MjData:
+    """Bring a plant to rest under gravity.
+
+    Starts from ``data`` (or the reference configuration); if the state is not at
+    rest, it is integrated with a temporary heavy joint damping (a copy of the
+    model with ``dof_damping = M_jj / 0.02 s``) until velocity and acceleration
+    vanish.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    data : mujoco.MjData, optional
+        Initial state; a fresh one at qpos0 by default. Not modified.
+    max_time_s : float
+        Longest settling run [s].
+    tol_qvel : float
+        Rest criterion: max |qvel| [m/s or rad/s].
+    tol_qacc : float
+        Rest criterion: max |qacc| [m/s^2 or rad/s^2].
+
+    Returns
+    -------
+    mujoco.MjData
+        Settled state (qvel = 0), forward-evaluated with the original model.
+
+    Raises
+    ------
+    SimulationError
+        If the state diverges or does not come to rest within ``max_time_s``
+        (no stable equilibrium: e.g. a member in compression beyond buckling).
+    """
+    d = mujoco.MjData(model)
+    if data is not None:
+        d.qpos[:] = data.qpos
+        d.qvel[:] = data.qvel
+        d.act[:] = data.act
+        d.ctrl[:] = data.ctrl
+    mujoco.mj_forward(model, d)
+    if np.max(np.abs(d.qvel), initial=0.0) <= tol_qvel and np.max(np.abs(d.qacc), initial=0.0) <= tol_qacc:
+        return d
+    m2 = copy.copy(model)
+    diag = np.array([d.qM[model.dof_Madr[i]] for i in range(model.nv)])
+    m2.dof_damping[:] = model.dof_damping + diag / 0.02
+    nstep = int(max_time_s / model.opt.timestep)
+    for _ in range(max(nstep // 50, 1)):
+        mujoco.mj_step(m2, d, nstep=50)
+        _check_state(m2, d, "settling under gravity")
+        if np.max(np.abs(d.qvel)) <= tol_qvel:
+            break
+    d.qvel[:] = 0.0
+    mujoco.mj_forward(model, d)
+    if np.max(np.abs(d.qacc)) > max(tol_qacc, 1e-6):
+        raise SimulationError(
+            f"the plant did not settle within {max_time_s} s (max |qacc| = {np.max(np.abs(d.qacc)):.3g}): "
+            "no stable equilibrium under gravity"
+        )
+    return d
+
+
+def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6) -> LinearModel:
+    """Linearise one step around ``data`` with :func:`mujoco.mjd_transitionFD` (centred).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    data : mujoco.MjData
+        Linearisation point (normally from :func:`settle`); not modified.
+    eps : float
+        Finite-difference step.
+
+    Returns
+    -------
+    LinearModel
+
+    Raises
+    ------
+    SimulationError
+        If the matrices are not finite.
+    """
+    d = copy.copy(data)
+    nx = 2 * model.nv + model.na
+    A = np.zeros((nx, nx))
+    B = np.zeros((nx, model.nu))
+    C = np.zeros((model.nsensordata, nx))
+    D = np.zeros((model.nsensordata, model.nu))
+    mujoco.mjd_transitionFD(model, d, eps, True, A, B, C, D)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        raise SimulationError("linearisation produced non-finite matrices: the state is not valid")
+    return LinearModel(A, B, C, D, float(model.opt.timestep), data.qpos.copy())
+
+
+def discrete_to_modal(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous natural frequency and damping ratio of one-step eigenvalues.
+
+    Parameters
+    ----------
+    lam : ndarray, shape (k,)
+        Eigenvalues of ``A`` (one of each complex pair).
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    omega : ndarray, shape (k,)
+        Natural circular frequencies [rad/s].
+    zeta : ndarray, shape (k,)
+        Damping ratios [-].
+
+    Source: the one-mode semi-implicit Euler map with implicit damping (module docstring).
+    """
+    rho = np.abs(lam) ** 2
+    hc = 1.0 / rho - 1.0
+    w2 = (1.0 + rho - 2.0 * lam.real) / (rho * dt**2)
+    omega = np.sqrt(np.clip(w2, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zeta = np.where(omega > 0, hc / dt / (2.0 * omega), 1.0)
+    return omega, zeta
+
+
+def site_jacobian_w(model: mujoco.MjModel, data: mujoco.MjData, sites: list[str]) -> np.ndarray:
+    """Rows ``dw/dv`` of the out-of-plane (world z) velocity at ``sites``, shape (len(sites), nv)."""
+    jac = np.zeros((len(sites), model.nv))
+    jacp = np.zeros((3, model.nv))
+    for i, name in enumerate(sites):
+        mujoco.mj_jacSite(model, data, jacp, None, model.site(name).id)
+        jac[i] = jacp[2]
+    return jac
+
+
+def modes(model: mujoco.MjModel, points: list[int] | tuple[int, ...], n_modes: int | None = None, *,
+          data: mujoco.MjData | None = None, linear: LinearModel | None = None,
+          max_zeta: float = 0.5) -> SimModes:
+    """Out-of-plane modes of a plant from its linearisation around the settled state.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        A vlab plant (sites ``p<ID>``).
+    points : sequence of int
+        Point ids whose ``w`` forms the shapes.
+    n_modes : int, optional
+        Number of lowest modes returned (all structural modes by default).
+    data : mujoco.MjData, optional
+        Settled state; :func:`settle` is called when omitted.
+    linear : LinearModel, optional
+        A linearisation at ``data`` (computed when omitted).
+    max_zeta : float
+        Eigenvalues with a larger damping ratio are dropped: they belong to the
+        critically damped weld constraints (``solref = (2 dt, 1)``), not to the
+        structure.
+
+    Returns
+    -------
+    SimModes
+
+    Raises
+    ------
+    SimulationError
+        If the plant does not settle or has an unstable (|lambda| > 1) mode
+        -- a timestep too large for the hinge chain or a structure beyond buckling.
+    """
+    if data is None:
+        data = settle(model)
+    if linear is None:
+        linear = linearize(model, data)
+    nv = model.nv
+    lam, vec = np.linalg.eig(linear.A)
+    unstable = np.abs(lam) > 1.0 + 1e-7
+    if np.any(unstable):
+        i = int(np.argmax(np.abs(lam)))
+        raise SimulationError(
+            f"the linearised plant is unstable (|lambda| = {abs(lam[i]):.6f} > 1, "
+            f"f ~ {abs(np.angle(lam[i])) / (2 * math.pi * linear.dt):.4g} Hz): the timestep is too large for "
+            "the hinge chain or the structure is beyond buckling"
+        )
+    keep = lam.imag > 1e-12
+    lam, vec = lam[keep], vec[:, keep]
+    omega, zeta = discrete_to_modal(lam, linear.dt)
+    ok = (zeta < max_zeta) & (omega > 0)
+    lam, vec, omega, zeta = lam[ok], vec[:, ok], omega[ok], zeta[ok]
+    order = np.argsort(omega)
+    if n_modes is not None:
+        order = order[:n_modes]
+    omega, zeta, vec = omega[order], zeta[order], vec[:, order]
+    pos = vec[:nv, :]
+    # real shapes: rotate each complex vector so that its largest entry is real
+    j = np.argmax(np.abs(pos), axis=0)
+    phase = pos[j, np.arange(pos.shape[1])]
+    real = (pos / (phase / np.abs(phase))).real
+    m = np.zeros((nv, nv))
+    mujoco.mj_fullM(model, m, data.qM)
+    mass = np.einsum("ir,ij,jr->r", real, m, real)
+    joint_shapes = real / np.sqrt(mass)
+    sites = [f"p{p}" for p in points]
+    w = site_jacobian_w(model, data, sites) @ joint_shapes
+    k = np.argmax(np.abs(w), axis=0)
+    peak = w[k, np.arange(w.shape[1])]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shapes = np.where(np.abs(peak) > 0, w / np.where(peak == 0, 1.0, peak), 0.0)
+    sign = np.sign(np.where(peak == 0, 1.0, peak))
+    joint_shapes = joint_shapes * sign
+    return SimModes(omega / (2 * np.pi), zeta, tuple(points), shapes, joint_shapes, m)
