@@ -47,18 +47,51 @@ from .units import G_IN
 #: Plate eccentricity Y [in] (Fig. 5).
 PLATE_Y_IN = 9.05
 
+#: Plate thickness [in] (Sec. 2.2: "Large aluminum plates 11/16 inches thick").
+PLATE_T_IN = 11.0 / 16.0
+#: Weight density of aluminium [lbf/in^3] (handbook).
+ALUMINIUM_LBF_IN3 = 0.098
+
 #: Fitted parameters: (name, lower, upper, unit, log-scaled in the optimiser, meaning).
 GRID_PARAMETERS: tuple[tuple[str, float, float, str, bool, str], ...] = (
     ("pitch", 6.0, 16.0, "in", False, "lattice pitch a (joint spacing, horizontal and vertical)"),
-    ("plate_weight", 8.0, 60.0, "lbf", False, "weight W of one 11/16-in aluminium plate"),
-    ("plate_radius", 4.0, 12.0, "in", False, "plate radius of gyration about its centre of gravity"),
+    ("half_span", 1.1, 2.5, "1", False, "top-beam half-span (13 to the centre) / 3a (3a: outer hangers 15, 20)"),
+    ("plate_width", 6.0, 30.0, "in", False, "plate width b (horizontal, normal to the top-beam axis)"),
+    ("plate_height", 2.0 * PLATE_Y_IN, 30.0, "in", False, "plate height h (>= 2Y: the axis lies within the plate)"),
     ("top_ei", 1.0e5, 3.0e7, "lbf*in^2", True, "top-beam out-of-plane EI"),
     ("top_gj", 1.0e4, 1.0e7, "lbf*in^2", True, "top-beam GJ"),
-    ("top_kga", 1.0e3, 1.0e7, "lbf", True, "top-beam shear stiffness kGA (sandwich)"),
+    ("top_kga", 1.0e3, 1.0e7, "lbf", True, "top-beam shear stiffness kGA (discontinuous sandwich)"),
     ("top_thickness", 0.2, 1.5, "in", False, "top-beam equivalent steel thickness (mass 1.13 t lbf/in)"),
     ("joint_mass", 0.02, 0.3, "lbf", False, "hardware weight at each of joints 1-12"),
     ("coil_mass", 0.05, 0.5, "lbf", False, "actuator coil weight at joints 1, 2, 4, 5, 8"),
 )
+
+
+def plate_properties(width_in: float, height_in: float) -> tuple[float, float, float]:
+    """Weight and inertias of one rigid plate from its assumed geometry.
+
+    A rectangular aluminium plate, ``11/16`` in thick (Sec. 2.2), of width
+    ``b`` and height ``h`` in the vertical plane normal to the top-beam axis,
+    with its centre of gravity ``Y = 9.05`` in below the axis (Fig. 5).
+
+    Parameters
+    ----------
+    width_in, height_in : float
+        ``b`` and ``h`` [in].
+
+    Returns
+    -------
+    weight_lbf : float
+        ``W = rho t b h`` [lbf].
+    inertia_rx : float
+        About the top-beam axis, ``W/g ((b^2 + h^2)/12 + Y^2)`` [lbf*s^2*in].
+    inertia_ry : float
+        About the vertical through the bearing, ``W/g b^2/12`` [lbf*s^2*in].
+    """
+    w = ALUMINIUM_LBF_IN3 * PLATE_T_IN * width_in * height_in
+    m = w / G_IN
+    return w, m * ((width_in**2 + height_in**2) / 12.0 + PLATE_Y_IN**2), m * width_in**2 / 12.0
+
 
 CALIBRATED = "calibrated: Table 3 analytical + Table 5 Guyan (python -m vlab.grid_fit)"
 
@@ -104,8 +137,9 @@ def current_parameters(doc: dict[str, Any]) -> dict[str, float]:
         top = doc["sections"]["top_beam"]
         return {
             "pitch": doc["calibration"]["pitch"]["value"],
-            "plate_weight": masses["plate13"]["mass"]["value"],
-            "plate_radius": doc["calibration"]["plate_radius_of_gyration"]["value"],
+            "half_span": doc["calibration"]["half_span"]["value"],
+            "plate_width": doc["calibration"]["plate_width"]["value"],
+            "plate_height": doc["calibration"]["plate_height"]["value"],
             "top_ei": top["ei"]["value"],
             "top_gj": top["gj"]["value"],
             "top_kga": top["shear_stiffness"]["value"],
@@ -120,11 +154,11 @@ def current_parameters(doc: dict[str, Any]) -> dict[str, float]:
 def apply_parameters(doc: dict[str, Any], values: dict[str, float]) -> dict[str, Any]:
     """Return a copy of a grid TOML document with parameters set (thesis units).
 
-    The pitch scales every coordinate (the lattice and the top-beam points are
-    multiples of it); the plate weight sets the plate masses, the pendulum
-    springs ``W*Y`` (Sec. 2.2.1) and, with the radius of gyration ``k``, the
-    plate inertias ``I_rx = W/g (Y^2 + k^2)`` and ``I_ry = W/g k^2/2`` (a
-    square plate normal to the top-beam axis).
+    The pitch scales the coordinates of the lattice and of the top-beam points
+    15-20; the bearings 13 and 22 sit at ``x = -/+ 3 a half_span`` with 14 and
+    21 midway to 15 and 20. The plate width and height set the plate masses,
+    the pendulum springs ``W*Y`` (Sec. 2.2.1) and the plate inertias
+    (:func:`plate_properties`).
 
     Parameters
     ----------
@@ -154,15 +188,20 @@ def apply_parameters(doc: dict[str, Any], values: dict[str, float]) -> dict[str,
     coords = new["points"]["coordinates"]
     for key, (x, y) in list(coords.items()):
         coords[key] = [x * scale, y * scale]
-    new["calibration"]["pitch"] = _q(new["calibration"]["pitch"], v["pitch"])
-    new["calibration"]["plate_radius_of_gyration"] = _q(
-        new["calibration"]["plate_radius_of_gyration"], v["plate_radius"]
-    )
+    a = v["pitch"]
+    x15, x20 = coords["15"][0], coords["20"][0]
+    coords["13"] = [-3.0 * a * v["half_span"], 0.0]
+    coords["22"] = [3.0 * a * v["half_span"], 0.0]
+    coords["14"] = [0.5 * (coords["13"][0] + x15), 0.0]
+    coords["21"] = [0.5 * (coords["22"][0] + x20), 0.0]
+    cal = new["calibration"]
+    for name in ("pitch", "half_span", "plate_width", "plate_height"):
+        cal[name] = _q(cal[name], v[name])
     top = new["sections"]["top_beam"]
     for name, fld in (("top_ei", "ei"), ("top_gj", "gj"), ("top_kga", "shear_stiffness"),
                       ("top_thickness", "thickness")):
         top[fld] = _q(top[fld], v[name])
-    w, k = v["plate_weight"], v["plate_radius"]
+    w, i_rx, i_ry = plate_properties(v["plate_width"], v["plate_height"])
     for m in new["masses"]:
         if m["id"].startswith("joint"):
             m["mass"] = _q(m["mass"], v["joint_mass"])
@@ -170,8 +209,8 @@ def apply_parameters(doc: dict[str, Any], values: dict[str, float]) -> dict[str,
             m["mass"] = _q(m["mass"], v["coil_mass"])
         elif m["id"].startswith("plate"):
             m["mass"] = _q(m["mass"], w)
-            m["inertia_rx"] = _q(m["inertia_rx"], w / G_IN * (PLATE_Y_IN**2 + k**2))
-            m["inertia_ry"] = _q(m["inertia_ry"], w / G_IN * k**2 / 2.0)
+            m["inertia_rx"] = _q(m["inertia_rx"], i_rx)
+            m["inertia_ry"] = _q(m["inertia_ry"], i_ry)
     for s in new["springs"]:
         if s["id"].startswith("pendulum"):
             s["stiffness"] = _q(s["stiffness"], w * PLATE_Y_IN)
@@ -433,8 +472,8 @@ def residuals(doc: dict[str, Any], values: dict[str, float], weight_guyan: float
 
 _STARTS = (
     {},
-    {"pitch": 12.0, "plate_weight": 30.0, "top_ei": 3e6, "top_gj": 3e5, "top_kga": 3e5},
-    {"pitch": 9.0, "plate_weight": 20.0, "plate_radius": 6.0, "top_ei": 1e6, "top_gj": 1e5, "top_kga": 3e4},
+    {"pitch": 12.0, "plate_width": 20.0, "top_ei": 3e6, "top_gj": 3e5, "top_kga": 3e5},
+    {"pitch": 14.0, "plate_width": 26.0, "plate_height": 26.0, "top_ei": 1e7, "top_gj": 1e6, "top_kga": 3e3},
 )
 
 

@@ -1004,7 +1004,7 @@ def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     m = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, m, data.qM)
+    mujoco.mj_fullM(model, data, m)
     k = np.zeros(model.nv)
     for j in range(model.njnt):
         k[model.jnt_dofadr[j]] = model.jnt_stiffness[j, 0] if model.jnt_stiffness.ndim == 2 else model.jnt_stiffness[j]
@@ -1189,35 +1189,40 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     SimulationError
         For a spec the plant cannot represent (no in-plane root, members that bend
         about an inactive rotation, a partial support away from the root, rigid
-        inserts longer than a segment, a rotational spring without a pendulum
-        plate that no joint carries), a failed compilation, or -- with
-        ``check_timestep`` -- a timestep too large for the stiffest hinge
-        (see :func:`check_timestep`).
+        inserts longer than a segment, an unreachable point), a failed
+        compilation, a plant that does not settle, or -- with ``check_timestep``
+        -- a timestep too large for the stiffest hinge (:func:`check_timestep`).
 
     Notes
     -----
     With ``modal_damping`` the model is built twice: once undamped, to settle
-    and linearise it (:mod:`vlab.sim.linearize`), then with the modal tendons
-    of :func:`vlab.sim.damping.modal_damping_tendons`.
+    and linearise it (:mod:`vlab.sim.linearize`) and choose the modal tendons
+    (:mod:`vlab.sim.damping`), then with hinge damping and modal tendons.
     """
-    from .damping import apply_modal_damping, default_beta
+    from .damping import add_modal_tendons, modal_damping_plan
 
     opts = (options or SimOptions()).resolved(spec)
-    beta = opts.stiffness_damping_s
-    ms, extra = build_mjspec(spec, opts, beta=beta or 0.0)
-    model = _compile(ms, spec)
-    omega, _ = hinge_omega_max(model)
+    ms0, extra = build_mjspec(spec, opts, beta=0.0)
+    model0 = _compile(ms0, spec)
+    omega, _ = hinge_omega_max(model0)
     if opts.check_timestep:
-        check_timestep(model)
+        check_timestep(model0)
+    beta = opts.stiffness_damping_s
     report = None
-    if (opts.modal_damping and spec.damping is not None) or beta is None:
-        if beta is None:
-            beta = default_beta(spec, model, opts)
-            ms, extra = build_mjspec(spec, opts, beta=beta)
-            model = _compile(ms, spec)
-        if opts.modal_damping and spec.damping is not None:
-            report = apply_modal_damping(ms, model, spec, opts, beta)
-            model = _compile(ms, spec)
+    tendons: list = []
+    if spec.damping is not None and (opts.modal_damping or beta is None):
+        beta_auto, tendons, report = modal_damping_plan(spec, model0, beta, opts.n_damped_modes)
+        beta = beta_auto
+        if not opts.modal_damping:
+            tendons, report = [], None
+    beta = float(beta or 0.0)
+    if beta > 0.0:
+        ms, extra = build_mjspec(spec, opts, beta=beta)
+    else:
+        ms = ms0
+    if tendons:
+        add_modal_tendons(ms, model0, tendons)
+    model = _compile(ms, spec)
     ins = spec.instrumentation
     acts = tuple(ins.actuators) if ins else ()
     sens = tuple(dict.fromkeys(list(acts) + (list(ins.sensors) if ins else [])))
@@ -1230,9 +1235,9 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
         crosspiece_segments=opts.crosspiece_segments,
         timestep_s=opts.timestep_s,
         omega_max=omega,
-        stiffness_damping_s=float(beta or 0.0),
+        stiffness_damping_s=beta,
         string_tensions_n=extra["string_tensions"],
         n_prestress=len(extra["plan"].prestress),
     )
-    return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=float(beta or 0.0)), ms, model, acts, sens,
+    return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=beta), ms, model, acts, sens,
                  _sensor_rows(model, sens, acts), info, report)

@@ -147,7 +147,9 @@ def settle(model: mujoco.MjModel, data: mujoco.MjData | None = None, *, max_time
     if np.max(np.abs(d.qvel), initial=0.0) <= tol_qvel and np.max(np.abs(d.qacc), initial=0.0) <= tol_qacc:
         return d
     m2 = copy.copy(model)
-    diag = np.array([d.qM[model.dof_Madr[i]] for i in range(model.nv)])
+    full = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, d, full)
+    diag = np.diag(full).copy()
     m2.dof_damping[:] = model.dof_damping + diag / 0.02
     nstep = int(max_time_s / model.opt.timestep)
     for _ in range(max(nstep // 50, 1)):
@@ -296,7 +298,7 @@ def modes(model: mujoco.MjModel, points: list[int] | tuple[int, ...], n_modes: i
     phase = pos[j, np.arange(pos.shape[1])]
     real = (pos / (phase / np.abs(phase))).real
     m = np.zeros((nv, nv))
-    mujoco.mj_fullM(model, m, data.qM)
+    mujoco.mj_fullM(model, data, m)
     mass = np.einsum("ir,ij,jr->r", real, m, real)
     joint_shapes = real / np.sqrt(mass)
     sites = [f"p{p}" for p in points]

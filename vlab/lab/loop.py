@@ -1,0 +1,250 @@
+"""The digital control loop of Fig. 21, run against any plant.
+
+One controller tick every ``period_s`` (0.5 ms, 2 kHz, Sec. 5.3)::
+
+    y_k  = velocity at the sensor points + noise          (sampled at t_k)
+    u_k  = engine.step(y_k)                               (Eq. 5.1)
+    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay)
+    for each physics step h in the tick:
+        RC  : filtered DAC voltage                        (677 Hz, exact)
+        f   = amplifier(RC output + excitation on one channel)
+        plant.step(f)
+
+The plant is anything with the :class:`Plant` protocol: the MuJoCo plant of
+:mod:`vlab.sim` or the linear model of :mod:`vlab.lab.linear_plant`. A
+diverging plant stops the run with :class:`vlab.errors.SimulationError`
+saying when; the recording made so far is attached to the error
+(``exc.partial``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import numpy as np
+
+from ..errors import ModelError, SimulationError
+from .blocks import PC1000_DELAY_PERIODS, PC1000_PERIOD_S, RC_CORNER_HZ, CurrentAmplifier, RCLowPass, SampleDelay, SensorNoise
+from .engine import ControllerEngine
+from .recording import Recording
+
+
+class Plant(Protocol):
+    """What the loop needs from a plant.
+
+    ``timestep_s`` is the physics step [s]; ``actuator_points`` the point ids of
+    the force inputs (order of ``set_forces``); ``velocities(points)`` the
+    out-of-plane velocities [m/s]; ``displacements(points)`` the out-of-plane
+    displacements from the settled state [m]; ``step()`` advances one physics
+    step with the forces last set [N].
+    """
+
+    timestep_s: float
+    actuator_points: tuple[int, ...]
+
+    def set_forces(self, forces: np.ndarray) -> None: ...
+
+    def step(self) -> None: ...
+
+    def velocities(self, points: tuple[int, ...]) -> np.ndarray: ...
+
+    def displacements(self, points: tuple[int, ...]) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class HardwareChain:
+    """Settings of the hardware between controller and coils (Sec. 5.3), each switchable.
+
+    Attributes
+    ----------
+    period_s : float
+        Controller sampling period [s] (0.5 ms: 2000 samples/s).
+    delay_periods : float
+        Computation delay from sample to DAC output, in periods (1.35; 0 = off).
+    filter_hz : float or None
+        RC low-pass corner [Hz] (677; None = off).
+    amplifier_gain : float
+        Controlled-current amplifier and coil: force per unit command [N/N].
+    amplifier_limit_n : float or None
+        Force saturation [N] (None = linear).
+    noise_m_s : float
+        Velocity-sensor noise standard deviation [m/s] (0 = off).
+    """
+
+    period_s: float = PC1000_PERIOD_S
+    delay_periods: float = PC1000_DELAY_PERIODS
+    filter_hz: float | None = RC_CORNER_HZ
+    amplifier_gain: float = 1.0
+    amplifier_limit_n: float | None = None
+    noise_m_s: float = 0.0
+    actuator_gain: dict[int, float] = field(default_factory=dict)
+    sensor_gain: dict[int, float] = field(default_factory=dict)
+    actuator_lag_hz: float | None = None
+    sensor_lag_hz: float | None = None
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """Sampled signals of a run at the controller rate.
+
+    ``recording`` holds the excitation force ``force<exc>`` [N] and the
+    velocities ``vel<p>`` [m/s] of every measured point (as the data
+    acquisition saw them, without the controller's sensor noise); ``commands``
+    the controller outputs ``u_k`` (n_ticks, n_act) [N]; ``displacements``
+    (n_ticks, n_points) [m] at ``points``.
+    """
+
+    recording: Recording
+    commands: np.ndarray
+    displacements: np.ndarray
+    points: tuple[int, ...]
+
+
+def run_loop(
+    plant: Plant,
+    engine: ControllerEngine | None,
+    *,
+    feedback_points: tuple[int, ...],
+    measured_points: tuple[int, ...],
+    excitation_point: int,
+    excitation: Callable[[np.ndarray], np.ndarray] | np.ndarray,
+    duration_s: float,
+    chain: HardwareChain = HardwareChain(),
+    seed: int = 0,
+    progress: Callable[[float], None] | None = None,
+    metadata: dict | None = None,
+) -> LoopResult:
+    """Run the closed loop for ``duration_s`` and record it at the controller rate.
+
+    Parameters
+    ----------
+    plant : Plant
+        Settled plant; its ``actuator_points`` are the coil channels.
+    engine : ControllerEngine or None
+        Eq. (5.1) engine with inputs ``feedback_points`` and outputs the plant's
+        actuators; None runs open loop.
+    feedback_points : tuple of int
+        Sensor points fed to the controller (collocated with the actuators).
+    measured_points : tuple of int
+        Points whose velocity is recorded.
+    excitation_point : int
+        Actuator point that carries the excitation (added before the amplifier).
+    excitation : ndarray, shape (n_ticks,), or callable t_s -> force [N]
+        Excitation command, one value per controller tick (held over the tick).
+    duration_s : float
+        Run length [s]; rounded down to whole ticks.
+    chain : HardwareChain
+    seed : int
+        Seed of the sensor noise.
+    progress : callable, optional
+        Called with the fraction done, about every 1 % of the run.
+
+    Returns
+    -------
+    LoopResult
+
+    Raises
+    ------
+    ModelError
+        If the physics step does not divide the period, or a point is not an actuator.
+    SimulationError
+        If the plant diverges (non-finite or huge velocity); ``exc.partial`` holds
+        the :class:`LoopResult` up to that tick.
+    """
+    period = chain.period_s
+    h = plant.timestep_s
+    n_sub = int(round(period / h))
+    if n_sub < 1 or abs(n_sub * h - period) > 1e-9 * period:
+        raise ModelError(f"physics step {h:g} s must divide the controller period {period:g} s")
+    acts = tuple(plant.actuator_points)
+    if excitation_point not in acts:
+        raise ModelError(f"excitation point {excitation_point} is not an actuator point {acts}")
+    n_act = len(acts)
+    exc_ch = acts.index(excitation_point)
+    n_ticks = int(math.floor(duration_s / period + 1e-9))
+    if n_ticks < 2:
+        raise ModelError(f"duration {duration_s} s is shorter than two controller periods")
+    t_ticks = np.arange(n_ticks) * period
+    exc = np.asarray(excitation(t_ticks) if callable(excitation) else excitation, dtype=float)
+    if exc.shape != (n_ticks,):
+        raise ModelError(f"excitation must have one value per tick: expected ({n_ticks},), found {exc.shape}")
+
+    fb = tuple(feedback_points)
+    if engine is not None and (engine.n_inputs != len(fb) or engine.n_outputs != n_act):
+        raise ModelError(
+            f"controller engine has {engine.n_inputs} inputs/{engine.n_outputs} outputs; "
+            f"loop has {len(fb)} feedback sensors and {n_act} actuators"
+        )
+    delay = SampleDelay(period_s=period, delay_periods=chain.delay_periods, size=n_act, name="DAC")
+    rc = RCLowPass(step_s=h, corner_hz=chain.filter_hz, size=n_act, name="RC") if chain.filter_hz else None
+    amp = CurrentAmplifier(gain=chain.amplifier_gain, limit=chain.amplifier_limit_n, size=n_act)
+    noise = SensorNoise(sigma_m_s=chain.noise_m_s, seed=seed, size=len(fb)) if chain.noise_m_s > 0 else None
+    act_gain = np.array([chain.actuator_gain.get(p, 1.0) for p in acts])
+    sen_gain = np.array([chain.sensor_gain.get(p, 1.0) for p in fb])
+    a_act = math.exp(-2 * math.pi * chain.actuator_lag_hz * h) if chain.actuator_lag_hz else None
+    a_sen = math.exp(-2 * math.pi * chain.sensor_lag_hz * period) if chain.sensor_lag_hz else None
+    lag_act = np.zeros(n_act)
+    lag_sen = np.zeros(len(fb))
+
+    meas = tuple(measured_points)
+    vel = np.zeros((n_ticks, len(meas)))
+    disp = np.zeros((n_ticks, len(meas)))
+    cmds = np.zeros((n_ticks, n_act))
+    e_vec = np.zeros(n_act)
+    report_every = max(1, n_ticks // 100)
+    done = n_ticks
+    failure: SimulationError | None = None
+    for k in range(n_ticks):
+        t_k = k * period
+        v_meas = plant.velocities(meas)
+        if not np.all(np.isfinite(v_meas)) or np.max(np.abs(v_meas)) > 1e3:
+            failure = SimulationError(
+                f"simulation diverged at t = {t_k:.4f} s (velocity {np.max(np.abs(v_meas)):.3g} m/s at "
+                f"points {meas}): controller unstable on this plant or timestep too large"
+            )
+            done = k
+            break
+        vel[k] = v_meas
+        disp[k] = plant.displacements(meas)
+        if engine is not None:
+            y = plant.velocities(fb) * sen_gain
+            if a_sen is not None:
+                lag_sen = a_sen * lag_sen + (1 - a_sen) * y
+                y = lag_sen
+            if noise is not None:
+                y = noise.output(y)
+            u = engine.step(y)
+        else:
+            u = np.zeros(n_act)
+        cmds[k] = u
+        delay.update(u)
+        e_vec[:] = 0.0
+        e_vec[exc_ch] = exc[k]
+        for s in range(n_sub):
+            t = t_k + s * h
+            dac = delay.mean_over(t, t + h)
+            if rc is not None:
+                rc.update(dac)
+                dac = rc.output()
+            f = amp.output(dac + e_vec) * act_gain
+            if a_act is not None:
+                lag_act = a_act * lag_act + (1 - a_act) * f
+                f = lag_act
+            plant.set_forces(f)
+            plant.step()
+        if progress is not None and k % report_every == 0:
+            progress(k / n_ticks)
+
+    signals = {f"force{excitation_point}": exc[:done]}
+    for j, p in enumerate(meas):
+        signals[f"vel{p}"] = vel[:done, j]
+    rec = Recording.from_signals(period, signals, metadata=dict(metadata or {}))
+    result = LoopResult(rec, cmds[:done], disp[:done], meas)
+    if failure is not None:
+        failure.partial = result  # type: ignore[attr-defined]
+        raise failure
+    if progress is not None:
+        progress(1.0)
+    return result
