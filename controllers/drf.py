@@ -60,7 +60,6 @@ from scipy.optimize import minimize
 from .errors import (
     InfeasibleDampingError,
     MatrixPropertyError,
-    ShapeError,
     check_matrix,
     check_positive_definite,
     check_positive_scalar,
@@ -68,14 +67,18 @@ from .errors import (
     readonly,
 )
 from .lq import lqr
-from .performance import modes, select_modes
+from .performance import (
+    _check_plant,
+    _damping_and_gradient,
+    _perf_and_gradient,
+    modes,
+    select_modes,
+)
 from .realization import DiscreteRealization, output_feedback_realization
 
 __all__ = [
     "DrfStart",
     "DrfDesign",
-    "closed_loop_damping",
-    "performance_gradient",
     "mfdrf",
     "lqdrf",
 ]
@@ -152,7 +155,8 @@ class DrfDesign:
     iterations : int
         SLSQP iterations of the returned start.
     evaluations : int
-        Total function + gradient evaluations over all starts.
+        Distinct gains analysed (eigen-decompositions), all starts, the start
+        scan and phase one included.
     active_constraints : tuple of str
         Constraints within ``1e-5`` (scaled) of their bound.
     starts : tuple of DrfStart
@@ -195,156 +199,23 @@ class DrfDesign:
 
         ``y_k`` in length per second, ``u_k`` actuator force; see
         :func:`controllers.realization.output_feedback_realization`.
+
+        Parameters
+        ----------
+        dt_s : float
+            Sampling period [s].
+
+        Returns
+        -------
+        DiscreteRealization
+            ``F11 (n_c, n_c)``, no internal state.
+
+        Raises
+        ------
+        MatrixPropertyError
+            Non-positive ``dt_s``.
         """
         return output_feedback_realization(self.gain, dt_s, time_unit_s=self.time_unit_s)
-
-
-# --------------------------------------------------------------------------- analytic pieces
-def _check_plant(A, B, C) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    A = check_matrix("A", A, (None, None), ("2n", "2n"))
-    n = A.shape[0]
-    if A.shape[1] != n:
-        raise ShapeError(f"A: expected shape (2n, 2n) (square), found {A.shape}")
-    B = check_matrix("B", B, (n, None), ("2n", "n_c"))
-    nc = B.shape[1]
-    C = check_matrix("C", C, (nc, n), ("n_c", "2n"))
-    return A, B, C
-
-
-def _damping_and_gradient(A, B, C, D, n_modes):
-    """zeta (n_m,), dzeta/dD (n_m, n_c, n_s), eigenvalues (n_m,) of the first n_m modes of A - B D C.
-
-    Always exactly ``n_m`` slots: a pair of real eigenvalues (an over-damped
-    mode, each counting one half) shares one slot, whose value is the smaller
-    damping ratio of the entries in it.
-    """
-    Acl = A - B @ D @ C
-    lam, vl, vr = scipy.linalg.eig(Acl, left=True, right=True)
-    idx = select_modes(lam, n_modes)
-    weights = np.where(lam[idx].imag > 0, 1.0, 0.5)
-    slot_of = np.floor(np.concatenate([[0.0], np.cumsum(weights)[:-1]]) + 1e-12).astype(int)
-    zeta = np.full(n_modes, np.inf)
-    grad = np.zeros((n_modes, B.shape[1], C.shape[0]))
-    lam_out = np.zeros(n_modes, dtype=complex)
-    for k, slot in zip(idx, slot_of):
-        lk = lam[k]
-        mag = abs(lk)
-        sig, om = lk.real, lk.imag
-        z = -sig / mag if mag > 0 else 0.0
-        if z >= zeta[slot]:
-            continue
-        zeta[slot] = z
-        lam_out[slot] = lk
-        grad[slot] = 0.0
-        if om <= 0.0 or mag == 0.0:  # real eigenvalue: zeta = +-1, locally constant
-            continue
-        w, v = vl[:, k], vr[:, k]
-        g = w.conj() @ B
-        h = C @ v
-        s = w.conj() @ v
-        dlam = -np.outer(g, h) / s
-        grad[slot] = (-(om**2) * dlam.real + sig * om * dlam.imag) / mag**3
-    zeta[~np.isfinite(zeta)] = 1.0  # fewer eigenvalues than slots (cannot happen for n_m <= n)
-    return zeta, grad, lam_out
-
-
-def closed_loop_damping(A, B, C, D, *, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Damping ratios of the first ``n_m`` modes of ``A - B D C`` and their derivatives.
-
-    ``d zeta / dD_ij`` from the eigenvalue derivative
-    ``d lambda / dD = -(w^H B)^T (C v) / (w^H v)`` and
-    ``d zeta = (-w^2 d sigma + sigma w d w) / |lambda|^3`` for ``lambda = sigma + i w``.
-
-    Parameters
-    ----------
-    A : array_like, shape (2n, 2n)
-    B : array_like, shape (2n, n_c)
-    C : array_like, shape (n_c, 2n)
-    D : array_like, shape (n_c, n_c)
-        Any (not necessarily symmetric) gain.
-    n_modes : int
-        ``n_m`` (modes sorted by frequency, see :func:`controllers.performance.select_modes`).
-
-    Returns
-    -------
-    zeta : ndarray, shape (n_m,)
-        A pair of real eigenvalues (over-damped mode) fills one entry with
-        the smaller of their damping ratios (1 when stable).
-    dzeta_dD : ndarray, shape (n_m, n_c, n_c)
-        Zero for real eigenvalues (``zeta = 1``, locally constant).
-
-    Raises
-    ------
-    ShapeError, MatrixPropertyError
-
-    Notes
-    -----
-    Source: the constraints ``g_j = zeta_j - zeta_L`` of Eqs. (4.32), (4.38).
-    """
-    A, B, C = _check_plant(A, B, C)
-    nc = B.shape[1]
-    D = check_matrix("D", D, (nc, nc), ("n_c", "n_c"))
-    z, g, _ = _damping_and_gradient(A, B, C, D, int(n_modes))
-    return z, g
-
-
-def _perf_and_gradient(A, B, C, D, Q, R, X0):
-    Acl = A - B @ D @ C
-    F = D @ C
-    Qt = Q + F.T @ R @ F
-    P = scipy.linalg.solve_continuous_lyapunov(Acl.T, -Qt)
-    P = 0.5 * (P + P.T)
-    nf = X0.shape[1]
-    J = np.einsum("ij,ik,kj->j", X0, P, X0)
-    grad = np.empty((nf, B.shape[1], C.shape[0]))
-    BtP = B.T @ P
-    RD = R @ D
-    for i in range(nf):
-        x = X0[:, i:i + 1]
-        L = scipy.linalg.solve_continuous_lyapunov(Acl, -(x @ x.T))
-        L = 0.5 * (L + L.T)
-        LCt = L @ C.T
-        grad[i] = -2.0 * BtP @ LCt + 2.0 * RD @ (C @ LCt)
-    return J, grad
-
-
-def performance_gradient(A, B, C, D, Q, R, initial_states) -> tuple[np.ndarray, np.ndarray]:
-    """Performance indices ``J_i`` of ``u = -D C x`` and their derivatives w.r.t. ``D``.
-
-    ``J_i = x0_i^T P x0_i``, ``A_cl^T P + P A_cl + Q + C^T D^T R D C = 0``
-    (Eqs. 4.33-4.36, ``F_D = D C``); the gradient uses the adjoint
-    ``A_cl L_i + L_i A_cl^T + x0_i x0_i^T = 0``:
-    ``dJ_i/dD = -2 B^T P L_i C^T + 2 R D C L_i C^T``.
-
-    Parameters
-    ----------
-    A : array_like, shape (2n, 2n)
-    B : array_like, shape (2n, n_c)
-    C : array_like, shape (n_c, 2n)
-    D : array_like, shape (n_c, n_c)
-    Q : array_like, shape (2n, 2n)
-    R : array_like, shape (n_c, n_c)
-    initial_states : array_like, shape (2n, n_f)
-
-    Returns
-    -------
-    J : ndarray, shape (n_f,)
-    dJ_dD : ndarray, shape (n_f, n_c, n_c)
-
-    Raises
-    ------
-    ShapeError, MatrixPropertyError
-        Bad shapes; ``A - B D C`` not asymptotically stable (J infinite).
-    """
-    A, B, C = _check_plant(A, B, C)
-    n, nc = B.shape
-    D = check_matrix("D", D, (nc, nc), ("n_c", "n_c"))
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_semidefinite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
-    X0 = check_matrix("initial_states", initial_states, (n, None), ("2n", "n_f"))
-    if np.max(scipy.linalg.eigvals(A - B @ D @ C).real) >= 0:
-        raise MatrixPropertyError("A - B D C is not asymptotically stable; J is infinite")
-    return _perf_and_gradient(A, B, C, D, Q, R, X0)
 
 
 # --------------------------------------------------------------------------- problem setup

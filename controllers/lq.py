@@ -204,6 +204,21 @@ class LqrDesign:
         ``y_k`` must be the whole structural state ``[q'; q]`` with velocities
         per *second* (``S = diag(T I, I)``, ``T = time_unit_s``); see
         :func:`controllers.realization.state_feedback_realization`.
+
+        Parameters
+        ----------
+        dt_s : float
+            Sampling period [s].
+
+        Returns
+        -------
+        DiscreteRealization
+            ``F11 (n_c, 2n)``, no internal state.
+
+        Raises
+        ------
+        MatrixPropertyError
+            Non-positive ``dt_s``.
         """
         return state_feedback_realization(self.gain, dt_s, time_unit_s=self.time_unit_s)
 
@@ -543,6 +558,23 @@ class LqgDesign:
 
         See :func:`controllers.realization.estimator_realization`; ``y_k`` is in
         length per second, ``u_k`` the actuator force.
+
+        Parameters
+        ----------
+        dt_s : float
+            Sampling period [s] (0.0005 at 2000 samples/s).
+        block_diagonal : bool
+            Use the block-diagonal coordinates of Eqs. (5.6)-(5.12).
+
+        Returns
+        -------
+        DiscreteRealization
+            ``F11 (n_c, n_s) = 0``, ``F12 (n_c, 2n)``, ``F21 (2n, n_s)``, ``F22 (2n, 2n)``.
+
+        Raises
+        ------
+        MatrixPropertyError
+            Non-positive ``dt_s``; defective ``A~`` with ``block_diagonal``.
         """
         return estimator_realization(
             self.controller_matrix, self.estimator.gain, self.regulator.gain, dt_s,
@@ -647,6 +679,28 @@ class ReducedOnFull:
         X0 = check_matrix("initial_states", initial_states, (nE - nR, None), ("2n", "n_f"))
         XE = np.vstack([X0, np.zeros((nR, X0.shape[1]))])
         return performance_index(self.closed_loop_matrix, self.closed_loop_weight, XE)
+
+    def realize(self, dt_s: float, *, block_diagonal: bool = False) -> DiscreteRealization:
+        """The reduced controller's engine coefficients (see :meth:`LqgDesign.realize`).
+
+        Parameters
+        ----------
+        dt_s : float
+            Sampling period [s].
+        block_diagonal : bool
+            Use the block-diagonal coordinates of Eqs. (5.6)-(5.12).
+
+        Returns
+        -------
+        DiscreteRealization
+            States of size ``2n_R``.
+
+        Raises
+        ------
+        MatrixPropertyError
+            Non-positive ``dt_s``; defective ``A~`` with ``block_diagonal``.
+        """
+        return self.controller.realize(dt_s, block_diagonal=block_diagonal)
 
 
 def reduced_on_full(A, B, C, Q, controller: LqgDesign) -> ReducedOnFull:

@@ -36,8 +36,9 @@ controller's internal state. Conventions of this module:
 
 Non-zero count: for ``n_s`` sensors, ``n_c`` actuators and ``2n_R`` states the
 plain form has ``n_c 2n_R + 2n_R n_s + (2n_R)^2`` entries (816 for the grid:
-5, 5, 24); the block form has ``n_c 2n_R + 2n_R n_s + 4 n_pairs (+1 per real
-eigenvalue)`` (288 for 12 complex pairs), as Sec. 5.3 reports.
+5, 5, 24); the block form has ``n_c 2n_R + 2n_R n_s + 4 n_pairs + n_real``
+(288 when all 12 eigenvalue pairs of ``A~`` are complex, as Sec. 5.3 reports;
+each pair that splits into two real eigenvalues saves two more).
 """
 
 from __future__ import annotations

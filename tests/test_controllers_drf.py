@@ -8,13 +8,15 @@ import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from controllers.drf import closed_loop_damping, lqdrf, mfdrf, performance_gradient
+from controllers.drf import lqdrf, mfdrf
 from controllers.errors import InfeasibleDampingError, ShapeError
 from controllers.lq import lqr
+from controllers.performance import closed_loop_damping, performance_gradient
 from controllers.statespace import modal_initial_states, state_space
 
 ZL = 0.05
 NM = 5
+DT_S = 0.0005  # [s], 2 kHz engine
 
 
 def chain(n=5, zeta=0.01, act=None):
@@ -240,3 +242,71 @@ def test_any_spd_gain_gives_a_stable_loop(entries, shift):
     D = L @ L.T + shift * np.eye(3)
     lam = scipy.linalg.eigvals(_SS.A - _SS.B @ D @ _SS.C)
     assert lam.real.max() < 0
+
+
+# --------------------------------------------------------------------------- a hand-built beam
+def cantilever(n_el=10, length_in=60.0, EI=1e4, rho_a=1e-4, zeta=0.005, act_nodes=(10, 7, 4)):
+    """Fixed-free Euler-Bernoulli beam (Hermite elements), inch/lbf/s; DOFs (w, theta) per node.
+
+    Returns m, c, k, U and the indices of the translational DOFs.
+    """
+    le = length_in / n_el
+    ke = EI / le**3 * np.array([[12, 6 * le, -12, 6 * le], [6 * le, 4 * le**2, -6 * le, 2 * le**2],
+                                [-12, -6 * le, 12, -6 * le], [6 * le, 2 * le**2, -6 * le, 4 * le**2]])
+    me = rho_a * le / 420 * np.array([[156, 22 * le, 54, -13 * le],
+                                      [22 * le, 4 * le**2, 13 * le, -3 * le**2],
+                                      [54, 13 * le, 156, -22 * le],
+                                      [-13 * le, -3 * le**2, -22 * le, 4 * le**2]])
+    N = 2 * (n_el + 1)
+    K = np.zeros((N, N))
+    M = np.zeros((N, N))
+    for e in range(n_el):
+        K[2 * e:2 * e + 4, 2 * e:2 * e + 4] += ke
+        M[2 * e:2 * e + 4, 2 * e:2 * e + 4] += me
+    K, M = K[2:, 2:], M[2:, 2:]
+    w2, phi = scipy.linalg.eigh(K, M)
+    C = M @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ M
+    U = np.zeros((N - 2, len(act_nodes)))
+    for j, a in enumerate(act_nodes):
+        U[2 * (a - 1), j] = 1.0
+    return M, C, K, U, np.arange(0, N - 2, 2)
+
+
+@pytest.fixture(scope="module")
+def beam_cs():
+    m, c, k, U, trans = cantilever()
+    return m, k, trans, state_space(m, c, k, U, time_unit_s=0.01)
+
+
+def test_beam_in_centiseconds_mfdrf_and_lqdrf(beam_cs):
+    """The thesis' BCC-like setting: three collocated pairs, zeta_L = 3 % on six modes, cs units."""
+    m, k, trans, ss = beam_cs
+    mf6 = mfdrf(ss.A, ss.B, ss.C, zeta_min=0.03, n_modes=6, n_starts=2, time_unit_s=0.01)
+    assert mf6.converged, mf6.message
+    assert_feasible(mf6, ss, zeta_min=0.03, n_modes=6)
+    # the gain in per-second units is what the engine applies to velocities in in/s
+    np.testing.assert_allclose(mf6.realize(DT_S).F11, -mf6.gain_per_s)
+    np.testing.assert_allclose(mf6.gain_per_s, 0.01 * mf6.gain)
+    X0 = modal_initial_states(m, k, 6, length_dofs=trans)
+    n2 = ss.A.shape[0]
+    lq6 = lqdrf(ss.A, ss.B, ss.C, np.eye(n2), 0.22 * np.eye(3), X0, zeta_min=0.03, n_modes=6,
+                n_starts=2, time_unit_s=0.01)
+    assert lq6.converged, lq6.message
+    assert_feasible(lq6, ss, zeta_min=0.03, n_modes=6)
+
+
+
+@pytest.mark.slow
+def test_beam_diagonal_lqr_normalised_over_twelve_modes():
+    """Sec. 6.2.1: diagonal LQDRF with J_i / J_i^LQR <= beta over 12 modes (Q = 0.01 I, R = 0.84 I)."""
+    m, c, k, U, trans = cantilever(n_el=12, act_nodes=(12, 8, 5), zeta=0.01)
+    ss = state_space(m, c, k, U, time_unit_s=0.01)
+    X0 = modal_initial_states(m, k, 12, length_dofs=trans)
+    n2 = ss.A.shape[0]
+    d = lqdrf(ss.A, ss.B, ss.C, 0.01 * np.eye(n2), 0.84 * np.eye(3), X0, zeta_min=0.03,
+              n_modes=5, diagonal=True, lqr_normalised=True, time_unit_s=0.01)
+    assert d.converged, d.message
+    assert_feasible(d, ss, zeta_min=0.03, n_modes=5)
+    assert d.performance_ratio.shape == (12,)
+    assert np.all(d.performance_ratio >= 1.0 - 1e-9)
+    assert d.beta == pytest.approx(d.performance_ratio.max())

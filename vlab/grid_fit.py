@@ -56,7 +56,7 @@ ALUMINIUM_LBF_IN3 = 0.098
 GRID_PARAMETERS: tuple[tuple[str, float, float, str, bool, str], ...] = (
     ("pitch", 6.0, 16.0, "in", False, "lattice pitch a (joint spacing, horizontal and vertical)"),
     ("half_span", 1.1, 2.5, "1", False, "top-beam half-span (13 to the centre) / 3a (3a: outer hangers 15, 20)"),
-    ("plate_width", 6.0, 30.0, "in", False, "plate width b (horizontal, normal to the top-beam axis)"),
+    ("plate_width", 6.0, 30.0, "in", False, "plate width b (along the top-beam axis)"),
     ("plate_height", 2.0 * PLATE_Y_IN, 30.0, "in", False, "plate height h (>= 2Y: the axis lies within the plate)"),
     ("top_ei", 1.0e5, 3.0e7, "lbf*in^2", True, "top-beam out-of-plane EI"),
     ("top_gj", 1.0e4, 1.0e7, "lbf*in^2", True, "top-beam GJ"),
@@ -71,8 +71,11 @@ def plate_properties(width_in: float, height_in: float) -> tuple[float, float, f
     """Weight and inertias of one rigid plate from its assumed geometry.
 
     A rectangular aluminium plate, ``11/16`` in thick (Sec. 2.2), of width
-    ``b`` and height ``h`` in the vertical plane normal to the top-beam axis,
-    with its centre of gravity ``Y = 9.05`` in below the axis (Fig. 5).
+    ``b`` (along the top-beam axis) and height ``h``, in a vertical plane
+    parallel to the grid, with its centre of gravity ``Y = 9.05`` in below the
+    axis (Fig. 5). Parallel to the grid because Sec. 5.3 measures the plates'
+    rotation with non-contacting probes facing "the bottom sides of the large
+    aluminum plates", i.e. an out-of-plane motion of the plate's face.
 
     Parameters
     ----------
@@ -84,23 +87,14 @@ def plate_properties(width_in: float, height_in: float) -> tuple[float, float, f
     weight_lbf : float
         ``W = rho t b h`` [lbf].
     inertia_rx : float
-        About the top-beam axis, ``W/g ((b^2 + h^2)/12 + Y^2)`` [lbf*s^2*in].
+        About the top-beam axis, ``W/g (h^2/12 + Y^2)`` [lbf*s^2*in].
     inertia_ry : float
-        About the vertical through the bearing, ``W/g b^2/12`` [lbf*s^2*in].
+        About the vertical through the bearing (plate centred on it),
+        ``W/g b^2/12`` [lbf*s^2*in].
     """
     w = ALUMINIUM_LBF_IN3 * PLATE_T_IN * width_in * height_in
     m = w / G_IN
-    return w, m * ((width_in**2 + height_in**2) / 12.0 + PLATE_Y_IN**2), m * width_in**2 / 12.0
-
-
-CALIBRATED = "calibrated: Table 3 analytical + Table 5 Guyan (python -m vlab.grid_fit)"
-
-#: Table 3 modes that are top-beam bending and torsion (Sec. 2.2.2), 1-based.
-TOP_BENDING_MODE = 7
-TOP_TORSION_MODE = 8
-
-#: Number of model modes searched for the top-beam modes.
-N_SEARCH = 16
+    return w, m * (height_in**2 / 12.0 + PLATE_Y_IN**2), m * width_in**2 / 12.0
 
 
 # ------------------------------------------------------------ parameters ---

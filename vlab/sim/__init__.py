@@ -1,20 +1,48 @@
 """MuJoCo plant of a structure, built with MjSpec from the same spec as the FE model.
 
 - :mod:`vlab.sim.builder`: :func:`build_plant` (hinge-chain members, strings as
-  tendons, crosspiece arms, voice coils and velocity sensors), timestep check;
+  tendons, crosspiece arms, pendulum plates, voice coils and velocity sensors),
+  timestep choice and check;
 - :mod:`vlab.sim.damping`: hinge damping and modal damping tendons;
 - :mod:`vlab.sim.linearize`: settle, ``mjd_transitionFD``, modes;
-- :mod:`vlab.sim.crosscheck`: FE cross-check (frequencies, MAC), free decay;
-- :mod:`vlab.sim.export`: complete plant as MJCF;
-- :mod:`vlab.sim.checks`: divergence and energy checks.
+- :mod:`vlab.sim.crosscheck`: FE cross-check (frequencies, MAC), free decay,
+  convergence study;
+- :mod:`vlab.sim.runtime`: :class:`MujocoPlant`, the steppable plant of the lab loop;
+- :mod:`vlab.sim.checks`: energy and divergence checks;
+- :mod:`vlab.sim.export`: the complete plant as MJCF.
 """
 
-from .builder import BuildInfo, Plant, SimOptions, build_mjspec, build_plant, check_timestep
-from .crosscheck import CrossCheck, FreeDecay, ModePair, crosscheck, free_decay, mac_matrix, pair_modes
+from .builder import (
+    BuildInfo,
+    Plant,
+    SimOptions,
+    auto_timestep,
+    build_mjspec,
+    build_plant,
+    check_timestep,
+    hinge_layout,
+    hinge_omega_max,
+)
+from .checks import FreeRun, free_run, total_energy
+from .crosscheck import (
+    CrossCheck,
+    FreeDecay,
+    ModePair,
+    crosscheck,
+    fe_reference,
+    free_decay,
+    mac_matrix,
+    pair_modes,
+)
+from .damping import DampingReport
+from .export import export_mjcf, load_mjcf
 from .linearize import LinearModel, SimModes, linearize, modes, settle
+from .runtime import MujocoPlant
 
 __all__ = [
-    "BuildInfo", "CrossCheck", "FreeDecay", "LinearModel", "ModePair", "Plant", "SimModes", "SimOptions",
-    "build_mjspec", "build_plant", "check_timestep", "crosscheck", "free_decay", "linearize",
-    "mac_matrix", "modes", "pair_modes", "settle",
+    "BuildInfo", "CrossCheck", "DampingReport", "FreeDecay", "FreeRun", "LinearModel", "ModePair",
+    "MujocoPlant", "Plant", "SimModes", "SimOptions", "auto_timestep", "build_mjspec", "build_plant",
+    "check_timestep", "crosscheck", "export_mjcf", "fe_reference", "free_decay", "free_run",
+    "hinge_layout", "hinge_omega_max", "linearize", "load_mjcf", "mac_matrix", "modes", "pair_modes",
+    "settle", "total_energy",
 ]

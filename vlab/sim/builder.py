@@ -116,9 +116,15 @@ from ..units import G_SI
 RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 #: Defaults of the build options (overridden by the spec's [mujoco] table, then by SimOptions).
-DEFAULT_SEGMENTS_PER_ELEMENT = 3
-DEFAULT_CROSSPIECE_SEGMENTS = 3
-DEFAULT_TIMESTEP_S = 2.5e-4
+DEFAULT_SEGMENTS_PER_ELEMENT = 2
+DEFAULT_CROSSPIECE_SEGMENTS = 2
+#: The lab's controller sample period (2 kHz, Sec. 5.3); automatic timesteps divide it.
+LAB_PERIOD_S = 5e-4
+#: Target omega_max * dt of the automatic timestep (margin below STABILITY_LIMIT).
+AUTO_LIMIT = 1.5
+
+#: Members whose shear parameter 12 EI / (kGA L^2) exceeds this get one link per segment by default.
+SHEAR_DOMINATED = 10.0
 
 #: Largest allowed omega_max * dt (semi-implicit Euler is stable for omega*dt < 2).
 STABILITY_LIMIT = 1.8
@@ -146,14 +152,24 @@ class SimOptions:
     ----------
     segments_per_element : int, optional
         Hinge-chain links per member segment (between consecutive points).
-        ``[mujoco] segments_per_element``; default 3.
+        ``[mujoco] segments_per_element``; default 2 -- except for shear-dominated
+        members (``12 EI / (kGA L^2) > SHEAR_DOMINATED``, the grid's sandwich top
+        beam), which get 1 unless set explicitly.
+    member_segments : dict of str to int, optional
+        Links per segment for individual members (member id -> n), over
+        ``[mujoco] segments = { <member id> = n }`` and ``segments_per_element``.
     crosspiece_segments : int, optional
         Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default 3.
     timestep_s : float, optional
-        Integration step [s]. ``[mujoco] timestep``; default 2.5e-4 (the lab's
-        2 kHz sample period divided by 2).
+        Integration step [s]. ``[mujoco] timestep``; default automatic: the
+        largest ``LAB_PERIOD_S / k`` (k = 1, 2, ...) with ``omega_max * dt <=
+        AUTO_LIMIT``, so that the lab's 2 kHz sample is a whole number of steps.
     integrator : str
-        ``"implicitfast"`` (default), ``"implicit"``, ``"euler"`` or ``"rk4"``.
+        ``"euler"`` (default: semi-implicit Euler with implicit joint damping, the
+        fastest here; the modal tendons are built to be stable when explicit),
+        ``"implicitfast"``, ``"implicit"`` or ``"rk4"``.
+    hinge_layout : str
+        ``"gauss"`` (default) or ``"uniform"``; see :func:`hinge_layout`.
     stiffness_damping_s : float, optional
         ``beta`` [s] of the hinge damping ``beta * k``. ``[mujoco]
         stiffness_damping``; default: chosen so that it gives at most 20 % of
@@ -174,9 +190,11 @@ class SimOptions:
     """
 
     segments_per_element: int | None = None
+    member_segments: dict[str, int] | None = None
     crosspiece_segments: int | None = None
     timestep_s: float | None = None
-    integrator: str = "implicitfast"
+    integrator: str = "euler"
+    hinge_layout: str = "gauss"
     stiffness_damping_s: float | None = None
     modal_damping: bool = True
     n_damped_modes: int | None = None
@@ -207,7 +225,7 @@ class SimOptions:
             self,
             segments_per_element=pick("segments_per_element", "segments_per_element", DEFAULT_SEGMENTS_PER_ELEMENT, int),
             crosspiece_segments=pick("crosspiece_segments", "crosspiece_segments", DEFAULT_CROSSPIECE_SEGMENTS, int),
-            timestep_s=pick("timestep_s", "timestep", DEFAULT_TIMESTEP_S, float),
+            timestep_s=pick("timestep_s", "timestep", None, float),
             stiffness_damping_s=pick("stiffness_damping_s", "stiffness_damping", None, float),
         )
         if out.segments_per_element < 1 or out.crosspiece_segments < 1:
@@ -215,7 +233,7 @@ class SimOptions:
                 f"segments_per_element and crosspiece_segments must be >= 1, got "
                 f"{out.segments_per_element} and {out.crosspiece_segments}"
             )
-        if not (math.isfinite(out.timestep_s) and out.timestep_s > 0):
+        if out.timestep_s is not None and not (math.isfinite(out.timestep_s) and out.timestep_s > 0):
             raise SimulationError(f"timestep_s must be a positive time [s], got {out.timestep_s!r}")
         if out.integrator not in _INTEGRATORS:
             raise SimulationError(f"unknown integrator {out.integrator!r}; use one of {sorted(_INTEGRATORS)}")
@@ -276,8 +294,7 @@ class _Plan:
     strings: list[tuple[str, str, str, float, float, str]]  # name, world site, body site, k, tension, info
     welds: list[tuple[str, str, str, str]]  # name, site1, site2, info
     connects: list[tuple[str, str, str, str]]  # name, site1, site2 (world), info
-    prestress: list[tuple[str, str, str, np.ndarray, str]]  # name, site, refsite, gear(6) * force, info
-    fixed_springs: list[tuple[str, dict[str, float], float, str]]  # name, joint coefs, k, info
+    prestress: list[tuple[str, str, str, np.ndarray, str]]  # name, site, refsite, wrench (6), info
     n_loops: int
 
 
@@ -331,7 +348,7 @@ def _inserts(member) -> dict[int, float]:
 
 def _choose_root(spec: StructureSpec) -> int:
     for s in spec.supports:
-        if s.inplane:
+        if _held_inplane(s):
             return s.point
     for s in spec.strings:
         if s.tension is None:
@@ -340,6 +357,52 @@ def _choose_root(spec: StructureSpec) -> int:
         f"{spec._file()}: nothing holds the structure in its plane (no support with inplane = true "
         "and no string with tension = \"reaction\"): the MuJoCo tree has no root"
     )
+
+
+def hinge_layout(n: int, layout: str = "gauss") -> tuple[np.ndarray, np.ndarray]:
+    """Positions and compliance shares of the ``n`` hinges of one flexible length.
+
+    Parameters
+    ----------
+    n : int
+        Hinges (links) per flexible length, >= 1.
+    layout : {"gauss", "uniform"}
+        ``"gauss"``: hinges at the n-point Gauss-Legendre abscissae, each with the
+        compliance share of its Gauss weight -- the chain's end flexibility is then
+        exact for moments (and shears) varying as polynomials of degree up to
+        ``2n - 2`` (end loads, uniform loads for n >= 2). ``"uniform"``: hinges at
+        the link midpoints ``(k + 1/2)/n`` with equal shares (end-load flexibility
+        off by ``-1/(4 n^2)`` for a cantilever, ``-1/n^2`` in double curvature).
+
+    Returns
+    -------
+    positions : ndarray, shape (n,)
+        Hinge positions as fractions of the flexible length, increasing.
+    shares : ndarray, shape (n,)
+        Compliance shares ``c_k`` (sum 1): hinge stiffness ``EI / (c_k L)``,
+        ``GJ / (c_k L)``, ``kGA / (c_k L)``.
+
+    Raises
+    ------
+    SimulationError
+        For ``n < 1`` or an unknown layout.
+
+    Source: Gauss-Legendre quadrature of the complementary energy
+    ``int M^2 / (2 EI) ds`` (Abramowitz & Stegun 25.4.29).
+    """
+    if n < 1:
+        raise SimulationError(f"hinges per flexible length must be >= 1, got {n}")
+    if layout == "gauss":
+        x, w = np.polynomial.legendre.leggauss(n)
+        return 0.5 * (1.0 + x), 0.5 * w
+    if layout == "uniform":
+        return (np.arange(n) + 0.5) / n, np.full(n, 1.0 / n)
+    raise SimulationError(f"unknown hinge layout {layout!r}; use 'gauss' or 'uniform'")
+
+
+def _held_inplane(support) -> bool:
+    """True for a support pinned or clamped in the plane (``inplane`` "pinned"/"clamped"/true)."""
+    return support.inplane in ("pinned", "clamped", True)
 
 
 def _representable(axis: np.ndarray, active: tuple[str, ...], tol: float = 1e-9) -> bool:
@@ -362,7 +425,9 @@ class _Planner:
         self.welds: list = []
         self.connects: list = []
         self.prestress: list = []
-        self.fixed_springs: list = []
+        self.pending_sites: list = []  # sites on junctions, added once all junctions exist
+        self.pending_springs: list = []  # grounded springs realised as fixed tendons after compiling
+        self.cuts: list = []  # (edge, point, stub body) of every loop closure
         self.n_loops = 0
         self.active = spec.active_dofs
 
@@ -400,9 +465,7 @@ class _Planner:
         for e in edges:
             incident[e.a].append(e)
             incident[e.b].append(e)
-        # pieces of each edge end owned by the junction (tree) or by a stub (cut)
-        self.cut_ends: set[tuple[int, int]] = set()  # (edge index, point) whose end piece is a stub
-        # BFS
+        # breadth-first spanning tree; an edge reaching a visited point closes a loop
         order: list[tuple[_Edge, int, int, bool]] = []  # edge, from, to, is_tree
         visited = {root}
         queue = deque([root])
@@ -418,8 +481,6 @@ class _Planner:
                 if tree:
                     visited.add(q)
                     queue.append(q)
-                else:
-                    self.cut_ends.add((id(e), q))
                 order.append((e, p, q, tree))
         used = {p for e in edges for p in (e.a, e.b)} | {root}
         unreached = sorted(used - visited)
@@ -434,8 +495,6 @@ class _Planner:
         for p in sorted(needed - visited):
             raise SimulationError(f"{spec._file()}: point {p} carries a mass, string, spring or sensor "
                                   "but no member reaches it")
-        self.visited = visited
-
         # root junction
         self._junction(root, parent=None, joints=self._root_joints(root))
         for e, p, q, tree in order:
@@ -448,13 +507,15 @@ class _Planner:
         self._springs()
         self._instrumentation()
         if self.opts.inplane_redundants:
-            self._redundants(order)
+            self._redundants()
         # every point gets its p<ID> site
         for p in sorted(visited):
             b = self.bodies[self.junction[p]]
             b.sites.append((f"p{p}", _p3(spec.points[p]), f"spec: point {p}"))
+        for q, name, pos, info in self.pending_sites:
+            self.bodies[self.junction[q]].sites.append((name, pos, info))
         return _Plan(self.bodies, self.junction, self.world_sites, self.strings, self.welds,
-                     self.connects, self.prestress, self.fixed_springs, self.n_loops)
+                     self.connects, self.prestress, self.n_loops)
 
     def _root_joints(self, root: int) -> list[_Joint]:
         fixed = {d for s in self.spec.supports if s.point == root for d in s.fixed}
@@ -488,8 +549,8 @@ class _Planner:
         if lf <= 0.0:
             raise SimulationError(f"{spec._file()}: member {m.id!r}: rigid inserts leave no flexible length "
                                   f"between points {p} and {q}")
-        n = self.opts.segments_per_element
-        link = lf / n
+        n = self._segments(m.id)
+        frac, comp = hinge_layout(n, self.opts.hinge_layout)
         bend_axis = np.array([ev[1], -ev[0], 0.0])
         if not _representable(bend_axis, self.active):
             raise SimulationError(
@@ -497,10 +558,11 @@ class _Planner:
                 f"which needs a rotation DOF the spec does not activate (dofs = {list(self.active)})"
             )
         twist = _representable(ev, self.active) and sec.gj is not None
-        tag = f"{m.id}.{min(p, q)}-{max(p, q)}" if len(m.points) > 2 or True else m.id
-        k_bend = sec.ei.si / link
-        k_twist = sec.gj.si / link
-        hinges = [pp + (ap + link / 2 + k * link) * ev for k in range(n)]
+        tag = f"{m.id}.{min(p, q)}-{max(p, q)}"
+        k_bend = [sec.ei.si / (c * lf) for c in comp]
+        k_twist = [sec.gj.si / (c * lf) for c in comp]
+        k_shear = [sec.shear_stiffness.si / (c * lf) for c in comp] if sec.shear_stiffness is not None else None
+        hinges = [pp + (ap + f * lf) * ev for f in frac]
         # the junction p owns its end piece
         jp = self.bodies[self.junction[p]]
         end_p = hinges[0]
@@ -509,11 +571,15 @@ class _Planner:
         parent = jp.name
         for k in range(n):
             h = hinges[k]
-            joints = [_Joint(f"{tag}.h{k + 1}.bend", "hinge", bend_axis, h, k_bend, True,
-                             f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: bending EI/l = {k_bend:.6g} N*m/rad")]
+            joints = []
+            if k_shear is not None:
+                joints.append(_Joint(f"{tag}.h{k + 1}.shear", "slide", _Z, h, k_shear[k], True,
+                                     f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: shear kGA/(c L) = {k_shear[k]:.6g} N/m"))
+            joints.append(_Joint(f"{tag}.h{k + 1}.bend", "hinge", bend_axis, h, k_bend[k], True,
+                                 f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: bending EI/(c L) = {k_bend[k]:.6g} N*m/rad"))
             if twist:
-                joints.append(_Joint(f"{tag}.h{k + 1}.twist", "hinge", ev.copy(), h, k_twist, True,
-                                     f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: torsion GJ/l = {k_twist:.6g} N*m/rad"))
+                joints.append(_Joint(f"{tag}.h{k + 1}.twist", "hinge", ev.copy(), h, k_twist[k], True,
+                                     f"spec: member {m.id} segment {p}-{q} hinge {k + 1}/{n}: torsion GJ/(c L) = {k_twist[k]:.6g} N*m/rad"))
             if k < n - 1:
                 b = self._add(_Body(f"{tag}.link{k + 1}", h, parent,
                                     f"spec: member {m.id} segment {p}-{q} link {k + 1}/{n - 1}", joints))
@@ -533,12 +599,32 @@ class _Planner:
                 if not tree:
                     s1, s2 = f"{tag}.stub{q}.weld", f"J{q}.weld.{tag}"
                     b.sites.append((s1, pq, f"loop closure of member {m.id} at point {q}"))
-                    self._pending_sites.append((q, s2, pq, f"loop closure of member {m.id} at point {q}"))
+                    self.pending_sites.append((q, s2, pq, f"loop closure of member {m.id} at point {q}"))
                     self.welds.append((f"weld.{tag}.{q}", s1, s2, f"spec: member {m.id} segment {p}-{q} closes a loop at point {q}"))
-                    self._cuts.append((e, q, b.name, s1))
+                    self.cuts.append((e, q, b.name))
 
-    _pending_sites: list
-    _cuts: list
+    def _segments(self, member_id: str) -> int:
+        per = self.spec.mujoco.get("segments", {})
+        if not isinstance(per, dict):
+            raise SimulationError(f"{self.spec._file()}: [mujoco] segments must be a table {{ <member id> = <int> }}")
+        if self.opts.member_segments and member_id in self.opts.member_segments:
+            n = self.opts.member_segments[member_id]
+        elif member_id in per:
+            n = per[member_id]
+        else:
+            n = self.opts.segments_per_element
+            member = next(m for m in self.spec.members if m.id == member_id)
+            sec = self.spec.sections[member.section]
+            if sec.shear_stiffness is not None:
+                pts = [np.array(self.spec.points[p]) for p in member.points]
+                longest = max(float(np.linalg.norm(b - a)) for a, b in zip(pts[:-1], pts[1:]))
+                phi = 12.0 * sec.ei.si / (sec.shear_stiffness.si * longest**2)
+                if phi > SHEAR_DOMINATED:
+                    n = 1  # shear carries the flexibility: one link with its shear slide suffices
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise SimulationError(f"{self.spec._file()}: segments for member {member_id!r} must be an integer >= 1, "
+                                  f"got {n!r}")
+        return n
 
     def _crosspiece(self, c) -> None:
         spec = self.spec
@@ -561,21 +647,21 @@ class _Planner:
         offset = float(spec.mujoco.get("crosspiece_root_offset", off_default))
         n = self.opts.crosspiece_segments
         L = c.arm_length.si
-        link = L / n
-        k_bend = sec.ei.si / link
+        frac, comp = hinge_layout(n, self.opts.hinge_layout)
+        k_bend = [sec.ei.si / (cf * L) for cf in comp]
         jb.items.append(_point_mass(pj, c.clamp_mass.si))
         for sign, label in ((1.0, "a"), (-1.0, "b")):
             d = sign * perp
             axis = np.array([d[1], -d[0], 0.0])
             root = pj + offset * d
-            hinges = [root + (link / 2 + k * link) * d for k in range(n)]
+            hinges = [root + f * L * d for f in frac]
             jb.items.append(_rod(root, hinges[0], sec.rho_a, sec.rho_ip, sec.width.si, sec.thickness.si))
             self._bar_visual(jb, pj, hinges[0], sec, (0.75, 0.75, 0.8, 1.0))
             parent = jb.name
             for k in range(n):
                 h = hinges[k]
-                joint = _Joint(f"{c.id}.arm{label}.h{k + 1}.bend", "hinge", axis, h, k_bend, True,
-                               f"spec: crosspiece {c.id} arm {label} hinge {k + 1}/{n}: bending EI/l = {k_bend:.6g} N*m/rad")
+                joint = _Joint(f"{c.id}.arm{label}.h{k + 1}.bend", "hinge", axis, h, k_bend[k], True,
+                               f"spec: crosspiece {c.id} arm {label} hinge {k + 1}/{n}: bending EI/(c L) = {k_bend[k]:.6g} N*m/rad")
                 end = hinges[k + 1] if k < n - 1 else root + L * d
                 b = self._add(_Body(f"{c.id}.arm{label}.link{k + 1}", h, parent,
                                     f"spec: crosspiece {c.id} arm {label} link {k + 1}/{n}", [joint]))
@@ -590,7 +676,7 @@ class _Planner:
     def _masses(self) -> None:
         for lm in self.spec.masses:
             b = self.bodies[self.junction[lm.point]]
-            if lm.id in self._plate_masses:
+            if lm.id in set(self._plates().values()):
                 continue  # realised as a pendulum plate in _springs
             p = _p3(self.spec.points[lm.point])
             b.items.append(_point_mass(p, lm.mass.si, lm.inertia_rx.si if lm.inertia_rx else 0.0,
@@ -636,16 +722,43 @@ class _Planner:
             (self.connects if kind == "connect" else self.welds).append(
                 (f"support{s.point}", s1, s2, f"spec: support at point {s.point} fixes {sorted(fixed)}"))
 
-    @property
-    def _plate_masses(self) -> set[str]:
-        return set(self._plates().values())
-
     def _plates(self) -> dict[str, str]:
-        plates = self.spec.mujoco.get("pendulum_plates", {})
-        if not isinstance(plates, dict):
-            raise SimulationError(f"{self.spec._file()}: [mujoco] pendulum_plates must be a table "
-                                  "{ <spring id> = \"<mass id>\" }")
-        return plates
+        """Spring id -> mass id of the pendulum plates.
+
+        ``[mujoco] pendulum_plates`` may give the table explicitly, or ``false`` to
+        disable plates. By default a grounded rotational spring about an axis
+        perpendicular to gravity becomes a pendulum plate when exactly one lumped
+        mass at its point has a rotary inertia about that axis of at least
+        ``m Y^2`` with ``Y = k / (m g)`` (the plate's own inertia cannot be
+        negative), as for the grid's plates (Sec. 2.2.1: ``W Y`` springs).
+        """
+        if hasattr(self, "_plates_cache"):
+            return self._plates_cache
+        spec = self.spec
+        plates = spec.mujoco.get("pendulum_plates", None)
+        if plates is False:
+            plates = {}
+        elif plates is None:
+            plates = {}
+            g = np.array([*spec.gravity_direction, 0.0])
+            for sp in spec.springs:
+                if sp.dof not in ("rx", "ry") or abs(np.dot(_AXIS[sp.dof], g)) > 1e-9:
+                    continue
+                cands = []
+                for lm in spec.masses:
+                    if lm.point != sp.point:
+                        continue
+                    irot = lm.inertia_rx if sp.dof == "rx" else lm.inertia_ry
+                    ecc = sp.stiffness.si / (lm.mass.si * G_SI)
+                    if irot is not None and irot.si >= lm.mass.si * ecc**2 * (1 - 1e-9):
+                        cands.append(lm.id)
+                if len(cands) == 1:
+                    plates[sp.id] = cands[0]
+        elif not isinstance(plates, dict):
+            raise SimulationError(f"{spec._file()}: [mujoco] pendulum_plates must be a table "
+                                  "{ <spring id> = \"<mass id>\" } or false")
+        self._plates_cache = dict(plates)
+        return self._plates_cache
 
     def _springs(self) -> None:
         spec = self.spec
@@ -678,13 +791,11 @@ class _Planner:
                         f"is less than m*Y^2 = {lm.mass.si * ecc**2:.4g} with Y = k/W = {ecc:.4g} m"
                     )
                 c = p + ecc * g
-                other = "ry" if sp.dof == "rx" else "rx"
-                iother = (lm.inertia_ry if sp.dof == "rx" else lm.inertia_rx)
-                it = _Item(lm.mass.si, c, np.diag([max(i_own, 0.0) if sp.dof == "rx" else (iother.si if iother else 0.0),
-                                                   max(i_own, 0.0) if sp.dof == "ry" else (iother.si if iother else 0.0),
-                                                   max(i_own, 0.0)]))
-                del other
-                b.items.append(it)
+                iother = lm.inertia_ry if sp.dof == "rx" else lm.inertia_rx
+                own = max(i_own, 0.0)
+                other = iother.si if iother is not None else 0.0
+                diag = [own, other, own] if sp.dof == "rx" else [other, own, own]
+                b.items.append(_Item(lm.mass.si, c, np.diag(diag)))
                 b.visuals.append(_Visual("box", c, (0.05, 0.05, 0.009), rgba=(0.7, 0.7, 0.3, 1.0)))
                 b.sites.append((f"{sp.id}.plate", c, f"spec: spring {sp.id} as pendulum plate {mid}: "
                                 f"W = {lm.mass.si * G_SI:.5g} N at Y = {ecc:.5g} m"))
@@ -700,9 +811,7 @@ class _Planner:
                     raise SimulationError(f"{spec._file()}: spring {sp.id!r} acts on DOF {sp.dof!r} of point "
                                           f"{sp.point}, which is fixed or inactive")
                 continue
-            self._pending_springs.append(sp)
-
-    _pending_springs: list
+            self.pending_springs.append(sp)
 
     def _instrumentation(self) -> None:
         ins = self.spec.instrumentation
@@ -714,7 +823,7 @@ class _Planner:
             b.sites.append((f"coil{p}", pos, f"spec: voice-coil actuator at point {p}"))
             self.world_sites.append((f"coil{p}_ref", pos, f"spec: voice-coil magnet (ground) at point {p}"))
 
-    def _redundants(self, order) -> None:
+    def _redundants(self) -> None:
         """Constant in-plane loads that reproduce the FE statics' redundant forces."""
         spec, gs, mesh = self.spec, self.gs, self.mesh
         el_index = {}
@@ -741,27 +850,31 @@ class _Planner:
             raise SimulationError(f"internal: no FE element of member {member.id} at point {at}")
 
         scale = max(1.0, sum(it.mass for b in self.bodies.values() for it in b.items) * G_SI)
-        for e, q, stub, _site in self._cuts:
+        for e, q, stub in self.cuts:
             force, mz = end_force(e.member, e.seg, e.a, e.b, q)
             pos = _p3(spec.points[q])
             tag = f"{e.member.id}.{min(e.a, e.b)}-{max(e.a, e.b)}"
-            for body, sgn, who in ((stub, 1.0, "member end"), (self.junction[q], -1.0, "junction")):
-                self._dead_load(f"prestress.{tag}.{q}.{'end' if sgn > 0 else 'node'}", body, pos,
-                                sgn * force, sgn * mz, scale,
-                                f"FE statics: in-plane force at the loop cut of member {e.member.id} at point {q} ({who})")
+            self._dead_load(f"prestress.{tag}.{q}", stub, pos, force, mz, scale,
+                            f"FE statics: in-plane force and moment of point {q} on member {e.member.id} "
+                            f"at its loop cut (reaction on J{q})", ref_body=self.junction[q])
         for s in spec.supports:
-            if s.inplane and s.point != self.root:
-                r = self._reaction(s.point, end_force)
+            if _held_inplane(s) and s.point != self.root:
+                r, mr = self._reaction(s.point, end_force)
+                if s.inplane != "clamped":
+                    mr = 0.0
                 self._dead_load(f"prestress.support{s.point}", self.junction[s.point], _p3(spec.points[s.point]),
-                                r, 0.0, scale, f"FE statics: in-plane reaction of the support at point {s.point}")
+                                r, mr, scale, f"FE statics: in-plane reaction of the support at point {s.point}")
 
     def _reaction(self, point: int, end_force) -> np.ndarray:
         spec = self.spec
         total = np.zeros(3)
+        moment = 0.0
         for m in spec.members:
             for i, (a, b) in enumerate(zip(m.points[:-1], m.points[1:])):
                 if point in (a, b):
-                    total += end_force(m, i, a, b, point)[0]
+                    f, mz = end_force(m, i, a, b, point)
+                    total += f
+                    moment += mz
         g = G_SI * np.array([*spec.gravity_direction, 0.0])
         ext = np.zeros(3)
         for lm in spec.masses:
@@ -774,22 +887,45 @@ class _Planner:
         for s in spec.strings:
             if s.point == point and s.tension is not None:
                 ext += s.tension.si * np.array([*s.direction, 0.0])
-        return total - ext
+        return total - ext, moment
 
-    def _dead_load(self, name, body, pos, force, moment, scale, info) -> None:
+    def _dead_load(self, name, body, pos, force, moment, scale, info, ref_body: str | None = None) -> None:
+        """A constant force [N] and moment about z [N m] on ``body`` at ``pos``.
+
+        With ``ref_body`` the load is a pair: the equal and opposite load acts on
+        ``ref_body`` (the actuator's refsite is on it), else the reaction goes to
+        the world (a world-fixed refsite: a dead load).
+        """
         tol = 1e-9 * scale
+        wrench = np.array([force[0], force[1], 0.0, 0.0, 0.0, moment])
+        if np.linalg.norm(wrench) <= tol:
+            return
         b = self.bodies[body]
-        if np.linalg.norm(force) > tol:
-            site, ref = f"{name}.F", f"{name}.F_ref"
-            b.sites.append((site, pos, info))
+        site, ref = name, f"{name}_ref"
+        b.sites.append((site, pos, info))
+        if ref_body is None:
             self.world_sites.append((ref, pos, info + " (ground frame)"))
-            self.prestress.append((f"{name}.F", site, ref, np.array([*force, 0.0, 0.0, 0.0]), info + ": force"))
-        if abs(moment) > tol:
-            site, ref = f"{name}.M", f"{name}.M_ref"
-            b.sites.append((site, pos, info))
-            self.world_sites.append((ref, pos, info + " (ground frame)"))
-            self.prestress.append((f"{name}.M", site, ref, np.array([0.0, 0.0, 0.0, 0.0, 0.0, moment]),
-                                   info + ": moment"))
+        else:
+            self.pending_sites.append((int(ref_body[1:]), ref, pos, info + " (reaction side)"))
+        self.prestress.append((name, site, ref, wrench,
+                               info + f": F = ({force[0]:.6g}, {force[1]:.6g}) N, M = {moment:.6g} N*m"))
+
+
+def _validate(spec: StructureSpec) -> None:
+    """Refuse what the plant cannot represent, before any statics is solved."""
+    _choose_root(spec)
+    for m in spec.members:
+        for pa, pb in zip(m.points[:-1], m.points[1:]):
+            (xa, ya), (xb, yb) = spec.points[pa], spec.points[pb]
+            length = math.hypot(xb - xa, yb - ya)
+            if length == 0.0:
+                raise SimulationError(f"{spec._file()}: member {m.id!r}: points {pa} and {pb} coincide")
+            axis = np.array([(yb - ya) / length, -(xb - xa) / length, 0.0])
+            if not _representable(axis, spec.active_dofs):
+                raise SimulationError(
+                    f"{spec._file()}: member {m.id!r} ({pa}-{pb}) bends about {axis[:2].round(3).tolist()}, "
+                    f"which needs a rotation DOF the spec does not activate (dofs = {list(spec.active_dofs)})"
+                )
 
 
 def plan_structure(spec: StructureSpec, opts: SimOptions) -> tuple[_Plan, Any]:
@@ -797,19 +933,14 @@ def plan_structure(spec: StructureSpec, opts: SimOptions) -> tuple[_Plan, Any]:
     from ..fe.mesh import build_mesh
     from ..fe.statics import solve_gravity
 
+    _validate(spec)
     try:
         mesh = build_mesh(spec)
         gs = solve_gravity(spec, mesh)
     except ModelError as exc:
         raise SimulationError(f"{spec._file()}: the in-plane gravity statics failed: {exc}") from exc
     pl = _Planner(spec, opts, gs, mesh)
-    pl._pending_sites = []
-    pl._cuts = []
-    pl._pending_springs = []
     plan = pl.plan()
-    for q, name, pos, info in pl._pending_sites:
-        plan.bodies[plan.junction[q]].sites.append((name, pos, info))
-    pl.pending_springs = pl._pending_springs
     return plan, pl
 
 
@@ -858,7 +989,7 @@ def _quat_z(angle: float) -> list[float]:
     return [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
 
 
-def _emit(spec: StructureSpec, plan: _Plan, planner: _Planner, opts: SimOptions, beta: float) -> mujoco.MjSpec:
+def _emit(spec: StructureSpec, plan: _Plan, opts: SimOptions, beta: float) -> mujoco.MjSpec:
     ms = mujoco.MjSpec()
     ms.modelname = f"vlab_{spec.name}"
     ms.compiler.degree = False  # radians everywhere (compiler angle="radian")
@@ -948,8 +1079,7 @@ def _emit(spec: StructureSpec, plan: _Plan, planner: _Planner, opts: SimOptions,
         a.gainprm[0] = 0.0
         a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
         a.biasprm[0] = mag
-        a.ctrllimited = True
-        a.ctrlrange = [0.0, 0.0]
+        a.ctrllimited = False
         a.group = 5
         a.info = info + f" (constant {mag:.6g})"
     if ins is not None:
@@ -1007,13 +1137,34 @@ def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
     mujoco.mj_fullM(model, data, m)
     k = np.zeros(model.nv)
     for j in range(model.njnt):
-        k[model.jnt_dofadr[j]] = model.jnt_stiffness[j, 0] if model.jnt_stiffness.ndim == 2 else model.jnt_stiffness[j]
+        k[model.jnt_dofadr[j]] = model.jnt_stiffness[j]
     if not np.any(k > 0):
         return 0.0, ""
     lam, vec = scipy.linalg.eigh(np.diag(k), m, subset_by_index=(model.nv - 1, model.nv - 1))
     share = k * vec[:, 0] ** 2
     dof = int(np.argmax(share))
     return float(math.sqrt(max(lam[0], 0.0))), model.joint(int(model.dof_jntid[dof])).name
+
+
+def auto_timestep(omega_max: float, *, period_s: float = LAB_PERIOD_S, limit: float = AUTO_LIMIT) -> float:
+    """Largest ``period_s / k`` (k = 1, 2, ...) with ``omega_max * dt <= limit``.
+
+    Parameters
+    ----------
+    omega_max : float
+        Highest natural frequency of the hinge springs [rad/s] (:func:`hinge_omega_max`).
+    period_s : float
+        Sample period the step must divide [s] (the lab's 2 kHz).
+    limit : float
+        Target ``omega_max * dt``.
+
+    Returns
+    -------
+    float
+        Timestep [s].
+    """
+    k = max(1, math.ceil(omega_max * period_s / limit))
+    return period_s / k
 
 
 def check_timestep(model: mujoco.MjModel, *, limit: float = STABILITY_LIMIT) -> float:
@@ -1139,8 +1290,10 @@ def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
         For a spec the plant cannot represent (see :func:`build_plant`).
     """
     opts = (options or SimOptions()).resolved(spec)
+    if opts.timestep_s is None:
+        opts = dataclasses.replace(opts, timestep_s=LAB_PERIOD_S)
     plan, planner = plan_structure(spec, opts)
-    ms = _emit(spec, plan, planner, opts, beta)
+    ms = _emit(spec, plan, opts, beta)
     if planner.pending_springs:
         # grounded springs away from the root: fixed tendons with first-order coefficients
         model = _compile(ms, spec)
@@ -1199,9 +1352,13 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     and linearise it (:mod:`vlab.sim.linearize`) and choose the modal tendons
     (:mod:`vlab.sim.damping`), then with hinge damping and modal tendons.
     """
-    from .damping import add_modal_tendons, modal_damping_plan
+    from .damping import add_modal_tendons, modal_damping_plan, tune_modal_damping
 
     opts = (options or SimOptions()).resolved(spec)
+    if opts.timestep_s is None:
+        probe, _ = build_mjspec(spec, dataclasses.replace(opts, timestep_s=LAB_PERIOD_S), beta=0.0)
+        omega, _ = hinge_omega_max(_compile(probe, spec))
+        opts = dataclasses.replace(opts, timestep_s=auto_timestep(omega))
     ms0, extra = build_mjspec(spec, opts, beta=0.0)
     model0 = _compile(ms0, spec)
     omega, _ = hinge_omega_max(model0)
@@ -1221,8 +1378,12 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     else:
         ms = ms0
     if tendons:
-        add_modal_tendons(ms, model0, tendons)
+        mjs_tendons = add_modal_tendons(ms, tendons)
     model = _compile(ms, spec)
+    if tendons:
+        report = tune_modal_damping(model, sorted(spec.points), report)
+        for t, c in zip(mjs_tendons, report.tendon_damping):
+            t.damping = [float(c), 0.0, 0.0]
     ins = spec.instrumentation
     acts = tuple(ins.actuators) if ins else ()
     sens = tuple(dict.fromkeys(list(acts) + (list(ins.sensors) if ins else [])))

@@ -162,7 +162,7 @@ class CrossCheck:
 
 
 def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: SimOptions | None = None,
-               points: list[int] | None = None) -> CrossCheck:
+               points: list[int] | None = None, crosspiece: str = "exact") -> CrossCheck:
     """Compare the first ``n_modes`` FE modes with the plant's modes.
 
     Parameters
@@ -175,6 +175,11 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
         Build options when a spec is given.
     points : list of int, optional
         Points for the MAC; default all points whose ``w`` is free in the FE model.
+    crosspiece : {"exact", "rayleigh"}
+        FE reference crosspiece (see :func:`fe_reference`): ``"exact"`` (default)
+        compares like with like -- flexible arms against the single-DOF model with
+        the arms' true participating mass; ``"rayleigh"`` against the project's FE
+        model of Sec. 2.1.1 as it stands.
 
     Returns
     -------
@@ -187,11 +192,11 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
     ModelError
         If the FE model cannot be built.
     """
-    from ..fe import build_fe_model, modal_analysis
+    from ..fe import modal_analysis
 
     plant = spec_or_plant if isinstance(spec_or_plant, Plant) else build_plant(spec_or_plant, options)
     spec = plant.spec
-    fe = build_fe_model(spec)
+    fe = fe_reference(spec, crosspiece)
     if points is None:
         points = [p for p in sorted(spec.points) if (p, "w") in fe.dofs]
     fem = modal_analysis(fe.m, fe.k, n_modes)
@@ -307,3 +312,210 @@ def free_decay(plant: Plant, mode: int = 1, *, amplitude_m: float = 1e-3, durati
     else:
         zeta = math.nan
     return FreeDecay(freq, zeta, point, t, w)
+
+
+def cantilever_tip_mass_sdof(ei: float, length: float, arm_mass: float, tip_mass: float
+                             ) -> tuple[float, float, float]:
+    """Single-DOF model of a cantilever with a tip mass that is exact for base excitation.
+
+    The first clamped mode (frequency ``omega_1`` from
+    ``1 + cos b cosh b + (M/m) b (cos b sinh b - sin b cosh b) = 0``) with its
+    effective modal mass for base motion ``m_1 = (int rho phi + M phi_L)^2 /
+    (int rho phi^2 + M phi_L^2)``: spring ``k = omega_1^2 m_1`` carrying ``m_1``,
+    the rest of the mass rigid with the base.
+
+    Parameters
+    ----------
+    ei : float
+        Flexural rigidity [N m^2].
+    length : float
+        Arm length [m].
+    arm_mass : float
+        Arm mass [kg].
+    tip_mass : float
+        Tip mass [kg].
+
+    Returns
+    -------
+    k : float
+        Spring [N/m].
+    m_eff : float
+        Mass on the spring [kg].
+    m_rest : float
+        Mass rigid with the base [kg].
+
+    Source: Blevins, *Formulas for Natural Frequency and Mode Shape* (1979),
+    Table 8-1 (cantilever with tip mass); effective modal mass, e.g. Chopra,
+    *Dynamics of Structures*, Sec. 13.1.
+    """
+    m, M = arm_mass, tip_mass
+    ratio = M / m
+
+    def f(b):
+        return 1 + math.cos(b) * math.cosh(b) + ratio * b * (math.cos(b) * math.sinh(b) - math.sin(b) * math.cosh(b))
+
+    b = scipy.optimize.brentq(f, 1e-3, 1.8751041)
+    omega = b**2 * math.sqrt(ei * length / (m * length**4))
+    x = np.linspace(0.0, 1.0, 4001)
+    s = (math.sinh(b) - math.sin(b)) / (math.cosh(b) + math.cos(b))
+    phi = (np.cosh(b * x) - np.cos(b * x)) - s * (np.sinh(b * x) - np.sin(b * x))
+    phi = phi / phi[-1]
+    gamma = m * np.trapezoid(phi, x) + M
+    mm = m * np.trapezoid(phi**2, x) + M
+    m1 = gamma**2 / mm
+    return omega**2 * m1, m1, m + M - m1
+
+
+def fe_reference(spec: StructureSpec, crosspiece: str = "rayleigh"):
+    """The FE model used as cross-check reference, optionally with an exact crosspiece SDOF.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    crosspiece : {"rayleigh", "exact"}
+        ``"rayleigh"``: the project's FE model as it is (Sec. 2.1.1: ``k = 6EI/L^3``
+        on ``2 (m_tip + 33/140 m_arm)``). ``"exact"``: its crosspiece SDOF replaced
+        by :func:`cantilever_tip_mass_sdof`, which carries the arms' true
+        participating mass -- the model the plant's flexible arms converge to.
+
+    Returns
+    -------
+    FEModel
+        With ``m`` and ``k`` replaced for ``"exact"``.
+
+    Raises
+    ------
+    SimulationError
+        For an unknown ``crosspiece`` option.
+    """
+    import dataclasses
+
+    from ..fe import build_fe_model
+    from ..fe.assembly import crosspiece_sdof
+
+    fe = build_fe_model(spec)
+    if crosspiece == "rayleigh":
+        return fe
+    if crosspiece != "exact":
+        raise SimulationError(f"crosspiece must be 'rayleigh' or 'exact', got {crosspiece!r}")
+    m, k = fe.m.copy(), fe.k.copy()
+    for c in spec.crosspieces:
+        i, j = fe.dofs.index(c.point, "w"), fe.dofs.index(c.id, "w")
+        kc, m_eff, m_rest = crosspiece_sdof(spec, c)
+        sec = spec.sections[c.section]
+        k1, m1, r1 = cantilever_tip_mass_sdof(sec.ei.si, c.arm_length.si, sec.rho_a * c.arm_length.si, c.tip_mass.si)
+        blk = np.array([[1.0, -1.0], [-1.0, 1.0]])
+        k[np.ix_([i, j], [i, j])] += (2 * k1 - kc) * blk
+        m[j, j] += 2 * m1 - m_eff
+        m[i, i] += 2 * r1 + c.clamp_mass.si - m_rest
+    return dataclasses.replace(fe, m=m, k=k)
+
+
+@dataclass(frozen=True)
+class StudyRow:
+    """One discretisation of :func:`convergence_study`.
+
+    Attributes
+    ----------
+    segments : int
+        Links per member segment (crosspiece arms alike).
+    layout : str
+        Hinge layout (``"gauss"`` or ``"uniform"``).
+    timestep_s : float
+        Step used [s] (automatic unless given).
+    nv : int
+        Degrees of freedom.
+    f_max_hz : float
+        Highest hinge-spring frequency [Hz].
+    errors_pct : tuple of float
+        Frequency error of each FE mode [%].
+    macs : tuple of float
+        MAC of each FE mode.
+    decay_hz : float
+        First-mode frequency from a free decay [Hz] (nan if not run).
+    us_per_step : float
+        Wall time of one bare ``mj_step`` [us] (nan if not measured).
+    """
+
+    segments: int
+    layout: str
+    timestep_s: float
+    nv: int
+    f_max_hz: float
+    errors_pct: tuple[float, ...]
+    macs: tuple[float, ...]
+    decay_hz: float
+    us_per_step: float
+
+    @property
+    def max_error_pct(self) -> float:
+        """Largest |error| [%]."""
+        return max(abs(e) for e in self.errors_pct)
+
+    @property
+    def min_mac(self) -> float:
+        """Smallest MAC."""
+        return min(self.macs)
+
+
+def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), layouts=("gauss",),
+                      timesteps=(None,), decay: bool = False, speed_steps: int = 0,
+                      crosspiece: str = "exact") -> list[StudyRow]:
+    """Cross-check the plant for several segment counts, hinge layouts and timesteps.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    n_modes : int
+        FE modes compared.
+    segments : sequence of int
+        Links per member segment (and per crosspiece arm); shear-dominated
+        members keep their default (see :class:`~vlab.sim.builder.SimOptions`).
+    layouts : sequence of str
+        Hinge layouts.
+    timesteps : sequence of float or None
+        Steps [s]; None = automatic.
+    decay : bool
+        Also measure the first mode's frequency from a free decay.
+    speed_steps : int
+        Steps timed per row (0: no timing).
+    crosspiece : str
+        FE reference crosspiece (see :func:`fe_reference`).
+
+    Returns
+    -------
+    list of StudyRow
+
+    Raises
+    ------
+    SimulationError
+        If a combination cannot be built or is unstable (timestep too large).
+    """
+    import time
+
+    from .builder import hinge_omega_max
+
+    rows = []
+    for layout in layouts:
+        for n in segments:
+            for dt in timesteps:
+                opts = SimOptions(segments_per_element=n, crosspiece_segments=n, hinge_layout=layout,
+                                  timestep_s=dt, modal_damping=False, stiffness_damping_s=0.0,
+                                  check_timestep=dt is None)
+                plant = build_plant(spec, opts)
+                cc = crosscheck(plant, n_modes, crosspiece=crosspiece)
+                omega, _ = hinge_omega_max(plant.model)
+                f_decay = math.nan
+                if decay:
+                    j = cc.pairs[0].sim_mode or 1
+                    f_decay = free_decay(plant, j, sim_modes=cc.sim_modes).frequency_hz
+                us = math.nan
+                if speed_steps:
+                    d = mujoco.MjData(plant.model)
+                    t0 = time.perf_counter()
+                    mujoco.mj_step(plant.model, d, nstep=speed_steps)
+                    us = (time.perf_counter() - t0) / speed_steps * 1e6
+                rows.append(StudyRow(n, layout, plant.timestep_s, plant.model.nv, omega / (2 * math.pi),
+                                     tuple(p.error_pct for p in cc.pairs), tuple(p.mac for p in cc.pairs),
+                                     f_decay, us))
+    return rows

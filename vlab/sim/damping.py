@@ -36,11 +36,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import mujoco
 import numpy as np
 
 from ..errors import SimulationError
 from ..spec import StructureSpec
+
+
+#: Largest ``dt * lambda_max(M^-1 C_tendon)`` accepted: the modal tendons' damping is stable even when
+#: integrated explicitly (semi-implicit Euler needs < 2).
+EXPLICIT_LIMIT = 0.5
 
 
 @dataclass(frozen=True)
@@ -60,7 +67,9 @@ class DampingReport:
     beta_ratios : ndarray, shape (n_damped,)
         Part of the ratio already given by the hinge damping [-].
     tendon_damping : ndarray, shape (n_damped,)
-        Damping ``c_r`` of each modal tendon [1/s for a mass-normalised coordinate].
+        Damping ``c_r`` of each modal tendon [N s per unit of the tendon coordinate].
+    achieved_ratios : ndarray, shape (n_damped,)
+        Ratios of the built plant's linearisation [-] (nan before tuning).
     """
 
     beta_s: float
@@ -69,15 +78,16 @@ class DampingReport:
     spec_modes: tuple
     beta_ratios: np.ndarray
     tendon_damping: np.ndarray
+    achieved_ratios: np.ndarray
 
 
 def _elastic_stiffness(model: mujoco.MjModel) -> np.ndarray:
-    """Diagonal of the hinge-spring stiffness of discretisation joints (``*.bend``/``*.twist``), shape (nv,)."""
+    """Diagonal of the spring stiffness of discretisation joints (``*.bend``, ``*.twist``, ``*.shear``), shape (nv,)."""
     k = np.zeros(model.nv)
     for j in range(model.njnt):
         name = model.joint(j).name
-        if name.endswith(".bend") or name.endswith(".twist"):
-            k[model.jnt_dofadr[j]] = model.jnt_stiffness[j, 0] if model.jnt_stiffness.ndim == 2 else model.jnt_stiffness[j]
+        if name.endswith((".bend", ".twist", ".shear")):
+            k[model.jnt_dofadr[j]] = model.jnt_stiffness[j]
     return k
 
 
@@ -90,9 +100,9 @@ def _targets(spec: StructureSpec, plant_modes, n_damped: int | None):
     n_spec = n_damped if n_damped is not None else len(dmp.modal_ratios)
     fe = build_fe_model(spec)
     fem = modal_analysis(fe.m, fe.k, n_spec)
-    pts = [p for p in plant_modes.points]
-    rows = [fe.dofs.index(p, "w") for p in pts]
-    pairs = pair_modes(fem.shapes[rows, :], plant_modes.shapes)
+    keep = [i for i, p in enumerate(plant_modes.points) if (p, "w") in fe.dofs]
+    rows = [fe.dofs.index(plant_modes.points[i], "w") for i in keep]
+    pairs = pair_modes(fem.shapes[rows, :], plant_modes.shapes[keep, :])
     ratio_of = {}
     for r, (j, _mac) in enumerate(pairs):
         if j is not None:
@@ -131,8 +141,21 @@ def default_beta(ratios: np.ndarray, omega: np.ndarray, fraction: float = 0.2) -
 
 
 def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float | None,
-                       n_damped: int | None = None):
+                       n_damped: int | None = None, *, support: int | None = None):
     """Settle and linearise the undamped plant, choose ``beta`` and the modal tendons.
+
+    Each damped mode ``r`` gets a fixed tendon ``b_r^T q`` whose coefficients
+    ``b_r`` are bi-orthogonal to the damped modes (``B^T Phi = I``) and live on a
+    subset ``J`` of the joints: a pivoted QR of the mass-scaled ``Phi^T`` orders
+    the joints, and on ``J`` the solution of least ``M^-1`` norm,
+    ``B_J = W Phi_J (Phi_J^T W Phi_J)^-1`` with ``W = ((M^-1)_JJ)^-1``, is taken
+    (the dense optimum is ``M Phi``). ``J`` grows until ``dt * lambda_max(M^-1 C)
+    <= EXPLICIT_LIMIT``, so the damping stays stable even where the integrator
+    treats it explicitly (couplings between branches of the tree). Dense
+    coefficients would make every step several times slower: MuJoCo evaluates
+    each fixed-tendon coefficient every step. The damping ``c_r = 2 omega_r
+    (zeta_r - zeta_beta,r)``; :func:`tune_modal_damping` then corrects the
+    coupling through the higher modes.
 
     Parameters
     ----------
@@ -143,18 +166,24 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
         Hinge damping factor [s]; None chooses :func:`default_beta`.
     n_damped : int, optional
         Number of spec modes damped (default: all ratios given).
+    support : int, optional
+        Joints per tendon (default: the smallest of 1.5 N, 2 N, 3 N, 4 N, nv that
+        passes the explicit-stability test).
 
     Returns
     -------
     beta : float
-    tendons : list of (name, coefficients (nv,), damping, info)
+    tendons : list of (name, {joint name: coefficient}, damping, info)
     report : DampingReport
+        Targets before tuning.
 
     Raises
     ------
     SimulationError
         If no plant mode matches an FE mode, or the plant does not settle.
     """
+    import scipy.linalg
+
     from .linearize import modes, settle
 
     data = settle(model)
@@ -166,30 +195,102 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
         beta = default_beta(ratios, omega)
     k = _elastic_stiffness(model)
     phi = pm.joint_shapes[:, idx]
+    n = len(idx)
     beta_part = beta * np.einsum("ir,i,ir->r", phi, k, phi) / (2 * omega)
     c = np.clip(2 * omega * (ratios - beta_part), 0.0, None)
-    mphi = pm.mass_matrix @ phi
+    m = pm.mass_matrix
+    minv = np.linalg.inv(m)
+    dt = float(model.opt.timestep)
+    # joints ordered by how well they observe the damped modes (mass-scaled pivoted QR)
+    scale = np.sqrt(np.diag(m))
+    _, _, order = scipy.linalg.qr((phi * scale[:, None]).T, pivoting=True)
+    sizes = [support] if support is not None else [int(math.ceil(1.5 * n)), 2 * n, 3 * n, 4 * n, model.nv]
+    for size in sizes:
+        size = min(max(size, n), model.nv)
+        joints = np.sort(order[:size])
+        w = np.linalg.inv(minv[np.ix_(joints, joints)])
+        pj = phi[joints, :]
+        bmat = w @ pj @ np.linalg.inv(pj.T @ w @ pj)  # (size, n): B^T Phi = I, least M^-1 norm
+        full = np.zeros((model.nv, n))
+        full[joints] = bmat
+        rho = dt * float(scipy.linalg.eigh(full @ np.diag(c) @ full.T, m, eigvals_only=True,
+                                           subset_by_index=(model.nv - 1, model.nv - 1))[0])
+        if rho <= EXPLICIT_LIMIT:
+            break
+    else:
+        raise SimulationError(
+            f"modal damping: no tendon support keeps the explicit damping stable (h*lambda_max = {rho:.3g}); "
+            "reduce the timestep or the number of damped modes"
+        )
+    names = [model.joint(int(model.dof_jntid[i])).name for i in range(model.nv)]
     tendons = []
-    for r in range(len(idx)):
-        coef = mphi[:, r]
-        tendons.append((f"damping.mode{r + 1}", coef, float(c[r]),
+    for r in range(n):
+        coefs = {names[j]: float(bmat[i, r]) for i, j in enumerate(joints) if abs(bmat[i, r]) > 1e-12}
+        tendons.append((f"damping.mode{r + 1}", coefs, float(c[r]),
                         f"modal damping of plant mode {r + 1} ({pm.frequencies_hz[idx[r]]:.4g} Hz, "
                         f"spec mode {spec_modes[r]}): zeta = {ratios[r]:.4g} "
                         f"(hinge damping gives {beta_part[r]:.3g})"))
-    report = DampingReport(float(beta), pm.frequencies_hz[idx], ratios, spec_modes, beta_part, c)
+    report = DampingReport(float(beta), pm.frequencies_hz[idx], ratios, spec_modes, beta_part, c,
+                           np.full(n, np.nan))
     return float(beta), tendons, report
 
 
-def add_modal_tendons(ms: mujoco.MjSpec, model: mujoco.MjModel, tendons) -> None:
-    """Add the modal damping tendons to an MjSpec (joint names from ``model``)."""
-    names = [model.joint(int(model.dof_jntid[i])).name for i in range(model.nv)]
-    for name, coef, c, info in tendons:
+def add_modal_tendons(ms: mujoco.MjSpec, tendons) -> list:
+    """Add the modal damping tendons to an MjSpec; returns the MjsTendon objects."""
+    out = []
+    for name, coefs, c, info in tendons:
         t = ms.add_tendon(name=name)
-        cmax = float(np.max(np.abs(coef)))
-        for i, v in enumerate(coef):
-            if abs(v) > 1e-9 * cmax:
-                t.wrap_joint(names[i], float(v))
+        for jn, v in coefs.items():
+            t.wrap_joint(jn, v)
         t.damping = [c, 0.0, 0.0]
         t.stiffness = [0.0, 0.0, 0.0]
         t.springlength = [0.0, 0.0]
         t.info = info
+        out.append(t)
+    return out
+
+
+def tune_modal_damping(model: mujoco.MjModel, points, report: DampingReport, *, iterations: int = 4,
+                       rtol: float = 0.01) -> DampingReport:
+    """Correct the modal tendon damping until the linearised ratios meet the targets.
+
+    The damped plant modes are identified by frequency (the damping does not move
+    them); each iteration adds ``2 omega_r (zeta_target - zeta_achieved)`` to
+    ``c_r`` (clipped at 0) in ``model.tendon_damping`` (tendons ``damping.mode<r>``).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        Plant with modal tendons; modified in place.
+    points : sequence of int
+        Points for the mode shapes.
+    report : DampingReport
+        From :func:`modal_damping_plan`.
+    iterations : int
+        Most corrections.
+    rtol : float
+        Relative tolerance on the ratios.
+
+    Returns
+    -------
+    DampingReport
+        With ``tendon_damping`` the final values and ``achieved_ratios`` measured.
+    """
+    from .linearize import modes, settle
+
+    n = len(report.target_ratios)
+    ids = [model.tendon(f"damping.mode{r + 1}").id for r in range(n)]
+    data = settle(model)
+    achieved = np.full(n, np.nan)
+    for it in range(iterations + 1):
+        pm = modes(model, points, data=data)
+        sel = [int(np.argmin(np.abs(pm.frequencies_hz - f))) for f in report.frequencies_hz]
+        achieved = pm.damping_ratios[sel]
+        err = achieved - report.target_ratios
+        if np.all(np.abs(err) <= rtol * report.target_ratios) or it == iterations:
+            break
+        omega = 2 * np.pi * report.frequencies_hz
+        for r, tid in enumerate(ids):
+            model.tendon_damping[tid] = max(0.0, model.tendon_damping[tid] - 2 * omega[r] * err[r])
+    return DampingReport(report.beta_s, report.frequencies_hz, report.target_ratios, report.spec_modes,
+                         report.beta_ratios, np.array([model.tendon_damping[t] for t in ids]), achieved)
