@@ -118,5 +118,93 @@ def modes(
     console.print(t)
 
 
+class ControllerName(str, Enum):
+    lqr = "lqr"
+    lqg = "lqg"
+    mfdrf = "mfdrf"
+    lqdrf = "lqdrf"
+    lqdrf_diag = "lqdrf-diag"
+
+
+class DesignReduction(str, Enum):
+    full = "full"
+    exact = "exact"
+    guyan = "guyan"
+    corrected_guyan = "corrected-guyan"
+
+
+@app.command()
+def design(
+    structure: Structure = typer.Argument(..., help="bcc or grid"),
+    controller: ControllerName = typer.Option(ControllerName.mfdrf, "--controller", help="controller type"),
+    reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
+    modes_file: str = typer.Option(None, "--modes", help="UFF 55 measured modes for corrected-guyan"),
+    seed: int = typer.Option(0, help="seed of the optimiser's multi-start"),
+    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+) -> None:
+    """Design a controller with the dissertation's settings; print gains, damping and performance."""
+    from .design import design_controller
+    from .models import nominal_fe_model
+
+    try:
+        fe = nominal_fe_model(structure.value)
+        measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
+        d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
+                              measured_modes=measured, seed=seed)
+    except (VlabError, ValueError) as exc:
+        _fail(exc)
+    if as_json:
+        _print_json({
+            "structure": d.structure, "controller": d.controller, "reduction": d.model,
+            "gain": d.gain, "gain_units": "N*s/m" if d.controller in ("mfdrf", "lqdrf", "lqdrf-diag") else "N per SI state",
+            "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
+            "performance_index": d.performance_index, "performance_index_units": "thesis (in, lbf, cs)",
+            "gamma": d.gamma, "beta": d.beta, "converged": d.converged, "message": d.message,
+            "extra": {k: v for k, v in d.extra.items() if not isinstance(v, np.ndarray) or v.ndim < 3},
+        })
+        return
+    console.print(f"[bold]{structure.value} {d.controller}[/] on the {d.model} model — converged: {d.converged} ({d.message})")
+    if d.gamma is not None:
+        console.print(f"gamma = {d.gamma:.4f} lb*s/in" + (f", beta = {d.beta:.4g}" if d.beta is not None else ""))
+    g = d.extra.get("gain_thesis_lb_s_per_in")
+    if g is not None:
+        console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
+        console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
+    t = Table(title="closed loop on the design model")
+    for col in ("mode", "f [Hz]", "zeta", "J (modal IC)"):
+        t.add_column(col, justify="right")
+    for i in range(max(len(d.performance_index), 6)):
+        if i >= len(d.damping_ratios):
+            break
+        j = f"{d.performance_index[i]:.4g}" if i < len(d.performance_index) else ""
+        t.add_row(str(i + 1), f"{d.frequencies_hz[i]:.3f}", f"{d.damping_ratios[i]:.4f}", j)
+    console.print(t)
+
+
+def _measured_modes(fe, modes_file: str | None):
+    """Measured modes (frequencies, shapes at the Guyan masters) for corrected-guyan."""
+    from .errors import DataFileError
+    from .models import master_indices
+
+    if modes_file is None:
+        raise DataFileError(
+            "corrected-guyan needs measured modes: give --modes FILE (UFF 55 with the mode shapes at the "
+            "Guyan master points)"
+        )
+    from .io.uff import read_mode_shapes
+
+    ms = read_mode_shapes(modes_file)
+    idx = master_indices(fe, "guyan")
+    labels = [fe.dofs.labels[i] for i in idx]
+    rows = []
+    for node, dof in labels:
+        if dof != "w":
+            raise DataFileError(f"{modes_file}: the Guyan master {dof}@{node} is a rotation; UFF 55 gives translations only")
+        if node not in ms.point_ids:
+            raise DataFileError(f"{modes_file}: no shape value at master point {node}")
+        rows.append(list(ms.point_ids).index(node))
+    return np.asarray(ms.freq_hz), np.real(np.asarray(ms.shapes))[rows, :]
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()

@@ -1,0 +1,63 @@
+"""The thesis's designs on vlab's BCC model (Sec. 6.1, Tables 7-9)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from vlab.cli import app
+from vlab.design import design_controller
+from vlab.models import nominal_fe_model
+from vlab.reference import column
+
+
+@pytest.fixture(scope="module")
+def fe():
+    return nominal_fe_model("bcc")
+
+
+def test_bcc_mfdrf_gamma_near_table7_and_damping_constraints(fe):
+    d = design_controller(fe, "mfdrf")
+    assert d.converged
+    assert d.gamma == pytest.approx(0.050, rel=0.25)  # Table 7: max row sum 0.0500 lb*s/in
+    assert np.all(d.damping_ratios[:6] >= 0.03 - 1e-6)
+    np.testing.assert_allclose(d.gain, d.gain.T)
+    assert np.all(np.linalg.eigvalsh(d.gain) > 0)
+    # realization: F11 = -D in SI
+    np.testing.assert_allclose(d.f11, -d.gain)
+
+
+def test_bcc_lqg_reduced_on_full_like_table8(fe):
+    d = design_controller(fe, "lqg")
+    assert d.model == "exact"
+    z = d.damping_ratios[:6]
+    # Table 8: the sixth LQG damping ratio falls just below 3 % because of reduction and estimation
+    assert z[5] < 0.03
+    assert np.all(z[:5] > 0.03)
+    # Kalman poles respect the alpha shift (alpha = 0.2 / cs = 20 / s)
+    assert d.extra["kalman_poles_max_real_per_s"] < -20.0 + 1e-6
+
+
+def test_bcc_lqr_performance_close_to_table9(fe):
+    d = design_controller(fe, "lqr")
+    ref = column("table9_bcc_performance.csv", "lqr")
+    # modes 1-5 within 10 % of Table 9 (the model was not fitted to Table 9)
+    np.testing.assert_allclose(d.performance_index[:5], ref[:5], rtol=0.10)
+
+
+def test_design_cli_json_keys():
+    res = CliRunner().invoke(app, ["design", "bcc", "--controller", "mfdrf", "--json"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    for key in ("controller", "gain", "damping_ratios", "frequencies_hz", "performance_index", "gamma", "converged"):
+        assert key in out
+    assert np.shape(out["gain"]) == (3, 3)
+
+
+def test_corrected_guyan_without_modes_is_a_clear_error():
+    res = CliRunner().invoke(app, ["design", "bcc", "--reduction", "corrected-guyan"])
+    assert res.exit_code == 2
+    assert "--modes" in res.output

@@ -1,0 +1,307 @@
+"""The dissertation's controller designs on vlab's models.
+
+Glue between the lab's models (SI) and the stand-alone design package
+:mod:`controllers`: the design model (full FE, exact or Guyan reduction,
+corrected Guyan) is converted to the thesis's unit system (inch, lbf,
+centisecond; Sec. 3.1) where its weights Q and R mean what they meant in
+1990, the design is made there, and the gains and the Eq. (5.1)
+realization are converted back to SI for the 2 kHz loop.
+
+Thesis settings (Sec. 6.1, 6.2):
+
+- BCC: zeta_L = 0.03 on n_m = 6 modes; LQR Q = I, R = 0.22 I; Kalman filter
+  V1 = 1e-6 I, V2 = 5e-4 I, alpha = 0.2; LQDRF initial conditions in the
+  shape of the first 6 modes.
+- Grid: zeta_L = 0.03 on n_m = 5 modes; Q = 0.01 I, R = 0.84 I (exact
+  reduction) or 1.387 I (corrected Guyan); V1 = 1e-10 I, V2 = 0.5 I,
+  alpha = 0.05; n_f = 5.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from controllers.drf import lqdrf, mfdrf
+from controllers.lq import lqg, lqr, reduced_on_full
+from controllers.performance import feedback_performance, modes as cl_modes
+from controllers.statespace import modal_initial_states, state_space
+
+from .calibration import modal_damping_matrix, open_loop_ratios
+from .errors import ModelError, ReductionError
+from .fe import FEModel
+from .models import master_indices, reduce_model
+from .units import CS_S, INCH_M, LBF_N
+
+CONTROLLERS = ("lqr", "lqg", "mfdrf", "lqdrf", "lqdrf-diag")
+DESIGN_MODELS = ("full", "exact", "guyan", "corrected-guyan")
+PERIOD_S = 0.5e-3
+
+
+@dataclass(frozen=True)
+class ThesisSettings:
+    """Design settings of one structure (thesis units: in, lbf, cs)."""
+
+    zeta_min: float
+    n_modes: int
+    n_f: int
+    q_scale: float
+    r: float
+    v1: float
+    v2: float
+    alpha: float
+    default_model: str
+    r_corrected: float | None = None
+
+
+THESIS_SETTINGS = {
+    "bcc": ThesisSettings(0.03, 6, 6, 1.0, 0.22, 1e-6, 5e-4, 0.2, "exact"),
+    "grid": ThesisSettings(0.03, 5, 5, 0.01, 0.84, 1e-10, 0.5, 0.05, "exact", r_corrected=1.387),
+}
+
+
+@dataclass(frozen=True)
+class DesignModel:
+    """A second-order model in SI with its DOF labels (the design basis)."""
+
+    name: str
+    m: np.ndarray
+    c: np.ndarray
+    k: np.ndarray
+    labels: tuple
+    actuator_rows: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class ControllerDesign:
+    """A designed controller, its numbers and its SI realization.
+
+    Attributes
+    ----------
+    structure, controller, model : str
+    gain : ndarray
+        SI: DRF ``D`` (n_c, n_c) [N*s/m]; LQR/LQG ``F`` (n_c, 2n_R) in thesis
+        state units converted to force per SI state.
+    damping_ratios, frequencies_hz : ndarray, shape (n_modes,)
+        Closed loop on the design model.
+    performance_index : ndarray, shape (n_f,)
+        J_i (thesis units, Eqs. 4.7, 4.20, 4.33) for modal initial conditions.
+    gamma, beta : float or None
+        MFDRF / LQDRF objectives (thesis units: lb*s/in, and J).
+    converged : bool
+    message : str
+    f11, f12, f21, f22 : ndarray
+        Eq. (5.1) coefficients with ``y`` in m/s and ``u`` in N.
+    continuous : dict
+        Continuous controller for analysis, ``u = -K(s) y``: ``{"d": D}`` or
+        ``{"a", "b", "c"}`` (SI, seconds).
+    """
+
+    structure: str
+    controller: str
+    model: str
+    gain: np.ndarray
+    damping_ratios: np.ndarray
+    frequencies_hz: np.ndarray
+    performance_index: np.ndarray
+    gamma: float | None
+    beta: float | None
+    converged: bool
+    message: str
+    f11: np.ndarray
+    f12: np.ndarray
+    f21: np.ndarray
+    f22: np.ndarray
+    continuous: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def period_s(self) -> float:
+        """Controller sampling period [s]."""
+        return PERIOD_S
+
+
+def _unit_scaling(labels) -> np.ndarray:
+    """diag S with q_SI = S q_thesis: inch for translations, 1 for rotations."""
+    return np.array([INCH_M if dof == "w" else 1.0 for _node, dof in labels])
+
+
+def to_thesis_units(a: np.ndarray, labels) -> np.ndarray:
+    """Convert a SI mass/damping/stiffness matrix to in-lbf units: ``S a S / (lbf * in)``."""
+    s = _unit_scaling(labels)
+    return a * np.outer(s, s) / (LBF_N * INCH_M)
+
+
+def design_model(fe: FEModel, model: str, *, measured_modes=None) -> DesignModel:
+    """The SI design model of ``fe``: full, exact, guyan or corrected-guyan.
+
+    Damping: the spec's open-loop modal damping ratios (Tables 1, 3), applied
+    as proportional damping on the full model and projected (Guyan) or by
+    Eq. 3.6 (exact). ``corrected-guyan`` needs ``measured_modes`` =
+    (frequencies_hz (n_m,), shapes (n_R, n_m) at the Guyan masters).
+
+    Raises
+    ------
+    ReductionError
+        Unknown model, or corrected-guyan without measured modes.
+    """
+    spec = fe.spec
+    acts = spec.instrumentation.actuators
+    ratios = open_loop_ratios(spec, fe.n)
+    if model == "full":
+        c = modal_damping_matrix(fe.m, fe.k, ratios)
+        rows = tuple(fe.dofs.index(p, "w") for p in acts)
+        return DesignModel("full", fe.m, c, fe.k, fe.dofs.labels, rows)
+    if model not in DESIGN_MODELS:
+        raise ReductionError(f"unknown design model {model!r}; use one of {DESIGN_MODELS}")
+    base = "exact" if model == "exact" else "guyan"
+    idx = master_indices(fe, base)
+    labels = tuple(fe.dofs.labels[i] for i in idx)
+    if model == "exact":
+        red = reduce_model(fe, "exact", zeta=ratios[: len(idx)])
+        c = np.asarray(red.c)
+    else:
+        red = reduce_model(fe, "guyan")
+        t = np.asarray(red.T)
+        c = t.T @ modal_damping_matrix(fe.m, fe.k, ratios) @ t
+    m, k = np.asarray(red.m), np.asarray(red.k)
+    if model == "corrected-guyan":
+        if measured_modes is None:
+            raise ReductionError("corrected-guyan needs measured modes (frequencies and shapes at the Guyan masters)")
+        from .correction import baruch_correction
+
+        freq, shapes = measured_modes
+        cor = baruch_correction(m, k, shapes, freq, zeta=ratios[: len(freq)])
+        m, k = np.asarray(cor.m), np.asarray(cor.k)
+        c = np.asarray(cor.c) if cor.c is not None else c
+    try:
+        rows = tuple(labels.index((p, "w")) for p in acts)
+    except ValueError:
+        raise ReductionError(f"{spec.name}: the {model} masters {labels} do not include every actuator {acts}") from None
+    return DesignModel(model, m, c, k, labels, rows)
+
+
+def design_controller(
+    fe: FEModel,
+    controller: str,
+    *,
+    model: str | None = None,
+    measured_modes=None,
+    seed: int = 0,
+    n_starts: int = 4,
+) -> ControllerDesign:
+    """Design one of the thesis's controllers for ``fe`` with the thesis's settings.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The nominal FE model of a shipped structure ("bcc" or "grid").
+    controller : {"lqr", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
+    model : str, optional
+        Design model (full, exact, guyan, corrected-guyan); default: DRF on
+        the full model for the BCC (Sec. 6.1), everything else on the
+        structure's default reduction.
+    measured_modes : (ndarray, ndarray), optional
+        For corrected-guyan: measured frequencies [Hz] and shapes at the masters.
+    seed, n_starts : int
+        Reproducible multi-start of the DRF optimisers.
+
+    Returns
+    -------
+    ControllerDesign
+
+    Raises
+    ------
+    ModelError
+        Unknown controller or structure without thesis settings.
+    ReductionError
+        Unknown design model.
+    controllers.errors.ControllerError
+        From the design package (unstabilisable pair, infeasible damping, ...).
+    """
+    if controller not in CONTROLLERS:
+        raise ModelError(f"unknown controller {controller!r}; use one of {CONTROLLERS}")
+    name = fe.spec.name
+    if name not in THESIS_SETTINGS:
+        raise ModelError(f"no thesis design settings for structure {name!r}")
+    st = THESIS_SETTINGS[name]
+    if model is None:
+        model = "full" if (name == "bcc" and controller in ("mfdrf", "lqdrf", "lqdrf-diag", "lqr")) else st.default_model
+    dm = design_model(fe, model, measured_modes=measured_modes)
+    m, c, k = (to_thesis_units(a, dm.labels) for a in (dm.m, dm.c, dm.k))
+    n = m.shape[0]
+    u = np.zeros((n, len(dm.actuator_rows)))
+    for j, r in enumerate(dm.actuator_rows):
+        u[r, j] = 1.0
+    ss = state_space(m, c, k, u, time_unit_s=CS_S)
+    a, b, cm = ss.A, ss.B, ss.C
+    q = st.q_scale * np.eye(2 * n)
+    r_val = st.r_corrected if (model == "corrected-guyan" and st.r_corrected) else st.r
+    r = r_val * np.eye(len(dm.actuator_rows))
+    length_dofs = [i for i, (_n, d) in enumerate(dm.labels) if d == "w"]
+    x0 = modal_initial_states(m, k, st.n_f, length_dofs=length_dofs)
+    extra: dict = {}
+    gamma = beta = None
+    if controller in ("mfdrf", "lqdrf", "lqdrf-diag"):
+        if controller == "mfdrf":
+            des = mfdrf(a, b, cm, zeta_min=st.zeta_min, n_modes=st.n_modes, n_starts=n_starts, seed=seed,
+                        Q=q, R=r, initial_states=x0, time_unit_s=CS_S)
+        else:
+            des = lqdrf(a, b, cm, q, r, x0, zeta_min=st.zeta_min, n_modes=st.n_modes,
+                        diagonal=controller == "lqdrf-diag", n_starts=n_starts, seed=seed, time_unit_s=CS_S)
+        d_si = des.gain_per_s * LBF_N / INCH_M
+        gamma = float(des.gamma * CS_S)  # lb*s/in
+        beta = des.beta
+        perf = des.performance_index if des.performance_index is not None else feedback_performance(
+            a, b, des.gain @ cm, q, r, x0)
+        return ControllerDesign(
+            name, controller, model, d_si, des.damping_ratios, des.frequencies_hz, np.asarray(perf),
+            gamma, beta, des.converged, des.message,
+            -d_si, np.zeros((len(d_si), 0)), np.zeros((0, len(d_si))), np.zeros((0, 0)),
+            {"d": d_si}, {"gain_thesis_lb_s_per_in": des.gain_per_s, "active_constraints": des.active_constraints},
+        )
+    if controller == "lqr":
+        des = lqr(a, b, q, r, time_unit_s=CS_S)
+        modes_cl = cl_modes(a - b @ des.gain, time_unit_s=CS_S)
+        perf = np.einsum("ij,ik,kj->j", x0, des.riccati, x0)
+        sx = np.concatenate([np.full(n, 1 / CS_S), np.ones(n)]) * np.concatenate([_unit_scaling(dm.labels)] * 2)
+        f_si = des.gain * LBF_N / sx
+        return ControllerDesign(
+            name, controller, model, f_si, modes_cl.damping_ratios, modes_cl.frequencies_hz, perf, None, None,
+            True, "LQR needs the full state; realise it as LQG for an experiment",
+            np.zeros((len(dm.actuator_rows), 0)), np.zeros((len(dm.actuator_rows), 0)), np.zeros((0, 0)),
+            np.zeros((0, 0)), {}, {"gain_thesis": des.gain},
+        )
+    # LQG on the design model
+    des = lqg(a, b, cm, q, r, st.v1 * np.eye(2 * n), st.v2 * np.eye(len(dm.actuator_rows)), alpha=st.alpha,
+              time_unit_s=CS_S)
+    real = des.realize(PERIOD_S)
+    perf = des.performance_index(x0)
+    f11 = np.asarray(real.F11) * LBF_N / INCH_M
+    f12 = np.asarray(real.F12) * LBF_N
+    f21 = np.asarray(real.F21) / INCH_M
+    f22 = np.asarray(real.F22)
+    at = des.controller_matrix
+    cont = {"a": at / CS_S, "b": des.estimator.gain / INCH_M, "c": des.regulator.gain * LBF_N}
+    extra["kalman_poles_max_real_per_s"] = float(np.max(des.estimator.eigenvalues.real) / CS_S)
+    damping, freqs = des.damping_ratios, des.frequencies_hz
+    if model != "full":
+        # the reduced controller closed around the full model (Eqs. 4.23-4.29), as Tables 8 and 12 report
+        full = design_model(fe, "full")
+        mf, cf, kf = (to_thesis_units(x, full.labels) for x in (full.m, full.c, full.k))
+        uf = np.zeros((mf.shape[0], len(full.actuator_rows)))
+        for j, rr in enumerate(full.actuator_rows):
+            uf[rr, j] = 1.0
+        sf = state_space(mf, cf, kf, uf, time_unit_s=CS_S)
+        rof = reduced_on_full(sf.A, sf.B, sf.C, np.eye(sf.A.shape[0]) * st.q_scale, des)
+        sp = rof.spillover
+        damping = sp.closed_loop_damping
+        freqs = np.abs(sp.closed_loop_eigenvalues) / (2 * np.pi * CS_S)  # eigenvalues in 1/cs
+        extra["spillover_destabilised_modes"] = list(sp.destabilised)
+        extra["spillover_lowered_modes"] = list(sp.lowered)
+        extra["reduced_model_damping_ratios"] = des.damping_ratios
+    return ControllerDesign(
+        name, controller, model, des.regulator.gain * LBF_N, damping, freqs,
+        np.asarray(perf), None, None, True, "LQG (Eqs. 4.8-4.22)", f11, f12, f21, f22, cont, extra,
+    )
