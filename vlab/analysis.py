@@ -164,3 +164,41 @@ def closed_loop_frf(g_fb: np.ndarray, g_out: np.ndarray, k: np.ndarray, excitati
         f = np.linalg.solve(np.eye(nu) + k[i] @ g_fb[i], e)
         out[i] = g_out[i] @ f
     return out
+
+
+def closed_loop_modes(
+    m: np.ndarray, c: np.ndarray, k: np.ndarray, inputs: np.ndarray, outputs: np.ndarray, controller: dict | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-loop frequencies and damping ratios of the plant's modes (continuous loop).
+
+    Plant ``m q'' + c q' + k q = U u``, sensors ``y = Cv q'``, controller
+    ``u = -K(s) y`` given as ``{"d": D}`` or ``{"a", "b", "c"}`` (see
+    :func:`continuous_controller_frf`); None = open loop. Each open-loop mode
+    is paired with its closed-loop eigenvalue by eigenvector overlap
+    (:func:`controllers.performance.spillover`).
+
+    Returns
+    -------
+    freq_hz, zeta : ndarray, shape (n,)
+        Undamped natural frequency |lambda|/2pi [Hz] and damping ratio of each
+        plant mode, in open-loop frequency order.
+
+    Source: Eqs. (4.16), (4.24), (4.35).
+    """
+    from controllers.performance import spillover
+
+    n = m.shape[0]
+    minv = np.linalg.inv(m)
+    a = np.block([[-minv @ c, -minv @ k], [np.eye(n), np.zeros((n, n))]])
+    b = np.vstack([minv @ inputs, np.zeros_like(inputs)])
+    cv = np.hstack([outputs, np.zeros_like(outputs)])
+    if controller is None:
+        acl = a
+    elif "d" in controller:
+        acl = a - b @ controller["d"] @ cv
+    else:
+        ac, bc, cc = controller["a"], controller["b"], controller["c"]
+        acl = np.block([[a, -b @ cc], [bc @ cv, ac]])
+    rep = spillover(a, acl)
+    lam = rep.closed_loop_eigenvalues
+    return np.abs(lam) / (2 * np.pi), rep.closed_loop_damping

@@ -307,7 +307,10 @@ class SampleDelay(_Block):
             raise ModelError(f"{self.name}.mean_over: t_end_s {t1} < t_start_s {t0}")
         if t1 - t0 <= _TIME_TOL * self.period_s:
             return self.output_at(t0)
-        j0, j1 = self._sample_index(t0), self._sample_index(t1 - _TIME_TOL * self.period_s)
+        j0 = self._sample_index(t0)
+        # last sample whose hold interval starts strictly before t1
+        x1 = (t1 - self.offset_s) / self.period_s - self.delay_periods
+        j1 = max(j0, int(math.ceil(x1 - _TIME_TOL)) - 1)
         acc = np.zeros(self.size)
         for j in range(j0, j1 + 1):
             a = max(t0, self.offset_s + (j + self.delay_periods) * self.period_s)

@@ -1,0 +1,237 @@
+"""A closed-loop experiment in the virtual laboratory (Chapter 5, Sec. 6.1).
+
+``run_experiment`` designs the controller on the nominal model, builds the
+plant (MuJoCo from the same spec, an exported/edited MJCF, or the linear FE
+model), runs the 2 kHz digital loop with the hardware chain of Sec. 5.3,
+excites it the way Sec. 5.4 describes, measures H1 FRFs and compares them
+mode by mode with the analysis: the continuous closed-loop FRF the
+dissertation computed and the sampled-data FRF with hold, delay and filter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..analysis import (
+    closed_loop_frf,
+    closed_loop_modes,
+    continuous_controller_frf,
+    sampled_data_controller_frf,
+    velocity_frf,
+)
+from ..calibration import modal_damping_matrix, open_loop_ratios
+from ..errors import MeasurementError, ModelError
+from ..fe import FEModel
+from ..measure.compare import ModeComparison, average_error, compare_modes
+from ..measure.frf import FRF, h1
+from .engine import ControllerEngine
+from .excitation import half_sine_pulse, pseudo_random, sine_sweep
+from .linear_plant import LinearPlant
+from .loop import HardwareChain, LoopResult, run_loop
+
+EXCITATIONS = ("random", "sweep", "impulse")
+
+
+@dataclass(frozen=True)
+class StructureTest:
+    """How a structure is tested (Sec. 5.4): band, resolution, levels, points."""
+
+    band_hz: tuple[float, float]
+    resolution_hz: float
+    rms_n: float
+    n_modes: int
+    response_point: int
+    measured_points: tuple[int, ...]
+    response_quantity: str  # FRF compared: "displacement" (BCC, Fig. 22) or "velocity" (grid, Figs. 23-31)
+
+
+TESTS = {
+    # BCC: 0-25 Hz random at point 9, displacement at point 6 (Sec. 5.4.2, Table 10)
+    "bcc": StructureTest((0.5, 25.0), 0.05, 0.5, 6, 6, (5, 6, 7, 9), "displacement"),
+    # grid: 0-10 Hz random at joint 4, velocity at joints 1-5, 8 (Sec. 5.4.2, Tables 19-21)
+    "grid": StructureTest((0.2, 10.0), 0.02, 0.2, 4, 4, (1, 2, 3, 4, 5, 8), "velocity"),
+}
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Settings of one experiment (the options of ``vlab experiment``)."""
+
+    structure: str = "bcc"
+    controller: str = "mfdrf"
+    reduction: str | None = None
+    excitation: str = "random"
+    duration_s: float | None = None
+    periods: int = 3
+    chain: HardwareChain = field(default_factory=HardwareChain)
+    seed: int = 0
+    plant: str = "mujoco"
+    mjcf: Path | None = None
+    resolution_hz: float | None = None
+
+
+@dataclass(frozen=True)
+class ExperimentResult:
+    """Everything an experiment produced (see :func:`vlab.io.results.write_outputs`)."""
+
+    config: ExperimentConfig
+    loop: LoopResult
+    frfs: dict[str, FRF]
+    freq_hz: np.ndarray
+    analysis_continuous: np.ndarray
+    analysis_sampled: np.ndarray
+    measured: np.ndarray
+    modes: list[ModeComparison]
+    avg_peak_error: float
+    design: object | None
+    plant_info: dict
+
+
+def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float, duration_s: float) -> Callable:
+    lo, hi = test.band_hz
+    if cfg.excitation == "random":
+        return lambda t: pseudo_random(t, band_hz=(lo, hi), resolution_hz=resolution_hz, rms_n=test.rms_n,
+                                       seed=cfg.seed)
+    if cfg.excitation == "sweep":
+        return lambda t: sine_sweep(t, f_start_hz=lo, f_stop_hz=hi, amplitude_n=test.rms_n * np.sqrt(2))
+    if cfg.excitation == "impulse":
+        return lambda t: half_sine_pulse(t, peak_n=20 * test.rms_n, duration_s=1.0 / (2 * hi), start_s=0.1)
+    raise ModelError(f"unknown excitation {cfg.excitation!r}; use one of {EXCITATIONS}")
+
+
+def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], timestep_s: float | None = None):
+    """The plant of an experiment: ``"mujoco"`` (from the spec or ``cfg.mjcf``) or ``"linear"`` (FE).
+
+    Returns
+    -------
+    (plant, info) : plant with the loop's Plant protocol, and a dict describing it.
+
+    Raises
+    ------
+    ModelError
+        Unknown plant kind. DataFileError / SimulationError from the MuJoCo side.
+    """
+    if cfg.plant == "linear":
+        c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+        pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
+        h = timestep_s or cfg.chain.period_s / 2
+        return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=actuators, timestep_s=h), {
+            "kind": "linear FE model", "timestep_s": h}
+    if cfg.plant == "mujoco":
+        from ..sim import load_plant_for_experiment
+
+        return load_plant_for_experiment(fe.spec, mjcf=cfg.mjcf, actuators=actuators)
+    raise ModelError(f"unknown plant {cfg.plant!r}; use 'mujoco' or 'linear'")
+
+
+def run_experiment(
+    cfg: ExperimentConfig,
+    fe: FEModel,
+    *,
+    design=None,
+    progress: Callable[[float], None] | None = None,
+) -> ExperimentResult:
+    """Run one experiment and compare it with the analysis.
+
+    Parameters
+    ----------
+    cfg : ExperimentConfig
+    fe : FEModel
+        The nominal FE model (analysis and controller design).
+    design : ControllerDesign, optional
+        A design to use; by default designed here with the thesis settings
+        (:func:`vlab.design.design_controller`); None with ``cfg.controller ==
+        "none"`` runs open loop.
+    progress : callable, optional
+        Receives the fraction of the run done.
+
+    Returns
+    -------
+    ExperimentResult
+
+    Raises
+    ------
+    ModelError
+        Unknown controller/excitation, LQR requested (needs the full state).
+    MeasurementError
+        Duration too short for the frequency resolution.
+    SimulationError
+        The plant diverged (the message says when; the partial recording is kept).
+    """
+    name = fe.spec.name
+    if name not in TESTS:
+        raise ModelError(f"no test definition for structure {name!r}")
+    test = TESTS[name]
+    acts = tuple(fe.spec.instrumentation.actuators)
+    exc_point = fe.spec.instrumentation.excitation
+    if cfg.controller == "lqr":
+        raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
+    if design is None and cfg.controller != "none":
+        from ..design import design_controller
+
+        design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed)
+    res_hz = cfg.resolution_hz or test.resolution_hz
+    record_s = 1.0 / res_hz
+    duration = cfg.duration_s if cfg.duration_s is not None else cfg.periods * record_s
+    if duration < 2 * record_s - 1e-9:
+        raise MeasurementError(
+            f"duration {duration:g} s is too short for a {res_hz:g} Hz resolution: it needs one record of "
+            f"{record_s:g} s to settle and at least one to measure ({2 * record_s:g} s); "
+            "raise --duration or coarsen the resolution"
+        )
+    plant, info = make_plant(cfg, fe, acts)
+    engine = None
+    if design is not None:
+        engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
+    meas = tuple(dict.fromkeys(test.measured_points + acts))
+    loop = run_loop(
+        plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
+        excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
+        seed=cfg.seed, progress=progress,
+        metadata={"structure": name, "controller": cfg.controller, "excitation": cfg.excitation,
+                  "seed": cfg.seed, "plant": info.get("kind", "")},
+    )
+    rec = loop.recording
+    skip = int(round(record_s / rec.dt_s)) if cfg.excitation == "random" else 0
+    x = np.asarray(rec[f"force{exc_point}"])[skip:]
+    window = "boxcar" if cfg.excitation == "random" else "hann"
+    frfs = {}
+    for p in meas:
+        frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
+                             window=window, f_max_hz=test.band_hz[1] * 1.2, input_name=f"force{exc_point}",
+                             output_name=f"vel{p}", input_point=exc_point, output_point=p)
+    f = frfs[f"vel{test.response_point}"].freq_hz
+    sel = (f >= test.band_hz[0]) & (f <= test.band_hz[1])
+    f = f[sel]
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    u = fe.force_input(acts)
+    g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
+    g_fb, g_out = g[:, : len(acts), :], g[:, len(acts):, :]
+    ex = acts.index(exc_point)
+    chain = cfg.chain
+    if design is None:
+        k_cont = np.zeros((len(f), len(acts), len(acts)), dtype=complex)
+        k_samp = k_cont
+    else:
+        k_cont = continuous_controller_frf(f, **design.continuous)
+        k_samp = sampled_data_controller_frf(
+            f, design.f11, design.f12, design.f21, design.f22, chain.period_s,
+            delay_periods=chain.delay_periods, filter_hz=chain.filter_hz)
+    h_cont = closed_loop_frf(g_fb, g_out, k_cont, ex)[:, 0]
+    h_samp = closed_loop_frf(g_fb, g_out, k_samp, ex)[:, 0]
+    h_meas = frfs[f"vel{test.response_point}"].h[sel]
+    if test.response_quantity == "displacement":
+        iw = 2j * np.pi * f
+        h_cont, h_samp, h_meas = h_cont / iw, h_samp / iw, h_meas / iw
+    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
+    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
+    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
+    modes = compare_modes(f, h_samp, h_meas, fm, zm, response=test.response_quantity)
+    return ExperimentResult(
+        replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h_cont, h_samp, h_meas, modes,
+        average_error(modes), design, info,
+    )

@@ -1,0 +1,104 @@
+"""Analysis against experiment, mode by mode, as Tables 10 and 19-21 do.
+
+Both FRFs -- the analytical one and the measured one -- are treated alike:
+the modal parameters of each mode are identified from each FRF with the same
+curve fit (:func:`vlab.measure.modal.fit_modes`) near the predicted closed-loop
+frequency, and the peak levels are read the same way
+(:func:`vlab.measure.modal.peak_levels`). The peak level ratio is
+analysis / experiment; the average error is ``mean |1 - ratio|`` (Tables 10,
+19-21).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import MeasurementError
+from .modal import average_peak_error, fit_modes, peak_levels
+
+
+@dataclass(frozen=True)
+class ModeComparison:
+    """One mode: predicted vs measured frequency [Hz], damping ratio, peak level."""
+
+    mode: int
+    frequency_predicted_hz: float
+    frequency_measured_hz: float
+    damping_predicted: float
+    damping_measured: float
+    peak_predicted: float
+    peak_measured: float
+    peak_level_ratio: float
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict with the stable keys of results.json."""
+        return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in asdict(self).items()}
+
+
+def compare_modes(
+    freq_hz: np.ndarray,
+    h_analysis: np.ndarray,
+    h_experiment: np.ndarray,
+    modes_hz: np.ndarray,
+    damping_hint: np.ndarray,
+    *,
+    response: str = "displacement",
+) -> list[ModeComparison]:
+    """Identify and compare each mode in an analytical and a measured FRF.
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (n_f,)
+        Common frequency lines [Hz].
+    h_analysis, h_experiment : ndarray, complex, shape (n_f,)
+    modes_hz : ndarray, shape (n_modes,)
+        Predicted closed-loop natural frequencies [Hz].
+    damping_hint : ndarray, shape (n_modes,)
+        Predicted damping ratios, used to size the fitted bands.
+    response : str
+        FRF quantity ("displacement" or "velocity").
+
+    Returns
+    -------
+    list of ModeComparison
+        Modes that could be identified in both FRFs; a mode whose peak is not
+        found in a FRF gets NaN values.
+    """
+    df = float(np.median(np.diff(freq_hz)))
+    modes_hz = np.asarray(modes_hz, dtype=float)
+    halves = np.maximum(3.0 * modes_hz * np.maximum(np.minimum(damping_hint, 0.3), 0.002), 4 * df)
+    results = []
+    for h in (h_analysis, h_experiment):
+        try:  # all modes at once: overlapping bands (close modes) are fitted together
+            fits = fit_modes(freq_hz, h, list(modes_hz), response=response, half_band_hz=list(halves))
+        except MeasurementError:
+            fits = []
+            for fm, half in zip(modes_hz, halves):
+                try:
+                    fits.append(fit_modes(freq_hz, h, [fm], response=response, half_band_hz=half)[0])
+                except MeasurementError:
+                    fits.append(None)
+        vals = []
+        for fit, fm, half in zip(fits, modes_hz, halves):
+            if fit is None:
+                vals.append((np.nan, np.nan, np.nan))
+                continue
+            try:
+                lvl = peak_levels(freq_hz, h, [fit.freq_hz], half_band_hz=max(half / 3, 2 * df))[0]
+            except MeasurementError:
+                lvl = np.nan
+            vals.append((fit.freq_hz, fit.damping_ratio, lvl))
+        results.append(vals)
+    out = []
+    for i, ((fa, za, pa), (fe, ze, pe)) in enumerate(zip(*results)):
+        out.append(ModeComparison(i + 1, fa, fe, za, ze, pa, pe, pa / pe if pe else np.nan))
+    return out
+
+
+def average_error(comparisons: list[ModeComparison]) -> float:
+    """Average peak error ``mean |1 - r|`` over the identified modes (Tables 10, 19-21)."""
+    r = np.array([c.peak_level_ratio for c in comparisons], dtype=float)
+    r = r[np.isfinite(r)]
+    return float(average_peak_error(r)) if r.size else float("nan")
