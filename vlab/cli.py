@@ -181,6 +181,87 @@ def design(
     console.print(t)
 
 
+class ExpController(str, Enum):
+    none = "none"
+    lqr = "lqr"
+    lqg = "lqg"
+    mfdrf = "mfdrf"
+    lqdrf = "lqdrf"
+    lqdrf_diag = "lqdrf-diag"
+
+
+class Excitation(str, Enum):
+    random = "random"
+    sweep = "sweep"
+    impulse = "impulse"
+
+
+class PlantKind(str, Enum):
+    mujoco = "mujoco"
+    linear = "linear"
+
+
+@app.command()
+def experiment(
+    structure: Structure = typer.Argument(Structure.bcc, help="bcc or grid"),
+    controller: ExpController = typer.Option(ExpController.mfdrf, "--controller"),
+    reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
+    excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
+    duration: float = typer.Option(None, "--duration", help="run length [s] (default: 3 records)"),
+    delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods]"),
+    noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s]"),
+    seed: int = typer.Option(0, "--seed"),
+    mjcf: str = typer.Option(None, "--mjcf", help="run on an exported (and edited) MJCF plant"),
+    plant: PlantKind = typer.Option(PlantKind.mujoco, "--plant", help="mujoco plant or the linear FE model"),
+    out: str = typer.Option("out/experiment", "--out", help="output folder"),
+    spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live"),
+    as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
+) -> None:
+    """Run a closed-loop experiment at 2 kHz, measure it like a modal test, compare with analysis."""
+    from pathlib import Path
+
+    from rich.progress import Progress
+
+    from .io.results import experiment_summary, write_outputs
+    from .lab.experiment import ExperimentConfig, run_experiment
+    from .lab.loop import HardwareChain
+    from .models import nominal_fe_model
+
+    cfg = ExperimentConfig(
+        structure=structure.value, controller=controller.value,
+        reduction=reduction.value if reduction else None, excitation=excitation.value, duration_s=duration,
+        chain=HardwareChain(delay_periods=delay_samples, noise_m_s=noise), seed=seed, plant=plant.value,
+        mjcf=Path(mjcf) if mjcf else None,
+    )
+    try:
+        fe = nominal_fe_model(structure.value)
+        with Progress(console=err_console, transient=True, disable=as_json) as bar:
+            task = bar.add_task(f"{structure.value} {controller.value}: simulating", total=1.0)
+            result = run_experiment(cfg, fe, progress=lambda x: bar.update(task, completed=x))
+        files = write_outputs(result, fe.spec, Path(out), spawn=spawn)
+    except (VlabError, ValueError) as exc:
+        partial = getattr(exc, "partial", None)
+        if partial is not None:
+            from .io.uff import write_recording
+
+            Path(out).mkdir(parents=True, exist_ok=True)
+            kept = write_recording(Path(out) / "recording_partial.uff", partial.recording, overwrite=True)
+            err_console.print(f"the recording up to the failure is kept in {kept}")
+        _fail(exc)
+    summary = experiment_summary(result)
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title=f"{fe.spec.title}, {controller.value}: analysis (sampled-data) vs experiment ({summary['plant']})")
+    for col in ("mode", "f pred [Hz]", "f meas [Hz]", "zeta pred", "zeta meas", "peak ratio"):
+        t.add_column(col, justify="right")
+    for m in result.modes:
+        t.add_row(str(m.mode), f"{m.frequency_predicted_hz:.3f}", f"{m.frequency_measured_hz:.3f}",
+                  f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
+    console.print(t)
+    console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
+
+
 def _measured_modes(fe, modes_file: str | None):
     """Measured modes (frequencies, shapes at the Guyan masters) for corrected-guyan."""
     from .errors import DataFileError

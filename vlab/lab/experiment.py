@@ -184,6 +184,7 @@ def run_experiment(
             "raise --duration or coarsen the resolution"
         )
     plant, info = make_plant(cfg, fe, acts)
+    info = {**info, "actuators": acts}
     engine = None
     if design is not None:
         engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
@@ -191,7 +192,7 @@ def run_experiment(
     loop = run_loop(
         plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
         excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
-        seed=cfg.seed, progress=progress,
+        seed=cfg.seed, progress=progress, shape_points=tuple(fe.spec.points),
         metadata={"structure": name, "controller": cfg.controller, "excitation": cfg.excitation,
                   "seed": cfg.seed, "plant": info.get("kind", "")},
     )

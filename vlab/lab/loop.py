@@ -93,13 +93,13 @@ class LoopResult:
     velocities ``vel<p>`` [m/s] of every measured point (as the data
     acquisition saw them, without the controller's sensor noise); ``commands``
     the controller outputs ``u_k`` (n_ticks, n_act) [N]; ``displacements``
-    (n_ticks, n_points) [m] at ``points``.
+    (n_ticks, n_points) [m] at ``shape_points`` (for the animated shape).
     """
 
     recording: Recording
     commands: np.ndarray
     displacements: np.ndarray
-    points: tuple[int, ...]
+    shape_points: tuple[int, ...]
 
 
 def run_loop(
@@ -115,6 +115,7 @@ def run_loop(
     seed: int = 0,
     progress: Callable[[float], None] | None = None,
     metadata: dict | None = None,
+    shape_points: tuple[int, ...] | None = None,
 ) -> LoopResult:
     """Run the closed loop for ``duration_s`` and record it at the controller rate.
 
@@ -140,6 +141,11 @@ def run_loop(
         Seed of the sensor noise.
     progress : callable, optional
         Called with the fraction done, about every 1 % of the run.
+    metadata : dict, optional
+        Stored in the recording.
+    shape_points : tuple of int, optional
+        Points whose displacement is sampled for the deformed-shape animation
+        (default: ``measured_points``).
 
     Returns
     -------
@@ -190,7 +196,8 @@ def run_loop(
 
     meas = tuple(measured_points)
     vel = np.zeros((n_ticks, len(meas)))
-    disp = np.zeros((n_ticks, len(meas)))
+    shape = tuple(shape_points) if shape_points is not None else meas
+    disp = np.zeros((n_ticks, len(shape)))
     cmds = np.zeros((n_ticks, n_act))
     e_vec = np.zeros(n_act)
     report_every = max(1, n_ticks // 100)
@@ -207,7 +214,7 @@ def run_loop(
             done = k
             break
         vel[k] = v_meas
-        disp[k] = plant.displacements(meas)
+        disp[k] = plant.displacements(shape)
         if engine is not None:
             y = plant.velocities(fb) * sen_gain
             if a_sen is not None:
@@ -241,7 +248,7 @@ def run_loop(
     for j, p in enumerate(meas):
         signals[f"vel{p}"] = vel[:done, j]
     rec = Recording.from_signals(period, signals, metadata=dict(metadata or {}))
-    result = LoopResult(rec, cmds[:done], disp[:done], meas)
+    result = LoopResult(rec, cmds[:done], disp[:done], shape)
     if failure is not None:
         failure.partial = result  # type: ignore[attr-defined]
         raise failure

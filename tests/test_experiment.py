@@ -1,0 +1,73 @@
+"""The experiment pipeline end to end on the linear BCC plant (fast)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from vlab.cli import app
+from vlab.errors import MeasurementError, ModelError
+from vlab.io.results import write_outputs
+from vlab.io.uff import read_frfs, read_recording
+from vlab.lab.experiment import ExperimentConfig, run_experiment
+from vlab.models import nominal_fe_model
+from vlab.viz.rerun_log import rrd_entity_paths
+
+
+@pytest.fixture(scope="module")
+def fe():
+    return nominal_fe_model("bcc")
+
+
+@pytest.fixture(scope="module")
+def mfdrf_run(fe):
+    return run_experiment(ExperimentConfig(plant="linear", resolution_hz=0.1, periods=2), fe)
+
+
+def test_open_loop_measured_frequencies_match_fe_model(fe):
+    from vlab.fe import modal_analysis
+
+    r = run_experiment(ExperimentConfig(controller="none", plant="linear", resolution_hz=0.05, periods=3), fe)
+    f_fe = modal_analysis(fe.m, fe.k, 6).frequencies_hz
+    f_meas = np.array([m.frequency_measured_hz for m in r.modes])
+    np.testing.assert_allclose(f_meas, f_fe, rtol=2e-3)
+
+
+def test_mfdrf_measured_matches_sampled_data_analysis(mfdrf_run):
+    for m in mfdrf_run.modes:
+        assert m.frequency_measured_hz == pytest.approx(m.frequency_predicted_hz, rel=0.01)
+        assert m.damping_measured == pytest.approx(m.damping_predicted, rel=0.10)
+        assert 0.9 < m.peak_level_ratio < 1.1
+    assert mfdrf_run.avg_peak_error < 0.05
+
+
+def test_outputs_reload(mfdrf_run, fe, tmp_path):
+    files = write_outputs(mfdrf_run, fe.spec, tmp_path)
+    rec = read_recording(files["recording"])
+    assert set(rec.names) >= {"force9", "vel6", "vel5", "vel7", "vel9"}
+    assert rec.dt_s == pytest.approx(0.5e-3)
+    frfs = read_frfs(files["frf"])
+    assert any(f.output_point == 6 for f in frfs)
+    res = json.loads(files["results"].read_text())
+    for key in ("structure", "controller", "modes", "avg_peak_error"):
+        assert key in res
+    assert len(res["modes"]) == 6
+    paths = rrd_entity_paths(files["rerun"])
+    assert "signals/vel6" in paths and "structure/members" in paths
+    assert any(p.startswith("frf/") for p in paths)
+    assert files["figure"].stat().st_size > 10_000
+
+
+def test_bad_requests_are_clear(fe):
+    with pytest.raises(ModelError, match="LQR needs"):
+        run_experiment(ExperimentConfig(controller="lqr", plant="linear"), fe)
+    with pytest.raises(MeasurementError, match="too short"):
+        run_experiment(ExperimentConfig(plant="linear", duration_s=5.0), fe)
+
+
+def test_cli_unknown_controller():
+    res = CliRunner().invoke(app, ["experiment", "bcc", "--controller", "pid"])
+    assert res.exit_code != 0 and "pid" in res.output

@@ -1,0 +1,162 @@
+"""Writing an experiment's output folder: results.json, report.md, UFF files, figures, rerun.
+
+``results.json`` keys (stable):
+
+- ``structure``, ``controller``, ``reduction``, ``excitation``, ``plant``, ``seed``
+- ``duration_s``, ``resolution_hz``, ``hardware`` (period_s, delay_periods, filter_hz,
+  amplifier_gain, amplifier_limit_n, noise_m_s)
+- ``design`` (gain [SI], damping_ratios, frequencies_hz, gamma, converged) or null
+- ``modes``: list of {mode, frequency_predicted_hz, frequency_measured_hz,
+  damping_predicted, damping_measured, peak_predicted, peak_measured, peak_level_ratio}
+- ``avg_peak_error``: mean |1 - ratio| (Tables 10, 19-21)
+- ``files``: names of the other outputs
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataFileError
+
+
+def _jsonable(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return [_jsonable(v) for v in o.tolist()] if o.dtype != complex else [[v.real, v.imag] for v in o.ravel()]
+    if isinstance(o, (np.floating, float)):
+        v = float(o)
+        return v if np.isfinite(v) else None
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, dict):
+        return {str(k): _jsonable(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_jsonable(v) for v in o]
+    if isinstance(o, Path):
+        return str(o)
+    return o
+
+
+def write_json(path: Path, obj: dict) -> Path:
+    """Write ``obj`` as indented JSON (NaN -> null). Returns the path."""
+    path.write_text(json.dumps(_jsonable(obj), indent=2) + "\n")
+    return path
+
+
+def experiment_summary(result) -> dict:
+    """The results.json object of an :class:`~vlab.lab.experiment.ExperimentResult`."""
+    cfg = result.config
+    d = result.design
+    ch = cfg.chain
+    return {
+        "structure": cfg.structure,
+        "controller": cfg.controller,
+        "reduction": getattr(d, "model", None),
+        "excitation": cfg.excitation,
+        "plant": result.plant_info.get("kind"),
+        "seed": cfg.seed,
+        "duration_s": cfg.duration_s,
+        "resolution_hz": cfg.resolution_hz,
+        "hardware": {
+            "period_s": ch.period_s, "delay_periods": ch.delay_periods, "filter_hz": ch.filter_hz,
+            "amplifier_gain": ch.amplifier_gain, "amplifier_limit_n": ch.amplifier_limit_n,
+            "noise_m_s": ch.noise_m_s,
+        },
+        "design": None if d is None else {
+            "gain": d.gain, "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
+            "gamma": d.gamma, "converged": d.converged,
+        },
+        "modes": [m.as_dict() for m in result.modes],
+        "avg_peak_error": result.avg_peak_error,
+    }
+
+
+def report_markdown(summary: dict) -> str:
+    """A markdown report of an experiment (tables in the form of Table 10)."""
+    lines = [
+        f"# vlab experiment: {summary['structure']}, {summary['controller']}",
+        "",
+        f"Plant: {summary['plant']}; excitation: {summary['excitation']}; duration {summary['duration_s']:.1f} s; "
+        f"resolution {summary['resolution_hz']:g} Hz; seed {summary['seed']}.",
+        f"Hardware: period {summary['hardware']['period_s'] * 1e3:g} ms, delay {summary['hardware']['delay_periods']} periods, "
+        f"RC filter {summary['hardware']['filter_hz']} Hz, sensor noise {summary['hardware']['noise_m_s']} m/s.",
+        "",
+        "Prediction: the sampled-data analysis (zero-order hold, delay and filter) on the FE model, measured",
+        "with the same curve fit as the experiment.",
+        "",
+        "| mode | f predicted [Hz] | f measured [Hz] | error | zeta predicted | zeta measured | error | peak level ratio |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for m in summary["modes"]:
+        def pct(a, b):
+            return f"{100 * (b / a - 1):+.2f} %" if a and b else "n/a"
+        fp, fm, zp, zm = (m["frequency_predicted_hz"], m["frequency_measured_hz"], m["damping_predicted"],
+                          m["damping_measured"])
+        ratio = m["peak_level_ratio"]
+        lines.append(
+            f"| {m['mode']} | {fp or float('nan'):.3f} | {fm or float('nan'):.3f} | {pct(fp, fm)} | "
+            f"{zp or float('nan'):.4f} | {zm or float('nan'):.4f} | {pct(zp, zm)} | "
+            f"{ratio if ratio is None else f'{ratio:.3f}'} |"
+        )
+    lines += ["", f"Average peak level error mean|1 - ratio|: {summary['avg_peak_error']:.3f}", ""]
+    return "\n".join(lines)
+
+
+def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite: bool = True) -> dict[str, Path]:
+    """Write the output folder of an experiment.
+
+    Files: ``recording.uff`` (UFF 58 time histories), ``frf.uff`` (UFF 58 FRFs),
+    ``results.json``, ``report.md``, ``frf.png`` (analysis over experiment, log
+    magnitude, as Figs. 22-31) and ``run.rrd`` (rerun).
+
+    Raises
+    ------
+    DataFileError
+        If the folder cannot be created.
+    """
+    from ..viz.figures import frf_figure
+    from ..viz.rerun_log import log_experiment, structure_geometry
+    from .uff import write_frfs, write_recording
+
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataFileError(f"{out}: cannot create the output folder ({exc})") from None
+    files = {
+        "recording": out / "recording.uff",
+        "frf": out / "frf.uff",
+        "results": out / "results.json",
+        "report": out / "report.md",
+        "figure": out / "frf.png",
+        "rerun": out / "run.rrd",
+    }
+    write_recording(files["recording"], result.loop.recording, overwrite=overwrite)
+    write_frfs(files["frf"], result.frfs, overwrite=overwrite)
+    summary = experiment_summary(result)
+    summary["files"] = {k: p.name for k, p in files.items()}
+    write_json(files["results"], summary)
+    files["report"].write_text(report_markdown(summary))
+    cfg = result.config
+    unit = "m/N" if cfg.structure == "bcc" else "(m/s)/N"
+    frf_figure(
+        result.freq_hz,
+        {"experiment": result.measured, "analysis (sampled-data)": result.analysis_sampled,
+         "analysis (continuous, as 1990)": result.analysis_continuous},
+        title=f"{cfg.structure} {cfg.controller}: excitation at {result.loop.recording.channels[0].point_id}",
+        ylabel=f"|H| [{unit}]",
+        path=files["figure"],
+    )
+    pts, members = structure_geometry(spec)
+    loop = result.loop
+    log_experiment(
+        files["rerun"], recording=loop.recording, structure_points=pts, members=members,
+        displacement=loop.displacements, displacement_dt_s=loop.recording.dt_s, point_ids=list(loop.shape_points),
+        frfs={"experiment": (result.freq_hz, result.measured), "analysis": (result.freq_hz, result.analysis_sampled)},
+        extra_signals={f"u{p}": loop.commands[:, j] for j, p in enumerate(result.plant_info.get("actuators", []))},
+        metadata=summary, spawn=spawn,
+    )
+    return files
