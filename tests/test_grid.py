@@ -104,9 +104,12 @@ def test_mode1_is_the_pendulum_mode(fe, modes):
     phi = modes.shapes[:, 0]
     r13, r22 = phi[fe.dofs.index(13, "rx")], phi[fe.dofs.index(22, "rx")]
     assert r13 * r22 > 0 and r13 == pytest.approx(r22, rel=1e-3)  # in phase, symmetric
-    # the top beam rotates as a whole: its rotation dominates the rotations of the model
-    rx_all = np.abs([phi[i] for i, (_, d) in enumerate(fe.dofs.labels) if d == "rx"])
-    assert abs(r13) >= 0.9 * rx_all.max()
+    # the top beam rotates as a whole about its axis (rx uniform along 13-22), without bending,
+    # and its rotation with the plates holds a large share of the kinetic energy (about a third;
+    # the grid below swings about 1.7 times further than the top beam turns: it flexes)
+    rx_top = np.array([phi[fe.dofs.index(p, "rx")] for p in range(13, 23)])
+    np.testing.assert_allclose(rx_top, r13, rtol=0.05)
+    assert c.top_torsion > 0.25 and c.top_bending < 0.05
 
 
 def test_mode7_top_beam_bending_and_mode8_torsion(fe, modes):

@@ -28,6 +28,7 @@ from vlab.sim import (
     free_run,
     linearize,
     load_mjcf,
+    load_plant_for_experiment,
     modes,
     settle,
 )
@@ -157,12 +158,22 @@ def test_undamped_free_run_keeps_its_energy(plant):
     assert abs(run.energy[-1] / run.energy[0] - 1) < 0.01
 
 
+def test_settle_finds_the_flat_equilibrium(plant):
+    d = mujoco.MjData(plant.model)
+    d.qpos[:] = np.random.default_rng(1).normal(0.0, 0.01, plant.model.nq)
+    d.qvel[:] = 0.1
+    ds = settle(plant.model, d)
+    assert np.max(np.abs(ds.qpos)) < 1e-9
+    assert np.max(np.abs(ds.qvel)) == 0.0
+
+
 def test_timestep_too_large_is_refused_before_running(spec):
     with pytest.raises(SimulationError, match="too large for the hinge chain"):
         build_plant(spec, SimOptions(timestep_s=2e-3, modal_damping=False))
 
 
-def test_divergence_is_detected_when_the_check_is_off(spec):
+def test_divergence_is_detected_when_the_check_is_off(spec, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs the expected warning to ./MUJOCO_LOG.TXT
     plant = build_plant(spec, SimOptions(timestep_s=2e-3, check_timestep=False, modal_damping=False,
                                          stiffness_damping_s=0.0))
     with pytest.raises(SimulationError):
@@ -186,3 +197,17 @@ def test_structure_without_inplane_root_is_refused(spec):
     strings = tuple(dataclasses.replace(s, tension=s.tension or s.length) for s in spec.strings)
     with pytest.raises(SimulationError):
         build_plant(spec.replace(strings=strings))
+
+
+def test_plant_for_experiment_from_spec_and_from_mjcf(plant, spec, tmp_path):
+    sim, info = load_plant_for_experiment(spec, actuators=(9, 5))
+    assert sim.actuator_points == (9, 5) and info["timestep_s"] == plant.timestep_s
+    path = export_mjcf(plant, tmp_path / "bcc.xml")
+    sim2, info2 = load_plant_for_experiment(spec, mjcf=path, actuators=(9, 5))
+    assert sim2.sensor_points == (5, 6, 7, 9)
+    for s_ in (sim, sim2):
+        s_.set_forces(np.array([1.0, -0.5]))
+        s_.step(200)
+    np.testing.assert_allclose(sim2.velocities((5, 6, 7, 9)), sim.velocities((5, 6, 7, 9)), rtol=1e-4, atol=1e-9)
+    with pytest.raises(SimulationError, match="no voice-coil"):
+        MujocoPlant(plant, actuators=(6,))

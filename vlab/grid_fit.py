@@ -2,29 +2,42 @@
 
 The grid's drawing (Fig. 5, Refs. 51-52) is not available, so its geometry is a
 reconstruction (``shared/grid-reconstruction.md``, topology "D5a": a +/-45 deg
-lattice of pitch ``a`` hung from the top beam at points 15, 17, 18, 20). Its
-unknown parameters -- lattice pitch, plate weight ``W`` and radius of
-gyration, top-beam EI, GJ, kGA and mass, joint and coil masses -- are fitted by
-bounded least squares to
+lattice of pitch ``a``, rows 2-4-3-2-1 with one horizontal bar 10-11, hung
+from the top beam at points 15, 17, 18, 20). Its unknown parameters (see
+:data:`GRID_PARAMETERS`) -- lattice pitch, top-beam half-span, plate width and
+height (which give the plate weight ``W``, the pendulum springs ``W*Y`` and
+the plate inertias), top-beam EI, GJ, kGA and mass, joint and coil masses --
+are fitted by bounded least squares to
 
 1. Table 3's analytical frequencies (the thesis's own 64-DOF model), and
 2. Table 5's Guyan column: the same model condensed (Guyan 1965; Sec. 3.3) to
    the translations at joints 1-9 and 12 and the rotations ``rx`` at the
-   bearings 13 and 22.
+   bearings 13 and 22 (weight 0.5).
 
 Modes are matched by character, not only by order: Sec. 2.2.2 says modes 7
 and 8 are the first bending and the torsion (plates in anti-phase) of the top
 beam, so the model's top-beam bending and torsion modes are compared with
 Table 3 modes 7 and 8 and its other modes, in frequency order, with modes
-1-6 and 9-12. Mode 1 is the pendulum mode (the whole structure swinging about
-the top-beam axis).
+1-6 and 9-12; penalties keep top-beam modes out of the other slots and make
+mode 1 the pendulum mode (the whole structure swinging about the top-beam
+axis).
 
-Run ``python -m vlab.grid_fit`` to repeat the fit; it prints the parameters
-(thesis units), which of them are on a bound, and the per-mode table. The
-values are written (by hand) into ``assets/structures/grid.toml``, marked
-"calibrated: Table 3 analytical + Table 5 Guyan (python -m vlab.grid_fit)".
-The Guyan condensation is implemented here on purpose (``T = [I; -K22^-1 K21]``),
-independent of :mod:`vlab.reduction`.
+What the reconstruction reaches (``python -m vlab.grid_fit --check``): 9.2 %
+rms against Table 3 analytical, with mode 4 -18 %, mode 10 -16 %, mode 3
++13 %, mode 1 -10 % and modes 7-8 within 2 %; 11 % rms against the Table 5
+Guyan column. No parameter is on a bound, four lie within 5 % of one
+(half-span, plate width and height, top-beam kGA). The issue's 5 % target was
+set before the geometry was known to be missing; the remaining error is the
+unknown geometry, not a missing stiffness term (the full geometric stiffness
+of :mod:`vlab.fe.geometric` is in the model).
+
+Run ``python -m vlab.grid_fit`` to repeat the fit (local, from the values in
+``grid.toml``; ``--global`` adds a differential-evolution search); it prints
+the parameters (thesis units), which of them are on or near a bound, and the
+per-mode tables. The values are written into ``assets/structures/grid.toml``
+(by hand), marked "calibrated: Table 3 analytical + Table 5 Guyan (python -m
+vlab.grid_fit)". The Guyan condensation is implemented here on purpose
+(``T = [I; -K22^-1 K21]``), independent of :mod:`vlab.reduction`.
 """
 
 from __future__ import annotations
@@ -55,8 +68,8 @@ ALUMINIUM_LBF_IN3 = 0.098
 #: Fitted parameters: (name, lower, upper, unit, log-scaled in the optimiser, meaning).
 GRID_PARAMETERS: tuple[tuple[str, float, float, str, bool, str], ...] = (
     ("pitch", 6.0, 16.0, "in", False, "lattice pitch a (joint spacing, horizontal and vertical)"),
-    ("half_span", 1.1, 2.5, "1", False, "top-beam half-span (13 to the centre) / 3a (3a: outer hangers 15, 20)"),
-    ("plate_width", 6.0, 30.0, "in", False, "plate width b (along the top-beam axis)"),
+    ("half_span", 1.03, 2.5, "1", False, "top-beam half-span (13 to the centre) / 3a (3a: outer hangers 15, 20)"),
+    ("plate_width", 6.0, 30.0, "in", False, "plate width b (horizontal, normal to the top-beam axis)"),
     ("plate_height", 2.0 * PLATE_Y_IN, 30.0, "in", False, "plate height h (>= 2Y: the axis lies within the plate)"),
     ("top_ei", 1.0e5, 3.0e7, "lbf*in^2", True, "top-beam out-of-plane EI"),
     ("top_gj", 1.0e4, 1.0e7, "lbf*in^2", True, "top-beam GJ"),
@@ -71,30 +84,40 @@ def plate_properties(width_in: float, height_in: float) -> tuple[float, float, f
     """Weight and inertias of one rigid plate from its assumed geometry.
 
     A rectangular aluminium plate, ``11/16`` in thick (Sec. 2.2), of width
-    ``b`` (along the top-beam axis) and height ``h``, in a vertical plane
-    parallel to the grid, with its centre of gravity ``Y = 9.05`` in below the
-    axis (Fig. 5). Parallel to the grid because Sec. 5.3 measures the plates'
-    rotation with non-contacting probes facing "the bottom sides of the large
-    aluminum plates", i.e. an out-of-plane motion of the plate's face.
+    ``b`` and height ``h`` in the vertical plane normal to the top-beam axis,
+    with its centre of gravity ``Y = 9.05`` in below the axis (Fig. 5). Normal
+    to the axis because the calibrated bearings sit only a few inches outboard
+    of the outer hangers: a plate tens of inches wide in the grid's own plane
+    would run into the hangers; edge-on it clears them.
 
     Parameters
     ----------
     width_in, height_in : float
-        ``b`` and ``h`` [in].
+        ``b`` (horizontal, normal to the grid) and ``h`` [in].
 
     Returns
     -------
     weight_lbf : float
         ``W = rho t b h`` [lbf].
     inertia_rx : float
-        About the top-beam axis, ``W/g (h^2/12 + Y^2)`` [lbf*s^2*in].
+        About the top-beam axis (in the plate's plane),
+        ``W/g ((b^2 + h^2)/12 + Y^2)`` [lbf*s^2*in].
     inertia_ry : float
-        About the vertical through the bearing (plate centred on it),
-        ``W/g b^2/12`` [lbf*s^2*in].
+        About the vertical through the bearing, ``W/g b^2/12`` [lbf*s^2*in].
     """
     w = ALUMINIUM_LBF_IN3 * PLATE_T_IN * width_in * height_in
     m = w / G_IN
-    return w, m * (height_in**2 / 12.0 + PLATE_Y_IN**2), m * width_in**2 / 12.0
+    return w, m * ((width_in**2 + height_in**2) / 12.0 + PLATE_Y_IN**2), m * width_in**2 / 12.0
+
+
+CALIBRATED = "calibrated: Table 3 analytical + Table 5 Guyan (python -m vlab.grid_fit)"
+
+#: Table 3 modes that are top-beam bending and torsion (Sec. 2.2.2), 1-based.
+TOP_BENDING_MODE = 7
+TOP_TORSION_MODE = 8
+
+#: Number of model modes searched for the top-beam modes.
+N_SEARCH = 16
 
 
 # ------------------------------------------------------------ parameters ---
@@ -335,12 +358,20 @@ def mode_characters(fe: FEModel, shapes: np.ndarray) -> list[ModeCharacter]:
     return out
 
 
+def _first_above(score: np.ndarray, threshold: float) -> int:
+    """Index of the first score above ``threshold``, else of the largest score."""
+    above = np.flatnonzero(score > threshold)
+    return int(above[0]) if above.size else int(np.argmax(score))
+
+
 def match_modes(fe: FEModel, n_ref: int = 12) -> tuple[np.ndarray, np.ndarray, list[ModeCharacter]]:
     """Model modes matched to the Table 3 mode numbers.
 
-    The mode with the largest top-beam bending share is Table 3 mode 7, the
-    anti-phase mode with the largest top-beam torsion share mode 8; the others
-    fill modes 1-6 and 9-12 in frequency order.
+    The lowest mode with more than half of its kinetic energy in top-beam
+    bending is Table 3 mode 7 (first top-beam bending), the lowest anti-phase
+    mode with more than half in top-beam torsion mode 8 (where no mode
+    reaches one half, the one with the largest share); the others fill modes
+    1-6 and 9-12 in frequency order.
 
     Returns
     -------
@@ -353,10 +384,10 @@ def match_modes(fe: FEModel, n_ref: int = 12) -> tuple[np.ndarray, np.ndarray, l
     """
     modes = modal_analysis(fe.m, fe.k, N_SEARCH)
     ch = mode_characters(fe, modes.shapes)
-    torsion_score = [c.top_torsion if c.rx_phase < 0 else 0.0 for c in ch]
-    it = int(np.argmax(torsion_score))
-    bend_score = [c.top_bending if j != it else -1.0 for j, c in enumerate(ch)]
-    ib = int(np.argmax(bend_score))
+    torsion_score = np.array([c.top_torsion if c.rx_phase < 0 else 0.0 for c in ch])
+    it = _first_above(torsion_score, 0.5)
+    bend_score = np.array([c.top_bending if j != it else -1.0 for j, c in enumerate(ch)])
+    ib = _first_above(bend_score, 0.5)
     rest = [j for j in range(N_SEARCH) if j not in (ib, it)]
     index = np.empty(n_ref, dtype=int)
     slots = [i for i in range(n_ref) if i not in (TOP_BENDING_MODE - 1, TOP_TORSION_MODE - 1)]
@@ -388,6 +419,8 @@ class GridFit:
         Character of the model modes in frequency order.
     on_bound : tuple of str
         Parameters within 0.5 % (of the range, or of the log range) of a bound.
+    near_bound : tuple of str
+        Parameters within 5 % of a bound (including those on it).
     rms_table3 : float
         RMS relative error of ``matched_hz`` against Table 3 analytical.
     rms_guyan : float
@@ -400,6 +433,7 @@ class GridFit:
     guyan_hz: np.ndarray
     characters: list[ModeCharacter]
     on_bound: tuple[str, ...]
+    near_bound: tuple[str, ...]
     rms_table3: float
     rms_guyan: float
 
@@ -464,15 +498,25 @@ def residuals(doc: dict[str, Any], values: dict[str, float], weight_guyan: float
     return np.concatenate([matched / f3 - 1.0, weight_guyan * (guyan / f5 - 1.0), pen])
 
 
-_STARTS = (
+#: Extra starting points of the local fit, as changes to the values in grid.toml.
+_STARTS: tuple[dict[str, float], ...] = (
     {},
-    {"pitch": 12.0, "plate_width": 20.0, "top_ei": 3e6, "top_gj": 3e5, "top_kga": 3e5},
-    {"pitch": 14.0, "plate_width": 26.0, "plate_height": 26.0, "top_ei": 1e7, "top_gj": 1e6, "top_kga": 3e3},
+    {"pitch": 13.0, "half_span": 1.3},
+    {"plate_width": 24.0, "plate_height": 24.0, "top_kga": 1.0e4},
 )
 
 
-def fit_grid(doc: dict[str, Any] | None = None, *, weight_guyan: float = 0.5) -> GridFit:
-    """Fit the grid's unknown parameters (bounded least squares, multi-start).
+def fit_grid(doc: dict[str, Any] | None = None, *, weight_guyan: float = 0.5, global_search: bool = False,
+             seed: int = 2) -> GridFit:
+    """Fit the grid's unknown parameters by bounded least squares.
+
+    The residuals (:func:`residuals`) switch when modes change order, so the
+    cost has many local minima. By default the fit is local (trust-region
+    least squares, ``scipy.optimize.least_squares``) from the values in the
+    document and from the perturbed starts of ``_STARTS``; the values shipped
+    in ``grid.toml`` came from a global search (``global_search=True``:
+    differential evolution over the bounds, then the local polish; about ten
+    minutes on two cores).
 
     Parameters
     ----------
@@ -480,6 +524,10 @@ def fit_grid(doc: dict[str, Any] | None = None, *, weight_guyan: float = 0.5) ->
         Parsed grid TOML; defaults to the shipped ``grid.toml``.
     weight_guyan : float
         Weight of the Table 5 Guyan residuals relative to Table 3's.
+    global_search : bool
+        Run differential evolution first.
+    seed : int
+        Seed of the global search (deterministic for a given seed).
 
     Returns
     -------
@@ -494,9 +542,15 @@ def fit_grid(doc: dict[str, Any] | None = None, *, weight_guyan: float = 0.5) ->
     def fun(x: np.ndarray) -> np.ndarray:
         return residuals(doc, _from_x(x), weight_guyan)
 
+    starts = [np.clip(_to_x({**base, **st}), lo + 1e-9, hi - 1e-9) for st in _STARTS]
+    if global_search:
+        de = scipy.optimize.differential_evolution(
+            lambda x: float(np.sum(fun(x) ** 2)), list(zip(lo, hi)), popsize=10, maxiter=50, seed=seed,
+            polish=False, tol=1e-6,
+        )
+        starts.insert(0, de.x)
     best = None
-    for start in _STARTS:
-        x0 = np.clip(_to_x({**base, **start}), lo + 1e-9, hi - 1e-9)
+    for x0 in starts:
         sol = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=(hi - lo) / 10, diff_step=1e-4)
         if best is None or sol.cost < best.cost:
             best = sol
@@ -512,7 +566,9 @@ def summarize(doc: dict[str, Any], values: dict[str, float], *, weight_guyan: fl
     f5 = column("table5_grid_reduced_frequencies.csv", "guyan_hz")
     lo, hi = _bounds()
     x = _to_x(values)
-    on = tuple(p[0] for p, v, a, b in zip(GRID_PARAMETERS, x, lo, hi) if min(v - a, b - v) < 5e-3 * (b - a))
+    margin = [min(v - a, b - v) / (b - a) for v, a, b in zip(x, lo, hi)]
+    on = tuple(p[0] for p, d in zip(GRID_PARAMETERS, margin) if d < 5e-3)
+    near = tuple(p[0] for p, d in zip(GRID_PARAMETERS, margin) if d < 5e-2)
     return GridFit(
         values=values,
         frequencies_hz=modes.frequencies_hz,
@@ -520,6 +576,7 @@ def summarize(doc: dict[str, Any], values: dict[str, float], *, weight_guyan: fl
         guyan_hz=guyan,
         characters=ch,
         on_bound=on,
+        near_bound=near,
         rms_table3=float(np.sqrt(np.mean((matched / f3 - 1.0) ** 2))),
         rms_guyan=float(np.sqrt(np.mean((guyan / f5 - 1.0) ** 2))),
     )
@@ -531,7 +588,7 @@ def report(fit: GridFit) -> str:
     f5 = column("table5_grid_reduced_frequencies.csv", "guyan_hz")
     lines = ["parameter        value        bounds               unit"]
     for name, lo, hi, unit, _log, meaning in GRID_PARAMETERS:
-        flag = "  ON BOUND" if name in fit.on_bound else ""
+        flag = "  ON BOUND" if name in fit.on_bound else ("  near bound" if name in fit.near_bound else "")
         lines.append(f"{name:14s} {fit.values[name]:11.4g}  [{lo:8.3g}, {hi:8.3g}]  {unit:9s} {meaning}{flag}")
     lines.append("")
     lines.append("mode  vlab Hz  Table3 analyt.  error %  mode character (model modes in frequency order)")
@@ -553,17 +610,27 @@ def report(fit: GridFit) -> str:
     lines.append(f"rms error vs Table 3 analytical (matched modes): {100 * fit.rms_table3:.2f} %")
     lines.append(f"rms error vs Table 5 Guyan column:              {100 * fit.rms_guyan:.2f} %")
     lines.append("parameters on a bound: " + (", ".join(fit.on_bound) or "none"))
+    lines.append("parameters within 5 % of a bound: " + (", ".join(fit.near_bound) or "none"))
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m vlab.grid_fit [--check]``: fit (or, with --check, evaluate grid.toml) and print."""
+    """``python -m vlab.grid_fit [--check | --global]``.
+
+    Without options: local fit from the values in ``grid.toml`` (about a
+    minute); ``--check``: evaluate ``grid.toml`` as it is; ``--global``:
+    differential evolution first (slow). Prints the parameters, those on a
+    bound and the per-mode tables.
+    """
     argv = sys.argv[1:] if argv is None else argv
-    if argv not in ([], ["--check"]):
-        print("usage: python -m vlab.grid_fit [--check]", file=sys.stderr)
+    if argv not in ([], ["--check"], ["--global"]):
+        print("usage: python -m vlab.grid_fit [--check | --global]", file=sys.stderr)
         return 2
     doc = load_spec("grid").raw
-    fit = summarize(doc, current_parameters(doc)) if argv == ["--check"] else fit_grid(doc)
+    if argv == ["--check"]:
+        fit = summarize(doc, current_parameters(doc))
+    else:
+        fit = fit_grid(doc, global_search=argv == ["--global"])
     print(report(fit))
     return 0
 

@@ -37,12 +37,12 @@ from .crosscheck import (
 from .damping import DampingReport
 from .export import export_mjcf, load_mjcf
 from .linearize import LinearModel, SimModes, linearize, modes, settle
-from .runtime import MujocoPlant
+from .runtime import MujocoPlant, load_plant_for_experiment, sensor_rows
 
 __all__ = [
     "BuildInfo", "CrossCheck", "DampingReport", "FreeDecay", "FreeRun", "LinearModel", "ModePair",
     "MujocoPlant", "Plant", "SimModes", "SimOptions", "auto_timestep", "build_mjspec", "build_plant",
     "check_timestep", "crosscheck", "export_mjcf", "fe_reference", "free_decay", "free_run",
     "hinge_layout", "hinge_omega_max", "linearize", "load_mjcf", "mac_matrix", "modes", "pair_modes",
-    "settle", "total_energy",
+    "load_plant_for_experiment", "sensor_rows", "settle", "total_energy",
 ]

@@ -7,38 +7,42 @@ about an in-plane axis or a slide along z. Gravity (magnitude 9.80665 m/s^2)
 acts in the plane along the spec's gravity direction, so its geometric
 stiffness comes out of the simulation itself.
 
-Discretisation (the "midpoint" hinge chain)
--------------------------------------------
+Discretisation (a hinge chain with Gauss-placed hinges)
+-------------------------------------------------------
 Each member segment between two consecutive points, of flexible length
-``L_f = L - a_1 - a_2`` (rigid inserts ``a`` at its ends, Sec. 2.1.1), is cut
-into ``n`` links of length ``l = L_f / n``. Hinges sit at the *midpoints*
-``a_1 + l/2 + k l`` (k = 0..n-1), so every hinge represents the curvature of
-one link length and gets
+``L_f = L - a_1 - a_2`` (rigid inserts ``a`` at its ends, Sec. 2.1.1), gets
+``n`` hinges (``segments_per_element``). Hinge ``k`` sits at ``a_1 + s_k L_f``
+and has the compliance share ``c_k`` (:func:`hinge_layout`):
 
-* bending stiffness ``EI / l`` about the in-plane axis perpendicular to the
-  member, ``(e_y, -e_x, 0)`` (a positive angle is a positive slope dw/ds);
-* torsion stiffness ``GJ / l`` about the member axis ``e``, where the
-  spec's active DOFs contain the rotation about that axis.
+* bending stiffness ``EI / (c_k L_f)`` about the in-plane axis perpendicular to
+  the member, ``(e_y, -e_x, 0)`` (a positive angle is a positive slope dw/ds);
+* torsion stiffness ``GJ / (c_k L_f)`` about the member axis ``e``, where the
+  spec's active DOFs contain the rotation about that axis;
+* for a shear-flexible section (``shear_stiffness`` kGA, the grid's sandwich
+  top beam, Sec. 2.2.1) also a slide along z of stiffness ``kGA / (c_k L_f)``.
 
-Every structure point is the centre of a rigid **junction body** that carries
-the half links (and rigid inserts) of all members meeting there, its lumped
-masses, its sites and its actuator. A clamped end is therefore represented
-exactly as a free one: the first hinge is half a link away from the clamp and
-carries ``EI/l`` -- the half link of flexibility on the clamp side plus the
-half link on the other side (equivalently ``2EI/l`` for a hinge placed at
-the clamp itself, as DESIGN.md puts it). Both layouts converge as ``1/n^2``;
-the static tip deflection of a cantilever with ``n`` links is
-``P L^3 / (3 EI) * (1 - 1/(4 n^2))``.
+With the default ``"gauss"`` layout ``s_k``, ``c_k`` are the n-point
+Gauss-Legendre abscissae and weights: the chain's end flexibility is then
+*exact* for end loads and uniform loads (n >= 2), i.e. a cantilever's tip
+stiffness and a frame member's sway stiffness ``12 EI/L^3`` come out right
+with two hinges. The ``"uniform"`` layout (hinges at the link midpoints, ``c_k
+= 1/n``: ``EI/l`` per hinge, ``2EI/l`` equivalent at a clamp) is stiffer by
+``1/(4 n^2)`` (cantilever) to ``1/n^2`` (double curvature) and needs about
+twice the links for the same accuracy (README: convergence study).
 
-Link inertia comes from the section: mass ``rho_a l``, torsional inertia
-``rho_ip l`` about the member axis, ``m (l^2 + t^2)/12`` about the bending
-axis, combined with point masses by the parallel-axis theorem into one
-explicit inertia per body.
+Every structure point is a rigid **junction body** carrying the pieces of all
+members up to their first hinge (with rigid inserts), its lumped masses, its
+sites and its actuator. A clamped end is therefore no special case: the clamp
+side of the first hinge is rigid. Link inertia comes from the section: mass
+``rho_a l``, torsional inertia ``rho_ip l`` about the member axis,
+``m (l^2 + t^2)/12`` about the bending axis, combined with point masses by the
+parallel-axis theorem into one explicit inertia per body.
 
 Topology
 --------
 The kinematic tree is rooted at the point held in the plane (a support with
-``inplane = true`` or the point of a string with ``tension = "reaction"``);
+``inplane = "pinned"``/``"clamped"`` or the point of a string with
+``tension = "reaction"``);
 its free out-of-plane DOFs become a slide (w) and hinges (rx, ry). The tree is
 grown breadth first; a member segment whose far end is already in the tree
 closes a loop: its last link ("stub") is welded to the junction with
@@ -50,13 +54,16 @@ Because the tree has no in-plane DOFs, MuJoCo cannot decide how a statically
 indeterminate structure shares its in-plane loads: the in-plane rows of the
 loop-closing welds have a zero Jacobian in the flat state and carry no force,
 so all of the weight would flow down the spanning tree. The geometric
-stiffness depends on that load path, so the in-plane *redundant* forces of
-the FE gravity statics (:func:`vlab.fe.statics.solve_gravity`: the internal
-force and moment at each loop cut, the reaction at each further in-plane
-support) are applied as constant world-frame loads (``prestress*``
-actuators with a constant bias force): the tree then carries the same in-plane
-forces as the frame, and gravity does the rest. Statically determinate
-structures (the BCC) need none.
+stiffness depends on that load path (the grid's frequencies are off by up to
+13 % without this), so the in-plane *redundant* forces of the FE gravity
+statics (:func:`vlab.fe.statics.solve_gravity`: the internal force and moment
+at each loop cut, the reaction at each further in-plane support) are applied
+as constant loads by ``prestress*`` actuators with a constant bias force: at
+a loop cut a pair (site on the member end, refsite on the junction), at a
+support a dead load (world refsite). The tree then carries the frame's
+in-plane forces, and gravity does the rest: the second-order work of every
+load, including in-plane shear and moment, comes from exact rigid-body
+kinematics. Statically determinate structures (the BCC) need none.
 
 Other elements
 --------------
@@ -72,8 +79,9 @@ Other elements
   starting ``crosspiece_root_offset`` from its centre (default: the rigid
   insert length at that point, i.e. half the clamp).
 * Grounded springs become joint stiffness at the root, a *pendulum plate*
-  (mass hung below the point so that gravity gives ``W Y``) where the spec's
-  ``[mujoco] pendulum_plates`` names the plate mass, or otherwise a fixed
+  (the plate's lumped mass hung ``Y = k / W`` below its point, so that gravity
+  gives ``W Y``, Sec. 2.2.1; see :meth:`_Planner._plates` for how plates are
+  recognised, ``[mujoco] pendulum_plates`` overrides), or otherwise a fixed
   tendon with the first-order kinematic coefficients of that DOF.
 * Voice coils: ``general`` actuator ``coil<ID>`` on site ``coil<ID>`` with the
   world-fixed refsite ``coil<ID>_ref``, gear along +z: ``ctrl`` is the force in N
@@ -85,11 +93,16 @@ Damping
 -------
 Hinge springs get a stiffness-proportional damping ``beta * k`` (``beta``
 small, for the discretisation's high modes). The spec's modal damping ratios
-are then imposed exactly (in the linear range) with one fixed tendon per mode
-``r``: coefficients ``M phi_r`` (mass-normalised undamped mode ``phi_r`` in
-joint coordinates, settled state), damping ``c_r = 2 zeta_r omega_r - phi_r^T
-C_beta phi_r``, so that ``Phi^T C Phi = diag(2 zeta omega)`` for the damped
-modes; see :mod:`vlab.sim.damping`.
+are then imposed with one fixed tendon per damped mode whose coefficients are
+bi-orthogonal to the damped modes, tuned on the linearisation until each
+ratio is met within 1 %; see :mod:`vlab.sim.damping`.
+
+Spec keys read from ``[mujoco]`` (all optional)
+-----------------------------------------------
+``segments_per_element`` (int), ``segments`` (table member id -> int),
+``crosspiece_segments`` (int), ``timestep`` [s], ``stiffness_damping``
+(``beta`` [s]), ``crosspiece_root_offset`` [m], ``pendulum_plates`` (table
+spring id -> mass id, or false). :class:`SimOptions` fields override them.
 
 Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
 dissertation; MuJoCo documentation (``doc/XMLreference.rst``: tendon,
@@ -115,9 +128,10 @@ from ..units import G_SI
 #: Weld/connect constraint impedance that makes a weld behave as rigid (DESIGN.md).
 RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
-#: Defaults of the build options (overridden by the spec's [mujoco] table, then by SimOptions).
-DEFAULT_SEGMENTS_PER_ELEMENT = 2
-DEFAULT_CROSSPIECE_SEGMENTS = 2
+#: Automatic discretisation: at least MIN_LINKS hinges per member segment, and no link (on average)
+#: longer than LINK_LENGTH_M -- two Gauss hinges per 10-in element of the BCC, three on the grid's bars.
+MIN_LINKS = 2
+LINK_LENGTH_M = 0.2
 #: The lab's controller sample period (2 kHz, Sec. 5.3); automatic timesteps divide it.
 LAB_PERIOD_S = 5e-4
 #: Target omega_max * dt of the automatic timestep (margin below STABILITY_LIMIT).
@@ -152,14 +166,16 @@ class SimOptions:
     ----------
     segments_per_element : int, optional
         Hinge-chain links per member segment (between consecutive points).
-        ``[mujoco] segments_per_element``; default 2 -- except for shear-dominated
-        members (``12 EI / (kGA L^2) > SHEAR_DOMINATED``, the grid's sandwich top
-        beam), which get 1 unless set explicitly.
+        ``[mujoco] segments_per_element``; default automatic (:func:`auto_links`:
+        ``max(MIN_LINKS, ceil(L_f / LINK_LENGTH_M))``, 2 on the BCC, 3-4 on the
+        grid's bars) -- and 1 for shear-dominated members (``12 EI / (kGA L^2) >
+        SHEAR_DOMINATED``, the grid's sandwich top beam) unless set per member.
     member_segments : dict of str to int, optional
         Links per segment for individual members (member id -> n), over
         ``[mujoco] segments = { <member id> = n }`` and ``segments_per_element``.
     crosspiece_segments : int, optional
-        Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default 3.
+        Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default
+        automatic as for members (2 on the BCC).
     timestep_s : float, optional
         Integration step [s]. ``[mujoco] timestep``; default automatic: the
         largest ``LAB_PERIOD_S / k`` (k = 1, 2, ...) with ``omega_max * dt <=
@@ -181,12 +197,23 @@ class SimOptions:
         (ratios beyond those use ``default_ratio``).
     inplane_redundants : bool
         Apply the FE statics' in-plane redundant forces at loop cuts and extra
-        in-plane supports (default True; no effect on determinate structures).
+        in-plane supports (default True; no effect on determinate structures;
+        off when gravity is off, as they are gravity loads).
     gravity : bool
         Gravity on (default). Off removes the gravity geometric stiffness.
     check_timestep : bool
         Raise :class:`SimulationError` before running when ``omega_max * dt``
         exceeds :data:`STABILITY_LIMIT` (default True).
+    max_substeps : int
+        Automatic timestep only: the step is at least ``LAB_PERIOD_S / max_substeps``
+        (default 4: 0.125 ms).
+    mass_scaling : bool
+        Automatic timestep only: when the stiffest hinges would need a smaller step
+        (very short stiff segments), give those hinges an ``armature`` (added
+        rotary inertia on the hinge coordinate, "selective mass scaling") that
+        brings their frequency down to ``AUTO_LIMIT / dt`` (default True; the
+        added inertias are in :attr:`BuildInfo.armature` and their effect shows
+        in the FE cross-check). False: take the small step instead.
     """
 
     segments_per_element: int | None = None
@@ -201,6 +228,8 @@ class SimOptions:
     inplane_redundants: bool = True
     gravity: bool = True
     check_timestep: bool = True
+    max_substeps: int = 4
+    mass_scaling: bool = True
 
     def resolved(self, spec: StructureSpec) -> "SimOptions":
         """Options with every ``None`` replaced by the spec's [mujoco] value or the default.
@@ -223,12 +252,13 @@ class SimOptions:
 
         out = dataclasses.replace(
             self,
-            segments_per_element=pick("segments_per_element", "segments_per_element", DEFAULT_SEGMENTS_PER_ELEMENT, int),
-            crosspiece_segments=pick("crosspiece_segments", "crosspiece_segments", DEFAULT_CROSSPIECE_SEGMENTS, int),
+            segments_per_element=pick("segments_per_element", "segments_per_element", None, int),
+            crosspiece_segments=pick("crosspiece_segments", "crosspiece_segments", None, int),
             timestep_s=pick("timestep_s", "timestep", None, float),
             stiffness_damping_s=pick("stiffness_damping_s", "stiffness_damping", None, float),
         )
-        if out.segments_per_element < 1 or out.crosspiece_segments < 1:
+        if (out.segments_per_element is not None and out.segments_per_element < 1) or (
+                out.crosspiece_segments is not None and out.crosspiece_segments < 1):
             raise SimulationError(
                 f"segments_per_element and crosspiece_segments must be >= 1, got "
                 f"{out.segments_per_element} and {out.crosspiece_segments}"
@@ -359,6 +389,24 @@ def _choose_root(spec: StructureSpec) -> int:
     )
 
 
+def auto_links(flexible_length: float) -> int:
+    """Default number of hinges of a segment of ``flexible_length`` [m].
+
+    Parameters
+    ----------
+    flexible_length : float
+        Flexible length of the member segment [m].
+
+    Returns
+    -------
+    int
+        ``max(MIN_LINKS, ceil(flexible_length / LINK_LENGTH_M))``; chosen by the
+        convergence study (README): Gauss hinges with links up to 0.2 m keep the
+        BCC's first 6 and the grid's first 12 modes within 1-1.5 % of the FE model.
+    """
+    return max(MIN_LINKS, math.ceil(flexible_length / LINK_LENGTH_M - 1e-9))
+
+
 def hinge_layout(n: int, layout: str = "gauss") -> tuple[np.ndarray, np.ndarray]:
     """Positions and compliance shares of the ``n`` hinges of one flexible length.
 
@@ -429,6 +477,7 @@ class _Planner:
         self.pending_springs: list = []  # grounded springs realised as fixed tendons after compiling
         self.cuts: list = []  # (edge, point, stub body) of every loop closure
         self.n_loops = 0
+        self.links: dict[str, int] = {}  # member/crosspiece id -> links per segment
         self.active = spec.active_dofs
 
     # -- helpers
@@ -506,7 +555,7 @@ class _Planner:
         self._supports()
         self._springs()
         self._instrumentation()
-        if self.opts.inplane_redundants:
+        if self.opts.inplane_redundants and self.opts.gravity:
             self._redundants()
         # every point gets its p<ID> site
         for p in sorted(visited):
@@ -549,7 +598,7 @@ class _Planner:
         if lf <= 0.0:
             raise SimulationError(f"{spec._file()}: member {m.id!r}: rigid inserts leave no flexible length "
                                   f"between points {p} and {q}")
-        n = self._segments(m.id)
+        n = self._segments(m.id, lf)
         frac, comp = hinge_layout(n, self.opts.hinge_layout)
         bend_axis = np.array([ev[1], -ev[0], 0.0])
         if not _representable(bend_axis, self.active):
@@ -603,7 +652,8 @@ class _Planner:
                     self.welds.append((f"weld.{tag}.{q}", s1, s2, f"spec: member {m.id} segment {p}-{q} closes a loop at point {q}"))
                     self.cuts.append((e, q, b.name))
 
-    def _segments(self, member_id: str) -> int:
+    def _segments(self, member_id: str, flexible_length: float) -> int:
+        """Links (hinges) of one segment of ``member_id``: explicit, else from its length."""
         per = self.spec.mujoco.get("segments", {})
         if not isinstance(per, dict):
             raise SimulationError(f"{self.spec._file()}: [mujoco] segments must be a table {{ <member id> = <int> }}")
@@ -612,9 +662,9 @@ class _Planner:
         elif member_id in per:
             n = per[member_id]
         else:
-            n = self.opts.segments_per_element
             member = next(m for m in self.spec.members if m.id == member_id)
             sec = self.spec.sections[member.section]
+            n = self.opts.segments_per_element or auto_links(flexible_length)
             if sec.shear_stiffness is not None:
                 pts = [np.array(self.spec.points[p]) for p in member.points]
                 longest = max(float(np.linalg.norm(b - a)) for a, b in zip(pts[:-1], pts[1:]))
@@ -624,6 +674,7 @@ class _Planner:
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise SimulationError(f"{self.spec._file()}: segments for member {member_id!r} must be an integer >= 1, "
                                   f"got {n!r}")
+        self.links[member_id] = max(self.links.get(member_id, 0), n)
         return n
 
     def _crosspiece(self, c) -> None:
@@ -644,9 +695,14 @@ class _Planner:
             raise SimulationError(f"{spec._file()}: crosspiece {c.id!r}: no member passes through point {c.point}")
         perp = np.array([-ev[1], ev[0], 0.0])
         off_default = max([ri.length.si for m in spec.members for ri in m.rigid_inserts if ri.point == c.point] or [0.0])
-        offset = float(spec.mujoco.get("crosspiece_root_offset", off_default))
-        n = self.opts.crosspiece_segments
+        offset = spec.mujoco.get("crosspiece_root_offset", off_default)
+        if isinstance(offset, bool) or not isinstance(offset, (int, float)) or not 0.0 <= offset < 1.0:
+            raise SimulationError(f"{spec._file()}: [mujoco] crosspiece_root_offset = {offset!r}: expected a "
+                                  "length in metres, 0 <= offset < 1")
+        offset = float(offset)
         L = c.arm_length.si
+        n = self.opts.crosspiece_segments or auto_links(L)
+        self.links[c.id] = n
         frac, comp = hinge_layout(n, self.opts.hinge_layout)
         k_bend = [sec.ei.si / (cf * L) for cf in comp]
         jb.items.append(_point_mass(pj, c.clamp_mass.si))
@@ -929,7 +985,26 @@ def _validate(spec: StructureSpec) -> None:
 
 
 def plan_structure(spec: StructureSpec, opts: SimOptions) -> tuple[_Plan, Any]:
-    """The body/joint plan of ``spec`` (internal; see :func:`build_mjspec`)."""
+    """Plan the bodies, joints and constraints of ``spec`` (before any MjSpec exists).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    opts : SimOptions
+        Resolved options (segments, layout, redundants).
+
+    Returns
+    -------
+    plan : _Plan
+        Bodies (parent before child), world sites, strings, welds, connects, prestress loads.
+    planner : _Planner
+        Holds the FE gravity state and the grounded springs left for fixed tendons.
+
+    Raises
+    ------
+    SimulationError
+        For a spec the plant cannot represent, or failing in-plane statics.
+    """
     from ..fe.mesh import build_mesh
     from ..fe.statics import solve_gravity
 
@@ -957,8 +1032,10 @@ class BuildInfo:
         Moving bodies, joints (= DOFs), loop-closing welds.
     root : int
         Root point of the kinematic tree.
-    segments_per_element, crosspiece_segments : int
-        Links per member segment and per crosspiece arm.
+    segments_per_element, crosspiece_segments : int or None
+        Links per member segment and per crosspiece arm as configured (None: automatic).
+    links : dict of str to int
+        Links per segment actually used, per member / crosspiece id (largest over segments).
     timestep_s : float
         Integration step [s].
     omega_max : float
@@ -970,19 +1047,23 @@ class BuildInfo:
         String id -> tension [N].
     n_prestress : int
         Number of constant in-plane loads (redundant forces).
+    armature : dict of str to float
+        Joints given an armature by mass scaling -> its value [kg m^2 or kg].
     """
 
     n_bodies: int
     n_joints: int
     n_loops: int
     root: int
-    segments_per_element: int
-    crosspiece_segments: int
+    segments_per_element: int | None
+    crosspiece_segments: int | None
+    links: dict[str, int]
     timestep_s: float
     omega_max: float
     stiffness_damping_s: float
     string_tensions_n: dict[str, float]
     n_prestress: int
+    armature: dict[str, float] = field(default_factory=dict)
 
 
 def _quat_z(angle: float) -> list[float]:
@@ -1167,6 +1248,75 @@ def auto_timestep(omega_max: float, *, period_s: float = LAB_PERIOD_S, limit: fl
     return period_s / k
 
 
+def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterations: int = 30) -> dict[str, float]:
+    """Armatures that bring the joint springs' highest frequency down to ``omega_target``.
+
+    Each joint ``j`` whose local frequency ``sqrt(k_j (M^-1)_jj)`` exceeds
+    ``0.9 omega_target`` gets ``a_j = k_j / (0.9 omega_target)^2 - 1/(M^-1)_jj``
+    (with the armature already added); repeated until the largest generalized
+    eigenvalue of ``(K_joint, M + diag(a))`` is below ``omega_target^2``.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The plant (not modified).
+    omega_target : float
+        Largest allowed frequency [rad/s].
+    iterations : int
+        Most passes.
+
+    Returns
+    -------
+    dict of str to float
+        Joint name -> armature [kg m^2 for hinges, kg for slides]; empty if none is needed.
+
+    Raises
+    ------
+    SimulationError
+        If the target is not reached.
+
+    Source: selective mass scaling (e.g. Olovsson, Simonsson & Unosson, IJNME 63
+    (2005) 1436): added inertia only on the stiff, short hinges, which barely
+    move in the low modes.
+    """
+    import copy
+
+    import scipy.linalg
+
+    m = copy.copy(model)
+    d = mujoco.MjData(m)
+    k = np.array([model.jnt_stiffness[model.dof_jntid[i]] for i in range(model.nv)])
+    base = model.dof_armature.copy()
+    arm = np.zeros(model.nv)
+    full = np.zeros((model.nv, model.nv))
+
+    def mass() -> np.ndarray:
+        m.dof_armature[:] = base + arm
+        mujoco.mj_forward(m, d)
+        mujoco.mj_fullM(m, d, full)
+        return full
+
+    def top(mm: np.ndarray) -> float:
+        return float(scipy.linalg.eigh(np.diag(k), mm, eigvals_only=True,
+                                       subset_by_index=(model.nv - 1, model.nv - 1))[0])
+
+    done = top(mass()) <= omega_target**2
+    for margin in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4):
+        if done:
+            break
+        target2 = (margin * omega_target) ** 2
+        for _ in range(iterations):  # local rule: each stiff joint's own frequency down to the margin
+            dinv = np.diag(np.linalg.inv(mass()))
+            need = k * dinv > target2 * (1 + 1e-9)
+            if not np.any(need):
+                break
+            arm[need] += k[need] / target2 - 1.0 / dinv[need]
+        done = top(mass()) <= omega_target**2
+    if not done:
+        raise SimulationError(f"mass scaling did not bring the hinge chain below {omega_target:.4g} rad/s")
+    return {model.joint(int(model.dof_jntid[i])).name: float(arm[i]) for i in range(model.nv) if arm[i] > 0}
+
+
 def check_timestep(model: mujoco.MjModel, *, limit: float = STABILITY_LIMIT) -> float:
     """Raise if the timestep is too large for the stiffest hinge of the chain.
 
@@ -1254,7 +1404,7 @@ class Plant:
         return d
 
     def velocities(self, data: mujoco.MjData) -> np.ndarray:
-        """Out-of-plane velocities [m/s] at ``sensor_points``, shape (n_sensors,)."""
+        """Out-of-plane velocities [m/s] at ``sensor_points`` read from ``data.sensordata``, shape (n_sensors,)."""
         return np.array([data.sensordata[self.sensor_rows[p]] for p in self.sensor_points])
 
 
@@ -1268,7 +1418,7 @@ def _sensor_rows(model: mujoco.MjModel, points: tuple[int, ...], actuators: tupl
 
 
 def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
-                 beta: float = 0.0) -> tuple[mujoco.MjSpec, dict[str, Any]]:
+                 beta: float = 0.0, armature: dict[str, float] | None = None) -> tuple[mujoco.MjSpec, dict[str, Any]]:
     """Build the MjSpec of ``spec`` without modal-damping tendons.
 
     Parameters
@@ -1277,6 +1427,8 @@ def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
     options : SimOptions, optional
     beta : float
         Stiffness-proportional hinge damping factor [s].
+    armature : dict of str to float, optional
+        Joint name -> armature [kg m^2 or kg] (mass scaling, see :class:`SimOptions`).
 
     Returns
     -------
@@ -1294,6 +1446,8 @@ def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
         opts = dataclasses.replace(opts, timestep_s=LAB_PERIOD_S)
     plan, planner = plan_structure(spec, opts)
     ms = _emit(spec, plan, opts, beta)
+    for name, a in (armature or {}).items():
+        ms.joint(name).armature = float(a)
     if planner.pending_springs:
         # grounded springs away from the root: fixed tendons with first-order coefficients
         model = _compile(ms, spec)
@@ -1310,7 +1464,7 @@ def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
             t.stiffness = [sp.stiffness.si, 0.0, 0.0]
             t.springlength = [0.0, 0.0]
             t.info = f"spec: spring {sp.id} at point {sp.point} on {sp.dof} (first-order kinematics)"
-    extra = {"plan": plan, "options": opts, "root": planner.root,
+    extra = {"plan": plan, "options": opts, "root": planner.root, "links": planner.links,
              "string_tensions": dict(planner.gs.string_tensions)}
     return ms, extra
 
@@ -1355,11 +1509,18 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     from .damping import add_modal_tendons, modal_damping_plan, tune_modal_damping
 
     opts = (options or SimOptions()).resolved(spec)
+    armature: dict[str, float] = {}
     if opts.timestep_s is None:
         probe, _ = build_mjspec(spec, dataclasses.replace(opts, timestep_s=LAB_PERIOD_S), beta=0.0)
-        omega, _ = hinge_omega_max(_compile(probe, spec))
-        opts = dataclasses.replace(opts, timestep_s=auto_timestep(omega))
-    ms0, extra = build_mjspec(spec, opts, beta=0.0)
+        probe_model = _compile(probe, spec)
+        omega, _ = hinge_omega_max(probe_model)
+        dt = auto_timestep(omega)
+        if dt < LAB_PERIOD_S / opts.max_substeps:
+            dt = LAB_PERIOD_S / opts.max_substeps
+            if opts.mass_scaling:
+                armature = mass_scaling_armature(probe_model, AUTO_LIMIT / dt)
+        opts = dataclasses.replace(opts, timestep_s=dt)
+    ms0, extra = build_mjspec(spec, opts, beta=0.0, armature=armature)
     model0 = _compile(ms0, spec)
     omega, _ = hinge_omega_max(model0)
     if opts.check_timestep:
@@ -1374,7 +1535,7 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
             tendons, report = [], None
     beta = float(beta or 0.0)
     if beta > 0.0:
-        ms, extra = build_mjspec(spec, opts, beta=beta)
+        ms, extra = build_mjspec(spec, opts, beta=beta, armature=armature)
     else:
         ms = ms0
     if tendons:
@@ -1394,11 +1555,13 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
         root=extra["root"],
         segments_per_element=opts.segments_per_element,
         crosspiece_segments=opts.crosspiece_segments,
+        links=dict(extra["links"]),
         timestep_s=opts.timestep_s,
         omega_max=omega,
         stiffness_damping_s=beta,
         string_tensions_n=extra["string_tensions"],
         n_prestress=len(extra["plan"].prestress),
+        armature=armature,
     )
     return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=beta), ms, model, acts, sens,
                  _sensor_rows(model, sens, acts), info, report)

@@ -32,7 +32,17 @@ def _prestress_ids(model: mujoco.MjModel) -> np.ndarray:
 def total_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:
     """Kinetic + potential energy [J] including the work potential of the constant prestress loads.
 
-    The model must have ``mjENBL_ENERGY`` set (``data.energy`` filled by ``mj_forward``/``mj_step``).
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        With ``mjENBL_ENERGY`` set (``data.energy`` filled by ``mj_forward``/``mj_step``).
+    data : mujoco.MjData
+
+    Returns
+    -------
+    float
+        ``E_kin + E_pot - sum_i f_i L_i`` over the ``prestress*`` actuators (constant
+        force ``f_i``, length ``L_i``).
     """
     ids = _prestress_ids(model)
     work = float(np.dot(data.actuator_force[ids], data.actuator_length[ids])) if ids.size else 0.0
@@ -40,7 +50,21 @@ def total_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:
 
 
 def vibration_energy(model: mujoco.MjModel, data: mujoco.MjData, reference: float) -> float:
-    """Energy of the motion about the settled state [J]: ``total_energy - reference``."""
+    """Energy of the motion about the settled state [J].
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        With ``mjENBL_ENERGY`` set.
+    data : mujoco.MjData
+    reference : float
+        :func:`total_energy` of the settled state [J].
+
+    Returns
+    -------
+    float
+        ``total_energy(model, data) - reference``.
+    """
     return total_energy(model, data) - reference
 
 

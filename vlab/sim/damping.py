@@ -236,7 +236,19 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
 
 
 def add_modal_tendons(ms: mujoco.MjSpec, tendons) -> list:
-    """Add the modal damping tendons to an MjSpec; returns the MjsTendon objects."""
+    """Add the modal damping tendons to an MjSpec.
+
+    Parameters
+    ----------
+    ms : mujoco.MjSpec
+        The plant's spec (modified).
+    tendons : list of (name, {joint: coefficient}, damping, info)
+        From :func:`modal_damping_plan`.
+
+    Returns
+    -------
+    list of mujoco.MjsTendon
+    """
     out = []
     for name, coefs, c, info in tendons:
         t = ms.add_tendon(name=name)

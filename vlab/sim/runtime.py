@@ -2,23 +2,72 @@
 
 :class:`MujocoPlant` implements the plant protocol of :mod:`vlab.lab.loop`
 (``timestep_s``, ``actuator_points``, ``set_forces``, ``step``,
-``velocities``, ``displacements``) on a compiled :class:`~vlab.sim.builder.Plant`,
-starting from its settled state. Sign conventions: a positive force on
-``coil<ID>`` pushes point ``ID`` along world +z, and the velocity sensor
-``vel<ID>`` reads +z velocity positive -- so collocated rate feedback
-``u = -D y`` with ``D`` positive definite removes energy.
+``velocities``, ``displacements``) on a compiled vlab plant -- built from a
+spec (:func:`vlab.sim.build_plant`) or loaded from an exported MJCF file --
+starting from its settled state. It finds everything by name: actuators
+``coil<ID>``, sensors ``vel<ID>`` (``actuatorvel``, or ``framelinvel`` whose z
+component is used) and sites ``p<ID>``.
+
+Sign conventions: a positive force on ``coil<ID>`` pushes point ``ID`` along
+world +z, and ``vel<ID>`` reads +z velocity positive -- so collocated rate
+feedback ``u = -D y`` with ``D`` positive definite removes energy.
 """
 
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from ..errors import SimulationError
-from .builder import Plant
+from ..spec import StructureSpec
+from .builder import Plant, SimOptions, build_plant
 from .linearize import settle
+
+
+def _numbered(model: mujoco.MjModel, objtype, count: int, prefix: str) -> dict[int, int]:
+    out = {}
+    pat = re.compile(rf"^{prefix}(\d+)$")
+    for i in range(count):
+        name = mujoco.mj_id2name(model, objtype, i)
+        m = pat.match(name or "")
+        if m:
+            out[int(m.group(1))] = i
+    return out
+
+
+def sensor_rows(model: mujoco.MjModel) -> dict[int, int]:
+    """Point id -> row in ``sensordata`` of the out-of-plane velocity of every ``vel<ID>`` sensor.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        A vlab plant (compiled or loaded from MJCF).
+
+    Returns
+    -------
+    dict of int to int
+        ``actuatorvel`` sensors: their address; ``framelinvel``: address + 2 (z).
+
+    Raises
+    ------
+    SimulationError
+        For a ``vel<ID>`` sensor of another type.
+    """
+    rows = {}
+    for p, i in _numbered(model, mujoco.mjtObj.mjOBJ_SENSOR, model.nsensor, "vel").items():
+        kind = int(model.sensor_type[i])
+        adr = int(model.sensor_adr[i])
+        if kind == int(mujoco.mjtSensor.mjSENS_ACTUATORVEL):
+            rows[p] = adr
+        elif kind in (int(mujoco.mjtSensor.mjSENS_FRAMELINVEL), int(mujoco.mjtSensor.mjSENS_VELOCIMETER)):
+            rows[p] = adr + 2
+        else:
+            raise SimulationError(f"sensor vel{p} has type {mujoco.mjtSensor(kind).name}: not a velocity sensor")
+    return rows
 
 
 class MujocoPlant:
@@ -26,8 +75,12 @@ class MujocoPlant:
 
     Parameters
     ----------
-    plant : Plant
-        Built plant (:func:`vlab.sim.build_plant`).
+    plant : Plant or mujoco.MjModel
+        Built plant (:func:`vlab.sim.build_plant`) or a model of one (e.g. loaded
+        with :func:`vlab.sim.load_mjcf`).
+    actuators : sequence of int, optional
+        Points whose coils :meth:`set_forces` drives, in order; default all
+        ``coil<ID>`` actuators (the plant's order).
     settle_first : bool
         Start from the settled state (default) instead of the reference one.
 
@@ -36,27 +89,42 @@ class MujocoPlant:
     timestep_s : float
         Physics step [s].
     actuator_points : tuple of int
-        Points of the voice coils, order of :meth:`set_forces`.
+        Points of the driven coils, order of :meth:`set_forces`.
+    sensor_points : tuple of int
+        Points with a ``vel<ID>`` sensor.
     model : mujoco.MjModel
     data : mujoco.MjData
 
     Raises
     ------
     SimulationError
-        If the plant does not settle.
+        An actuator point without a ``coil<ID>`` actuator, or a plant that does
+        not settle.
     """
 
-    def __init__(self, plant: Plant, *, settle_first: bool = True):
-        self.plant = plant
-        self.model = plant.model
-        self.timestep_s = float(plant.model.opt.timestep)
-        self.actuator_points = tuple(plant.actuator_points)
-        self._act_ids = np.array([self.model.actuator(f"coil{p}").id for p in self.actuator_points], dtype=int)
-        self._rows = dict(plant.sensor_rows)
-        self._sites = {p: self.model.site(f"p{p}").id for p in plant.spec.points}
-        self._ref = settle(self.model) if settle_first else plant.make_data()
+    def __init__(self, plant: Plant | mujoco.MjModel, *, actuators=None, settle_first: bool = True):
+        model = plant.model if isinstance(plant, Plant) else plant
+        self.plant = plant if isinstance(plant, Plant) else None
+        self.model = model
+        self.timestep_s = float(model.opt.timestep)
+        coils = _numbered(model, mujoco.mjtObj.mjOBJ_ACTUATOR, model.nu, "coil")
+        if actuators is None:
+            actuators = (self.plant.actuator_points if self.plant is not None
+                         else tuple(sorted(coils, key=lambda p: coils[p])))
+        missing = [p for p in actuators if p not in coils]
+        if missing:
+            raise SimulationError(f"no voice-coil actuator at points {missing}; the plant has coils at {sorted(coils)}")
+        self.actuator_points = tuple(actuators)
+        self._act_ids = np.array([coils[p] for p in self.actuator_points], dtype=int)
+        self._rows = sensor_rows(model)
+        self.sensor_points = tuple(sorted(self._rows))
+        self._sites = _numbered(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, "p")
+        d0 = mujoco.MjData(model)
+        mujoco.mj_forward(model, d0)
+        self._ref = settle(model) if settle_first else d0
         self._z0 = self._ref.site_xpos[:, 2].copy()
-        self.data = mujoco.MjData(self.model)
+        self.data = mujoco.MjData(model)
+        self._rows_cache: dict[tuple, np.ndarray | None] = {}
         self.reset()
 
     # -- state
@@ -67,6 +135,7 @@ class MujocoPlant:
         d.qpos[:] = self._ref.qpos
         d.qvel[:] = 0.0
         mujoco.mj_forward(self.model, d)
+        self._warning = d.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)]
 
     @property
     def time_s(self) -> float:
@@ -77,21 +146,30 @@ class MujocoPlant:
     def set_forces(self, forces) -> None:
         """Coil forces [N] along world +z, shape (n_actuators,), order ``actuator_points``.
 
+        Parameters
+        ----------
+        forces : array_like, shape (n_actuators,)
+
         Raises
         ------
         SimulationError
             For a wrong shape or non-finite values.
         """
         f = np.asarray(forces, dtype=float)
-        if f.shape != (len(self._act_ids),):
+        if f.shape != self._act_ids.shape:
             raise SimulationError(f"set_forces: expected shape ({len(self._act_ids)},) for actuators "
                                   f"{list(self.actuator_points)}, got {f.shape}")
-        if not np.all(np.isfinite(f)):
+        if not math.isfinite(f.sum()):
             raise SimulationError(f"set_forces: non-finite force {f.tolist()}")
         self.data.ctrl[self._act_ids] = f
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` physics steps with the forces last set.
+
+        Parameters
+        ----------
+        n : int
+            Number of steps.
 
         Raises
         ------
@@ -102,7 +180,7 @@ class MujocoPlant:
         """
         d = self.data
         mujoco.mj_step(self.model, d, nstep=n)
-        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not math.isfinite(d.qvel[0] + d.qvel[-1]):
+        if self._warning.number or not math.isfinite(d.qvel[0] + d.qvel[-1]):
             raise SimulationError(
                 f"the MuJoCo plant diverged at t = {d.time:.4f} s (bad acceleration / non-finite state): "
                 f"the timestep {self.timestep_s:.3g} s is likely too large for the hinge chain"
@@ -114,20 +192,25 @@ class MujocoPlant:
         Sensor points read their ``vel<ID>`` sensor; other points the ``p<ID>``
         site's world z velocity.
 
+        Parameters
+        ----------
+        points : sequence of int
+
         Raises
         ------
         SimulationError
             For an unknown point id.
         """
-        out = np.empty(len(points))
-        d = self.data
-        for i, p in enumerate(points):
-            row = self._rows.get(p)
-            if row is not None:
-                out[i] = d.sensordata[row]
-            else:
-                out[i] = self._site_vel(p)
-        return out
+        key = tuple(points)
+        rows = self._rows_cache.get(key, False)
+        if rows is False:
+            rows = (np.array([self._rows[p] for p in key], dtype=int)
+                    if all(p in self._rows for p in key) else None)
+            self._rows_cache[key] = rows
+        if rows is not None:
+            return self.data.sensordata[rows]
+        return np.array([self.data.sensordata[self._rows[p]] if p in self._rows else self._site_vel(p)
+                         for p in key])
 
     def _site_vel(self, p: int) -> float:
         if p not in self._sites:
@@ -139,6 +222,10 @@ class MujocoPlant:
     def displacements(self, points) -> np.ndarray:
         """Out-of-plane displacements [m] from the settled state at ``points``, shape (len(points),).
 
+        Parameters
+        ----------
+        points : sequence of int
+
         Raises
         ------
         SimulationError
@@ -149,3 +236,51 @@ class MujocoPlant:
         except KeyError as exc:
             raise SimulationError(f"unknown point {exc.args[0]}; points are {sorted(self._sites)}") from None
         return self.data.site_xpos[ids, 2] - self._z0[ids]
+
+
+def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = None, actuators=None,
+                              options: SimOptions | None = None) -> tuple[MujocoPlant, dict]:
+    """The MuJoCo plant of an experiment, ready for :func:`vlab.lab.loop.run_loop`.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure (used to build the plant when ``mjcf`` is None).
+    mjcf : str or Path, optional
+        An exported plant (:func:`vlab.sim.export_mjcf`) to load instead.
+    actuators : sequence of int, optional
+        Coil points driven by the loop, in order; default all coils.
+    options : SimOptions, optional
+        Build options (ignored with ``mjcf``).
+
+    Returns
+    -------
+    plant : MujocoPlant
+    info : dict
+        ``kind``, ``source`` (spec file or MJCF path), ``timestep_s``, ``nv``,
+        ``segments_per_element`` and ``stiffness_damping_s`` (built plants only),
+        ``damping_ratios`` (targets of the modal tendons, built plants only).
+
+    Raises
+    ------
+    SimulationError
+        If the plant cannot be built or settled, or an actuator point has no coil.
+    DataFileError
+        If ``mjcf`` cannot be loaded.
+    """
+    from .export import load_mjcf
+
+    if mjcf is not None:
+        model = load_mjcf(mjcf)
+        sim = MujocoPlant(model, actuators=actuators)
+        return sim, {"kind": "MuJoCo plant (MJCF)", "source": str(mjcf), "timestep_s": sim.timestep_s,
+                     "nv": int(model.nv)}
+    plant = build_plant(spec, options)
+    sim = MujocoPlant(plant, actuators=actuators)
+    info = {"kind": "MuJoCo plant", "source": str(spec.path) if spec.path else spec.name,
+            "timestep_s": sim.timestep_s, "nv": int(plant.model.nv),
+            "segments_per_element": plant.info.segments_per_element,
+            "stiffness_damping_s": plant.info.stiffness_damping_s}
+    if plant.damping is not None:
+        info["damping_ratios"] = [float(z) for z in plant.damping.target_ratios]
+    return sim, info

@@ -1,0 +1,327 @@
+"""The linear model of the whole laboratory: structure, hardware chain and controller.
+
+A :class:`LabState` is everything a hypothesis can change: the structure
+(spec and the FE model built from it), the open-loop modal damping, point
+dashpots, and the hardware chain of Fig. 21 (delay, RC filter, amplifier
+gains and lags, sensor gains and lags, saturation). :func:`predict_frf`
+turns a state into the FRFs an experiment measures, in the frequency domain::
+
+    plant      G(w)   = j w Phi diag(1 / (w_r^2 - w^2 + 2 j zeta_r w_r w)) Phi^T    (+ dashpots, Woodbury)
+    actuators  A(w)   = diag(g_amp g_a,i L_a(w) n_i)      L_a = 1 / (1 + j f / f_a)
+    sensors    S(w)   = diag(g_s,i L_s(w))                L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
+    controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis)
+    force      f      = (I + A K S G_fb)^-1 A e_exc ZOH(w) x
+    measured   v      = G_out f
+
+``ZOH(w) = (1 - e^{-jwT}) / (jwT)`` is the hold of the excitation command
+over a controller period (the recorded force is that command), ``n_i`` the
+equivalent gain of a saturating amplifier (Gaussian-input describing
+function, ``erf(L / (sqrt(2) sigma_i))``).
+
+Source: Eq. (3.1) with proportional damping (Sec. 2.1.2); Fig. 21 and Sec.
+5.3 for the chain; Woodbury identity for local dashpots (Golub & Van Loan,
+*Matrix Computations*, 4th ed., Sec. 2.1.4); describing function of a
+saturation for Gaussian input: Gelb & Vander Velde, *Multiple-Input
+Describing Functions*, 1968, ch. 6.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+import numpy as np
+import scipy.linalg
+import scipy.special
+
+from ..analysis import sampled_data_controller_frf
+from ..calibration import open_loop_ratios
+from ..errors import ModelError
+from ..fe import FEModel, build_fe_model
+from ..lab.loop import HardwareChain
+from ..spec import StructureSpec
+
+
+@dataclass(frozen=True)
+class LabState:
+    """The laboratory as one hypothesis sees it (immutable).
+
+    Attributes
+    ----------
+    spec : StructureSpec
+        Structure definition (possibly modified by a hypothesis).
+    fe : FEModel
+        FE model of ``spec`` (or a modified copy of it, e.g. pre-stress scaled).
+    chain : HardwareChain
+        Hardware chain (delay, filter, gains, lags, saturation).
+    design : ControllerDesign or None
+        The nominal controller (None: open loop).
+    dashpots : tuple of (int, float)
+        Point dashpots ``(point, c [N*s/m])`` on the out-of-plane DOF.
+    rms_force_n : dict
+        Actuator point -> RMS command force [N] used by the saturation describing function
+        (filled in by :func:`with_command_rms`).
+    """
+
+    spec: StructureSpec
+    fe: FEModel
+    chain: HardwareChain
+    design: object | None = None
+    dashpots: tuple[tuple[int, float], ...] = ()
+    rms_force_n: dict = field(default_factory=dict)
+
+    @property
+    def actuators(self) -> tuple[int, ...]:
+        """Actuator (and collocated feedback sensor) points, channel order."""
+        return tuple(self.spec.instrumentation.actuators)
+
+    def with_spec(self, spec: StructureSpec) -> "LabState":
+        """Copy with a new spec and its FE model (built here). Raises ModelError/SpecError."""
+        return replace(self, spec=spec, fe=build_fe_model(spec))
+
+
+@dataclass(frozen=True)
+class _Modal:
+    omega: np.ndarray   # (n,)
+    phi: np.ndarray     # (n, n) mass-normalised
+    zeta: np.ndarray    # (n,)
+
+
+def _modal(state: LabState) -> _Modal:
+    fe = state.fe
+    try:
+        lam, phi = scipy.linalg.eigh(fe.k, fe.m)
+    except np.linalg.LinAlgError as exc:
+        raise ModelError(f"{state.spec.name}: modal analysis failed ({exc})") from None
+    if lam.min() < -1e-8 * max(abs(lam).max(), 1e-300):
+        raise ModelError(f"{state.spec.name}: unstable model (eigenvalue {lam.min():.3g})")
+    omega = np.sqrt(np.clip(lam, 0.0, None))
+    return _Modal(omega, phi, open_loop_ratios(state.spec, fe.n))
+
+
+def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Open-loop natural frequencies [Hz], damping ratios and mass-normalised shapes of ``state``.
+
+    Returns
+    -------
+    freq_hz : ndarray, shape (n,)
+    zeta : ndarray, shape (n,)
+    phi : ndarray, shape (n_dof, n)
+    """
+    md = _modal(state)
+    n = len(md.omega) if n is None else min(n, len(md.omega))
+    return md.omega[:n] / (2 * np.pi), md.zeta[:n], md.phi[:, :n]
+
+
+def rows(state: LabState, points: tuple[int, ...] | list[int]) -> list[int]:
+    """Global indices of the out-of-plane DOF at ``points``. Raises ModelError for a fixed/unknown point."""
+    return [state.fe.dofs.index(p, "w") for p in points]
+
+
+def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np.ndarray:
+    """Open-loop velocity FRF of the structure (no chain), ``v_out / f_in``.
+
+    Parameters
+    ----------
+    state : LabState
+    freq_hz : ndarray, shape (n_f,)
+    out_points, in_points : sequence of int
+        Points of the velocities and of the forces (out-of-plane).
+
+    Returns
+    -------
+    ndarray, complex, shape (n_f, n_out, n_in) [(m/s)/N]
+
+    Raises
+    ------
+    ModelError
+        Unknown or constrained point, unstable model.
+    """
+    md = _modal(state)
+    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
+    dash = [(p, c) for p, c in state.dashpots if c > 0.0]
+    d_pts = [p for p, _ in dash]
+    all_pts = list(out_points) + list(in_points) + d_pts
+    r = rows(state, all_pts)
+    ph = md.phi[r, :]                                            # (n_p, n)
+    den = md.omega[None, :] ** 2 - w[:, None] ** 2 + 2j * md.zeta[None, :] * md.omega[None, :] * w[:, None]
+    alpha = np.einsum("im,fm,jm->fij", ph, 1.0 / den, ph)        # receptance (n_f, n_p, n_p)
+    no, ni = len(out_points), len(in_points)
+    io = slice(0, no)
+    ii = slice(no, no + ni)
+    a_oi = alpha[:, io, ii]
+    if dash:
+        idd = slice(no + ni, no + ni + len(dash))
+        c = np.array([cc for _, cc in dash])
+        a_od, a_di, a_dd = alpha[:, io, idd], alpha[:, idd, ii], alpha[:, idd, idd]
+        zinv = np.zeros((len(w), len(dash), len(dash)), dtype=complex)
+        for j in range(len(dash)):
+            zinv[:, j, j] = 1.0 / (1j * w * c[j])
+        corr = np.linalg.solve(zinv + a_dd, a_di)
+        a_oi = a_oi - a_od @ corr
+    return 1j * w[:, None, None] * a_oi
+
+
+_CORE_CACHE: dict = {}
+
+
+def _controller_core(design, period_s: float, f: np.ndarray) -> np.ndarray:
+    """``K(z)`` with hold, without delay and filter; cached per design object and grid."""
+    key = (id(design), period_s, f.size, hash(f.tobytes()))
+    hit = _CORE_CACHE.get(key)
+    if hit is not None and hit[0] is design:
+        return hit[1]
+    k = sampled_data_controller_frf(f, design.f11, design.f12, design.f21, design.f22, period_s,
+                                    delay_periods=0.0, filter_hz=None)
+    if len(_CORE_CACHE) > 32:
+        _CORE_CACHE.clear()
+    _CORE_CACHE[key] = (design, k)
+    return k
+
+
+def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
+    """Equivalent continuous ``K(jw)`` (``u = -K y``) of the digital controller with the chain's delay and RC filter.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_f, n_act, n_act), or None in open loop.
+
+    Source: :func:`vlab.analysis.sampled_data_controller_frf` (Eq. 5.1, Sec. 5.3).
+    """
+    d = state.design
+    if d is None:
+        return None
+    ch = state.chain
+    f = np.asarray(freq_hz, dtype=float)
+    core = _controller_core(d, ch.period_s, f)
+    w = 2 * np.pi * f
+    factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
+    if ch.filter_hz is not None:
+        factor = factor / (1 + 1j * f / ch.filter_hz)
+    return core * factor[:, None, None]
+
+
+def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
+    """Zero-order hold ``(1 - e^{-jwT}) / (jwT)``, shape (n_f,)."""
+    wt = 2 * np.pi * np.asarray(freq_hz, dtype=float) * period_s
+    out = np.ones_like(wt, dtype=complex)
+    nz = wt != 0
+    out[nz] = (1 - np.exp(-1j * wt[nz])) / (1j * wt[nz])
+    return out
+
+
+def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
+    """Diagonal of ``A(w)``: amplifier gain x channel gain x lag x saturation gain, shape (n_f, n_act)."""
+    ch = state.chain
+    f = np.asarray(freq_hz, dtype=float)
+    g = np.array([ch.amplifier_gain * ch.actuator_gain.get(p, 1.0) * _saturation_gain(state, p)
+                  for p in state.actuators], dtype=complex)
+    a = np.broadcast_to(g, (len(f), len(g))).copy()
+    if ch.actuator_lag_hz:
+        a = a / (1 + 1j * f / ch.actuator_lag_hz)[:, None]
+    return a
+
+
+def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
+    """Diagonal of ``S(w)``: sensor gain x discrete first-order lag, shape (n_f, n_act)."""
+    ch = state.chain
+    f = np.asarray(freq_hz, dtype=float)
+    g = np.array([ch.sensor_gain.get(p, 1.0) for p in state.actuators], dtype=complex)
+    s = np.broadcast_to(g, (len(f), len(g))).copy()
+    if ch.sensor_lag_hz:
+        a = math.exp(-2 * math.pi * ch.sensor_lag_hz * ch.period_s)
+        s = s * ((1 - a) / (1 - a * np.exp(-2j * np.pi * f * ch.period_s)))[:, None]
+    return s
+
+
+def _saturation_gain(state: LabState, point: int) -> float:
+    lim = state.chain.amplifier_limit_n
+    sigma = state.rms_force_n.get(point)
+    if lim is None or not sigma:
+        return 1.0
+    return float(scipy.special.erf(lim / (math.sqrt(2.0) * sigma)))
+
+
+def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
+                output_points, return_forces: bool = False):
+    """FRFs from the excitation command to the measured velocities, as the experiment measures them.
+
+    Parameters
+    ----------
+    state : LabState
+    freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz] (below the Nyquist frequency of the controller).
+    excitation_point : int
+        Actuator point whose channel carries the excitation (Fig. 21).
+    output_points : sequence of int, length n_o
+        Points whose velocity is recorded.
+    return_forces : bool
+        Also return the actuator forces and commands per unit excitation.
+
+    Returns
+    -------
+    h : ndarray, complex, shape (n_f, n_o)
+        ``v_out / x`` [(m/s)/N].
+    (f, cmd) : ndarray, complex, shape (n_f, n_act), only with ``return_forces``
+        Coil forces and amplifier commands per unit excitation.
+
+    Raises
+    ------
+    ModelError
+        Excitation point not an actuator; unknown or constrained output point.
+    """
+    acts = state.actuators
+    if excitation_point not in acts:
+        raise ModelError(f"excitation point {excitation_point} is not an actuator point {acts}")
+    f = np.asarray(freq_hz, dtype=float)
+    outs = tuple(output_points)
+    g = plant_frf(state, f, outs + acts, acts)
+    g_out, g_fb = g[:, : len(outs), :], g[:, len(outs):, :]
+    na = len(acts)
+    e = np.zeros(na, dtype=complex)
+    e[acts.index(excitation_point)] = 1.0
+    a = actuator_path(state, f)
+    hold = zoh(f, state.chain.period_s)
+    k = controller_frf(state, f)
+    if k is None:
+        force = a * e[None, :] * hold[:, None]
+        cmd = e[None, :] * hold[:, None] * np.ones((len(f), 1))
+    else:
+        s = sensor_path(state, f)
+        loop = a[:, :, None] * k * s[:, None, :]                     # A K S  (n_f, na, na)
+        mat = np.eye(na)[None] + loop @ g_fb
+        rhs = (a * e[None, :] * hold[:, None])[:, :, None]
+        force = np.linalg.solve(mat, rhs)[:, :, 0]
+        cmd = force / a
+    h = np.einsum("foa,fa->fo", g_out, force)
+    if return_forces:
+        return h, (force, cmd)
+    return h
+
+
+def with_command_rms(state: LabState, freq_hz: np.ndarray, force_amplitude: np.ndarray, *,
+                     excitation_point: int, iterations: int = 4) -> LabState:
+    """State with the RMS amplifier command per channel filled in (for the saturation describing function).
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (n_f,)
+        Excited lines [Hz].
+    force_amplitude : ndarray, shape (n_f,)
+        Excitation amplitude per line [N] (one-sided: RMS^2 = sum |X|^2 / 2).
+
+    Returns
+    -------
+    LabState
+        A copy whose ``rms_force_n`` holds the RMS of excitation plus control
+        command on each channel, iterated with the equivalent gains.
+    """
+    if state.chain.amplifier_limit_n is None:
+        return state
+    st = replace(state, rms_force_n={})
+    outs = state.actuators
+    for _ in range(iterations):
+        _, (force, cmd) = predict_frf(st, freq_hz, excitation_point=excitation_point, output_points=outs,
+                                      return_forces=True)
+        rms = np.sqrt(0.5 * np.sum(np.abs(cmd * force_amplitude[:, None]) ** 2, axis=0))
+        st = replace(st, rms_force_n={p: float(r) for p, r in zip(state.actuators, rms)})
+    return st
