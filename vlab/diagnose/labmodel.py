@@ -7,7 +7,7 @@ gains and lags, sensor gains and lags, saturation). :func:`predict_frf`
 turns a state into the FRFs an experiment measures, in the frequency domain::
 
     plant      G(w)   = j w Phi diag(1 / (w_r^2 - w^2 + 2 j zeta_r w_r w)) Phi^T    (+ dashpots, Woodbury)
-    actuators  A(w)   = diag(g_amp g_a,i L_a(w) n_i)      L_a = 1 / (1 + j f / f_a)
+    actuators  A(w)   = diag(g_amp g_a,i L_a(w) n_i)      L_a = (1 - c) / (1 - c e^{-jwh}), c = e^{-2 pi f_a h}
     sensors    S(w)   = diag(g_s,i L_s(w))                L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
     controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis)
     force      f      = (I + A K S G_fb)^-1 A e_exc ZOH(w) x
@@ -57,6 +57,11 @@ class LabState:
         The nominal controller (None: open loop).
     dashpots : tuple of (int, float)
         Point dashpots ``(point, c [N*s/m])`` on the out-of-plane DOF.
+    step_s : float or None
+        Physics step of the plant [s] (the linear plant of an experiment uses
+        half a period). The loop applies the RC filter's and the actuator
+        lag's end-of-step output over each step, a lead of half a step that
+        the model includes.
     rms_force_n : dict
         Actuator point -> RMS command force [N] used by the saturation describing function
         (filled in by :func:`with_command_rms`).
@@ -67,7 +72,13 @@ class LabState:
     chain: HardwareChain
     design: object | None = None
     dashpots: tuple[tuple[int, float], ...] = ()
+    step_s: float | None = None
     rms_force_n: dict = field(default_factory=dict)
+
+    @property
+    def h_s(self) -> float:
+        """Physics step [s] (half the controller period unless given)."""
+        return self.step_s if self.step_s else self.chain.period_s / 2.0
 
     @property
     def actuators(self) -> tuple[int, ...]:
@@ -196,7 +207,8 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     w = 2 * np.pi * f
     factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
     if ch.filter_hz is not None:
-        factor = factor / (1 + 1j * f / ch.filter_hz)
+        # the loop applies the filter's end-of-step value over each physics step: lead h/2
+        factor = factor / (1 + 1j * f / ch.filter_hz) * np.exp(0.5j * w * state.h_s)
     return core * factor[:, None, None]
 
 
@@ -217,7 +229,9 @@ def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
                   for p in state.actuators], dtype=complex)
     a = np.broadcast_to(g, (len(f), len(g))).copy()
     if ch.actuator_lag_hz:
-        a = a / (1 + 1j * f / ch.actuator_lag_hz)[:, None]
+        h = state.h_s
+        c = math.exp(-2 * math.pi * ch.actuator_lag_hz * h)
+        a = a * ((1 - c) / (1 - c * np.exp(-2j * np.pi * f * h)))[:, None]
     return a
 
 

@@ -34,7 +34,7 @@ from .crosscheck import (
     mac_matrix,
     pair_modes,
 )
-from .damping import DampingReport
+from .damping import DampingReport, ModalDamping, load_modal_damping
 from .export import export_mjcf, load_mjcf
 from .linearize import LinearModel, SimModes, linearize, modes, settle
 from .runtime import MujocoPlant, load_plant_for_experiment, sensor_rows
@@ -44,5 +44,6 @@ __all__ = [
     "MujocoPlant", "Plant", "SimModes", "SimOptions", "auto_timestep", "build_mjspec", "build_plant",
     "check_timestep", "crosscheck", "export_mjcf", "fe_reference", "free_decay", "free_run",
     "hinge_layout", "hinge_omega_max", "linearize", "load_mjcf", "mac_matrix", "modes", "pair_modes",
-    "load_plant_for_experiment", "sensor_rows", "settle", "total_energy",
+    "load_modal_damping", "load_plant_for_experiment", "ModalDamping", "sensor_rows", "settle",
+    "total_energy",
 ]

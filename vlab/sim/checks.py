@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from .builder import Plant
+from .damping import load_modal_damping
 from .linearize import modes, settle
 
 
@@ -150,8 +151,12 @@ def free_run(plant: Plant, duration_s: float, *, mode: int = 1, amplitude_m: flo
         e0 = e[0]
         if not e0 > 0:
             raise SimulationError("free_run: the initial state carries no vibration energy")
+        md = load_modal_damping(m)
         for i in range(1, chunks + 1):
-            mujoco.mj_step(m, d, nstep=sample_every)
+            if md is None:
+                mujoco.mj_step(m, d, nstep=sample_every)
+            else:
+                md.step(m, d, sample_every)
             t[i] = d.time
             e[i] = total_energy(m, d) - ref
             bad = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number

@@ -291,8 +291,14 @@ def free_decay(plant: Plant, mode: int = 1, *, amplitude_m: float = 1e-3, durati
     z0 = float(d0.site_xpos[sid, 2])
     w = np.empty(n + 1)
     w[0] = d.site_xpos[sid, 2] - z0
+    from .damping import load_modal_damping
+
+    md = load_modal_damping(model)
     for i in range(n):
-        mujoco.mj_step(model, d)
+        if md is None:
+            mujoco.mj_step(model, d)
+        else:
+            md.step(model, d)
         w[i + 1] = d.site_xpos[sid, 2] - z0
     if not np.all(np.isfinite(w)):
         raise SimulationError("free decay diverged (non-finite displacement): timestep too large for the chain")

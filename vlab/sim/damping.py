@@ -3,32 +3,52 @@
 Two parts:
 
 1. **Stiffness-proportional hinge damping** ``c_j = beta * k_j`` on every hinge
-   spring of the discretisation (joint ``damping``, integrated implicitly). It
-   damps the chain's high, unphysical modes; for a mode ``r`` it adds
-   ``zeta_beta,r = phi_r^T C_beta phi_r / (2 omega_r)`` (``phi_r``
-   mass-normalised), which grows with frequency. The default ``beta`` keeps this
+   spring of the discretisation (joint ``damping``, integrated implicitly by
+   MuJoCo). It damps the chain's high, unphysical modes; for a mode ``r`` it
+   gives ``zeta_beta,r = phi_r^T C_beta phi_r / (2 omega_r)`` (``phi_r``
+   mass-normalised), growing with frequency. The default ``beta`` keeps this
    at most 20 % of the smallest target ratio at the highest damped mode.
 
 2. **Modal damping** of the spec (Table 1 / Table 3 experimental ratios). A
-   diagonal joint damping cannot reproduce given modal ratios (it is diagonal
-   in relative joint angles, the modes are not), so each damped mode ``r`` gets
-   one *fixed tendon* whose length is the modal coordinate ``eta_r = (M
-   phi_r)^T q`` and whose damping is ``c_r = 2 zeta_r omega_r - zeta_beta,r 2
-   omega_r`` (clipped at 0). The damping matrix becomes
-   ``C = C_beta + sum_r c_r (M phi_r)(M phi_r)^T``, so
-   ``phi_s^T C phi_r = 2 zeta_r omega_r delta_rs`` for the damped modes
-   (plus the small cross terms of ``C_beta``): the target ratios are met
-   exactly in the linear range around the settled state, and the modes are
-   unchanged. Modes above the damped set keep ``beta`` damping only.
+   joint damping cannot reproduce given modal ratios: it is diagonal in
+   relative joint angles and the modes are not, and a pendulum-like first mode
+   barely bends any hinge (a least-squares fit of hinge and grounded dampers
+   misses the BCC's and the grid's ratios by 20-60 %). The plant therefore
+   carries the exact modal damping matrix of the damped modes,
+
+   ``C_m = sum_r c_r (M phi_r)(M phi_r)^T``,  ``c_r = 2 omega_r (zeta_r - zeta_beta,r)``,
+
+   (``M`` and ``phi_r`` of the settled, undamped plant in joint coordinates),
+   so that ``phi_s^T (C_beta + C_m) phi_r = 2 zeta_r omega_r delta_rs`` for
+   the damped modes (plus the tiny cross terms of ``C_beta``) and the modes are
+   unchanged. Two realisations:
+
+   * ``"applied"`` (default): the force ``-C_m qvel = -A diag(c) A^T qvel``
+     (``A = M Phi``, shape (nv, N)) is set as ``qfrc_applied`` before every
+     step by :class:`vlab.sim.runtime.MujocoPlant` (and by the checks of
+     :mod:`vlab.sim.checks`); ``A`` and ``c`` are stored in the model as the
+     custom numerics ``vlab_modal_A`` and ``vlab_modal_c``, so an exported MJCF
+     carries them, and :func:`vlab.sim.linearize.linearize` adds them to the
+     linearisation. Explicit, and stable while ``dt * max(c) << 2``. Costs two
+     (nv x N) products per step.
+   * ``"tendons"``: one fixed tendon per mode with coefficients ``M phi_r`` and
+     damping ``c_r`` -- native MuJoCo, but every coefficient of a fixed tendon
+     is evaluated each step at a cost that grows with the square of its count
+     (the grid: several times slower than the plant itself).
+
+   Sparse tendons (a few joints, bi-orthogonal to the damped modes) were tried
+   and rejected: they couple the damped modes to the chain's high modes and
+   miss some ratios by 20-60 %.
 
 Which plant mode is "mode r" of the spec is decided by pairing with the FE
-modes (MAC at the structure points, :func:`vlab.sim.crosscheck.pair_modes`):
-plant modes with no FE partner (the crosspiece arms' anti-symmetric bending,
-which the FE's single-DOF crosspiece lacks) get the spec's ``default_ratio``.
+modes (MAC at the structure points, :func:`vlab.sim.crosscheck.pair_modes`);
+plant modes without FE partner below the highest damped one (the crosspiece
+arms' anti-symmetric bending, absent from the FE's single-DOF crosspiece) get
+the spec's ``default_ratio``.
 
 Source: modal damping as in Sec. 2.1.2 ("proportional damping equivalent to
-the measured open loop inherent damping"); MuJoCo fixed tendons
-(``doc/XMLreference.rst``, tendon/fixed) and implicit damping
+the measured open loop inherent damping"); MuJoCo ``qfrc_applied``, custom
+numerics and fixed tendons (``doc/XMLreference.rst``); implicit joint damping
 (``doc/computation/index.rst``).
 """
 
@@ -36,18 +56,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import math
-
 import mujoco
 import numpy as np
 
 from ..errors import SimulationError
 from ..spec import StructureSpec
 
+#: Names of the custom numerics that carry the applied modal damping.
+NUMERIC_A = "vlab_modal_A"
+NUMERIC_C = "vlab_modal_c"
 
-#: Largest ``dt * lambda_max(M^-1 C_tendon)`` accepted: the modal tendons' damping is stable even when
-#: integrated explicitly (semi-implicit Euler needs < 2).
-EXPLICIT_LIMIT = 0.5
+#: Modal damping realisations.
+METHODS = ("applied", "tendons", "none")
 
 
 @dataclass(frozen=True)
@@ -56,6 +76,8 @@ class DampingReport:
 
     Attributes
     ----------
+    method : str
+        ``"applied"`` or ``"tendons"``.
     beta_s : float
         Stiffness-proportional factor of the hinge damping [s].
     frequencies_hz : ndarray, shape (n_damped,)
@@ -66,19 +88,75 @@ class DampingReport:
         Spec (FE) mode number of each damped plant mode (None: unpaired, default ratio).
     beta_ratios : ndarray, shape (n_damped,)
         Part of the ratio already given by the hinge damping [-].
-    tendon_damping : ndarray, shape (n_damped,)
-        Damping ``c_r`` of each modal tendon [N s per unit of the tendon coordinate].
-    achieved_ratios : ndarray, shape (n_damped,)
-        Ratios of the built plant's linearisation [-] (nan before tuning).
+    modal_damping : ndarray, shape (n_damped,)
+        ``c_r`` [1/s] per mass-normalised modal coordinate.
     """
 
+    method: str
     beta_s: float
     frequencies_hz: np.ndarray
     target_ratios: np.ndarray
     spec_modes: tuple
     beta_ratios: np.ndarray
-    tendon_damping: np.ndarray
-    achieved_ratios: np.ndarray
+    modal_damping: np.ndarray
+
+
+@dataclass(frozen=True)
+class ModalDamping:
+    """The modal damping matrix ``C_m = A diag(c) A^T`` of a plant.
+
+    Attributes
+    ----------
+    A : ndarray, shape (nv, n_damped)
+        ``M Phi`` of the damped modes (mass-normalised ``Phi``).
+    c : ndarray, shape (n_damped,)
+        Modal damping coefficients [1/s].
+    """
+
+    A: np.ndarray
+    c: np.ndarray
+
+    def force(self, qvel: np.ndarray) -> np.ndarray:
+        """Generalized damping force ``-C_m qvel``.
+
+        Parameters
+        ----------
+        qvel : ndarray, shape (nv,)
+            Joint velocities.
+
+        Returns
+        -------
+        ndarray, shape (nv,)
+        """
+        return -self.A @ (self.c * (self.A.T @ qvel))
+
+    def matrix(self) -> np.ndarray:
+        """``C_m``, shape (nv, nv)."""
+        return (self.A * self.c) @ self.A.T
+
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, n: int = 1,
+             base: np.ndarray | None = None) -> None:
+        """``n`` MuJoCo steps, each with ``qfrc_applied = base - C_m qvel`` set first.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+        data : mujoco.MjData
+            Advanced in place.
+        n : int
+            Number of steps.
+        base : ndarray, shape (nv,), optional
+            Other applied generalized forces (zero by default).
+        """
+        a, c = self.A, self.c
+        applied = data.qfrc_applied
+        for _ in range(n):
+            f = a @ (c * (a.T @ data.qvel))
+            if base is None:
+                np.negative(f, out=applied)
+            else:
+                np.subtract(base, f, out=applied)
+            mujoco.mj_step(model, data)
 
 
 def _elastic_stiffness(model: mujoco.MjModel) -> np.ndarray:
@@ -141,168 +219,119 @@ def default_beta(ratios: np.ndarray, omega: np.ndarray, fraction: float = 0.2) -
 
 
 def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float | None,
-                       n_damped: int | None = None, *, support: int | None = None):
-    """Settle and linearise the undamped plant, choose ``beta`` and the modal tendons.
-
-    Each damped mode ``r`` gets a fixed tendon ``b_r^T q`` whose coefficients
-    ``b_r`` are bi-orthogonal to the damped modes (``B^T Phi = I``) and live on a
-    subset ``J`` of the joints: a pivoted QR of the mass-scaled ``Phi^T`` orders
-    the joints, and on ``J`` the solution of least ``M^-1`` norm,
-    ``B_J = W Phi_J (Phi_J^T W Phi_J)^-1`` with ``W = ((M^-1)_JJ)^-1``, is taken
-    (the dense optimum is ``M Phi``). ``J`` grows until ``dt * lambda_max(M^-1 C)
-    <= EXPLICIT_LIMIT``, so the damping stays stable even where the integrator
-    treats it explicitly (couplings between branches of the tree). Dense
-    coefficients would make every step several times slower: MuJoCo evaluates
-    each fixed-tendon coefficient every step. The damping ``c_r = 2 omega_r
-    (zeta_r - zeta_beta,r)``; :func:`tune_modal_damping` then corrects the
-    coupling through the higher modes.
+                       n_damped: int | None = None, *, method: str = "applied"
+                       ) -> tuple[float, ModalDamping, DampingReport]:
+    """Settle and linearise the undamped plant; choose ``beta`` and the modal damping.
 
     Parameters
     ----------
     spec : StructureSpec
     model : mujoco.MjModel
-        The plant without damping (``beta = 0``, no modal tendons).
+        The plant without damping (``beta = 0``).
     beta : float or None
         Hinge damping factor [s]; None chooses :func:`default_beta`.
     n_damped : int, optional
         Number of spec modes damped (default: all ratios given).
-    support : int, optional
-        Joints per tendon (default: the smallest of 1.5 N, 2 N, 3 N, 4 N, nv that
-        passes the explicit-stability test).
+    method : str
+        ``"applied"`` or ``"tendons"`` (recorded in the report).
 
     Returns
     -------
     beta : float
-    tendons : list of (name, {joint name: coefficient}, damping, info)
+    damping : ModalDamping
     report : DampingReport
-        Targets before tuning.
 
     Raises
     ------
     SimulationError
         If no plant mode matches an FE mode, or the plant does not settle.
     """
-    import scipy.linalg
-
     from .linearize import modes, settle
 
     data = settle(model)
-    pts = sorted(spec.points)
-    pm = modes(model, pts, data=data)
+    pm = modes(model, sorted(spec.points), data=data)
     idx, ratios, spec_modes = _targets(spec, pm, n_damped)
     omega = pm.omega[idx]
     if beta is None:
         beta = default_beta(ratios, omega)
     k = _elastic_stiffness(model)
     phi = pm.joint_shapes[:, idx]
-    n = len(idx)
     beta_part = beta * np.einsum("ir,i,ir->r", phi, k, phi) / (2 * omega)
     c = np.clip(2 * omega * (ratios - beta_part), 0.0, None)
-    m = pm.mass_matrix
-    minv = np.linalg.inv(m)
-    dt = float(model.opt.timestep)
-    # joints ordered by how well they observe the damped modes (mass-scaled pivoted QR)
-    scale = np.sqrt(np.diag(m))
-    _, _, order = scipy.linalg.qr((phi * scale[:, None]).T, pivoting=True)
-    sizes = [support] if support is not None else [int(math.ceil(1.5 * n)), 2 * n, 3 * n, 4 * n, model.nv]
-    for size in sizes:
-        size = min(max(size, n), model.nv)
-        joints = np.sort(order[:size])
-        w = np.linalg.inv(minv[np.ix_(joints, joints)])
-        pj = phi[joints, :]
-        bmat = w @ pj @ np.linalg.inv(pj.T @ w @ pj)  # (size, n): B^T Phi = I, least M^-1 norm
-        full = np.zeros((model.nv, n))
-        full[joints] = bmat
-        rho = dt * float(scipy.linalg.eigh(full @ np.diag(c) @ full.T, m, eigvals_only=True,
-                                           subset_by_index=(model.nv - 1, model.nv - 1))[0])
-        if rho <= EXPLICIT_LIMIT:
-            break
-    else:
-        raise SimulationError(
-            f"modal damping: no tendon support keeps the explicit damping stable (h*lambda_max = {rho:.3g}); "
-            "reduce the timestep or the number of damped modes"
-        )
-    names = [model.joint(int(model.dof_jntid[i])).name for i in range(model.nv)]
-    tendons = []
-    for r in range(n):
-        coefs = {names[j]: float(bmat[i, r]) for i, j in enumerate(joints) if abs(bmat[i, r]) > 1e-12}
-        tendons.append((f"damping.mode{r + 1}", coefs, float(c[r]),
-                        f"modal damping of plant mode {r + 1} ({pm.frequencies_hz[idx[r]]:.4g} Hz, "
-                        f"spec mode {spec_modes[r]}): zeta = {ratios[r]:.4g} "
-                        f"(hinge damping gives {beta_part[r]:.3g})"))
-    report = DampingReport(float(beta), pm.frequencies_hz[idx], ratios, spec_modes, beta_part, c,
-                           np.full(n, np.nan))
-    return float(beta), tendons, report
+    md = ModalDamping(pm.mass_matrix @ phi, c)
+    report = DampingReport(method, float(beta), pm.frequencies_hz[idx], ratios, spec_modes, beta_part, c)
+    return float(beta), md, report
 
 
-def add_modal_tendons(ms: mujoco.MjSpec, tendons) -> list:
-    """Add the modal damping tendons to an MjSpec.
+def store_modal_damping(ms: mujoco.MjSpec, md: ModalDamping) -> None:
+    """Write ``A`` (row-major, nv x N) and ``c`` into the spec as custom numerics.
 
     Parameters
     ----------
     ms : mujoco.MjSpec
         The plant's spec (modified).
-    tendons : list of (name, {joint: coefficient}, damping, info)
-        From :func:`modal_damping_plan`.
-
-    Returns
-    -------
-    list of mujoco.MjsTendon
+    md : ModalDamping
     """
-    out = []
-    for name, coefs, c, info in tendons:
-        t = ms.add_tendon(name=name)
-        for jn, v in coefs.items():
-            t.wrap_joint(jn, v)
-        t.damping = [c, 0.0, 0.0]
-        t.stiffness = [0.0, 0.0, 0.0]
-        t.springlength = [0.0, 0.0]
-        t.info = info
-        out.append(t)
-    return out
+    a = ms.add_numeric(name=NUMERIC_A)
+    a.data = md.A.ravel().tolist()
+    c = ms.add_numeric(name=NUMERIC_C)
+    c.data = md.c.tolist()
 
 
-def tune_modal_damping(model: mujoco.MjModel, points, report: DampingReport, *, iterations: int = 4,
-                       rtol: float = 0.01) -> DampingReport:
-    """Correct the modal tendon damping until the linearised ratios meet the targets.
-
-    The damped plant modes are identified by frequency (the damping does not move
-    them); each iteration adds ``2 omega_r (zeta_target - zeta_achieved)`` to
-    ``c_r`` (clipped at 0) in ``model.tendon_damping`` (tendons ``damping.mode<r>``).
+def load_modal_damping(model: mujoco.MjModel) -> ModalDamping | None:
+    """The applied modal damping stored in a model, or None.
 
     Parameters
     ----------
     model : mujoco.MjModel
-        Plant with modal tendons; modified in place.
-    points : sequence of int
-        Points for the mode shapes.
-    report : DampingReport
-        From :func:`modal_damping_plan`.
-    iterations : int
-        Most corrections.
-    rtol : float
-        Relative tolerance on the ratios.
 
     Returns
     -------
-    DampingReport
-        With ``tendon_damping`` the final values and ``achieved_ratios`` measured.
-    """
-    from .linearize import modes, settle
+    ModalDamping or None
 
-    n = len(report.target_ratios)
-    ids = [model.tendon(f"damping.mode{r + 1}").id for r in range(n)]
-    data = settle(model)
-    achieved = np.full(n, np.nan)
-    for it in range(iterations + 1):
-        pm = modes(model, points, data=data)
-        sel = [int(np.argmin(np.abs(pm.frequencies_hz - f))) for f in report.frequencies_hz]
-        achieved = pm.damping_ratios[sel]
-        err = achieved - report.target_ratios
-        if np.all(np.abs(err) <= rtol * report.target_ratios) or it == iterations:
-            break
-        omega = 2 * np.pi * report.frequencies_hz
-        for r, tid in enumerate(ids):
-            model.tendon_damping[tid] = max(0.0, model.tendon_damping[tid] - 2 * omega[r] * err[r])
-    return DampingReport(report.beta_s, report.frequencies_hz, report.target_ratios, report.spec_modes,
-                         report.beta_ratios, np.array([model.tendon_damping[t] for t in ids]), achieved)
+    Raises
+    ------
+    SimulationError
+        If the stored arrays do not fit the model (nv).
+    """
+    names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i): i for i in range(model.nnumeric)}
+    if NUMERIC_A not in names or NUMERIC_C not in names:
+        return None
+
+    def data(name):
+        i = names[name]
+        adr, size = int(model.numeric_adr[i]), int(model.numeric_size[i])
+        return np.array(model.numeric_data[adr: adr + size])
+
+    c = data(NUMERIC_C)
+    a = data(NUMERIC_A)
+    if a.size != model.nv * c.size:
+        raise SimulationError(f"stored modal damping has {a.size} coefficients, expected nv x N = "
+                              f"{model.nv} x {c.size}")
+    return ModalDamping(a.reshape(model.nv, c.size), c)
+
+
+def add_modal_tendons(ms: mujoco.MjSpec, model: mujoco.MjModel, md: ModalDamping, report: DampingReport) -> None:
+    """Add one fixed tendon per damped mode (coefficients ``M phi_r``, damping ``c_r``).
+
+    Parameters
+    ----------
+    ms : mujoco.MjSpec
+        The plant's spec (modified).
+    model : mujoco.MjModel
+        The compiled plant the modes were computed on (joint names, DOF order).
+    md : ModalDamping
+    report : DampingReport
+        For the tendons' ``info``.
+    """
+    names = [model.joint(int(model.dof_jntid[i])).name for i in range(model.nv)]
+    for r in range(md.c.size):
+        col = md.A[:, r]
+        t = ms.add_tendon(name=f"damping.mode{r + 1}")
+        for i, v in enumerate(col):
+            if abs(v) > 1e-12 * np.abs(col).max():
+                t.wrap_joint(names[i], float(v))
+        t.damping = [float(md.c[r]), 0.0, 0.0]
+        t.springlength = [0.0, 0.0]
+        t.info = (f"modal damping of plant mode {r + 1} ({report.frequencies_hz[r]:.4g} Hz, spec mode "
+                  f"{report.spec_modes[r]}): zeta = {report.target_ratios[r]:.4g}")

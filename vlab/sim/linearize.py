@@ -185,7 +185,8 @@ def settle(model: mujoco.MjModel, data: mujoco.MjData | None = None, *, max_iter
     )
 
 
-def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6) -> LinearModel:
+def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6,
+              applied_damping: bool = True) -> LinearModel:
     """Linearise one step around ``data`` with :func:`mujoco.mjd_transitionFD` (centred).
 
     Parameters
@@ -195,6 +196,10 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6) 
         Linearisation point (normally from :func:`settle`); not modified.
     eps : float
         Finite-difference step.
+    applied_damping : bool
+        Include the applied modal damping stored in the model (custom numerics,
+        :mod:`vlab.sim.damping`), which ``mjd_transitionFD`` cannot see because it
+        is set as ``qfrc_applied`` by the stepper (default True).
 
     Returns
     -------
@@ -212,9 +217,36 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6) 
     C = np.zeros((model.nsensordata, nx))
     D = np.zeros((model.nsensordata, model.nu))
     mujoco.mjd_transitionFD(model, d, eps, True, A, B, C, D)
+    if applied_damping:
+        from .damping import load_modal_damping
+
+        md = load_modal_damping(model)
+        if md is not None:
+            # the force -C_m qvel is set as qfrc_applied before each step: x+ = A x + Bq (-C_m v)
+            bq = _qfrc_response(model, data)
+            A[:, model.nv: 2 * model.nv] -= bq @ md.matrix()
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         raise SimulationError("linearisation produced non-finite matrices: the state is not valid")
     return LinearModel(A, B, C, D, float(model.opt.timestep), data.qpos.copy())
+
+
+def _qfrc_response(model: mujoco.MjModel, data: mujoco.MjData, eps: float = 1e-6) -> np.ndarray:
+    """Response of one step to ``qfrc_applied``, shape (2 nv + na, nv) (forward differences; linear)."""
+    nv = model.nv
+    out = np.zeros((2 * nv + model.na, nv))
+    d0 = copy.copy(data)
+    mujoco.mj_step(model, d0)
+    dq = np.zeros(nv)
+    for j in range(nv):
+        d = copy.copy(data)
+        d.qfrc_applied[j] += eps
+        mujoco.mj_step(model, d)
+        mujoco.mj_differentiatePos(model, dq, 1.0, d0.qpos, d.qpos)
+        out[:nv, j] = dq / eps
+        out[nv: 2 * nv, j] = (d.qvel - d0.qvel) / eps
+        if model.na:
+            out[2 * nv:, j] = (d.act - d0.act) / eps
+    return out
 
 
 def discrete_to_modal(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..spec import StructureSpec
 from .builder import Plant, SimOptions, build_plant
+from .damping import load_modal_damping
 from .linearize import settle
 
 
@@ -94,6 +95,9 @@ class MujocoPlant:
         Points with a ``vel<ID>`` sensor.
     model : mujoco.MjModel
     data : mujoco.MjData
+    modal_damping : ModalDamping or None
+        The applied modal damping read from the model (set as ``qfrc_applied``
+        before every step).
 
     Raises
     ------
@@ -125,6 +129,7 @@ class MujocoPlant:
         self._z0 = self._ref.site_xpos[:, 2].copy()
         self.data = mujoco.MjData(model)
         self._rows_cache: dict[tuple, np.ndarray | None] = {}
+        self.modal_damping = load_modal_damping(model)
         self.reset()
 
     # -- state
@@ -164,7 +169,7 @@ class MujocoPlant:
         self.data.ctrl[self._act_ids] = f
 
     def step(self, n: int = 1) -> None:
-        """Advance ``n`` physics steps with the forces last set.
+        """Advance ``n`` physics steps with the forces last set (and the applied modal damping).
 
         Parameters
         ----------
@@ -179,7 +184,10 @@ class MujocoPlant:
             gives the time.
         """
         d = self.data
-        mujoco.mj_step(self.model, d, nstep=n)
+        if self.modal_damping is None:
+            mujoco.mj_step(self.model, d, nstep=n)
+        else:
+            self.modal_damping.step(self.model, d, n)
         if self._warning.number or not math.isfinite(d.qvel[0] + d.qvel[-1]):
             raise SimulationError(
                 f"the MuJoCo plant diverged at t = {d.time:.4f} s (bad acceleration / non-finite state): "

@@ -1,0 +1,509 @@
+"""Measured data for a diagnosis: recordings, FRFs or modal tables, checked and turned into FRFs.
+
+Three inputs (issue 6):
+
+- UFF 58 time histories (function type 1) as ``vlab experiment`` writes them:
+  one force channel (the excitation, node = point id) and velocity channels;
+- UFF 58 FRFs (function type 4), optionally with coherence (type 6);
+- a CSV modal table: ``mode``, ``frequency_hz``, ``damping_ratio`` and
+  optional shape columns ``shape_<point>`` (aliases: the dissertation's
+  ``experimental_hz`` and ``damping_experimental`` of Table 3; ``#`` lines
+  are comments).
+
+A recording excited by a periodic signal (the lab's pseudo-random multisine)
+is analysed period by period: the first periods are dropped while the
+transient decays, each remaining period gives a leakage-free FRF at the
+excited lines, and their scatter gives the noise of the mean (the
+nonparametric noise estimate for periodic excitation, Pintelon & Schoukens,
+*System Identification: A Frequency Domain Approach*, 2nd ed., Sec. 2.5 and
+6.4). Other excitations use the H1 estimator (:func:`vlab.measure.h1`) with
+the variance of Bendat & Piersol, *Random Data*, 4th ed., Eq. (9.90):
+``var(H) / |H|^2 = (1 - gamma^2) / (2 n_d gamma^2)``.
+
+Errors name the file and the channel: :class:`vlab.errors.DataFileError` for
+an unreadable or inconsistent file (unknown point ids, no force channel,
+malformed CSV), :class:`vlab.errors.MeasurementError` for data that cannot be
+analysed (NaN, clipped or dead channels, too short a record).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.ndimage
+import scipy.stats
+
+from ..errors import DataFileError, MeasurementError, VlabError
+from ..fe import FEModel
+from ..lab.recording import Recording
+from ..measure.frf import h1
+from ..spec import StructureSpec
+
+#: Longest run of identical samples at a channel's extreme that is not taken as clipping.
+CLIP_RUN = 3
+#: Lines whose relative noise exceeds this (SNR below ~2) are not used.
+MAX_RELATIVE_NOISE = 0.5
+
+
+@dataclass(frozen=True)
+class FrfData:
+    """Measured FRFs from one excitation point to several velocity outputs.
+
+    Attributes
+    ----------
+    source : str
+        File the data came from.
+    kind : {"recording", "frf"}
+    freq_hz : ndarray, shape (n_f,)
+        Lines [Hz].
+    h : ndarray, complex, shape (n_f, n_o)
+        Velocity per force [(m/s)/N].
+    var : ndarray, shape (n_f, n_o)
+        Variance of ``h`` (complex: ``E|h - h_true|^2``) [((m/s)/N)^2].
+    excitation_point : int
+    output_points : tuple of int, length n_o
+    force_amplitude : ndarray, shape (n_f,) or None
+        One-sided amplitude of the excitation at each line [N] (recordings).
+    velocity_rms : dict
+        Output point -> RMS velocity [m/s] over the analysed periods (recordings).
+    recording : Recording or None
+        The time histories (recordings).
+    analysed_from_s : float
+        Start of the analysed part of the recording [s] (transient dropped).
+    notes : list of str
+        What was assumed on the way (resolution, settling, noise estimate).
+    """
+
+    source: str
+    kind: str
+    freq_hz: np.ndarray
+    h: np.ndarray
+    var: np.ndarray
+    excitation_point: int
+    output_points: tuple[int, ...]
+    force_amplitude: np.ndarray | None = None
+    velocity_rms: dict = field(default_factory=dict)
+    recording: Recording | None = None
+    analysed_from_s: float = 0.0
+    notes: list = field(default_factory=list)
+
+    @property
+    def sigma_rel(self) -> np.ndarray:
+        """Relative standard deviation ``sqrt(var) / |h|``, shape (n_f, n_o)."""
+        return np.sqrt(self.var) / np.maximum(np.abs(self.h), 1e-300)
+
+
+@dataclass(frozen=True)
+class ModalData:
+    """A measured modal table.
+
+    Attributes
+    ----------
+    source : str
+    modes : ndarray of int, shape (n_m,)
+        Mode numbers as given.
+    freq_hz : ndarray, shape (n_m,)
+        Natural frequencies [Hz].
+    damping : ndarray, shape (n_m,)
+        Damping ratios (NaN where not given).
+    shapes : ndarray, shape (n_p, n_m) or None
+        Mode shapes at ``shape_points``.
+    shape_points : tuple of int
+    notes : list of str
+    """
+
+    source: str
+    modes: np.ndarray
+    freq_hz: np.ndarray
+    damping: np.ndarray
+    shapes: np.ndarray | None = None
+    shape_points: tuple[int, ...] = ()
+    notes: list = field(default_factory=list)
+    kind: str = "modal"
+
+
+# ----------------------------------------------------------------------------- checks
+def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
+    """Raise MeasurementError for NaN, dead (constant) or clipped samples of one channel.
+
+    Clipping: more than :data:`CLIP_RUN` consecutive samples exactly at the
+    channel's maximum or minimum (a saturated amplifier or ADC holds its
+    limit; a smooth signal sampled at 2 kHz does not repeat its extreme).
+
+    Raises
+    ------
+    MeasurementError
+        Naming ``path`` and ``name``.
+    """
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise MeasurementError(f"{path}: channel {name}: non-finite sample at index {bad[0]}")
+    if x.size == 0 or np.ptp(x) == 0.0:
+        raise MeasurementError(f"{path}: channel {name}: constant signal (dead sensor or disconnected channel)")
+    for ext, word in ((x.max(), "maximum"), (x.min(), "minimum")):
+        at = x == ext
+        if at.sum() > CLIP_RUN:
+            d = np.diff(np.concatenate(([0], at.astype(np.int8), [0])))
+            runs = np.flatnonzero(d == -1) - np.flatnonzero(d == 1)
+            if runs.max() > CLIP_RUN:
+                start = int(np.flatnonzero(d == 1)[np.argmax(runs)])
+                raise MeasurementError(
+                    f"{path}: channel {name}: clipped: {int(runs.max())} consecutive samples at its {word} "
+                    f"{ext:.6g} from index {start} (saturated amplifier or ADC range)")
+
+
+def _check_points(path: str, spec: StructureSpec, fe: FEModel, items: list[tuple[str, int]]) -> None:
+    for name, p in items:
+        if p not in spec.points:
+            raise DataFileError(f"{path}: channel {name}: point id {p} is not a point of the structure "
+                                f"{spec.name!r} (points: {sorted(spec.points)})")
+        if (p, "w") not in fe.dofs:
+            raise DataFileError(f"{path}: channel {name}: point {p} of {spec.name!r} is fixed out of plane "
+                                "(a support): nothing to measure there")
+
+
+# ----------------------------------------------------------------------------- recordings
+def _is_periodic(x: np.ndarray, n: int) -> bool:
+    if n < 2 or x.size < 2 * n:
+        return False
+    a, b = x[:n], x[n:2 * n]
+    return bool(np.max(np.abs(a - b)) <= 1e-9 * max(np.max(np.abs(a)), 1e-300))
+
+
+def _pooled_variance(own: np.ndarray, dof: int, width: int = 21) -> np.ndarray:
+    """Running-median pooling of per-line variance estimates with ``dof`` real degrees of freedom."""
+    med = scipy.stats.chi2.median(dof) / dof
+    pooled = scipy.ndimage.median_filter(own, size=(width, 1), mode="nearest") / med
+    return pooled
+
+
+def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, path: str,
+                        resolution_hz: float, band_hz: tuple[float, float], settle_s: float = 0.0) -> FrfData:
+    """FRFs, their noise, force spectrum and velocity RMS from a recording.
+
+    Parameters
+    ----------
+    rec : Recording
+        One force channel (the excitation) and velocity channels.
+    spec, fe : StructureSpec, FEModel
+        The structure (point ids are checked against it).
+    path : str
+        File name for messages.
+    resolution_hz : float
+        Line spacing = 1 / period of the excitation [Hz].
+    band_hz : (float, float)
+        Band analysed [Hz].
+    settle_s : float
+        Time for the transient to decay [s]; whole periods covering it are
+        dropped (at least one), keeping two periods for the noise estimate
+        when the record allows.
+
+    Returns
+    -------
+    FrfData
+
+    Raises
+    ------
+    DataFileError
+        No or several force channels, a channel at an unknown or fixed point,
+        the force not at an actuator, channels other than force/velocity.
+    MeasurementError
+        NaN, dead or clipped channel; record shorter than two periods
+        (periodic excitation) or one block (other excitation).
+    """
+    forces = [c for c in rec.channels if c.quantity == "force"]
+    if len(forces) != 1:
+        raise DataFileError(f"{path}: expected exactly one force channel (the excitation), found "
+                            f"{[c.name for c in forces] or 'none'}")
+    fch = forces[0]
+    vels = [c for c in rec.channels if c.quantity != "force"]
+    if not vels:
+        raise DataFileError(f"{path}: no response channel besides {fch.name}")
+    for c in vels:
+        if c.quantity != "velocity":
+            raise DataFileError(f"{path}: channel {c.name}: {c.quantity} channels are not supported; "
+                                "record velocities (m/s) as the lab's sensors do")
+        if c.direction != 3:
+            raise DataFileError(f"{path}: channel {c.name}: direction {c.direction}; only out-of-plane (3) is modelled")
+    _check_points(path, spec, fe, [(c.name, c.point_id) for c in rec.channels])
+    acts = tuple(spec.instrumentation.actuators)
+    if fch.point_id not in acts:
+        raise DataFileError(f"{path}: channel {fch.name}: the excitation at point {fch.point_id} is not at an "
+                            f"actuator of {spec.name!r} {acts} (the lab excites through a coil)")
+    for c in rec.channels:
+        check_channel_samples(path, c.name, np.asarray(c.samples))
+    dups = [p for p in {c.point_id for c in vels} if sum(c.point_id == p for c in vels) > 1]
+    if dups:
+        raise DataFileError(f"{path}: several velocity channels at point {dups[0]}")
+    x = np.asarray(fch.samples)
+    dt = rec.dt_s
+    n_per = int(round(1.0 / (resolution_hz * dt)))
+    notes = []
+    lo, hi = band_hz
+    outs = tuple(c.point_id for c in vels)
+    if _is_periodic(x, n_per):
+        n_periods = x.size // n_per
+        need = max(1, math.ceil(settle_s / (n_per * dt) - 1e-9))
+        skip = need if n_periods - need >= 2 else max(1, min(need, n_periods - 2 if n_periods >= 3 else 1))
+        if skip < need:
+            notes.append(f"the record holds {n_periods} periods of {n_per * dt:g} s; the transient needs about "
+                         f"{settle_s:.0f} s to decay, {skip} period(s) were dropped: lightly damped modes may "
+                         "still carry some transient (its period-to-period change counts as noise)")
+        m = n_periods - skip
+        if m < 1:
+            raise MeasurementError(
+                f"{path}: channel {fch.name}: record of {x.size * dt:g} s holds {n_periods} period(s) of the "
+                f"{resolution_hz:g} Hz excitation; the analysis needs one to settle and one to measure "
+                f"({2 * n_per * dt:g} s)")
+        seg = slice(skip * n_per, (skip + m) * n_per)
+        xp = x[seg].reshape(m, n_per)
+        X = np.fft.rfft(xp, axis=1)
+        f_all = np.fft.rfftfreq(n_per, dt)
+        amp = np.abs(X[-1])
+        lines = np.flatnonzero((amp > 1e-6 * amp.max()) & (f_all >= lo - 1e-9) & (f_all <= hi + 1e-9))
+        if lines.size < 3:
+            raise MeasurementError(f"{path}: channel {fch.name}: fewer than three excited lines in {band_hz} Hz")
+        hp = np.empty((m, lines.size, len(vels)), dtype=complex)
+        for j, c in enumerate(vels):
+            yp = np.asarray(c.samples)[seg].reshape(m, n_per)
+            hp[:, :, j] = np.fft.rfft(yp, axis=1)[:, lines] / X[:, lines]
+        h = hp.mean(axis=0)
+        if m >= 2:
+            own = np.sum(np.abs(hp - h) ** 2, axis=0) / (m - 1) / m
+            dof = 2 * (m - 1)
+            var = np.maximum(_pooled_variance(own, dof), own)
+            notes.append(f"periodic excitation: {m} period(s) of {n_per * dt:g} s analysed after dropping {skip}; "
+                         "noise from the period-to-period scatter")
+        else:
+            var = np.zeros_like(h.real)
+            notes.append(f"periodic excitation: one period analysed after dropping {skip}; no noise estimate "
+                         "(needs two): the model-error floor alone sets the weights")
+        freq = f_all[lines]
+        force_amp = 2.0 * amp[lines] / n_per
+        vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(c.samples)[seg] ** 2))) for c in vels}
+        t0 = skip * n_per * dt
+    else:
+        if x.size < 2 * n_per:
+            raise MeasurementError(
+                f"{path}: channel {fch.name}: record of {x.size * dt:g} s is too short for a {resolution_hz:g} Hz "
+                f"resolution with averaging (needs at least {2 * n_per * dt:g} s)")
+        hs, cs = [], []
+        n_avg = 1
+        for c in vels:
+            frf = h1(x, np.asarray(c.samples), dt_s=dt, resolution_hz=resolution_hz, window="hann",
+                     input_name=fch.name, output_name=c.name)
+            hs.append(frf.h)
+            cs.append(frf.coherence)
+            n_avg = frf.n_averages or 1
+            f_all = frf.freq_hz
+        sel = (f_all >= lo) & (f_all <= hi) & (f_all > 0)
+        freq = f_all[sel]
+        h = np.array(hs).T[sel]
+        coh = np.clip(np.array(cs).T[sel], 1e-6, 1.0)
+        var = np.abs(h) ** 2 * (1 - coh) / (2 * n_avg * coh)
+        force_amp = None
+        vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(c.samples) ** 2))) for c in vels}
+        notes.append(f"non-periodic excitation: H1 with Hann window, {n_avg} averages; noise from coherence")
+        t0 = 0.0
+    return FrfData(path, "recording", freq, h, var, fch.point_id, outs, force_amp, vrms, rec, t0, notes)
+
+
+# ----------------------------------------------------------------------------- FRF files
+def frfs_from_uff(frfs: list, spec: StructureSpec, fe: FEModel, *, path: str,
+                  band_hz: tuple[float, float]) -> FrfData:
+    """Stack UFF FRFs (one excitation point, common frequency axis) into :class:`FrfData`.
+
+    Displacement and acceleration FRFs are converted to velocity. The
+    variance comes from the coherence and the number of averages when the
+    file has them (Bendat & Piersol Eq. 9.90), else it is left to the
+    model-error floor.
+
+    Raises
+    ------
+    DataFileError
+        Several excitation points, different frequency axes, unknown or fixed
+        points, two FRFs at one output point.
+    """
+    inputs = {f.input_point for f in frfs}
+    if len(inputs) != 1:
+        raise DataFileError(f"{path}: FRFs from several excitation points {sorted(inputs)}; give one reference")
+    exc = inputs.pop()
+    _check_points(path, spec, fe, [(f.name, f.output_point) for f in frfs] + [(frfs[0].input_name, exc)])
+    acts = tuple(spec.instrumentation.actuators)
+    if exc not in acts:
+        raise DataFileError(f"{path}: FRF {frfs[0].name}: the excitation at point {exc} is not at an actuator {acts}")
+    f0 = frfs[0].freq_hz
+    outs = []
+    hs, vs = [], []
+    notes = []
+    for f in frfs:
+        if f.freq_hz.shape != f0.shape or not np.allclose(f.freq_hz, f0, rtol=1e-9, atol=1e-12):
+            raise DataFileError(f"{path}: FRF {f.name}: frequency axis differs from FRF {frfs[0].name}")
+        if f.output_point in outs:
+            raise DataFileError(f"{path}: FRF {f.name}: a second FRF at point {f.output_point}")
+        outs.append(f.output_point)
+        v = f.to_velocity() if f.response != "velocity" else f
+        hs.append(v.h)
+        if f.coherence is not None and f.n_averages:
+            coh = np.clip(f.coherence, 1e-6, 1.0)
+            vs.append(np.abs(v.h) ** 2 * (1 - coh) / (2 * f.n_averages * coh))
+        else:
+            vs.append(np.zeros(f0.shape))
+    if any(not np.any(v) for v in vs):
+        notes.append("no coherence/averages in the file: the model-error floor alone sets the weights")
+    sel = (f0 >= band_hz[0]) & (f0 <= band_hz[1]) & (f0 > 0)
+    h = np.array(hs).T[sel]
+    var = np.array(vs).T[sel]
+    for j, p in enumerate(outs):
+        bad = np.flatnonzero(~np.isfinite(h[:, j]))
+        if bad.size:
+            raise MeasurementError(f"{path}: FRF at point {p}: non-finite value at {f0[sel][bad[0]]:g} Hz")
+    return FrfData(path, "frf", f0[sel], h, var, exc, tuple(outs), None, {}, None, 0.0, notes)
+
+
+# ----------------------------------------------------------------------------- modal CSV
+_FREQ = ("frequency_hz", "experimental_hz", "freq_hz", "frequency")
+_DAMP = ("damping_ratio", "damping_experimental", "zeta", "damping")
+
+
+def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
+    """Read a modal table (CSV) and check it against the structure.
+
+    Columns: ``mode`` (positive integers), a frequency column
+    (``frequency_hz`` or ``experimental_hz``) [Hz], optional damping
+    (``damping_ratio`` or ``damping_experimental``), optional shape columns
+    ``shape_<point id>`` (or ``phi_<point id>``). Lines starting with ``#``
+    are comments; other columns are ignored (and listed in the notes).
+
+    Raises
+    ------
+    DataFileError
+        Missing file or column, a row with the wrong number of fields, a
+        non-numeric or non-positive frequency, a damping ratio outside
+        [0, 1), repeated mode numbers, a shape column for a point the
+        structure does not have. The message names the file, row and column.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise DataFileError(f"{p}: no such file")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataFileError(f"{p}: unreadable: {exc}") from None
+    lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        raise DataFileError(f"{p}: no data rows (a header line and at least one mode are needed)")
+    rows = list(csv.reader([ln for _, ln in lines]))
+    header = [h.strip() for h in rows[0]]
+    col = {h: i for i, h in enumerate(header)}
+    if "mode" not in col:
+        raise DataFileError(f"{p}: no 'mode' column (columns: {header})")
+    fcol = next((c for c in _FREQ if c in col), None)
+    if fcol is None:
+        raise DataFileError(f"{p}: no frequency column (one of {_FREQ}); columns: {header}")
+    dcol = next((c for c in _DAMP if c in col), None)
+    shape_cols = {}
+    for h in header:
+        for pre in ("shape_", "phi_"):
+            if h.startswith(pre):
+                tail = h[len(pre):]
+                if not tail.isdigit():
+                    raise DataFileError(f"{p}: column {h!r}: expected {pre}<point id>")
+                pid = int(tail)
+                if pid not in spec.points:
+                    raise DataFileError(f"{p}: column {h!r}: point id {pid} is not a point of {spec.name!r} "
+                                        f"(points: {sorted(spec.points)})")
+                shape_cols[pid] = col[h]
+    used = {"mode", fcol, dcol} | {header[i] for i in shape_cols.values()}
+    ignored = [h for h in header if h not in used]
+    modes, freq, damp, shapes = [], [], [], []
+    for (lineno, _), row in zip(lines[1:], rows[1:]):
+        if len(row) != len(header):
+            raise DataFileError(f"{p}: line {lineno}: {len(row)} fields, the header has {len(header)}")
+
+        def num(name: str, idx: int, *, allow_empty: bool = False) -> float:
+            s = row[idx].strip()
+            if allow_empty and s == "":
+                return float("nan")
+            try:
+                v = float(s)
+            except ValueError:
+                raise DataFileError(f"{p}: line {lineno}, column {name!r}: not a number: {s!r}") from None
+            if not math.isfinite(v):
+                raise DataFileError(f"{p}: line {lineno}, column {name!r}: not finite: {s!r}")
+            return v
+
+        mv = num("mode", col["mode"])
+        if mv != int(mv) or mv < 1:
+            raise DataFileError(f"{p}: line {lineno}, column 'mode': expected a positive integer, got {row[col['mode']]!r}")
+        fv = num(fcol, col[fcol])
+        if fv <= 0:
+            raise DataFileError(f"{p}: line {lineno}, column {fcol!r}: frequency must be > 0 Hz, got {fv}")
+        dv = num(dcol, col[dcol], allow_empty=True) if dcol else float("nan")
+        if math.isfinite(dv) and not 0.0 <= dv < 1.0:
+            raise DataFileError(f"{p}: line {lineno}, column {dcol!r}: damping ratio must be in [0, 1), got {dv}")
+        modes.append(int(mv))
+        freq.append(fv)
+        damp.append(dv)
+        shapes.append([num(header[i], i) for i in shape_cols.values()])
+    if len(set(modes)) != len(modes):
+        raise DataFileError(f"{p}: column 'mode': repeated mode numbers {sorted(m for m in set(modes) if modes.count(m) > 1)}")
+    order = np.argsort(freq)
+    notes = []
+    if ignored:
+        notes.append(f"columns not used: {ignored}")
+    sh = np.array(shapes, dtype=float).T[:, order] if shape_cols else None
+    if sh is not None and np.any(np.all(sh == 0, axis=0)):
+        raise DataFileError(f"{p}: a mode shape is zero at every point")
+    return ModalData(str(p), np.array(modes)[order], np.array(freq)[order], np.array(damp)[order], sh,
+                     tuple(shape_cols), notes)
+
+
+# ----------------------------------------------------------------------------- dispatch
+def detect_kind(path: str | Path) -> str:
+    """``"modal"`` for a .csv file, else ``"uff"`` (decided on reading).
+
+    Raises
+    ------
+    DataFileError
+        Missing file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise DataFileError(f"{p}: no such file")
+    return "modal" if p.suffix.lower() == ".csv" else "uff"
+
+
+def read_uff_any(path: str | Path) -> tuple[str, object]:
+    """Read a UFF file as a recording (function type 1) or FRFs (type 4).
+
+    Returns
+    -------
+    ("recording", Recording) or ("frf", list of FRF)
+
+    Raises
+    ------
+    DataFileError
+        Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`),
+        or one holding neither kind. Names the file and channel.
+    """
+    from ..io.uff import read_frfs, read_recording
+
+    try:
+        return "recording", read_recording(path)
+    except DataFileError as exc:
+        if "no dataset-58 time-response" not in str(exc):
+            raise
+    try:
+        return "frf", read_frfs(path)
+    except DataFileError as exc:
+        if "no dataset-58 FRF" in str(exc):
+            raise DataFileError(f"{path}: neither time histories (UFF 58, function type 1) nor FRFs "
+                                "(function type 4)") from None
+        raise
+    except VlabError:
+        raise

@@ -1,0 +1,374 @@
+"""Locating a mismatch: which modes, which sensors, which band, which loop, where on the structure.
+
+- **Modes**: resonances are picked on the mode indicator ``sum_o |H_o|^2`` of
+  the measured and of the predicted FRFs, paired by frequency, and each
+  pair is curve-fitted on its strongest channel
+  (:func:`vlab.measure.fit_modes`): frequency, damping and peak-level
+  errors. A mode is flagged when the weighted residual of the lines around
+  it exceeds the noise (mean chi-square per real residual above 4).
+  Modal tables are compared mode by mode directly.
+- **Sensors**: mean chi-square per channel (per-channel FRF error) and
+  COMAC of the paired modes (Lieven & Ewins 1988, :func:`vlab.measure.comac`).
+- **Band**: the span of lines whose residual exceeds the noise.
+- **Where**: sensitivity-based error localisation (Friswell & Mottershead,
+  *Finite Element Model Updating in Structural Dynamics*, 1995, Sec. 7.3
+  and ch. 8; the "best subset" single-parameter criterion of Lallement &
+  Piranda, IMAC 8 (1990) 579-585): the sensitivities ``S_rj = d ln f_r / d
+  p_j`` of the natural frequencies to a local mass, a grounded spring, a
+  joint flexibility and each member segment's rigidity are computed by
+  perturbing the spec; for each candidate the measured frequency errors
+  ``delta_r = ln(f_meas / f_pred)`` are fitted by that one column and the
+  share of ``|delta|^2`` it explains ranks the candidates.
+- **Loop**: "open" for open-loop data; for closed-loop data "closed" when
+  the explaining effect acts only in the controller path (delay, sensor
+  lag or gain) and "both" when it is in the structure or the actuators
+  (decided in :mod:`vlab.diagnose.pipeline` once effects are fitted).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import MeasurementError, ModelError, SpecError
+from ..measure.mac import comac, mac, pair_modes
+from ..measure.modal import find_peaks, fit_modes, peak_levels
+from . import specedit
+from .data import FrfData
+from .hypotheses import Context
+from .labmodel import LabState, natural_frequencies, predict_frf
+from .problem import Problem
+
+#: Mean chi-square per real residual above which lines, modes or channels count as mismatched.
+FLAG = 4.0
+
+
+@dataclass
+class ModeError:
+    """Predicted vs measured parameters of one mode.
+
+    ``freq_error`` and ``damping_error`` are relative (measured / predicted - 1);
+    ``peak_ratio`` is predicted / measured peak level (Tables 10, 19-21);
+    ``chi2_per_residual`` is the mean weighted squared residual near the mode.
+    """
+
+    mode: int
+    freq_predicted_hz: float
+    freq_measured_hz: float
+    damping_predicted: float
+    damping_measured: float
+    peak_ratio: float = float("nan")
+    channel: int | None = None
+    chi2_per_residual: float = float("nan")
+    flagged: bool = False
+
+    @property
+    def freq_error(self) -> float:
+        """``f_meas / f_pred - 1``."""
+        return self.freq_measured_hz / self.freq_predicted_hz - 1.0
+
+    @property
+    def damping_error(self) -> float:
+        """``zeta_meas / zeta_pred - 1``."""
+        return self.damping_measured / self.damping_predicted - 1.0
+
+    def as_dict(self) -> dict:
+        """JSON-ready."""
+        return {"mode": self.mode, "frequency_predicted_hz": self.freq_predicted_hz,
+                "frequency_measured_hz": self.freq_measured_hz, "frequency_error": self.freq_error,
+                "damping_predicted": self.damping_predicted, "damping_measured": self.damping_measured,
+                "damping_error": self.damping_error, "peak_ratio": self.peak_ratio, "channel": self.channel,
+                "chi2_per_residual": self.chi2_per_residual, "mismatch": self.flagged}
+
+
+@dataclass
+class Location:
+    """Everything :func:`locate` found (see the module docstring).
+
+    Attributes
+    ----------
+    modes : list of ModeError
+    channels : dict
+        Output point -> {"chi2_per_residual", "misfit_decades", "comac"}.
+    band_hz : list of float or None
+        ``[low, high]`` of the mismatched lines [Hz].
+    sensitivity : list of dict
+        Candidates ranked by the share of the frequency errors they explain:
+        ``{"parameter", "point"/"member"/"segment", "explained"}``.
+    points, members : list
+        Located points (ids) and members (``"member"`` or ``"member[a-b]"``).
+    """
+
+    modes: list = field(default_factory=list)
+    channels: dict = field(default_factory=dict)
+    band_hz: list | None = None
+    sensitivity: list = field(default_factory=list)
+    points: list = field(default_factory=list)
+    members: list = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- modes
+def _mif(h: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.sum(np.abs(h) ** 2, axis=1))
+
+
+def frf_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
+    """Per-mode frequency, damping and peak errors of FRF data (see module docstring)."""
+    d: FrfData = problem.data
+    f = d.freq_hz
+    hp = problem.predict(nominal)
+    lo, hi = f[0], f[-1]
+    fine = np.linspace(lo, hi, max(2000, 8 * f.size))
+    hf = predict_frf(nominal, fine, excitation_point=d.excitation_point, output_points=d.output_points)
+    pred = find_peaks(fine, _mif(hf), prominence_db=3.0, name="prediction")
+    try:
+        meas = find_peaks(f, _mif(d.h), prominence_db=3.0, name=d.source)
+    except MeasurementError:
+        meas = []
+    fp = np.array([p.freq_hz for p in pred])
+    fm = np.array([p.freq_hz for p in meas])
+    out = []
+    if fp.size == 0:
+        return out
+    used = set()
+    pairs = []
+    for i in np.argsort(fp):
+        if fm.size == 0:
+            break
+        j = int(np.argmin(np.abs(fm - fp[i]) / fp[i]))
+        if j in used or abs(fm[j] - fp[i]) / fp[i] > 0.25:
+            continue
+        used.add(j)
+        pairs.append((i, j))
+    r = problem.residual(nominal)
+    npart = int(problem.mask.sum())
+    lines_r2 = np.zeros(problem.mask.shape)
+    re = r[:npart] ** 2 + (r[npart:] ** 2 if r.size > npart else 0.0)
+    lines_r2[problem.mask] = re
+    per = 2 if problem.use_phase else 1
+    df = float(np.median(np.diff(f)))
+    for mode, (i, j) in enumerate(pairs, start=1):
+        k = int(np.argmin(np.abs(f - fm[j])))
+        ch = int(np.argmax(np.abs(d.h[k])))
+        try:
+            fits = fit_modes(f, d.h[:, ch], [fm[j]], name=d.source)[0]
+            fitp = fit_modes(f, hp[:, ch], [fp[i]], name="prediction")[0]
+            fmeas, zmeas, fpred, zpred = fits.freq_hz, fits.damping_ratio, fitp.freq_hz, fitp.damping_ratio
+        except MeasurementError:
+            fmeas, zmeas, fpred, zpred = fm[j], np.nan, fp[i], np.nan
+        half = max(3 * abs(zpred if np.isfinite(zpred) else 0.02) * fpred, 2 * df)
+        try:
+            pm = peak_levels(f, d.h[:, ch], [fmeas], half_band_hz=half)[0]
+            pp = peak_levels(f, hp[:, ch], [fpred], half_band_hz=half)[0]
+            ratio = pp / pm
+        except MeasurementError:
+            ratio = np.nan
+        near = (np.abs(f - fpred) <= half) | (np.abs(f - fmeas) <= half)
+        m = problem.mask[near]
+        c2 = float(lines_r2[near][m].sum() / max(per * m.sum(), 1))
+        out.append(ModeError(mode, float(fpred), float(fmeas), float(zpred), float(zmeas), float(ratio),
+                             int(d.output_points[ch]), c2, c2 > FLAG))
+    return out
+
+
+def table_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
+    """Per-mode errors of modal-table data against the nominal model (mode tracking by MAC)."""
+    d = problem.data
+    fo, zo, _ = problem.model_modes(nominal)
+    out = []
+    for j in range(len(d.freq_hz)):
+        e = np.log(d.freq_hz[j] / fo[j]) / problem.freq_sigma if np.isfinite(fo[j]) else np.inf
+        c2 = float(e**2)
+        zd = d.damping[j]
+        if np.isfinite(zd) and zd > 0 and np.isfinite(zo[j]) and zo[j] > 0:
+            c2 = 0.5 * (c2 + (np.log(zd / zo[j]) / problem.damping_sigma) ** 2)
+        out.append(ModeError(int(d.modes[j]), float(fo[j]), float(d.freq_hz[j]), float(zo[j]), float(zd),
+                             chi2_per_residual=c2, flagged=c2 > FLAG))
+    return out
+
+
+# ----------------------------------------------------------------------------- sensors and band
+def channel_errors(problem: Problem, nominal: LabState, modes: list[ModeError]) -> dict:
+    """Per output point: mean chi-square per residual, weighted RMS log10 error, COMAC (FRF data)."""
+    d: FrfData = problem.data
+    hp = problem.predict(nominal)
+    r = problem.residual(nominal)
+    npart = int(problem.mask.sum())
+    r2 = np.zeros(problem.mask.shape)
+    r2[problem.mask] = r[:npart] ** 2 + (r[npart:] ** 2 if r.size > npart else 0.0)
+    per = 2 if problem.use_phase else 1
+    cm = np.full(len(d.output_points), np.nan)
+    if len(modes) >= 2:
+        f = d.freq_hz
+        ka = [int(np.argmin(np.abs(f - m.freq_predicted_hz))) for m in modes]
+        kb = [int(np.argmin(np.abs(f - m.freq_measured_hz))) for m in modes]
+        a = np.array([_real_shape(hp[k]) for k in ka]).T
+        b = np.array([_real_shape(d.h[k]) for k in kb]).T
+        try:
+            cm = comac(a, b)
+        except MeasurementError:
+            pass
+    out = {}
+    for j, p in enumerate(d.output_points):
+        m = problem.mask[:, j]
+        e = np.log10(np.abs(hp[m, j] / d.h[m, j]))
+        w = problem.weight_mag[m, j]
+        out[int(p)] = {"chi2_per_residual": float(r2[m, j].sum() / max(per * m.sum(), 1)),
+                       "misfit_decades": float(np.sqrt(np.sum(w * e**2) / np.sum(w))) if m.any() else float("nan"),
+                       "comac": float(cm[j])}
+    return out
+
+
+def _real_shape(row: np.ndarray) -> np.ndarray:
+    """Real shape from complex FRF values at a resonance (rotated to the dominant phase)."""
+    k = int(np.argmax(np.abs(row)))
+    return np.real(row * np.exp(-1j * np.angle(row[k])))
+
+
+def mismatched_band(problem: Problem, nominal: LabState) -> list | None:
+    """``[low, high]`` [Hz] of the lines whose residual (summed over channels) exceeds the noise, or None."""
+    d = problem.data
+    if not isinstance(d, FrfData):
+        return None
+    r = problem.residual(nominal)
+    npart = int(problem.mask.sum())
+    r2 = np.zeros(problem.mask.shape)
+    r2[problem.mask] = r[:npart] ** 2 + (r[npart:] ** 2 if r.size > npart else 0.0)
+    per = 2 if problem.use_phase else 1
+    n_used = np.maximum(problem.mask.sum(axis=1), 1)
+    line = r2.sum(axis=1) / (per * n_used)
+    bad = np.flatnonzero(line > FLAG)
+    if bad.size == 0:
+        return None
+    return [float(d.freq_hz[bad[0]]), float(d.freq_hz[bad[-1]])]
+
+
+# ----------------------------------------------------------------------------- sensitivity
+def _tracked_freqs(state: LabState, phi0: np.ndarray, labels0, n: int) -> np.ndarray:
+    f, _, phi = natural_frequencies(state, n + 3)
+    labels = state.fe.dofs.labels
+    if labels == labels0:
+        a, b = phi0, phi
+    else:
+        idx = {lab: i for i, lab in enumerate(labels)}
+        common = [(i, idx[lab]) for i, lab in enumerate(labels0) if lab in idx]
+        a, b = phi0[[i for i, _ in common], :], phi[[j for _, j in common], :]
+    out = np.full(phi0.shape[1], np.nan)
+    for i, j, _ in pair_modes(mac(a, b)):
+        out[i] = f[j]
+    return out
+
+
+def sensitivity_localisation(nominal: LabState, ctx: Context, modes: list[ModeError], *,
+                             rel_step: float = 0.01) -> list[dict]:
+    """Rank local structural parameters by the share of the frequency errors each explains alone.
+
+    Parameters
+    ----------
+    nominal : LabState
+    ctx : Context
+    modes : list of ModeError
+        Paired modes with predicted and measured frequencies.
+    rel_step : float
+        Size of the finite-difference perturbation (mass: fraction of the
+        total mass; spring: fraction of the point stiffness; rigidity:
+        relative change).
+
+    Returns
+    -------
+    list of dict
+        ``{"parameter", "point"/"member", "explained"}``, best first; empty
+        when fewer than one mode is paired or the errors are zero.
+
+    Notes
+    -----
+    ``explained_j = (S_j^T delta)^2 / (|S_j|^2 |delta|^2)`` restricted to
+    the physically signed direction (a mass only lowers, a spring only
+    raises frequencies; a rigidity may go either way).
+    """
+    ok = [m for m in modes if np.isfinite(m.freq_measured_hz) and np.isfinite(m.freq_predicted_hz)]
+    if not ok:
+        return []
+    f0, _, phi0 = natural_frequencies(nominal)
+    # nominal mode index of each paired mode: nearest nominal natural frequency
+    idx = [int(np.argmin(np.abs(f0 - m.freq_predicted_hz))) for m in ok]
+    n = max(idx) + 1
+    phi0 = phi0[:, :n]
+    labels0 = nominal.fe.dofs.labels
+    delta = np.array([np.log(m.freq_measured_hz / m.freq_predicted_hz) for m in ok])
+    if not np.any(delta):
+        return []
+    base = np.log(f0[idx])
+    spec = nominal.spec
+    free = [p for p in sorted(spec.points) if (p, "w") in nominal.fe.dofs]
+    cands: list[tuple[dict, object, int]] = []
+    for p in free:
+        cands.append(({"parameter": "mass", "point": p},
+                      lambda s, p=p: specedit.add_mass(s, p, rel_step * ctx.total_mass_kg), -1))
+        kp = ctx.point_stiffness.get(p)
+        if kp:
+            cands.append(({"parameter": "stiffness", "point": p},
+                          lambda s, p=p, kp=kp: specedit.add_spring(s, p, "w", rel_step * kp), +1))
+    for p in sorted(spec.points):
+        segs = specedit.joint_segments(spec, p)
+        if len(segs) >= 2:
+            kj = float(np.mean([ei / length for _a, _b, length, ei in segs])) / rel_step
+            cands.append(({"parameter": "joint", "point": p},
+                          lambda s, p=p, kj=kj: specedit.soften_joint(s, p, kj), -1))
+    for m in spec.members:
+        for a, b in zip(m.points[:-1], m.points[1:]):
+            name = m.id if len(m.points) == 2 else f"{m.id}[{a}-{b}]"
+            cands.append(({"parameter": "rigidity", "member": name},
+                          lambda s, a=a, b=b: specedit.scale_segments(s, {(a, b): 1.0 + rel_step}), 0))
+    out = []
+    for info, edit, sign in cands:
+        try:
+            st = nominal.with_spec(edit(spec))
+            fj = _tracked_freqs(st, phi0, labels0, n)[idx]
+        except (ModelError, SpecError):
+            continue
+        col = np.log(fj) - base
+        if not np.all(np.isfinite(col)) or not np.any(col):
+            continue
+        theta = float(col @ delta) / float(col @ col)
+        if sign and theta < 0:
+            expl = 0.0
+        else:
+            expl = float((col @ delta) ** 2 / ((col @ col) * (delta @ delta)))
+        out.append({**info, "explained": expl})
+    out.sort(key=lambda d: -d["explained"])
+    return out
+
+
+def located_places(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> tuple[list[int], list[str]]:
+    """Points and members whose best candidate explains at least ``share`` of the best one."""
+    if not ranked or ranked[0]["explained"] <= 0:
+        return [], []
+    best = ranked[0]["explained"]
+    pts, mems = [], []
+    for d in ranked:
+        if d["explained"] < share * best:
+            break
+        if "point" in d and d["point"] not in pts and len(pts) < top:
+            pts.append(d["point"])
+        if "member" in d and d["member"] not in mems and len(mems) < top:
+            mems.append(d["member"])
+    return pts, mems
+
+
+def locate(problem: Problem, nominal: LabState) -> Location:
+    """Modes, channels, band and structural location of the mismatch (see module docstring)."""
+    loc = Location()
+    if isinstance(problem.data, FrfData):
+        loc.modes = frf_modes(problem, nominal)
+        loc.channels = channel_errors(problem, nominal, loc.modes)
+        loc.band_hz = mismatched_band(problem, nominal)
+    else:
+        loc.modes = table_modes(problem, nominal)
+        bad = [m for m in loc.modes if m.flagged]
+        if bad:
+            loc.band_hz = [min(m.freq_measured_hz for m in bad), max(m.freq_measured_hz for m in bad)]
+    loc.sensitivity = sensitivity_localisation(nominal, problem.ctx, loc.modes)
+    loc.points, loc.members = located_places(loc.sensitivity)
+    return loc

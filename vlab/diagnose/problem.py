@@ -1,0 +1,219 @@
+"""The fitting problem: weighted residuals of a laboratory state against the measured data.
+
+FRF data (recordings or UFF FRFs): for every usable line and channel the
+complex log ratio ``e = ln(H_model / H_measured)`` (real part: log magnitude,
+imaginary part: phase, wrapped), each part divided by its standard deviation
+``sqrt((sigma_rel^2 + floor^2) / 2)``. ``sigma_rel`` is the measured relative
+noise of the line (:mod:`vlab.diagnose.data`), ``floor`` a relative model
+error the linear model is allowed (the lab's time stepping and the
+frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
+report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used.
+
+Modal data: per measured mode ``ln(f_model / f_meas) / sigma_f``, and when
+given ``ln(zeta_model / zeta_meas) / sigma_zeta`` and ``(1 - MAC) / sigma_MAC``
+of the shapes. The model's modes are followed through a modification by MAC
+against the nominal modes (mode tracking), so measured mode ``n`` is always
+compared with the mode that is nominal mode ``n``.
+
+The sum of squares is a chi-square statistic when the weights are the noise:
+it drives the least-squares fits, the information criteria
+(:mod:`vlab.diagnose.fit`) and the decision whether there is a mismatch at all.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.stats
+
+from ..errors import ModelError, SpecError
+from ..measure.mac import mac, pair_modes
+from .data import MAX_RELATIVE_NOISE, FrfData, ModalData
+from .hypotheses import Context, Hypothesis
+from .labmodel import LabState, natural_frequencies, predict_frf
+
+#: Residual returned for a state the model cannot be built for (unstable, singular).
+_PENALTY = 1e3
+
+
+class Problem:
+    """Residuals of lab states against one data set.
+
+    Parameters
+    ----------
+    data : FrfData or ModalData
+    base : LabState
+        The nominal lab.
+    ctx : Context
+    floor : float
+        Relative model error allowed on FRFs [1] (0.005 = 0.5 %).
+    use_phase : bool
+        Include the phase of FRFs.
+    freq_sigma : float
+        Relative standard deviation of a measured natural frequency (modal data) [1].
+    damping_sigma : float
+        Relative standard deviation of a measured damping ratio (modal data) [1].
+    shape_sigma : float
+        Standard deviation of ``1 - MAC`` of a measured shape (modal data).
+
+    Attributes
+    ----------
+    n_obs : int
+        Number of real residuals N.
+    """
+
+    def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
+                 use_phase: bool = True, freq_sigma: float = 0.01, damping_sigma: float = 0.25,
+                 shape_sigma: float = 0.05):
+        self.data, self.base, self.ctx = data, base, ctx
+        self.floor, self.use_phase = float(floor), bool(use_phase)
+        self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
+        self.n_evaluations = 0
+        if isinstance(data, FrfData):
+            srel = data.sigma_rel
+            self.mask = (srel <= MAX_RELATIVE_NOISE) & (np.abs(data.h) > 0)
+            if self.mask.sum() < 3:
+                raise ModelError(f"{data.source}: fewer than three lines with a signal-to-noise ratio above 2")
+            tot = np.sqrt((srel**2 + self.floor**2) / 2.0)
+            self.part_sigma = tot[self.mask]
+            self.weight_mag = 1.0 / (srel**2 + self.floor**2)
+            self.n_obs = int(self.mask.sum()) * (2 if use_phase else 1)
+        else:
+            self._nominal_modes(base)
+            n = len(data.freq_hz)
+            nz = np.isfinite(data.damping) & (data.damping > 0)
+            self.n_obs = n + int(nz.sum()) + (n if data.shapes is not None else 0)
+
+    # ------------------------------------------------------------------ modal helpers
+    def _nominal_modes(self, base: LabState) -> None:
+        data: ModalData = self.data
+        n_need = int(max(data.modes)) + 4
+        f, z, phi = natural_frequencies(base, n_need)
+        if len(f) < int(max(data.modes)):
+            raise ModelError(f"{data.source}: mode {int(max(data.modes))} asked for, the model has {len(f)} modes")
+        self._n_track = min(n_need, len(f))
+        self._labels0 = base.fe.dofs.labels
+        self._phi0 = phi
+        self._nominal_f = f
+        self._nominal_z = z
+        if data.shapes is not None:
+            rows = [base.fe.dofs.index(p, "w") for p in data.shape_points]
+            m = mac(phi[rows, :], data.shapes)
+            pairs = pair_modes(m)
+            self._meas_to_nominal = {j: i for i, j, _ in pairs}
+        else:
+            self._meas_to_nominal = {j: int(data.modes[j]) - 1 for j in range(len(data.modes))}
+
+    def model_modes(self, state: LabState) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Frequencies [Hz], damping ratios and shapes at the measured points of the model modes
+        paired with each measured mode (NaN where no mode could be paired).
+
+        Returns
+        -------
+        freq_hz, zeta : ndarray, shape (n_m,)
+        shapes : ndarray, shape (n_p, n_m) or None
+        """
+        data: ModalData = self.data
+        f, z, phi = natural_frequencies(state, self._n_track + 2)
+        labels = state.fe.dofs.labels
+        if labels == self._labels0:
+            a, b = self._phi0, phi
+        else:
+            idx = {lab: i for i, lab in enumerate(labels)}
+            common = [(i, idx[lab]) for i, lab in enumerate(self._labels0) if lab in idx]
+            a = self._phi0[[i for i, _ in common], :]
+            b = phi[[j for _, j in common], :]
+        m = mac(a, b)
+        track = {i: j for i, j, _ in pair_modes(m)}
+        n = len(data.freq_hz)
+        fo, zo = np.full(n, np.nan), np.full(n, np.nan)
+        so = None if data.shapes is None else np.full((len(data.shape_points), n), np.nan)
+        rows = [state.fe.dofs.index(p, "w") for p in data.shape_points] if data.shapes is not None else []
+        for jm in range(n):
+            i0 = self._meas_to_nominal.get(jm)
+            jj = track.get(i0) if i0 is not None else None
+            if jj is None:
+                continue
+            fo[jm], zo[jm] = f[jj], z[jj]
+            if so is not None:
+                so[:, jm] = phi[rows, jj]
+        return fo, zo, so
+
+    # ------------------------------------------------------------------ core
+    def state_for(self, hyp: Hypothesis | None, x) -> LabState:
+        """The lab with hypothesis ``hyp`` of size ``x`` [SI] (the nominal lab for None)."""
+        if hyp is None:
+            return self.base
+        return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
+
+    def predict(self, state: LabState) -> np.ndarray:
+        """Model FRFs on the data's lines, shape (n_f, n_o) (FRF data)."""
+        d: FrfData = self.data
+        return predict_frf(state, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
+
+    def residual(self, state: LabState) -> np.ndarray:
+        """Weighted residuals, shape (n_obs,). A model that cannot be built gives a large constant."""
+        self.n_evaluations += 1
+        try:
+            if isinstance(self.data, FrfData):
+                hm = self.predict(state)
+                ratio = hm[self.mask] / self.data.h[self.mask]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    re = np.log(np.abs(ratio)) / self.part_sigma
+                    if not self.use_phase:
+                        r = re
+                    else:
+                        r = np.concatenate([re, np.angle(ratio) / self.part_sigma])
+            else:
+                r = self._modal_residual(state)
+        except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
+            return np.full(self.n_obs, _PENALTY)
+        r = np.where(np.isfinite(r), r, _PENALTY)
+        return r
+
+    def _modal_residual(self, state: LabState) -> np.ndarray:
+        d: ModalData = self.data
+        fo, zo, so = self.model_modes(state)
+        parts = [np.log(fo / d.freq_hz) / self.freq_sigma]
+        nz = np.isfinite(d.damping) & (d.damping > 0)
+        if nz.any():
+            parts.append(np.log(zo[nz] / d.damping[nz]) / self.damping_sigma)
+        if d.shapes is not None:
+            macs = np.array([mac(so[:, j], d.shapes[:, j])[0, 0] if np.all(np.isfinite(so[:, j])) else 0.0
+                             for j in range(len(d.freq_hz))])
+            parts.append((1.0 - macs) / self.shape_sigma)
+        return np.concatenate(parts)
+
+    def chi2(self, state: LabState) -> float:
+        """Sum of squared weighted residuals."""
+        r = self.residual(state)
+        return float(r @ r)
+
+    def misfit(self, state: LabState) -> float:
+        """FRF data: weighted RMS of ``log10|H_model / H_meas|`` [decades] (weights 1 / (sigma_rel^2 + floor^2));
+        modal data: RMS of ``ln(f_model / f_meas)`` (relative frequency error)."""
+        try:
+            if isinstance(self.data, FrfData):
+                hm = self.predict(state)
+                e = np.log10(np.abs(hm[self.mask] / self.data.h[self.mask]))
+                w = self.weight_mag[self.mask]
+                return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+            fo, _, _ = self.model_modes(state)
+            e = np.log(fo / self.data.freq_hz)
+            e = e[np.isfinite(e)]
+            return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
+        except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
+            return float("nan")
+
+    def noise_chi2(self, *, quantile: float = 0.999, safety: float = 1.2) -> float:
+        """Largest chi-square the nominal model may have for the data to count as 'within the noise'.
+
+        ``safety * chi2.ppf(quantile, N)``: the noise estimate from a few
+        periods is itself uncertain, hence the margin.
+        """
+        return float(safety * scipy.stats.chi2.ppf(quantile, self.n_obs))
+
+    def information(self, chi2: float, k: int) -> tuple[float, float]:
+        """``(AIC, BIC) = (chi2 + 2k, chi2 + k ln N)`` (Akaike 1974; Schwarz 1978)."""
+        return chi2 + 2.0 * k, chi2 + k * math.log(self.n_obs)

@@ -1,0 +1,254 @@
+"""The diagnosis report: markdown, JSON and figures in an output folder.
+
+Files (stable names):
+
+- ``diagnosis.md`` -- the report (what was compared, where the mismatch is,
+  the ranked hypotheses with 95 % intervals, the selected effect, the
+  validation);
+- ``diagnosis.json`` -- :meth:`DiagnosisResult.as_dict`;
+- ``overlay_<point>.png`` -- measured FRF with the model before and after and
+  the log-magnitude misfit (:func:`vlab.viz.figures.misfit_overlay`), for the
+  channel with the largest error and the excitation point;
+- ``modes.png`` -- per-mode frequency errors before and after
+  (:func:`vlab.viz.figures.comparison_bar`);
+- ``time.png`` -- recorded and rerun velocity (before/after) at the
+  worst channel, when time histories were given.
+
+Everything is written to a temporary name and moved into place, so a failed
+run leaves no partial file; existing files are replaced only with
+``overwrite=True``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFileError
+
+
+def jsonable(o):
+    """``o`` with numpy scalars/arrays as Python numbers/lists and non-finite floats as None."""
+    if isinstance(o, dict):
+        return {str(k): jsonable(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [jsonable(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return jsonable(o.tolist())
+    if isinstance(o, (bool, np.bool_)):
+        return bool(o)
+    if isinstance(o, (int, np.integer)):
+        return int(o)
+    if isinstance(o, (float, np.floating)):
+        v = float(o)
+        return v if np.isfinite(v) else None
+    if isinstance(o, Path):
+        return str(o)
+    return o
+
+
+def _fmt(v, nd: int = 4) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt(x, nd) for x in v) + "]"
+    if isinstance(v, float):
+        if not np.isfinite(v):
+            return "n/a"
+        return f"{v:.{nd}g}"
+    return str(v)
+
+
+def _params(d: dict, ci: dict) -> str:
+    parts = []
+    for k, v in d.items():
+        lo, hi = ci.get(k, [None, None])
+        parts.append(f"{k} = {_fmt(v)} ({_fmt(lo, 3)} .. {_fmt(hi, 3)})")
+    return "; ".join(parts)
+
+
+def markdown(res: dict) -> str:
+    """The report text from the JSON object of a diagnosis."""
+    s = res["statistics"]
+    lines = [f"# vlab diagnosis: {res['structure']}, controller {res['controller']}", ""]
+    lines += [f"Data: `{res['data']['source']}` ({res['data']['kind']}); {res['data']['n_lines']} lines x "
+              f"{res['data']['n_channels']} channels" if res["data"]["kind"] != "modal" else
+              f"Data: `{res['data']['source']}` (modal table, {res['data']['n_modes']} modes)", ""]
+    for n in res.get("notes", []):
+        lines.append(f"- {n}")
+    lines += ["", "## Verdict", ""]
+    if not res["mismatch"]:
+        lines += [f"**No significant mismatch.** The nominal model's weighted residual chi2 = {s['chi2_nominal']:.4g} "
+                  f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}); no effect "
+                  "is proposed.", ""]
+    elif not res["selected"]:
+        lines += [f"**Mismatch, not explained.** chi2 = {s['chi2_nominal']:.4g} exceeds the noise limit "
+                  f"{s['chi2_limit']:.4g}, but no hypothesis of the library (alone or in pairs) improves the BIC by "
+                  "10 or more.", ""]
+    else:
+        sel = " + ".join(f"`{x['effect']}` at {_loc(x['location'])}" for x in res["selected"])
+        lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g} -> {res['ranked'][0]['chi2']:.4g} "
+                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}).", ""]
+        for x in res["selected"]:
+            lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}")
+        lines.append("")
+    loc = res["located"]
+    lines += ["## Where", "",
+              f"- loop: {loc['loop']}",
+              f"- band: {_fmt(loc['band_hz'])} Hz",
+              f"- modes with a mismatch: {loc['modes'] or 'none'}",
+              f"- points (sensitivity-based localisation): {loc['points'] or 'none'}",
+              f"- members: {loc['members'] or 'none'}",
+              f"- sensors that disagree: {loc.get('sensors') or 'none'}", ""]
+    if loc.get("mode_errors"):
+        lines += ["| mode | f predicted [Hz] | f measured [Hz] | error | zeta predicted | zeta measured | "
+                  "peak ratio | mismatch |", "|---|---|---|---|---|---|---|---|"]
+        for m in loc["mode_errors"]:
+            fe = m["frequency_error"]
+            lines.append(f"| {m['mode']} | {_fmt(m['frequency_predicted_hz'])} | {_fmt(m['frequency_measured_hz'])} | "
+                         f"{_pct(fe)} | {_fmt(m['damping_predicted'], 3)} | {_fmt(m['damping_measured'], 3)} | "
+                         f"{_fmt(m['peak_ratio'], 3)} | {'yes' if m['mismatch'] else ''} |")
+        lines.append("")
+    if loc.get("sensitivity"):
+        lines += ["Sensitivity-based localisation (share of the frequency errors one local parameter explains):", ""]
+        for d in loc["sensitivity"][:6]:
+            where = d.get("point", d.get("member"))
+            lines.append(f"- {d['parameter']} at {where}: {100 * d['explained']:.0f} %")
+        lines.append("")
+    if loc.get("channels"):
+        lines += ["| channel (point) | chi2 per residual | misfit [decades] | COMAC |", "|---|---|---|---|"]
+        for p, c in loc["channels"].items():
+            lines.append(f"| {p} | {_fmt(c['chi2_per_residual'], 3)} | {_fmt(c['misfit_decades'], 3)} | "
+                         f"{_fmt(c['comac'], 3)} |")
+        lines.append("")
+    if res["ranked"]:
+        lines += ["## Hypotheses (ranked by BIC, lower is better)", "",
+                  "| # | effect | location | parameters (95 % interval) | BIC | dBIC vs nominal | misfit before | "
+                  "misfit after |", "|---|---|---|---|---|---|---|---|"]
+        for i, h in enumerate(res["ranked"][:15], start=1):
+            lines.append(f"| {i} | {h['effect']} | {_loc(h['location'])} | {_params(h['parameters'], h['ci95'])} | "
+                         f"{h['score']:.5g} | {h['delta_bic']:.4g} | {_fmt(h['misfit_before'], 3)} | "
+                         f"{_fmt(h['misfit_after'], 3)} |")
+        lines.append("")
+        if res.get("alternatives"):
+            lines += ["Within 10 of the selected BIC (not separable by these data): "
+                      + ", ".join(res["alternatives"]), ""]
+    v = res["validated"]
+    lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", "",
+              f"- FRF log-magnitude misfit [decades]: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
+              + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]
+    if v.get("time_error_before") is not None:
+        lines.append(f"- time-domain error ||v_model - v_recorded|| / ||v_recorded||: "
+                     f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}")
+    lines.append("")
+    if res.get("files"):
+        lines += ["## Figures", ""] + [f"![{k}]({f})" for k, f in res["files"].items() if f.endswith(".png")] + [""]
+    t = res.get("timing_s", {})
+    if t:
+        lines += ["Time: " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()), ""]
+    return "\n".join(lines)
+
+
+def _ok(a, b) -> bool:
+    return a is not None and b is not None and np.isfinite(a) and np.isfinite(b) and b > 0
+
+
+def _pct(v) -> str:
+    return f"{100 * v:+.2f} %" if v is not None and np.isfinite(v) else "n/a"
+
+
+def _loc(loc: dict) -> str:
+    if not loc:
+        return "(global)"
+    if "first" in loc:
+        return f"{_loc(loc['first'])} & {_loc(loc['second'])}"
+    return ", ".join(f"{k} {v}" for k, v in loc.items())
+
+
+def _atomic_write(path: Path, data: bytes, overwrite: bool) -> None:
+    if path.exists() and not overwrite:
+        raise DataFileError(f"{path}: exists (pass overwrite=True to replace it)")
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def time_figure(t_s: np.ndarray, measured: np.ndarray, before: np.ndarray, after: np.ndarray, *, path: Path,
+                title: str = "") -> Path:
+    """Recorded velocity with the reruns before and after (last 5 s), PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 4.0), dpi=120, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    sel = t_s >= t_s[-1] - 5.0
+    ax.plot(t_s[sel], measured[sel], "k-", lw=1.2, label="recorded")
+    ax.plot(t_s[sel], before[sel], color="tab:red", ls="--", lw=1.1, label="model before")
+    ax.plot(t_s[sel], after[sel], color="tab:blue", ls="--", lw=1.2, label="model after")
+    ax.set_xlabel("Time [s]")
+    ax.set_ylabel("Velocity [m/s]")
+    if title:
+        ax.set_title(title)
+    ax.grid(True, alpha=0.4)
+    ax.legend(loc="best", fontsize="small")
+    fig.savefig(path, dpi=120, format="png")
+    return path
+
+
+def write_report(out_dir: str | Path, res: dict, figures: dict, *, overwrite: bool = True) -> dict:
+    """Write ``diagnosis.md``, ``diagnosis.json`` and the figures into ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Created if missing.
+    res : dict
+        JSON object of the diagnosis (``files`` is filled in here).
+    figures : dict
+        Name -> callable(path) that draws one PNG.
+    overwrite : bool
+        Replace existing report files.
+
+    Returns
+    -------
+    dict
+        Name -> path of every file written.
+
+    Raises
+    ------
+    DataFileError
+        Folder cannot be created, or a file exists and ``overwrite`` is False.
+    """
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataFileError(f"{out}: cannot create the output folder ({exc})") from None
+    names = {"report": "diagnosis.md", "json": "diagnosis.json", **{k: f"{k}.png" for k in figures}}
+    if not overwrite:
+        for n in names.values():
+            if (out / n).exists():
+                raise DataFileError(f"{out / n}: exists (pass overwrite=True to replace it)")
+    files = {}
+    for k, draw in figures.items():
+        tmp = out / f".{k}.{uuid.uuid4().hex}.png"
+        try:
+            draw(path=tmp)
+            os.replace(tmp, out / names[k])
+            files[k] = names[k]
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+    res = dict(res, files=files)
+    _atomic_write(out / names["json"], (json.dumps(jsonable(res), indent=2) + "\n").encode(), True)
+    _atomic_write(out / names["report"], markdown(res).encode(), True)
+    return {**{k: out / v for k, v in files.items()}, "report": out / names["report"], "json": out / names["json"]}

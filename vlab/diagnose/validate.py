@@ -1,0 +1,257 @@
+"""Validation: rerun the experiment with the selected effect modelled and compare misfits.
+
+The recorded excitation force is played back through the 2 kHz loop of
+:func:`vlab.lab.loop.run_loop` (same controller, hardware chain and
+sampling) on a plant built from the lab state -- the MuJoCo plant of
+:mod:`vlab.sim` built from the (modified) spec when the effect can be
+expressed in a spec and MuJoCo is available, else the exact linear plant
+(:class:`vlab.lab.linear_plant.LinearPlant`). Both runs (nominal and with the
+effect) start from rest, as the recording did, so the transient is
+reproduced too.
+
+Misfits (before = nominal, after = with the effect):
+
+- FRF: weighted RMS of ``log10|H_rerun / H_recorded|`` over the lines of the
+  diagnosis [decades] (:meth:`vlab.diagnose.problem.Problem.misfit` weights);
+- time domain: ``||v_rerun - v_recorded|| / ||v_recorded||`` over all
+  velocity channels after the dropped transient [1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..calibration import modal_damping_matrix, open_loop_ratios
+from ..errors import ModelError, VlabError
+from ..lab.engine import ControllerEngine
+from ..lab.linear_plant import LinearPlant
+from ..lab.loop import run_loop
+from ..lab.recording import Recording
+from .data import FrfData
+from .labmodel import LabState
+
+
+def linear_plant(state: LabState) -> LinearPlant:
+    """The exact linear plant of a lab state: proportional modal damping of the spec plus point dashpots.
+
+    Raises
+    ------
+    ModelError
+        A dashpot at a point without a free out-of-plane DOF.
+    """
+    fe = state.fe
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(state.spec, fe.n))
+    for p, cp in state.dashpots:
+        i = fe.dofs.index(p, "w")
+        c[i, i] += cp
+    pidx = {p: fe.dofs.index(p, "w") for p in state.spec.points if (p, "w") in fe.dofs}
+    return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=state.actuators, timestep_s=state.h_s)
+
+
+def mujoco_plant(state: LabState):
+    """The MuJoCo plant built from the state's spec (:func:`vlab.sim.build_plant`).
+
+    Raises
+    ------
+    ModelError
+        When the state carries changes a spec cannot express (dashpots, an
+        edited FE stiffness) or the simulation package cannot build it.
+    """
+    if state.dashpots:
+        raise ModelError("point dashpots cannot be expressed in the spec the MuJoCo plant is built from")
+    try:
+        from ..fe import build_fe_model
+        from ..sim import MujocoPlant, build_plant
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
+    rebuilt = build_fe_model(state.spec)
+    if not np.array_equal(rebuilt.k, state.fe.k):
+        raise ModelError("the state's FE stiffness is edited beyond its spec (gravity pre-stress)")
+    return MujocoPlant(build_plant(state.spec))
+
+
+def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
+          plant: str = "linear", seed: int = 0) -> tuple[Recording, str]:
+    """Play the recorded excitation back through the lab loop.
+
+    Parameters
+    ----------
+    state : LabState
+    force : ndarray, shape (n_ticks,)
+        Excitation command, one value per controller period [N].
+    excitation_point : int
+    measured_points : tuple of int
+        Velocity channels to record.
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise (the chain's ``noise_m_s``).
+
+    Returns
+    -------
+    (Recording, str)
+        The rerun and a description of the plant used.
+
+    Raises
+    ------
+    ModelError
+        Unknown plant kind or a state the plant cannot carry.
+    SimulationError
+        The plant diverged.
+    """
+    if plant == "linear":
+        p, kind = linear_plant(state), "linear FE plant"
+    elif plant == "mujoco":
+        p, kind = mujoco_plant(state), "MuJoCo plant"
+    else:
+        raise ModelError(f"unknown plant {plant!r}; use 'linear' or 'mujoco'")
+    d = state.design
+    engine = None
+    if d is not None:
+        engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
+    n = len(force)
+    loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
+                    excitation_point=excitation_point, excitation=np.asarray(force, dtype=float),
+                    duration_s=n * state.chain.period_s, chain=state.chain, seed=seed,
+                    shape_points=tuple(measured_points))
+    return loop.recording, kind
+
+
+def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
+    """FRFs of a rerun on the lines of ``data``, the same periods analysed, shape (n_f, n_o)."""
+    dt = rec.dt_s
+    f0 = data.freq_hz
+    df = float(np.min(np.diff(f0)))  # the lines are multiples of the resolution
+    n_per = int(round(1.0 / (df * dt)))
+    start = int(round(data.analysed_from_s / dt))
+    x = np.asarray(rec[f"force{data.excitation_point}"])[start:]
+    m = x.size // n_per
+    x = x[: m * n_per].reshape(m, n_per)
+    k = np.rint(f0 / df).astype(int)
+    X = np.fft.rfft(x, axis=1)[:, k]
+    out = np.empty((f0.size, len(data.output_points)), dtype=complex)
+    for j, p in enumerate(data.output_points):
+        y = np.asarray(rec[f"vel{p}"])[start:start + m * n_per].reshape(m, n_per)
+        out[:, j] = np.mean(np.fft.rfft(y, axis=1)[:, k] / X, axis=0)
+    return out
+
+
+def time_error(rec: Recording, data: FrfData) -> float:
+    """``||v_rerun - v_recorded|| / ||v_recorded||`` over the velocity channels after the transient."""
+    start = int(round(data.analysed_from_s / rec.dt_s))
+    num = den = 0.0
+    for p in data.output_points:
+        a = np.asarray(data.recording[f"vel{p}"])[start:]
+        b = np.asarray(rec[f"vel{p}"])[start:]
+        num += float(np.sum((b - a) ** 2))
+        den += float(np.sum(a**2))
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Result of a validation rerun.
+
+    Attributes
+    ----------
+    plant : str
+        Plant used (and why, if not the one asked for).
+    misfit_before, misfit_after : float
+        FRF misfit [decades] of the nominal and of the modified lab.
+    time_error_before, time_error_after : float
+        Relative time-domain error [1].
+    h_before, h_after : ndarray, complex, shape (n_f, n_o)
+        FRFs of the reruns on the data's lines.
+    v_before, v_after : dict
+        Point -> rerun velocity [m/s], shape (n_samples,).
+    """
+
+    plant: str
+    misfit_before: float
+    misfit_after: float
+    time_error_before: float
+    time_error_after: float
+    h_before: np.ndarray
+    h_after: np.ndarray
+    v_before: dict
+    v_after: dict
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary."""
+        return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
+                "time_error_before": self.time_error_before, "time_error_after": self.time_error_after}
+
+
+def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
+             seed: int = 0) -> Validation:
+    """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording.
+    nominal, modified : LabState
+    plant : {"auto", "linear", "mujoco"}
+        ``"auto"``: MuJoCo when the effect is spec-level and MuJoCo builds the
+        plant, else linear (the reason is put into ``Validation.plant``).
+    spec_level : bool
+        Whether the effect can be carried by the MuJoCo plant.
+    seed : int
+
+    Returns
+    -------
+    Validation
+
+    Raises
+    ------
+    ModelError
+        Data without time histories, or a recording not sampled at the controller period.
+    SimulationError
+        A rerun diverged.
+    """
+    data: FrfData = problem.data
+    if data.recording is None:
+        raise ModelError("validation by rerun needs time histories")
+    rec = data.recording
+    if abs(rec.dt_s - nominal.chain.period_s) > 1e-9 * nominal.chain.period_s:
+        raise ModelError(f"{data.source}: sampled every {rec.dt_s:g} s, the controller period is "
+                         f"{nominal.chain.period_s:g} s: the recorded force cannot be played back")
+    force = np.asarray(rec[f"force{data.excitation_point}"])
+    pts = tuple(data.output_points)
+    kind = plant
+    note = ""
+    if plant == "auto":
+        kind = "mujoco" if spec_level else "linear"
+        if not spec_level:
+            note = " (the effect is not expressible in a spec: linear plant)"
+    runs = []
+    for st in (nominal, modified):
+        try:
+            r, desc = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=kind,
+                            seed=seed)
+        except (VlabError, ImportError) as exc:
+            if plant != "auto" or kind == "linear":
+                raise
+            note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
+            kind = "linear"
+            runs = []
+            for st2 in (nominal, modified):
+                r2, desc = rerun(st2, force, excitation_point=data.excitation_point, measured_points=pts,
+                                 plant="linear", seed=seed)
+                runs.append(r2)
+            break
+        runs.append(r)
+    desc = ("MuJoCo plant" if kind == "mujoco" else "linear FE plant") + note
+    hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
+    mask = problem.mask
+    w = problem.weight_mag[mask]
+
+    def mis(h: np.ndarray) -> float:
+        e = np.log10(np.abs(h[mask] / data.h[mask]))
+        return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+
+    return Validation(desc, mis(hb), mis(ha), time_error(runs[0], data), time_error(runs[1], data), hb, ha,
+                      {p: np.asarray(runs[0][f"vel{p}"]) for p in pts},
+                      {p: np.asarray(runs[1][f"vel{p}"]) for p in pts})
+
