@@ -31,6 +31,7 @@ import math
 import numpy as np
 import scipy.optimize
 
+from ..errors import VlabError
 from .hypotheses import Combination, Hypothesis
 from .problem import Problem
 
@@ -193,7 +194,10 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, *, top: int = 6, max_
                 starts.append(np.concatenate([a.params_, _shrink(b, nb)]))
             if na is not None:
                 starts.append(np.concatenate([_shrink(a, na), b.params_]))
-            fit_hypothesis(c, problem, starts=np.array(starts), max_nfev=max_nfev)
+            try:
+                fit_hypothesis(c, problem, starts=np.array(starts), max_nfev=max_nfev)
+            except (VlabError, ValueError, np.linalg.LinAlgError):
+                continue
             out.append(c)
             if len(out) >= max_pairs:
                 return out
@@ -206,3 +210,53 @@ def _shrink(h: Hypothesis, null: np.ndarray) -> np.ndarray:
     z0, z1 = _z(np.maximum(null, 1e-300), log), _z(h.params_, log)
     z = np.where(np.array(log) & (null <= 0), z1 - 0.5, 0.5 * (z0 + z1))
     return _x(z, log)
+
+
+def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,
+             c_hat: float = 1.0) -> float:
+    """Quasi-BIC evidence for ``better`` over ``worse`` (None = the nominal model, chi2 ``chi2_0``, k = 0).
+
+    ``(chi2_w - chi2_b) / c_hat - (k_b - k_w) ln N``: the BIC difference with
+    the chi-squares divided by the overdispersion ``c_hat`` (the reduced
+    chi-square of the best fit when it exceeds 1: misfit the model cannot
+    explain, e.g. nonlinear distortion, must not make small improvements
+    look significant; QAIC/QBIC of Burnham & Anderson, *Model Selection and
+    Multimodel Inference*, 2nd ed., 2002, Sec. 6.2).
+    """
+    cb, kb = (chi2_0, 0) if better is None else (better.chi2_, better.n_params)
+    cw, kw = (chi2_0, 0) if worse is None else (worse.chi2_, worse.n_params)
+    return (cw - cb) / c_hat - (kb - kw) * math.log(n_obs)
+
+
+def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothesis | None, float, list]:
+    """Choose the explaining effect among fitted hypotheses.
+
+    The best single effect (lowest BIC) is chosen unless a pair beats it by
+    :data:`STRONG_EVIDENCE` in quasi-BIC (overdispersion from the best single
+    fit); the choice must beat the nominal model by :data:`STRONG_EVIDENCE`
+    too, else nothing is selected.
+
+    Returns
+    -------
+    selected : Hypothesis or None
+    c_hat : float
+        Overdispersion ``max(1, chi2 / (N - k))`` of the selected (or best) fit.
+    alternatives : list of Hypothesis
+        Other hypotheses within :data:`STRONG_EVIDENCE` of the selected one.
+    """
+    singles = [h for h in ranked if not isinstance(h, Combination)]
+    combos = [h for h in ranked if isinstance(h, Combination)]
+    if not singles:
+        return None, 1.0, []
+    best = min(singles, key=lambda h: (h.bic_, h.n_params, h.order))
+    c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
+    if combos:
+        pair = min(combos, key=lambda h: h.bic_)
+        if evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE:
+            best = pair
+            c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
+    if evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE:
+        return None, c_hat, []
+    alts = [h for h in ranked if h is not best and h.n_params <= best.n_params
+            and evidence(best, h, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE]
+    return best, c_hat, alts

@@ -60,6 +60,13 @@ class Context:
         First natural frequency of the nominal model [Hz].
     point_stiffness : dict
         Point -> static driving-point stiffness of the nominal model from its modes [N/m].
+    point_mass : dict
+        Point -> smallest modal mass seen at the point over the modes in the band,
+        ``1 / max_r phi_r(p)^2`` (mass-normalised shapes) [kg]: the added mass that
+        would shift the most affected mode by about 30 %.
+    point_damping : dict
+        Point -> dashpot ``min_r 2 zeta_r omega_r / phi_r(p)^2`` [N*s/m] that would
+        double the damping of the most affected mode in the band.
     freq_hz : ndarray or None
         Excited lines [Hz] (recordings).
     force_amplitude : ndarray or None
@@ -74,6 +81,8 @@ class Context:
     total_mass_kg: float
     f1_hz: float
     point_stiffness: dict
+    point_mass: dict = field(default_factory=dict)
+    point_damping: dict = field(default_factory=dict)
     freq_hz: np.ndarray | None = None
     force_amplitude: np.ndarray | None = None
     velocity_rms: dict = field(default_factory=dict)
@@ -252,9 +261,9 @@ class AddedMass(Hypothesis):
         return {"point": self.point}
 
     def space(self, state, ctx):
-        m = ctx.total_mass_kg
-        return (np.array([[m * f] for f in (0.01, 0.03, 0.08, 0.2, 0.5)]),
-                np.array([0.0]), np.array([2.0 * m]))
+        m = ctx.point_mass.get(self.point, ctx.total_mass_kg)
+        return (np.array([[m * f] for f in (0.005, 0.015, 0.04, 0.1, 0.25, 0.6)]),
+                np.array([0.0]), np.array([max(5.0 * m, 0.5 * ctx.total_mass_kg)]))
 
     def apply(self, state, x, ctx):
         return state.with_spec(specedit.add_mass(state.spec, self.point, float(x[0])))
@@ -302,7 +311,8 @@ class SupportStiffness(Hypothesis):
             return (_log_trials(kscale, (1.0, 10.0, 100.0, 1e3, 1e4)), np.array([kscale * 1e-3]),
                     np.array([kscale * 1e7]))
         kp = ctx.point_stiffness.get(self.point, kscale) if self.dof == "w" else kscale
-        return (_log_trials(kp, (0.01, 0.03, 0.1, 0.3, 1.0, 3.0)), np.array([kp * 1e-5]), np.array([kp * 1e4]))
+        return (_log_trials(kp, (0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)), np.array([kp * 1e-5]),
+                np.array([kp * 1e4]))
 
     def apply(self, state, x, ctx):
         return state.with_spec(specedit.add_spring(state.spec, self.point, self.dof, float(x[0])))
@@ -338,7 +348,7 @@ class JointFlexibility(Hypothesis):
 
     def space(self, state, ctx):
         k = self._kref(state)
-        return _log_trials(k, (0.3, 1.0, 3.0, 10.0)), np.array([k * 1e-3]), np.array([k * 1e5])
+        return _log_trials(k, (0.3, 1.0, 3.0, 10.0, 30.0)), np.array([k * 1e-3]), np.array([k * 1e5])
 
     def apply(self, state, x, ctx):
         return state.with_spec(specedit.soften_joint(state.spec, self.point, float(x[0])))
@@ -368,23 +378,31 @@ class MemberStiffness(Hypothesis):
             loc["segment"] = list(self.segment)
         return loc
 
+    def _nominal(self, state) -> tuple[list[tuple[int, int]], float]:
+        """Segments (point pairs, stable under splitting) and nominal EI, fixed at first use."""
+        if not hasattr(self, "_segs"):
+            m = next((mm for mm in state.spec.members if mm.id == self.member), None)
+            if m is None:
+                raise SpecError(f"member_stiffness: unknown member {self.member!r}")
+            segs = list(zip(m.points[:-1], m.points[1:]))
+            if self.segment is not None:
+                if frozenset(self.segment) not in {frozenset(s) for s in segs}:
+                    raise SpecError(f"member_stiffness: {self.segment} is not a segment of {self.member!r}")
+                segs = [self.segment]
+            self._segs, self._ei = segs, state.spec.sections[m.section].ei.si
+        return self._segs, self._ei
+
     def _ei0(self, state) -> float:
-        m = next((mm for mm in state.spec.members if mm.id == self.member), None)
-        if m is None:
-            raise SpecError(f"member_stiffness: unknown member {self.member!r}")
-        return state.spec.sections[m.section].ei.si
+        return self._nominal(state)[1]
 
     def space(self, state, ctx):
         ei = self._ei0(state)
-        return _log_trials(ei, (0.5, 0.7, 0.85, 1.2, 1.6)), np.array([ei * 0.02]), np.array([ei * 50.0])
+        return _log_trials(ei, (0.5, 0.7, 0.85, 0.95, 1.05, 1.2, 1.6)), np.array([ei * 0.02]), np.array([ei * 50.0])
 
     def apply(self, state, x, ctx):
-        factor = float(x[0]) / self._ei0(state)
-        if self.segment is None:
-            spec = specedit.scale_member(state.spec, self.member, factor)
-        else:
-            spec = specedit.scale_segments(state.spec, {self.segment: factor})
-        return state.with_spec(spec)
+        segs, ei = self._nominal(state)
+        factor = float(x[0]) / ei
+        return state.with_spec(specedit.scale_segments(state.spec, {s: factor for s in segs}))
 
     def null(self, state, ctx):
         return np.array([self._ei0(state)])
@@ -445,11 +463,11 @@ class PointDamping(Hypothesis):
         return {"point": self.point}
 
     def _cref(self, ctx) -> float:
-        return 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg
+        return ctx.point_damping.get(self.point, 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg)
 
     def space(self, state, ctx):
         c = self._cref(ctx)
-        return _log_trials(c, (0.1, 0.3, 1.0, 3.0, 10.0)), np.array([c * 1e-4]), np.array([c * 1e3])
+        return _log_trials(c, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)), np.array([c * 1e-4]), np.array([c * 1e3])
 
     def apply(self, state, x, ctx):
         state.fe.dofs.index(self.point, "w")
@@ -491,9 +509,9 @@ class Friction(Hypothesis):
         return s
 
     def space(self, state, ctx):
-        c = 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg
+        c = ctx.point_damping.get(self.point, 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg)
         f = c * self._sigma(state, ctx) * math.sqrt(math.pi / 2)
-        return _log_trials(f, (0.1, 0.3, 1.0, 3.0, 10.0)), np.array([f * 1e-4]), np.array([f * 1e3])
+        return _log_trials(f, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)), np.array([f * 1e-4]), np.array([f * 1e3])
 
     def apply(self, state, x, ctx):
         c = math.sqrt(2 / math.pi) * float(x[0]) / self._sigma(state, ctx)
@@ -718,7 +736,7 @@ class Combination(Hypothesis):
 
     @property
     def param_names(self):  # type: ignore[override]
-        return tuple(n for h in self.parts for n in h.param_names)
+        return tuple(f"{tag}.{n}" for tag, h in zip(("first", "second"), self.parts) for n in h.param_names)
 
     @property
     def log_scale(self):  # type: ignore[override]

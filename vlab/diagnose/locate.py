@@ -302,27 +302,36 @@ def sensitivity_localisation(nominal: LabState, ctx: Context, modes: list[ModeEr
     base = np.log(f0[idx])
     spec = nominal.spec
     free = [p for p in sorted(spec.points) if (p, "w") in nominal.fe.dofs]
-    cands: list[tuple[dict, object, int]] = []
+    # (info, edit, sign, to_si): to_si maps the multiple theta of the perturbation to the hypothesis parameter [SI]
+    cands: list = []
     for p in free:
-        cands.append(({"parameter": "mass", "point": p},
-                      lambda s, p=p: specedit.add_mass(s, p, rel_step * ctx.total_mass_kg), -1))
+        dm = rel_step * ctx.point_mass.get(p, ctx.total_mass_kg)
+        cands.append(({"parameter": "mass", "point": p, "effect": "added_mass", "location": {"point": p}},
+                      lambda s, p=p, dm=dm: specedit.add_mass(s, p, dm), -1, lambda t, dm=dm: t * dm))
         kp = ctx.point_stiffness.get(p)
         if kp:
-            cands.append(({"parameter": "stiffness", "point": p},
-                          lambda s, p=p, kp=kp: specedit.add_spring(s, p, "w", rel_step * kp), +1))
+            dk = rel_step * kp
+            cands.append(({"parameter": "stiffness", "point": p, "effect": "support_stiffness",
+                           "location": {"point": p, "dof": "w"}},
+                          lambda s, p=p, dk=dk: specedit.add_spring(s, p, "w", dk), +1, lambda t, dk=dk: t * dk))
     for p in sorted(spec.points):
         segs = specedit.joint_segments(spec, p)
         if len(segs) >= 2:
             kj = float(np.mean([ei / length for _a, _b, length, ei in segs])) / rel_step
-            cands.append(({"parameter": "joint", "point": p},
-                          lambda s, p=p, kj=kj: specedit.soften_joint(s, p, kj), -1))
+            cands.append(({"parameter": "joint", "point": p, "effect": "joint_flexibility", "location": {"point": p}},
+                          lambda s, p=p, kj=kj: specedit.soften_joint(s, p, kj), -1,
+                          lambda t, kj=kj: kj / t if t > 0 else float("nan")))
     for m in spec.members:
+        ei = spec.sections[m.section].ei.si
         for a, b in zip(m.points[:-1], m.points[1:]):
-            name = m.id if len(m.points) == 2 else f"{m.id}[{a}-{b}]"
-            cands.append(({"parameter": "rigidity", "member": name},
-                          lambda s, a=a, b=b: specedit.scale_segments(s, {(a, b): 1.0 + rel_step}), 0))
+            whole = len(m.points) == 2
+            name = m.id if whole else f"{m.id}[{a}-{b}]"
+            loc = {"member": m.id} if whole else {"member": m.id, "segment": [a, b]}
+            cands.append(({"parameter": "rigidity", "member": name, "effect": "member_stiffness", "location": loc},
+                          lambda s, a=a, b=b: specedit.scale_segments(s, {(a, b): 1.0 + rel_step}), 0,
+                          lambda t, ei=ei: ei * max(1.0 + t * rel_step, 0.05)))
     out = []
-    for info, edit, sign in cands:
+    for info, edit, sign, to_si in cands:
         try:
             st = nominal.with_spec(edit(spec))
             fj = _tracked_freqs(st, phi0, labels0, n)[idx]
@@ -333,10 +342,11 @@ def sensitivity_localisation(nominal: LabState, ctx: Context, modes: list[ModeEr
             continue
         theta = float(col @ delta) / float(col @ col)
         if sign and theta < 0:
-            expl = 0.0
+            expl, est = 0.0, float("nan")
         else:
             expl = float((col @ delta) ** 2 / ((col @ col) * (delta @ delta)))
-        out.append({**info, "explained": expl})
+            est = float(to_si(theta))
+        out.append({**info, "explained": expl, "estimate": est})
     out.sort(key=lambda d: -d["explained"])
     return out
 

@@ -42,7 +42,7 @@ from ..lab.experiment import TESTS
 from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
 from .data import FrfData, ModalData, detect_kind, frfs_from_recording, frfs_from_uff, read_modal_csv, read_uff_any
-from .fit import STRONG_EVIDENCE, fit_hypothesis, fit_pairs, rank, screen
+from .fit import STRONG_EVIDENCE, fit_hypothesis, fit_pairs, rank, screen, select
 from .hypotheses import Combination, Context, Hypothesis, library
 from .labmodel import LabState, natural_frequencies
 from .locate import Location, locate
@@ -103,6 +103,8 @@ class DiagnosisResult:
     notes: list = field(default_factory=list)
     timing_s: dict = field(default_factory=dict)
     files: dict = field(default_factory=dict)
+    alternatives: list = field(default_factory=list)
+    overdispersion: float = 1.0
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -165,10 +167,7 @@ class DiagnosisResult:
                          "misfit_before": self.misfit_nominal,
                          "misfit_after": self.misfit_selected if self.selected is not None else self.misfit_nominal,
                          "time_error_before": None, "time_error_after": None}
-        alternatives = []
-        if self.selected is not None:
-            alternatives = [h.label for h in self.ranked
-                            if h is not self.selected and h.bic_ - self.selected.bic_ < STRONG_EVIDENCE]
+        alternatives = [h.label for h in self.alternatives]
         data = {"source": d.source, "kind": d.kind}
         if isinstance(d, FrfData):
             data.update(n_lines=int(d.freq_hz.size), n_channels=len(d.output_points),
@@ -180,7 +179,8 @@ class DiagnosisResult:
             "structure": self.structure, "controller": self.controller, "data": data,
             "mismatch": bool(self.mismatch),
             "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
-                           "n_obs": self.problem.n_obs, "floor": self.problem.floor},
+                           "n_obs": self.problem.n_obs, "floor": self.problem.floor,
+                           "overdispersion": self.overdispersion},
             "located": located,
             "ranked": [self._entry(h) for h in self.ranked],
             "selected": self._selected_entries(),
@@ -241,18 +241,27 @@ def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
     f, _, phi = natural_frequencies(state)
     om = 2 * np.pi * f
     keep = om > 1e-6
-    kp = {}
+    _, zeta, _ = natural_frequencies(state)
+    inband = keep & (f >= band_hz[0]) & (f <= band_hz[1])
+    if not inband.any():
+        inband = keep
+    kp, mp, cp = {}, {}, {}
     for p in state.spec.points:
         if (p, "w") in fe.dofs:
             i = fe.dofs.index(p, "w")
             flex = float(np.sum(phi[i, keep] ** 2 / om[keep] ** 2))
             if flex > 0:
                 kp[p] = 1.0 / flex
+            ph2 = phi[i, inband] ** 2
+            if ph2.max() > 0:
+                mp[p] = float(1.0 / ph2.max())
+                with np.errstate(divide="ignore"):
+                    cp[p] = float(np.min(2 * np.maximum(zeta[inband], 1e-4) * om[inband] / np.maximum(ph2, 1e-300)))
     closed = state.design is not None
     if isinstance(data, FrfData):
-        return Context(band_hz, closed, total, float(f[keep][0]), kp, data.freq_hz, data.force_amplitude,
+        return Context(band_hz, closed, total, float(f[keep][0]), kp, mp, cp, data.freq_hz, data.force_amplitude,
                        dict(data.velocity_rms), data.excitation_point)
-    return Context(band_hz, False, total, float(f[keep][0]), kp)
+    return Context(band_hz, False, total, float(f[keep][0]), kp, mp, cp)
 
 
 def _data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, controller: str,
@@ -271,6 +280,122 @@ def _data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, contr
         return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
                                    settle_s=settle_of())
     return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)
+
+
+def _key(h: Hypothesis) -> str:
+    return f"{h.label}:{np.asarray(h.params_).tobytes().hex()}"
+
+
+def data_has_signals(data) -> bool:
+    """True for time-history input (a rerun is possible)."""
+    return isinstance(data, FrfData) and data.recording is not None
+
+
+def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, alts: list, plant: str,
+                       notes: list, *, max_candidates: int = 3) -> tuple[Hypothesis, list]:
+    """Choose among look-alike effects by the time-domain error of a rerun.
+
+    A saturating amplifier and a lower channel gain give nearly the same FRF
+    (the saturation's describing function is a gain); the rerun through the
+    loop reproduces the clipping itself, so the time histories separate them.
+    """
+    cands = [chosen] + [h for h in alts if h.n_params == chosen.n_params][: max_candidates - 1]
+    if len(cands) < 2:
+        return chosen, alts
+    errs = []
+    for h in cands:
+        try:
+            v = validate(problem, nominal, problem.state_for(h, h.params_), plant="linear", spec_level=False,
+                         key=_key(h))
+            errs.append(v.time_error_after)
+        except (VlabError, ImportError):
+            errs.append(float("inf"))
+    j = int(np.argmin(errs))
+    notes.append("look-alikes compared by rerun (time-domain error): "
+                 + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
+    best = cands[j]
+    return best, [h for h in [chosen] + alts if h is not best]
+
+
+STRUCTURAL = ("added_mass", "support_stiffness", "joint_flexibility", "member_stiffness")
+
+
+def located_from_fits(res: "DiagnosisResult", chi2_0: float, *, share: float = 0.9) -> tuple[list, list]:
+    """Points and members where the mismatch is, from the fitted local hypotheses (nonlinear best subset).
+
+    The first-order sensitivity ranking (:func:`vlab.diagnose.locate.sensitivity_localisation`)
+    chose which local hypotheses were fitted; here each fitted local effect
+    counts by the share of the nominal chi-square it removes: the selected
+    effect's places, and every local effect removing at least ``share`` of
+    what the best local effect removes (places the data cannot tell apart,
+    e.g. mirror points). Without a selected local effect, the places the
+    sensitivity ranking points at are returned when there is an unexplained
+    mismatch.
+    """
+    parts = res.selected_parts
+    local = [h for h in res.ranked if not isinstance(h, Combination)
+             and ("point" in h.location or "member" in h.location)]
+    pts: list = []
+    mems: list = []
+
+    def add(h: Hypothesis) -> None:
+        loc = h.location
+        if "point" in loc and loc["point"] not in pts:
+            pts.append(loc["point"])
+        if "member" in loc:
+            name = loc["member"] if "segment" not in loc else f"{loc['member']}[{loc['segment'][0]}-{loc['segment'][1]}]"
+            if name not in mems:
+                mems.append(name)
+
+    for h in parts:
+        add(h)
+    sel_local = [h for h in parts if "point" in h.location or "member" in h.location]
+    if sel_local and local:
+        gain = max(chi2_0 - h.chi2_ for h in local)
+        for h in local:
+            if chi2_0 - h.chi2_ >= share * gain and h.effect in {p.effect for p in sel_local}:
+                add(h)
+    if res.selected is None and res.mismatch:
+        return list(res.location.points), list(res.location.members)
+    return pts, mems
+
+
+def prune(hyps: list[Hypothesis], sensitivity: list[dict], *, share: float = 0.25, per_family: int = 6,
+          min_explained: float = 0.2) -> list[Hypothesis]:
+    """Keep the local structural hypotheses the sensitivity-based localisation points at.
+
+    When the best single local parameter explains at least ``min_explained`` of
+    the frequency errors, a local structural hypothesis (added mass, spring at a
+    free DOF, joint flexibility, member rigidity) is kept if its sensitivity
+    candidate explains at least ``share`` of the best one or is among the
+    ``per_family`` best of its effect; its first-order size becomes an extra
+    trial value (``estimate_``). Other hypotheses are all kept.
+    """
+    if not sensitivity or sensitivity[0]["explained"] < min_explained:
+        return hyps
+    best = sensitivity[0]["explained"]
+    by_key = {}
+    rank_in_family: dict = {}
+    for d in sensitivity:
+        key = (d["effect"], tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
+                                         for k, v in d["location"].items())))
+        rank_in_family[d["effect"]] = rank_in_family.get(d["effect"], 0) + 1
+        by_key[key] = (d, rank_in_family[d["effect"]])
+    out = []
+    for h in hyps:
+        if h.effect not in STRUCTURAL:
+            out.append(h)
+            continue
+        key = (h.effect, tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in h.location.items())))
+        hit = by_key.get(key)
+        if hit is None:
+            out.append(h)  # not a local frequency parameter (e.g. a released support): keep
+            continue
+        d, r = hit
+        if d["explained"] >= share * best or r <= per_family:
+            h.estimate_ = d["estimate"]
+            out.append(h)
+    return out
 
 
 # ----------------------------------------------------------------------------- entry
@@ -385,10 +510,6 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     say("locating")
     t = time.perf_counter()
     location = locate(problem, nominal)
-    if not any(m.flagged and abs(m.freq_error) > 0.002 for m in location.modes):
-        location.points, location.members = [], []
-        bad = sorted(location.channels.items(), key=lambda kv: -kv[1]["chi2_per_residual"])
-        location.points = [p for p, c in bad if c["chi2_per_residual"] > 4.0][:3]
     timing["locate"] = time.perf_counter() - t
     mismatch = chi2_0 > limit
     res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
@@ -399,11 +520,15 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     else:
         say("screening hypotheses")
         t = time.perf_counter()
-        hyps = library(nominal, ctx, effects=effects)
+        hyps = prune(library(nominal, ctx, effects=effects), location.sensitivity)
         scored = []
         for h in hyps:
             try:
-                scored.append((screen(h, problem)[0][0], h))
+                trials, _, _ = h.space(nominal, ctx)
+                est = getattr(h, "estimate_", None)
+                if est is not None and np.isfinite(est):
+                    trials = np.vstack([trials, [[est]], [[est * 0.7]], [[est * 1.4]]])
+                scored.append((screen(h, problem, trials)[0][0], h))
             except (VlabError, ValueError, np.linalg.LinAlgError):
                 continue
         scored.sort(key=lambda s: s[0])
@@ -428,20 +553,21 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         if pairs and best is not None and best.chi2_ > limit:
             say("fitting pairs")
             t = time.perf_counter()
-            combos = fit_pairs(ranked, problem)
-            ranked = rank(ranked + combos)
+            ranked = rank(ranked + fit_pairs(ranked, problem))
             timing["pairs"] = time.perf_counter() - t
-            singles = [h for h in ranked if not isinstance(h, Combination)]
-            best_single = singles[0] if singles else None
-            top = ranked[0]
-            if isinstance(top, Combination) and best_single is not None and \
-                    top.bic_ > best_single.bic_ - STRONG_EVIDENCE:
-                top = best_single
-            best = top
         res.ranked = ranked
-        if best is not None and chi2_0 - best.bic_ >= STRONG_EVIDENCE:
-            res.selected = best
-            res.misfit_selected = float(best.misfit_)
+        chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
+        res.overdispersion = c_hat
+        if chosen is not None and validate_run and data_has_signals(data) and \
+                any(h.effect == "saturation" for h in [chosen] + alts):
+            say("separating look-alikes by rerun")
+            t = time.perf_counter()
+            chosen, alts = tie_break_by_rerun(problem, nominal, chosen, alts, plant, notes)
+            timing["tie_break"] = time.perf_counter() - t
+        res.alternatives = alts
+        if chosen is not None:
+            res.selected = chosen
+            res.misfit_selected = float(chosen.misfit_)
             parts = res.selected_parts
             if not ctx.closed_loop:
                 res.loop = "open"
@@ -449,16 +575,18 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in parts) else "both"
         else:
             res.loop = "open" if not ctx.closed_loop else "both"
-            notes.append("no hypothesis of the library explains the mismatch (BIC not lowered by 10)")
+            notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
     if res.loop is None and mismatch:
         res.loop = "open" if not ctx.closed_loop else "both"
+    if mismatch:
+        res.location.points, res.location.members = located_from_fits(res, chi2_0)
     # validation
     if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
         say("validating")
         t = time.perf_counter()
         try:
             res.validation = validate(problem, nominal, res.selected_state(), plant=plant,
-                                      spec_level=res.selected.spec_level, seed=0)
+                                      spec_level=res.selected.spec_level, seed=0, key=_key(res.selected))
         except (VlabError, ImportError) as exc:
             notes.append(f"validation rerun not possible: {exc}")
         timing["validate"] = time.perf_counter() - t

@@ -184,7 +184,7 @@ class Validation:
 
 
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
-             seed: int = 0) -> Validation:
+             seed: int = 0, key: str | None = None) -> Validation:
     """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
 
     Parameters
@@ -198,6 +198,9 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     spec_level : bool
         Whether the effect can be carried by the MuJoCo plant.
     seed : int
+    key : str, optional
+        Name under which the rerun of ``modified`` is cached on ``problem``
+        (the nominal rerun is always cached).
 
     Returns
     -------
@@ -225,23 +228,24 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         kind = "mujoco" if spec_level else "linear"
         if not spec_level:
             note = " (the effect is not expressible in a spec: linear plant)"
-    runs = []
-    for st in (nominal, modified):
-        try:
-            r, desc = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=kind,
-                            seed=seed)
-        except (VlabError, ImportError) as exc:
-            if plant != "auto" or kind == "linear":
-                raise
-            note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
-            kind = "linear"
-            runs = []
-            for st2 in (nominal, modified):
-                r2, desc = rerun(st2, force, excitation_point=data.excitation_point, measured_points=pts,
-                                 plant="linear", seed=seed)
-                runs.append(r2)
-            break
-        runs.append(r)
+    cache = problem.__dict__.setdefault("_reruns", {})
+
+    def run(st: LabState, k: str, key) -> Recording:
+        if key is not None and (key, k) in cache:
+            return cache[(key, k)]
+        r, _ = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=k, seed=seed)
+        if key is not None:
+            cache[(key, k)] = r
+        return r
+
+    try:
+        runs = [run(nominal, kind, "nominal"), run(modified, kind, key)]
+    except (VlabError, ImportError) as exc:
+        if plant != "auto" or kind == "linear":
+            raise
+        note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
+        kind = "linear"
+        runs = [run(nominal, kind, "nominal"), run(modified, kind, key)]
     desc = ("MuJoCo plant" if kind == "mujoco" else "linear FE plant") + note
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask

@@ -23,14 +23,12 @@ import numpy as np
 from ..errors import ModelError
 from ..spec import StructureSpec
 from .dofmap import DofMap, Node
+from .crosspiece import cantilever_tip_mass_sdof
 from .elements import beam_matrices, local_to_global, rigid_offset
 from .geometric import geometric_stiffness, polar_radius_sq
 from .mesh import Mesh, build_mesh
 from .statics import GravityState, solve_gravity
 
-#: Effective tip mass of a uniform cantilever in its static deflection shape
-#: (Rayleigh), as a fraction of the arm mass: 33/140.
-CANTILEVER_EFFECTIVE_MASS = 33.0 / 140.0
 
 
 @dataclass(frozen=True)
@@ -145,6 +143,10 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
         )
         a1, a2 = el.offsets
         ml = ml + _insert_mass(sec.rho_a, a1, a2)
+        # a rigid insert of length a under axial force N: rotational geometric stiffness N a
+        kl = kl.copy()
+        kl[1, 1] += forces.axial[0] * a1
+        kl[4, 4] += forces.axial[1] * a2
         t = rigid_offset(a1, a2) @ local_to_global(*el.direction)
         idx = gidx(el.a) + gidx(el.b)
         scatter(k, t.T @ kl @ t, idx)
@@ -182,22 +184,20 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
 def crosspiece_sdof(spec: StructureSpec, c) -> tuple[float, float, float]:
     """Single-DOF equivalent of a crosspiece (Sec. 2.1.1).
 
-    Two cantilever arms of length L and rigidity EI with tip masses:
-    ``k = 2 * 3 EI / L^3`` [N/m], ``m_eff = 2 (m_tip + 33/140 m_arm)`` [kg] on the
-    oscillator DOF, and the rest of the arm mass plus the clamp mass at the
-    attachment point [kg].
+    Two cantilever arms of length L and rigidity EI with tip masses, each
+    replaced by the spring-mass that is exact for base motion in the arm's
+    first clamped mode (:func:`vlab.fe.crosspiece.cantilever_tip_mass_sdof`);
+    the rest of the arm mass and the clamp mass ride with the attachment point.
 
     Returns
     -------
     (k, m_eff, m_rest) : tuple of float
+        Spring [N/m] and mass on it [kg] for both arms; mass at the point [kg].
     """
     sec = spec.sections[c.section]
     L = c.arm_length.si
-    m_arm = sec.rho_a * L
-    kc = 2.0 * 3.0 * sec.ei.si / L**3
-    m_eff = 2.0 * (c.tip_mass.si + CANTILEVER_EFFECTIVE_MASS * m_arm)
-    m_rest = 2.0 * (1.0 - CANTILEVER_EFFECTIVE_MASS) * m_arm + c.clamp_mass.si
-    return kc, m_eff, m_rest
+    k1, m1, rest1 = cantilever_tip_mass_sdof(sec.ei.si, L, sec.rho_a * L, c.tip_mass.si)
+    return 2.0 * k1, 2.0 * m1, 2.0 * rest1 + c.clamp_mass.si
 
 
 def _insert_mass(rho_a: float, a1: float, a2: float) -> np.ndarray:

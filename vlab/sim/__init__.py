@@ -28,6 +28,7 @@ from .crosscheck import (
     CrossCheck,
     FreeDecay,
     ModePair,
+    convergence_study,
     crosscheck,
     fe_reference,
     free_decay,
@@ -42,7 +43,7 @@ from .runtime import MujocoPlant, load_plant_for_experiment, sensor_rows
 __all__ = [
     "BuildInfo", "CrossCheck", "DampingReport", "FreeDecay", "FreeRun", "LinearModel", "ModePair",
     "MujocoPlant", "Plant", "SimModes", "SimOptions", "auto_timestep", "build_mjspec", "build_plant",
-    "check_timestep", "crosscheck", "export_mjcf", "fe_reference", "free_decay", "free_run",
+    "check_timestep", "convergence_study", "crosscheck", "export_mjcf", "fe_reference", "free_decay", "free_run",
     "hinge_layout", "hinge_omega_max", "linearize", "load_mjcf", "mac_matrix", "modes", "pair_modes",
     "load_modal_damping", "load_plant_for_experiment", "ModalDamping", "sensor_rows", "settle",
     "total_energy",

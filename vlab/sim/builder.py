@@ -223,11 +223,11 @@ class SimOptions:
         Raise :class:`SimulationError` before running when ``omega_max * dt``
         exceeds :data:`STABILITY_LIMIT` (default True).
     max_substeps : int
-        Automatic timestep only: the step is at least ``LAB_PERIOD_S / max_substeps``
+        Automatic timestep: the step is at least ``LAB_PERIOD_S / max_substeps``
         (default 2: 0.25 ms; the convergence study shows the scaled hinges leave the
         frequencies unchanged within 0.05 %).
     mass_scaling : bool
-        Automatic timestep only: when the stiffest hinges would need a smaller step
+        When the stiffest hinges would need a smaller step than chosen
         (very short stiff segments), give those hinges an ``armature`` (added
         rotary inertia on the hinge coordinate, "selective mass scaling") that
         brings their frequency down to ``AUTO_LIMIT / dt`` -- but only if that
@@ -1596,17 +1596,19 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
 
     opts = (options or SimOptions()).resolved(spec)
     armature: dict[str, float] = {}
-    if opts.timestep_s is None:
-        probe, _ = build_mjspec(spec, dataclasses.replace(opts, timestep_s=LAB_PERIOD_S), beta=0.0)
-        probe_model = _compile(probe, spec)
-        omega, _ = hinge_omega_max(probe_model)
-        dt = auto_timestep(omega)
-        if dt < LAB_PERIOD_S / opts.max_substeps and opts.mass_scaling:
-            dt_cap = LAB_PERIOD_S / opts.max_substeps
-            trial = mass_scaling_armature(probe_model, AUTO_LIMIT / dt_cap)
-            if armature_effect(probe_model, trial) <= MASS_SCALING_TOL:
-                dt, armature = dt_cap, trial
-        opts = dataclasses.replace(opts, timestep_s=dt)
+    probe, _ = build_mjspec(spec, dataclasses.replace(opts, timestep_s=opts.timestep_s or LAB_PERIOD_S), beta=0.0)
+    probe_model = _compile(probe, spec)
+    omega, _ = hinge_omega_max(probe_model)
+    dt = opts.timestep_s
+    if dt is None:
+        dt = max(auto_timestep(omega), LAB_PERIOD_S / opts.max_substeps) if opts.mass_scaling else auto_timestep(omega)
+    if omega * dt > AUTO_LIMIT and opts.mass_scaling:
+        trial = mass_scaling_armature(probe_model, AUTO_LIMIT / dt)
+        if armature_effect(probe_model, trial) <= MASS_SCALING_TOL:
+            armature = trial
+        elif opts.timestep_s is None:
+            dt = auto_timestep(omega)  # scaling would move the low modes: take the small step
+    opts = dataclasses.replace(opts, timestep_s=dt)
     ms0, extra = build_mjspec(spec, opts, beta=0.0, armature=armature)
     model0 = _compile(ms0, spec)
     omega, _ = hinge_omega_max(model0)

@@ -1,0 +1,483 @@
+"""The dissertation's analytical tables, recomputed by vlab, side by side with the published numbers.
+
+One function per group of tables; each returns :class:`~vlab.reproduce.results.TableResult`
+objects (published, vlab, difference, flag per number). Published numbers
+come from ``assets/data/table*.csv`` (:func:`vlab.reference.read_table`).
+The peak-level-ratio tables (10, 19-21) come from virtual experiments, in
+:mod:`vlab.reproduce.experiments`.
+
+Conventions: damping ratios are those of each *plant* mode (open-loop mode
+paired with its closed-loop eigenvalue); performance indices are in the
+thesis's unit system (in, lbf, cs) with initial conditions in the shape of
+the plant's modes at unit maximum deflection (Sec. 4.1.1); gains in lb-s/in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controllers.drf import lqdrf
+from controllers.errors import ControllerError
+from controllers.lq import lqg, lqr, lqr_weight_for_damping
+
+from ..calibration import drf_damping_ratios, open_loop_ratios
+from ..correction import orthogonality_matrix, orthogonality_summary, sequential_correction
+from ..design import THESIS_SETTINGS
+from ..fe import modal_analysis
+from ..models import master_indices, reduce_model
+from ..reduction import ExactReduction
+from ..reference import bcc_gain, read_table
+from ..units import CS_S
+from .closedloop import performance_indices, plant_mode_damping, thesis_controller, thesis_plant
+from .context import ReproContext
+from .results import Row, TableResult
+
+#: Controller names of the thesis's columns -> vlab controller ids.
+CONTROLLER_OF = {"lqr": "lqr", "lqg": "lqg", "mfdrf": "mfdrf", "lqdrf": "lqdrf", "lqdrf_diag": "lqdrf-diag"}
+LABEL = {"lqr": "LQR", "lqg": "LQG", "mfdrf": "MFDRF", "lqdrf": "LQDRF", "lqdrf_diag": "diagonal LQDRF",
+         "lqdrf-diag": "diagonal LQDRF"}
+GRID_ACTUATORS = (1, 2, 4, 5, 8)
+BCC_ACTUATORS = (5, 7, 9)
+
+RECON = "reconstructed"
+CAL = "calibrated"
+ASSUMED = "assumed"
+
+
+def _mode_rows(filename: str) -> tuple[dict, list[int]]:
+    """Published table and the indices of its numeric ``mode`` rows."""
+    t = read_table(filename)
+    idx = [i for i, v in enumerate(t["mode"]) if isinstance(v, float)]
+    return t, idx
+
+
+def _gain_rows(filename: str, controller: str, sensors: tuple[int, ...]) -> np.ndarray:
+    """Published gain matrix (lb-s/in) of one controller of Tables 7, 11, 15."""
+    t = read_table(filename)
+    rows = [i for i, c in enumerate(t["controller"]) if c == controller]
+    return np.array([[t[f"sensor_{s}"][i] for s in sensors] for i in rows])
+
+
+# --------------------------------------------------------------------------- Tables 1, 3
+def frequency_tables(ctx: ReproContext) -> list[TableResult]:
+    """Tables 1 and 3: natural frequencies of the FE models against analysis and experiment.
+
+    Returns
+    -------
+    list of TableResult
+        Table 1 (BCC, 6 modes) and Table 3 (grid, 12 modes); columns
+        "analytical" (the thesis's FE model) and "experimental".
+
+    Source: Tables 1, 3.
+    """
+    out = []
+    for structure, name, fn, n, flag in (("bcc", "Table 1", "table1_bcc_frequencies.csv", 6, ""),
+                                          ("grid", "Table 3", "table3_grid_frequencies.csv", 12, RECON)):
+        fe = ctx.fe(structure)
+        f = modal_analysis(fe.m, fe.k, n).frequencies_hz
+        t, idx = _mode_rows(fn)
+        rows = []
+        for j, i in enumerate(idx[:n]):
+            mode = f"mode {int(t['mode'][i])}"
+            rows.append(Row(mode, "analytical [Hz]", t["analytical_hz"][i], f[j], f"{flag},{CAL}"))
+            rows.append(Row(mode, "experimental [Hz]", t["experimental_hz"][i], f[j], flag))
+        notes = [f"vlab: the nominal FE model ({fe.spec.title}), undamped modes (Eq. 3.4)."]
+        if structure == "bcc":
+            notes.append("The BCC's unpublished cable, coil, clamp, tip and fitting parameters were calibrated to "
+                         "Table 1's analytical frequencies and Table 8 (README), so the analytical column agrees by "
+                         "construction; the experimental column is an independent check.")
+        else:
+            notes.append("The grid's geometry is a reconstruction (Figure 5 is not in the available text) calibrated "
+                         "to Table 3's analytical column and Table 5's Guyan column; it does not reach 5 % "
+                         "(README: 9.2 % rms).")
+        out.append(TableResult(name, t_title(fn), tuple(rows), tuple(notes), 0.05, "relative", fn))
+    return out
+
+
+def t_title(filename: str) -> str:
+    """The title comment of a published CSV (without the leading ``#``)."""
+    from ..spec import DATA_DIR
+
+    for line in (DATA_DIR / filename).read_text().splitlines():
+        if line.startswith("#"):
+            return line.lstrip("# ").strip()
+    return filename
+
+
+# --------------------------------------------------------------------------- Table 5, Sec. 3.3
+def reduced_frequency_table(ctx: ReproContext) -> list[TableResult]:
+    """Table 5: full, exact-reduced and Guyan-reduced grid frequencies.
+
+    Returns
+    -------
+    list of TableResult
+        One table; columns full model, exact reduction, Guyan reduction
+        (all against the published columns) and experiment.
+
+    Source: Table 5, Sec. 3.3.
+    """
+    fn = "table5_grid_reduced_frequencies.csv"
+    grid = ctx.fe("grid")
+    f_full = modal_analysis(grid.m, grid.k, 12).frequencies_hz
+    f_exact = reduce_model(grid, "exact").natural_frequencies_hz()[:12]
+    f_guyan = reduce_model(grid, "guyan").natural_frequencies_hz()[:12]
+    t, idx = _mode_rows(fn)
+    rows = []
+    for j, i in enumerate(idx[:12]):
+        mode = f"mode {int(t['mode'][i])}"
+        rows.append(Row(mode, "full model [Hz]", t["full_and_exact_hz"][i], f_full[j], f"{RECON},{CAL}"))
+        rows.append(Row(mode, "exact reduction [Hz]", t["full_and_exact_hz"][i], f_exact[j], f"{RECON},{CAL}"))
+        rows.append(Row(mode, "Guyan reduction [Hz]", t["guyan_hz"][i], f_guyan[j], f"{RECON},{CAL}"))
+        rows.append(Row(mode, "experiment [Hz] vs Guyan", t["experiment_hz"][i], f_guyan[j], RECON))
+    notes = ("Exact reduction on the 12 joint translations; Guyan on joints 1-9, 12 and the bearing rotations "
+             "(Sec. 3.3, the spec's [reduction] table).",
+             "The grid model was calibrated to the full and Guyan columns (README).")
+    return [TableResult("Table 5", t_title(fn), tuple(rows), notes, 0.05, "relative", fn)]
+
+
+def orthogonality_tables(ctx: ReproContext) -> list[TableResult]:
+    """Tables 4 and 6 (orthogonality matrices) and the Sec. 3.3 summary numbers.
+
+    The measured shapes are a virtual modal test
+    (:func:`vlab.reproduce.context.virtual_modal_test`), so element-wise
+    agreement is not expected; the summary (largest and mean absolute
+    off-diagonal term, the sequential correction of the Guyan model) is the
+    dissertation's own yardstick.
+
+    Returns
+    -------
+    list of TableResult
+        Table 4 (exact reduction), Table 6 (Guyan) and "Sec. 3.3".
+
+    Source: Tables 4, 6; Sec. 3.3; Eqs. (3.17)-(3.19).
+    """
+    grid = ctx.fe("grid")
+    out = []
+    flag = f"{RECON},{ASSUMED}"
+    summaries = {}
+    for name, fn, method in (("Table 4", "table4_grid_orthogonality_exact.csv", "exact"),
+                             ("Table 6", "table6_grid_orthogonality_guyan.csv", "guyan")):
+        mm = ctx.measured_modes_at(method)
+        red = reduce_model(grid, method)
+        o = orthogonality_matrix(mm.shapes, red.m)
+        summaries[method] = orthogonality_summary(o)
+        t, idx = _mode_rows(fn)
+        n = len(idx)
+        rows = []
+        for a in range(n):
+            for b in range(a + 1, n):
+                rows.append(Row(f"mode {a + 1}", f"mode {b + 1}", t[str(b + 1)][idx[a]], o[a, b], flag))
+        notes = (f"Measured shapes: {mm.description}.",
+                 "Element-wise agreement is not expected: the 1990 shapes are not published and the signs of "
+                 "the published terms depend on its shape normalisation. Compare the summary in 'Sec. 3.3'.",
+                 "Upper triangle of the printed matrix (Table 6 is printed non-symmetric in a few entries; "
+                 "the upper triangle is used).")
+        out.append(TableResult(name, t_title(fn), tuple(rows), notes, 0.1, "absolute", fn))
+    # exact reduction on the Guyan DOFs (Sec. 3.3: max 0.72, mean 0.29)
+    gi = master_indices(grid, "guyan")
+    ex_on_g = ExactReduction(grid.m, grid.k, gi, labels=list(grid.dofs.labels)).reduce()
+    mm_g = ctx.measured_modes()
+    s_eg = orthogonality_summary(orthogonality_matrix(mm_g.shapes, ex_on_g.m))
+    red_g = reduce_model(grid, "guyan")
+    hist = sequential_correction(red_g.m, red_g.k, mm_g.shapes, mm_g.freq_hz)
+    f12_before, f12_after = float(hist.freq_hz[0][11]), float(hist.freq_hz[-1][11])
+    rows = [
+        Row("exact reduction", "max |off-diagonal|", 0.80, summaries["exact"].max_abs_offdiag, flag),
+        Row("exact reduction", "mean |off-diagonal|", 0.23, summaries["exact"].mean_abs_offdiag, flag),
+        Row("Guyan reduction", "max |off-diagonal|", 0.58, summaries["guyan"].max_abs_offdiag, flag),
+        Row("Guyan reduction", "mean |off-diagonal|", 0.13, summaries["guyan"].mean_abs_offdiag, flag),
+        Row("exact reduction on the Guyan DOFs", "max |off-diagonal|", 0.72, s_eg.max_abs_offdiag, flag),
+        Row("exact reduction on the Guyan DOFs", "mean |off-diagonal|", 0.29, s_eg.mean_abs_offdiag, flag),
+        Row("Guyan model, mode 12 [Hz]", "before correction", 11.32, f12_before, f"{RECON},{CAL}"),
+        Row("Guyan model, mode 12 [Hz]", "after correction with 11 modes", 9.84, f12_after, flag),
+    ]
+    # does the sequential correction move the unmeasured modes adversely? (Sec. 3.3)
+    red_e = reduce_model(grid, "exact")
+    mm_e = ctx.measured_modes_at("exact")
+    try:
+        hist_e = sequential_correction(red_e.m, red_e.k, mm_e.shapes, mm_e.freq_hz)
+        f12_exact = float(hist_e.freq_hz[-1][11])
+        exact_note = (f"Sequential correction of the exact reduction moves its 12th frequency from "
+                      f"{hist_e.freq_hz[0][11]:.2f} Hz to {f12_exact:.2f} Hz (the thesis: 'severely altered' higher modes).")
+    except Exception as exc:  # noqa: BLE001 - reported, not hidden
+        exact_note = f"Sequential correction of the exact reduction failed: {exc}"
+    notes = ("Orthogonality O = Phi'^T m_R Phi' with shapes normalised by Eq. (3.17); summary numbers from the text of Sec. 3.3.",
+             "The dissertation's finding to check: the exact reduction's mass matrix makes the measured shapes far "
+             "less orthogonal than the Guyan mass matrix, because of the reduction, not the DOFs.",
+             "Guyan sequential correction (mode 1, then 1-2, ...; Eqs. 3.17-3.19) with the measured shapes and the "
+             "Table 3 experimental frequencies: 12th frequency " f"{f12_before:.2f} -> {f12_after:.2f} Hz.",
+             exact_note)
+    out.append(TableResult("Sec. 3.3", "Orthogonality summary and sequential correction (text of Sec. 3.3)",
+                           tuple(rows), notes, 0.25, "relative", "text of Sec. 3.3"))
+    return out
+
+
+# --------------------------------------------------------------------------- Tables 7-9 (BCC)
+def bcc_design_tables(ctx: ReproContext) -> list[TableResult]:
+    """Tables 7, 8 and 9: the BCC's DRF gains, closed-loop damping and performance indices.
+
+    vlab designs the controllers with the thesis's settings (Sec. 6.1; DRF and
+    LQR on the full model, LQG on the exact reduction -- masters assumed) and
+    also applies the published Table 7 gains (the calibration target).
+
+    Returns
+    -------
+    list of TableResult
+        Tables 7, 8, 9.
+
+    Source: Tables 7, 8, 9; Sec. 6.1; Eqs. (4.20), (4.26), (4.33).
+    """
+    fe = ctx.fe("bcc")
+    full = ctx.design_model("bcc", "full")
+    out = []
+    # Table 7
+    fn7 = "table7_bcc_gains.csv"
+    rows = []
+    for c in ("mfdrf", "lqdrf"):
+        pub = _gain_rows(fn7, c, BCC_ACTUATORS)
+        ours = np.asarray(ctx.design("bcc", c).extra["gain_thesis_lb_s_per_in"])
+        for i, a in enumerate(BCC_ACTUATORS):
+            for j, s in enumerate(BCC_ACTUATORS):
+                rows.append(Row(f"actuator {a}", f"{LABEL[c]} sensor {s}", pub[i, j], ours[i, j], CAL))
+    out.append(TableResult(
+        "Table 7", t_title(fn7), tuple(rows),
+        ("vlab's MFDRF (Eq. 4.32) and LQDRF (Eq. 4.38) designs on the full BCC model: zeta_L = 0.03 on 6 modes, "
+         "Q = I, R = 0.22 I (thesis units), 4-start SLSQP instead of NEWSUMT-A.",
+         "The model was calibrated so that these published gains give Table 8's damping; the design optimum is "
+         "not a calibration target but depends on the same parameters."),
+        0.005, "absolute", fn7))
+    # Table 8
+    fn8 = "table8_bcc_damping.csv"
+    t, idx = _mode_rows(fn8)
+    z = {c: plant_mode_damping(full, ctx.design("bcc", c), 6)[1] for c in ("mfdrf", "lqdrf", "lqg")}
+    z7 = {c: drf_damping_ratios(fe, bcc_gain(c), 6) for c in ("mfdrf", "lqdrf")}
+    rows = []
+    for j, i in enumerate(idx):
+        mode = f"mode {int(t['mode'][i])}"
+        for c in ("mfdrf", "lqdrf"):
+            rows.append(Row(mode, f"{LABEL[c]} (vlab design)", t[c][i], z[c][j], CAL))
+            rows.append(Row(mode, f"{LABEL[c]} (Table 7 gains)", t[c][i], z7[c][j], CAL))
+        rows.append(Row(mode, "LQG (reduced-model design on the full model)", t["lqg"][i], z["lqg"][j],
+                        f"{CAL},{ASSUMED}"))
+    out.append(TableResult(
+        "Table 8", t_title(fn8), tuple(rows),
+        ("Damping of the full model's modes closed with each controller (Table 1 experimental open-loop damping).",
+         "'Table 7 gains' rows are the calibration residual (README); 'vlab design' rows use vlab's own gains.",
+         "LQG: designed on the exact reduction to six assumed masters (points 1, 3, 5, 6, 7, 9; the thesis does not "
+         "list them), Q = I, R = 0.22 I, V1 = 1e-6 I, V2 = 5e-4 I, alpha = 0.2, applied to the full model (Eq. 4.24)."),
+        0.10, "relative", fn8))
+    # Table 9
+    fn9 = "table9_bcc_performance.csv"
+    t, idx = _mode_rows(fn9)
+    plant = thesis_plant(full)
+    q, r = np.eye(2 * plant.n), 0.22 * np.eye(3)
+    rows = []
+    for c in ("lqr", "lqg", "mfdrf", "lqdrf"):
+        d = ctx.design("bcc", c, "full")
+        jj = performance_indices(plant, thesis_controller(d), q, r, 6)
+        for j, i in enumerate(idx):
+            rows.append(Row(f"mode {int(t['mode'][i])}", LABEL[c], t[c][i], jj[j], CAL))
+    out.append(TableResult(
+        "Table 9", t_title(fn9), tuple(rows),
+        ("Performance index J_i (Eq. 4.4; Q = I, R = 0.22 I; in, lbf, cs) for initial conditions in the shape of "
+         "mode i at 1 in maximum deflection, all four controllers designed on the full model (Sec. 6.1).",),
+        0.15, "relative", fn9))
+    return out
+
+
+# --------------------------------------------------------------------------- Tables 11-14 (grid, exact)
+def _grid_gain_table(ctx: ReproContext, name: str, fn: str, model: str, flag: str, notes) -> TableResult:
+    rows = []
+    for c in ("mfdrf", "lqdrf", "lqdrf_diag"):
+        pub = _gain_rows(fn, c, GRID_ACTUATORS)
+        ours = np.asarray(ctx.design("grid", CONTROLLER_OF[c], model).extra["gain_thesis_lb_s_per_in"])
+        for i, a in enumerate(GRID_ACTUATORS):
+            for j, s in enumerate(GRID_ACTUATORS):
+                if c == "lqdrf_diag" and i != j:
+                    continue
+                rows.append(Row(f"actuator {a}", f"{LABEL[c]} sensor {s}", pub[i, j], ours[i, j], flag))
+    return TableResult(name, t_title(fn), tuple(rows), tuple(notes), 0.002, "absolute", fn)
+
+
+def grid_exact_tables(ctx: ReproContext) -> list[TableResult]:
+    """Tables 11-14: grid designs on the exact reduction (gains, damping, performance).
+
+    Returns
+    -------
+    list of TableResult
+        Tables 11, 12, 13, 14.
+
+    Source: Tables 11-14; Sec. 6.2.1; Eqs. (4.20), (4.24)-(4.29), (4.33), (6.1).
+    """
+    st = THESIS_SETTINGS["grid"]
+    exact = ctx.design_model("grid", "exact")
+    full = ctx.design_model("grid", "full")
+    out = [_grid_gain_table(
+        ctx, "Table 11", "table11_grid_gains_exact.csv", "exact", RECON,
+        ("vlab's DRF designs on the exact reduction (12 joint translations): zeta_L = 0.03 on 5 modes; LQDRF "
+         "n_f = 5, Q = 0.01 I, R = 0.84 I (thesis units).",
+         "Diagonal LQDRF: diagonal terms only (the off-diagonal terms are zero by construction)."))]
+    # Table 12
+    fn = "table12_grid_damping_exact.csv"
+    t, idx = _mode_rows(fn)
+    rows = []
+    cols = {}
+    for c in ("lqg", "mfdrf", "lqdrf", "lqdrf_diag"):
+        cols[c] = plant_mode_damping(exact, ctx.design("grid", CONTROLLER_OF[c], "exact"), 5)[1]
+    cols["lqg_full"] = plant_mode_damping(full, ctx.design("grid", "lqg", "exact"), 5)[1]
+    cols["open_loop"] = open_loop_ratios(ctx.fe("grid").spec, 5)
+    for j, i in enumerate(idx):
+        mode = f"mode {int(t['mode'][i])}"
+        for c, lab in (("lqg", "LQG"), ("lqg_full", "LQG applied to the full model"), ("mfdrf", "MFDRF"),
+                       ("lqdrf", "LQDRF"), ("lqdrf_diag", "diagonal LQDRF"), ("open_loop", "open loop")):
+            rows.append(Row(mode, lab, t[c][i], cols[c][j], RECON if c != "open_loop" else ASSUMED))
+    out.append(TableResult(
+        "Table 12", t_title(fn), tuple(rows),
+        ("Damping of the exact-reduced model's modes (and of the full model's for 'LQG applied to the full model', "
+         "Eq. 4.24). LQG: Q = 0.01 I, R = 0.84 I, V1 = 1e-10 I, V2 = 0.5 I, alpha = 0.05.",
+         "Open loop: vlab uses the Table 3 experimental damping ratios; the thesis's analysis used the values "
+         "printed in this column (obtained by matching peak levels, Sec. 2.2.2)."),
+        0.2, "relative", fn))
+    # Table 13
+    fn = "table13_grid_performance_exact.csv"
+    t, idx = _mode_rows(fn)
+    pe, pf = thesis_plant(exact), thesis_plant(full)
+    r = st.r * np.eye(5)
+    qe, qf = st.q_scale * np.eye(2 * pe.n), st.q_scale * np.eye(2 * pf.n)
+    extra_notes = []
+    cols = {
+        "full_lqr": performance_indices(pf, thesis_controller(ctx.design("grid", "lqr", "full")), qf, r, 12),
+        "reduced_lqg_on_full": performance_indices(pf, thesis_controller(ctx.design("grid", "lqg", "exact")), qf, r, 12),
+    }
+    try:
+        cols["full_lqg"] = performance_indices(pf, thesis_controller(ctx.design("grid", "lqg", "full")), qf, r, 12)
+    except ControllerError as exc:  # reported in the table's notes
+        cols["full_lqg"] = np.full(12, np.nan)
+        extra_notes.append(f"Full-model LQG not computed: the Kalman filter design on the 64-DOF model was refused "
+                           f"({exc}).")
+    for c in ("lqr", "lqg", "mfdrf", "lqdrf", "lqdrf_diag"):
+        cols[c] = performance_indices(pe, thesis_controller(ctx.design("grid", CONTROLLER_OF[c], "exact")), qe, r, 12)
+    x12 = pe.modal_initial_states(12)
+    d12 = lqdrf(pe.A, pe.B, pe.C, qe, r, x12, zeta_min=st.zeta_min, n_modes=st.n_modes, diagonal=True,
+                lqr_normalised=True, seed=ctx.seed, time_unit_s=CS_S)
+    cols["lqdrf_diag_12pi"] = performance_indices(pe, {"d": np.asarray(d12.gain)}, qe, r, 12)
+    names = {"full_lqr": "full-model LQR", "full_lqg": "full-model LQG",
+             "reduced_lqg_on_full": "reduced LQG on the full model", "lqr": "LQR", "lqg": "LQG", "mfdrf": "MFDRF",
+             "lqdrf": "LQDRF", "lqdrf_diag": "diagonal LQDRF", "lqdrf_diag_12pi": "diagonal LQDRF, 12 normalised P.I."}
+    rows = [Row(f"mode {int(t['mode'][i])}", names[c], t[c][i], cols[c][j], RECON)
+            for c in names for j, i in enumerate(idx)]
+    out.append(TableResult(
+        "Table 13", t_title(fn), tuple(rows),
+        ("J_i for initial conditions in the shape of mode i (1 in maximum deflection) of the model the controller "
+         "is applied to; Q = 0.01 I, R = 0.84 I (thesis units). Reduced-model controllers on the exact reduction; "
+         "full-model LQR/LQG designed on the 64-DOF model; the reduced LQG on the full model by Eq. (4.26).",
+         "Last column: diagonal LQDRF minimising max_i J_i / J_i^LQR over 12 modes (Sec. 6.2.1).", *extra_notes),
+        0.2, "relative", fn))
+    out.append(_energy_q_table(ctx))
+    return out
+
+
+def _energy_q_table(ctx: ReproContext) -> TableResult:
+    """Table 14: LQR, LQG and diagonal LQDRF with Q = diag(m, k) (Eq. 6.1), R chosen for 3 % damping.
+
+    The thesis chose ``R = r I`` so that the first five LQR modes have 3 %
+    damping and found ``r = 7.5e5`` for its (unstated) units of Eq. (6.1).
+    vlab repeats the procedure (:func:`controllers.lq.lqr_weight_for_damping`)
+    and rescales its indices by ``7.5e5 / r``: scaling Q scales the ``r``
+    that gives 3 % and every ``J`` alike, so the rescaled numbers do not
+    depend on the unit of Q.
+    """
+    st = THESIS_SETTINGS["grid"]
+    pe = thesis_plant(ctx.design_model("grid", "exact"))
+    n = pe.n
+    # Eq. (6.1) in the design unit system (time unit cs): x = [q' (in/cs); q (in)], so the kinetic
+    # weight is the mass in lbf*cs^2/in = m [lbf*s^2/in] / CS_S^2.
+    q = np.block([[pe.m / CS_S**2, np.zeros((n, n))], [np.zeros((n, n)), pe.k]])
+    search = lqr_weight_for_damping(pe.A, pe.B, q, zeta_min=st.zeta_min, n_modes=st.n_modes, time_unit_s=CS_S)
+    r_val = float(search.r)
+    r = r_val * np.eye(pe.B.shape[1])
+    reg = lqr(pe.A, pe.B, q, r, time_unit_s=CS_S)
+    des = lqg(pe.A, pe.B, pe.C, q, r, st.v1 * np.eye(2 * n), st.v2 * np.eye(pe.B.shape[1]), alpha=st.alpha,
+              time_unit_s=CS_S)
+    x0 = pe.modal_initial_states(12)
+    dg = lqdrf(pe.A, pe.B, pe.C, q, r, pe.modal_initial_states(st.n_f), zeta_min=st.zeta_min, n_modes=st.n_modes,
+               diagonal=True, seed=ctx.seed, time_unit_s=CS_S)
+    scale = 7.5e5 / r_val / 1e5
+    cols = {
+        "lqr": performance_indices(pe, {"f": np.asarray(reg.gain)}, q, r, 12, initial_states=x0) * scale,
+        "lqg": np.asarray(des.performance_index(x0)) * scale,
+        "lqdrf_diag": performance_indices(pe, {"d": np.asarray(dg.gain)}, q, r, 12, initial_states=x0) * scale,
+    }
+    fn = "table14_grid_performance_energy_q.csv"
+    t, idx = _mode_rows(fn)
+    rows = [Row(f"mode {int(t['mode'][i])}", f"{LABEL[c]} (x 1e-5)", t[c][i], cols[c][j], RECON)
+            for c in ("lqr", "lqg", "lqdrf_diag") for j, i in enumerate(idx)]
+    return TableResult(
+        "Table 14", t_title(fn), tuple(rows),
+        ("Q = [[m, 0], [0, k]] (Eq. 6.1) of the exact reduction (thesis units, time unit cs: kinetic weight "
+         "m / cs^2). The thesis's R = 7.5e5 I does not give 3 % damping with these units (the LQR then barely "
+         f"acts), so vlab repeats the thesis's procedure: R = r I with r = {r_val:.4g} gives zeta_min = "
+         f"{search.min_damping:.4f} on the first 5 modes; J is rescaled by 7.5e5 / r (J scales with Q, and so "
+         "does r) and printed x 1e-5 as the heading 'Performance Indices x 10^5' reads.",
+         "Kalman filter as for Table 13 (V1 = 1e-10 I, V2 = 0.5 I, alpha = 0.05); diagonal LQDRF with n_f = 5."),
+        0.25, "relative", fn)
+
+
+# --------------------------------------------------------------------------- Tables 15-18 (grid, corrected Guyan)
+def grid_corrected_tables(ctx: ReproContext) -> list[TableResult]:
+    """Tables 15-18: designs on the corrected Guyan model; exact-reduction controllers applied to it.
+
+    Returns
+    -------
+    list of TableResult
+        Tables 15, 16, 17, 18.
+
+    Source: Tables 15-18; Secs. 6.2.2, 6.2.3; Eqs. (3.17)-(3.20).
+    """
+    st = THESIS_SETTINGS["grid"]
+    mm = ctx.measured_modes()
+    flag = f"{RECON},{ASSUMED}"
+    cg = ctx.design_model("grid", "corrected-guyan")
+    exact = ctx.design_model("grid", "exact")
+    shapes_note = f"Corrected Guyan model: Guyan reduction corrected (Eqs. 3.17-3.20) with {mm.description}."
+    out = [_grid_gain_table(
+        ctx, "Table 15", "table15_grid_gains_corrected_guyan.csv", "corrected-guyan", flag,
+        (shapes_note, "LQDRF: n_f = 5, Q = 0.01 I, R = 1.387 I (thesis units); zeta_L = 0.03 on 5 modes."))]
+    # Table 16
+    fn = "table16_grid_damping_corrected_guyan.csv"
+    t, idx = _mode_rows(fn)
+    cols = {c: plant_mode_damping(cg, ctx.design("grid", CONTROLLER_OF[c], "corrected-guyan"), 5)[1]
+            for c in ("lqg", "mfdrf", "lqdrf", "lqdrf_diag")}
+    rows = [Row(f"mode {int(t['mode'][i])}", LABEL[c], t[c][i], cols[c][j], flag)
+            for c in cols for j, i in enumerate(idx)]
+    out.append(TableResult("Table 16", t_title(fn), tuple(rows),
+                           (shapes_note, "Damping of the corrected Guyan model's modes, controllers designed on it."),
+                           0.2, "relative", fn))
+    # Tables 17, 18
+    fn17, fn18 = "table17_grid_damping_exact_on_corrected.csv", "table18_grid_performance_exact_on_corrected.csv"
+    t17, idx17 = _mode_rows(fn17)
+    t18, idx18 = _mode_rows(fn18)
+    pe, pc = thesis_plant(exact), thesis_plant(cg)
+    r = st.r * np.eye(5)
+    rows17, rows18 = [], []
+    for c in ("lqg", "mfdrf", "lqdrf_diag"):
+        d = ctx.design("grid", CONTROLLER_OF[c], "exact")
+        z_ea = plant_mode_damping(exact, d, 12)[1]
+        z_cg = plant_mode_damping(cg, d, 12)[1]
+        j_ea = performance_indices(pe, thesis_controller(d), st.q_scale * np.eye(2 * pe.n), r, 12)
+        j_cg = performance_indices(pc, thesis_controller(d), st.q_scale * np.eye(2 * pc.n), r, 12)
+        for j, i in enumerate(idx17):
+            mode = f"mode {int(t17['mode'][i])}"
+            rows17.append(Row(mode, f"{LABEL[c]} EA", t17[f"{c}_ea"][i], z_ea[j], RECON))
+            rows17.append(Row(mode, f"{LABEL[c]} CG", t17[f"{c}_cg"][i], z_cg[j], flag))
+        for j, i in enumerate(idx18):
+            mode = f"mode {int(t18['mode'][i])}"
+            rows18.append(Row(mode, f"{LABEL[c]} EA", t18[f"{c}_ea"][i], j_ea[j], RECON))
+            rows18.append(Row(mode, f"{LABEL[c]} CG", t18[f"{c}_cg"][i], j_cg[j], flag))
+    ea_note = "EA: exact-reduction controller on the exact reduction; CG: the same controller on the corrected Guyan model."
+    out.append(TableResult("Table 17", t_title(fn17), tuple(rows17),
+                           (ea_note, shapes_note, "Damping of each model's 12 modes."), 0.25, "relative", fn17))
+    out.append(TableResult("Table 18", t_title(fn18), tuple(rows18),
+                           (ea_note, shapes_note, "J_i with Q = 0.01 I, R = 0.84 I; initial conditions in the shape "
+                            "of each model's own mode i."), 0.25, "relative", fn18))
+    return out
