@@ -18,7 +18,6 @@ Ewins, *Modal Testing*, Sec. 4.2 (logarithmic decrement).
 """
 
 from __future__ import annotations
-from ..fe.crosspiece import cantilever_tip_mass_sdof  # noqa: F401  (re-exported)
 
 import math
 from dataclasses import dataclass
@@ -163,7 +162,7 @@ class CrossCheck:
 
 
 def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: SimOptions | None = None,
-               points: list[int] | None = None, crosspiece: str = "exact") -> CrossCheck:
+               points: list[int] | None = None) -> CrossCheck:
     """Compare the first ``n_modes`` FE modes with the plant's modes.
 
     Parameters
@@ -176,11 +175,6 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
         Build options when a spec is given.
     points : list of int, optional
         Points for the MAC; default all points whose ``w`` is free in the FE model.
-    crosspiece : {"exact", "rayleigh"}
-        FE reference crosspiece (see :func:`fe_reference`): ``"exact"`` (default)
-        compares like with like -- flexible arms against the single-DOF model with
-        the arms' true participating mass; ``"rayleigh"`` against the project's FE
-        model of Sec. 2.1.1 as it stands.
 
     Returns
     -------
@@ -197,7 +191,7 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
 
     plant = spec_or_plant if isinstance(spec_or_plant, Plant) else build_plant(spec_or_plant, options)
     spec = plant.spec
-    fe = fe_reference(spec, crosspiece)
+    fe = fe_reference(spec)
     if points is None:
         points = [p for p in sorted(spec.points) if (p, "w") in fe.dofs]
     fem = modal_analysis(fe.m, fe.k, n_modes)
@@ -321,49 +315,16 @@ def free_decay(plant: Plant, mode: int = 1, *, amplitude_m: float = 1e-3, durati
     return FreeDecay(freq, zeta, point, t, w)
 
 
-def fe_reference(spec: StructureSpec, crosspiece: str = "rayleigh"):
-    """The FE model used as cross-check reference, optionally with an exact crosspiece SDOF.
+def fe_reference(spec: StructureSpec):
+    """The FE model used as cross-check reference (:func:`vlab.fe.build_fe_model`).
 
-    Parameters
-    ----------
-    spec : StructureSpec
-    crosspiece : {"rayleigh", "exact"}
-        ``"rayleigh"``: the project's FE model as it is (Sec. 2.1.1: ``k = 6EI/L^3``
-        on ``2 (m_tip + 33/140 m_arm)``). ``"exact"``: its crosspiece SDOF replaced
-        by :func:`cantilever_tip_mass_sdof`, which carries the arms' true
-        participating mass -- the model the plant's flexible arms converge to.
-
-    Returns
-    -------
-    FEModel
-        With ``m`` and ``k`` replaced for ``"exact"``.
-
-    Raises
-    ------
-    SimulationError
-        For an unknown ``crosspiece`` option.
+    Its crosspiece single-DOF model carries the arms' exact participating mass
+    (:func:`vlab.fe.crosspiece.cantilever_tip_mass_sdof`), which the plant's
+    flexible arms converge to.
     """
-    import dataclasses
-
     from ..fe import build_fe_model
-    from ..fe.assembly import crosspiece_sdof
 
-    fe = build_fe_model(spec)
-    if crosspiece == "rayleigh":
-        return fe
-    if crosspiece != "exact":
-        raise SimulationError(f"crosspiece must be 'rayleigh' or 'exact', got {crosspiece!r}")
-    m, k = fe.m.copy(), fe.k.copy()
-    for c in spec.crosspieces:
-        i, j = fe.dofs.index(c.point, "w"), fe.dofs.index(c.id, "w")
-        kc, m_eff, m_rest = crosspiece_sdof(spec, c)
-        sec = spec.sections[c.section]
-        k1, m1, r1 = cantilever_tip_mass_sdof(sec.ei.si, c.arm_length.si, sec.rho_a * c.arm_length.si, c.tip_mass.si)
-        blk = np.array([[1.0, -1.0], [-1.0, 1.0]])
-        k[np.ix_([i, j], [i, j])] += (2 * k1 - kc) * blk
-        m[j, j] += 2 * m1 - m_eff
-        m[i, i] += 2 * r1 + c.clamp_mass.si - m_rest
-    return dataclasses.replace(fe, m=m, k=k)
+    return build_fe_model(spec)
 
 
 @dataclass(frozen=True)
@@ -414,8 +375,7 @@ class StudyRow:
 
 
 def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), layouts=("gauss",),
-                      timesteps=(None,), decay: bool = False, speed_steps: int = 0,
-                      crosspiece: str = "exact") -> list[StudyRow]:
+                      timesteps=(None,), decay: bool = False, speed_steps: int = 0) -> list[StudyRow]:
     """Cross-check the plant for several segment counts, hinge layouts and timesteps.
 
     Parameters
@@ -434,8 +394,6 @@ def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), 
         Also measure the first mode's frequency from a free decay.
     speed_steps : int
         Steps timed per row (0: no timing).
-    crosspiece : str
-        FE reference crosspiece (see :func:`fe_reference`).
 
     Returns
     -------
@@ -458,7 +416,7 @@ def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), 
                                   timestep_s=dt, modal_damping=False, stiffness_damping_s=0.0,
                                   check_timestep=dt is None)
                 plant = build_plant(spec, opts)
-                cc = crosscheck(plant, n_modes, crosspiece=crosspiece)
+                cc = crosscheck(plant, n_modes)
                 omega, _ = hinge_omega_max(plant.model)
                 f_decay = math.nan
                 if decay:
