@@ -40,3 +40,24 @@ def test_unknown_structure_is_a_clear_error():
     res = runner.invoke(app, ["modes", "bridge"])
     assert res.exit_code != 0
     assert "bridge" in res.output
+
+
+def test_crosscheck_bcc_json_targets():
+    res = runner.invoke(app, ["crosscheck", "bcc", "--json"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    for key in ("frequencies_hz", "relative_error", "mac"):
+        assert key in out
+    assert max(abs(e) for e in out["relative_error"]) <= 0.015
+    assert min(out["mac"]) >= 0.98
+    assert out["free_decay_mode1_hz"] == pytest.approx(out["frequencies_hz"]["fe"][0], rel=0.015)
+
+
+def test_export_mjcf_reloads(tmp_path):
+    import mujoco
+
+    path = tmp_path / "bcc.xml"
+    res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])
+    assert res.exit_code == 0, res.output
+    model = mujoco.MjModel.from_xml_path(str(path))
+    assert model.actuator("coil9").id >= 0 and model.sensor("vel6").id >= 0

@@ -71,3 +71,14 @@ def test_bad_requests_are_clear(fe):
 def test_cli_unknown_controller():
     res = CliRunner().invoke(app, ["experiment", "bcc", "--controller", "pid"])
     assert res.exit_code != 0 and "pid" in res.output
+
+
+def test_self_excited_oscillation_is_flagged():
+    from vlab.lab.experiment import self_excited_oscillation
+
+    t = np.arange(40000) * 0.5e-3
+    quiet = 0.01 * np.sin(2 * np.pi * 5 * t)
+    assert self_excited_oscillation(quiet, 0.5e-3, band_hz=(0.5, 25)) == []
+    loud = quiet + 0.1 * np.sin(2 * np.pi * 65.6 * t)
+    msg = self_excited_oscillation(loud, 0.5e-3, band_hz=(0.5, 25))
+    assert msg and "65.6 Hz" in msg[0]

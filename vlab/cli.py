@@ -260,6 +260,70 @@ def experiment(
                   f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
     console.print(t)
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
+    for w in result.warnings:
+        err_console.print(f"[bold yellow]warning:[/] {w}")
+
+
+@app.command()
+def crosscheck(
+    structure: Structure = typer.Argument(..., help="bcc or grid"),
+    segments: int = typer.Option(None, "--segments", min=1, help="hinges per element segment (default: chosen per member)"),
+    n: int = typer.Option(None, "--n", min=1, help="modes compared (default 6 BCC, 12 grid)"),
+    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+) -> None:
+    """Cross-check the MuJoCo plant against the FE model: frequencies, MAC, free decay."""
+    from .sim import SimOptions, build_plant
+    from .sim import crosscheck as run_crosscheck
+    from .sim import free_decay
+    from .spec import load_spec
+
+    n_modes = n or (6 if structure is Structure.bcc else 12)
+    try:
+        spec = load_spec(structure.value)
+        plant = build_plant(spec, SimOptions(segments_per_element=segments))
+        cc = run_crosscheck(plant, n_modes)
+        first = cc.pairs[0]
+        decay = free_decay(plant, first.sim_mode, sim_modes=cc.sim_modes) if first.sim_mode else None
+    except (VlabError, ValueError) as exc:
+        _fail(exc)
+    if as_json:
+        _print_json({
+            "structure": structure.value,
+            "frequencies_hz": {"fe": [p.fe_hz for p in cc.pairs], "mujoco": [p.sim_hz for p in cc.pairs]},
+            "relative_error": [p.error_pct / 100 for p in cc.pairs],
+            "mac": [p.mac for p in cc.pairs],
+            "mujoco_mode": [p.sim_mode for p in cc.pairs],
+            "free_decay_mode1_hz": None if decay is None else decay.frequency_hz,
+            "free_decay_mode1_damping": None if decay is None else decay.damping_ratio,
+            "timestep_s": plant.timestep_s,
+        })
+        return
+    t = Table(title=f"{spec.title}: MuJoCo plant vs FE model (timestep {plant.timestep_s * 1e3:g} ms)")
+    for col in ("FE mode", "FE [Hz]", "MuJoCo mode", "MuJoCo [Hz]", "error", "MAC"):
+        t.add_column(col, justify="right")
+    for p in cc.pairs:
+        t.add_row(str(p.fe_mode), f"{p.fe_hz:.4f}", str(p.sim_mode), f"{p.sim_hz:.4f}", f"{p.error_pct:+.2f} %",
+                  f"{p.mac:.4f}")
+    console.print(t)
+    if decay is not None:
+        console.print(f"free decay of mode 1: {decay.frequency_hz:.4f} Hz, zeta = {decay.damping_ratio:.4f}")
+
+
+@app.command("export-mjcf")
+def export_mjcf_cmd(
+    structure: Structure = typer.Argument(..., help="bcc or grid"),
+    output: str = typer.Option(None, "-o", "--output", help="MJCF file (default: <structure>.xml)"),
+) -> None:
+    """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`."""
+    from .sim import build_plant, export_mjcf
+    from .spec import load_spec
+
+    path = output or f"{structure.value}.xml"
+    try:
+        written = export_mjcf(build_plant(load_spec(structure.value)), path)
+    except (VlabError, ValueError, OSError) as exc:
+        _fail(exc)
+    console.print(f"wrote {written}")
 
 
 def _measured_modes(fe, modes_file: str | None):

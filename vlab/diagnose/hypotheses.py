@@ -241,10 +241,25 @@ def _log_trials(ref: float, factors) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- structure
-class AddedMass(Hypothesis):
-    """``added_mass``: a lumped mass at a point (e.g. a sensor, coil or bolt left out).
+class _PointSet(Hypothesis):
+    """A hypothesis at one point (``point=``) or the same at several points (``points=``, e.g. every actuator)."""
 
-    Parameters: ``mass_kg`` [kg] >= 0. Applied with :func:`specedit.add_mass`.
+    def __init__(self, *, point: int | None = None, points: tuple[int, ...] | None = None):
+        if (point is None) == (points is None):
+            raise ModelError(f"{self.effect}: give either point or points")
+        self.point = point
+        self.points = tuple(points) if points is not None else (point,)
+
+    @property
+    def location(self) -> dict:
+        return {"point": self.point} if self.point is not None else {"points": list(self.points)}
+
+
+class AddedMass(_PointSet):
+    """``added_mass``: a lumped mass at a point, or the same mass at each of several points
+    (e.g. something attached to every actuator).
+
+    Parameters: ``mass_kg`` [kg] >= 0 (per point). Applied with :func:`specedit.add_mass`.
     """
 
     effect = "added_mass"
@@ -253,33 +268,29 @@ class AddedMass(Hypothesis):
     order = 1
     stage = 0
 
-    def __init__(self, *, point: int):
-        self.point = point
-
-    @property
-    def location(self) -> dict:
-        return {"point": self.point}
-
     def space(self, state, ctx):
-        m = ctx.point_mass.get(self.point, ctx.total_mass_kg)
+        m = min(ctx.point_mass.get(p, ctx.total_mass_kg) for p in self.points)
         return (np.array([[m * f] for f in (0.005, 0.015, 0.04, 0.1, 0.25, 0.6)]),
                 np.array([0.0]), np.array([max(5.0 * m, 0.5 * ctx.total_mass_kg)]))
 
     def apply(self, state, x, ctx):
-        return state.with_spec(specedit.add_mass(state.spec, self.point, float(x[0])))
+        spec = state.spec
+        for p in self.points:
+            spec = specedit.add_mass(spec, p, float(x[0]))
+        return state.with_spec(spec)
 
     def null(self, state, ctx):
         return np.array([0.0])
 
 
-class SupportStiffness(Hypothesis):
-    """``support_stiffness``: a grounded spring on one DOF of a point.
+class SupportStiffness(_PointSet):
+    """``support_stiffness``: a grounded spring on one DOF of a point (or the same spring at several points).
 
     On a DOF fixed by a support the support is released and the spring
     replaces it (a support of finite stiffness); on a free DOF the spring is
     added (an attachment to ground such as a cable or wire). Parameter:
-    ``stiffness`` [N/m for w, N*m/rad for rotations], fitted in log10.
-    Applied with :func:`specedit.add_spring`.
+    ``stiffness`` [N/m for w, N*m/rad for rotations] per point, fitted in
+    log10. Applied with :func:`specedit.add_spring`.
     """
 
     effect = "support_stiffness"
@@ -287,8 +298,8 @@ class SupportStiffness(Hypothesis):
     order = 2
     stage = 0
 
-    def __init__(self, *, point: int, dof: str = "w"):
-        self.point = point
+    def __init__(self, *, point: int | None = None, points: tuple[int, ...] | None = None, dof: str = "w"):
+        super().__init__(point=point, points=points)
         self.dof = dof
 
     @property
@@ -297,25 +308,29 @@ class SupportStiffness(Hypothesis):
 
     @property
     def location(self) -> dict:
-        return {"point": self.point, "dof": self.dof}
+        return {**super().location, "dof": self.dof}
 
     def _released(self, state) -> bool:
-        return specedit.is_fixed(state.spec, self.point, self.dof)
+        return any(specedit.is_fixed(state.spec, p, self.dof) for p in self.points)
 
     def space(self, state, ctx):
         kscale = ctx.total_mass_kg * (2 * math.pi * ctx.f1_hz) ** 2
         if self.dof != "w":
-            span = max(abs(a - b) for a, b in (state.spec.points[self.point], (0.0, 0.0))) or 1.0
-            kscale = kscale * max(span, 0.1) ** 2
+            xy = np.array(list(state.spec.points.values()))
+            size = float(np.max(np.ptp(xy, axis=0))) or 1.0
+            kscale = kscale * size**2
         if self._released(state):
             return (_log_trials(kscale, (1.0, 10.0, 100.0, 1e3, 1e4)), np.array([kscale * 1e-3]),
                     np.array([kscale * 1e7]))
-        kp = ctx.point_stiffness.get(self.point, kscale) if self.dof == "w" else kscale
+        kp = min(ctx.point_stiffness.get(p, kscale) for p in self.points) if self.dof == "w" else kscale
         return (_log_trials(kp, (0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)), np.array([kp * 1e-5]),
                 np.array([kp * 1e4]))
 
     def apply(self, state, x, ctx):
-        return state.with_spec(specedit.add_spring(state.spec, self.point, self.dof, float(x[0])))
+        spec = state.spec
+        for p in self.points:
+            spec = specedit.add_spring(spec, p, self.dof, float(x[0]))
+        return state.with_spec(spec)
 
     def null(self, state, ctx):
         return None if self._released(state) else np.array([0.0])
@@ -516,7 +531,7 @@ class Friction(Hypothesis):
     def apply(self, state, x, ctx):
         c = math.sqrt(2 / math.pi) * float(x[0]) / self._sigma(state, ctx)
         state.fe.dofs.index(self.point, "w")
-        return replace(state, dashpots=state.dashpots + ((self.point, c),))
+        return replace(state, frictions=state.frictions + ((self.point, float(x[0]), c),))
 
     def null(self, state, ctx):
         return np.array([0.0])
@@ -784,8 +799,9 @@ def library(state: LabState, ctx: Context, *, effects: tuple[str, ...] | None = 
     """Every hypothesis of the library that can show in the data, at every location of the structure.
 
     Locations: points with a free out-of-plane DOF (added mass, point damping,
-    friction, grounded spring), every DOF fixed by a support (released to a
-    spring), points where two or more member segments meet (joint
+    friction, grounded spring), all actuator points together (the same mass
+    or spring at each: attachments every coil has, such as its wires), every
+    DOF fixed by a support (released to a spring), points where two or more member segments meet (joint
     flexibility), every member and every segment of a multi-segment member
     (stiffness), every mode in the band (modal damping), every actuator
     channel (gains), and the chain as a whole (delay, lags, saturation,
@@ -808,7 +824,12 @@ def library(state: LabState, ctx: Context, *, effects: tuple[str, ...] | None = 
     free = [p for p in sorted(spec.points) if (p, "w") in state.fe.dofs]
     out: list[Hypothesis] = []
     out += [AddedMass(point=p) for p in free]
+    acts = tuple(p for p in state.actuators if p in free)
+    if len(acts) > 1:
+        out.append(AddedMass(points=acts))
     out += [SupportStiffness(point=p, dof="w") for p in free]
+    if len(acts) > 1:
+        out.append(SupportStiffness(points=acts, dof="w"))
     out += [SupportStiffness(point=s.point, dof=d) for s in spec.supports for d in s.fixed if d in spec.active_dofs]
     out += [JointFlexibility(point=p) for p in sorted(spec.points) if len(specedit.joint_segments(spec, p)) >= 2]
     for m in spec.members:

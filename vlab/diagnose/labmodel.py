@@ -57,6 +57,9 @@ class LabState:
         The nominal controller (None: open loop).
     dashpots : tuple of (int, float)
         Point dashpots ``(point, c [N*s/m])`` on the out-of-plane DOF.
+    frictions : tuple of (int, float, float)
+        Coulomb friction ``(point, F [N], c_eq [N*s/m])``: the frequency-domain
+        model uses the equivalent dashpot ``c_eq``, a rerun the friction force.
     step_s : float or None
         Physics step of the plant [s] (the linear plant of an experiment uses
         half a period). The loop applies the RC filter's and the actuator
@@ -72,6 +75,7 @@ class LabState:
     chain: HardwareChain
     design: object | None = None
     dashpots: tuple[tuple[int, float], ...] = ()
+    frictions: tuple[tuple[int, float, float], ...] = ()
     step_s: float | None = None
     rms_force_n: dict = field(default_factory=dict)
 
@@ -149,7 +153,7 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     """
     md = _modal(state)
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
-    dash = [(p, c) for p, c in state.dashpots if c > 0.0]
+    dash = [(p, c) for p, c in state.dashpots if c > 0.0] + [(p, c) for p, _f, c in state.frictions if c > 0.0]
     d_pts = [p for p, _ in dash]
     all_pts = list(out_points) + list(in_points) + d_pts
     r = rows(state, all_pts)

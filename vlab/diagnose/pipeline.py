@@ -51,6 +51,8 @@ from .validate import Validation, validate
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
+#: Effects whose frequency-domain model is a describing function: look-alikes are separated by a rerun.
+NONLINEAR = ("saturation", "friction")
 _DESIGNS: dict = {}
 
 
@@ -296,8 +298,10 @@ def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, 
     """Choose among look-alike effects by the time-domain error of a rerun.
 
     A saturating amplifier and a lower channel gain give nearly the same FRF
-    (the saturation's describing function is a gain); the rerun through the
-    loop reproduces the clipping itself, so the time histories separate them.
+    (the saturation's describing function is a gain), and so do Coulomb
+    friction and a dashpot at one point; the rerun through the loop
+    reproduces the clipping or the friction force itself, so the time
+    histories separate them.
     """
     cands = [chosen] + [h for h in alts if h.n_params == chosen.n_params][: max_candidates - 1]
     if len(cands) < 2:
@@ -334,14 +338,15 @@ def located_from_fits(res: "DiagnosisResult", chi2_0: float, *, share: float = 0
     """
     parts = res.selected_parts
     local = [h for h in res.ranked if not isinstance(h, Combination)
-             and ("point" in h.location or "member" in h.location)]
+             and ("point" in h.location or "points" in h.location or "member" in h.location)]
     pts: list = []
     mems: list = []
 
     def add(h: Hypothesis) -> None:
         loc = h.location
-        if "point" in loc and loc["point"] not in pts:
-            pts.append(loc["point"])
+        for p in ([loc["point"]] if "point" in loc else loc.get("points", [])):
+            if p not in pts:
+                pts.append(p)
         if "member" in loc:
             name = loc["member"] if "segment" not in loc else f"{loc['member']}[{loc['segment'][0]}-{loc['segment'][1]}]"
             if name not in mems:
@@ -349,7 +354,7 @@ def located_from_fits(res: "DiagnosisResult", chi2_0: float, *, share: float = 0
 
     for h in parts:
         add(h)
-    sel_local = [h for h in parts if "point" in h.location or "member" in h.location]
+    sel_local = [h for h in parts if "point" in h.location or "points" in h.location or "member" in h.location]
     if sel_local and local:
         gain = max(chi2_0 - h.chi2_ for h in local)
         for h in local:
@@ -559,7 +564,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
         res.overdispersion = c_hat
         if chosen is not None and validate_run and data_has_signals(data) and \
-                any(h.effect == "saturation" for h in [chosen] + alts):
+                any(h.effect in NONLINEAR for h in [chosen] + alts):
             say("separating look-alikes by rerun")
             t = time.perf_counter()
             chosen, alts = tie_break_by_rerun(problem, nominal, chosen, alts, plant, notes)

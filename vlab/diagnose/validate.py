@@ -33,13 +33,60 @@ from .data import FrfData
 from .labmodel import LabState
 
 
-def linear_plant(state: LabState) -> LinearPlant:
-    """The exact linear plant of a lab state: proportional modal damping of the spec plus point dashpots.
+class FrictionPlant:
+    """A linear plant with Coulomb friction at some points (the loop's Plant protocol).
+
+    The friction force ``-F tanh(v / v_s)`` at each point is computed from the
+    velocity at the start of every physics step and held over it (explicit;
+    ``v_s`` is a small regularising velocity, 1e-6 m/s, so that the force does
+    not chatter around ``v = 0``).
+
+    Parameters
+    ----------
+    inner : LinearPlant
+        With the friction points appended to its actuator points.
+    actuator_points : tuple of int
+        The coil points (the first inputs of ``inner``).
+    frictions : sequence of (int, float)
+        ``(point, F [N])``.
+    """
+
+    def __init__(self, inner: LinearPlant, actuator_points: tuple[int, ...], frictions, *, v_s: float = 1e-6):
+        self.inner = inner
+        self.actuator_points = tuple(actuator_points)
+        self.timestep_s = inner.timestep_s
+        self._fp = tuple(p for p, _ in frictions)
+        self._ff = np.array([f for _, f in frictions], dtype=float)
+        self._v_s = v_s
+        self._f = np.zeros(len(self.actuator_points))
+
+    def set_forces(self, forces) -> None:
+        """Coil forces [N], shape (n_act,)."""
+        self._f = np.asarray(forces, dtype=float)
+
+    def step(self) -> None:
+        """One physics step with the friction force of the current velocity."""
+        v = self.inner.velocities(self._fp)
+        self.inner.set_forces(np.concatenate([self._f, -self._ff * np.tanh(v / self._v_s)]))
+        self.inner.step()
+
+    def velocities(self, points) -> np.ndarray:
+        """Velocities [m/s] at ``points``."""
+        return self.inner.velocities(points)
+
+    def displacements(self, points) -> np.ndarray:
+        """Displacements [m] at ``points``."""
+        return self.inner.displacements(points)
+
+
+def linear_plant(state: LabState):
+    """The exact linear plant of a lab state: proportional modal damping of the spec, point dashpots,
+    and Coulomb friction (:class:`FrictionPlant`) where the state has it.
 
     Raises
     ------
     ModelError
-        A dashpot at a point without a free out-of-plane DOF.
+        A dashpot or friction at a point without a free out-of-plane DOF.
     """
     fe = state.fe
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(state.spec, fe.n))
@@ -47,7 +94,13 @@ def linear_plant(state: LabState) -> LinearPlant:
         i = fe.dofs.index(p, "w")
         c[i, i] += cp
     pidx = {p: fe.dofs.index(p, "w") for p in state.spec.points if (p, "w") in fe.dofs}
-    return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=state.actuators, timestep_s=state.h_s)
+    if not state.frictions:
+        return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=state.actuators, timestep_s=state.h_s)
+    for p, _f, _c in state.frictions:
+        fe.dofs.index(p, "w")
+    inputs = state.actuators + tuple(p for p, _f, _c in state.frictions)
+    inner = LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=inputs, timestep_s=state.h_s)
+    return FrictionPlant(inner, state.actuators, [(p, f) for p, f, _c in state.frictions])
 
 
 def mujoco_plant(state: LabState):
@@ -59,8 +112,8 @@ def mujoco_plant(state: LabState):
         When the state carries changes a spec cannot express (dashpots, an
         edited FE stiffness) or the simulation package cannot build it.
     """
-    if state.dashpots:
-        raise ModelError("point dashpots cannot be expressed in the spec the MuJoCo plant is built from")
+    if state.dashpots or state.frictions:
+        raise ModelError("point dashpots and friction cannot be expressed in the spec the MuJoCo plant is built from")
     try:
         from ..fe import build_fe_model
         from ..sim import MujocoPlant, build_plant

@@ -71,6 +71,7 @@ def experiment_summary(result) -> dict:
         },
         "modes": [m.as_dict() for m in result.modes],
         "avg_peak_error": result.avg_peak_error,
+        "warnings": list(result.warnings),
     }
 
 
@@ -102,7 +103,15 @@ def report_markdown(summary: dict) -> str:
             f"{ratio if ratio is None else f'{ratio:.3f}'} |"
         )
     lines += ["", f"Average peak level error mean|1 - ratio|: {summary['avg_peak_error']:.3f}", ""]
+    for w in summary.get("warnings", []):
+        lines += [f"**Warning:** {w}", ""]
     return "\n".join(lines)
+
+
+def _response_point(result) -> int:
+    from ..lab.experiment import TESTS
+
+    return TESTS[result.config.structure].response_point
 
 
 def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite: bool = True) -> dict[str, Path]:
@@ -146,7 +155,8 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
         result.freq_hz,
         {"experiment": result.measured, "analysis (sampled-data)": result.analysis_sampled,
          "analysis (continuous, as 1990)": result.analysis_continuous},
-        title=f"{cfg.structure} {cfg.controller}: excitation at {result.loop.recording.channels[0].point_id}",
+        title=f"{cfg.structure} {cfg.controller}: excitation at {result.loop.recording.channels[0].point_id}, "
+              f"response at {result.config.structure and _response_point(result)}",
         ylabel=f"|H| [{unit}]",
         path=files["figure"],
     )

@@ -89,6 +89,7 @@ class ExperimentResult:
     avg_peak_error: float
     design: object | None
     plant_info: dict
+    warnings: tuple[str, ...] = ()
 
 
 def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float, duration_s: float) -> Callable:
@@ -232,7 +233,49 @@ def run_experiment(
     in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
     fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
     modes = compare_modes(f, h_samp, h_meas, fm, zm, response=test.response_quantity)
+    warnings = self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[skip:], rec.dt_s,
+                                        band_hz=test.band_hz)
+    for mc in modes:
+        if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
+            warnings.append(f"mode {mc.mode} could not be identified (no resonance peak: overdamped or not "
+                            f"observable at point {test.response_point})")
     return ExperimentResult(
         replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h_cont, h_samp, h_meas, modes,
-        average_error(modes), design, info,
+        average_error(modes), design, info, tuple(warnings),
     )
+
+
+def self_excited_oscillation(v: np.ndarray, dt_s: float, *, band_hz: tuple[float, float]) -> list[str]:
+    """Warn when most of the response lies outside the excitation band.
+
+    A closed loop that destabilises a residual mode (spillover, Sec. 6.2.1) or
+    runs into a limit cycle (Sec. 6.1: "a limit cycle at approximately 41 Hz")
+    responds mostly at a frequency the excitation does not contain.
+
+    Parameters
+    ----------
+    v : ndarray, shape (n,)
+        Response velocity [m/s].
+    dt_s : float
+        Sampling interval [s].
+    band_hz : (float, float)
+        Excitation band [Hz].
+
+    Returns
+    -------
+    list of str
+        Empty, or one message naming the dominant frequency and its share of the RMS.
+    """
+    spec = np.abs(np.fft.rfft(v - np.mean(v))) ** 2
+    f = np.fft.rfftfreq(len(v), dt_s)
+    out = f > 1.2 * band_hz[1]
+    total = spec.sum()
+    if total <= 0 or spec[out].sum() < 0.5 * total:
+        return []
+    f_dom = f[out][np.argmax(spec[out])]
+    share = np.sqrt(spec[out].sum() / total)
+    return [
+        f"self-excited oscillation at {f_dom:.1f} Hz ({100 * share:.0f} % of the response RMS lies above the "
+        f"excitation band): the controller destabilises a mode outside its design model (spillover) or the "
+        "loop runs in a limit cycle; the FRF comparison is not meaningful"
+    ]
