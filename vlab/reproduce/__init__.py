@@ -1,0 +1,15 @@
+"""Reproduce the dissertation: its tables, figures and the Sec. 6.1 limit cycle, next to the published numbers.
+
+- :mod:`vlab.reproduce.results`: :class:`Row`, :class:`TableResult`, :class:`ReproduceResult`;
+- :mod:`vlab.reproduce.context`: models, designs, the laboratory structure, the virtual modal test;
+- :mod:`vlab.reproduce.closedloop`: controllers applied to any model (damping, performance indices);
+- :mod:`vlab.reproduce.tables`: one function per table group (Tables 1-21);
+- :mod:`vlab.reproduce.experiments`: virtual experiments for the peak-level ratios (Tables 10, 19-21);
+- :mod:`vlab.reproduce.limit_cycle`: the LQG limit cycle of Sec. 6.1;
+- :mod:`vlab.reproduce.run`: :func:`reproduce` (report.md, reproduce.json, figures) and :func:`print_summary`.
+"""
+
+from .results import ReproduceResult, Row, TableResult
+from .run import GROUPS, print_summary, reproduce
+
+__all__ = ["GROUPS", "ReproduceResult", "Row", "TableResult", "print_summary", "reproduce"]

@@ -282,3 +282,39 @@ def analysis_peaks(ctx: ReproContext, run: VirtualRun, analysis_model: str) -> t
     h = analysis_frf(dm, design, run.freq_hz, s.structure, fe.spec.instrumentation.excitation)
     fm, zm = predicted_modes(dm.m, dm.c, dm.k, actuator_input(dm), design, s.structure)
     return h, peak_levels(run.freq_hz, h, fm, zm, s.structure)
+
+
+@dataclass(frozen=True)
+class RunComparison:
+    """A run's measured FRF and peaks with the analysis on one or more models.
+
+    Attributes
+    ----------
+    run : VirtualRun
+    measured_peaks : ndarray, shape (n_modes,)
+    analysis : dict
+        Analysis model name -> (FRF ndarray complex (n_f,), peaks ndarray (n_modes,)).
+    """
+
+    run: VirtualRun
+    measured_peaks: np.ndarray
+    analysis: dict
+
+    def ratios(self, model: str) -> np.ndarray:
+        """Analysis/experiment peak level ratios on ``model``, shape (n_modes,) (NaN where unidentified)."""
+        a = self.analysis[model][1]
+        n = min(len(a), len(self.measured_peaks))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return a[:n] / self.measured_peaks[:n]
+
+
+def compare_run(ctx: ReproContext, run: VirtualRun, models: tuple[str, ...], plant: str = "linear") -> RunComparison:
+    """Peak levels of a run and of its analysis on each of ``models`` (see the module docstring)."""
+    return RunComparison(run, measured_peaks(ctx, run, plant), {m: analysis_peaks(ctx, run, m) for m in models})
+
+
+def average_error(ratios: np.ndarray) -> float:
+    """``mean |1 - r|`` over the identified modes (last row of Tables 10, 19-21); NaN if none."""
+    r = np.asarray(ratios, dtype=float)
+    r = r[np.isfinite(r)]
+    return float(np.mean(np.abs(1.0 - r))) if r.size else float("nan")

@@ -321,6 +321,20 @@ def fe_reference(spec: StructureSpec):
     Its crosspiece single-DOF model carries the arms' exact participating mass
     (:func:`vlab.fe.crosspiece.cantilever_tip_mass_sdof`), which the plant's
     flexible arms converge to.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure the plant was built from.
+
+    Returns
+    -------
+    FEModel
+
+    Raises
+    ------
+    ModelError
+        If the FE model cannot be assembled.
     """
     from ..fe import build_fe_model
 

@@ -1,0 +1,384 @@
+"""Blind benchmark of ``vlab diagnose``: concealed effects, recorded with noise, diagnosed without knowing them.
+
+Each case draws (reproducibly from ``--seed``):
+
+- a structure (BCC or grid, alternating) and a controller (none, or the
+  thesis controller: MFDRF on the BCC, LQG on the grid);
+- nothing (one case in six: the false-alarm check), one effect, or (one
+  case in six) two effects of the library, at random locations and sizes
+  (sizes are drawn relative to the structure's own scales so that each is
+  visible above the noise: added masses of 3-25 % of the modal mass at the
+  point, springs of 5-100 % of the point stiffness, ...);
+- the effect is concealed in the *plant* of the run -- the spec (structural
+  effects), the FE model (gravity pre-stress), the linear plant (dashpots,
+  Coulomb friction) or the hardware chain (delay, lags, gains,
+  saturation) -- while the diagnosis uses the nominal lab;
+- the experiment is run through the 2 kHz loop (:func:`vlab.lab.loop.run_loop`)
+  on the linear FE plant with sensor noise in the feedback (1e-6 m/s) and 1 %
+  white measurement noise added to every recorded velocity; the recording is
+  written as UFF 58 and diagnosed with :func:`vlab.diagnose.diagnose` (linear
+  plant for the validation rerun).
+
+Printed: share of cases with the right effect(s) and location(s), the
+parameter errors, the misfit reduction of the validation rerun (FRF and
+time domain), false alarms on the no-effect cases, time per case. Targets
+(issue 6): >= 90 % right, parameter error within 15 %, misfit >= 5x lower,
+no false alarms, < 2 min per case.
+
+What it does not measure: the MuJoCo plant (the recordings come from the
+linear FE plant, the plant the fits use -- model-form error between the FE
+model and MuJoCo is not part of these cases), and real hardware.
+
+Usage::
+
+    python benchmarks/diagnose_benchmark.py --cases 24 [--seed 0] [--jobs 2] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from dataclasses import replace
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from vlab.diagnose import diagnose, specedit  # noqa: E402
+from vlab.diagnose.hypotheses import Context  # noqa: E402
+from vlab.diagnose.labmodel import LabState, natural_frequencies, with_command_rms  # noqa: E402
+from vlab.diagnose.pipeline import _design, context_for, settling_time  # noqa: E402
+from vlab.diagnose.validate import rerun  # noqa: E402
+from vlab.fe import build_fe_model  # noqa: E402
+from vlab.io.uff import write_recording  # noqa: E402
+from vlab.lab.excitation import pseudo_random  # noqa: E402
+from vlab.lab.experiment import TESTS  # noqa: E402
+from vlab.lab.loop import HardwareChain  # noqa: E402
+from vlab.lab.recording import Recording  # noqa: E402
+from vlab.spec import load_spec  # noqa: E402
+from vlab.units import G_SI  # noqa: E402
+
+RES_HZ = 0.05
+CONTROLLERS = {"bcc": "mfdrf", "grid": "lqg"}
+STRUCT = ("added_mass", "support_stiffness", "joint_flexibility", "member_stiffness", "damping_mode",
+          "damping_point", "friction")
+CHAIN_OPEN = ("actuator_lag", "actuator_gain")
+CHAIN_CLOSED = ("loop_delay", "actuator_lag", "sensor_lag", "actuator_gain", "sensor_gain", "saturation")
+
+
+def _logu(rng, lo, hi):
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def _two_sided(rng, lo, hi):
+    """A factor in [lo, hi] or [1/hi, 1/lo] (lo, hi > 1)."""
+    f = rng.uniform(lo, hi)
+    return f if rng.random() < 0.5 else 1.0 / f
+
+
+def nominal_state(structure: str, controller: str) -> LabState:
+    spec = load_spec(structure)
+    fe = build_fe_model(spec)
+    return LabState(spec, fe, HardwareChain(noise_m_s=1e-6), _design(fe, controller, 0))
+
+
+def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tuple[LabState, dict]:
+    """Conceal one effect of ``family`` in ``st``; returns the plant state and the truth record."""
+    spec = st.spec
+    free = [p for p in sorted(spec.points) if (p, "w") in st.fe.dofs and p not in used]
+    acts = [p for p in st.actuators if p not in used]
+    if family == "added_mass":
+        p = int(rng.choice(free))
+        m = ctx.point_mass[p] * _logu(rng, 0.03, 0.25)
+        return st.with_spec(specedit.add_mass(spec, p, m)), {"effect": "added_mass", "location": {"point": p},
+                                                            "parameters": {"mass_kg": m}}
+    if family == "support_stiffness":
+        p = int(rng.choice(free))
+        k = ctx.point_stiffness[p] * _logu(rng, 0.05, 1.0)
+        return (st.with_spec(specedit.add_spring(spec, p, "w", k)),
+                {"effect": "support_stiffness", "location": {"point": p, "dof": "w"},
+                 "parameters": {"stiffness_n_per_m": k}})
+    if family == "joint_flexibility":
+        joints = [p for p in sorted(spec.points) if len(specedit.joint_segments(spec, p)) >= 2 and p not in used]
+        p = int(rng.choice(joints))
+        segs = specedit.joint_segments(spec, p)
+        kref = float(np.mean([ei / length for _a, _b, length, ei in segs]))
+        k = kref * _logu(rng, 0.3, 3.0)
+        return (st.with_spec(specedit.soften_joint(spec, p, k)),
+                {"effect": "joint_flexibility", "location": {"point": p},
+                 "parameters": {"rotational_stiffness_n_m_per_rad": k}})
+    if family == "member_stiffness":
+        m = spec.members[int(rng.integers(len(spec.members)))]
+        f = _two_sided(rng, 1.25, 1.8)
+        ei = spec.sections[m.section].ei.si * f
+        if len(m.points) > 2:
+            i = int(rng.integers(len(m.points) - 1))
+            seg = (m.points[i], m.points[i + 1])
+            return (st.with_spec(specedit.scale_segments(spec, {seg: f})),
+                    {"effect": "member_stiffness", "location": {"member": m.id, "segment": list(seg)},
+                     "parameters": {"ei_n_m2": ei}})
+        return (st.with_spec(specedit.scale_member(spec, m.id, f)),
+                {"effect": "member_stiffness", "location": {"member": m.id}, "parameters": {"ei_n_m2": ei}})
+    if family == "damping_mode":
+        f, z, _ = natural_frequencies(st)
+        lo, hi = ctx.band_hz
+        modes = [i + 1 for i in range(len(f)) if lo <= f[i] <= hi][:6]
+        r = int(rng.choice(modes))
+        zeta = float(z[r - 1]) * rng.uniform(2.5, 5.0)
+        return (st.with_spec(specedit.set_modal_damping(spec, r, zeta)),
+                {"effect": "damping", "location": {"mode": r}, "parameters": {"damping_ratio": zeta}})
+    if family == "damping_point":
+        p = int(rng.choice(free))
+        c = ctx.point_damping[p] * _logu(rng, 0.3, 3.0)
+        return (replace(st, dashpots=st.dashpots + ((p, c),)),
+                {"effect": "damping", "location": {"point": p}, "parameters": {"c_n_s_per_m": c}})
+    if family == "friction":
+        p = int(rng.choice([q for q in free if q in ctx.velocity_rms] or free))
+        sigma = ctx.predicted_velocity_rms(st, p)
+        force = ctx.point_damping[p] * sigma * math.sqrt(math.pi / 2) * _logu(rng, 0.5, 2.0)
+        return (replace(st, frictions=st.frictions + ((p, force, 0.0),)),
+                {"effect": "friction", "location": {"point": p}, "parameters": {"friction_force_n": force}})
+    if family == "loop_delay":
+        d = rng.uniform(2.5, 6.0) * st.chain.period_s
+        return (replace(st, chain=replace(st.chain, delay_periods=d / st.chain.period_s)),
+                {"effect": "loop_delay", "location": {}, "parameters": {"delay_s": d}})
+    if family in ("actuator_lag", "sensor_lag"):
+        fc = ctx.band_hz[1] * _logu(rng, 1.5, 6.0)
+        attr = "actuator_lag_hz" if family == "actuator_lag" else "sensor_lag_hz"
+        return (replace(st, chain=replace(st.chain, **{attr: fc})),
+                {"effect": family, "location": {"channel": "all"}, "parameters": {"corner_hz": fc}})
+    if family in ("actuator_gain", "sensor_gain"):
+        ch = int(rng.choice(acts)) if (ctx.closed_loop or family == "sensor_gain") else ctx.excitation_point
+        g = _two_sided(rng, 1.3, 1.8)
+        attr = family
+        gains = dict(getattr(st.chain, attr))
+        gains[ch] = g
+        return (replace(st, chain=replace(st.chain, **{attr: gains})),
+                {"effect": family, "location": {"channel": ch}, "parameters": {"gain": g}})
+    if family == "saturation":
+        s2 = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=1e30)), ctx.freq_hz,
+                              ctx.force_amplitude, excitation_point=ctx.excitation_point, iterations=1)
+        lim = max(s2.rms_force_n.values()) * rng.uniform(1.0, 1.8)
+        return (replace(st, chain=replace(st.chain, amplifier_limit_n=lim)),
+                {"effect": "saturation", "location": {"channel": "all"}, "parameters": {"limit_n": lim}})
+    if family == "gravity_prestress":
+        g = G_SI * _two_sided(rng, 1.3, 1.6)
+        k0 = build_fe_model(specedit.without_gravity(spec)).k
+        fe = replace(st.fe, k=k0 + (g / G_SI) * (st.fe.k - k0))
+        return replace(st, fe=fe), {"effect": "gravity_prestress", "location": {}, "parameters": {"g_m_per_s2": g}}
+    raise ValueError(family)
+
+
+class _Signals:
+    """Excitation lines and amplitudes, to size effects (what the diagnosis sees from the data)."""
+
+    def __init__(self, force, dt, band):
+        n_per = int(round(1 / (RES_HZ * dt)))
+        X = np.fft.rfft(force[-n_per:])
+        f = np.fft.rfftfreq(n_per, dt)
+        amp = np.abs(X)
+        k = np.flatnonzero((amp > 1e-6 * amp.max()) & (f >= band[0]) & (f <= band[1]))
+        self.freq_hz, self.force_amplitude = f[k], 2 * amp[k] / n_per
+
+
+def make_case(i: int, seed: int) -> dict:
+    """Draw case ``i``: structure, controller, concealed effects."""
+    rng = np.random.default_rng([seed, i])
+    structure = ("bcc", "grid")[i % 2]
+    closed = bool(rng.random() < 0.5)
+    controller = CONTROLLERS[structure] if closed else "none"
+    u = rng.random()
+    n_eff = 0 if u < 1 / 6 else (2 if u > 5 / 6 else 1)
+    fams = list(STRUCT) + list(CHAIN_CLOSED if closed else CHAIN_OPEN)
+    if structure == "grid":
+        fams.append("gravity_prestress")
+    chosen = []
+    while len(chosen) < n_eff:
+        f = str(rng.choice(fams))
+        if f not in chosen and not ({f, *chosen} >= {"damping_point", "friction"}):
+            chosen.append(f)
+    return {"index": i, "structure": structure, "controller": controller, "families": chosen,
+            "rng_seed": [seed, i, 1]}
+
+
+def run_case(case: dict, workdir: str, noise: float = 0.01) -> dict:
+    """Generate the recording of one case and diagnose it blind."""
+    rng = np.random.default_rng(case["rng_seed"])
+    st0 = nominal_state(case["structure"], case["controller"])
+    test = TESTS[case["structure"]]
+    settle = settling_time(st0, test.band_hz)
+    period = 1.0 / RES_HZ
+    n_periods = max(3, math.ceil(settle / period) + 2)
+    dt = st0.chain.period_s
+    n = int(round(n_periods * period / dt))
+    force = pseudo_random(np.arange(n) * dt, band_hz=test.band_hz, resolution_hz=RES_HZ, rms_n=test.rms_n,
+                          seed=int(rng.integers(1 << 30)))
+    sig = _Signals(force, dt, test.band_hz)
+    exc = st0.spec.instrumentation.excitation
+    ctx = context_for(st0, test.band_hz, sig)
+    ctx.closed_loop = st0.design is not None
+    ctx.excitation_point = exc
+    ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
+    truth_state, truths, used = st0, [], set()
+    for fam in case["families"]:
+        truth_state, t = draw_effect(rng, fam, truth_state, ctx, used)
+        used |= {t["location"].get("point")} - {None}
+        truths.append(t)
+    meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
+    t0 = time.perf_counter()
+    rec, _ = rerun(truth_state, force, excitation_point=exc, measured_points=meas, seed=case["index"])
+    signals = {f"force{exc}": force}
+    for p in meas:
+        v = np.asarray(rec[f"vel{p}"])
+        signals[f"vel{p}"] = v + noise * np.std(v) * rng.standard_normal(v.size)
+    path = os.path.join(workdir, f"case{case['index']}.uff")
+    write_recording(path, Recording.from_signals(dt, signals, metadata={
+        "structure": case["structure"], "controller": case["controller"], "seed": 0, "resolution_hz": RES_HZ}),
+        overwrite=True)
+    t_gen = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    try:
+        res = diagnose(case["structure"], path, controller=case["controller"], plant="linear")
+        d = res.as_dict()
+        err = None
+    except Exception as exc:  # a benchmark records failures instead of stopping
+        d, err = None, f"{type(exc).__name__}: {exc}"
+    t_diag = time.perf_counter() - t0
+    return {**case, "truth": truths, "n_periods": n_periods, "time_generate_s": t_gen, "time_diagnose_s": t_diag,
+            "result": d, "error": err}
+
+
+def _same_location(a: dict, b: dict) -> bool:
+    return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in a.items()} == \
+        {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in b.items()}
+
+
+def score(case: dict) -> dict:
+    """Right effect and location, parameter errors, misfit ratios of one case."""
+    d = case["result"]
+    truths = case["truth"]
+    out = {"right": False, "false_alarm": False, "param_errors": [], "misfit_ratio": None, "time_ratio": None}
+    if d is None:
+        return out
+    sel = d["selected"]
+    if not truths:
+        out["false_alarm"] = bool(d["mismatch"])
+        out["right"] = not d["mismatch"]
+        return out
+    matched = []
+    for t in truths:
+        hit = next((s for s in sel if s["effect"] == t["effect"] and _same_location(s["location"], t["location"])),
+                   None)
+        matched.append(hit)
+    out["right"] = all(h is not None for h in matched) and len(sel) == len(truths)
+    for t, h in zip(truths, matched):
+        if h is None:
+            continue
+        for k, v in t["parameters"].items():
+            out["param_errors"].append(abs(h["parameters"][k] / v - 1.0))
+    v = d["validated"]
+    if v.get("misfit_after"):
+        out["misfit_ratio"] = v["misfit_before"] / v["misfit_after"]
+    if v.get("time_error_after"):
+        out["time_ratio"] = v["time_error_before"] / v["time_error_after"]
+    return out
+
+
+def _label(t: dict) -> str:
+    loc = ",".join(f"{k}={v}" for k, v in t["location"].items())
+    return f"{t['effect']}({loc})"
+
+
+def _line(r: dict, s: dict) -> str:
+    d = r["result"]
+    if d is None:
+        got = r["error"]
+    elif not d["mismatch"]:
+        got = "no mismatch"
+    else:
+        got = " + ".join(_label(x) for x in d["selected"]) or "mismatch, unexplained"
+    truth = " + ".join(_label(t) for t in r["truth"]) or "none"
+    return (f"case {r['index']:3d} {r['structure']:4s} {r['controller']:5s} truth {truth} -> {got}: "
+            f"{'OK' if s['right'] else 'WRONG'} ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--noise", type=float, default=0.01, help="measurement noise, fraction of each channel's RMS")
+    ap.add_argument("--json", type=str, default=None, help="write all cases and scores to this file")
+    args = ap.parse_args(argv)
+    cases = [make_case(i, args.seed) for i in range(args.cases)]
+    t_all = time.perf_counter()
+    with tempfile.TemporaryDirectory() as work:
+        if args.jobs > 1:
+            from concurrent.futures import ProcessPoolExecutor
+
+            with ProcessPoolExecutor(args.jobs) as ex:
+                results = []
+                for r in ex.map(run_case, cases, [work] * len(cases), [args.noise] * len(cases)):
+                    results.append(r)
+                    print(_line(r, score(r)), flush=True)
+        else:
+            results = []
+            for c in cases:
+                results.append(run_case(c, work, args.noise))
+                r = results[-1]
+                s = score(r)
+                print(_line(r, s), flush=True)
+    scores = [score(r) for r in results]
+    with_eff = [s for r, s in zip(results, scores) if r["truth"]]
+    no_eff = [s for r, s in zip(results, scores) if not r["truth"]]
+    perr = [e for s in with_eff if s["right"] for e in s["param_errors"]]
+    mr = [s["misfit_ratio"] for s in with_eff if s["right"] and s["misfit_ratio"]]
+    tr = [s["time_ratio"] for s in with_eff if s["right"] and s["time_ratio"]]
+    td = [r["time_diagnose_s"] for r in results]
+    tg = [r["time_generate_s"] for r in results]
+    summary = {
+        "cases": len(results), "with_effect": len(with_eff), "no_effect": len(no_eff),
+        "right_share": sum(s["right"] for s in with_eff) / max(len(with_eff), 1),
+        "param_error_median": float(np.median(perr)) if perr else None,
+        "param_error_max": float(np.max(perr)) if perr else None,
+        "param_within_15pct_share": float(np.mean(np.array(perr) <= 0.15)) if perr else None,
+        "misfit_ratio_median": float(np.median(mr)) if mr else None,
+        "misfit_ratio_min": float(np.min(mr)) if mr else None,
+        "misfit_ratio_5x_share": float(np.mean(np.array(mr) >= 5)) if mr else None,
+        "time_error_ratio_median": float(np.median(tr)) if tr else None,
+        "false_alarms": sum(s["false_alarm"] for s in no_eff),
+        "diagnose_time_s_median": float(np.median(td)), "diagnose_time_s_max": float(np.max(td)),
+        "case_time_s_max": float(np.max(np.array(td) + np.array(tg))),
+        "errors": [r["error"] for r in results if r["error"]],
+        "wall_s": time.perf_counter() - t_all,
+    }
+    print()
+    print(f"cases: {summary['cases']} ({summary['with_effect']} with concealed effects, "
+          f"{summary['no_effect']} without)")
+    print(f"right effect and location: {100 * summary['right_share']:.0f} %   (target >= 90 %)")
+    if perr:
+        print(f"parameter error: median {100 * summary['param_error_median']:.2f} %, max "
+              f"{100 * summary['param_error_max']:.1f} %, within 15 %: {100 * summary['param_within_15pct_share']:.0f} %")
+    if mr:
+        print(f"misfit reduction (validation rerun, FRF log magnitude): median {summary['misfit_ratio_median']:.1f}x, "
+              f"min {summary['misfit_ratio_min']:.1f}x, >= 5x in {100 * summary['misfit_ratio_5x_share']:.0f} % of cases")
+    if tr:
+        print(f"time-domain error reduction: median {summary['time_error_ratio_median']:.1f}x")
+    print(f"false alarms on no-effect cases: {summary['false_alarms']} of {summary['no_effect']}")
+    print(f"time per case: diagnosis median {summary['diagnose_time_s_median']:.0f} s, max "
+          f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s")
+    if summary["errors"]:
+        print("errors:", summary["errors"])
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"summary": summary, "cases": results, "scores": scores}, fh, indent=1, default=str)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
