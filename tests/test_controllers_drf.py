@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from _controller_systems import chain
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -14,29 +16,10 @@ from controllers.lq import lqr
 from controllers.performance import closed_loop_damping, performance_gradient
 from controllers.statespace import modal_initial_states, state_space
 
+
 ZL = 0.05
 NM = 5
 DT_S = 0.0005  # [s], 2 kHz engine
-
-
-def chain(n=5, zeta=0.01, act=None):
-    """Fixed-free chain of masses and springs with modal damping ``zeta`` (synthetic test plant)."""
-    m = np.diag(np.linspace(1.0, 1.5, n))
-    ks = np.linspace(2.0, 1.0, n)
-    k = np.zeros((n, n))
-    for i in range(n):
-        k[i, i] += ks[i]
-        if i + 1 < n:
-            k[i, i] += ks[i + 1]
-            k[i, i + 1] -= ks[i + 1]
-            k[i + 1, i] -= ks[i + 1]
-    w2, phi = scipy.linalg.eigh(k, m)
-    c = m @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ m
-    act = (0, n // 2, n - 1) if act is None else act
-    U = np.zeros((n, len(act)))
-    for j, a in enumerate(act):
-        U[a, j] = 1.0
-    return m, c, k, U
 
 
 @pytest.fixture(scope="module")
@@ -293,7 +276,6 @@ def test_beam_in_centiseconds_mfdrf_and_lqdrf(beam_cs):
                 n_starts=2, time_unit_s=0.01)
     assert lq6.converged, lq6.message
     assert_feasible(lq6, ss, zeta_min=0.03, n_modes=6)
-
 
 
 @pytest.mark.slow

@@ -3,6 +3,8 @@ reduced controller on the full model (4.23-4.29) and spillover."""
 
 from __future__ import annotations
 
+from _controller_systems import chain
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -11,26 +13,6 @@ from scipy.integrate import solve_ivp
 from controllers.errors import MatrixPropertyError, ShapeError, StabilizabilityError
 from controllers.lq import kalman_filter, lqg, lqr, lqr_weight_for_damping, reduced_on_full
 from controllers.statespace import modal_initial_states, state_space
-
-
-def chain(n=5, zeta=0.01, act=None):
-    """Fixed-free chain of masses and springs with modal damping ``zeta`` (synthetic test plant)."""
-    m = np.diag(np.linspace(1.0, 1.5, n))
-    ks = np.linspace(2.0, 1.0, n)
-    k = np.zeros((n, n))
-    for i in range(n):
-        k[i, i] += ks[i]
-        if i + 1 < n:
-            k[i, i] += ks[i + 1]
-            k[i, i + 1] -= ks[i + 1]
-            k[i + 1, i] -= ks[i + 1]
-    w2, phi = scipy.linalg.eigh(k, m)
-    c = m @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ m
-    act = (0, n // 2, n - 1) if act is None else act
-    U = np.zeros((n, len(act)))
-    for j, a in enumerate(act):
-        U[a, j] = 1.0
-    return m, c, k, U
 
 
 def symmetric_chain(n=5, zeta=0.0):
