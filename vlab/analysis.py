@@ -35,6 +35,7 @@ def velocity_frf(
     outputs : ndarray, shape (n_out, n)
         Velocity selection Cv.
     freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz].
 
     Returns
     -------
@@ -67,9 +68,29 @@ def continuous_controller_frf(
     controller ``x' = a x + b y``, ``u = -c x`` (LQG, Eqs. 4.8-4.11: a = A - BF - KC,
     b = K, c = F).
 
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_f,)
+        Frequencies [Hz].
+    d : ndarray, shape (n_u, n_y), optional
+        Direct rate feedback gain D [N*s/m] (``y`` in m/s, ``u`` in N); used
+        when given, ``a``, ``b``, ``c`` are then ignored.
+    a : ndarray, shape (n_x, n_x), optional
+        Controller (observer) state matrix [1/s].
+    b : ndarray, shape (n_x, n_y), optional
+        Controller input matrix (Kalman filter gain K), acting on ``y`` [m/s].
+    c : ndarray, shape (n_u, n_x), optional
+        Controller output matrix (regulator gain), force [N] per unit state.
+
     Returns
     -------
     ndarray, complex, shape (n_f, n_u, n_y)
+        ``K(jw)`` [N/(m/s)].
+
+    Raises
+    ------
+    ModelError
+        If neither ``d`` nor all of ``a``, ``b`` and ``c`` are given.
     """
     freq_hz = np.asarray(freq_hz, dtype=float)
     if d is not None:
@@ -101,6 +122,8 @@ def sampled_data_controller_frf(
 
     Parameters
     ----------
+    freq_hz : array_like, shape (n_f,)
+        Frequencies [Hz], below the Nyquist frequency ``1 / (2 T)``.
     f11, f12, f21, f22 : ndarray
         Eq. (5.1) partitions, shapes (n_u, n_y), (n_u, n_x), (n_x, n_y), (n_x, n_x).
     period_s : float
@@ -113,6 +136,10 @@ def sampled_data_controller_frf(
     Returns
     -------
     ndarray, complex, shape (n_f, n_u, n_y)
+        ``K(jw)`` [N/(m/s)] when ``F11``-``F22`` map ``y`` [m/s] to ``u`` [N].
+
+    Source: Eqs. (5.1) and (5.13) (``z = e^{s T}``), Sec. 5.3 (delay 1.35 T,
+    677 Hz RC filter, zero-order hold DAC).
     """
     freq_hz = np.asarray(freq_hz, dtype=float)
     nx = f22.shape[0]
@@ -176,6 +203,18 @@ def closed_loop_modes(
     :func:`continuous_controller_frf`); None = open loop. Each open-loop mode
     is paired with its closed-loop eigenvalue by eigenvector overlap
     (:func:`controllers.performance.spillover`).
+
+    Parameters
+    ----------
+    m, c, k : ndarray, shape (n, n)
+        Mass [kg], damping [N*s/m] and stiffness [N/m] of the plant.
+    inputs : ndarray, shape (n, n_u)
+        Load distribution U (force inputs at the actuators).
+    outputs : ndarray, shape (n_y, n)
+        Velocity selection Cv (collocated sensors).
+    controller : dict or None
+        ``{"d": D}`` with D (n_u, n_y) [N*s/m], or ``{"a", "b", "c"}`` as in
+        :func:`continuous_controller_frf`; None for the open loop.
 
     Returns
     -------

@@ -60,6 +60,7 @@ def modal_damping_matrix(m: np.ndarray, k: np.ndarray, ratios: np.ndarray) -> np
     Parameters
     ----------
     m, k : ndarray, shape (n, n)
+        Mass [kg] and stiffness [N/m] matrices.
     ratios : ndarray, shape (n,)
         Damping ratio of every mode, in frequency order.
 
@@ -116,7 +117,22 @@ def _apply(spec: StructureSpec, x: np.ndarray) -> StructureSpec:
 
 @dataclass(frozen=True)
 class BccFit:
-    """Result of :func:`calibrate_bcc`: parameter values (thesis units) and the fit."""
+    """Result of :func:`calibrate_bcc`: parameter values (thesis units) and the fit.
+
+    Attributes
+    ----------
+    values : dict[str, float]
+        Spec path (see :data:`BCC_PARAMETERS`) -> fitted value in thesis units
+        (lbf, in, or lbf of weight for masses).
+    frequencies_hz : ndarray, shape (6,)
+        First six natural frequencies of the fitted model [Hz] (vs Table 1, analytical).
+    damping_mfdrf : ndarray, shape (6,)
+        Closed-loop damping ratios [-] with the Table 7 MFDRF gains (vs Table 8).
+    damping_lqdrf : ndarray, shape (6,)
+        Closed-loop damping ratios [-] with the Table 7 LQDRF gains (vs Table 8).
+    on_bound : tuple of str
+        Spec paths of the parameters that ended on a bound of the fit.
+    """
 
     values: dict[str, float]
     frequencies_hz: np.ndarray
@@ -128,6 +144,12 @@ class BccFit:
 def bcc_residuals(fe: FEModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Relative errors against Table 1 (analytical) and Table 8 (MFDRF, LQDRF).
 
+    Parameters
+    ----------
+    fe : FEModel
+        An FE model of the BCC (the spec's actuators must be points 5, 7, 9,
+        the order of Table 7).
+
     Returns
     -------
     freq_err : ndarray, shape (6,)
@@ -136,6 +158,11 @@ def bcc_residuals(fe: FEModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
         Closed-loop damping ratios with the Table 7 gains.
     zeta_err : ndarray, shape (12,)
         ``zeta / zeta_Table8 - 1`` for MFDRF then LQDRF.
+
+    Raises
+    ------
+    DataFileError
+        If a published table is missing or malformed.
     """
     f_ref = column("table1_bcc_frequencies.csv", "analytical_hz")
     z_mf = column("table8_bcc_damping.csv", "mfdrf")
@@ -151,6 +178,15 @@ def calibrate_bcc(spec: StructureSpec | None = None, *, weight_damping: float = 
 
     Residuals: frequency errors relative to Table 1 (analytical) and, weighted
     by ``weight_damping``, damping-ratio errors relative to Table 8.
+
+    Parameters
+    ----------
+    spec : StructureSpec, optional
+        The BCC spec to start from (default: the shipped ``bcc.toml``); the
+        parameters of :data:`BCC_PARAMETERS` are replaced in it.
+    weight_damping : float
+        Weight [-] of the 12 relative damping errors against the 6 relative
+        frequency errors.
 
     Returns
     -------
@@ -181,7 +217,19 @@ def calibrate_bcc(spec: StructureSpec | None = None, *, weight_damping: float = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m vlab.calibration bcc``: fit and print the values and the fit."""
+    """``python -m vlab.calibration bcc``: fit and print the values and the fit.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments without the program name (default
+        ``sys.argv[1:]``); must be ``["bcc"]``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success, 2 (usage printed to stderr) for other arguments.
+    """
     argv = sys.argv[1:] if argv is None else argv
     if argv != ["bcc"]:
         print("usage: python -m vlab.calibration bcc", file=sys.stderr)

@@ -41,7 +41,37 @@ PERIOD_S = 0.5e-3
 
 @dataclass(frozen=True)
 class ThesisSettings:
-    """Design settings of one structure (thesis units: in, lbf, cs)."""
+    """Design settings of one structure (thesis units: in, lbf, cs).
+
+    Values of Sec. 6.1 (BCC) and Sec. 6.2 (grid); the weights are meaningful
+    only in the thesis unit system (states in in and in/cs, forces in lbf).
+
+    Attributes
+    ----------
+    zeta_min : float
+        Minimum closed-loop damping ratio zeta_L [-] required of the first
+        ``n_modes`` modes (0.03; the constraint of Eqs. 4.32 and 4.38).
+    n_modes : int
+        Number n_m of modes the damping constraint applies to.
+    n_f : int
+        Number of modal initial conditions (first open-loop mode shapes, 1 in
+        maximum deflection, Sec. 4.1) for the performance indices J_i (Eq. 4.37).
+    q_scale : float
+        State weight ``Q = q_scale I`` (BCC: 1; grid: 0.01).
+    r : float
+        Control weight ``R = r I`` (BCC: 0.22; grid: 0.84).
+    v1 : float
+        State excitation noise intensity ``V1 = v1 I`` of the Kalman filter (Eq. 4.9).
+    v2 : float
+        Measurement noise intensity ``V2 = v2 I`` of the Kalman filter (Eq. 4.9).
+    alpha : float
+        Alpha shift of the Kalman filter poles [1/cs] (Eq. 4.9; BCC 0.2, grid 0.05).
+    default_model : str
+        Design model used when none is asked for (``"exact"``).
+    r_corrected : float or None
+        Control weight for designs on the corrected Guyan model (grid: 1.387,
+        Table 15); None = use ``r``.
+    """
 
     zeta_min: float
     n_modes: int
@@ -63,7 +93,27 @@ THESIS_SETTINGS = {
 
 @dataclass(frozen=True)
 class DesignModel:
-    """A second-order model in SI with its DOF labels (the design basis)."""
+    """A second-order model in SI with its DOF labels (the design basis).
+
+    ``m q'' + c q' + k q = U u`` (Eq. 3.1) on n_d DOFs: the full FE model or a
+    reduced one.
+
+    Attributes
+    ----------
+    name : str
+        ``"full"``, ``"exact"``, ``"guyan"`` or ``"corrected-guyan"``.
+    m : ndarray, shape (n_d, n_d)
+        Mass matrix [kg] (rotational DOFs [kg*m^2]).
+    c : ndarray, shape (n_d, n_d)
+        Damping matrix [N*s/m] (open-loop modal damping of the spec).
+    k : ndarray, shape (n_d, n_d)
+        Stiffness matrix [N/m] (rotational DOFs [N*m/rad]).
+    labels : tuple of (node, dof), length n_d
+        Label of every DOF, e.g. ``(5, "w")``.
+    actuator_rows : tuple of int, length n_c
+        Index of each actuator's ``w`` DOF in the model, in actuator order
+        (the non-zero rows of U).
+    """
 
     name: str
     m: np.ndarray
@@ -90,12 +140,18 @@ class ControllerDesign:
     gamma, beta : float or None
         MFDRF / LQDRF objectives (thesis units: lb*s/in, and J).
     converged : bool
+        Whether the design's optimiser converged (always True for LQR/LQG).
     message : str
+        The optimiser's or the design's message.
     f11, f12, f21, f22 : ndarray
         Eq. (5.1) coefficients with ``y`` in m/s and ``u`` in N.
     continuous : dict
         Continuous controller for analysis, ``u = -K(s) y``: ``{"d": D}`` or
         ``{"a", "b", "c"}`` (SI, seconds).
+    extra : dict
+        Further numbers of the design, e.g. ``"gain_thesis_lb_s_per_in"`` and
+        ``"active_constraints"`` (DRF), ``"gain_thesis"`` (LQR),
+        ``"kalman_poles_max_real_per_s"`` and the spillover results (LQG).
     """
 
     structure: str
@@ -128,7 +184,26 @@ def _unit_scaling(labels) -> np.ndarray:
 
 
 def to_thesis_units(a: np.ndarray, labels) -> np.ndarray:
-    """Convert a SI mass/damping/stiffness matrix to in-lbf units: ``S a S / (lbf * in)``."""
+    """Convert a SI mass/damping/stiffness matrix to in-lbf units: ``S a S / (lbf * in)``.
+
+    ``S = diag(s_i)`` with ``s_i`` = 1 in in metres for translations (``w``)
+    and 1 for rotations, so that ``q_SI = S q_thesis`` (Sec. 3.1 units; the
+    time unit stays the second here, :func:`controllers.statespace.state_space`
+    applies the centisecond).
+
+    Parameters
+    ----------
+    a : ndarray, shape (n_d, n_d)
+        Mass [kg], damping [N*s/m] or stiffness [N/m] matrix (rotational DOFs
+        in rad).
+    labels : sequence of (node, dof), length n_d
+        DOF labels; a dof of ``"w"`` is a translation, anything else a rotation.
+
+    Returns
+    -------
+    ndarray, shape (n_d, n_d)
+        The matrix in lbf*s^2/in, lbf*s/in or lbf/in (rotations in rad).
+    """
     s = _unit_scaling(labels)
     return a * np.outer(s, s) / (LBF_N * INCH_M)
 
@@ -141,10 +216,25 @@ def design_model(fe: FEModel, model: str, *, measured_modes=None) -> DesignModel
     Eq. 3.6 (exact). ``corrected-guyan`` needs ``measured_modes`` =
     (frequencies_hz (n_m,), shapes (n_R, n_m) at the Guyan masters).
 
+    Parameters
+    ----------
+    fe : FEModel
+        The full FE model; its spec gives the actuators, damping and masters.
+    model : str
+        ``"full"``, ``"exact"``, ``"guyan"`` or ``"corrected-guyan"`` (Sec. 3).
+    measured_modes : (ndarray, ndarray), optional
+        Measured frequencies [Hz], shape (n_m,), and mode shapes at the Guyan
+        masters, shape (n_R, n_m), for the Baruch correction (Eqs. 3.17-3.20).
+
+    Returns
+    -------
+    DesignModel
+
     Raises
     ------
     ReductionError
-        Unknown model, or corrected-guyan without measured modes.
+        Unknown model, or corrected-guyan without measured modes, or masters
+        that do not include every actuator.
     """
     spec = fe.spec
     acts = spec.instrumentation.actuators

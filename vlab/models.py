@@ -22,12 +22,43 @@ REDUCTIONS = ("full", "exact", "guyan")
 
 @lru_cache(maxsize=8)
 def nominal_fe_model(name: str) -> FEModel:
-    """FE model of a shipped structure (``"bcc"`` or ``"grid"``), cached. Raises SpecError."""
+    """FE model of a shipped structure (``"bcc"`` or ``"grid"``), cached. Raises SpecError.
+
+    Parameters
+    ----------
+    name : str
+        Structure name, a file ``assets/structures/<name>.toml``.
+
+    Returns
+    -------
+    FEModel
+        Shared between calls: treat it as read-only.
+
+    Raises
+    ------
+    SpecError
+        For an unknown or invalid structure file.
+    ModelError
+        If the model cannot be assembled.
+    """
     return build_fe_model(load_spec(name))
 
 
 def master_indices(fe: FEModel, method: str) -> list[int]:
     """Global indices of the spec's master DOFs for ``method`` ("exact" or "guyan").
+
+    Parameters
+    ----------
+    fe : FEModel
+        The full FE model; ``fe.spec.master_dofs`` lists the masters as
+        ``(point, dof)`` pairs (grid: Sec. 3.3).
+    method : str
+        ``"exact"`` or ``"guyan"``.
+
+    Returns
+    -------
+    list of int, length n_R
+        Indices into the model's free DOFs, in the spec's order.
 
     Raises
     ------
@@ -50,6 +81,7 @@ def reduce_model(fe: FEModel, method: str, *, zeta: np.ndarray | None = None) ->
     Parameters
     ----------
     fe : FEModel
+        The full FE model, with the spec's master sets.
     method : {"exact", "guyan"}
         Exact reduction (Eqs. 3.5-3.8) or Guyan condensation (Sec. 3.1.2).
     zeta : ndarray, shape (n_R,), optional

@@ -278,7 +278,25 @@ class ReducedModel:
         return self.T.shape[0]
 
     def with_(self, **changes: Any) -> "ReducedModel":
-        """Return a copy with the given fields replaced (e.g. ``m=..., k=...``)."""
+        """Return a copy with the given fields replaced (e.g. ``m=..., k=...``).
+
+        Parameters
+        ----------
+        **changes
+            Field name -> new value (``m``, ``k``, ``T``, ``master``, ``labels``,
+            ``c``, ``method``); the copy is checked and frozen like a new model.
+
+        Returns
+        -------
+        ReducedModel
+
+        Raises
+        ------
+        ModelError
+            If the changed fields are inconsistent (shapes, symmetry, finiteness).
+        TypeError
+            For a name that is not a field.
+        """
         return dataclasses.replace(self, **changes)
 
     def natural_frequencies_hz(self) -> np.ndarray:

@@ -55,7 +55,30 @@ def read_table(filename: str) -> dict[str, tuple]:
 
 
 def column(filename: str, name: str, *, numeric_rows_only: bool = True) -> np.ndarray:
-    """One column as a float array (rows whose first field is not numeric dropped)."""
+    """One column as a float array (rows whose first field is not numeric dropped).
+
+    Parameters
+    ----------
+    filename : str
+        File name in ``assets/data`` (e.g. ``"table8_bcc_damping.csv"``).
+    name : str
+        Column name (from the header line).
+    numeric_rows_only : bool
+        Keep only rows whose first field is a number (drops e.g. an
+        "Avg. Error" row); False keeps every row.
+
+    Returns
+    -------
+    ndarray, shape (n_rows,)
+        The values in the table's units as printed (Hz, damping ratio, ...).
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing or malformed, or has no column ``name``.
+    ValueError
+        If a kept value is not a number.
+    """
     t = read_table(filename)
     first = next(iter(t.values()))
     keep = [i for i, v in enumerate(first) if isinstance(v, float)] if numeric_rows_only else range(len(first))

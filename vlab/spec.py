@@ -77,6 +77,32 @@ class Section:
     rigidity, ``rho_a`` mass per length [kg/m], ``rho_ip`` polar mass moment of
     inertia per length [kg*m], ``ea`` the axial rigidity [N], and
     ``shear_stiffness`` kGA [N] or None for Euler-Bernoulli.
+
+    Attributes
+    ----------
+    name : str
+        Key of the section in the spec's ``[sections]`` table.
+    width : Quantity
+        Width b [m], the in-plane dimension (e.g. 2 in for the BCC beam, Sec. 2.1).
+    thickness : Quantity
+        Thickness t [m], the out-of-plane dimension (t <= b).
+    ei : Quantity
+        Out-of-plane flexural rigidity [N*m^2]: given (e.g. 9060 lb-in^2 for
+        the BCC's steel beam, Sec. 2.1) or ``E b t^3 / 12``.
+    ei_inplane : float
+        In-plane flexural rigidity ``E t b^3 / 12`` [N*m^2].
+    gj : Quantity
+        St-Venant torsional rigidity [N*m^2]: given or
+        ``G b t^3 / 3 (1 - 0.63 t / b)``.
+    ea : float
+        Axial rigidity ``E b t`` [N].
+    rho_a : float
+        Mass per unit length ``rho b t`` [kg/m].
+    rho_ip : float
+        Polar mass moment of inertia per unit length ``rho b t (b^2 + t^2) / 12`` [kg*m].
+    shear_stiffness : Quantity or None
+        Shear rigidity kGA [N] for a shear-flexible (Timoshenko) member, or
+        None for Euler-Bernoulli (Sec. 2.2.1).
     """
 
     name: str
@@ -101,7 +127,24 @@ class RigidInsert:
 
 @dataclass(frozen=True)
 class Member:
-    """A polyline of beam elements through ``points`` (ids), one section."""
+    """A polyline of beam elements through ``points`` (ids), one section.
+
+    Attributes
+    ----------
+    id : str
+        Member name (unique in the spec).
+    points : tuple of int
+        Point ids along the member, at least two; each pair of consecutive
+        points is one segment.
+    section : str
+        Name of its :class:`Section` in ``StructureSpec.sections``.
+    elements_per_segment : int
+        Number of beam elements each segment is cut into (>= 1; BCC: 1, giving
+        the eight 10-inch beam elements of Sec. 2.1.1 between points 1-9).
+    rigid_inserts : tuple of RigidInsert
+        Rigid inserts at points of this member (the BCC clamp's "two one inch
+        rigid inserts", Sec. 2.1.1); empty for none.
+    """
 
     id: str
     points: tuple[int, ...]
@@ -116,6 +159,23 @@ class StringElement:
 
     ``tension`` is a :class:`Quantity` or None when the string is a support
     whose tension follows from equilibrium under gravity ("reaction").
+    Modelled as a string-in-tension element (Sec. 2.1.1).
+
+    Attributes
+    ----------
+    id : str
+        String name (e.g. ``"bottom_cables"``).
+    point : int
+        Point id where the string is attached to the structure.
+    direction : (float, float)
+        Unit vector in the plane (x, y) from ``point`` towards the ground anchor.
+    length : Quantity
+        Length from the point to the anchor [m].
+    tension : Quantity or None
+        Tension T [N], or None for a "reaction" string (tension from the
+        in-plane gravity statics, :func:`vlab.fe.statics.solve_gravity`).
+    rho_a : Quantity
+        Mass per unit length [kg/m], from ``count * density * pi d^2 / 4``.
     """
 
     id: str
@@ -128,7 +188,21 @@ class StringElement:
 
 @dataclass(frozen=True)
 class LumpedMass:
-    """A rigid mass at a point: ``mass`` [kg], rotary inertias [kg*m^2]."""
+    """A rigid mass at a point: ``mass`` [kg], rotary inertias [kg*m^2].
+
+    Attributes
+    ----------
+    id : str
+        Mass name (e.g. ``"coil5"``).
+    point : int
+        Point id it sits at.
+    mass : Quantity
+        Mass [kg] (a weight given in lbf or N is divided by g).
+    inertia_rx : Quantity or None
+        Rotary inertia about the x axis [kg*m^2], added to the ``rx`` DOF; None = 0.
+    inertia_ry : Quantity or None
+        Rotary inertia about the y axis [kg*m^2], added to the ``ry`` DOF; None = 0.
+    """
 
     id: str
     point: int
@@ -143,6 +217,22 @@ class Crosspiece:
 
     The FE model represents it as a single-DOF spring-mass (Sec. 2.1.1); the
     MuJoCo plant as two flexible arms.
+
+    Attributes
+    ----------
+    id : str
+        Crosspiece name; also the node of its extra FE DOF.
+    point : int
+        Point id where it is clamped to the beam (BCC: 20 in above the base, Sec. 2.1).
+    arm_length : Quantity
+        Length of each of the two arms [m] (BCC: 15 in, the 32-inch
+        crosspiece of Sec. 2.1 less the clamp).
+    section : str
+        Name of the arms' :class:`Section` (EI 2680 lb-in^2, Sec. 2.1).
+    tip_mass : Quantity
+        Tip mass at the end of each arm [kg].
+    clamp_mass : Quantity
+        Mass of the clamp [kg] (>= 0), rigid with ``point``.
     """
 
     id: str
@@ -155,7 +245,21 @@ class Crosspiece:
 
 @dataclass(frozen=True)
 class Spring:
-    """A grounded spring on one DOF of a point (N/m or N*m/rad)."""
+    """A grounded spring on one DOF of a point (N/m or N*m/rad).
+
+    E.g. the grid plates' pendulous stiffness W*Y at points 13 and 22 (Sec. 2.2.1).
+
+    Attributes
+    ----------
+    id : str
+        Spring name.
+    point : int
+        Point id it acts on.
+    dof : str
+        The DOF: ``"w"``, ``"rx"`` or ``"ry"``.
+    stiffness : Quantity
+        Stiffness [N/m] on ``w``, [N*m/rad] on a rotation.
+    """
 
     id: str
     point: int
@@ -165,7 +269,18 @@ class Spring:
 
 @dataclass(frozen=True)
 class Support:
-    """Out-of-plane DOFs fixed at a point, and whether it is pinned in-plane."""
+    """Out-of-plane DOFs fixed at a point, and whether it is pinned in-plane.
+
+    Attributes
+    ----------
+    point : int
+        Point id.
+    fixed : tuple of str
+        DOFs removed from the out-of-plane model (``"w"``, ``"rx"``, ``"ry"``).
+    inplane : str
+        Restraint in the in-plane gravity statics: ``"free"``, ``"pinned"``
+        (u, v fixed) or ``"clamped"`` (u, v and the in-plane rotation fixed).
+    """
 
     point: int
     fixed: tuple[str, ...]
@@ -174,7 +289,22 @@ class Support:
 
 @dataclass(frozen=True)
 class Instrumentation:
-    """Actuator/sensor point ids, excitation and response points (Sec. 5.4)."""
+    """Actuator/sensor point ids, excitation and response points (Sec. 5.4).
+
+    Attributes
+    ----------
+    actuators : tuple of int
+        Points with a force coil, in channel order (BCC: 5, 7, 9 as in
+        Table 7; grid: joints 1, 2, 4, 5, 8); each has a collocated velocity sensor.
+    sensors : tuple of int
+        Points with a velocity sensor.
+    excitation : int
+        Actuator point that also carries the excitation (BCC: 9; grid: 4; Sec. 5.4.2).
+    response : int
+        Point whose FRF is shown by default.
+    source : str
+        Provenance (sections of the dissertation).
+    """
 
     actuators: tuple[int, ...]
     sensors: tuple[int, ...]
@@ -185,7 +315,18 @@ class Instrumentation:
 
 @dataclass(frozen=True)
 class Damping:
-    """Open-loop modal damping ratios for the first modes, and a default for the rest."""
+    """Open-loop modal damping ratios for the first modes, and a default for the rest.
+
+    Attributes
+    ----------
+    modal_ratios : tuple of float
+        Damping ratios zeta [-] of the first modes, in frequency order, each
+        in [0, 1) (experimental values of Tables 1 and 3).
+    default_ratio : float
+        Damping ratio [-] of every higher mode.
+    source : str
+        Provenance of the values.
+    """
 
     modal_ratios: tuple[float, ...]
     default_ratio: float
@@ -194,7 +335,53 @@ class Damping:
 
 @dataclass(frozen=True)
 class StructureSpec:
-    """The whole definition of one structure, SI. Immutable; use :meth:`replace`."""
+    """The whole definition of one structure, SI. Immutable; use :meth:`replace`.
+
+    Attributes
+    ----------
+    name : str
+        Short name (``"bcc"``, ``"grid"``).
+    title : str
+        Descriptive title.
+    path : Path or None
+        File it was loaded from (None when built from a dict); named in errors.
+    active_dofs : tuple of str
+        Out-of-plane DOFs modelled at every node, a subset of
+        ``("w", "rx", "ry")`` that contains ``"w"``.
+    gravity_direction : (float, float)
+        Unit vector of gravity in the plane (x, y); (0, 0) for no gravity.
+    points : dict[int, (float, float)]
+        Point id -> coordinates (x, y) [m] (numbering of the dissertation).
+    sections : dict[str, Section]
+        Sections by name.
+    members : tuple of Member
+        Beam members.
+    strings : tuple of StringElement
+        Strings in tension to ground.
+    masses : tuple of LumpedMass
+        Lumped masses and rotary inertias.
+    crosspieces : tuple of Crosspiece
+        Crosspieces (BCC only).
+    springs : tuple of Spring
+        Grounded springs.
+    supports : tuple of Support
+        Supports.
+    instrumentation : Instrumentation or None
+        Actuator, sensor, excitation and response points.
+    damping : Damping or None
+        Open-loop modal damping ratios.
+    reference : dict[str, str]
+        Name -> file in ``assets/data`` of a published table (e.g.
+        ``"frequencies": "table1_bcc_frequencies.csv"``).
+    master_dofs : dict[str, tuple of (int, str)]
+        Reduction method (``"exact"``, ``"guyan"``) -> master DOFs as
+        ``(point, dof)`` pairs (grid: Sec. 3.3).
+    mujoco : dict[str, Any]
+        The ``[mujoco]`` table as read: options of the MuJoCo plant builder
+        (segments, timestep, ...; see :class:`vlab.sim.builder.SimOptions`).
+    raw : dict[str, Any]
+        The parsed TOML document (not compared, not shown in ``repr``).
+    """
 
     name: str
     title: str
@@ -217,7 +404,18 @@ class StructureSpec:
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def replace(self, **changes: Any) -> "StructureSpec":
-        """Return a copy with fields replaced (the spec itself never changes)."""
+        """Return a copy with fields replaced (the spec itself never changes).
+
+        Parameters
+        ----------
+        **changes
+            Field name -> new value, as for :func:`dataclasses.replace`.
+
+        Returns
+        -------
+        StructureSpec
+            The new spec.
+        """
         return dataclasses.replace(self, **changes)
 
     def check_point(self, point: int, where: str) -> int:
@@ -417,7 +615,29 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
 
 
 def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> StructureSpec:
-    """Build a :class:`StructureSpec` from a parsed TOML document (see :func:`load_spec`)."""
+    """Build a :class:`StructureSpec` from a parsed TOML document (see :func:`load_spec`).
+
+    Parameters
+    ----------
+    doc : dict
+        The document, as ``tomllib.loads`` returns it; physical values as
+        ``{ value, unit, source }`` tables, converted to SI here.
+    path : Path, optional
+        File the document came from: stored in the spec and named in errors
+        (``"<dict>"`` when None).
+
+    Returns
+    -------
+    StructureSpec
+
+    Raises
+    ------
+    SpecError
+        If a field is missing, unknown or mistyped, a unit does not fit its
+        quantity, a value is not positive (or negative where zero is allowed),
+        a point, section or DOF is unknown, a referenced data file is missing,
+        or member ids repeat; the message names the file and the dotted field.
+    """
     file = str(path) if path else "<dict>"
     top = _Reader(file, doc, "")
     s = top.sub("structure")

@@ -64,6 +64,11 @@ class FEModel:
     def force_input(self, points: list[int] | tuple[int, ...]) -> np.ndarray:
         """Load distribution matrix U of Eq. (3.1) for out-of-plane forces at ``points``.
 
+        Parameters
+        ----------
+        points : list or tuple of int
+            Point ids of the force inputs, in column order.
+
         Returns
         -------
         ndarray, shape (n, len(points))
@@ -82,6 +87,11 @@ class FEModel:
 
 def build_fe_model(spec: StructureSpec) -> FEModel:
     """Assemble the FE model of ``spec``.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure definition (SI).
 
     Returns
     -------
@@ -189,10 +199,24 @@ def crosspiece_sdof(spec: StructureSpec, c) -> tuple[float, float, float]:
     first clamped mode (:func:`vlab.fe.crosspiece.cantilever_tip_mass_sdof`);
     the rest of the arm mass and the clamp mass ride with the attachment point.
 
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure; supplies the arms' section (EI [N*m^2], mass per
+        length [kg/m]) named by ``c.section``.
+    c : Crosspiece
+        The crosspiece (arm length [m], tip mass [kg] per arm, clamp mass [kg]).
+
     Returns
     -------
     (k, m_eff, m_rest) : tuple of float
         Spring [N/m] and mass on it [kg] for both arms; mass at the point [kg].
+
+    Raises
+    ------
+    KeyError
+        If ``c.section`` is not a section of ``spec`` (a spec from
+        :func:`vlab.spec.load_spec` has been checked for this).
     """
     sec = spec.sections[c.section]
     L = c.arm_length.si

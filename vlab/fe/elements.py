@@ -114,8 +114,24 @@ def bending_mass(rho_a: float, length: float) -> np.ndarray:
 def torsion_stiffness(gj: float, length: float) -> np.ndarray:
     """St-Venant torsion stiffness ``GJ/L [[1, -1], [-1, 1]]``, shape (2, 2) [N*m/rad].
 
-    Raises ModelError for a non-positive GJ or length. Source: linear shape
-    functions, Sec. 2.2.1 (Ref. 53).
+    Parameters
+    ----------
+    gj : float
+        Torsional rigidity GJ [N*m^2].
+    length : float
+        Element length L [m].
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+        Stiffness for the twist DOFs ``[t1, t2]`` [N*m/rad].
+
+    Raises
+    ------
+    ModelError
+        If ``gj`` or ``length`` is not a positive finite number.
+
+    Source: linear shape functions, Sec. 2.2.1 (Ref. 53, Przemieniecki 1968).
     """
     _check_positive("GJ", gj)
     _check_positive("element length", length)
@@ -125,8 +141,24 @@ def torsion_stiffness(gj: float, length: float) -> np.ndarray:
 def torsion_mass(rho_ip: float, length: float) -> np.ndarray:
     """Consistent torsional inertia ``rho*Ip*L/6 [[2, 1], [1, 2]]``, shape (2, 2) [kg*m^2].
 
-    ``rho_ip`` is the polar mass moment of inertia per unit length [kg*m].
-    Raises ModelError for a non-positive value. Source: linear shape functions.
+    Parameters
+    ----------
+    rho_ip : float
+        Polar mass moment of inertia per unit length rho*Ip [kg*m].
+    length : float
+        Element length L [m].
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+        Inertia for the twist DOFs ``[t1, t2]`` [kg*m^2].
+
+    Raises
+    ------
+    ModelError
+        If ``rho_ip`` or ``length`` is not a positive finite number.
+
+    Source: linear shape functions, Sec. 2.2.1 (Ref. 53, Przemieniecki 1968).
     """
     _check_positive("polar inertia per length", rho_ip)
     _check_positive("element length", length)
@@ -219,6 +251,12 @@ def string_matrices(tension: float, length: float, rho_a: float) -> tuple[np.nda
 def local_to_global(ex: float, ey: float) -> np.ndarray:
     """Map global node DOFs to the local DOFs of a member along ``(ex, ey)``.
 
+    Parameters
+    ----------
+    ex, ey : float
+        Components of the member's unit axis ``e`` in the plane (x, y) [-],
+        from node 1 to node 2.
+
     Returns
     -------
     ndarray, shape (6, 6)
@@ -238,6 +276,13 @@ def rigid_offset(offset1: float, offset2: float) -> np.ndarray:
     A rigid insert of length ``a1`` at node 1 (and ``a2`` at node 2) joins the
     node to the flexible part of the member: ``w_end1 = w1 + a1*b1`` and
     ``w_end2 = w2 - a2*b2``; slopes and twists are unchanged.
+
+    Parameters
+    ----------
+    offset1 : float
+        Length ``a1`` of the rigid insert at node 1 [m] (0 for none).
+    offset2 : float
+        Length ``a2`` of the rigid insert at node 2 [m] (0 for none).
 
     Returns
     -------

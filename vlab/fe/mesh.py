@@ -16,6 +16,21 @@ class Element:
 
     ``offsets`` are the rigid-insert lengths [m] at node a and node b; the
     flexible length is ``length - offsets[0] - offsets[1]``.
+
+    Attributes
+    ----------
+    member : str
+        Id of the member it belongs to.
+    a, b : Node
+        End nodes: a point id (int) or a generated interior label (str).
+    section : str
+        Name of its section in ``StructureSpec.sections``.
+    length : float
+        Node-to-node length [m], rigid inserts included.
+    direction : (float, float)
+        Unit vector of the element axis in the plane (x, y), from ``a`` to ``b``.
+    offsets : (float, float)
+        Rigid-insert lengths [m] at ``a`` and ``b`` (Sec. 2.1.1).
     """
 
     member: str
@@ -34,7 +49,16 @@ class Element:
 
 @dataclass(frozen=True)
 class Mesh:
-    """Nodes (point ids and generated interior nodes) and elements."""
+    """Nodes (point ids and generated interior nodes) and elements.
+
+    Attributes
+    ----------
+    nodes : dict[Node, (float, float)]
+        Node -> coordinates (x, y) [m]; the spec's points first, then the
+        interior nodes ``"<member>.<segment>.<k>"``.
+    elements : tuple of Element
+        All elements, member by member, along each member.
+    """
 
     nodes: dict[Node, tuple[float, float]]
     elements: tuple[Element, ...]
@@ -45,6 +69,15 @@ def build_mesh(spec: StructureSpec) -> Mesh:
 
     Interior nodes of a segment subdivided into ``n`` elements are named
     ``"<member>.<segment>.<k>"``.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Points, members and their rigid inserts.
+
+    Returns
+    -------
+    Mesh
 
     Raises
     ------

@@ -52,7 +52,19 @@ class ElementForces:
 
 @dataclass(frozen=True)
 class GravityState:
-    """Result of :func:`solve_gravity`: element forces and string tensions [N]."""
+    """Result of :func:`solve_gravity`: element forces and string tensions [N].
+
+    Attributes
+    ----------
+    element_forces : tuple of ElementForces
+        In-plane pre-stress of every element, in the order of ``mesh.elements``.
+    string_tensions : dict[str, float]
+        String id -> tension [N]: the given value, or the reaction from
+        equilibrium for a "reaction" string.
+    displacements : dict[Node, (float, float, float)]
+        Node (point id or generated label) -> in-plane displacement under
+        gravity ``(u [m], v [m], theta_z [rad])``.
+    """
 
     element_forces: tuple[ElementForces, ...]
     string_tensions: dict[str, float]

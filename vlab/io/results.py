@@ -41,13 +41,38 @@ def _jsonable(o: Any) -> Any:
 
 
 def write_json(path: Path, obj: dict) -> Path:
-    """Write ``obj`` as indented JSON (NaN -> null). Returns the path."""
+    """Write ``obj`` as indented JSON (NaN -> null). Returns the path.
+
+    Parameters
+    ----------
+    path : Path
+        File to write (replaced if it exists).
+    obj : dict
+        Data; numpy arrays and scalars and Paths are converted, complex arrays
+        become ``[re, im]`` pairs, non-finite floats ``null``.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path.write_text(json.dumps(_jsonable(obj), indent=2) + "\n")
     return path
 
 
 def experiment_summary(result) -> dict:
-    """The results.json object of an :class:`~vlab.lab.experiment.ExperimentResult`."""
+    """The results.json object of an :class:`~vlab.lab.experiment.ExperimentResult`.
+
+    Parameters
+    ----------
+    result : ExperimentResult
+        The experiment.
+
+    Returns
+    -------
+    dict
+        The stable keys listed in the module docstring (without ``files``).
+    """
     cfg = result.config
     d = result.design
     ch = cfg.chain
@@ -76,7 +101,26 @@ def experiment_summary(result) -> dict:
 
 
 def report_markdown(summary: dict) -> str:
-    """A markdown report of an experiment (tables in the form of Table 10)."""
+    """A markdown report of an experiment (tables in the form of Table 10).
+
+    Parameters
+    ----------
+    summary : dict
+        The results.json object (:func:`experiment_summary`; keys listed in
+        the module docstring).
+
+    Returns
+    -------
+    str
+        The report: settings, one row per mode (frequencies [Hz], damping
+        ratios, their errors, peak level ratio) and the average peak level
+        error (Tables 10, 19-21), then any warnings.
+
+    Raises
+    ------
+    KeyError
+        If ``summary`` lacks a key of results.json.
+    """
     lines = [
         f"# vlab experiment: {summary['structure']}, {summary['controller']}",
         "",
@@ -121,10 +165,31 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     ``results.json``, ``report.md``, ``frf.png`` (analysis over experiment, log
     magnitude, as Figs. 22-31) and ``run.rrd`` (rerun).
 
+    Parameters
+    ----------
+    result : ExperimentResult
+        The experiment (:func:`vlab.lab.experiment.run_experiment`).
+    spec : StructureSpec
+        The structure, for the geometry drawn in the rerun recording.
+    out_dir : Path
+        Output folder; created with its parents if missing.
+    spawn : bool
+        Open the rerun viewer live while logging.
+    overwrite : bool
+        Replace existing UFF files (passed to the UFF writers); with False an
+        existing ``recording.uff`` or ``frf.uff`` is an error.
+
+    Returns
+    -------
+    dict[str, Path]
+        Output kind (``"recording"``, ``"frf"``, ``"results"``, ``"report"``,
+        ``"figure"``, ``"rerun"``) -> file path.
+
     Raises
     ------
     DataFileError
-        If the folder cannot be created.
+        If the folder cannot be created, or a UFF file cannot be written
+        (e.g. it exists and ``overwrite`` is False).
     """
     from ..viz.figures import frf_figure
     from ..viz.rerun_log import log_experiment, structure_geometry

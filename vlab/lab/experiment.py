@@ -38,7 +38,28 @@ EXCITATIONS = ("random", "sweep", "impulse")
 
 @dataclass(frozen=True)
 class StructureTest:
-    """How a structure is tested (Sec. 5.4): band, resolution, levels, points."""
+    """How a structure is tested (Sec. 5.4): band, resolution, levels, points.
+
+    Attributes
+    ----------
+    band_hz : (float, float)
+        Excitation and comparison band (low, high) [Hz].
+    resolution_hz : float
+        Default FRF frequency resolution [Hz]; one record lasts ``1 / resolution_hz`` [s].
+    rms_n : float
+        RMS of the random excitation force [N] (the sweep amplitude is
+        ``sqrt(2) * rms_n``, the impulse peak ``20 * rms_n``).
+    n_modes : int
+        Number of closed-loop modes in the band compared with the analysis
+        (rows of Tables 10 and 19-21).
+    response_point : int
+        Point id whose FRF is compared (BCC: point 6; grid: joint 4; Sec. 5.4.2).
+    measured_points : tuple of int
+        Point ids whose velocities are recorded (with the actuator points added).
+    response_quantity : str
+        FRF quantity compared: ``"displacement"`` [m/N] (BCC, Fig. 22) or
+        ``"velocity"`` [(m/s)/N] (grid, Figs. 23-31).
+    """
 
     band_hz: tuple[float, float]
     resolution_hz: float
@@ -59,7 +80,43 @@ TESTS = {
 
 @dataclass(frozen=True)
 class ExperimentConfig:
-    """Settings of one experiment (the options of ``vlab experiment``)."""
+    """Settings of one experiment (the options of ``vlab experiment``).
+
+    Attributes
+    ----------
+    structure : str
+        Structure name, a key of :data:`TESTS` (``"bcc"`` or ``"grid"``).
+    controller : str
+        ``"none"`` (open loop), ``"lqg"``, ``"mfdrf"``, ``"lqdrf"`` or
+        ``"lqdrf-diag"`` (:data:`vlab.design.CONTROLLERS`; ``"lqr"`` is refused:
+        it needs the full state).
+    reduction : str or None
+        Design model (``"full"``, ``"exact"``, ``"guyan"``,
+        ``"corrected-guyan"``); None = the thesis's choice
+        (:func:`vlab.design.design_controller`).
+    excitation : str
+        One of :data:`EXCITATIONS`: ``"random"`` (periodic pseudo-random),
+        ``"sweep"`` (sine sweep) or ``"impulse"`` (half-sine pulse), in the
+        structure's band (Sec. 5.4).
+    duration_s : float or None
+        Run length [s]; None = ``periods`` records of ``1 / resolution_hz``.
+    periods : int
+        Number of records of length ``1 / resolution_hz`` [s] run when
+        ``duration_s`` is None (the first is discarded as settling for random
+        excitation).
+    chain : HardwareChain
+        Hardware between controller and coils (Sec. 5.3).
+    seed : int
+        Seed of the excitation, the sensor noise and the DRF optimisers' multi-start.
+    plant : str
+        ``"mujoco"`` (MuJoCo plant) or ``"linear"`` (the FE model stepped exactly).
+    mjcf : Path or None
+        An exported and possibly edited MJCF file to run instead of the plant
+        built from the spec (``"mujoco"`` only).
+    resolution_hz : float or None
+        FRF frequency resolution [Hz]; None = the structure's
+        :attr:`StructureTest.resolution_hz`.
+    """
 
     structure: str = "bcc"
     controller: str = "mfdrf"
@@ -76,7 +133,40 @@ class ExperimentConfig:
 
 @dataclass(frozen=True)
 class ExperimentResult:
-    """Everything an experiment produced (see :func:`vlab.io.results.write_outputs`)."""
+    """Everything an experiment produced (see :func:`vlab.io.results.write_outputs`).
+
+    Attributes
+    ----------
+    config : ExperimentConfig
+        The settings, with ``duration_s`` and ``resolution_hz`` filled in.
+    loop : LoopResult
+        The run: recording at the controller rate, commands and displacements.
+    frfs : dict[str, FRF]
+        H1 velocity FRFs [(m/s)/N] from the excitation force, keyed
+        ``"vel<point>"`` for every measured point.
+    freq_hz : ndarray, shape (n_f,)
+        Frequency lines of the comparison band [Hz].
+    analysis_continuous : ndarray, complex, shape (n_f,)
+        Closed-loop FRF at the response point with the continuous controller,
+        as the dissertation computed it (Sec. 6.1), in the units of
+        ``response_quantity`` ([m/N] or [(m/s)/N]).
+    analysis_sampled : ndarray, complex, shape (n_f,)
+        The same with the sampled-data controller (hold, delay, RC filter).
+    measured : ndarray, complex, shape (n_f,)
+        Measured FRF at the response point, same units.
+    modes : list of ModeComparison
+        Mode-by-mode comparison of ``analysis_sampled`` with ``measured``
+        (Tables 10, 19-21).
+    avg_peak_error : float
+        Average peak level error ``mean |1 - ratio|`` over the identified modes.
+    design : ControllerDesign or None
+        The controller run (None for open loop).
+    plant_info : dict
+        Description of the plant (``"kind"``, ``"timestep_s"``, ``"actuators"``,
+        and for MuJoCo ``"source"``, ``"nv"``, ...; see :func:`make_plant`).
+    warnings : tuple of str
+        Warnings of the run (self-excited oscillation, modes not identified).
+    """
 
     config: ExperimentConfig
     loop: LoopResult
@@ -106,6 +196,22 @@ def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float
 
 def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], timestep_s: float | None = None):
     """The plant of an experiment: ``"mujoco"`` (from the spec or ``cfg.mjcf``) or ``"linear"`` (FE).
+
+    Parameters
+    ----------
+    cfg : ExperimentConfig
+        ``cfg.plant`` selects the kind, ``cfg.mjcf`` an exported MJCF file,
+        ``cfg.chain.period_s`` the default linear-plant step.
+    fe : FEModel
+        The FE model: its spec builds the MuJoCo plant; its ``m`` [kg] and
+        ``k`` [N/m], shape (n, n), with the spec's open-loop modal damping
+        (Sec. 2.1.2) form the linear plant.
+    actuators : tuple of int
+        Coil point ids driven by the loop, in channel order.
+    timestep_s : float, optional
+        Physics step of the linear plant [s]; default half the controller
+        period. Ignored for the MuJoCo plant (its step comes from the built
+        model or the MJCF file).
 
     Returns
     -------
@@ -141,6 +247,7 @@ def run_experiment(
     Parameters
     ----------
     cfg : ExperimentConfig
+        Settings of the experiment.
     fe : FEModel
         The nominal FE model (analysis and controller design).
     design : ControllerDesign, optional

@@ -38,19 +38,69 @@ class Plant(Protocol):
     the force inputs (order of ``set_forces``); ``velocities(points)`` the
     out-of-plane velocities [m/s]; ``displacements(points)`` the out-of-plane
     displacements from the settled state [m]; ``step()`` advances one physics
-    step with the forces last set [N].
+    step with the forces last set [N]. Implemented by
+    :class:`vlab.sim.runtime.MujocoPlant` and
+    :class:`vlab.lab.linear_plant.LinearPlant`.
+
+    Attributes
+    ----------
+    timestep_s : float
+        Physics step h [s]; it must divide the controller period
+        (:attr:`HardwareChain.period_s`) into a whole number of steps.
+    actuator_points : tuple of int, length n_act
+        Point ids of the coil (force) channels, in the order of the force
+        vector given to :meth:`set_forces`.
+
+    Notes
+    -----
+    This is a structural type (``typing.Protocol``): it is never
+    instantiated, and its constructor is the placeholder
+    ``__init__(self, *args, **kwargs)`` that ``typing.Protocol`` supplies;
+    ``args`` and ``kwargs`` mean nothing here. How a concrete plant is built
+    is up to its own class.
     """
 
     timestep_s: float
     actuator_points: tuple[int, ...]
 
-    def set_forces(self, forces: np.ndarray) -> None: ...
+    def set_forces(self, forces: np.ndarray) -> None:
+        """Set the coil forces held over the following physics steps.
 
-    def step(self) -> None: ...
+        ``forces`` is an ndarray of shape (n_act,) [N]: one out-of-plane force
+        per channel, in the order of ``actuator_points`` (the amplifier output
+        of Fig. 21); the forces stay applied until the next call.
+        """
+        ...
 
-    def velocities(self, points: tuple[int, ...]) -> np.ndarray: ...
+    def step(self) -> None:
+        """Advance the plant by one physics step.
 
-    def displacements(self, points: tuple[int, ...]) -> np.ndarray: ...
+        Takes no parameters: the step is ``timestep_s`` [s] long and uses the
+        forces last given to :meth:`set_forces`. A plant that detects its own
+        divergence may raise :class:`vlab.errors.SimulationError`; the loop
+        also checks the velocities it reads.
+        """
+        ...
+
+    def velocities(self, points: tuple[int, ...]) -> np.ndarray:
+        """Out-of-plane velocities at some points.
+
+        ``points`` is a tuple of n_p point ids; the result is an ndarray of
+        shape (n_p,) [m/s] in the order of ``points``. The loop reads the
+        feedback sensors and the measured points through it once per
+        controller tick.
+        """
+        ...
+
+    def displacements(self, points: tuple[int, ...]) -> np.ndarray:
+        """Out-of-plane displacements from the settled state at some points.
+
+        ``points`` is a tuple of n_p point ids; the result is an ndarray of
+        shape (n_p,) [m], measured from the settled (static equilibrium)
+        state, in the order of ``points``. The loop samples it once per tick
+        for the deformed-shape animation.
+        """
+        ...
 
 
 @dataclass(frozen=True)
@@ -71,6 +121,23 @@ class HardwareChain:
         Force saturation [N] (None = linear).
     noise_m_s : float
         Velocity-sensor noise standard deviation [m/s] (0 = off).
+    actuator_gain : dict[int, float]
+        Per-channel force gain [-] keyed by actuator point id, multiplying the
+        amplifier output of that coil (missing points: 1). Not in the
+        dissertation: a hardware deviation that :mod:`vlab.diagnose` can fit
+        (e.g. a coil constant that is off).
+    sensor_gain : dict[int, float]
+        Per-channel sensitivity [-] keyed by feedback (sensor) point id,
+        multiplying the velocity the controller reads (missing points: 1).
+        A diagnosis hypothesis, like ``actuator_gain``.
+    actuator_lag_hz : float or None
+        Corner frequency [Hz] of an extra first-order lag on each coil force,
+        applied at every physics step (None = off). A diagnosis hypothesis
+        (e.g. coil inductance), not part of the Sec. 5.3 chain.
+    sensor_lag_hz : float or None
+        Corner frequency [Hz] of an extra first-order lag on each sensed
+        velocity, applied once per controller period before the noise
+        (None = off). A diagnosis hypothesis, not part of the Sec. 5.3 chain.
     """
 
     period_s: float = PC1000_PERIOD_S
@@ -137,6 +204,8 @@ def run_loop(
     duration_s : float
         Run length [s]; rounded down to whole ticks.
     chain : HardwareChain
+        Hardware between controller and coils (Sec. 5.3); the default is the
+        PC-1000 chain (0.5 ms period, 1.35-period delay, 677 Hz RC filter).
     seed : int
         Seed of the sensor noise.
     progress : callable, optional
@@ -154,7 +223,10 @@ def run_loop(
     Raises
     ------
     ModelError
-        If the physics step does not divide the period, or a point is not an actuator.
+        If the physics step does not divide the period, the excitation point is
+        not an actuator, the run is shorter than two periods, the excitation
+        has not one value per tick, or the engine's inputs/outputs do not match
+        the feedback points/actuators.
     SimulationError
         If the plant diverges (non-finite or huge velocity); ``exc.partial`` holds
         the :class:`LoopResult` up to that tick.

@@ -21,7 +21,27 @@ from .modal import average_peak_error, fit_modes, peak_levels
 
 @dataclass(frozen=True)
 class ModeComparison:
-    """One mode: predicted vs measured frequency [Hz], damping ratio, peak level."""
+    """One mode: predicted vs measured frequency [Hz], damping ratio, peak level.
+
+    "Predicted" values are identified from the analytical FRF, "measured" ones
+    from the experimental FRF, with the same curve fit; NaN where a mode could
+    not be identified.
+
+    Attributes
+    ----------
+    mode : int
+        Mode number, 1-based, in order of the predicted closed-loop frequencies.
+    frequency_predicted_hz, frequency_measured_hz : float
+        Natural frequency identified in the analytical / measured FRF [Hz].
+    damping_predicted, damping_measured : float
+        Damping ratio zeta [-] identified in the analytical / measured FRF.
+    peak_predicted, peak_measured : float
+        Peak level ``|H|`` at the mode in the analytical / measured FRF, in the
+        FRF's units ([m/N] for displacement, [(m/s)/N] for velocity FRFs).
+    peak_level_ratio : float
+        ``peak_predicted / peak_measured``, the dissertation's analytical /
+        experimental peak level ratio (Tables 2, 10, 19-21).
+    """
 
     mode: int
     frequency_predicted_hz: float
@@ -53,6 +73,8 @@ def compare_modes(
     freq_hz : ndarray, shape (n_f,)
         Common frequency lines [Hz].
     h_analysis, h_experiment : ndarray, complex, shape (n_f,)
+        Analytical and measured FRF on ``freq_hz``, same quantity and units
+        ([m/N] or [(m/s)/N]).
     modes_hz : ndarray, shape (n_modes,)
         Predicted closed-loop natural frequencies [Hz].
     damping_hint : ndarray, shape (n_modes,)
@@ -98,7 +120,19 @@ def compare_modes(
 
 
 def average_error(comparisons: list[ModeComparison]) -> float:
-    """Average peak error ``mean |1 - r|`` over the identified modes (Tables 10, 19-21)."""
+    """Average peak error ``mean |1 - r|`` over the identified modes (Tables 10, 19-21).
+
+    Parameters
+    ----------
+    comparisons : list of ModeComparison
+        Per-mode comparisons (:func:`compare_modes`); modes whose
+        ``peak_level_ratio`` r is NaN or infinite are left out.
+
+    Returns
+    -------
+    float
+        The average error [-], NaN when no mode has a finite ratio.
+    """
     r = np.array([c.peak_level_ratio for c in comparisons], dtype=float)
     r = r[np.isfinite(r)]
     return float(average_peak_error(r)) if r.size else float("nan")
