@@ -326,6 +326,23 @@ def export_mjcf_cmd(
     console.print(f"wrote {written}")
 
 
+@app.command()
+def reproduce(
+    out: str = typer.Option("out/reproduce", "--out", help="output folder"),
+    fast: bool = typer.Option(False, "--fast", help="the quick subset of tables"),
+    plant: PlantKind = typer.Option(PlantKind.linear, "--plant", help="plant of the virtual experiments"),
+) -> None:
+    """Regenerate the dissertation's tables side by side with the published numbers."""
+    from pathlib import Path
+
+    from .reproduce import reproduce as run_reproduce
+
+    try:
+        run_reproduce(Path(out), fast=fast, plant=plant.value, progress=True, console=console)
+    except (VlabError, ValueError) as exc:
+        _fail(exc)
+
+
 def _measured_modes(fe, modes_file: str | None):
     """Measured modes (frequencies, shapes at the Guyan masters) for corrected-guyan."""
     from .errors import DataFileError

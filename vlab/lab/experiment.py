@@ -300,7 +300,8 @@ def run_experiment(
     loop = run_loop(
         plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
         excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
-        seed=cfg.seed, progress=progress, shape_points=tuple(fe.spec.points),
+        seed=cfg.seed, progress=progress,
+        shape_points=tuple(p for p in fe.spec.points if (p, "w") in fe.dofs),  # supports stay at rest
         metadata={"structure": name, "controller": cfg.controller, "excitation": cfg.excitation,
                   "seed": cfg.seed, "plant": info.get("kind", "")},
     )

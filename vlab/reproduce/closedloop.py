@@ -67,7 +67,17 @@ class ThesisPlant:
 
 
 def actuator_input(dm: DesignModel) -> np.ndarray:
-    """Load distribution ``U`` (n, n_c) of a design model's actuators."""
+    """Load distribution ``U`` of a design model's actuators.
+
+    Parameters
+    ----------
+    dm : DesignModel
+
+    Returns
+    -------
+    ndarray, shape (n, n_c)
+        ``U[actuator_rows[j], j] = 1``.
+    """
     u = np.zeros((dm.m.shape[0], len(dm.actuator_rows)))
     for j, r in enumerate(dm.actuator_rows):
         u[r, j] = 1.0
@@ -76,6 +86,11 @@ def actuator_input(dm: DesignModel) -> np.ndarray:
 
 def thesis_plant(dm: DesignModel) -> ThesisPlant:
     """State space of ``dm`` in the thesis's units (Eqs. 3.2-3.3, time unit cs).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        SI model; converted with :func:`vlab.design.to_thesis_units`.
 
     Returns
     -------
@@ -89,6 +104,10 @@ def thesis_plant(dm: DesignModel) -> ThesisPlant:
 
 def thesis_controller(design: ControllerDesign) -> dict:
     """A design's controller in the thesis's units (``y`` in in/cs, ``u`` in lbf, time in cs).
+
+    Parameters
+    ----------
+    design : ControllerDesign
 
     Returns
     -------

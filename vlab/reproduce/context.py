@@ -101,7 +101,17 @@ class MeasuredModes:
 
 
 def published_experimental_hz(fe: FEModel) -> np.ndarray:
-    """Published experimental natural frequencies of a structure [Hz] (Table 1 or Table 3)."""
+    """Published experimental natural frequencies of a structure [Hz] (Table 1 or Table 3).
+
+    Parameters
+    ----------
+    fe : FEModel
+        Model of a shipped structure; its spec names the reference table.
+
+    Returns
+    -------
+    ndarray, shape (n_modes,)
+    """
     return column(fe.spec.reference["frequencies"], "experimental_hz")
 
 
@@ -224,7 +234,7 @@ class ReproContext:
         self._measured: MeasuredModes | None = None
 
     def fe(self, structure: str) -> FEModel:
-        """The nominal FE model of ``"bcc"`` or ``"grid"``."""
+        """The nominal FE model of ``structure`` (``"bcc"`` or ``"grid"``)."""
         return nominal_fe_model(structure)
 
     def lab(self, structure: str) -> LabStructure:
@@ -248,7 +258,19 @@ class ReproContext:
         return virtual_modal_test(grid, lab_structure(grid, "as-measured"), method)
 
     def design_model(self, structure: str, model: str) -> DesignModel:
-        """The SI design model (full, exact, guyan, corrected-guyan), cached."""
+        """The SI design model of ``structure`` for ``model`` (full, exact, guyan, corrected-guyan), cached.
+
+        Parameters
+        ----------
+        structure : str
+            ``"bcc"`` or ``"grid"``.
+        model : str
+            Design model; corrected-guyan uses :meth:`measured_modes`.
+
+        Returns
+        -------
+        DesignModel
+        """
         key = (structure, model)
         if key not in self._models:
             mm = self._mm(model)
@@ -263,6 +285,20 @@ class ReproContext:
 
     def design(self, structure: str, controller: str, model: str | None = None) -> ControllerDesign:
         """A controller designed with the thesis's settings (cached).
+
+        Parameters
+        ----------
+        structure : str
+            ``"bcc"`` or ``"grid"``.
+        controller : str
+            One of :data:`vlab.design.CONTROLLERS`.
+        model : str, optional
+            Design model (None: the thesis's default, see
+            :func:`vlab.design.design_controller`).
+
+        Returns
+        -------
+        ControllerDesign
 
         Raises
         ------

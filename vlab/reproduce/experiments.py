@@ -228,7 +228,23 @@ def analysis_frf(dm: DesignModel, design: ControllerDesign | None, freq_hz: np.n
 
 
 def predicted_modes(m, c, k, u, design: ControllerDesign | None, structure: str) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-loop natural frequencies [Hz] and damping of the first in-band modes of a plant (peak hints)."""
+    """Closed-loop natural frequencies [Hz] and damping of the first in-band modes of a plant (peak hints).
+
+    Parameters
+    ----------
+    m, c, k : ndarray, shape (n, n)
+        Plant [SI].
+    u : ndarray, shape (n, n_c)
+        Actuator load distribution (sensors collocated).
+    design : ControllerDesign or None
+        Controller (continuous form); None: open loop.
+    structure : str
+        Selects the test band and number of modes.
+
+    Returns
+    -------
+    freq_hz, zeta : ndarray, shape (n_modes,)
+    """
     test = TESTS[structure]
     f, z = closed_loop_modes(m, c, k, u, u.T, None if design is None else design.continuous)
     band = (f >= test.band_hz[0]) & (f <= test.band_hz[1])
@@ -241,6 +257,17 @@ def peak_levels(freq_hz: np.ndarray, h: np.ndarray, modes_hz: np.ndarray, zeta: 
 
     Uses :func:`vlab.measure.compare.compare_modes` (curve fit, then the
     refined peak) on the FRF alone. A mode that cannot be identified gives NaN.
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (n_f,)
+    h : ndarray, complex, shape (n_f,)
+    modes_hz : ndarray, shape (n_modes,)
+        Expected natural frequencies [Hz].
+    zeta : ndarray, shape (n_modes,)
+        Expected damping ratios (size the fitted bands).
+    structure : str
+        Selects the response quantity.
 
     Returns
     -------
@@ -255,7 +282,19 @@ def peak_levels(freq_hz: np.ndarray, h: np.ndarray, modes_hz: np.ndarray, zeta: 
 
 
 def measured_peaks(ctx: ReproContext, run: VirtualRun, plant: str) -> np.ndarray:
-    """Peak levels of a run's measured FRF near the laboratory structure's closed-loop modes."""
+    """Peak levels of a run's measured FRF near the laboratory structure's closed-loop modes.
+
+    Parameters
+    ----------
+    ctx : ReproContext
+    run : VirtualRun
+    plant : str
+        The plant the run used (the laboratory structure gives the hints either way).
+
+    Returns
+    -------
+    ndarray, shape (n_modes,)
+    """
     s = run.spec
     fe = ctx.fe(s.structure)
     acts = tuple(fe.spec.instrumentation.actuators)
@@ -268,6 +307,13 @@ def measured_peaks(ctx: ReproContext, run: VirtualRun, plant: str) -> np.ndarray
 
 def analysis_peaks(ctx: ReproContext, run: VirtualRun, analysis_model: str) -> tuple[np.ndarray, np.ndarray]:
     """Analysis FRF of a run's controller on ``analysis_model`` and its peak levels.
+
+    Parameters
+    ----------
+    ctx : ReproContext
+    run : VirtualRun
+    analysis_model : str
+        ``"full"``, ``"exact"`` or ``"corrected-guyan"``.
 
     Returns
     -------
@@ -309,12 +355,36 @@ class RunComparison:
 
 
 def compare_run(ctx: ReproContext, run: VirtualRun, models: tuple[str, ...], plant: str = "linear") -> RunComparison:
-    """Peak levels of a run and of its analysis on each of ``models`` (see the module docstring)."""
+    """Peak levels of a run and of its analysis on each of ``models`` (see the module docstring).
+
+    Parameters
+    ----------
+    ctx : ReproContext
+    run : VirtualRun
+    models : tuple of str
+        Analysis models.
+    plant : str
+        The plant the run used.
+
+    Returns
+    -------
+    RunComparison
+    """
     return RunComparison(run, measured_peaks(ctx, run, plant), {m: analysis_peaks(ctx, run, m) for m in models})
 
 
 def average_error(ratios: np.ndarray) -> float:
-    """``mean |1 - r|`` over the identified modes (last row of Tables 10, 19-21); NaN if none."""
+    """``mean |1 - r|`` over the identified modes (last row of Tables 10, 19-21); NaN if none.
+
+    Parameters
+    ----------
+    ratios : array_like, shape (n_modes,)
+        Peak level ratios (NaN for unidentified modes).
+
+    Returns
+    -------
+    float
+    """
     r = np.asarray(ratios, dtype=float)
     r = r[np.isfinite(r)]
     return float(np.mean(np.abs(1.0 - r))) if r.size else float("nan")

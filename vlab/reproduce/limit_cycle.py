@@ -31,8 +31,8 @@ vlab answers it twice:
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -64,7 +64,7 @@ class SampledDataModes:
     Attributes
     ----------
     freq_hz, zeta : ndarray, shape (n,)
-        ``|Im s| / 2 pi`` and ``-Re s / |s|`` of ``s = ln(z) / T`` (one per
+        ``|s| / 2 pi`` and ``-Re s / |s|`` of ``s = ln(z) / T`` (one per
         complex pair, ``Im s > 0``, and per positive real ``z``), sorted by frequency.
     max_abs_z : float
         Spectral radius; > 1 means an unstable loop.
@@ -186,8 +186,8 @@ def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay
     s = np.log(zz.astype(complex)) / period_s
     keep = (s.imag > 1e-9) | ((np.abs(s.imag) <= 1e-9) & (zz.real > 0))
     s = s[keep]
-    f = np.abs(s.imag) / (2 * np.pi)
     w = np.abs(s)
+    f = w / (2 * np.pi)  # undamped natural frequency, as vlab.analysis.closed_loop_modes
     zeta = np.where(w > 0, -s.real / np.where(w > 0, w, 1.0), 1.0)
     o = np.argsort(f)
     return SampledDataModes(f[o], zeta[o], float(np.max(np.abs(zz))))
@@ -195,7 +195,24 @@ def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay
 
 @dataclass(frozen=True)
 class AnalysisCase:
-    """One sampled-data analysis case of the study."""
+    """One sampled-data analysis case of the study.
+
+    Attributes
+    ----------
+    label : str
+    period_s : float or None
+        Sampling period [s]; None for the continuous loop.
+    delay_periods : float
+        Computation delay [periods].
+    higher_mode_damping : float
+        Damping ratio of the modes above Table 1's six.
+    band_modes_hz, band_zeta : tuple of float
+        Closed-loop modes in :data:`BAND_HZ`: natural frequency [Hz] and damping ratio.
+    least_damped_hz, least_damped_zeta : float
+        The least damped of them.
+    max_abs_z : float or None
+        Spectral radius of the discrete loop (None for the continuous loop).
+    """
 
     label: str
     period_s: float | None
@@ -255,7 +272,19 @@ class LimitCycleRun:
 
 @dataclass(frozen=True)
 class LimitCycleResult:
-    """The Sec. 6.1 study: analysis cases, critical damping, runs and the conclusion."""
+    """The Sec. 6.1 study: analysis cases, critical damping, runs and the conclusion.
+
+    Attributes
+    ----------
+    cases : tuple of AnalysisCase
+    critical_damping : dict
+        Case label -> ``{"zeta_crit", "freq_hz"}`` (:func:`critical_damping`).
+    runs : tuple of LimitCycleRun
+    conclusion : str
+        The finding in words.
+    settings : dict
+        Period, delay, filter, noise, band, plant and laboratory structure.
+    """
 
     cases: tuple[AnalysisCase, ...]
     critical_damping: dict
@@ -465,8 +494,6 @@ def limit_cycle_study(ctx: ReproContext, *, duration_s: float = 180.0, saturated
     done = 0.1
     total = sum(s[3] for s in settings)
     for label, zh, limit, dur in settings:
-        import time
-
         t0 = time.perf_counter()
         c = modal_damping_matrix(m, k, _ratios(fe.spec, fe.n, zh))
         zh_v = float(_ratios(fe.spec, fe.n, zh)[N_MEASURED])

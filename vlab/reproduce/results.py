@@ -42,6 +42,16 @@ def _num(x) -> float | None:
 def join_flags(*flags: str) -> str:
     """Join flag words (``"calibrated"``, ``"reconstructed"``, ``"assumed"``) as ``"a,b"``.
 
+    Parameters
+    ----------
+    *flags : str
+        Flag words or comma-separated lists of them (empty strings allowed).
+
+    Returns
+    -------
+    str
+        The distinct words in first-seen order, joined by commas.
+
     Raises
     ------
     ValueError

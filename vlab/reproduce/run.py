@@ -22,7 +22,6 @@ from __future__ import annotations
 import json
 import math
 import time
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -116,7 +115,7 @@ def _limit_cycle_figure(lc: LimitCycleResult, path: Path) -> Path:
     for r in lc.runs:
         ax.semilogy(r.times_s, r.band_rms_m_s, label=r.label)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel(f"velocity at point 6, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz band, RMS per 1 s [m/s]")
+    ax.set_ylabel(f"RMS velocity at 6, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz [m/s]")
     ax.set_title("BCC LQG at rest, 1 kHz, 1.35-period delay (Sec. 6.1)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
@@ -127,7 +126,7 @@ def _limit_cycle_figure(lc: LimitCycleResult, path: Path) -> Path:
     return path
 
 
-def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear", lab: str = "as-measured",
+def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear", lab: str | None = None,
               groups: Sequence[str] | None = None, progress=None, console=None, seed: int = 0) -> ReproduceResult:
     """Regenerate the dissertation's tables, figures and the Sec. 6.1 limit-cycle study.
 
@@ -142,8 +141,9 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
         Plant of the virtual experiments: the laboratory structure stepped
         exactly, or the MuJoCo model (needs ``lab="nominal"``). The
         limit-cycle study always runs on the linear plant.
-    lab : {"as-measured", "nominal"}
-        Laboratory structure (:mod:`vlab.reproduce.context`).
+    lab : {"as-measured", "nominal"}, optional
+        Laboratory structure (:mod:`vlab.reproduce.context`); default
+        "as-measured" with the linear plant, "nominal" with MuJoCo.
     groups : sequence of str, optional
         Subset of :data:`GROUPS` (default: all).
     progress : None, True or rich.progress.Progress
@@ -165,6 +165,8 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
     t_start = time.perf_counter()
     if plant not in PLANTS:
         raise ModelError(f"unknown plant {plant!r}; use one of {PLANTS}")
+    if lab is None:
+        lab = "nominal" if plant == "mujoco" else "as-measured"
     if lab not in LABS:
         raise ModelError(f"unknown laboratory structure {lab!r}; use one of {LABS}")
     if plant == "mujoco" and lab != "nominal":
@@ -284,7 +286,17 @@ def _jsonable(o):
 
 
 def summary_rows(result: ReproduceResult) -> list[dict]:
-    """Agreement per table: name, rows compared, within tolerance, median/max error, tolerance, flags."""
+    """Agreement per table: name, rows compared, within tolerance, median/max error, tolerance, flags.
+
+    Parameters
+    ----------
+    result : ReproduceResult
+
+    Returns
+    -------
+    list of dict
+        ``{"table": name, **TableResult.agreement()}`` per table.
+    """
     out = []
     for t in result.tables:
         a = t.agreement()
@@ -329,7 +341,19 @@ def _fmt_err(t: TableResult, v) -> str:
 
 
 def report_markdown(result: ReproduceResult, runs: Sequence[VirtualRun] = ()) -> str:
-    """The report: settings, agreement summary, every table with notes, the limit cycle, the figures."""
+    """The report: settings, agreement summary, every table with notes, the limit cycle, the figures.
+
+    Parameters
+    ----------
+    result : ReproduceResult
+    runs : sequence of VirtualRun
+        The virtual experiments (listed with their timings).
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
     s = result.settings
     lines = [
         "# vlab reproduce: the dissertation's results, side by side",
@@ -361,7 +385,8 @@ def report_markdown(result: ReproduceResult, runs: Sequence[VirtualRun] = ()) ->
                      f"{tol} | {_fmt_err(t, a['median_error'])} | {_fmt_err(t, a['max_error'])} | {a['flags'] or '—'} |")
     lines.append("")
     for t in result.tables:
-        lines += [f"## {t.name}: {t.title}", "", f"Published numbers: `assets/data/{t.source}`." if t.source.endswith(".csv")
+        head = t.title if t.title.startswith(t.name) else f"{t.name}: {t.title}"
+        lines += [f"## {head}", "", f"Published numbers: `assets/data/{t.source}`." if t.source.endswith(".csv")
                   else f"Published numbers: {t.source}.", ""]
         lines += [f"- {n}" for n in t.notes]
         lines += ["", "| row | column | published | vlab | difference | flag |", "|---|---|---|---|---|---|"]
@@ -381,7 +406,8 @@ def report_markdown(result: ReproduceResult, runs: Sequence[VirtualRun] = ()) ->
             rad = "—" if c.max_abs_z is None else f"{c.max_abs_z:.6f}"
             lines.append(f"| {c.label} | {c.higher_mode_damping:.2%} | {c.least_damped_hz:.1f} | "
                          f"{c.least_damped_zeta:+.5f} | {rad} |")
-        lines += ["", "Virtual-lab runs (structure at rest, velocity-sensor noise only):", "",
+        lines += ["", "Virtual-lab runs (linear plant, whatever the experiments' plant: they vary the damping of the "
+                  "unmeasured modes; structure at rest, velocity-sensor noise only):", "",
                   "| run | simulated [s] | grows | limit cycle | fitted rate [1/s] | predicted rate [1/s] | frequency [Hz] |",
                   "|---|---|---|---|---|---|---|"]
         for r in lc.runs:
