@@ -227,9 +227,14 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     )
     pts, members = structure_geometry(spec)
     loop = result.loop
+    # points without an out-of-plane DOF (supports) stay at rest in the animation
+    all_points = list(pts)
+    disp = np.zeros((loop.displacements.shape[0], len(all_points)))
+    for j, p in enumerate(loop.shape_points):
+        disp[:, all_points.index(p)] = loop.displacements[:, j]
     log_experiment(
         files["rerun"], recording=loop.recording, structure_points=pts, members=members,
-        displacement=loop.displacements, displacement_dt_s=loop.recording.dt_s, point_ids=list(loop.shape_points),
+        displacement=disp, displacement_dt_s=loop.recording.dt_s, point_ids=all_points,
         frfs={"experiment": (result.freq_hz, result.measured), "analysis": (result.freq_hz, result.analysis_sampled)},
         extra_signals={f"u{p}": loop.commands[:, j] for j, p in enumerate(result.plant_info.get("actuators", []))},
         metadata=summary, spawn=spawn,
