@@ -80,7 +80,8 @@ def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> Non
     ------
     StabilizabilityError
         If ``rank [A - lambda I, B] < N`` (smallest singular value below
-        ``1e-9 * max(|A|, |B|, |lambda|)``) for such an eigenvalue; names it.
+        ``1e-12 * max(|A|, |B|, |lambda|)``: relative to the norm, so that stiff models
+        whose fastest modes dominate |A| are not refused) for such an eigenvalue; names it.
 
     Notes
     -----
@@ -100,7 +101,7 @@ def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> Non
             continue
         M = np.hstack([A - lam * np.eye(n), B.astype(complex)])
         smin = np.linalg.svd(M, compute_uv=False)[-1]
-        if smin <= 1e-9 * max(scale, abs(lam)):
+        if smin <= 1e-12 * max(scale, abs(lam)):
             region = "Re >= 0" if shift == 0 else f"Re >= -alpha = {-shift:g}"
             raise StabilizabilityError(
                 f"{what} is not stabilisable/detectable: eigenvalue {lam:.6g} ({region}) fails the "
