@@ -60,7 +60,24 @@ def test_design_cli_json_keys():
     assert np.shape(out["gain"]) == (3, 3)
 
 
-def test_corrected_guyan_without_modes_is_a_clear_error():
-    res = CliRunner().invoke(app, ["design", "bcc", "--reduction", "corrected-guyan"])
+def test_corrected_guyan_grid_from_virtual_modal_test_matches_table3():
+    """Without --modes: shapes from the MuJoCo plant, Table 3 experimental frequencies (Sec. 3.3)."""
+    from vlab.cli import _virtual_measured_modes
+    from vlab.design import design_model
+
+    fe = nominal_fe_model("grid")
+    freq, shapes = _virtual_measured_modes(fe)
+    assert len(freq) == 11
+    dm = design_model(fe, "corrected-guyan", measured_modes=(freq, shapes))
+    import scipy.linalg
+
+    f = np.sqrt(scipy.linalg.eigvalsh(dm.k, dm.m)) / (2 * np.pi)
+    ref = column("table3_grid_frequencies.csv", "experimental_hz")[:11]
+    np.testing.assert_allclose(f[:11], ref, rtol=1e-6)  # the corrected model has the measured frequencies
+
+
+def test_missing_modes_file_is_a_clear_error(tmp_path):
+    res = CliRunner().invoke(app, ["design", "grid", "--reduction", "corrected-guyan", "--modes",
+                                   str(tmp_path / "none.uff")])
     assert res.exit_code == 2
-    assert "--modes" in res.output
+    assert "none.uff" in res.output
