@@ -4,6 +4,10 @@ Each case draws (reproducibly from ``--seed``):
 
 - a structure (BCC or grid, alternating) and a controller (none, or the
   thesis controller: MFDRF on the BCC, LQG on the grid);
+- sizes are redrawn (up to 8 times) until the effect changes the
+  frequency-domain prediction of some line by at least 5 % -- an effect
+  below that is within 1 % noise and a few percent of model floor and is
+  not a fair test;
 - nothing (one case in six: the false-alarm check), one effect, or (one
   case in six) two effects of the library, at random locations and sizes
   (sizes are drawn relative to the structure's own scales so that each is
@@ -51,8 +55,8 @@ import numpy as np  # noqa: E402
 
 from vlab.diagnose import diagnose, specedit  # noqa: E402
 from vlab.diagnose.hypotheses import Context  # noqa: E402
-from vlab.diagnose.labmodel import LabState, natural_frequencies, with_command_rms  # noqa: E402
-from vlab.diagnose.pipeline import _design, context_for, settling_time  # noqa: E402
+from vlab.diagnose.labmodel import LabState, natural_frequencies, predict_frf, with_command_rms  # noqa: E402
+from vlab.diagnose.nominal import context_for, nominal_design, settling_time  # noqa: E402
 from vlab.diagnose.validate import rerun  # noqa: E402
 from vlab.fe import build_fe_model  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
@@ -84,7 +88,7 @@ def _two_sided(rng, lo, hi):
 def nominal_state(structure: str, controller: str) -> LabState:
     spec = load_spec(structure)
     fe = build_fe_model(spec)
-    return LabState(spec, fe, HardwareChain(noise_m_s=1e-6), _design(fe, controller, 0))
+    return LabState(spec, fe, HardwareChain(noise_m_s=1e-6), nominal_design(fe, controller, 0))
 
 
 def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tuple[LabState, dict]:
@@ -141,10 +145,12 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
         p = int(rng.choice([q for q in free if q in ctx.velocity_rms] or free))
         sigma = ctx.predicted_velocity_rms(st, p)
         force = ctx.point_damping[p] * sigma * math.sqrt(math.pi / 2) * _logu(rng, 0.5, 2.0)
-        return (replace(st, frictions=st.frictions + ((p, force, 0.0),)),
+        c_eq = math.sqrt(2 / math.pi) * force / sigma
+        return (replace(st, frictions=st.frictions + ((p, force, c_eq),)),
                 {"effect": "friction", "location": {"point": p}, "parameters": {"friction_force_n": force}})
     if family == "loop_delay":
-        d = rng.uniform(2.5, 6.0) * st.chain.period_s
+        # extra phase lag of 0.15-0.5 rad at the top of the band
+        d = st.chain.delay_periods * st.chain.period_s + rng.uniform(0.15, 0.5) / (2 * math.pi * ctx.band_hz[1])
         return (replace(st, chain=replace(st.chain, delay_periods=d / st.chain.period_s)),
                 {"effect": "loop_delay", "location": {}, "parameters": {"delay_s": d}})
     if family in ("actuator_lag", "sensor_lag"):
@@ -164,7 +170,9 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
         s2 = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=1e30)), ctx.freq_hz,
                               ctx.force_amplitude, excitation_point=ctx.excitation_point, iterations=1)
         lim = max(s2.rms_force_n.values()) * rng.uniform(1.0, 1.8)
-        return (replace(st, chain=replace(st.chain, amplifier_limit_n=lim)),
+        st = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=lim)), ctx.freq_hz,
+                              ctx.force_amplitude, excitation_point=ctx.excitation_point)
+        return (st,
                 {"effect": "saturation", "location": {"channel": "all"}, "parameters": {"limit_n": lim}})
     if family == "gravity_prestress":
         g = G_SI * _two_sided(rng, 1.3, 1.6)
@@ -225,11 +233,17 @@ def run_case(case: dict, workdir: str, noise: float = 0.01) -> dict:
     ctx.excitation_point = exc
     ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
     truth_state, truths, used = st0, [], set()
+    meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
     for fam in case["families"]:
-        truth_state, t = draw_effect(rng, fam, truth_state, ctx, used)
+        h0 = predict_frf(truth_state, sig.freq_hz, excitation_point=exc, output_points=meas)
+        for _attempt in range(8):  # redraw until the effect is visible: some FRF line changes by >= 5 %
+            cand, t = draw_effect(rng, fam, truth_state, ctx, used)
+            h1 = predict_frf(cand, sig.freq_hz, excitation_point=exc, output_points=meas)
+            if np.max(np.abs(np.log(h1 / h0))) >= 0.05:
+                break
+        truth_state = cand
         used |= {t["location"].get("point")} - {None}
         truths.append(t)
-    meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
     t0 = time.perf_counter()
     rec, _ = rerun(truth_state, force, excitation_point=exc, measured_points=meas, seed=case["index"])
     signals = {f"force{exc}": force}
@@ -314,8 +328,11 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--noise", type=float, default=0.01, help="measurement noise, fraction of each channel's RMS")
     ap.add_argument("--json", type=str, default=None, help="write all cases and scores to this file")
+    ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case indices")
     args = ap.parse_args(argv)
     cases = [make_case(i, args.seed) for i in range(args.cases)]
+    if args.only:
+        cases = [c for c in cases if c["index"] in args.only]
     t_all = time.perf_counter()
     with tempfile.TemporaryDirectory() as work:
         if args.jobs > 1:

@@ -12,7 +12,7 @@ import pytest
 from vlab.diagnose import EFFECTS, diagnose
 from vlab.diagnose import specedit
 from vlab.diagnose.labmodel import LabState
-from vlab.diagnose.pipeline import _design
+from vlab.diagnose.nominal import nominal_design
 from vlab.diagnose.validate import rerun
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
@@ -50,7 +50,7 @@ def _record(state: LabState, path, *, noise: float = 0.01, seed: int = 1) -> str
 @pytest.fixture(scope="module")
 def nominal():
     fe = nominal_fe_model("bcc")
-    return LabState(fe.spec, fe, HardwareChain(noise_m_s=1e-6), _design(fe, "mfdrf", 0))
+    return LabState(fe.spec, fe, HardwareChain(noise_m_s=1e-6), nominal_design(fe, "mfdrf", 0))
 
 
 @pytest.fixture(scope="module")

@@ -343,6 +343,40 @@ def reproduce(
         _fail(exc)
 
 
+@app.command()
+def diagnose(
+    structure: Structure = typer.Option(..., "--structure", help="bcc or grid"),
+    recording: str = typer.Option(..., "--recording", help="UFF 58 time histories or FRFs, or a modal CSV"),
+    controller: ExpController = typer.Option(ExpController.none, "--controller", help="controller that was running"),
+    out: str = typer.Option("out/diagnose", "--out", help="output folder"),
+    plant: str = typer.Option("auto", "--plant", help="validation plant: auto, linear or mujoco"),
+    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+) -> None:
+    """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
+    from pathlib import Path
+
+    from .diagnose import diagnose as run_diagnose
+
+    try:
+        res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=Path(out),
+                           plant=plant)
+    except (VlabError, ValueError) as exc:
+        _fail(exc)
+    if as_json:
+        _print_json(res.as_dict())
+        return
+    d = res.as_dict()
+    console.print(f"mismatch: {d['mismatch']}")
+    t = Table(title="ranked hypotheses")
+    for col in ("effect", "location", "parameters (SI)", "score", "misfit before", "misfit after"):
+        t.add_column(col)
+    for h in d["ranked"][:8]:
+        t.add_row(str(h["effect"]), str(h["location"]), str(h["parameters"]), f"{h['score']:.4g}",
+                  f"{h['misfit_before']:.4g}", f"{h['misfit_after']:.4g}")
+    console.print(t)
+    console.print(f"selected: {d['selected']}   report: {Path(out) / 'diagnosis.md'}")
+
+
 def _measured_modes(fe, modes_file: str | None):
     """Measured modes (frequencies, shapes at the Guyan masters) for corrected-guyan."""
     from .errors import DataFileError

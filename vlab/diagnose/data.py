@@ -76,6 +76,8 @@ class FrfData:
         Start of the analysed part of the recording [s] (transient dropped).
     notes : list of str
         What was assumed on the way (resolution, settling, noise estimate).
+    periodic : bool
+        Estimated period by period (periodic excitation) rather than by H1 with a Hann window.
     """
 
     source: str
@@ -90,6 +92,7 @@ class FrfData:
     recording: Recording | None = None
     analysed_from_s: float = 0.0
     notes: list = field(default_factory=list)
+    periodic: bool = True
 
     @property
     def sigma_rel(self) -> np.ndarray:
@@ -114,6 +117,8 @@ class ModalData:
         Mode shapes at ``shape_points``.
     shape_points : tuple of int
     notes : list of str
+    kind : str
+        Always ``"modal"``.
     """
 
     source: str
@@ -309,7 +314,8 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
         vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(c.samples) ** 2))) for c in vels}
         notes.append(f"non-periodic excitation: H1 with Hann window, {n_avg} averages; noise from coherence")
         t0 = 0.0
-    return FrfData(path, "recording", freq, h, var, fch.point_id, outs, force_amp, vrms, rec, t0, notes)
+    return FrfData(path, "recording", freq, h, var, fch.point_id, outs, force_amp, vrms, rec, t0, notes,
+                   periodic=force_amp is not None)
 
 
 # ----------------------------------------------------------------------------- FRF files
@@ -321,6 +327,22 @@ def frfs_from_uff(frfs: list, spec: StructureSpec, fe: FEModel, *, path: str,
     variance comes from the coherence and the number of averages when the
     file has them (Bendat & Piersol Eq. 9.90), else it is left to the
     model-error floor.
+
+    Parameters
+    ----------
+    frfs : list of FRF
+        As read by :func:`vlab.io.uff.read_frfs`.
+    spec : StructureSpec
+    fe : FEModel
+        The structure (point ids are checked against it).
+    path : str
+        File name for messages.
+    band_hz : (float, float)
+        Band kept [Hz].
+
+    Returns
+    -------
+    FrfData
 
     Raises
     ------
@@ -362,7 +384,7 @@ def frfs_from_uff(frfs: list, spec: StructureSpec, fe: FEModel, *, path: str,
         bad = np.flatnonzero(~np.isfinite(h[:, j]))
         if bad.size:
             raise MeasurementError(f"{path}: FRF at point {p}: non-finite value at {f0[sel][bad[0]]:g} Hz")
-    return FrfData(path, "frf", f0[sel], h, var, exc, tuple(outs), None, {}, None, 0.0, notes)
+    return FrfData(path, "frf", f0[sel], h, var, exc, tuple(outs), None, {}, None, 0.0, notes, periodic=False)
 
 
 # ----------------------------------------------------------------------------- modal CSV
@@ -378,6 +400,18 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
     (``damping_ratio`` or ``damping_experimental``), optional shape columns
     ``shape_<point id>`` (or ``phi_<point id>``). Lines starting with ``#``
     are comments; other columns are ignored (and listed in the notes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    spec : StructureSpec
+        The structure (shape point ids are checked against it).
+
+    Returns
+    -------
+    ModalData
+        Sorted by frequency.
 
     Raises
     ------
@@ -465,7 +499,7 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
 
 # ----------------------------------------------------------------------------- dispatch
 def detect_kind(path: str | Path) -> str:
-    """``"modal"`` for a .csv file, else ``"uff"`` (decided on reading).
+    """``"modal"`` for a .csv file at ``path``, else ``"uff"`` (decided on reading).
 
     Raises
     ------
@@ -479,7 +513,7 @@ def detect_kind(path: str | Path) -> str:
 
 
 def read_uff_any(path: str | Path) -> tuple[str, object]:
-    """Read a UFF file as a recording (function type 1) or FRFs (type 4).
+    """Read the UFF file at ``path`` as a recording (function type 1) or FRFs (type 4).
 
     Returns
     -------

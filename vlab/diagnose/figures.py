@@ -25,7 +25,7 @@ def _worst_channel(res) -> int:
 
 
 def figures_for(res) -> dict:
-    """Name -> ``draw(path)`` for the report of a :class:`~vlab.diagnose.pipeline.DiagnosisResult`."""
+    """Name -> ``draw(path)`` for the report of ``res``, a :class:`~vlab.diagnose.pipeline.DiagnosisResult`."""
     figs = {}
     data = res.data
     after_state = res.selected_state()
@@ -70,8 +70,10 @@ def figures_for(res) -> dict:
     else:
         fb, _, _ = res.problem.model_modes(res.nominal)
         fa, _, _ = res.problem.model_modes(after_state)
-        labels = [f"mode {m}" for m in data.modes]
-        figs["modes"] = partial(comparison_bar, labels, 100 * (fb / data.freq_hz - 1), 100 * (fa / data.freq_hz - 1),
+        ok = np.isfinite(fb) & np.isfinite(fa)
+        labels = [f"mode {m}" for m in data.modes[ok]]
+        figs["modes"] = partial(comparison_bar, labels, 100 * (fb[ok] / data.freq_hz[ok] - 1),
+                                100 * (fa[ok] / data.freq_hz[ok] - 1),
                                 title="natural frequency: model / measured - 1", ylabel="frequency error [%]",
                                 names=("nominal", "with the effect"))
     return figs

@@ -49,7 +49,9 @@ def _x(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
 
 
 def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
-    """Chi-square at each trial value of ``h``, best first.
+    """Chi-square at each trial value of ``h`` on ``problem``, best first.
+
+    ``trials`` (shape (n, k), SI) default to the hypothesis's own trial values.
 
     Returns
     -------
@@ -158,49 +160,72 @@ def _ci95(jac: np.ndarray, z: np.ndarray, chi2: float, n: int, log: tuple[bool, 
 
 
 def rank(hyps: list[Hypothesis]) -> list[Hypothesis]:
-    """Fitted hypotheses sorted by BIC (ties: fewer parameters, then library order)."""
+    """Fitted hypotheses ``hyps`` sorted by BIC (ties: fewer parameters, then library order)."""
     return sorted(hyps, key=lambda h: (round(h.bic_, 6), h.n_params, h.order))
 
 
 def equivalent(a: Hypothesis, b: Hypothesis) -> bool:
-    """True for hypotheses that are the same linear model (damping and friction at one point)."""
+    """True when hypotheses ``a`` and ``b`` are the same linear model (damping and friction at one point)."""
     pair = {a.effect, b.effect}
     return pair == {"damping", "friction"} and a.location == b.location
 
 
-def fit_pairs(singles: list[Hypothesis], problem: Problem, *, top: int = 6, max_pairs: int = 12,
-              max_nfev: int = 40) -> list[Combination]:
-    """Fit combinations of two of the best single effects, started from their single fits.
+def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypothesis] | None = None, *,
+              n_first: int = 1, n_second: int = 3, max_nfev: int = 40) -> list[Combination]:
+    """Forward selection of a second effect: with the best single effect in the model, screen every
+    other hypothesis on top of it, then fit the most promising pairs jointly.
 
-    Pairs of the same effect at the same place, and equivalent pairs
-    (:func:`equivalent`), are skipped.
+    Parameters
+    ----------
+    singles : list of Hypothesis
+        Fitted single effects.
+    problem : Problem
+    candidates : list of Hypothesis, optional
+        Unfitted hypotheses for the second effect (default: ``singles``).
+    n_first : int
+        Number of best single effects tried as the first effect.
+    n_second : int
+        Second effects fitted jointly per first effect (best screened).
+    max_nfev : int
+        Evaluation budget of each joint fit.
 
     Returns
     -------
     list of Combination
-        Fitted.
+        Fitted. Pairs of the same hypothesis and equivalent pairs
+        (:func:`equivalent`) are skipped.
+
+    Notes
+    -----
+    Forward stepwise selection (e.g. Miller, *Subset Selection in
+    Regression*, 2nd ed., 2002, ch. 3): the second effect is judged with the
+    first one already explaining its part of the data, so an effect masked
+    by a larger one is still found.
     """
-    best = [h for h in rank(singles) if getattr(h, "success_", True)][:top]
+    firsts = [h for h in rank(singles) if getattr(h, "success_", True)][:n_first]
+    pool = candidates if candidates is not None else singles
     out: list[Combination] = []
-    for i in range(len(best)):
-        for j in range(i + 1, len(best)):
-            a, b = best[i], best[j]
-            if a.label == b.label or equivalent(a, b):
+    for a in firsts:
+        scored = []
+        for b in pool:
+            if b.label == a.label or equivalent(a, b):
                 continue
             c = Combination(first=a, second=b)
-            starts = [np.concatenate([a.params_, b.params_])]
-            na, nb = a.null(problem.base, problem.ctx), b.null(problem.base, problem.ctx)
-            if nb is not None:
-                starts.append(np.concatenate([a.params_, _shrink(b, nb)]))
-            if na is not None:
-                starts.append(np.concatenate([_shrink(a, na), b.params_]))
             try:
-                fit_hypothesis(c, problem, starts=np.array(starts), max_nfev=max_nfev)
+                tb, _, _ = b.space(problem.base, problem.ctx)
+                if hasattr(b, "params_"):
+                    tb = np.vstack([tb, [b.params_]])
+                trials = np.array([np.concatenate([a.params_, t]) for t in tb])
+                scored.append((screen(c, problem, trials)[0], c))
+            except (VlabError, ValueError, np.linalg.LinAlgError):
+                continue
+        scored.sort(key=lambda t: t[0][0])
+        for (chi2, x), c in scored[:n_second]:
+            try:
+                fit_hypothesis(c, problem, starts=np.array([x]), max_nfev=max_nfev, n_starts=1)
             except (VlabError, ValueError, np.linalg.LinAlgError):
                 continue
             out.append(c)
-            if len(out) >= max_pairs:
-                return out
     return out
 
 
@@ -214,7 +239,8 @@ def _shrink(h: Hypothesis, null: np.ndarray) -> np.ndarray:
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,
              c_hat: float = 1.0) -> float:
-    """Quasi-BIC evidence for ``better`` over ``worse`` (None = the nominal model, chi2 ``chi2_0``, k = 0).
+    """Quasi-BIC evidence for ``better`` over ``worse`` (None = the nominal model, chi2 ``chi2_0``, k = 0),
+    with ``n_obs`` residuals and overdispersion ``c_hat``.
 
     ``(chi2_w - chi2_b) / c_hat - (k_b - k_w) ln N``: the BIC difference with
     the chi-squares divided by the overdispersion ``c_hat`` (the reduced
@@ -229,7 +255,9 @@ def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: flo
 
 
 def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothesis | None, float, list]:
-    """Choose the explaining effect among fitted hypotheses.
+    """Choose the explaining effect among the fitted hypotheses ``ranked``.
+
+    ``chi2_0`` is the nominal model's chi-square, ``n_obs`` the number of residuals.
 
     The best single effect (lowest BIC) is chosen unless a pair beats it by
     :data:`STRONG_EVIDENCE` in quasi-BIC (overdispersion from the best single

@@ -128,7 +128,9 @@ def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarr
 
 
 def rows(state: LabState, points: tuple[int, ...] | list[int]) -> list[int]:
-    """Global indices of the out-of-plane DOF at ``points``. Raises ModelError for a fixed/unknown point."""
+    """Global indices of the out-of-plane DOF at ``points`` in the FE model of ``state``.
+
+    Raises ModelError for a fixed or unknown point."""
     return [state.fe.dofs.index(p, "w") for p in points]
 
 
@@ -196,6 +198,13 @@ def _controller_core(design, period_s: float, f: np.ndarray) -> np.ndarray:
 def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     """Equivalent continuous ``K(jw)`` (``u = -K y``) of the digital controller with the chain's delay and RC filter.
 
+    Parameters
+    ----------
+    state : LabState
+        Lab with its design and chain.
+    freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz].
+
     Returns
     -------
     ndarray, complex, shape (n_f, n_act, n_act), or None in open loop.
@@ -217,7 +226,7 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
 
 
 def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
-    """Zero-order hold ``(1 - e^{-jwT}) / (jwT)``, shape (n_f,)."""
+    """Zero-order hold ``(1 - e^{-jwT}) / (jwT)`` at ``freq_hz`` [Hz] for a period ``period_s`` [s], shape (n_f,)."""
     wt = 2 * np.pi * np.asarray(freq_hz, dtype=float) * period_s
     out = np.ones_like(wt, dtype=complex)
     nz = wt != 0
@@ -226,7 +235,8 @@ def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
 
 
 def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
-    """Diagonal of ``A(w)``: amplifier gain x channel gain x lag x saturation gain, shape (n_f, n_act)."""
+    """Diagonal of ``A(w)`` of ``state`` at ``freq_hz`` [Hz]: amplifier gain x channel gain x lag x
+    saturation gain, shape (n_f, n_act)."""
     ch = state.chain
     f = np.asarray(freq_hz, dtype=float)
     g = np.array([ch.amplifier_gain * ch.actuator_gain.get(p, 1.0) * _saturation_gain(state, p)
@@ -240,7 +250,8 @@ def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
 
 
 def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
-    """Diagonal of ``S(w)``: sensor gain x discrete first-order lag, shape (n_f, n_act)."""
+    """Diagonal of ``S(w)`` of ``state`` at ``freq_hz`` [Hz]: sensor gain x discrete first-order lag,
+    shape (n_f, n_act)."""
     ch = state.chain
     f = np.asarray(freq_hz, dtype=float)
     g = np.array([ch.sensor_gain.get(p, 1.0) for p in state.actuators], dtype=complex)
@@ -322,10 +333,16 @@ def with_command_rms(state: LabState, freq_hz: np.ndarray, force_amplitude: np.n
 
     Parameters
     ----------
+    state : LabState
+        Lab whose chain has ``amplifier_limit_n`` set (else returned unchanged).
     freq_hz : ndarray, shape (n_f,)
         Excited lines [Hz].
     force_amplitude : ndarray, shape (n_f,)
         Excitation amplitude per line [N] (one-sided: RMS^2 = sum |X|^2 / 2).
+    excitation_point : int
+        Actuator carrying the excitation.
+    iterations : int
+        Fixed-point iterations between RMS and equivalent gain.
 
     Returns
     -------

@@ -51,6 +51,19 @@ class ModeError:
     ``freq_error`` and ``damping_error`` are relative (measured / predicted - 1);
     ``peak_ratio`` is predicted / measured peak level (Tables 10, 19-21);
     ``chi2_per_residual`` is the mean weighted squared residual near the mode.
+
+    Attributes
+    ----------
+    mode : int
+    freq_predicted_hz, freq_measured_hz : float
+        [Hz].
+    damping_predicted, damping_measured : float
+    peak_ratio : float
+    channel : int or None
+        Output point the mode was fitted on.
+    chi2_per_residual : float
+    flagged : bool
+        Mismatched (``chi2_per_residual > FLAG``).
     """
 
     mode: int
@@ -114,7 +127,9 @@ def _mif(h: np.ndarray) -> np.ndarray:
 
 
 def frf_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
-    """Per-mode frequency, damping and peak errors of FRF data (see module docstring)."""
+    """Per-mode frequency, damping and peak errors of the FRF data of ``problem`` against the lab ``nominal``.
+
+    Modes are numbered as the nearest open-loop natural frequency of the nominal model."""
     d: FrfData = problem.data
     f = d.freq_hz
     hp = problem.predict(nominal)
@@ -148,7 +163,9 @@ def frf_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
     lines_r2[problem.mask] = re
     per = 2 if problem.use_phase else 1
     df = float(np.median(np.diff(f)))
-    for mode, (i, j) in enumerate(pairs, start=1):
+    f_open, _, _ = natural_frequencies(nominal)
+    for i, j in pairs:
+        mode = int(np.argmin(np.abs(f_open - fp[i]))) + 1  # number of the nearest open-loop mode
         k = int(np.argmin(np.abs(f - fm[j])))
         ch = int(np.argmax(np.abs(d.h[k])))
         try:
@@ -173,7 +190,7 @@ def frf_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
 
 
 def table_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
-    """Per-mode errors of modal-table data against the nominal model (mode tracking by MAC)."""
+    """Per-mode errors of the modal table of ``problem`` against the lab ``nominal`` (mode tracking by MAC)."""
     d = problem.data
     fo, zo, _ = problem.model_modes(nominal)
     out = []
@@ -190,7 +207,8 @@ def table_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
 
 # ----------------------------------------------------------------------------- sensors and band
 def channel_errors(problem: Problem, nominal: LabState, modes: list[ModeError]) -> dict:
-    """Per output point: mean chi-square per residual, weighted RMS log10 error, COMAC (FRF data)."""
+    """Per output point of ``problem``'s FRF data against the lab ``nominal``: mean chi-square per residual,
+    weighted RMS log10 error, and COMAC over the paired ``modes``."""
     d: FrfData = problem.data
     hp = problem.predict(nominal)
     r = problem.residual(nominal)
@@ -227,7 +245,8 @@ def _real_shape(row: np.ndarray) -> np.ndarray:
 
 
 def mismatched_band(problem: Problem, nominal: LabState) -> list | None:
-    """``[low, high]`` [Hz] of the lines whose residual (summed over channels) exceeds the noise, or None."""
+    """``[low, high]`` [Hz] of the lines of ``problem`` whose residual against ``nominal`` (summed over channels)
+    exceeds the noise, or None."""
     d = problem.data
     if not isinstance(d, FrfData):
         return None
@@ -284,8 +303,9 @@ def sensitivity_localisation(nominal: LabState, ctx: Context, modes: list[ModeEr
     Notes
     -----
     ``explained_j = (S_j^T delta)^2 / (|S_j|^2 |delta|^2)`` restricted to
-    the physically signed direction (a mass only lowers, a spring only
-    raises frequencies; a rigidity may go either way).
+    physical sizes: a mass, a spring and a joint flexibility can only be
+    added (``theta >= 0``); a rigidity may go either way. (A mass need not
+    lower every frequency: on a hanging structure its weight stiffens.)
     """
     ok = [m for m in modes if np.isfinite(m.freq_measured_hz) and np.isfinite(m.freq_predicted_hz)]
     if not ok:
@@ -352,7 +372,8 @@ def sensitivity_localisation(nominal: LabState, ctx: Context, modes: list[ModeEr
 
 
 def located_places(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> tuple[list[int], list[str]]:
-    """Points and members whose best candidate explains at least ``share`` of the best one."""
+    """Points and members (at most ``top`` each) of the ``ranked`` sensitivity candidates explaining at least
+    ``share`` of the best one."""
     if not ranked or ranked[0]["explained"] <= 0:
         return [], []
     best = ranked[0]["explained"]
@@ -368,7 +389,8 @@ def located_places(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> t
 
 
 def locate(problem: Problem, nominal: LabState) -> Location:
-    """Modes, channels, band and structural location of the mismatch (see module docstring)."""
+    """Modes, channels, band and structural location of the mismatch between ``problem``'s data and the lab
+    ``nominal`` (see the module docstring)."""
     loc = Location()
     if isinstance(problem.data, FrfData):
         loc.modes = frf_modes(problem, nominal)

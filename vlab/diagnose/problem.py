@@ -106,7 +106,7 @@ class Problem:
             self._meas_to_nominal = {j: int(data.modes[j]) - 1 for j in range(len(data.modes))}
 
     def model_modes(self, state: LabState) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Frequencies [Hz], damping ratios and shapes at the measured points of the model modes
+        """Frequencies [Hz], damping ratios and shapes at the measured points of the modes of ``state``
         paired with each measured mode (NaN where no mode could be paired).
 
         Returns
@@ -148,12 +148,12 @@ class Problem:
         return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
 
     def predict(self, state: LabState) -> np.ndarray:
-        """Model FRFs on the data's lines, shape (n_f, n_o) (FRF data)."""
+        """FRFs of the lab ``state`` on the data's lines, shape (n_f, n_o) (FRF data)."""
         d: FrfData = self.data
         return predict_frf(state, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
 
     def residual(self, state: LabState) -> np.ndarray:
-        """Weighted residuals, shape (n_obs,). A model that cannot be built gives a large constant."""
+        """Weighted residuals of the lab ``state``, shape (n_obs,). A model that cannot be built gives a large constant."""
         self.n_evaluations += 1
         try:
             if isinstance(self.data, FrfData):
@@ -186,12 +186,14 @@ class Problem:
         return np.concatenate(parts)
 
     def chi2(self, state: LabState) -> float:
-        """Sum of squared weighted residuals."""
+        """Sum of squared weighted residuals of the lab ``state``."""
         r = self.residual(state)
         return float(r @ r)
 
     def misfit(self, state: LabState) -> float:
-        """FRF data: weighted RMS of ``log10|H_model / H_meas|`` [decades] (weights 1 / (sigma_rel^2 + floor^2));
+        """Misfit of the lab ``state``.
+
+        FRF data: weighted RMS of ``log10|H_model / H_meas|`` [decades] (weights 1 / (sigma_rel^2 + floor^2));
         modal data: RMS of ``ln(f_model / f_meas)`` (relative frequency error)."""
         try:
             if isinstance(self.data, FrfData):

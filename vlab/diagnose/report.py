@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError
+from ..errors import DataFileError, VlabError
 
 
 def jsonable(o):
@@ -72,7 +72,7 @@ def _params(d: dict, ci: dict) -> str:
 
 
 def markdown(res: dict) -> str:
-    """The report text from the JSON object of a diagnosis."""
+    """The report text from ``res``, the JSON object of a diagnosis."""
     s = res["statistics"]
     lines = [f"# vlab diagnosis: {res['structure']}, controller {res['controller']}", ""]
     lines += [f"Data: `{res['data']['source']}` ({res['data']['kind']}); {res['data']['n_lines']} lines x "
@@ -138,9 +138,17 @@ def markdown(res: dict) -> str:
             lines += ["Within 10 of the selected BIC (not separable by these data): "
                       + ", ".join(res["alternatives"]), ""]
     v = res["validated"]
+    what = ("RMS relative frequency error" if res["data"]["kind"] == "modal"
+            else "FRF log-magnitude misfit [decades]")
     lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", "",
-              f"- FRF log-magnitude misfit [decades]: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
+              f"- {what}: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
               + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]
+    if v.get("modes"):
+        lines += ["", "| mode | measured [Hz] | nominal model [Hz] | error | with the selected effect [Hz] | error |",
+                  "|---|---|---|---|---|---|"]
+        for m in v["modes"]:
+            lines.append(f"| {m['mode']} | {_fmt(m['frequency_measured_hz'])} | {_fmt(m['frequency_before_hz'])} | "
+                         f"{_pct(m['error_before'])} | {_fmt(m['frequency_after_hz'])} | {_pct(m['error_after'])} |")
     if v.get("time_error_before") is not None:
         lines.append(f"- time-domain error ||v_model - v_recorded|| / ||v_recorded||: "
                      f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}")
@@ -183,7 +191,8 @@ def _atomic_write(path: Path, data: bytes, overwrite: bool) -> None:
 
 def time_figure(t_s: np.ndarray, measured: np.ndarray, before: np.ndarray, after: np.ndarray, *, path: Path,
                 title: str = "") -> Path:
-    """Recorded velocity with the reruns before and after (last 5 s), PNG."""
+    """Recorded velocity ``measured`` with the reruns ``before`` and ``after`` [m/s] against ``t_s`` [s]
+    (last 5 s), written as PNG to ``path`` with ``title``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -239,15 +248,20 @@ def write_report(out_dir: str | Path, res: dict, figures: dict, *, overwrite: bo
             if (out / n).exists():
                 raise DataFileError(f"{out / n}: exists (pass overwrite=True to replace it)")
     files = {}
+    failed = []
     for k, draw in figures.items():
         tmp = out / f".{k}.{uuid.uuid4().hex}.png"
         try:
             draw(path=tmp)
             os.replace(tmp, out / names[k])
             files[k] = names[k]
+        except (VlabError, ValueError) as exc:  # a figure that cannot be drawn does not stop the report
+            failed.append(f"figure {k} not drawn: {exc}")
         finally:
             if tmp.exists():
                 tmp.unlink()
+    if failed:
+        res = dict(res, notes=list(res.get("notes", [])) + failed)
     res = dict(res, files=files)
     _atomic_write(out / names["json"], (json.dumps(jsonable(res), indent=2) + "\n").encode(), True)
     _atomic_write(out / names["report"], markdown(res).encode(), True)

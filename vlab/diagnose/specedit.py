@@ -32,6 +32,8 @@ def _unique_id(existing: set[str], base: str) -> str:
 def add_mass(spec: StructureSpec, point: int, mass_kg: float, *, effect: str = "added_mass") -> StructureSpec:
     """Return ``spec`` with a lumped mass ``mass_kg`` [kg] added at ``point`` (out-of-plane inertia).
 
+    ``effect`` names the new mass (id and source ``"diagnosis: <effect>"``).
+
     Raises
     ------
     SpecError
@@ -172,7 +174,7 @@ def scale_segments(spec: StructureSpec, factors: dict[tuple[int, int], float], *
 
 
 def member_segment_points(spec: StructureSpec, member: str) -> list[tuple[int, int]]:
-    """Segments ``(point a, point b)`` of ``member``.
+    """Segments ``(point a, point b)`` of ``member`` in ``spec``.
 
     Raises
     ------
@@ -186,7 +188,8 @@ def member_segment_points(spec: StructureSpec, member: str) -> list[tuple[int, i
 
 
 def scale_member(spec: StructureSpec, member: str, factor: float, *, effect: str = "member_stiffness") -> StructureSpec:
-    """Return ``spec`` with ``EI`` and ``GJ`` of every segment of ``member`` multiplied by ``factor``.
+    """Return ``spec`` with ``EI`` and ``GJ`` of every segment of ``member`` multiplied by ``factor``
+    (new sections tagged with ``effect``).
 
     Raises
     ------
@@ -197,7 +200,7 @@ def scale_member(spec: StructureSpec, member: str, factor: float, *, effect: str
 
 
 def joint_segments(spec: StructureSpec, point: int) -> list[tuple[int, int, float, float]]:
-    """Segments ending at ``point``: ``(point a, point b, length [m], EI [N*m^2])``."""
+    """Segments of ``spec`` ending at ``point``: ``(point a, point b, length [m], EI [N*m^2])``."""
     out = []
     for m in spec.members:
         ei = spec.sections[m.section].ei.si
@@ -225,6 +228,8 @@ def soften_joint(spec: StructureSpec, point: int, rotational_stiffness: float, *
         A point where at least one member segment ends.
     rotational_stiffness : float
         ``k_j`` [N*m/rad], > 0.
+    effect : str
+        Tag of the new sections.
 
     Raises
     ------
@@ -251,7 +256,9 @@ def soften_joint(spec: StructureSpec, point: int, rotational_stiffness: float, *
 def set_modal_damping(spec: StructureSpec, mode: int, ratio: float, *, n_modes: int | None = None) -> StructureSpec:
     """Return ``spec`` with the open-loop damping ratio of ``mode`` (1-based) set to ``ratio``.
 
-    Modes beyond the listed ratios get the default ratio up to ``mode``.
+    Modes beyond the listed ratios get the default ratio up to ``mode``;
+    ``n_modes`` is accepted for symmetry with :func:`vlab.calibration.open_loop_ratios`
+    and unused.
 
     Raises
     ------

@@ -29,6 +29,7 @@ from ..lab.engine import ControllerEngine
 from ..lab.linear_plant import LinearPlant
 from ..lab.loop import run_loop
 from ..lab.recording import Recording
+from ..measure.frf import h1
 from .data import FrfData
 from .labmodel import LabState
 
@@ -172,10 +173,17 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
 
 
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
-    """FRFs of a rerun on the lines of ``data``, the same periods analysed, shape (n_f, n_o)."""
+    """FRFs of the rerun ``rec`` on the lines of ``data``, the same periods analysed, shape (n_f, n_o)."""
     dt = rec.dt_s
     f0 = data.freq_hz
     df = float(np.min(np.diff(f0)))  # the lines are multiples of the resolution
+    if not data.periodic:
+        x = np.asarray(rec[f"force{data.excitation_point}"])
+        out = np.empty((f0.size, len(data.output_points)), dtype=complex)
+        for j, p in enumerate(data.output_points):
+            frf = h1(x, np.asarray(rec[f"vel{p}"]), dt_s=dt, resolution_hz=df, window="hann")
+            out[:, j] = np.interp(f0, frf.freq_hz, frf.h.real) + 1j * np.interp(f0, frf.freq_hz, frf.h.imag)
+        return out
     n_per = int(round(1.0 / (df * dt)))
     start = int(round(data.analysed_from_s / dt))
     x = np.asarray(rec[f"force{data.excitation_point}"])[start:]
@@ -191,7 +199,8 @@ def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
 
 
 def time_error(rec: Recording, data: FrfData) -> float:
-    """``||v_rerun - v_recorded|| / ||v_recorded||`` over the velocity channels after the transient."""
+    """``||v_rerun - v_recorded|| / ||v_recorded||`` of the rerun ``rec`` against the recording of ``data``,
+    over the velocity channels after the transient."""
     start = int(round(data.analysed_from_s / rec.dt_s))
     num = den = 0.0
     for p in data.output_points:
@@ -236,8 +245,15 @@ class Validation:
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after}
 
 
+def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,
+               seed: int) -> tuple[float, dict]:
+    """Worker of a parallel rerun: returns ``(dt_s, {channel: samples})`` (picklable)."""
+    rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed)
+    return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}
+
+
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
-             seed: int = 0, key: str | None = None) -> Validation:
+             seed: int = 0, key: str | None = None, workers: int = 2) -> Validation:
     """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
 
     Parameters
@@ -254,6 +270,8 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     key : str, optional
         Name under which the rerun of ``modified`` is cached on ``problem``
         (the nominal rerun is always cached).
+    workers : int
+        Run the two reruns in parallel processes when > 1 and both are needed.
 
     Returns
     -------
@@ -291,14 +309,34 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
             cache[(key, k)] = r
         return r
 
+    def both(k: str) -> list[Recording]:
+        todo = [(st, kk) for st, kk in ((nominal, "nominal"), (modified, key)) if kk is None or (kk, k) not in cache]
+        if workers > 1 and len(todo) == 2:
+            from concurrent.futures import ProcessPoolExecutor
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                with ProcessPoolExecutor(2) as ex:
+                    futs = [ex.submit(_rerun_job, st, force, data.excitation_point, pts, k, seed) for st, _ in todo]
+                    for (st, kk), fu in zip(todo, futs):
+                        dt, sig = fu.result()
+                        if kk is not None:
+                            cache[(kk, k)] = Recording.from_signals(dt, sig)
+                        else:
+                            cache[("_last", k)] = Recording.from_signals(dt, sig)
+                return [cache[("nominal", k)], cache[(key, k)] if key is not None else cache[("_last", k)]]
+            except (OSError, BrokenProcessPool):
+                pass  # no process pool here: sequential
+        return [run(nominal, k, "nominal"), run(modified, k, key)]
+
     try:
-        runs = [run(nominal, kind, "nominal"), run(modified, kind, key)]
+        runs = both(kind)
     except (VlabError, ImportError) as exc:
         if plant != "auto" or kind == "linear":
             raise
         note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
         kind = "linear"
-        runs = [run(nominal, kind, "nominal"), run(modified, kind, key)]
+        runs = both(kind)
     desc = ("MuJoCo plant" if kind == "mujoco" else "linear FE plant") + note
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask

@@ -1,0 +1,165 @@
+"""The result of a diagnosis and its JSON object (the ``--json`` output of ``vlab diagnose``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .data import FrfData, ModalData
+from .hypotheses import Combination, Hypothesis
+from .labmodel import LabState
+from .locate import Location
+from .problem import Problem
+from .report import jsonable
+from .validate import Validation
+
+
+@dataclass
+class DiagnosisResult:
+    """Everything a diagnosis found; :meth:`as_dict` is the ``--json`` object.
+
+    Attributes
+    ----------
+    structure, controller : str
+    data : FrfData or ModalData
+    problem : Problem
+    nominal : LabState
+    mismatch : bool
+    chi2_nominal, chi2_limit : float
+        Weighted chi-square of the nominal model and the noise limit.
+    location : Location
+    loop : str or None
+        "open", "closed", "both" (None when there is no mismatch).
+    ranked : list of Hypothesis
+        Fitted hypotheses, best BIC first (empty when there is no mismatch).
+    selected : Hypothesis or None
+        The chosen effect (a :class:`Combination` for two).
+    validation : Validation or None
+        Rerun of the experiment (time-history input with a selected effect).
+    misfit_nominal, misfit_selected : float
+        Misfit of the linear model before and after (FRF: decades; modal:
+        relative frequency error).
+    notes : list of str
+    timing_s : dict
+    files : dict
+        Name -> path of the report files (when an output folder was given).
+    alternatives : list of Hypothesis
+        Hypotheses the data cannot tell apart from the selected one.
+    overdispersion : float
+        ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.evidence`).
+    """
+
+    structure: str
+    controller: str
+    data: FrfData | ModalData
+    problem: Problem
+    nominal: LabState
+    mismatch: bool
+    chi2_nominal: float
+    chi2_limit: float
+    location: Location
+    loop: str | None
+    ranked: list = field(default_factory=list)
+    selected: Hypothesis | None = None
+    validation: Validation | None = None
+    misfit_nominal: float = float("nan")
+    misfit_selected: float = float("nan")
+    notes: list = field(default_factory=list)
+    timing_s: dict = field(default_factory=dict)
+    files: dict = field(default_factory=dict)
+    alternatives: list = field(default_factory=list)
+    overdispersion: float = 1.0
+
+    @property
+    def selected_parts(self) -> list[Hypothesis]:
+        """The selected effects, one or two."""
+        if self.selected is None:
+            return []
+        return list(self.selected.parts) if isinstance(self.selected, Combination) else [self.selected]
+
+    def selected_state(self) -> LabState:
+        """The lab with the selected effect (the nominal lab if none)."""
+        if self.selected is None:
+            return self.nominal
+        return self.problem.state_for(self.selected, self.selected.params_)
+
+    def _entry(self, h: Hypothesis) -> dict:
+        bic0 = self.chi2_nominal
+        return {"effect": h.effect, "location": h.location, "parameters": h.parameters_dict(),
+                "ci95": h.ci95_dict(), "score": float(h.bic_), "aic": float(h.aic_), "chi2": float(h.chi2_),
+                "delta_bic": float(bic0 - h.bic_), "misfit_before": self.misfit_nominal,
+                "misfit_after": float(h.misfit_)}
+
+    def _selected_entries(self) -> list[dict]:
+        if self.selected is None:
+            return []
+        h = self.selected
+        if not isinstance(h, Combination):
+            return [{"effect": h.effect, "location": h.location, "parameters": h.parameters_dict(),
+                     "ci95": h.ci95_dict()}]
+        out, i = [], 0
+        for part in h.parts:
+            k = part.n_params
+            names = part.param_names
+            out.append({"effect": part.effect, "location": part.location,
+                        "parameters": {n: float(v) for n, v in zip(names, h.params_[i:i + k])},
+                        "ci95": {n: [float(a), float(b)] for n, (a, b) in zip(names, h.ci95_[i:i + k])}})
+            i += k
+        return out
+
+    def as_dict(self) -> dict:
+        """The JSON object: ``mismatch``, ``located``, ``ranked``, ``selected``, ``validated`` and context.
+
+        Units: parameters SI (names carry the unit); ``score`` is the BIC
+        (lower is better); misfits of FRF data in decades of
+        ``log10|H|`` (weighted RMS), of modal data as relative frequency
+        error; time errors relative. Plain JSON types: numbers that are not
+        finite become None.
+        """
+        loc = self.location
+        d = self.data
+        flagged = [m.mode for m in loc.modes if m.flagged]
+        sensors = [p for p, c in loc.channels.items()
+                   if c["chi2_per_residual"] > 4.0 or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
+        located = {"modes": flagged, "points": loc.points, "members": loc.members, "band_hz": loc.band_hz,
+                   "loop": self.loop, "sensors": sensors, "mode_errors": [m.as_dict() for m in loc.modes],
+                   "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}
+        if self.validation is not None:
+            validated = self.validation.as_dict()
+        else:
+            validated = {"plant": "linear model (no time histories to replay)" if self.selected is not None
+                         else "none (no effect selected)",
+                         "misfit_before": self.misfit_nominal,
+                         "misfit_after": self.misfit_selected if self.selected is not None else self.misfit_nominal,
+                         "time_error_before": None, "time_error_after": None}
+        if isinstance(self.data, ModalData):
+            fb, _, _ = self.problem.model_modes(self.nominal)
+            fa, _, _ = self.problem.model_modes(self.selected_state())
+            validated["modes"] = [
+                {"mode": int(m), "frequency_measured_hz": float(fm), "frequency_before_hz": float(b),
+                 "frequency_after_hz": float(a), "error_before": float(b / fm - 1), "error_after": float(a / fm - 1)}
+                for m, fm, b, a in zip(self.data.modes, self.data.freq_hz, fb, fa)]
+        alternatives = [h.label for h in self.alternatives]
+        data = {"source": d.source, "kind": d.kind}
+        if isinstance(d, FrfData):
+            data.update(n_lines=int(d.freq_hz.size), n_channels=len(d.output_points),
+                        excitation_point=d.excitation_point, output_points=list(d.output_points),
+                        band_hz=[float(d.freq_hz[0]), float(d.freq_hz[-1])])
+        else:
+            data.update(n_modes=int(d.freq_hz.size))
+        return jsonable({
+            "structure": self.structure, "controller": self.controller, "data": data,
+            "mismatch": bool(self.mismatch),
+            "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
+                           "n_obs": self.problem.n_obs, "floor": self.problem.floor,
+                           "overdispersion": self.overdispersion},
+            "located": located,
+            "ranked": [self._entry(h) for h in self.ranked],
+            "selected": self._selected_entries(),
+            "alternatives": alternatives,
+            "validated": validated,
+            "notes": list(self.notes),
+            "timing_s": dict(self.timing_s),
+            "files": {k: str(v) for k, v in self.files.items()},
+        })
