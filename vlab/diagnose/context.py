@@ -44,6 +44,8 @@ class Context:
         Actuator point -> RMS amplifier command [N] of the nominal lab (cache for ``saturation``).
     _k_no_gravity : dict
         Cache of FE stiffness matrices built without gravity (``gravity_prestress``).
+    _predicted : dict
+        Cache of :meth:`predicted_velocity_rms`.
     """
 
     band_hz: tuple[float, float]
@@ -59,20 +61,26 @@ class Context:
     excitation_point: int | None = None
     command_rms: dict = field(default_factory=dict)
     _k_no_gravity: dict = field(default_factory=dict, repr=False)
+    _predicted: dict = field(default_factory=dict, repr=False)
 
     @property
     def has_signals(self) -> bool:
         """True when excitation amplitudes are known (time-history input)."""
         return self.force_amplitude is not None
 
-    def predicted_velocity_rms(self, state: LabState, point: int) -> float:
+    def velocity_rms_of(self, state: LabState, point: int) -> float:
         """RMS velocity [m/s] at ``point`` for the recorded excitation: the measured value where the point
-        was recorded, else predicted with ``state`` (NaN without time histories)."""
+        was recorded, else predicted with ``state`` (not cached; NaN without time histories)."""
         if point in self.velocity_rms:
             return self.velocity_rms[point]
         if not self.has_signals:
             return float("nan")
         h = predict_frf(state, self.freq_hz, excitation_point=self.excitation_point, output_points=(point,))
-        v = float(np.sqrt(0.5 * np.sum(np.abs(h[:, 0] * self.force_amplitude) ** 2)))
-        self.velocity_rms[point] = v
-        return v
+        return float(np.sqrt(0.5 * np.sum(np.abs(h[:, 0] * self.force_amplitude) ** 2)))
+
+    def predicted_velocity_rms(self, state: LabState, point: int) -> float:
+        """Like :meth:`velocity_rms_of`, cached per point: the velocity level of the nominal ``state``
+        (for scales)."""
+        if point not in self._predicted:
+            self._predicted[point] = self.velocity_rms_of(state, point)
+        return self._predicted[point]

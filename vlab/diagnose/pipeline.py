@@ -48,8 +48,8 @@ from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
 from .problem import Problem
 from .result import DiagnosisResult
-from .selection import (CONTROLLER_PATH, NONLINEAR, data_has_signals, located_from_fits, prune, rerun_key,
-                        tie_break_by_rerun)
+from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
+                        rerun_key, tie_break_by_rerun)
 from .validate import validate
 
 __all__ = ["diagnose", "DiagnosisResult"]
@@ -228,10 +228,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
         res.overdispersion = c_hat
         if chosen is not None and validate_run and data_has_signals(data) and \
-                any(e in NONLINEAR for h in [chosen] + alts for e in h.effect.split("+")):
+                any(needs_rerun_check(h) for h in [chosen] + alts):
             say("separating look-alikes by rerun")
             t = time.perf_counter()
-            chosen, alts = tie_break_by_rerun(problem, nominal, chosen, alts, plant, notes)
+            chosen, alts = tie_break_by_rerun(problem, nominal, chosen, alts, ranked, notes)
             timing["tie_break"] = time.perf_counter() - t
         res.alternatives = alts
         if chosen is not None:

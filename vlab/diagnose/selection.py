@@ -9,11 +9,14 @@ mismatch is once effects are fitted.
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import VlabError
 from .data import FrfData
-from .hypotheses import Combination, Hypothesis
+from .hypotheses import Combination, Friction, Hypothesis, PointDamping
 from .labmodel import LabState
 from .locate import located_places
 from .problem import Problem
@@ -35,15 +38,81 @@ def data_has_signals(data) -> bool:
     return isinstance(data, FrfData) and data.recording is not None
 
 
-def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, alts: list, plant: str,
-                       notes: list, *, max_candidates: int = 3) -> tuple[Hypothesis, list]:
+def _swap(h: Hypothesis, problem: Problem) -> Hypothesis | None:
+    """The look-alike of a fitted single ``damping`` at a point (``friction`` there, and back), same linear model."""
+    ctx, base = problem.ctx, problem.base
+    if isinstance(h, PointDamping) or isinstance(h, Friction):
+        try:
+            if isinstance(h, PointDamping):
+                c = float(h.params_[0])
+                sigma = ctx.velocity_rms_of(replace(base, dashpots=base.dashpots + ((h.point, c),)), h.point)
+                to_f = sigma * math.sqrt(math.pi / 2)  # F = c sigma sqrt(pi / 2)  (Caughey)
+                new, scale = Friction(point=h.point), to_f
+            else:
+                c = h.equivalent_damping(base, float(h.params_[0]), ctx)
+                new, scale = PointDamping(point=h.point), c / float(h.params_[0])
+        except VlabError:
+            return None
+        if not np.isfinite(scale) or scale <= 0:
+            return None
+        new.params_ = np.asarray(h.params_) * scale
+        new.ci95_ = np.asarray(h.ci95_) * scale
+        for a in ("chi2_", "aic_", "bic_", "misfit_", "success_"):
+            setattr(new, a, getattr(h, a))
+        new.n_evaluations_ = 0
+        return new
+    return None
+
+
+def lookalikes(h: Hypothesis, problem: Problem) -> list[Hypothesis]:
+    """Fitted variants of ``h`` that are the same linear model: ``damping`` at a point swapped for
+    ``friction`` there (and back), in a single effect or in either part of a pair; the velocity level
+    for the exact mapping ``F = c sigma_v sqrt(pi / 2)`` comes from ``problem``."""
+    if not isinstance(h, Combination):
+        v = _swap(h, problem)
+        return [v] if v is not None else []
+    out = []
+    a, b = h.parts
+    k = a.n_params
+    for i, part in enumerate((a, b)):
+        sw = _swap(part, problem) if hasattr(part, "params_") else None
+        if sw is None:
+            continue
+        pa, pb = (sw, b) if i == 0 else (a, sw)
+        c = Combination(first=pa, second=pb)
+        x = np.array(h.params_, dtype=float)
+        ci = np.array(h.ci95_, dtype=float)
+        sl = slice(0, k) if i == 0 else slice(k, None)
+        ratio = sw.params_[0] / part.params_[0] if part.params_[0] else 1.0
+        x[sl] = x[sl] * ratio
+        ci[sl] = ci[sl] * ratio
+        c.params_, c.ci95_ = x, ci
+        for at in ("chi2_", "aic_", "bic_", "misfit_", "success_"):
+            setattr(c, at, getattr(h, at))
+        c.n_evaluations_ = 0
+        out.append(c)
+    return out
+
+
+def needs_rerun_check(h: Hypothesis) -> bool:
+    """True when ``h`` (or a part of it) has look-alikes only a rerun separates (saturation, friction,
+    damping at a point)."""
+    parts = h.parts if isinstance(h, Combination) else (h,)
+    return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
+
+
+def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, alts: list, ranked: list,
+                       notes: list, *, max_candidates: int = 4, parsimony: float = 0.8) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
 
     A saturating amplifier and a lower channel gain give nearly the same FRF
     (the saturation's describing function is a gain), and so do Coulomb
     friction and a dashpot at one point; the rerun through the loop
     reproduces the clipping or the friction force itself, so the time
-    histories separate them.
+    histories separate them. When the winner is a pair with such a
+    nonlinear part, its linear misfit cannot judge the second effect: the
+    pair is kept only if its rerun error is below ``parsimony`` times that
+    of the nonlinear effect alone.
 
     Parameters
     ----------
@@ -52,34 +121,55 @@ def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, 
     chosen : Hypothesis
         The selected hypothesis.
     alts : list of Hypothesis
-        Its look-alikes; those with as many parameters are compared.
-    plant : str
-        Unused: the comparison runs on the linear plant (the only one carrying friction).
+        Hypotheses the data cannot tell from it; those with as many parameters are compared.
+    ranked : list of Hypothesis
+        All fitted hypotheses (for the single nonlinear effect of a pair).
     notes : list of str
         Receives a line with the time errors.
     max_candidates : int
         Most hypotheses rerun.
+    parsimony : float
+        Factor a pair's rerun error must beat its nonlinear part's alone by.
 
     Returns
     -------
     (Hypothesis, list of Hypothesis)
         The winner and the others.
     """
-    cands = [chosen] + [h for h in alts if h.n_params == chosen.n_params][: max_candidates - 1]
-    if len(cands) < 2:
-        return chosen, alts
-    errs = []
-    for h in cands:
+    cands = [chosen] + lookalikes(chosen, problem)
+    cands += [h for h in alts if h.n_params == chosen.n_params and h not in cands]
+    cands = cands[:max_candidates]
+
+    def err(h: Hypothesis) -> float:
         try:
             v = validate(problem, nominal, problem.state_for(h, h.params_), plant="linear", spec_level=False,
                          key=rerun_key(h))
-            errs.append(v.time_error_after)
+            return v.time_error_after
         except (VlabError, ImportError):
-            errs.append(float("inf"))
-    j = int(np.argmin(errs))
-    notes.append("look-alikes compared by rerun (time-domain error): "
-                 + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
+            return float("inf")
+
+    errs = [err(h) for h in cands] if len(cands) > 1 else [float("nan")]
+    j = int(np.nanargmin(errs)) if len(cands) > 1 else 0
     best = cands[j]
+    if len(cands) > 1:
+        notes.append("look-alikes compared by rerun (time-domain error): "
+                     + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
+    if isinstance(best, Combination):
+        nl = [p for p in best.parts if p.effect in NONLINEAR]
+        if nl:
+            part = nl[0]
+            single = next((h for h in ranked if not isinstance(h, Combination) and h.label == part.label), None)
+            if single is None:
+                swapped = [_swap(h, problem) for h in ranked if not isinstance(h, Combination)
+                           and isinstance(h, (PointDamping, Friction)) and h.location == part.location]
+                single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
+            if single is not None:
+                e_pair = errs[j] if len(cands) > 1 else err(best)
+                e_single = err(single)
+                notes.append(f"pair with a nonlinear effect checked by rerun: {best.label}: {e_pair:.3g}, "
+                             f"{single.label} alone: {e_single:.3g}")
+                if not e_pair < parsimony * e_single:
+                    best = single
     return best, [h for h in [chosen] + alts if h is not best]
 
 

@@ -299,9 +299,12 @@ class Friction(Hypothesis):
     Parameter: ``friction_force_n`` [N] (log10). Under random excitation the
     statistically linearised friction force is ``c_eq v`` with
     ``c_eq = sqrt(2 / pi) F / sigma_v`` (Caughey, J. Acoust. Soc. Am. 35
-    (1963) 1706-1711), ``sigma_v`` the RMS velocity at the point (measured or
-    predicted). At one excitation level it fits exactly like ``damping`` at
-    the point; a second level would separate them.
+    (1963) 1706-1711), ``sigma_v`` the RMS velocity at the point: measured
+    where it was recorded, else predicted with the friction in place
+    (``c_eq`` and ``sigma_v`` iterated to a fixed point, as statistical
+    linearisation does). At one excitation level it fits exactly like
+    ``damping`` at the point; a rerun with the friction force itself
+    separates them (:func:`vlab.diagnose.selection.tie_break_by_rerun`).
     """
 
     effect = "friction"
@@ -329,9 +332,23 @@ class Friction(Hypothesis):
         f = c * self._sigma(state, ctx) * math.sqrt(math.pi / 2)
         return _log_trials(f, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)), np.array([f * 1e-4]), np.array([f * 1e3])
 
+    def equivalent_damping(self, state, force_n: float, ctx) -> float:
+        """``c_eq`` [N*s/m] of friction force ``force_n`` [N] at the point of ``state`` (self-consistent with
+        the velocity level it produces; ``ctx`` gives the excitation)."""
+        k = math.sqrt(2 / math.pi) * force_n
+        c = k / self._sigma(state, ctx)
+        if self.point in ctx.velocity_rms:
+            return c
+        for _ in range(4):
+            s = ctx.velocity_rms_of(replace(state, dashpots=state.dashpots + ((self.point, c),)), self.point)
+            if not s > 0:
+                break
+            c = k / s
+        return c
+
     def _apply(self, state, x, ctx):
-        c = math.sqrt(2 / math.pi) * float(x[0]) / self._sigma(state, ctx)
         state.fe.dofs.index(self.point, "w")
+        c = self.equivalent_damping(state, float(x[0]), ctx)
         return replace(state, frictions=state.frictions + ((self.point, float(x[0]), c),))
 
     def _null(self, state, ctx):
