@@ -74,19 +74,23 @@ def lookalikes(h: Hypothesis, problem: Problem) -> list[Hypothesis]:
     out = []
     a, b = h.parts
     k = a.n_params
-    for i, part in enumerate((a, b)):
-        sw = _swap(part, problem) if hasattr(part, "params_") else None
-        if sw is None:
+    x_parts = (np.asarray(h.params_[:k], dtype=float), np.asarray(h.params_[k:], dtype=float))
+    swaps = []
+    for part, xp in zip((a, b), x_parts):
+        probe = type(part).__new__(type(part))
+        probe.__dict__.update(part.__dict__)
+        probe.params_, probe.ci95_ = xp, np.column_stack([xp, xp])
+        for at in ("chi2_", "aic_", "bic_", "misfit_", "success_"):
+            setattr(probe, at, getattr(h, at))
+        swaps.append(_swap(probe, problem))
+    for use in ((True, False), (False, True), (True, True)):  # swap the first, the second, both
+        if any(u and sw is None for u, sw in zip(use, swaps)):
             continue
-        pa, pb = (sw, b) if i == 0 else (a, sw)
-        c = Combination(first=pa, second=pb)
-        x = np.array(h.params_, dtype=float)
-        ci = np.array(h.ci95_, dtype=float)
-        sl = slice(0, k) if i == 0 else slice(k, None)
-        ratio = sw.params_[0] / part.params_[0] if part.params_[0] else 1.0
-        x[sl] = x[sl] * ratio
-        ci[sl] = ci[sl] * ratio
-        c.params_, c.ci95_ = x, ci
+        parts = [sw if u else p for u, sw, p in zip(use, swaps, (a, b))]
+        x = np.concatenate([sw.params_ if u else xp for u, sw, xp in zip(use, swaps, x_parts)])
+        ratio = x / np.where(h.params_ != 0, h.params_, 1.0)
+        c = Combination(first=parts[0], second=parts[1])
+        c.params_, c.ci95_ = x, np.asarray(h.ci95_) * ratio[:, None]
         for at in ("chi2_", "aic_", "bic_", "misfit_", "success_"):
             setattr(c, at, getattr(h, at))
         c.n_evaluations_ = 0
@@ -136,8 +140,11 @@ def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, 
     (Hypothesis, list of Hypothesis)
         The winner and the others.
     """
-    cands = [chosen] + lookalikes(chosen, problem)
-    cands += [h for h in alts if h.n_params == chosen.n_params and h not in cands]
+    cands, seen = [], set()
+    for h in [chosen] + lookalikes(chosen, problem) + [h for h in alts if h.n_params == chosen.n_params]:
+        if h.label not in seen:
+            seen.add(h.label)
+            cands.append(h)
     cands = cands[:max_candidates]
 
     def err(h: Hypothesis) -> float:
