@@ -27,6 +27,7 @@ from .crosspiece import cantilever_tip_mass_sdof
 from .elements import beam_matrices, local_to_global, rigid_offset
 from .geometric import geometric_stiffness, polar_radius_sq
 from .mesh import Mesh, build_mesh
+from ..units import G_SI
 from .statics import GravityState, solve_gravity
 
 
@@ -185,6 +186,19 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
         k[np.ix_([i, j], [i, j])] += kc * np.array([[1.0, -1.0], [-1.0, 1.0]])
         m[j, j] += m_eff
         m[i, i] += m_rest
+        # Gravity on the arms' deflected mass: with the point rotated by (rx, ry)
+        # the relative deflection d = w_j - w_i of the participating mass m_eff is
+        # carried in the plane by (ry*d, -rx*d), so V = m_eff*g*d*(gy*rx - gx*ry)
+        # (exact for the single-mode model: m_eff = gamma^2/mm, d = q*mm/gamma).
+        # The MuJoCo plant's flexible arms have this from their kinematics; left
+        # out, the close pair 3/4 of the BCC is 0.2 % apart from the plant's.
+        gx, gy = spec.gravity_direction
+        for d, coef in (("rx", gy), ("ry", -gx)):
+            if coef != 0.0 and (c.point, d) in dofs:
+                r = dofs.index(c.point, d)
+                kg = m_eff * G_SI * coef
+                k[np.ix_([r], [j, i])] += [[kg, -kg]]
+                k[np.ix_([j, i], [r])] += [[kg], [-kg]]
     m = 0.5 * (m + m.T)
     k = 0.5 * (k + k.T)
     _check_definite(spec.name, dofs, m, k)

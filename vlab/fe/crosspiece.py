@@ -56,7 +56,7 @@ def cantilever_tip_mass_sdof(ei: float, length: float, arm_mass: float, tip_mass
     b = scipy.optimize.brentq(f, 1e-3, 1.8751041)
     omega = b**2 * math.sqrt(ei * length / (m * length**4))
     x = np.linspace(0.0, 1.0, 4001)
-    s = (math.sinh(b) - math.sin(b)) / (math.cosh(b) + math.cos(b))
+    s = (math.cosh(b) + math.cos(b)) / (math.sinh(b) + math.sin(b))  # phi''(L) = 0 (no tip moment)
     phi = (np.cosh(b * x) - np.cos(b * x)) - s * (np.sinh(b * x) - np.sin(b * x))
     phi = phi / phi[-1]
     gamma = m * np.trapezoid(phi, x) + M
