@@ -133,6 +133,22 @@ def average_error(comparisons: list[ModeComparison]) -> float:
     float
         The average error [-], NaN when no mode has a finite ratio.
     """
-    r = np.array([c.peak_level_ratio for c in comparisons], dtype=float)
+    return finite_average_error([c.peak_level_ratio for c in comparisons])
+
+
+def finite_average_error(ratios) -> float:
+    """``mean |1 - r|`` over the finite peak level ratios (Tables 10, 19-21); NaN if none.
+
+    Parameters
+    ----------
+    ratios : array_like, shape (n_modes,)
+        Peak level ratios [-]; NaN or infinite for modes that were not identified.
+
+    Returns
+    -------
+    float
+        The average error [-] of the identified modes, NaN when none is finite.
+    """
+    r = np.asarray(ratios, dtype=float)
     r = r[np.isfinite(r)]
     return float(average_peak_error(r)) if r.size else float("nan")

@@ -371,20 +371,3 @@ def compare_run(ctx: ReproContext, run: VirtualRun, models: tuple[str, ...], pla
     RunComparison
     """
     return RunComparison(run, measured_peaks(ctx, run, plant), {m: analysis_peaks(ctx, run, m) for m in models})
-
-
-def average_error(ratios: np.ndarray) -> float:
-    """``mean |1 - r|`` over the identified modes (last row of Tables 10, 19-21); NaN if none.
-
-    Parameters
-    ----------
-    ratios : array_like, shape (n_modes,)
-        Peak level ratios (NaN for unidentified modes).
-
-    Returns
-    -------
-    float
-    """
-    r = np.asarray(ratios, dtype=float)
-    r = r[np.isfinite(r)]
-    return float(np.mean(np.abs(1.0 - r))) if r.size else float("nan")

@@ -656,7 +656,7 @@ def _experiment_notes(ctx: ReproContext, plant: str, structure: str, resolution_
 
 def _ratio_rows(table_fn: str, col_map: dict, flag: str) -> list[Row]:
     """Rows (mode i, then 'avg error') of a peak-ratio table; ``col_map``: published column -> (label, ratios)."""
-    from .experiments import average_error
+    from ..measure.compare import finite_average_error
 
     t = read_table(table_fn)
     modes = [int(v) for v in t["mode"] if isinstance(v, float)]
@@ -668,7 +668,7 @@ def _ratio_rows(table_fn: str, col_map: dict, flag: str) -> list[Row]:
                 j = int(mode) - 1
                 rows.append(Row(f"mode {int(mode)}", label, t[col][i], r[j] if j < len(r) else None, flag))
             else:
-                rows.append(Row("avg error", label, t[col][i], average_error(r[: len(modes)]), flag))
+                rows.append(Row("avg error", label, t[col][i], finite_average_error(r[: len(modes)]), flag))
     return rows
 
 
