@@ -225,8 +225,20 @@ def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, .
             "rng_seed": [seed, i, 1], "plant": plant}
 
 
-def run_case(case: dict, workdir: str, noise: float = 0.01) -> dict:
-    """Generate the recording of one case and diagnose it blind."""
+def _record(state, force, exc, meas, dt, plant, seed, noise, rng, path, case) -> None:
+    """Run the test on ``state``, add measurement noise and write the UFF 58 recording to ``path``."""
+    rec, _ = rerun(state, force, excitation_point=exc, measured_points=meas, seed=seed, plant=plant)
+    signals = {f"force{exc}": force}
+    for p in meas:
+        v = np.asarray(rec[f"vel{p}"])
+        signals[f"vel{p}"] = v + noise * np.std(v) * rng.standard_normal(v.size)
+    write_recording(path, Recording.from_signals(dt, signals, metadata={
+        "structure": case["structure"], "controller": case["controller"], "seed": 0, "resolution_hz": RES_HZ}),
+        overwrite=True)
+
+
+def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = False) -> dict:
+    """Generate the recording of one case (and, with ``baseline``, one of the unmodified plant) and diagnose it blind."""
     rng = np.random.default_rng(case["rng_seed"])
     st0 = nominal_state(case["structure"], case["controller"])
     test = TESTS[case["structure"]]
@@ -257,19 +269,18 @@ def run_case(case: dict, workdir: str, noise: float = 0.01) -> dict:
         truths.append(t)
     t0 = time.perf_counter()
     plant = case.get("plant", "linear")
-    rec, _ = rerun(truth_state, force, excitation_point=exc, measured_points=meas, seed=case["index"], plant=plant)
-    signals = {f"force{exc}": force}
-    for p in meas:
-        v = np.asarray(rec[f"vel{p}"])
-        signals[f"vel{p}"] = v + noise * np.std(v) * rng.standard_normal(v.size)
     path = os.path.join(workdir, f"case{case['index']}.uff")
-    write_recording(path, Recording.from_signals(dt, signals, metadata={
-        "structure": case["structure"], "controller": case["controller"], "seed": 0, "resolution_hz": RES_HZ}),
-        overwrite=True)
+    _record(truth_state, force, exc, meas, dt, plant, case["index"], noise, rng, path, case)
+    base_path = None
+    if baseline:  # the same test on the unmodified plant, another excitation record and noise
+        base_force = pseudo_random(np.arange(n) * dt, band_hz=test.band_hz, resolution_hz=RES_HZ, rms_n=test.rms_n,
+                                   seed=int(rng.integers(1 << 30)))
+        base_path = os.path.join(workdir, f"case{case['index']}_baseline.uff")
+        _record(st0, base_force, exc, meas, dt, plant, case["index"] + 10_000, noise, rng, base_path, case)
     t_gen = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = diagnose(case["structure"], path, controller=case["controller"], plant=plant)
+        res = diagnose(case["structure"], path, controller=case["controller"], plant=plant, baseline=base_path)
         d = res.as_dict()
         err = None
     except Exception as exc:  # a benchmark records failures instead of stopping
@@ -344,6 +355,8 @@ def main(argv=None) -> int:
     ap.add_argument("--plant", choices=("linear", "mujoco"), default="linear",
                     help="plant that records the cases and reruns the validation")
     ap.add_argument("--structures", nargs="+", choices=("bcc", "grid"), default=["bcc", "grid"])
+    ap.add_argument("--baseline", action="store_true",
+                    help="also record the unmodified plant and pass it to the diagnosis as its baseline")
     args = ap.parse_args(argv)
     cases = [make_case(i, args.seed, args.plant, tuple(args.structures)) for i in range(args.cases)]
     if args.only:
@@ -355,13 +368,14 @@ def main(argv=None) -> int:
 
             with ProcessPoolExecutor(args.jobs) as ex:
                 results = []
-                for r in ex.map(run_case, cases, [work] * len(cases), [args.noise] * len(cases)):
+                for r in ex.map(run_case, cases, [work] * len(cases), [args.noise] * len(cases),
+                                [args.baseline] * len(cases)):
                     results.append(r)
                     print(_line(r, score(r)), flush=True)
         else:
             results = []
             for c in cases:
-                results.append(run_case(c, work, args.noise))
+                results.append(run_case(c, work, args.noise, args.baseline))
                 r = results[-1]
                 s = score(r)
                 print(_line(r, s), flush=True)

@@ -167,3 +167,40 @@ def test_malformed_modal_csv(tmp_path, text, match):
     p.write_text(text)
     with pytest.raises(DataFileError, match=match):
         diagnose("bcc", p)
+
+
+def _frf_data(h, var, freq=None, outputs=(5, 6), source="x.uff"):
+    from vlab.diagnose.data import FrfData
+
+    freq = np.linspace(1.0, 2.0, h.shape[0]) if freq is None else freq
+    return FrfData(source, "frf", freq, h, var, 9, tuple(outputs))
+
+
+def test_baseline_referral_removes_the_shared_model_form_error():
+    """H_rec * H_model / H_base: a plant offset present in both recordings cancels, a change is kept."""
+    from vlab.diagnose.data import refer_to_model
+
+    rng = np.random.default_rng(0)
+    h_model = rng.standard_normal((50, 2)) + 1j * rng.standard_normal((50, 2))
+    offset = 1.0 + 0.3 * rng.standard_normal((50, 2))  # the plant against the model, in both recordings
+    change = 1.0 + 0.1 * rng.standard_normal((50, 2))  # what happened since the baseline
+    var = np.full((50, 2), 1e-6)
+    base = _frf_data(h_model * offset, var, source="base.uff")
+    data = _frf_data(h_model * offset * change, var)
+    out = refer_to_model(data, base, h_model)
+    np.testing.assert_allclose(out.h, h_model * change, rtol=1e-12)
+    np.testing.assert_allclose(out.h_recorded, data.h)
+    rel = out.var / np.abs(out.h) ** 2  # relative variances of the recording and the baseline add
+    np.testing.assert_allclose(rel, var / np.abs(data.h) ** 2 + var / np.abs(base.h) ** 2, rtol=1e-9)
+    assert "base.uff" in out.notes[-1]
+
+
+def test_baseline_of_another_test_is_refused():
+    from vlab.diagnose.data import refer_to_model
+
+    h = np.ones((10, 2), dtype=complex)
+    var = np.full((10, 2), 1e-6)
+    with pytest.raises(DataFileError, match="base.uff.*same test"):
+        refer_to_model(_frf_data(h, var), _frf_data(h, var, outputs=(5, 7), source="base.uff"), h)
+    with pytest.raises(DataFileError, match="base.uff.*lines"):
+        refer_to_model(_frf_data(h, var), _frf_data(h, var, freq=np.linspace(1, 3, 10), source="base.uff"), h)

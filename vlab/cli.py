@@ -350,6 +350,9 @@ def diagnose(
     controller: ExpController = typer.Option(ExpController.none, "--controller", help="controller that was running"),
     out: str = typer.Option("out/diagnose", "--out", help="output folder"),
     plant: str = typer.Option("auto", "--plant", help="validation plant: auto, linear or mujoco"),
+    baseline: str = typer.Option(None, "--baseline",
+                                        help="recording of the same test before the change (removes the "
+                                             "model's own offsets against the plant)"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
@@ -359,7 +362,7 @@ def diagnose(
 
     try:
         res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=Path(out),
-                           plant=plant)
+                           plant=plant, baseline=baseline)
     except (VlabError, ValueError) as exc:
         _fail(exc)
     if as_json:

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +78,9 @@ class FrfData:
         What was assumed on the way (resolution, settling, noise estimate).
     periodic : bool
         Estimated period by period (periodic excitation) rather than by H1 with a Hann window.
+    h_recorded : ndarray, complex, shape (n_f, n_o) or None
+        The FRFs as recorded when ``h`` has been referred to the model through a
+        baseline recording (:func:`refer_to_model`); None otherwise.
     """
 
     source: str
@@ -93,6 +96,7 @@ class FrfData:
     analysed_from_s: float = 0.0
     notes: list = field(default_factory=list)
     periodic: bool = True
+    h_recorded: np.ndarray | None = None
 
     @property
     def sigma_rel(self) -> np.ndarray:
@@ -541,3 +545,57 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
         raise
     except VlabError:
         raise
+
+
+def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> FrfData:
+    """Refer measured FRFs to the model through a baseline recording of the unmodified structure.
+
+    ``H_ref = H_meas * H_model / H_baseline`` line by line: the ratio of the
+    recording to the baseline (the change since the baseline) is kept and the
+    model-form error shared by both (the model's offsets against this plant,
+    present before any change) is removed to first order -- the reference-state
+    idea of vibration-based damage detection (Doebling et al., *Damage
+    identification and health monitoring of structural and mechanical systems
+    from changes in their vibration characteristics*, LA-13070-MS, 1996, Sec. 3).
+    Variances add in relative terms.
+
+    Parameters
+    ----------
+    data, baseline : FrfData
+        The recording under diagnosis and the baseline of the same test (same
+        lines, excitation point and outputs).
+    h_model : ndarray, complex, shape (n_f, n_o)
+        The nominal model's FRFs on the data's lines [(m/s)/N].
+
+    Returns
+    -------
+    FrfData
+        ``h`` referred to the model, ``var`` propagated, ``h_recorded`` the
+        recorded FRFs; a note says so.
+
+    Raises
+    ------
+    DataFileError
+        The baseline has other lines, another excitation point or other outputs
+        (names the baseline file).
+    """
+    if (baseline.excitation_point != data.excitation_point
+            or tuple(baseline.output_points) != tuple(data.output_points)):
+        raise DataFileError(
+            f"{baseline.source}: baseline excites point {baseline.excitation_point} and measures "
+            f"{list(baseline.output_points)}; the recording {data.source} excites {data.excitation_point} and "
+            f"measures {list(data.output_points)}: a baseline must be the same test")
+    if baseline.freq_hz.shape != data.freq_hz.shape or not np.allclose(baseline.freq_hz, data.freq_hz,
+                                                                       rtol=1e-9, atol=1e-9):
+        raise DataFileError(
+            f"{baseline.source}: baseline lines ({baseline.freq_hz.size} from {baseline.freq_hz[0]:g} Hz, "
+            f"step {np.median(np.diff(baseline.freq_hz)):g} Hz) differ from the recording's "
+            f"({data.freq_hz.size} from {data.freq_hz[0]:g} Hz): use the same excitation and resolution")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(np.abs(baseline.h) > 0, h_model / baseline.h, 0.0)
+        rel_var = data.var / np.maximum(np.abs(data.h) ** 2, 1e-300) + \
+            baseline.var / np.maximum(np.abs(baseline.h) ** 2, 1e-300)
+    h = data.h * ratio
+    note = (f"referred to the model through the baseline {baseline.source}: H = H_recorded * H_model / "
+            "H_baseline (the model-form error present in the baseline is removed to first order)")
+    return replace(data, h=h, var=rel_var * np.abs(h) ** 2, h_recorded=data.h, notes=list(data.notes) + [note])

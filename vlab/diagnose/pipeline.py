@@ -35,15 +35,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError, VlabError
+from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import TESTS
 from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
-from .data import FrfData, detect_kind, read_modal_csv, read_uff_any
+from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
 from .fit import fit_hypothesis, fit_pairs, rank, screen, select
 from .hypotheses import Hypothesis, library
-from .labmodel import LabState
+from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
 from .problem import Problem
@@ -72,7 +72,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
              out_dir: str | Path | None = None, plant: str = "auto", resolution_hz: float | None = None,
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
-             progress=None) -> DiagnosisResult:
+             progress=None, baseline: str | Path | None = None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -110,6 +110,12 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         Replace existing report files in ``out_dir``.
     progress : callable, optional
         Called with a short string at each stage.
+    baseline : str or Path, optional
+        A recording (UFF 58 time histories or FRFs) of the same test on the
+        structure before the change: the data are referred to the model
+        through it (:func:`vlab.diagnose.data.refer_to_model`), so that the
+        model's own offsets against this plant, present in both, are not
+        diagnosed as an effect.
 
     Returns
     -------
@@ -168,6 +174,15 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     data = read_data(spec, fe, path, what, obj, controller=controller, resolution_hz=resolution_hz, band_hz=band,
                  settle_of=settle, notes=notes)
     nominal = nominal_state()
+    if baseline is not None:
+        if not isinstance(data, FrfData):
+            raise DataFileError(f"{path}: a baseline needs FRF data (time histories or FRFs), not a modal table")
+        bwhat, bobj = read_uff_any(Path(baseline))
+        base = read_data(spec, fe, Path(baseline), bwhat, bobj, controller=controller, resolution_hz=resolution_hz,
+                         band_hz=band, settle_of=settle, notes=[])
+        h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                            output_points=data.output_points)
+        data = refer_to_model(data, base, h_nom)
     notes = list(getattr(data, "notes", [])) + notes
     timing["read"] = time.perf_counter() - t_start
 
