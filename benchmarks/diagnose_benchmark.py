@@ -272,11 +272,9 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     path = os.path.join(workdir, f"case{case['index']}.uff")
     _record(truth_state, force, exc, meas, dt, plant, case["index"], noise, rng, path, case)
     base_path = None
-    if baseline:  # the same test on the unmodified plant, another excitation record and noise
-        base_force = pseudo_random(np.arange(n) * dt, band_hz=test.band_hz, resolution_hz=RES_HZ, rms_n=test.rms_n,
-                                   seed=int(rng.integers(1 << 30)))
+    if baseline:  # the same test (the same excitation record, replayed) on the unmodified plant, other noise
         base_path = os.path.join(workdir, f"case{case['index']}_baseline.uff")
-        _record(st0, base_force, exc, meas, dt, plant, case["index"] + 10_000, noise, rng, base_path, case)
+        _record(st0, force, exc, meas, dt, plant, case["index"] + 10_000, noise, rng, base_path, case)
     t_gen = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:

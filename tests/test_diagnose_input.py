@@ -190,8 +190,9 @@ def test_baseline_referral_removes_the_shared_model_form_error():
     out = refer_to_model(data, base, h_model)
     np.testing.assert_allclose(out.h, h_model * change, rtol=1e-12)
     np.testing.assert_allclose(out.h_recorded, data.h)
-    rel = out.var / np.abs(out.h) ** 2  # relative variances of the recording and the baseline add
-    np.testing.assert_allclose(rel, var / np.abs(data.h) ** 2 + var / np.abs(base.h) ** 2, rtol=1e-9)
+    rel = out.var / np.abs(out.h) ** 2  # relative variances add, plus model-form error x change
+    cross = np.abs(np.log(1 / offset)) * np.abs(np.log(change))
+    np.testing.assert_allclose(rel, var / np.abs(data.h) ** 2 + var / np.abs(base.h) ** 2 + cross**2, rtol=1e-9)
     assert "base.uff" in out.notes[-1]
 
 

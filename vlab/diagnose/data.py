@@ -557,7 +557,9 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     idea of vibration-based damage detection (Doebling et al., *Damage
     identification and health monitoring of structural and mechanical systems
     from changes in their vibration characteristics*, LA-13070-MS, 1996, Sec. 3).
-    Variances add in relative terms.
+    Variances add in relative terms, and the referral's second-order error,
+    ``|ln(H_model / H_baseline)| * |ln(H_meas / H_baseline)|`` (model-form
+    error times change), is added as a systematic relative variance.
 
     Parameters
     ----------
@@ -593,8 +595,11 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
             f"({data.freq_hz.size} from {data.freq_hz[0]:g} Hz): use the same excitation and resolution")
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(np.abs(baseline.h) > 0, h_model / baseline.h, 0.0)
+        # the referral is exact to first order; its second-order error is the product of the
+        # model-form error and the change (ln of each ratio), kept as a systematic variance
+        cross = np.abs(np.log(ratio)) * np.abs(np.log(data.h / baseline.h))
         rel_var = data.var / np.maximum(np.abs(data.h) ** 2, 1e-300) + \
-            baseline.var / np.maximum(np.abs(baseline.h) ** 2, 1e-300)
+            baseline.var / np.maximum(np.abs(baseline.h) ** 2, 1e-300) + np.where(np.isfinite(cross), cross, 0.0) ** 2
     h = data.h * ratio
     note = (f"referred to the model through the baseline {baseline.source}: H = H_recorded * H_model / "
             "H_baseline (the model-form error present in the baseline is removed to first order)")
