@@ -36,12 +36,17 @@ two models; only effects the spec or the hardware chain can carry are drawn
 (no point dashpots, Coulomb friction or gravity scaling), and ``--structures
 bcc`` keeps to the structure whose MuJoCo plant runs 30x real time.
 
+With ``--baseline`` each case also records the unmodified plant with the same
+excitation record (replayed, new noise) and the diagnosis gets it as its
+baseline (``vlab diagnose --baseline``): the data are referred to the model
+through it, which removes the model-form error shared by both recordings.
+
 What it does not measure: real hardware.
 
 Usage::
 
     python benchmarks/diagnose_benchmark.py --cases 24 [--seed 0] [--jobs 2] [--json out.json]
-    python benchmarks/diagnose_benchmark.py --cases 12 --plant mujoco --structures bcc
+    python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline
 """
 
 from __future__ import annotations
