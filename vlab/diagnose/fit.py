@@ -45,6 +45,10 @@ STRONG_EVIDENCE = 10.0
 #: only absorbed the MuJoCo plant's model-form error 1.06-1.4x.
 PAIR_MISFIT_GAIN = 1.5
 
+#: Effects whose frequency-domain model is a describing function: their FRF
+#: misfit understates what they explain, so pairs with them skip the gain test.
+NONLINEAR = ("saturation", "friction")
+
 
 def _z(x: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
     x = np.asarray(x, dtype=float)
@@ -268,7 +272,8 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothe
 
     The best single effect (lowest BIC) is chosen unless a pair beats it by
     :data:`STRONG_EVIDENCE` in quasi-BIC (overdispersion from the best single
-    fit) and lowers its misfit by :data:`PAIR_MISFIT_GAIN`; the choice must
+    fit) and lowers its misfit by :data:`PAIR_MISFIT_GAIN` (not asked of
+    pairs with a :data:`NONLINEAR` effect); the choice must
     beat the nominal model by :data:`STRONG_EVIDENCE` too, else nothing is
     selected.
 
@@ -289,8 +294,10 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothe
     if combos:
         pair = min(combos, key=lambda h: h.bic_)
         gain = getattr(best, "misfit_", np.nan) / getattr(pair, "misfit_", np.nan)
+        if any(h.effect in NONLINEAR for h in pair.parts):
+            gain = np.nan
         if (evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE
-                and not gain < PAIR_MISFIT_GAIN):  # a NaN misfit leaves the decision to the evidence
+                and not gain < PAIR_MISFIT_GAIN):  # a NaN gain leaves the decision to the evidence
             best = pair
             c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
     if evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE:

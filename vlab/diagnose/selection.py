@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import VlabError
 from .data import FrfData
+from .fit import NONLINEAR
 from .hypotheses import Combination, Friction, Hypothesis, PointDamping
 from .labmodel import LabState
 from .locate import located_places
@@ -24,8 +25,6 @@ from .validate import validate
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
-#: Effects whose frequency-domain model is a describing function: look-alikes are separated by a rerun.
-NONLINEAR = ("saturation", "friction")
 
 
 def rerun_key(h: Hypothesis) -> str:
