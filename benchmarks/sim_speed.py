@@ -82,7 +82,8 @@ def measure(name: str, sim_seconds: float) -> dict:
         out[key] = {"us_per_step": t * 1e6, "steps_per_s": 1.0 / t, "real_time_factor": dt / t,
                     "ratio_to_bare": t_bare / t}
     out["target_real_time_factor"] = TARGET_RT.get(name)
-    out["meets_target"] = out["bare_mj_step"]["real_time_factor"] >= TARGET_RT.get(name, 0.0)
+    # the target is judged on the lab step: the bare mj_step skips the applied modal damping
+    out["meets_target"] = out["lab_step"]["real_time_factor"] >= TARGET_RT.get(name, 0.0)
     return out
 
 
@@ -104,7 +105,7 @@ def main() -> None:
             print(f"{r['structure']:9s} {r['timestep_s'] * 1e3:8.4f} {r['nv']:4d} {key:>12s} {v['us_per_step']:9.2f} "
                   f"{v['steps_per_s']:10.0f} {v['real_time_factor']:11.2f} {v['ratio_to_bare']:8.2f}")
         print(f"{'':9s} target {r['target_real_time_factor']}x real time at its timestep: "
-              f"{'met' if r['meets_target'] else 'NOT met'} (bare mj_step)")
+              f"{'met' if r['meets_target'] else 'NOT met'} (lab step, modal damping included)")
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 from vlab.design import design_controller
+from vlab.fe import modal_analysis
 from vlab.models import nominal_fe_model
 from vlab.reference import column
 
@@ -62,11 +63,11 @@ def test_design_cli_json_keys():
 
 def test_corrected_guyan_grid_from_virtual_modal_test_matches_table3():
     """Without --modes: shapes from the MuJoCo plant, Table 3 experimental frequencies (Sec. 3.3)."""
-    from vlab.cli import _virtual_measured_modes
     from vlab.design import design_model
+    from vlab.sim.modaltest import virtual_measured_modes
 
     fe = nominal_fe_model("grid")
-    freq, shapes = _virtual_measured_modes(fe)
+    freq, shapes = virtual_measured_modes(fe)
     assert len(freq) == 11
     dm = design_model(fe, "corrected-guyan", measured_modes=(freq, shapes))
     import scipy.linalg
@@ -74,6 +75,21 @@ def test_corrected_guyan_grid_from_virtual_modal_test_matches_table3():
     f = np.sqrt(scipy.linalg.eigvalsh(dm.k, dm.m)) / (2 * np.pi)
     ref = column("table3_grid_frequencies.csv", "experimental_hz")[:11]
     np.testing.assert_allclose(f[:11], ref, rtol=1e-6)  # the corrected model has the measured frequencies
+
+
+def test_virtual_modal_test_pairs_the_bcc_modes_by_shape():
+    """The BCC plant has an extra mode (arms' antisymmetric bending) near FE mode 3: pairing must skip it."""
+    from vlab.measure.mac import mac
+    from vlab.models import master_indices
+    from vlab.sim.modaltest import virtual_measured_modes
+
+    fe = nominal_fe_model("bcc")
+    freq, shapes = virtual_measured_modes(fe)
+    idx = master_indices(fe, "guyan")
+    phi = modal_analysis(fe.m, fe.k, len(freq)).shapes[idx, :]
+    assert len(freq) == 5
+    np.testing.assert_allclose(freq, column("table1_bcc_frequencies.csv", "experimental_hz")[:5])
+    assert np.all(np.diag(mac(phi, shapes)) > 0.99)
 
 
 def test_missing_modes_file_is_a_clear_error(tmp_path):

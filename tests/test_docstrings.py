@@ -1,22 +1,17 @@
-"""Every public function and method of vlab documents its parameters (numpydoc habit)."""
+"""Every public function and method of vlab (all modules but the CLI) documents its parameters (numpydoc habit)."""
 
 from __future__ import annotations
 
 import importlib
 import inspect
+import pkgutil
 
 import pytest
 
-MODULES = [
-    "vlab.sim.builder", "vlab.sim.damping", "vlab.sim.linearize", "vlab.sim.crosscheck",
-    "vlab.sim.runtime", "vlab.sim.checks", "vlab.sim.export",
-    "vlab.lab.blocks", "vlab.lab.engine", "vlab.lab.excitation", "vlab.lab.recording",
-    "vlab.lab.loop", "vlab.lab.linear_plant", "vlab.lab.experiment",
-    "vlab.measure.frf", "vlab.measure.modal", "vlab.measure.mac", "vlab.measure.compare", "vlab.io.uff",
-    "vlab.spec", "vlab.fe.elements", "vlab.fe.modal", "vlab.fe.assembly", "vlab.fe.statics", "vlab.fe.mesh",
-    "vlab.fe.geometric", "vlab.fe.crosspiece", "vlab.reduction", "vlab.correction", "vlab.analysis",
-    "vlab.design", "vlab.models", "vlab.calibration", "vlab.reference", "vlab.io.results",
-]
+import vlab
+
+#: every module of vlab but the command line (its options are documented by their ``help=``)
+MODULES = sorted(m.name for m in pkgutil.walk_packages(vlab.__path__, "vlab.") if m.name != "vlab.cli")
 
 
 def _public(module):

@@ -214,29 +214,6 @@ def test_bad_options_are_clear(tmp_path):
         reproduce(tmp_path, groups=("tables",))
 
 
-@pytest.mark.parametrize("modname", ["vlab.reproduce", "vlab.reproduce.results", "vlab.reproduce.context",
-                                     "vlab.reproduce.closedloop", "vlab.reproduce.tables",
-                                     "vlab.reproduce.experiments", "vlab.reproduce.limit_cycle",
-                                     "vlab.reproduce.run"])
-def test_parameters_are_documented(modname):
-    """The numpydoc habit of tests/test_docstrings.py, for the reproduce package."""
-    import importlib
-    import inspect
-
-    from test_docstrings import _public
-
-    module = importlib.import_module(modname)
-    assert inspect.getdoc(module)
-    missing = []
-    for name, obj, doc in _public(module):
-        if not doc:
-            missing.append(f"{name}: no docstring")
-        elif not inspect.isclass(obj):
-            missing += [f"{name}({p})" for p in inspect.signature(obj).parameters
-                        if p not in ("self", "cls") and p not in doc]
-    assert not missing, f"{modname}: undocumented {missing}"
-
-
 @pytest.mark.slow
 def test_fast_reproduction_end_to_end(tmp_path):
     res = reproduce(tmp_path, fast=True)

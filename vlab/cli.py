@@ -403,29 +403,15 @@ def _measured_modes(fe, modes_file: str | None):
 
 
 def _virtual_measured_modes(fe):
-    """Measured modes for corrected-guyan when no file is given (Sec. 3.3, 5.4.1).
+    """:func:`vlab.sim.modaltest.virtual_measured_modes`, saying on stderr where the modes come from."""
+    from .sim.modaltest import virtual_measured_modes
 
-    Shapes: a virtual modal test on the MuJoCo plant at the Guyan masters
-    (plate displacement / distance for the bearing rotations). Frequencies: the
-    published experimental ones (Table 3 for the grid, Table 1 for the BCC).
-    Like the dissertation (eleven of the grid's twelve), one mode fewer than
-    masters is used, so the highest reduced frequency shows the correction's
-    effect on an unmeasured mode.
-    """
-    from .models import master_indices
-    from .reference import column
-    from .sim.modaltest import virtual_modal_test
-
-    idx = master_indices(fe, "guyan")
-    labels = [fe.dofs.labels[i] for i in idx]
-    f_exp = column(fe.spec.reference["frequencies"], "experimental_hz")
-    n_m = min(len(f_exp), len(idx) - 1)
-    _f_plant, shapes = virtual_modal_test(fe.spec, labels, n_m)
+    freq, shapes = virtual_measured_modes(fe)
     err_console.print(
-        f"corrected-guyan: {n_m} modes, shapes from a virtual modal test on the MuJoCo plant, "
-        f"frequencies from {fe.spec.reference['frequencies']} (experimental)"
+        f"corrected-guyan: {len(freq)} modes, shapes from a virtual modal test on the MuJoCo plant (paired with the "
+        f"FE modes by MAC), frequencies from {fe.spec.reference['frequencies']} (experimental)"
     )
-    return f_exp[:n_m], shapes
+    return freq, shapes
 
 
 def main() -> None:  # pragma: no cover - console entry

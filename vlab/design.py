@@ -338,11 +338,13 @@ def design_controller(
     gamma = beta = None
     if controller in ("mfdrf", "lqdrf", "lqdrf-diag"):
         if controller == "mfdrf":
-            des = mfdrf(a, b, cm, zeta_min=st.zeta_min, n_modes=st.n_modes, n_starts=n_starts or 32, seed=seed,
+            des = mfdrf(a, b, cm, zeta_min=st.zeta_min, n_modes=st.n_modes,
+                        n_starts=32 if n_starts is None else n_starts, seed=seed,
                         Q=q, R=r, initial_states=x0, time_unit_s=CS_S)
         else:
             des = lqdrf(a, b, cm, q, r, x0, zeta_min=st.zeta_min, n_modes=st.n_modes,
-                        diagonal=controller == "lqdrf-diag", n_starts=n_starts or 4, seed=seed, time_unit_s=CS_S)
+                        diagonal=controller == "lqdrf-diag", n_starts=4 if n_starts is None else n_starts, seed=seed,
+                        time_unit_s=CS_S)
         d_si = des.gain_per_s * LBF_N / INCH_M
         gamma = float(des.gamma * CS_S)  # lb*s/in
         beta = des.beta

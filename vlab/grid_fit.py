@@ -48,11 +48,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 import scipy.optimize
 
-from .errors import ModelError
+from .errors import ModelError, ReductionError
 from .fe import FEModel, build_fe_model, modal_analysis
+from .models import master_indices
+from .reduction import GuyanReduction
 from .reference import column
 from .spec import load_spec, spec_from_dict
 from .units import G_IN
@@ -238,10 +239,7 @@ def apply_parameters(doc: dict[str, Any], values: dict[str, float]) -> dict[str,
 
 
 def guyan_frequencies_hz(m: np.ndarray, k: np.ndarray, masters: list[int]) -> np.ndarray:
-    """Natural frequencies of the Guyan-condensed model.
-
-    ``T = [I; -K22^-1 K21]`` (masters first), ``m_R = T' m T``, ``k_R = T' k T``
-    (Guyan 1965; Eqs. 3.9-3.16 of the dissertation).
+    """Natural frequencies of the Guyan-condensed model (:class:`vlab.reduction.GuyanReduction`).
 
     Parameters
     ----------
@@ -257,28 +255,13 @@ def guyan_frequencies_hz(m: np.ndarray, k: np.ndarray, masters: list[int]) -> np
 
     Raises
     ------
-    ModelError
+    ReductionError
         If the slave stiffness partition is singular.
+
+    Source: Guyan (1965); Eqs. 3.9-3.16 of the dissertation.
     """
-    n = m.shape[0]
-    slaves = [i for i in range(n) if i not in set(masters)]
-    k22 = k[np.ix_(slaves, slaves)]
-    k21 = k[np.ix_(slaves, masters)]
-    try:
-        t2 = -np.linalg.solve(k22, k21)
-    except np.linalg.LinAlgError:
-        raise ModelError("Guyan reduction: the slave stiffness partition is singular") from None
-    t = np.zeros((n, len(masters)))
-    t[masters, np.arange(len(masters))] = 1.0
-    t[slaves, :] = t2
-    mr, kr = t.T @ m @ t, t.T @ k @ t
-    lam = scipy.linalg.eigh(0.5 * (kr + kr.T), 0.5 * (mr + mr.T), eigvals_only=True)
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * np.pi)
-
-
-def guyan_masters(fe: FEModel) -> list[int]:
-    """Indices of the Sec. 3.3 Guyan masters (the spec's ``[reduction] guyan`` set)."""
-    return [fe.dofs.index(p, d) for p, d in fe.spec.master_dofs["guyan"]]
+    r = GuyanReduction(m, k, masters).reduce()
+    return modal_analysis(r.m, r.k).frequencies_hz
 
 
 @dataclass(frozen=True)
@@ -373,6 +356,13 @@ def match_modes(fe: FEModel, n_ref: int = 12) -> tuple[np.ndarray, np.ndarray, l
     reaches one half, the one with the largest share); the others fill modes
     1-6 and 9-12 in frequency order.
 
+    Parameters
+    ----------
+    fe : FEModel
+        The grid model.
+    n_ref : int
+        Number of Table 3 modes (12).
+
     Returns
     -------
     freq_hz : ndarray, shape (n_ref,)
@@ -455,9 +445,17 @@ def _bounds() -> tuple[np.ndarray, np.ndarray]:
 def evaluate(doc: dict[str, Any], values: dict[str, float]) -> tuple[FEModel, np.ndarray, np.ndarray, np.ndarray]:
     """Build the model for ``values``.
 
+    Parameters
+    ----------
+    doc : dict
+        A grid TOML document (``StructureSpec.raw``).
+    values : dict of str to float
+        Fitted parameters in thesis units (:data:`GRID_PARAMETERS`).
+
     Returns
     -------
     fe : FEModel
+        The model built.
     matched_hz : ndarray, shape (12,)
         Model frequencies matched to the Table 3 mode numbers (:func:`match_modes`).
     guyan_hz : ndarray, shape (12,)
@@ -467,10 +465,15 @@ def evaluate(doc: dict[str, Any], values: dict[str, float]) -> tuple[FEModel, np
         pendulum mode (swing MAC >= 0.8); no mode other than 7 and 8 may have
         more than 30 % of its kinetic energy in top-beam bending or in
         anti-phase top-beam torsion.
+
+    Raises
+    ------
+    ModelError, SpecError
+        Parameters that give an invalid spec or an unstable model.
     """
     fe = build_fe_model(spec_from_dict(apply_parameters(doc, values)))
     matched, index, ch = match_modes(fe)
-    guyan = guyan_frequencies_hz(fe.m, fe.k, guyan_masters(fe))
+    guyan = guyan_frequencies_hz(fe.m, fe.k, master_indices(fe, "guyan"))
     pen = np.zeros(12)
     for slot, j in enumerate(index):
         if slot + 1 in (TOP_BENDING_MODE, TOP_TORSION_MODE):
@@ -488,12 +491,26 @@ def residuals(doc: dict[str, Any], values: dict[str, float], weight_guyan: float
     Relative frequency errors against Table 3 analytical (12), weighted
     relative errors against Table 5 Guyan (12) and the character penalties of
     :func:`evaluate` (12).
+
+    Parameters
+    ----------
+    doc : dict
+        A grid TOML document.
+    values : dict of str to float
+        Parameters in thesis units.
+    weight_guyan : float
+        Weight of the Table 5 residuals [-].
+
+    Returns
+    -------
+    ndarray, shape (36,)
+        Dimensionless residuals; 10 everywhere for a model that cannot be built.
     """
     f3 = column("table3_grid_frequencies.csv", "analytical_hz")
     f5 = column("table5_grid_reduced_frequencies.csv", "guyan_hz")
     try:
         _, matched, guyan, pen = evaluate(doc, values)
-    except ModelError:
+    except (ModelError, ReductionError):
         return np.full(36, 10.0)  # unstable or singular model: far from the data
     return np.concatenate([matched / f3 - 1.0, weight_guyan * (guyan / f5 - 1.0), pen])
 
@@ -554,11 +571,24 @@ def fit_grid(doc: dict[str, Any] | None = None, *, weight_guyan: float = 0.5, gl
         sol = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=(hi - lo) / 10, diff_step=1e-4)
         if best is None or sol.cost < best.cost:
             best = sol
-    return summarize(doc, _from_x(best.x), weight_guyan=weight_guyan)
+    return summarize(doc, _from_x(best.x))
 
 
-def summarize(doc: dict[str, Any], values: dict[str, float], *, weight_guyan: float = 0.5) -> GridFit:
-    """Evaluate ``values`` (thesis units) and collect the :class:`GridFit` record."""
+def summarize(doc: dict[str, Any], values: dict[str, float]) -> GridFit:
+    """Evaluate ``values`` (thesis units) and collect the :class:`GridFit` record.
+
+    Parameters
+    ----------
+    doc : dict
+        A grid TOML document.
+    values : dict of str to float
+        Parameters in thesis units.
+
+    Returns
+    -------
+    GridFit
+        Frequencies [Hz] against Tables 3 and 5, characters, parameters on or near a bound.
+    """
     fe, matched, guyan, _ = evaluate(doc, values)
     modes = modal_analysis(fe.m, fe.k, 12)
     ch = mode_characters(fe, modes.shapes)
@@ -621,6 +651,16 @@ def main(argv: list[str] | None = None) -> int:
     minute); ``--check``: evaluate ``grid.toml`` as it is; ``--global``:
     differential evolution first (slow). Prints the parameters, those on a
     bound and the per-mode tables.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments without the program name (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 (usage on stderr) for other arguments.
     """
     argv = sys.argv[1:] if argv is None else argv
     if argv not in ([], ["--check"], ["--global"]):

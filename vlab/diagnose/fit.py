@@ -75,7 +75,6 @@ def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) ->
     for x in trials:
         out.append((problem.chi2(problem.state_for(h, x)), np.asarray(x, dtype=float)))
     out.sort(key=lambda t: t[0])
-    h.screen_chi2_ = out[0][0] if out else float("inf")
     return out
 
 
@@ -238,14 +237,6 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
                 continue
             out.append(c)
     return out
-
-
-def _shrink(h: Hypothesis, null: np.ndarray) -> np.ndarray:
-    """Half way from the null value to the single fit (in the fitted scale)."""
-    log = h.log_scale
-    z0, z1 = _z(np.maximum(null, 1e-300), log), _z(h.params_, log)
-    z = np.where(np.array(log) & (null <= 0), z1 - 0.5, 0.5 * (z0 + z1))
-    return _x(z, log)
 
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,

@@ -29,14 +29,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+
 import numpy as np
-import scipy.linalg
 import scipy.special
 
 from ..analysis import sampled_data_controller_frf
 from ..calibration import open_loop_ratios
 from ..errors import ModelError
-from ..fe import FEModel, build_fe_model
+from ..fe import FEModel, Modes, build_fe_model, modal_analysis
 from ..lab.loop import HardwareChain
 from ..spec import StructureSpec
 
@@ -94,44 +94,39 @@ class LabState:
         return replace(self, spec=spec, fe=build_fe_model(spec))
 
 
-@dataclass(frozen=True)
-class _Modal:
-    omega: np.ndarray   # (n,)
-    phi: np.ndarray     # (n, n) mass-normalised
-    zeta: np.ndarray    # (n,)
-
-
-def _modal(state: LabState) -> _Modal:
-    fe = state.fe
-    try:
-        lam, phi = scipy.linalg.eigh(fe.k, fe.m)
-    except np.linalg.LinAlgError as exc:
-        raise ModelError(f"{state.spec.name}: modal analysis failed ({exc})") from None
-    if lam.min() < -1e-8 * max(abs(lam).max(), 1e-300):
-        raise ModelError(f"{state.spec.name}: unstable model (eigenvalue {lam.min():.3g})")
-    omega = np.sqrt(np.clip(lam, 0.0, None))
-    return _Modal(omega, phi, open_loop_ratios(state.spec, fe.n))
+def _modal(state: LabState) -> tuple[Modes, np.ndarray]:
+    """All modes of ``state`` (:func:`vlab.fe.modal_analysis`) and the spec's open-loop damping ratios."""
+    return modal_analysis(state.fe.m, state.fe.k), open_loop_ratios(state.spec, state.fe.n)
 
 
 def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Open-loop natural frequencies [Hz], damping ratios and mass-normalised shapes of ``state``.
 
+    Parameters
+    ----------
+    state : LabState
+        The lab; its FE model (``m`` [kg], ``k`` [N/m]) and spec damping ratios.
+    n : int, optional
+        Number of lowest modes (all by default).
+
     Returns
     -------
     freq_hz : ndarray, shape (n,)
     zeta : ndarray, shape (n,)
+        Open-loop damping ratios of the spec (Sec. 2.1.2, Table 1/3).
     phi : ndarray, shape (n_dof, n)
+        Shapes with ``phi^T m phi = I``.
+
+    Raises
+    ------
+    ModelError
+        Unstable model (clearly negative eigenvalue) or a singular mass matrix.
+
+    Source: Eq. (3.4) via :func:`vlab.fe.modal_analysis`.
     """
-    md = _modal(state)
+    md, zeta = _modal(state)
     n = len(md.omega) if n is None else min(n, len(md.omega))
-    return md.omega[:n] / (2 * np.pi), md.zeta[:n], md.phi[:, :n]
-
-
-def rows(state: LabState, points: tuple[int, ...] | list[int]) -> list[int]:
-    """Global indices of the out-of-plane DOF at ``points`` in the FE model of ``state``.
-
-    Raises ModelError for a fixed or unknown point."""
-    return [state.fe.dofs.index(p, "w") for p in points]
+    return md.frequencies_hz[:n], zeta[:n], md.shapes[:, :n]
 
 
 def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np.ndarray:
@@ -153,14 +148,13 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     ModelError
         Unknown or constrained point, unstable model.
     """
-    md = _modal(state)
+    md, zeta = _modal(state)
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
     dash = [(p, c) for p, c in state.dashpots if c > 0.0] + [(p, c) for p, _f, c in state.frictions if c > 0.0]
     d_pts = [p for p, _ in dash]
     all_pts = list(out_points) + list(in_points) + d_pts
-    r = rows(state, all_pts)
-    ph = md.phi[r, :]                                            # (n_p, n)
-    den = md.omega[None, :] ** 2 - w[:, None] ** 2 + 2j * md.zeta[None, :] * md.omega[None, :] * w[:, None]
+    ph = md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
+    den = md.omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * md.omega[None, :] * w[:, None]
     alpha = np.einsum("im,fm,jm->fij", ph, 1.0 / den, ph)        # receptance (n_f, n_p, n_p)
     no, ni = len(out_points), len(in_points)
     io = slice(0, no)

@@ -94,8 +94,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         recording's metadata, else the structure's test resolution
         (:data:`vlab.lab.experiment.TESTS`).
     seed : int, optional
-        Seed of the controller design's multi-start; default the
-        recording's metadata seed, else 0.
+        Seed of the controller design's multi-start and of the validation
+        reruns' sensor noise; default the recording's metadata seed, else 0.
     effects : tuple of str, optional
         Restrict the library to these effect names.
     floor : float
@@ -260,8 +260,6 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         else:
             res.loop = "open" if not ctx.closed_loop else "both"
             notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
-    if res.loop is None and mismatch:
-        res.loop = "open" if not ctx.closed_loop else "both"
     if mismatch:
         res.location.points, res.location.members = located_from_fits(res, chi2_0)
     # validation
@@ -270,7 +268,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         t = time.perf_counter()
         try:
             res.validation = validate(problem, nominal, res.selected_state(), plant=plant,
-                                      spec_level=res.selected.spec_level, seed=0, key=rerun_key(res.selected))
+                                      spec_level=res.selected.spec_level, seed=design_seed, key=rerun_key(res.selected))
         except (VlabError, ImportError) as exc:
             notes.append(f"validation rerun not possible: {exc}")
         timing["validate"] = time.perf_counter() - t

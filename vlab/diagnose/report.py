@@ -29,26 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError, VlabError
-
-
-def jsonable(o):
-    """``o`` with numpy scalars/arrays as Python numbers/lists and non-finite floats as None."""
-    if isinstance(o, dict):
-        return {str(k): jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return jsonable(o.tolist())
-    if isinstance(o, (bool, np.bool_)):
-        return bool(o)
-    if isinstance(o, (int, np.integer)):
-        return int(o)
-    if isinstance(o, (float, np.floating)):
-        v = float(o)
-        return v if np.isfinite(v) else None
-    if isinstance(o, Path):
-        return str(o)
-    return o
+from ..io.results import jsonable
 
 
 def _fmt(v, nd: int = 4) -> str:

@@ -6,12 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..io.results import jsonable
 from .data import FrfData, ModalData
 from .hypotheses import Combination, Hypothesis
 from .labmodel import LabState
-from .locate import Location
+from .locate import FLAG, Location
 from .problem import Problem
-from .report import jsonable
 from .validate import Validation
 
 
@@ -121,7 +121,7 @@ class DiagnosisResult:
         d = self.data
         flagged = [m.mode for m in loc.modes if m.flagged]
         sensors = [p for p, c in loc.channels.items()
-                   if c["chi2_per_residual"] > 4.0 or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
+                   if c["chi2_per_residual"] > FLAG or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
         located = {"modes": flagged, "points": loc.points, "members": loc.members, "band_hz": loc.band_hz,
                    "loop": self.loop, "sensors": sensors, "mode_errors": [m.as_dict() for m in loc.modes],
                    "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}

@@ -91,11 +91,6 @@ def is_fixed(spec: StructureSpec, point: int, dof: str) -> bool:
     return any(s.point == point and dof in s.fixed for s in spec.supports)
 
 
-def member_segments(spec: StructureSpec) -> list[tuple[str, int, int]]:
-    """All segments ``(member id, point a, point b)`` of the spec's members, in member order."""
-    return [(m.id, a, b) for m in spec.members for a, b in zip(m.points[:-1], m.points[1:])]
-
-
 def _scaled_section(spec: StructureSpec, sections: dict, name: str, factor: float, tag: str) -> str:
     sec = spec.sections[name]
     new = _unique_id(set(sections), f"{name}@{tag}")

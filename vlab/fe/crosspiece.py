@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.integrate
 import scipy.optimize
 
 
@@ -59,7 +60,7 @@ def cantilever_tip_mass_sdof(ei: float, length: float, arm_mass: float, tip_mass
     s = (math.cosh(b) + math.cos(b)) / (math.sinh(b) + math.sin(b))  # phi''(L) = 0 (no tip moment)
     phi = (np.cosh(b * x) - np.cos(b * x)) - s * (np.sinh(b * x) - np.sin(b * x))
     phi = phi / phi[-1]
-    gamma = m * np.trapezoid(phi, x) + M
-    mm = m * np.trapezoid(phi**2, x) + M
+    gamma = m * scipy.integrate.trapezoid(phi, x) + M
+    mm = m * scipy.integrate.trapezoid(phi**2, x) + M
     m1 = gamma**2 / mm
     return omega**2 * m1, m1, m + M - m1

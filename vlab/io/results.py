@@ -23,18 +23,33 @@ import numpy as np
 from ..errors import DataFileError
 
 
-def _jsonable(o: Any) -> Any:
+def jsonable(o: Any) -> Any:
+    """``o`` as plain JSON types.
+
+    Parameters
+    ----------
+    o : any
+        Nested dicts, lists, tuples, numpy arrays and scalars, Paths.
+
+    Returns
+    -------
+    any
+        Numpy scalars as Python numbers, arrays as lists (complex arrays as
+        ``[re, im]`` pairs), non-finite floats as None, Paths as strings.
+    """
     if isinstance(o, np.ndarray):
-        return [_jsonable(v) for v in o.tolist()] if o.dtype != complex else [[v.real, v.imag] for v in o.ravel()]
+        return [jsonable(v) for v in o.tolist()] if o.dtype != complex else [[v.real, v.imag] for v in o.ravel()]
     if isinstance(o, (np.floating, float)):
         v = float(o)
         return v if np.isfinite(v) else None
     if isinstance(o, (np.integer,)):
         return int(o)
+    if isinstance(o, np.bool_):
+        return bool(o)
     if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
+        return {str(k): jsonable(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
+        return [jsonable(v) for v in o]
     if isinstance(o, Path):
         return str(o)
     return o
@@ -56,7 +71,7 @@ def write_json(path: Path, obj: dict) -> Path:
     Path
         ``path``.
     """
-    path.write_text(json.dumps(_jsonable(obj), indent=2) + "\n")
+    path.write_text(json.dumps(jsonable(obj), indent=2) + "\n")
     return path
 
 

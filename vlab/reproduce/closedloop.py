@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from controllers.performance import performance_index
+from controllers.performance import feedback_performance, performance_index
 from controllers.statespace import modal_initial_states, state_space
 
 from ..analysis import closed_loop_modes
@@ -132,35 +132,6 @@ def thesis_controller(design: ControllerDesign) -> dict:
     raise ModelError(f"design {design.controller} on {design.model} has no controller to close a loop with")
 
 
-def closed_loop(plant: ThesisPlant, ctrl: dict, q: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-loop matrix and weight on ``[x; x_c]`` (Eqs. 4.16-4.19, 4.24, 4.28, 4.35-4.36).
-
-    Parameters
-    ----------
-    plant : ThesisPlant
-    ctrl : dict
-        From :func:`thesis_controller`.
-    q : ndarray, shape (2n, 2n)
-    r : ndarray, shape (n_c, n_c)
-
-    Returns
-    -------
-    a_cl, q_cl : ndarray
-    """
-    a, b, c = plant.A, plant.B, plant.C
-    if "d" in ctrl:
-        g = ctrl["d"] @ c
-        return a - b @ g, q + g.T @ r @ g
-    if "f" in ctrl:
-        f = ctrl["f"]
-        if f.shape[1] != a.shape[0]:
-            raise ModelError(f"state feedback of size {f.shape} cannot close a plant of order {a.shape[0]}")
-        return a - b @ f, q + f.T @ r @ f
-    ac, bc, cc = ctrl["a"], ctrl["b"], ctrl["c"]
-    a_e = np.block([[a, -b @ cc], [bc @ c, ac]])
-    return a_e, scipy.linalg.block_diag(q, cc.T @ r @ cc)
-
-
 def performance_indices(plant: ThesisPlant, ctrl: dict, q: np.ndarray, r: np.ndarray, n_modes: int,
                         *, initial_states: np.ndarray | None = None) -> np.ndarray:
     """``J_i`` for initial conditions in the shape of the plant's first ``n_modes`` modes (thesis units).
@@ -181,13 +152,29 @@ def performance_indices(plant: ThesisPlant, ctrl: dict, q: np.ndarray, r: np.nda
     Returns
     -------
     ndarray, shape (n_modes,)
+        ``J_i``; ``inf`` where the closed loop is not asymptotically stable.
 
-    Source: Eqs. (4.20), (4.26)-(4.29), (4.33)-(4.36).
+    Raises
+    ------
+    ModelError
+        A state feedback whose size does not fit the plant.
+
+    Source: static feedback (DRF ``F = D C``, LQR) by
+    :func:`controllers.performance.feedback_performance` (Eqs. 4.33-4.36);
+    a dynamic (observer) controller on ``[x; x_c]`` with ``Q_E =
+    diag(Q, C_c^T R C_c)`` (Eqs. 4.16-4.20, 4.26-4.29).
     """
     x0 = plant.modal_initial_states(n_modes) if initial_states is None else initial_states
-    a_cl, q_cl = closed_loop(plant, ctrl, q, r)
-    xe = np.vstack([x0, np.zeros((a_cl.shape[0] - x0.shape[0], x0.shape[1]))])
-    return np.asarray(performance_index(a_cl, q_cl, xe))
+    a, b, c = plant.A, plant.B, plant.C
+    if "d" in ctrl or "f" in ctrl:
+        f = ctrl["d"] @ c if "d" in ctrl else ctrl["f"]
+        if f.shape[1] != a.shape[0]:
+            raise ModelError(f"state feedback of size {f.shape} cannot close a plant of order {a.shape[0]}")
+        return np.asarray(feedback_performance(a, b, f, q, r, x0))
+    ac, bc, cc = ctrl["a"], ctrl["b"], ctrl["c"]
+    a_e = np.block([[a, -b @ cc], [bc @ c, ac]])
+    xe = np.vstack([x0, np.zeros((ac.shape[0], x0.shape[1]))])
+    return np.asarray(performance_index(a_e, scipy.linalg.block_diag(q, cc.T @ r @ cc), xe))
 
 
 def plant_mode_damping(dm: DesignModel, design: ControllerDesign | None, n_modes: int) -> tuple[np.ndarray, np.ndarray]:

@@ -30,6 +30,14 @@ import numpy as np
 
 FLAGS = ("calibrated", "reconstructed", "assumed")
 
+#: What each flag means (reproduce.json and report.md).
+FLAG_TEXT = {
+    "calibrated": "vlab's model was fitted to this published number (agreement partly built in)",
+    "reconstructed": "rests on the reconstructed grid geometry",
+    "assumed": "rests on data the dissertation does not publish (measured shapes, masters, damping of unmeasured "
+               "modes, the laboratory structure)",
+}
+
 
 def _num(x) -> float | None:
     """A finite float or None."""

@@ -19,8 +19,6 @@ Sec. 6.1 limit-cycle study (:mod:`vlab.reproduce.limit_cycle`), and writes
 
 from __future__ import annotations
 
-import json
-import math
 import time
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -28,11 +26,12 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..errors import ModelError
+from ..io.results import write_json
 from . import tables as T
 from .context import LABS, ReproContext
 from .experiments import PLANTS, RunSpec, VirtualRun, compare_run, run_virtual_experiment
 from .limit_cycle import BAND_HZ, LimitCycleResult, limit_cycle_study
-from .results import FLAGS, ReproduceResult, TableResult
+from .results import FLAG_TEXT, FLAGS, ReproduceResult, TableResult
 
 #: Table groups in run order (``groups`` argument of :func:`reproduce`).
 GROUPS = ("frequencies", "reduction", "bcc-designs", "grid-exact", "grid-corrected", "bcc-experiments",
@@ -266,25 +265,6 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
 
 
 # --------------------------------------------------------------------------- outputs
-def _jsonable(o):
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return _jsonable(o.tolist())
-    if isinstance(o, (float, np.floating)):
-        v = float(o)
-        return v if math.isfinite(v) else None
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (np.bool_,)):
-        return bool(o)
-    if isinstance(o, Path):
-        return str(o)
-    return o
-
-
 def summary_rows(result: ReproduceResult) -> list[dict]:
     """Agreement per table: name, rows compared, within tolerance, median/max error, tolerance, flags.
 
@@ -308,10 +288,7 @@ def _write_json(result: ReproduceResult, runs: Iterable[VirtualRun], path: Path)
     obj = {
         "settings": result.settings,
         "runtime_s": result.runtime_s,
-        "flags": {"calibrated": "vlab's model was fitted to this published number (agreement partly built in)",
-                  "reconstructed": "rests on the reconstructed grid geometry",
-                  "assumed": "rests on data the dissertation does not publish (measured shapes, masters, "
-                             "damping of unmeasured modes, the laboratory structure)"},
+        "flags": FLAG_TEXT,
         "summary": summary_rows(result),
         "tables": [t.as_dict() for t in result.tables],
         "limit_cycle": None if result.limit_cycle is None else result.limit_cycle.as_dict(),
@@ -319,8 +296,7 @@ def _write_json(result: ReproduceResult, runs: Iterable[VirtualRun], path: Path)
                   "wall_s": r.wall_s, "plant": r.plant} for r in runs],
         "figures": [str(p.relative_to(result.out_dir)) for p in result.figures],
     }
-    path.write_text(json.dumps(_jsonable(obj), indent=1) + "\n")
-    return path
+    return write_json(path, obj)
 
 
 def _fmt(v, digits: int = 4) -> str:

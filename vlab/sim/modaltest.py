@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
+from ..fe import FEModel
 from ..spec import StructureSpec
 from .builder import build_plant
 from .linearize import modes as plant_modes
@@ -71,3 +72,57 @@ def virtual_modal_test(
         rows.append(jac[0])
     shapes = np.array(rows) @ sm.joint_shapes
     return np.asarray(sm.frequencies_hz), shapes
+
+
+def virtual_measured_modes(fe: FEModel) -> tuple[np.ndarray, np.ndarray]:
+    """Measured modes for the corrected Guyan model when the user gives none (Secs. 3.3, 5.4.1).
+
+    Shapes: :func:`virtual_modal_test` on the MuJoCo plant at the Guyan
+    masters, each plant mode paired with an FE mode by MAC at the masters (the
+    plant has modes the FE model does not, e.g. the BCC crosspiece arms'
+    antisymmetric bending, so order alone would mispair). Frequencies: the
+    published experimental ones (Table 3 for the grid, Table 1 for the BCC).
+    Like the dissertation (eleven of the grid's twelve), one mode fewer than
+    masters is used, so the highest reduced frequency shows the correction's
+    effect on an unmeasured mode.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The nominal FE model; its spec names the Guyan masters and the
+        reference frequency table.
+
+    Returns
+    -------
+    freq_hz : ndarray, shape (n_m,)
+        Published experimental frequencies [Hz] of FE modes 1..n_m.
+    shapes : ndarray, shape (n_masters, n_m)
+        Plant shapes at the masters [m or rad, arbitrary scale].
+
+    Raises
+    ------
+    SimulationError
+        An FE mode with no plant mode of MAC >= 0.5, or a plant that cannot be
+        built, settled or measured.
+    ModelError
+        Masters the FE model does not have.
+    DataFileError
+        A missing reference table.
+    """
+    from ..fe import modal_analysis
+    from ..models import master_indices
+    from ..reference import column
+    from .crosscheck import pair_modes
+
+    idx = master_indices(fe, "guyan")
+    labels = [fe.dofs.labels[i] for i in idx]
+    f_exp = column(fe.spec.reference["frequencies"], "experimental_hz")
+    n_m = min(len(f_exp), len(idx) - 1)
+    _f_plant, plant_shapes = virtual_modal_test(fe.spec, labels, min(n_m + 4, len(idx)))
+    fe_shapes = modal_analysis(fe.m, fe.k, n_m).shapes[idx, :]
+    pairs = pair_modes(fe_shapes, plant_shapes)
+    missing = [r + 1 for r, (j, _mac) in enumerate(pairs) if j is None]
+    if missing:
+        raise SimulationError(f"{fe.spec.name}: FE modes {missing} have no plant mode with MAC >= 0.5 at the "
+                              "Guyan masters: the virtual modal test cannot stand in for the measured shapes")
+    return f_exp[:n_m], plant_shapes[:, [j for j, _mac in pairs]]

@@ -342,7 +342,19 @@ def log_recording(rec, recording, *, extra_signals: Mapping[str, Any] | None = N
 def log_metadata(rec, metadata: Mapping[str, Any], *, entity: str = META_ENTITY) -> str:
     """Log run metadata as a static JSON text document at ``entity``.
 
-    Values that are not JSON types are written with ``str``. Returns the entity path.
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+        The recording to log into.
+    metadata : mapping
+        Run metadata; values that are not JSON types are written with ``str``.
+    entity : str
+        Entity path.
+
+    Returns
+    -------
+    str
+        The entity path.
     """
     rr = _rr()
     text = json.dumps(dict(metadata), indent=2, sort_keys=True, default=str)
