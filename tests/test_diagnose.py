@@ -118,11 +118,14 @@ def test_clean_recording_has_no_mismatch(nominal, tmp_path):
 
 
 def test_modal_table_with_concealed_mass(tmp_path):
-    fe = nominal_fe_model("bcc")
-    st = LabState(fe.spec, fe, HardwareChain())
-    from vlab.diagnose.labmodel import natural_frequencies
+    from vlab.calibration import open_loop_ratios
+    from vlab.fe import modal_analysis
 
-    f, z, _ = natural_frequencies(st.with_spec(specedit.add_mass(fe.spec, 3, 0.3)), 6)
+    fe = nominal_fe_model("bcc")
+    m = fe.m.copy()  # the truth: 0.3 kg lumped on w at point 3, added to the FE matrix directly
+    m[fe.dofs.index(3, "w"), fe.dofs.index(3, "w")] += 0.3
+    f = modal_analysis(m, fe.k, 6).frequencies_hz
+    z = open_loop_ratios(fe.spec, fe.n)[:6]
     csv = tmp_path / "modes.csv"
     csv.write_text("# synthetic\nmode,frequency_hz,damping_ratio\n"
                    + "".join(f"{i + 1},{fi:.6f},{zi}\n" for i, (fi, zi) in enumerate(zip(f, z))))
@@ -130,3 +133,34 @@ def test_modal_table_with_concealed_mass(tmp_path):
     assert r.mismatch and r.selected.effect == "added_mass" and r.selected.location == {"point": 3}
     assert r.selected.params_[0] == pytest.approx(0.3, rel=0.15)
     assert r.loop == "open"
+
+
+@pytest.mark.parametrize("controller", ["none", "mfdrf"])
+def test_predicted_frf_equals_the_sampled_data_analysis(controller):
+    """The diagnosis's lab model against vlab.analysis (velocity FRF, Eq. 5.1 controller, closed loop).
+
+    The excitation's hold is divided out; the loop's RC filter is applied at the end of each physics step,
+    which the lab model writes as a lead of half a step: the analysis gets the same by a delay shorter by
+    h/2 (an independent composition of the same chain)."""
+    from vlab.analysis import closed_loop_frf, sampled_data_controller_frf, velocity_frf
+    from vlab.calibration import modal_damping_matrix, open_loop_ratios
+    from vlab.diagnose.labmodel import predict_frf, zoh
+
+    fe = nominal_fe_model("bcc")
+    chain = HardwareChain()
+    acts = tuple(fe.spec.instrumentation.actuators)
+    f = np.linspace(0.5, 25.0, 200)
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    g = velocity_frf(fe.m, c, fe.k, fe.force_input(acts), fe.force_input(acts + (6,)).T, f)
+    g_fb, g_out = g[:, :3, :], g[:, 3:, :]
+    d = nominal_design(fe, controller, 0)
+    st = LabState(fe.spec, fe, chain, d)
+    h = predict_frf(st, f, excitation_point=9, output_points=(6,))[:, 0] / zoh(f, chain.period_s)
+    if d is None:
+        ref = g_out[:, 0, acts.index(9)]
+    else:
+        k = sampled_data_controller_frf(f, d.f11, d.f12, d.f21, d.f22, chain.period_s,
+                                        delay_periods=chain.delay_periods - 0.5 * st.h_s / chain.period_s,
+                                        filter_hz=chain.filter_hz)
+        ref = closed_loop_frf(g_fb, g_out, k, acts.index(9))[:, 0]
+    np.testing.assert_allclose(h, ref, rtol=1e-8)

@@ -194,6 +194,11 @@ def test_baseline_referral_removes_the_shared_model_form_error():
     cross = np.abs(np.log(1 / offset)) * np.abs(np.log(change))
     np.testing.assert_allclose(rel, var / np.abs(data.h) ** 2 + var / np.abs(base.h) ** 2 + cross**2, rtol=1e-9)
     assert "base.uff" in out.notes[-1]
+    # limits: nothing changed, or the model already matches the baseline -> only the two noises add
+    for d_, b_ in ((base, base), (_frf_data(h_model * change, var), _frf_data(h_model, var))):
+        o = refer_to_model(d_, b_, h_model)
+        np.testing.assert_allclose(o.var / np.abs(o.h) ** 2,
+                                   var / np.abs(d_.h) ** 2 + var / np.abs(b_.h) ** 2, rtol=1e-9)
 
 
 def test_baseline_of_another_test_is_refused():

@@ -281,19 +281,21 @@ def peak_levels(freq_hz: np.ndarray, h: np.ndarray, modes_hz: np.ndarray, zeta: 
     return np.array([c.peak_predicted for c in comps], dtype=float)
 
 
-def measured_peaks(ctx: ReproContext, run: VirtualRun, plant: str) -> np.ndarray:
+def measured_peaks(ctx: ReproContext, run: VirtualRun) -> np.ndarray:
     """Peak levels of a run's measured FRF near the laboratory structure's closed-loop modes.
 
     Parameters
     ----------
     ctx : ReproContext
+        Models of the run; its laboratory structure gives the mode hints
+        (whichever plant recorded the run).
     run : VirtualRun
-    plant : str
-        The plant the run used (the laboratory structure gives the hints either way).
+        The recorded run and its measured FRF.
 
     Returns
     -------
     ndarray, shape (n_modes,)
+        Peak levels [FRF units]; NaN for a mode not identified.
     """
     s = run.spec
     fe = ctx.fe(s.structure)
@@ -354,20 +356,20 @@ class RunComparison:
             return a[:n] / self.measured_peaks[:n]
 
 
-def compare_run(ctx: ReproContext, run: VirtualRun, models: tuple[str, ...], plant: str = "linear") -> RunComparison:
+def compare_run(ctx: ReproContext, run: VirtualRun, models: tuple[str, ...]) -> RunComparison:
     """Peak levels of a run and of its analysis on each of ``models`` (see the module docstring).
 
     Parameters
     ----------
     ctx : ReproContext
+        Models and designs of the run.
     run : VirtualRun
+        The recorded run.
     models : tuple of str
         Analysis models.
-    plant : str
-        The plant the run used.
 
     Returns
     -------
     RunComparison
     """
-    return RunComparison(run, measured_peaks(ctx, run, plant), {m: analysis_peaks(ctx, run, m) for m in models})
+    return RunComparison(run, measured_peaks(ctx, run), {m: analysis_peaks(ctx, run, m) for m in models})

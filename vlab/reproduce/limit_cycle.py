@@ -521,7 +521,7 @@ def limit_cycle_study(ctx: ReproContext, *, duration_s: float = 180.0, saturated
         sd = sampled_data_modes(m, c, k, u, real.F11, real.F12, real.F21, real.F22, LQG_PERIOD_S,
                                 delay_periods=1.35, filter_hz=filt)
         lf, lz = sd.least_damped()
-        pred = -lz * 2 * np.pi * lf / math.sqrt(max(1e-300, 1 - lz**2)) if lz < 1 else math.nan
+        pred = -lz * 2 * np.pi * lf  # Re s = -zeta |s|, |s| = 2 pi f (SampledDataModes)
         grows = bool(len(rms) > 6 and rms.max() > 10 * np.median(rms[1:6]))
         runs.append(LimitCycleRun(label, zh_v, limit, len(v) * dt, times, rms, _growth_rate(times, rms) if grows
                                   else math.nan, float(pred), _dominant(v, dt, BAND_HZ), grows,

@@ -202,7 +202,7 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
             for c in ("none", "mfdrf", "lqdrf", "lqg"):
                 run = _run(RunSpec("bcc", c, None, cfg["bcc_resolution_hz"], cfg["periods"], seed), ctx, plant, bars)
                 runs.append(run)
-                comps[c] = compare_run(ctx, run, ("full",), plant)
+                comps[c] = compare_run(ctx, run, ("full",))
                 bars.step(run.spec.key)
             tables.append(T.bcc_peak_ratio_table(ctx, comps, plant, cfg["bcc_resolution_hz"]))
             for c, cmp_ in comps.items():
@@ -222,7 +222,7 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
                 run = _run(sp, ctx, plant, bars)
                 runs.append(run)
                 models = ("corrected-guyan",) if sp.model == "corrected-guyan" else ("exact", "corrected-guyan")
-                comps[(sp.controller, sp.model)] = compare_run(ctx, run, models, plant)
+                comps[(sp.controller, sp.model)] = compare_run(ctx, run, models)
                 bars.step(sp.key)
             tables += T.grid_peak_ratio_tables(ctx, comps, plant, cfg["grid_resolution_hz"])
             ylabel = "|v4 / f4| [(m/s)/N]"
