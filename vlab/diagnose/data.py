@@ -81,6 +81,8 @@ class FrfData:
     h_recorded : ndarray, complex, shape (n_f, n_o) or None
         The FRFs as recorded when ``h`` has been referred to the model through a
         baseline recording (:func:`refer_to_model`); None otherwise.
+    var_recorded : ndarray, shape (n_f, n_o) or None
+        The variance of ``h_recorded`` (the recording's own noise) [((m/s)/N)^2].
     """
 
     source: str
@@ -97,6 +99,7 @@ class FrfData:
     notes: list = field(default_factory=list)
     periodic: bool = True
     h_recorded: np.ndarray | None = None
+    var_recorded: np.ndarray | None = None
 
     @property
     def sigma_rel(self) -> np.ndarray:
@@ -572,8 +575,8 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     Returns
     -------
     FrfData
-        ``h`` referred to the model, ``var`` propagated, ``h_recorded`` the
-        recorded FRFs; a note says so.
+        ``h`` referred to the model, ``var`` propagated, ``h_recorded`` and
+        ``var_recorded`` the recorded FRFs and their noise; a note says so.
 
     Raises
     ------
@@ -603,4 +606,5 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     h = data.h * ratio
     note = (f"referred to the model through the baseline {baseline.source}: H = H_recorded * H_model / "
             "H_baseline (the model-form error present in the baseline is removed to first order)")
-    return replace(data, h=h, var=rel_var * np.abs(h) ** 2, h_recorded=data.h, notes=list(data.notes) + [note])
+    return replace(data, h=h, var=rel_var * np.abs(h) ** 2, h_recorded=data.h,
+                   var_recorded=data.var, notes=list(data.notes) + [note])

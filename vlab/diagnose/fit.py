@@ -180,10 +180,51 @@ def equivalent(a: Hypothesis, b: Hypothesis) -> bool:
     return pair == {"damping", "friction"} and a.location == b.location
 
 
+def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem, *, n_fit: int,
+                max_nfev: int, skip: set) -> list[Combination]:
+    """Pairs of ``kept`` (held at ``x_kept`` [SI] while screening) with each hypothesis of ``pool``: all screened,
+    the ``n_fit`` best fitted jointly. ``skip`` holds the label sets of pairs already fitted (updated)."""
+    scored = []
+    for b in pool:
+        if b.label == kept.label or equivalent(kept, b) or frozenset((kept.label, b.label)) in skip:
+            continue
+        c = Combination(first=kept, second=b)
+        try:
+            tb, _, _ = b.space(problem.base, problem.ctx)
+            if hasattr(b, "params_"):
+                tb = np.vstack([tb, [b.params_]])
+            trials = np.array([np.concatenate([x_kept, t]) for t in tb])
+            scored.append((screen(c, problem, trials)[0], c))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            continue
+    scored.sort(key=lambda t: t[0][0])
+    out: list[Combination] = []
+    for (_chi2, x), c in scored:
+        if len(out) >= n_fit:
+            break
+        if any(equivalent(c.parts[1], o.parts[1]) for o in out):
+            continue  # damping and friction at one point: the same linear model, fitted once
+        try:
+            fit_hypothesis(c, problem, starts=np.array([x]), max_nfev=max_nfev, n_starts=1)
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            continue
+        skip.add(frozenset((kept.label, c.parts[1].label)))
+        out.append(c)
+    return out
+
+
 def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypothesis] | None = None, *,
-              n_first: int = 1, n_second: int = 3, max_nfev: int = 40) -> list[Combination]:
-    """Forward selection of a second effect: with the best single effect in the model, screen every
-    other hypothesis on top of it, then fit the most promising pairs jointly.
+              n_first: int = 1, n_second: int = 3, max_nfev: int = 40, rounds: int = 2) -> list[Combination]:
+    """Pairs of effects by forward selection and sequential replacement.
+
+    Forward step: with the best single effect in the model, every other
+    hypothesis is screened on top of it and the most promising pairs are
+    fitted jointly. Replacement step: each part of the best pair in turn is
+    held at its fitted size while every hypothesis is screened in place of
+    the other part, and the most promising replacements are fitted jointly
+    (a first effect chosen alone can be the wrong one of two neighbouring
+    points, or a look-alike, once the second effect is in the model);
+    repeated while the best pair changes, at most ``rounds`` times.
 
     Parameters
     ----------
@@ -195,47 +236,49 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     n_first : int
         Number of best single effects tried as the first effect.
     n_second : int
-        Second effects fitted jointly per first effect (best screened).
+        Pairs fitted jointly per held effect (best screened; damping and
+        friction at one point count once).
     max_nfev : int
         Evaluation budget of each joint fit.
+    rounds : int
+        Most replacement rounds.
 
     Returns
     -------
     list of Combination
-        Fitted. Pairs of the same hypothesis and equivalent pairs
-        (:func:`equivalent`) are skipped.
+        Fitted. Pairs of the same hypothesis, equivalent pairs
+        (:func:`equivalent`) and pairs already fitted (in either order) are skipped.
 
     Notes
     -----
-    Forward stepwise selection (e.g. Miller, *Subset Selection in
-    Regression*, 2nd ed., 2002, ch. 3): the second effect is judged with the
-    first one already explaining its part of the data, so an effect masked
-    by a larger one is still found.
+    Forward stepwise selection and sequential replacement (Miller, *Subset
+    Selection in Regression*, 2nd ed., 2002, Secs. 3.2 and 3.3): the second
+    effect is judged with the first one already explaining its part of the
+    data, so an effect masked by a larger one is still found, and the first
+    is judged again with the second in the model.
     """
     firsts = [h for h in rank(singles) if getattr(h, "success_", True)][:n_first]
     pool = candidates if candidates is not None else singles
     out: list[Combination] = []
+    skip: set = set()
     for a in firsts:
-        scored = []
-        for b in pool:
-            if b.label == a.label or equivalent(a, b):
-                continue
-            c = Combination(first=a, second=b)
-            try:
-                tb, _, _ = b.space(problem.base, problem.ctx)
-                if hasattr(b, "params_"):
-                    tb = np.vstack([tb, [b.params_]])
-                trials = np.array([np.concatenate([a.params_, t]) for t in tb])
-                scored.append((screen(c, problem, trials)[0], c))
-            except (VlabError, ValueError, np.linalg.LinAlgError):
-                continue
-        scored.sort(key=lambda t: t[0][0])
-        for (chi2, x), c in scored[:n_second]:
-            try:
-                fit_hypothesis(c, problem, starts=np.array([x]), max_nfev=max_nfev, n_starts=1)
-            except (VlabError, ValueError, np.linalg.LinAlgError):
-                continue
-            out.append(c)
+        out += _pairs_with(a, np.asarray(a.params_, dtype=float), pool, problem, n_fit=n_second,
+                           max_nfev=max_nfev, skip=skip)
+    best = min(out, key=lambda c: c.bic_, default=None)
+    for _ in range(rounds):
+        if best is None:
+            break
+        k = best.parts[0].n_params
+        held = ((best.parts[0], best.params_[:k]), (best.parts[1], best.params_[k:]))
+        new = []
+        for part, x in held:
+            new += _pairs_with(part, np.asarray(x, dtype=float), pool, problem, n_fit=n_second, max_nfev=max_nfev,
+                               skip=skip)
+        out += new
+        better = min(new, key=lambda c: c.bic_, default=None)
+        if better is None or better.bic_ >= best.bic_:
+            break
+        best = better
     return out
 
 

@@ -124,6 +124,8 @@ def markdown(res: dict) -> str:
     lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", "",
               f"- {what}: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
               + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]
+    if v.get("noise_misfit") is not None:
+        lines.append(f"- the same misfit of an exact model, from the measured noise alone: {_fmt(v['noise_misfit'])}")
     if v.get("modes"):
         lines += ["", "| mode | measured [Hz] | nominal model [Hz] | error | with the selected effect [Hz] | error |",
                   "|---|---|---|---|---|---|"]
