@@ -214,14 +214,16 @@ def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], pr
 
 
 def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypothesis] | None = None, *,
-              n_first: int = 1, n_second: int = 3, max_nfev: int = 40, rounds: int = 2) -> list[Combination]:
+              n_first: int = 1, n_second: int = 3, max_nfev: int = 40, rounds: int = 2,
+              n_replace: int = 20) -> list[Combination]:
     """Pairs of effects by forward selection and sequential replacement.
 
     Forward step: with the best single effect in the model, every other
     hypothesis is screened on top of it and the most promising pairs are
     fitted jointly. Replacement step: each part of the best pair in turn is
-    held at its fitted size while every hypothesis is screened in place of
-    the other part, and the most promising replacements are fitted jointly
+    held at its fitted size while hypotheses are screened in place of the
+    other part (the ``n_replace`` first of ``candidates`` and every one of the
+    replaced part's effect), and the most promising are fitted jointly
     (a first effect chosen alone can be the wrong one of two neighbouring
     points, or a look-alike, once the second effect is in the model);
     repeated while the best pair changes, at most ``rounds`` times.
@@ -232,7 +234,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
         Fitted single effects.
     problem : Problem
     candidates : list of Hypothesis, optional
-        Unfitted hypotheses for the second effect (default: ``singles``).
+        Unfitted hypotheses for the second effect, most promising first
+        (default: ``singles``).
     n_first : int
         Number of best single effects tried as the first effect.
     n_second : int
@@ -242,6 +245,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
         Evaluation budget of each joint fit.
     rounds : int
         Most replacement rounds.
+    n_replace : int
+        Candidates screened in a replacement besides those of the replaced effect.
 
     Returns
     -------
@@ -271,9 +276,10 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
         k = best.parts[0].n_params
         held = ((best.parts[0], best.params_[:k]), (best.parts[1], best.params_[k:]))
         new = []
-        for part, x in held:
-            new += _pairs_with(part, np.asarray(x, dtype=float), pool, problem, n_fit=n_second, max_nfev=max_nfev,
-                               skip=skip)
+        for (part, x), (other, _) in zip(held, held[::-1]):
+            rpool = pool[:n_replace] + [h for h in pool[n_replace:] if h.effect == other.effect]
+            new += _pairs_with(part, np.asarray(x, dtype=float), rpool, problem, n_fit=n_second,
+                               max_nfev=max_nfev, skip=skip)
         out += new
         better = min(new, key=lambda c: c.bic_, default=None)
         if better is None or better.bic_ >= best.bic_:

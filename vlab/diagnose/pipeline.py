@@ -16,7 +16,9 @@ Pipeline (issue 6):
 4. **Explain**: every hypothesis of the library that can show in these data
    is screened at a few sizes; the best are fitted by least squares
    (:mod:`vlab.diagnose.fit`) and ranked by BIC; when the best single effect
-   leaves more than noise, pairs of the best effects are fitted too. An
+   leaves more than noise, pairs are fitted too: a second effect on top of
+   the best single one (forward selection), then each part of the best pair
+   re-chosen with the other held (sequential replacement). An
    effect is selected only if it lowers the BIC by 10 or more (strong
    evidence), a pair only if it beats the best single effect by 10.
 5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
@@ -246,7 +248,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 any(needs_rerun_check(h) for h in [chosen] + alts):
             say("separating look-alikes by rerun")
             t = time.perf_counter()
-            chosen, alts = tie_break_by_rerun(problem, nominal, chosen, alts, ranked, notes)
+            chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes)
             timing["tie_break"] = time.perf_counter() - t
         res.alternatives = alts
         if chosen is not None:

@@ -18,10 +18,9 @@ from ..errors import VlabError
 from .data import FrfData
 from .fit import NONLINEAR
 from .hypotheses import Combination, Friction, Hypothesis, PointDamping
-from .labmodel import LabState
 from .locate import located_places
 from .problem import Problem
-from .validate import validate
+from .validate import reruns, time_error
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
@@ -104,7 +103,7 @@ def needs_rerun_check(h: Hypothesis) -> bool:
     return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
 
 
-def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, alts: list, ranked: list,
+def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
                        notes: list, *, max_candidates: int = 4, parsimony: float = 0.8) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
 
@@ -117,10 +116,12 @@ def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, 
     pair is kept only if its rerun error is below ``parsimony`` times that
     of the nonlinear effect alone.
 
+    The reruns (linear plant, the recorded force played back) run in
+    parallel processes (:func:`vlab.diagnose.validate.reruns`).
+
     Parameters
     ----------
     problem : Problem
-    nominal : LabState
     chosen : Hypothesis
         The selected hypothesis.
     alts : list of Hypothesis
@@ -145,37 +146,35 @@ def tie_break_by_rerun(problem: Problem, nominal: LabState, chosen: Hypothesis, 
             seen.add(h.label)
             cands.append(h)
     cands = cands[:max_candidates]
-
-    def err(h: Hypothesis) -> float:
-        try:
-            v = validate(problem, nominal, problem.state_for(h, h.params_), plant="linear", spec_level=False,
-                         key=rerun_key(h))
-            return v.time_error_after
-        except (VlabError, ImportError):
-            return float("inf")
-
-    errs = [err(h) for h in cands] if len(cands) > 1 else [float("nan")]
+    singles = {}  # the nonlinear part of each pair candidate, alone (for the parsimony check)
+    for h in cands:
+        part = next((p for p in h.parts if p.effect in NONLINEAR), None) if isinstance(h, Combination) else None
+        if part is not None:
+            single = next((g for g in ranked if not isinstance(g, Combination) and g.label == part.label), None)
+            if single is None:
+                swapped = [_swap(g, problem) for g in ranked if not isinstance(g, Combination)
+                           and isinstance(g, (PointDamping, Friction)) and g.location == part.location]
+                single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
+            if single is not None:
+                singles[h.label] = single
+    todo = [h for h in cands if len(cands) > 1 or h.label in singles]
+    todo += [g for g in {g.label: g for g in singles.values()}.values() if g.label not in {h.label for h in todo}]
+    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo], "linear")
+    errors = {h.label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
+              for h, r in zip(todo, runs)}
+    errs = [errors[h.label] for h in cands] if len(cands) > 1 else [float("nan")]
     j = int(np.nanargmin(errs)) if len(cands) > 1 else 0
     best = cands[j]
     if len(cands) > 1:
         notes.append("look-alikes compared by rerun (time-domain error): "
                      + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
-    if isinstance(best, Combination):
-        nl = [p for p in best.parts if p.effect in NONLINEAR]
-        if nl:
-            part = nl[0]
-            single = next((h for h in ranked if not isinstance(h, Combination) and h.label == part.label), None)
-            if single is None:
-                swapped = [_swap(h, problem) for h in ranked if not isinstance(h, Combination)
-                           and isinstance(h, (PointDamping, Friction)) and h.location == part.location]
-                single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
-            if single is not None:
-                e_pair = errs[j] if len(cands) > 1 else err(best)
-                e_single = err(single)
-                notes.append(f"pair with a nonlinear effect checked by rerun: {best.label}: {e_pair:.3g}, "
-                             f"{single.label} alone: {e_single:.3g}")
-                if not e_pair < parsimony * e_single:
-                    best = single
+    single = singles.get(best.label)
+    if single is not None:
+        e_pair, e_single = errors[best.label], errors[single.label]
+        notes.append(f"pair with a nonlinear effect checked by rerun: {best.label}: {e_pair:.3g}, "
+                     f"{single.label} alone: {e_single:.3g}")
+        if not e_pair < parsimony * e_single:
+            best = single
     return best, [h for h in [chosen] + alts if h is not best]
 
 

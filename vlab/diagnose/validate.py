@@ -287,6 +287,65 @@ def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points
     return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}
 
 
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
+    """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording (its force is played back).
+    jobs : list of (LabState, str or None)
+        States and their cache keys (None: not cached).
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise.
+    workers : int
+        Parallel processes when more than one rerun is needed (falls back to
+        one process where a pool cannot start).
+
+    Returns
+    -------
+    list of Recording or VlabError
+        One per job, in order: the rerun, or the error that stopped it
+        (a plant that cannot be built, a diverged run).
+    """
+    data: FrfData = problem.data
+    force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    pts = tuple(data.output_points)
+    cache = problem.__dict__.setdefault("_reruns", {})
+    out: dict = {}
+    todo = [(i, st) for i, (st, k) in enumerate(jobs) if k is None or (k, plant) not in cache]
+    if workers > 1 and len(todo) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            with ProcessPoolExecutor(min(workers, len(todo))) as ex:
+                futs = [(i, ex.submit(_rerun_job, st, force, data.excitation_point, pts, plant, seed)) for i, st in todo]
+                for i, fu in futs:
+                    try:
+                        dt, sig = fu.result()
+                        out[i] = Recording.from_signals(dt, sig)
+                    except VlabError as exc:
+                        out[i] = exc
+        except (OSError, BrokenProcessPool):
+            out = {}  # no process pool here: sequential
+    for i, st in todo:
+        if i not in out:
+            try:
+                out[i] = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
+                               seed=seed)[0]
+            except VlabError as exc:
+                out[i] = exc
+    for i, (_st, k) in enumerate(jobs):
+        if k is None:
+            continue
+        if i in out and not isinstance(out[i], VlabError):
+            cache[(k, plant)] = out[i]
+        out.setdefault(i, cache[(k, plant)])
+    return [out[i] for i in range(len(jobs))]
+
+
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
              seed: int = 0, key: str | None = None, workers: int = 2) -> Validation:
     """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
@@ -326,7 +385,6 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     if abs(rec.dt_s - nominal.chain.period_s) > 1e-9 * nominal.chain.period_s:
         raise ModelError(f"{data.source}: sampled every {rec.dt_s:g} s, the controller period is "
                          f"{nominal.chain.period_s:g} s: the recorded force cannot be played back")
-    force = np.asarray(rec[f"force{data.excitation_point}"])
     pts = tuple(data.output_points)
     kind = plant
     note = ""
@@ -334,35 +392,13 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         kind = "mujoco" if spec_level else "linear"
         if not spec_level:
             note = " (the effect is not expressible in a spec: linear plant)"
-    cache = problem.__dict__.setdefault("_reruns", {})
-
-    def run(st: LabState, k: str, key) -> Recording:
-        if key is not None and (key, k) in cache:
-            return cache[(key, k)]
-        r, _ = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=k, seed=seed)
-        if key is not None:
-            cache[(key, k)] = r
-        return r
 
     def both(k: str) -> list[Recording]:
-        todo = [(st, kk) for st, kk in ((nominal, "nominal"), (modified, key)) if kk is None or (kk, k) not in cache]
-        if workers > 1 and len(todo) == 2:
-            from concurrent.futures import ProcessPoolExecutor
-            from concurrent.futures.process import BrokenProcessPool
-
-            try:
-                with ProcessPoolExecutor(2) as ex:
-                    futs = [ex.submit(_rerun_job, st, force, data.excitation_point, pts, k, seed) for st, _ in todo]
-                    for (st, kk), fu in zip(todo, futs):
-                        dt, sig = fu.result()
-                        if kk is not None:
-                            cache[(kk, k)] = Recording.from_signals(dt, sig)
-                        else:
-                            cache[("_last", k)] = Recording.from_signals(dt, sig)
-                return [cache[("nominal", k)], cache[(key, k)] if key is not None else cache[("_last", k)]]
-            except (OSError, BrokenProcessPool):
-                pass  # no process pool here: sequential
-        return [run(nominal, k, "nominal"), run(modified, k, key)]
+        runs = reruns(problem, [(nominal, "nominal"), (modified, key)], k, seed=seed, workers=workers)
+        for r in runs:
+            if isinstance(r, VlabError):
+                raise r
+        return runs
 
     try:
         runs = both(kind)
