@@ -80,6 +80,17 @@ def test_validation_rerun_lowers_both_misfits(mass_run):
     assert v.time_error_after < v.time_error_before / 5
 
 
+def test_mujoco_validation_of_a_dashpot_raises_a_model_error(mass_run):
+    """A point dashpot cannot be expressed in the spec the MuJoCo plant is built from: a clear ModelError
+    (the pipeline turns it into a note), not a failure of the rerun cache."""
+    from vlab.diagnose.validate import validate
+    from vlab.errors import ModelError
+
+    modified = replace(mass_run.nominal, dashpots=((6, 1.0),))
+    with pytest.raises(ModelError, match="dashpots"):
+        validate(mass_run.problem, mass_run.nominal, modified, plant="mujoco", key="dashpot at 6")
+
+
 def test_json_and_report(mass_run):
     d = mass_run.as_dict()
     for key in ("mismatch", "located", "ranked", "selected", "validated"):
@@ -106,6 +117,18 @@ def test_concealed_loop_delay_is_found(nominal, tmp_path):
     assert r.selected.effect == "loop_delay"
     assert r.selected.params_[0] == pytest.approx(4.0 * nominal.chain.period_s, rel=0.15)
     assert r.loop == "closed"
+
+
+def test_concealed_saturation_is_found(nominal, tmp_path):
+    """A clipping amplifier: its describing function looks like a lower gain; the selection (and, when a gain
+    is within reach, the look-alike rerun of vlab.diagnose.selection) must name the saturation."""
+    truth = replace(nominal, chain=replace(nominal.chain, amplifier_limit_n=0.75))
+    path = _record(truth, tmp_path / "rec.uff")
+    r = diagnose("bcc", path, controller="mfdrf", plant="linear")
+    assert r.mismatch and r.selected is not None
+    assert r.selected.effect == "saturation"
+    assert r.selected.params_[0] == pytest.approx(0.75, rel=0.15)
+    assert r.validation is not None and r.validation.time_error_after < r.validation.time_error_before / 2
 
 
 def test_clean_recording_has_no_mismatch(nominal, tmp_path):

@@ -340,9 +340,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     for i, (_st, k) in enumerate(jobs):
         if k is None:
             continue
-        if i in out and not isinstance(out[i], VlabError):
+        if i not in out:
+            out[i] = cache[(k, plant)]
+        elif not isinstance(out[i], VlabError):
             cache[(k, plant)] = out[i]
-        out.setdefault(i, cache[(k, plant)])
     return [out[i] for i in range(len(jobs))]
 
 
