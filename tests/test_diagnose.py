@@ -187,3 +187,20 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
                                         filter_hz=chain.filter_hz)
         ref = closed_loop_frf(g_fb, g_out, k, acts.index(9))[:, 0]
     np.testing.assert_allclose(h, ref, rtol=1e-8)
+
+
+def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
+    """``vlab diagnose`` on a recording: the ranked table, the selected effect, the validation misfits and
+    the misfit the noise alone leaves; the report is written to --out."""
+    from typer.testing import CliRunner
+
+    from vlab.cli import app
+
+    truth = nominal.with_spec(specedit.add_mass(nominal.spec, 6, 0.12))
+    path = _record(truth, tmp_path / "rec.uff")
+    res = CliRunner().invoke(app, ["diagnose", "--structure", "bcc", "--recording", path, "--controller", "mfdrf",
+                                   "--plant", "linear", "--out", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    out = " ".join(res.output.split())  # rich wraps long lines
+    assert "selected: [{'effect': 'added_mass'" in out and "the measured noise alone leaves" in out
+    assert (tmp_path / "out" / "diagnosis.md").is_file()

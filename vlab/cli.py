@@ -378,6 +378,10 @@ def diagnose(
                   f"{h['misfit_before']:.4g}", f"{h['misfit_after']:.4g}")
     console.print(t)
     console.print(f"selected: {d['selected']}   report: {Path(out) / 'diagnosis.md'}")
+    v = d["validated"]
+    if v.get("noise_misfit") is not None:
+        console.print(f"validation ({v['plant']}): FRF misfit {v['misfit_before']:.3g} -> {v['misfit_after']:.3g} "
+                      f"decades; the measured noise alone leaves {v['noise_misfit']:.3g}")
 
 
 def _measured_modes(fe, modes_file: str | None):
