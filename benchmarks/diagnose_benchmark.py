@@ -37,7 +37,8 @@ from the MuJoCo plant built from the edited spec instead, so the diagnosis
 (fitted on the linear FE model) also faces the model-form error between the
 two models; only effects the spec or the hardware chain can carry are drawn
 (no point dashpots, Coulomb friction or gravity scaling), and ``--structures
-bcc`` keeps to the structure whose MuJoCo plant runs 30x real time.
+bcc`` keeps to the structure whose MuJoCo plant runs 30x real time (the
+MuJoCo grid's forced response is not yet linear enough to diagnose: README).
 
 With ``--baseline`` each case also records the unmodified plant with the same
 excitation record (replayed, new noise) and the diagnosis gets it as its
@@ -59,6 +60,7 @@ truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -213,7 +215,9 @@ class _Signals:
 
 
 #: A validation misfit within this factor of what the measured noise alone leaves
-#: (``validated.noise_misfit``) counts as "down to the noise" in the summary.
+#: (``validated.noise_misfit``) counts as "down to the noise" in the summary. A
+#: chosen reporting margin, not fitted: the floor is itself estimated from two
+#: periods (small effects, at their floor, measured 0.85-0.95x of it).
 NOISE_LEVEL = 1.5
 
 MUJOCO_EXCLUDED = ("damping_point", "friction", "gravity_prestress")  # not expressible in the spec
@@ -310,19 +314,6 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
             "result": d, "error": err}
 
 
-class _Folder:
-    """A kept folder used like a :class:`tempfile.TemporaryDirectory` (``--keep``)."""
-
-    def __init__(self, path: str):
-        self.path = path
-
-    def __enter__(self) -> str:
-        return self.path
-
-    def __exit__(self, *exc) -> None:
-        return None
-
-
 def _same_location(a: dict, b: dict) -> bool:
     return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in a.items()} == \
         {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in b.items()}
@@ -402,7 +393,7 @@ def main(argv=None) -> int:
     t_all = time.perf_counter()
     if args.keep:
         os.makedirs(args.keep, exist_ok=True)
-    with (tempfile.TemporaryDirectory() if not args.keep else _Folder(args.keep)) as work:
+    with (tempfile.TemporaryDirectory() if not args.keep else contextlib.nullcontext(args.keep)) as work:
         diag = [not args.keep] * len(cases)
         if args.jobs > 1:
             from concurrent.futures import ProcessPoolExecutor

@@ -38,7 +38,7 @@ from . import specedit
 from .data import FrfData
 from .hypotheses import Context
 from .labmodel import LabState, natural_frequencies, predict_frf
-from .problem import Problem
+from .problem import Problem, log_misfit
 
 #: Mean chi-square per real residual above which lines, modes or channels count as mismatched.
 FLAG = 4.0
@@ -230,10 +230,8 @@ def channel_errors(problem: Problem, nominal: LabState, modes: list[ModeError]) 
     out = {}
     for j, p in enumerate(d.output_points):
         m = problem.mask[:, j]
-        e = np.log10(np.abs(hp[m, j] / d.h[m, j]))
-        w = problem.weight_mag[m, j]
         out[int(p)] = {"chi2_per_residual": float(r2[m, j].sum() / max(per * m.sum(), 1)),
-                       "misfit_decades": float(np.sqrt(np.sum(w * e**2) / np.sum(w))) if m.any() else float("nan"),
+                       "misfit_decades": log_misfit(hp[m, j], d.h[m, j], problem.weight_mag[m, j]),
                        "comac": float(cm[j])}
     return out
 

@@ -128,8 +128,13 @@ class DiagnosisResult:
         if self.validation is not None:
             validated = self.validation.as_dict()
         else:
-            validated = {"plant": "linear model (no time histories to replay)" if self.selected is not None
-                         else "none (no effect selected)",
+            if self.selected is None:
+                why = "none (no effect selected)"
+            elif isinstance(self.data, FrfData) and self.data.recording is not None:
+                why = "linear model (the rerun was not possible: see the notes)"
+            else:
+                why = "linear model (no time histories to replay)"
+            validated = {"plant": why,
                          "misfit_before": self.misfit_nominal,
                          "misfit_after": self.misfit_selected if self.selected is not None else self.misfit_nominal,
                          "time_error_before": None, "time_error_after": None}

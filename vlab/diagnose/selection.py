@@ -103,6 +103,21 @@ def needs_rerun_check(h: Hypothesis) -> bool:
     return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
 
 
+def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> Hypothesis | None:
+    """The fitted single effect that is the nonlinear part of the pair ``h`` (friction fitted as a dashpot
+    swapped back), for the parsimony check of :func:`tie_break_by_rerun`; None if ``h`` has no such part."""
+    part = next((p for p in h.parts if p.effect in NONLINEAR), None) if isinstance(h, Combination) else None
+    if part is None:
+        return None
+    singles = [g for g in ranked if not isinstance(g, Combination)]
+    single = next((g for g in singles if g.label == part.label), None)
+    if single is None:
+        swapped = [_swap(g, problem) for g in singles
+                   if isinstance(g, (PointDamping, Friction)) and g.location == part.location]
+        single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
+    return single
+
+
 def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
                        notes: list, *, max_candidates: int = 4, parsimony: float = 0.8) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
@@ -146,22 +161,14 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             seen.add(h.label)
             cands.append(h)
     cands = cands[:max_candidates]
-    singles = {}  # the nonlinear part of each pair candidate, alone (for the parsimony check)
-    for h in cands:
-        part = next((p for p in h.parts if p.effect in NONLINEAR), None) if isinstance(h, Combination) else None
-        if part is not None:
-            single = next((g for g in ranked if not isinstance(g, Combination) and g.label == part.label), None)
-            if single is None:
-                swapped = [_swap(g, problem) for g in ranked if not isinstance(g, Combination)
-                           and isinstance(g, (PointDamping, Friction)) and g.location == part.location]
-                single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
-            if single is not None:
-                singles[h.label] = single
-    todo = [h for h in cands if len(cands) > 1 or h.label in singles]
-    todo += [g for g in {g.label: g for g in singles.values()}.values() if g.label not in {h.label for h in todo}]
-    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo], "linear")
-    errors = {h.label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
-              for h, r in zip(todo, runs)}
+    singles = {h.label: g for h in cands if (g := _nonlinear_alone(h, ranked, problem)) is not None}
+    # rerun the candidates when there is a choice, and pairs with a nonlinear part and that part alone
+    todo: dict = {}
+    for h in [h for h in cands if len(cands) > 1 or h.label in singles] + list(singles.values()):
+        todo.setdefault(h.label, h)
+    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo.values()], "linear")
+    errors = {label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
+              for label, r in zip(todo, runs)}
     errs = [errors[h.label] for h in cands] if len(cands) > 1 else [float("nan")]
     j = int(np.nanargmin(errs)) if len(cands) > 1 else 0
     best = cands[j]

@@ -36,6 +36,7 @@ from ..lab.recording import Recording
 from ..measure.frf import h1
 from .data import FrfData
 from .labmodel import LabState
+from .problem import log_misfit, noise_misfit
 
 
 class FrictionPlant:
@@ -229,7 +230,7 @@ class Validation:
         Relative time-domain error [1].
     noise_misfit : float
         Expected FRF misfit [decades] of an exact model, from the measured
-        noise of the compared FRFs alone (:func:`noise_misfit`).
+        noise of the compared FRFs alone (:func:`vlab.diagnose.problem.noise_misfit`).
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
         FRFs of the reruns on the data's lines.
     v_before, v_after : dict
@@ -252,32 +253,6 @@ class Validation:
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
                 "noise_misfit": self.noise_misfit}
-
-
-def noise_misfit(h: np.ndarray, var: np.ndarray, weight: np.ndarray) -> float:
-    """Expected weighted RMS of ``log10|H_exact / H_measured|`` [decades] from measurement noise alone.
-
-    For a small complex relative error of variance ``s^2 = var / |h|^2`` the
-    log magnitude takes half of it, ``E[(ln|.|)^2] = s^2 / 2``; in decades
-    that is divided by ``ln(10)^2``; the lines are weighted as in the misfit.
-
-    Parameters
-    ----------
-    h : ndarray, complex, shape (n,)
-        Measured FRF values on the compared lines [(m/s)/N].
-    var : ndarray, shape (n,)
-        Their variance [((m/s)/N)^2].
-    weight : ndarray, shape (n,)
-        Weights of the misfit.
-
-    Returns
-    -------
-    float
-        [decades]
-    """
-    s2 = np.asarray(var, dtype=float) / np.maximum(np.abs(h) ** 2, 1e-300)
-    w = np.asarray(weight, dtype=float)
-    return float(np.sqrt(np.sum(w * s2 / 2.0) / np.sum(w)) / np.log(10.0))
 
 
 def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,
@@ -420,11 +395,8 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     target = data.h_recorded if recorded else data.h
     target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
-    def mis(h: np.ndarray) -> float:
-        e = np.log10(np.abs(h[mask] / target[mask]))
-        return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
-
-    return Validation(desc, mis(hb), mis(ha), time_error(runs[0], data), time_error(runs[1], data),
+    return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
+                      time_error(runs[0], data), time_error(runs[1], data),
                       noise_misfit(target[mask], target_var[mask], w), hb, ha,
                       {p: np.asarray(runs[0][f"vel{p}"]) for p in pts},
                       {p: np.asarray(runs[1][f"vel{p}"]) for p in pts})
