@@ -50,6 +50,17 @@ closes a loop: its last link ("stub") is welded to the junction with
 (DESIGN.md). Other supports are ``connect`` (w fixed) or ``weld`` (all fixed)
 equalities to the world.
 
+Each of these equalities holds an *in-plane release* body (slides x, y and a
+hinge about z, with a small in-plane armature), not the member end or the
+junction itself. A deflected out-of-plane shape moves its points in the plane
+at second order (the foreshortening ``~ w^2 / L`` and a rotation about z),
+and a weld between two tree branches that have no in-plane DOFs would enforce
+that in-plane compatibility rigidly: a hardening nonlinearity that the linear
+FE model does not have. It made the grid's forced response at the test force
+(0.2 N rms) depend on the amplitude by a factor of two. The release takes up
+those motions; in the flat state the in-plane rows carry no force either way,
+so the linearised modes are the same to 0.01 % (README: plant linearity).
+
 Because the tree has no in-plane DOFs, MuJoCo cannot decide how a statically
 indeterminate structure shares its in-plane loads: the in-plane rows of the
 loop-closing welds have a zero Jacobian in the flat state and carry no force,
@@ -134,6 +145,12 @@ import numpy as np
 from ..errors import ModelError, SimulationError
 from ..spec import StructureSpec
 from ..units import G_SI
+
+#: Mass [kg] of an in-plane release body (:meth:`_Planner._inplane_release`), light enough to move no
+#: out-of-plane mode, and the in-plane inertia of its joints (armature: slides [kg], rotation [kg m^2]),
+#: which only in-plane motion sees, heavy enough for a well-conditioned mass matrix.
+RELEASE_MASS = 1e-6
+RELEASE_ARMATURE = (0.1, 1e-4)
 
 #: Weld/connect constraint impedance that makes a weld behave as rigid (DESIGN.md).
 RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
@@ -316,6 +333,7 @@ class _Joint:
     stiffness: float = 0.0
     elastic: bool = False  # a hinge spring of the discretisation (gets beta damping)
     info: str = ""
+    armature: float = 0.0  # inertia added along the joint only [kg or kg m^2]
 
 
 @dataclass
@@ -670,10 +688,32 @@ class _Planner:
                 self._bar_visual(b, h, pq, sec)
                 if not tree:
                     s1, s2 = f"{tag}.stub{q}.weld", f"J{q}.weld.{tag}"
-                    b.sites.append((s1, pq, f"loop closure of member {m.id} at point {q}"))
+                    cut = self._inplane_release(f"{tag}.cut{q}", b.name, pq,
+                                                f"member {m.id} segment {p}-{q}: in-plane release of its loop closure at point {q}")
+                    cut.sites.append((s1, pq, f"loop closure of member {m.id} at point {q}"))
                     self.pending_sites.append((q, s2, pq, f"loop closure of member {m.id} at point {q}"))
                     self.welds.append((f"weld.{tag}.{q}", s1, s2, f"spec: member {m.id} segment {p}-{q} closes a loop at point {q}"))
                     self.cuts.append((e, q, b.name))
+
+    def _inplane_release(self, name: str, parent: str, at: np.ndarray, info: str) -> _Body:
+        """A light body on ``parent`` free to slide in the plane and turn about z (RELEASE_MASS).
+
+        The tree has no in-plane DOFs, so a weld or connect that closes a loop
+        (or holds a point to the ground) would otherwise enforce the in-plane
+        compatibility of the deflected shape -- its foreshortening, second order
+        in the deflection -- as a rigid constraint: a hardening the linear FE
+        model does not have (README: plant linearity). The release takes up
+        those in-plane motions; at the flat state they carry no force anyway.
+        """
+        joints = [_Joint(f"{name}.x", "slide", np.array([1.0, 0.0, 0.0]), at, info=f"{info} (x)",
+                         armature=RELEASE_ARMATURE[0]),
+                  _Joint(f"{name}.y", "slide", np.array([0.0, 1.0, 0.0]), at, info=f"{info} (y)",
+                         armature=RELEASE_ARMATURE[0]),
+                  _Joint(f"{name}.rz", "hinge", _Z.copy(), at, info=f"{info} (rotation about z)",
+                         armature=RELEASE_ARMATURE[1])]
+        b = self._add(_Body(name, at.copy(), parent, info, joints))
+        b.items.append(_point_mass(at, RELEASE_MASS))
+        return b
 
     def _segments(self, member_id: str, flexible_length: float) -> int:
         """Links (hinges) of one segment of ``member_id``: explicit, else from its length."""
@@ -796,7 +836,9 @@ class _Planner:
                     "can fix w alone (connect) or w with all active rotations (weld) at a non-root point"
                 )
             s1, s2 = f"support{s.point}", f"support{s.point}.ground"
-            b.sites.append((s1, p, f"spec: support at point {s.point}"))
+            cut = self._inplane_release(f"J{s.point}.release", b.name, p,
+                                        f"support at point {s.point}: in-plane release of its {kind}")
+            cut.sites.append((s1, p, f"spec: support at point {s.point}"))
             self.world_sites.append((s2, p, f"spec: support at point {s.point} (ground)"))
             (self.connects if kind == "connect" else self.welds).append(
                 (f"support{s.point}", s1, s2, f"spec: support at point {s.point} fixes {sorted(fixed)}"))
@@ -1129,6 +1171,7 @@ def _emit(spec: StructureSpec, plan: _Plan, opts: SimOptions, beta: float) -> mu
             joint = body.add_joint(name=j.name, type=jt, axis=j.axis.tolist(), pos=(j.pos - b.origin).tolist())
             joint.stiffness = [j.stiffness, 0.0, 0.0]
             joint.damping = [beta * j.stiffness if j.elastic else 0.0, 0.0, 0.0]
+            joint.armature = j.armature
             joint.info = j.info
         for v in b.visuals:
             if v.kind == "box":
