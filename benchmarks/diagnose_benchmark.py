@@ -7,7 +7,8 @@ Each case draws (reproducibly from ``--seed``):
 - sizes are redrawn (up to 8 times) until the effect changes the
   frequency-domain prediction of some line by at least 5 % -- an effect
   below that is within 1 % noise and a few percent of model floor and is
-  not a fair test;
+  not a fair test; a pair is redrawn until its first effect is also visible
+  in the final plant, next to the second (:func:`conceal`);
 - nothing (one case in six: the false-alarm check), one effect, or (one
   case in six) two effects of the library, at random locations and sizes
   (sizes are drawn relative to the structure's own scales so that each is
@@ -61,6 +62,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import json
 import math
 import os
@@ -202,6 +204,54 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
     raise ValueError(family)
 
 
+#: An effect is visible when it changes the predicted FRF of some line by this much (log magnitude).
+VISIBLE = 0.05
+
+
+def _visible(a: LabState, b: LabState, freq_hz, exc: int, meas: tuple) -> bool:
+    h0 = predict_frf(a, freq_hz, excitation_point=exc, output_points=meas)
+    h1 = predict_frf(b, freq_hz, excitation_point=exc, output_points=meas)
+    return bool(np.max(np.abs(np.log(h1 / h0))) >= VISIBLE)
+
+
+def _stage(family: str) -> int:
+    """Drawing order: spec edits rebuild the FE model (and would drop an FE edit drawn before them), the
+    gravity pre-stress edits the FE model, the saturation limit is sized on the final plant's forces."""
+    return 0 if family in STRUCT else 1 if family == "gravity_prestress" else 3 if family == "saturation" else 2
+
+
+def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int, meas: tuple,
+            attempts: int = 8) -> tuple[LabState, list]:
+    """Draw the effects of ``families`` into ``st0``, each visible in the final plant.
+
+    Effects are drawn in the order of :func:`_stage`. Each effect's size is redrawn (up to ``attempts`` times) until it changes
+    some FRF line by ``VISIBLE`` on top of the effects drawn before it. With
+    two effects the pair is redrawn until the first is also visible next to
+    the second: the final plant against the second effect drawn alone on the
+    nominal plant from the same random numbers (a large second effect can
+    hide a small first one).
+    """
+    families = sorted(families, key=_stage)
+    for _pair in range(attempts):
+        state, truths, used, redraw = st0, [], set(), None
+        for fam in families:
+            for _attempt in range(attempts):
+                before = copy.deepcopy(rng)
+                cand, t = draw_effect(rng, fam, state, ctx, used)
+                if _visible(state, cand, freq_hz, exc, meas):
+                    break
+            redraw = (before, fam, set(used))
+            state = cand
+            used |= {t["location"].get("point")} - {None}
+            truths.append(t)
+        if len(families) < 2:
+            return state, truths
+        second_alone, _ = draw_effect(redraw[0], redraw[1], st0, ctx, redraw[2])
+        if _visible(second_alone, state, freq_hz, exc, meas):
+            return state, truths
+    return state, truths
+
+
 class _Signals:
     """Excitation lines and amplitudes, to size effects (what the diagnosis sees from the data)."""
 
@@ -276,18 +326,8 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     ctx.closed_loop = st0.design is not None
     ctx.excitation_point = exc
     ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
-    truth_state, truths, used = st0, [], set()
     meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
-    for fam in case["families"]:
-        h0 = predict_frf(truth_state, sig.freq_hz, excitation_point=exc, output_points=meas)
-        for _attempt in range(8):  # redraw until the effect is visible: some FRF line changes by >= 5 %
-            cand, t = draw_effect(rng, fam, truth_state, ctx, used)
-            h1 = predict_frf(cand, sig.freq_hz, excitation_point=exc, output_points=meas)
-            if np.max(np.abs(np.log(h1 / h0))) >= 0.05:
-                break
-        truth_state = cand
-        used |= {t["location"].get("point")} - {None}
-        truths.append(t)
+    truth_state, truths = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas)
     t0 = time.perf_counter()
     plant = case.get("plant", "linear")
     path = os.path.join(workdir, f"case{case['index']}.uff")
