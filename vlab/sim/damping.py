@@ -44,7 +44,9 @@ Which plant mode is "mode r" of the spec is decided by pairing with the FE
 modes (MAC at the structure points, :func:`vlab.sim.crosscheck.pair_modes`);
 plant modes without FE partner below the highest damped one (the crosspiece
 arms' anti-symmetric bending, absent from the FE's single-DOF crosspiece) get
-the spec's ``default_ratio``.
+the spec's ``default_ratio``, and so do all plant modes up to
+``ABOVE_DAMPED`` times the highest damped FE mode's frequency, as the FE
+model gives the default ratio to every mode beyond the listed ones.
 
 Source: modal damping as in Sec. 2.1.2 ("proportional damping equivalent to
 the measured open loop inherent damping"); MuJoCo ``qfrc_applied``, custom
