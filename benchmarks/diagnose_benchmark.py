@@ -209,6 +209,7 @@ VISIBLE = 0.05
 
 
 def _visible(a: LabState, b: LabState, freq_hz, exc: int, meas: tuple) -> bool:
+    """Does ``b`` change the predicted FRF of some line of ``a`` by ``VISIBLE`` (log magnitude)?"""
     h0 = predict_frf(a, freq_hz, excitation_point=exc, output_points=meas)
     h1 = predict_frf(b, freq_hz, excitation_point=exc, output_points=meas)
     return bool(np.max(np.abs(np.log(h1 / h0))) >= VISIBLE)
@@ -229,7 +230,9 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
     two effects the pair is redrawn until the first is also visible next to
     the second: the final plant against the second effect drawn alone on the
     nominal plant from the same random numbers (a large second effect can
-    hide a small first one).
+    hide a small first one). If no pair passes in ``attempts`` tries, the
+    last one is kept (not flagged; no case of the four documented runs was
+    checked for this).
     """
     families = sorted(families, key=_stage)
     for _pair in range(attempts):

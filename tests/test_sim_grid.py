@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from vlab.sim import SimOptions, build_plant, crosscheck, free_decay, free_run, linearize, modes, settle
+from vlab.sim import MujocoPlant, SimOptions, build_plant, crosscheck, free_decay, free_run, linearize, modes, settle
 from vlab.spec import STRUCTURES_DIR, load_spec
 
 pytestmark = pytest.mark.skipif(not (STRUCTURES_DIR / "grid.toml").exists(),
@@ -105,8 +105,6 @@ def test_grid_sixty_seconds_no_energy_growth(spec):
 
 def _impulse_response(plant, impulse_ns: float, seconds: float = 1.5) -> np.ndarray:
     """Velocity [m/s] at point 1 after a 10 ms force pulse of ``impulse_ns`` [N s] at point 4."""
-    from vlab.sim import MujocoPlant
-
     run = MujocoPlant(plant)
     dt = run.timestep_s
     u = np.zeros(len(run.actuator_points))
