@@ -241,8 +241,11 @@ class SimOptions:
         exceeds :data:`STABILITY_LIMIT` (default True).
     max_substeps : int
         Automatic timestep: the step is at least ``LAB_PERIOD_S / max_substeps``
-        (default 2: 0.25 ms; the convergence study shows the scaled hinges leave the
-        frequencies unchanged within 0.05 %).
+        (default 1: the lab's 0.5 ms period. On the grid the scaled hinges leave the
+        first 12 cross-check frequencies unchanged within 0.01 %, and the FRFs after
+        a force pulse differ from those at 0.125 ms by 0.2 dB rms in 1-20 Hz,
+        measured with ``benchmarks/sim_speed.py --accuracy``; at 0.25 ms the grid
+        ran below real time, 0.67x).
     mass_scaling : bool
         When the stiffest hinges would need a smaller step than chosen
         (very short stiff segments), give those hinges an ``armature`` (added
@@ -266,7 +269,7 @@ class SimOptions:
     inplane_redundants: bool = True
     gravity: bool = True
     check_timestep: bool = True
-    max_substeps: int = 2
+    max_substeps: int = 1
     mass_scaling: bool = True
 
     def resolved(self, spec: StructureSpec) -> "SimOptions":
