@@ -9,7 +9,7 @@ from vlab.calibration import open_loop_ratios
 from vlab.diagnose import specedit
 from vlab.diagnose.data import read_modal_csv
 from vlab.diagnose.fit import fit_hypothesis, fit_pairs
-from vlab.diagnose.hypotheses import AddedMass, library
+from vlab.diagnose.hypotheses import AddedMass, JointFlexibility, library
 from vlab.diagnose.labmodel import LabState
 from vlab.diagnose.nominal import context_for
 from vlab.diagnose.problem import Problem
@@ -57,3 +57,38 @@ def test_sequential_replacement_finds_both_effects(two_effects):
     assert set(found) == {"added_mass(point=7)", "support_stiffness(point=8, dof=w)"}
     assert found["added_mass(point=7)"][0] == pytest.approx(0.5, rel=1e-3)
     assert found["support_stiffness(point=8, dof=w)"][0] == pytest.approx(150.0, rel=1e-3)
+
+
+# ---------------------------------------------------------------- coarse scan of a mode-moving effect
+
+
+@pytest.fixture(scope="module")
+def softened_grid_joint():
+    """FRFs of the linear grid with the joint at point 18 (top beam / bar 18-2) softened to 6000 N m/rad:
+    two top-beam modes fall into the band, between the hypothesis's own trial values (0.3, 1, 3, ... x k_ref)."""
+    import numpy as np
+
+    from vlab.diagnose.data import FrfData
+    from vlab.diagnose.labmodel import predict_frf
+
+    fe = nominal_fe_model("grid")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    truth = nominal.with_spec(specedit.soften_joint(fe.spec, 18, 6000.0))
+    test = TESTS["grid"]
+    freq = np.arange(4, 201) * 0.05
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
+    data = FrfData("grid-joint18.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
+    ctx = context_for(nominal, test.band_hz, data)
+    return Problem(data, nominal, ctx), JointFlexibility
+
+
+def test_coarse_scan_finds_the_narrow_chi2_well(softened_grid_joint):
+    """The chi-square well is ~ +-12 % wide in k: a local fit from the trial values alone misses it."""
+    problem, cls = softened_grid_joint
+    h = fit_hypothesis(cls(point=18), problem)
+    assert h.params_[0] == pytest.approx(6000.0, rel=0.01)
+    trials, _, _ = cls(point=18).space(problem.base, problem.ctx)
+    old = fit_hypothesis(cls(point=18), problem, starts=trials)  # the trial values only, as before the scan
+    assert old.chi2_ > 100 * h.chi2_

@@ -5,6 +5,12 @@ residuals of :class:`~vlab.diagnose.problem.Problem`
 (:func:`scipy.optimize.least_squares`, trust-region reflective, finite
 difference Jacobian), started from the best of a few trial values (the
 residual of a lightly damped structure is not convex in a frequency shift).
+A one-parameter effect that moves the modes is scanned first at
+:data:`COARSE_POINTS` values spanning its trial range; the value with the least
+*smoothed* error (:meth:`~vlab.diagnose.problem.Problem.scores`: the broad
+basin around the narrow chi-square well) is then refined by a finer scan of
+the chi-square around it (:data:`LOCAL_POINTS` values within
+:data:`LOCAL_SPAN`), and the best of all is a start of the local fit.
 Scale parameters are fitted in ``log10``; every parameter is normalised to
 order one.
 
@@ -49,6 +55,14 @@ PAIR_MISFIT_GAIN = 1.5
 #: misfit understates what they explain, so pairs with them skip the gain test.
 NONLINEAR = ("saturation", "friction")
 
+#: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).
+COARSE_POINTS = 12
+#: Values of the chi-square scan around the coarse scan's best and their span: a factor
+#: ``exp(+-LOCAL_SPAN)`` for a log parameter, ``+-LOCAL_SPAN`` of the trial range otherwise.
+#: Chosen, not fitted: the chi-square well of a softened grid joint is about +-12 % wide.
+LOCAL_POINTS = 9
+LOCAL_SPAN = 0.3
+
 
 def _z(x: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
     x = np.asarray(x, dtype=float)
@@ -59,10 +73,34 @@ def _x(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
     return np.array([10.0**v if lg else v for v, lg in zip(z, log)])
 
 
+def trials_for(h: Hypothesis, problem: Problem) -> np.ndarray:
+    """Trial values [SI] of ``h``, shape (n, k): its own, or for a one-parameter effect that moves
+    the modes (``h.moves_modes``) :data:`COARSE_POINTS` values spanning them."""
+    trials, _, _ = h.space(problem.base, problem.ctx)
+    if not (h.moves_modes and h.n_params == 1 and len(trials) > 1):
+        return trials
+    a, b = float(np.min(trials)), float(np.max(trials))
+    grid = np.geomspace(a, b, COARSE_POINTS) if (h.log_scale[0] and a > 0) else np.linspace(a, b, COARSE_POINTS)
+    return grid[:, None]
+
+
+def _around(h: Hypothesis, problem: Problem, x: np.ndarray) -> np.ndarray:
+    """:data:`LOCAL_POINTS` values around ``x`` [SI] (one parameter) within the bounds, shape (n, 1)."""
+    trials, lo, hi = h.space(problem.base, problem.ctx)
+    u = np.linspace(-LOCAL_SPAN, LOCAL_SPAN, LOCAL_POINTS)
+    if h.log_scale[0] and x[0] > 0:
+        v = x[0] * np.exp(u)
+    else:
+        v = x[0] + u * float(np.ptp(trials))
+    return np.clip(v, lo[0], hi[0])[:, None]
+
+
 def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
     """Chi-square at each trial value of ``h`` on ``problem``, best first.
 
-    ``trials`` (shape (n, k), SI) default to the hypothesis's own trial values.
+    ``trials`` (shape (n, k), SI) default to :func:`trials_for`. Sets
+    ``h.coarse_``: the trial with the least smoothed error
+    (:meth:`Problem.scores`), and ``h.coarse_error_``, that error.
 
     Returns
     -------
@@ -70,10 +108,15 @@ def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) ->
         ``x`` [SI], shape (k,).
     """
     if trials is None:
-        trials, _, _ = h.space(problem.base, problem.ctx)
+        trials = trials_for(h, problem)
     out = []
+    smooth = []
     for x in trials:
-        out.append((problem.chi2(problem.state_for(h, x)), np.asarray(x, dtype=float)))
+        c, sm = problem.scores(problem.state_for(h, x))
+        out.append((c, np.asarray(x, dtype=float)))
+        smooth.append(sm)
+    i = int(np.argmin(smooth))
+    h.coarse_, h.coarse_error_ = out[i][1], float(smooth[i])
     out.sort(key=lambda t: t[0])
     return out
 
@@ -87,7 +130,8 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
     h : Hypothesis
     problem : Problem
     starts : ndarray, shape (n, k), optional
-        Starting values [SI]; default: the hypothesis's trial values, screened.
+        Starting values [SI]; default: :func:`trials_for`, screened, and for a
+        mode-moving effect a chi-square scan around the coarse scan's best.
     max_nfev : int
         Evaluation budget of each local fit.
     n_starts : int
@@ -101,11 +145,20 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
     """
     base, ctx = problem.base, problem.ctx
     trials, lo, hi = h.space(base, ctx)
+    n0 = problem.n_evaluations
     if starts is not None:
         trials = np.atleast_2d(np.asarray(starts, dtype=float))
+        screened = screen(h, problem, trials)
+    else:
+        trials = trials_for(h, problem)
+        screened = screen(h, problem, trials)
+        if h.moves_modes and h.n_params == 1:
+            coarse = h.coarse_, h.coarse_error_
+            local = screen(h, problem, _around(h, problem, h.coarse_))
+            h.coarse_, h.coarse_error_ = coarse
+            screened = sorted(screened + local, key=lambda t: t[0])
+            trials = np.vstack([trials, [x for _, x in local]])
     log = tuple(h.log_scale)
-    n0 = problem.n_evaluations
-    screened = screen(h, problem, trials)
     best_chi2 = screened[0][0]
     picks = [x for c, x in screened[:n_starts] if c <= 3.0 * best_chi2 + 1.0]
     zlo, zhi = _z(lo, log), _z(hi, log)

@@ -40,6 +40,10 @@ class Hypothesis:
         ``"signals"`` (needs the excitation amplitude: time histories).
     spec_level : bool
         True when the effect is a spec/chain change a MuJoCo plant can carry.
+    moves_modes : bool
+        True when the effect shifts natural frequencies (mass, stiffness): its
+        one parameter is scanned densely before the local fit
+        (:func:`vlab.diagnose.fit.trials_for`).
 
     Fitted attributes (after :meth:`fit`)
     --------------------------------------
@@ -63,6 +67,7 @@ class Hypothesis:
     log_scale: ClassVar[tuple[bool, ...]] = ()
     needs: ClassVar[str] = "any"
     spec_level: ClassVar[bool] = True
+    moves_modes: ClassVar[bool] = False
     order: ClassVar[int] = 0
     #: Application stage: 0 rebuilds the FE model from a spec, 1 edits the FE model, 2 adds to it.
     stage: ClassVar[int] = 2

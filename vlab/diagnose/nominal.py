@@ -80,10 +80,9 @@ def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
     u = np.zeros(fe.n)
     u[w_rows] = 1.0
     total = float(u @ fe.m @ u)
-    f, _, phi = natural_frequencies(state)
+    f, zeta, phi = natural_frequencies(state)
     om = 2 * np.pi * f
     keep = om > 1e-6
-    _, zeta, _ = natural_frequencies(state)
     inband = keep & (f >= band_hz[0]) & (f <= band_hz[1])
     if not inband.any():
         inband = keep

@@ -14,7 +14,9 @@ Pipeline (issue 6):
 3. **Locate** (:mod:`vlab.diagnose.locate`): modes, sensors, band, loop and,
    by sensitivity-based localisation, points and members.
 4. **Explain**: every hypothesis of the library that can show in these data
-   is screened at a few sizes; the best are fitted by least squares
+   is screened at a few sizes (a mode-moving one at a dozen, which also
+   gives its smoothed error, :func:`vlab.diagnose.fit.trials_for`); the best
+   by chi-square and the best mode-moving ones by smoothed error are fitted by least squares
    (:mod:`vlab.diagnose.fit`) and ranked by BIC; when the best single effect
    leaves more than noise, pairs are fitted too: a second effect on top of
    the best single one (forward selection), then each part of the best pair
@@ -43,7 +45,7 @@ from ..lab.experiment import TESTS
 from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
 from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
-from .fit import fit_hypothesis, fit_pairs, rank, screen, select
+from .fit import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
 from .hypotheses import Hypothesis, library
 from .labmodel import LabState, predict_frf
 from .locate import locate
@@ -210,7 +212,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         scored = []
         for h in hyps:
             try:
-                trials, _, _ = h.space(nominal, ctx)
+                trials = trials_for(h, problem)
                 est = getattr(h, "estimate_", None)
                 if est is not None and np.isfinite(est):
                     trials = np.vstack([trials, [[est]], [[est * 0.7]], [[est * 1.4]]])
@@ -219,6 +221,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 continue
         scored.sort(key=lambda s: s[0])
         keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
+        # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
+        broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
+        keep += [h for h in broad[:shortlist // 2] if h not in keep]
         seen = {h.effect for h in keep}
         for _, h in scored:
             if h.effect not in seen:

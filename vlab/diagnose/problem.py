@@ -18,6 +18,16 @@ compared with the mode that is nominal mode ``n``.
 The sum of squares is a chi-square statistic when the weights are the noise:
 it drives the least-squares fits, the information criteria
 (:mod:`vlab.diagnose.fit`) and the decision whether there is a mismatch at all.
+
+A lightly damped structure makes that chi-square a rugged function of a
+stiffness or mass: a resonance that misses its measured line by more than a
+half-power bandwidth costs as much as one that misses it by far, so the
+minimum is a narrow well (about +-12 % in a joint stiffness on the grid). The
+*smoothed* error (:meth:`Problem.scores`) compares model and data
+after the same complex smoothing along frequency (a Gaussian in ``ln f``,
+:data:`SMOOTH_REL_WIDTH`), which widens every resonance to the kernel's width,
+as added damping would: its minimum is broad and lies near the sharp one, so
+a coarse scan of it finds the well that the local fit then descends.
 """
 
 from __future__ import annotations
@@ -35,6 +45,10 @@ from .labmodel import LabState, natural_frequencies, predict_frf
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
 _PENALTY = 1e3
+
+#: Standard deviation, in ``ln f``, of the Gaussian smoothing of :meth:`Problem.smoothed_error`
+#: (10 %: 0.4 Hz at 4 Hz). A chosen scale, not fitted: ten half-power bandwidths of a 0.5 % damped mode.
+SMOOTH_REL_WIDTH = 0.1
 
 
 def log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
@@ -209,20 +223,18 @@ class Problem:
         self.n_evaluations += 1
         try:
             if isinstance(self.data, FrfData):
-                hm = self.predict(state)
-                ratio = hm[self.mask] / self.data.h[self.mask]
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    re = np.log(np.abs(ratio)) / self.part_sigma
-                    if not self.use_phase:
-                        r = re
-                    else:
-                        r = np.concatenate([re, np.angle(ratio) / self.part_sigma])
-            else:
-                r = self._modal_residual(state)
+                return self._frf_residual(self.predict(state))
+            r = self._modal_residual(state)
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
             return np.full(self.n_obs, _PENALTY)
-        r = np.where(np.isfinite(r), r, _PENALTY)
-        return r
+        return np.where(np.isfinite(r), r, _PENALTY)
+
+    def _frf_residual(self, hm: np.ndarray) -> np.ndarray:
+        ratio = hm[self.mask] / self.data.h[self.mask]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            re = np.log(np.abs(ratio)) / self.part_sigma
+            r = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
+        return np.where(np.isfinite(r), r, _PENALTY)
 
     def _modal_residual(self, state: LabState) -> np.ndarray:
         d: ModalData = self.data
@@ -241,6 +253,42 @@ class Problem:
         """Sum of squared weighted residuals of the lab ``state``."""
         r = self.residual(state)
         return float(r @ r)
+
+    def _smoother(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Kernel ``W`` (n_f, n_f), its masked row sums (n_f, n_o) and the smoothed data (n_f, n_o), cached."""
+        if getattr(self, "_smooth", None) is None:
+            lf = np.log(np.maximum(self.data.freq_hz, 1e-9))
+            w = np.exp(-0.5 * ((lf[:, None] - lf[None, :]) / SMOOTH_REL_WIDTH) ** 2)
+            m = self.mask.astype(float)
+            norm = np.maximum(w @ m, 1e-300)
+            self._smooth = (w, norm, (w @ (m * self.data.h)) / norm)
+        return self._smooth
+
+    def scores(self, state: LabState) -> tuple[float, float]:
+        """``(chi2, smoothed error)`` of the lab ``state`` from one prediction.
+
+        The smoothed error is the RMS of ``ln|S H_model / S H_measured|`` over
+        the used lines and channels, ``S`` the complex frequency smoothing of
+        :data:`SMOOTH_REL_WIDTH` (only the used lines enter it): a guide for
+        scanning one parameter, not a statistic (see the module docstring).
+        For modal data it is the chi-square. A model that cannot be built
+        gives ``(chi2 of the penalty, inf)``.
+        """
+        if not isinstance(self.data, FrfData):
+            c = self.chi2(state)
+            return c, c
+        self.n_evaluations += 1
+        try:
+            hm = self.predict(state)
+        except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
+            return float(self.n_obs * _PENALTY**2), float("inf")
+        r = self._frf_residual(hm)
+        w, norm, sd = self._smoother()
+        sm = (w @ (self.mask * hm)) / norm
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e = np.log(np.abs(sm[self.mask] / sd[self.mask]))
+        smooth = float(np.sqrt(np.mean(e**2))) if np.all(np.isfinite(e)) else float("inf")
+        return float(r @ r), smooth
 
     def misfit(self, state: LabState) -> float:
         """Misfit of the lab ``state``.

@@ -231,7 +231,7 @@ def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, 
 
 
 def prune(hyps: list[Hypothesis], sensitivity: list[dict], *, share: float = 0.25, per_family: int = 6,
-          min_explained: float = 0.2) -> list[Hypothesis]:
+          min_explained: float = 0.5) -> list[Hypothesis]:
     """Keep, of ``hyps``, the local structural hypotheses the ``sensitivity`` ranking points at.
 
     When the best single local parameter explains at least ``min_explained`` of

@@ -47,6 +47,7 @@ class AddedMass(_PointSet):
     """
 
     effect = "added_mass"
+    moves_modes = True
     param_names = ("mass_kg",)
     log_scale = (False,)
     order = 1
@@ -78,6 +79,7 @@ class SupportStiffness(_PointSet):
     """
 
     effect = "support_stiffness"
+    moves_modes = True
     log_scale = (True,)
     order = 2
     stage = 0
@@ -145,6 +147,7 @@ class JointFlexibility(Hypothesis):
     """
 
     effect = "joint_flexibility"
+    moves_modes = True
     param_names = ("rotational_stiffness_n_m_per_rad",)
     log_scale = (True,)
     order = 3
@@ -177,6 +180,7 @@ class MemberStiffness(Hypothesis):
     """
 
     effect = "member_stiffness"
+    moves_modes = True
     param_names = ("ei_n_m2",)
     log_scale = (True,)
     order = 4
@@ -365,6 +369,7 @@ class GravityPrestress(Hypothesis):
     """
 
     effect = "gravity_prestress"
+    moves_modes = True
     param_names = ("g_m_per_s2",)
     log_scale = (False,)
     spec_level = False
