@@ -222,7 +222,7 @@ def _stage(family: str) -> int:
 
 
 def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int, meas: tuple,
-            attempts: int = 8) -> tuple[LabState, list]:
+            attempts: int = 8) -> tuple[LabState, list, bool]:
     """Draw the effects of ``families`` into ``st0``, each visible in the final plant.
 
     Effects are drawn in the order of :func:`_stage`. Each effect's size is redrawn (up to ``attempts`` times) until it changes
@@ -230,29 +230,36 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
     two effects the pair is redrawn until the first is also visible next to
     the second: the final plant against the second effect drawn alone on the
     nominal plant from the same random numbers (a large second effect can
-    hide a small first one). If no pair passes in ``attempts`` tries, the
-    last one is kept (not flagged; no case of the four documented runs was
-    checked for this).
+    hide a small first one).
+
+    Returns
+    -------
+    (LabState, list of dict, bool)
+        The plant, the truths, and whether an effect stayed below ``VISIBLE``
+        after ``attempts`` tries (the last draw is kept; the case is flagged
+        in the listing and counted in the summary).
     """
     families = sorted(families, key=_stage)
     for _pair in range(attempts):
-        state, truths, used, redraw = st0, [], set(), None
+        state, truths, used, redraw, hidden = st0, [], set(), None, False
         for fam in families:
             for _attempt in range(attempts):
                 before = copy.deepcopy(rng)
                 cand, t = draw_effect(rng, fam, state, ctx, used)
-                if _visible(state, cand, freq_hz, exc, meas):
+                seen = _visible(state, cand, freq_hz, exc, meas)
+                if seen:
                     break
+            hidden = hidden or not seen
             redraw = (before, fam, set(used))
             state = cand
             used |= {t["location"].get("point")} - {None}
             truths.append(t)
         if len(families) < 2:
-            return state, truths
+            return state, truths, hidden
         second_alone, _ = draw_effect(redraw[0], redraw[1], st0, ctx, redraw[2])
         if _visible(second_alone, state, freq_hz, exc, meas):
-            return state, truths
-    return state, truths
+            return state, truths, hidden
+    return state, truths, True
 
 
 class _Signals:
@@ -330,7 +337,7 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     ctx.excitation_point = exc
     ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
     meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
-    truth_state, truths = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas)
+    truth_state, truths, hidden = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas)
     t0 = time.perf_counter()
     plant = case.get("plant", "linear")
     path = os.path.join(workdir, f"case{case['index']}.uff")
@@ -341,7 +348,8 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
         _record(st0, force, exc, meas, dt, plant, case["index"] + 10_000, noise, rng, base_path, case)
     t_gen = time.perf_counter() - t0
     if not diagnose_it:
-        rec = {**case, "truth": truths, "n_periods": n_periods, "recording": path, "baseline": base_path}
+        rec = {**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "recording": path,
+               "baseline": base_path}
         with open(os.path.join(workdir, f"case{case['index']}.json"), "w") as fh:
             json.dump(rec, fh, indent=1)
         return {**rec, "time_generate_s": t_gen, "time_diagnose_s": 0.0, "result": None, "error": "not diagnosed"}
@@ -353,8 +361,8 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     except Exception as exc:  # a benchmark records failures instead of stopping
         d, err = None, f"{type(exc).__name__}: {exc}"
     t_diag = time.perf_counter() - t0
-    return {**case, "truth": truths, "n_periods": n_periods, "time_generate_s": t_gen, "time_diagnose_s": t_diag,
-            "result": d, "error": err}
+    return {**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "time_generate_s": t_gen,
+            "time_diagnose_s": t_diag, "result": d, "error": err}
 
 
 def _same_location(a: dict, b: dict) -> bool:
@@ -411,7 +419,8 @@ def _line(r: dict, s: dict) -> str:
         got = " + ".join(_label(x) for x in d["selected"]) or "mismatch, unexplained"
     truth = " + ".join(_label(t) for t in r["truth"]) or "none"
     return (f"case {r['index']:3d} {r['structure']:4s} {r['controller']:5s} truth {truth} -> {got}: "
-            f"{'OK' if s['right'] else 'WRONG'} ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)")
+            f"{'OK' if s['right'] else 'WRONG'} ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)"
+            + (" [an effect drawn below visibility]" if r.get("hidden") else ""))
 
 
 def main(argv=None) -> int:
@@ -481,6 +490,7 @@ def main(argv=None) -> int:
         "misfit_5x_or_noise_share": float(np.mean(at_noise)) if at_noise else None,
         "time_error_ratio_median": float(np.median(tr)) if tr else None,
         "false_alarms": sum(s["false_alarm"] for s in no_eff),
+        "hidden_effect_cases": [r["index"] for r in results if r.get("hidden")],
         "diagnose_time_s_median": float(np.median(td)), "diagnose_time_s_max": float(np.max(td)),
         "case_time_s_max": float(np.max(np.array(td) + np.array(tg))),
         "errors": [r["error"] for r in results if r["error"]],
@@ -501,6 +511,8 @@ def main(argv=None) -> int:
     if tr:
         print(f"time-domain error reduction: median {summary['time_error_ratio_median']:.1f}x")
     print(f"false alarms on no-effect cases: {summary['false_alarms']} of {summary['no_effect']}")
+    print(f"cases with an effect drawn below visibility ({100 * VISIBLE:g} % on every line, 8 tries): "
+          f"{summary['hidden_effect_cases'] or 'none'}")
     print(f"time per case: diagnosis median {summary['diagnose_time_s_median']:.0f} s, max "
           f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s")
     if summary["errors"]:

@@ -196,3 +196,31 @@ def test_crosspiece_sdof_matches_a_fine_cantilever_under_base_motion():
         sdof = rest + m1 * k1 / (k1 - w2 * m1)
         assert sdof == pytest.approx(exact, rel=2e-3), f_hz
     assert m1 + rest == pytest.approx(arm + tip)
+
+
+def test_gravity_memo_follows_every_in_plane_input():
+    """The memoised in-plane statics is reused for an out-of-plane change only; a mass, a string tension or
+    an in-plane rigidity gives a new solution (the same as a cold solve)."""
+    import dataclasses
+
+    from vlab.diagnose import specedit
+    from vlab.fe import statics
+    from vlab.fe.mesh import build_mesh
+    from vlab.spec import load_spec
+
+    spec = load_spec("grid")
+    mesh = build_mesh(spec)
+    base = statics.solve_gravity(spec, mesh)
+    soft = specedit.soften_joint(spec, 18, 5000.0)
+    assert statics.solve_gravity(soft, build_mesh(soft)) is base
+    heavy = specedit.add_mass(spec, 5, 0.3)
+    got = statics.solve_gravity(heavy, build_mesh(heavy))
+    assert got is not base
+    cold = statics._solve(heavy, build_mesh(heavy))
+    assert [f.axial for f in got.element_forces] == [f.axial for f in cold.element_forces]
+    assert got.element_forces[0].axial != base.element_forces[0].axial
+    sec_id = mesh.elements[0].section
+    sec = spec.sections[sec_id]
+    stiffer = dataclasses.replace(spec, sections={**spec.sections, sec_id: dataclasses.replace(
+        sec, ei_inplane=2.0 * sec.ei_inplane)})
+    assert statics._inputs(stiffer, build_mesh(stiffer)) != statics._inputs(spec, mesh)

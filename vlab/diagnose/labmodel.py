@@ -155,7 +155,8 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     all_pts = list(out_points) + list(in_points) + d_pts
     ph = md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
     den = md.omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * md.omega[None, :] * w[:, None]
-    alpha = np.einsum("im,fm,jm->fij", ph, 1.0 / den, ph)        # receptance (n_f, n_p, n_p)
+    r = 1.0 / den
+    alpha = (ph[None] * r.real[:, None, :]) @ ph.T + 1j * ((ph[None] * r.imag[:, None, :]) @ ph.T)  # (n_f, n_p, n_p)
     no, ni = len(out_points), len(in_points)
     io = slice(0, no)
     ii = slice(no, no + ni)

@@ -24,7 +24,9 @@ Pipeline (issue 6):
    effect is selected only if it lowers the BIC by 10 or more (strong
    evidence), a pair only if it beats the best single effect by 10.
 5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
-   back through the 2 kHz loop on the nominal and on the modified plant;
+   back through the 2 kHz loop on the nominal and on the modified plant (the
+   nominal MuJoCo rerun starts in a background process as soon as a
+   mismatch is found, while the hypotheses are fitted);
    FRF and time-domain misfits before and after. An effect that removes
    less than half of the weighted misfit, and whose rerun does not halve
    the FRF misfit either, is not selected (the mismatch is reported as not
@@ -34,6 +36,7 @@ Pipeline (issue 6):
 
 from __future__ import annotations
 
+import importlib.util
 import time
 from pathlib import Path
 
@@ -54,7 +57,7 @@ from .problem import Problem
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                         rerun_key, tie_break_by_rerun)
-from .validate import validate
+from .validate import start_background_rerun, stop_background, validate
 
 __all__ = ["diagnose", "DiagnosisResult"]
 
@@ -195,99 +198,105 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     chi2_0 = problem.chi2(nominal)
     limit = problem.noise_chi2()
     misfit_0 = problem.misfit(nominal)
-    say("locating")
-    t = time.perf_counter()
-    location = locate(problem, nominal)
-    timing["locate"] = time.perf_counter() - t
-    mismatch = chi2_0 > limit
-    res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
-                          None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0)
-    if not mismatch:
-        res.location.points, res.location.members = [], []
-        notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
-    else:
-        say("screening hypotheses")
+    try:
+        say("locating")
         t = time.perf_counter()
-        hyps = prune(library(nominal, ctx, effects=effects), location.sensitivity)
-        scored = []
-        for h in hyps:
-            try:
-                trials = trials_for(h, problem)
-                est = getattr(h, "estimate_", None)
-                if est is not None and np.isfinite(est):
-                    trials = np.vstack([trials, [[est]], [[est * 0.7]], [[est * 1.4]]])
-                scored.append((screen(h, problem, trials)[0][0], h))
-            except (VlabError, ValueError, np.linalg.LinAlgError):
-                continue
-        scored.sort(key=lambda s: s[0])
-        keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
-        # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
-        broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
-        keep += [h for h in broad[:shortlist // 2] if h not in keep]
-        seen = {h.effect for h in keep}
-        for _, h in scored:
-            if h.effect not in seen:
-                keep.append(h)
-                seen.add(h.effect)
-        timing["screen"] = time.perf_counter() - t
-        say("fitting")
-        t = time.perf_counter()
-        fitted = []
-        for h in keep:
-            try:
-                fitted.append(fit_hypothesis(h, problem))
-            except (VlabError, ValueError, np.linalg.LinAlgError):
-                continue
-        ranked = rank(fitted)
-        timing["fit"] = time.perf_counter() - t
-        best = ranked[0] if ranked else None
-        if pairs and best is not None and best.chi2_ > limit:
-            say("fitting pairs")
-            t = time.perf_counter()
-            ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
-            timing["pairs"] = time.perf_counter() - t
-        res.ranked = ranked
-        chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
-        res.overdispersion = c_hat
-        if chosen is not None and validate_run and data_has_signals(data) and \
-                any(needs_rerun_check(h) for h in [chosen] + alts):
-            say("separating look-alikes by rerun")
-            t = time.perf_counter()
-            chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes)
-            timing["tie_break"] = time.perf_counter() - t
-        res.alternatives = alts
-        if chosen is not None:
-            res.selected = chosen
-            res.misfit_selected = float(chosen.misfit_)
-            parts = res.selected_parts
-            if not ctx.closed_loop:
-                res.loop = "open"
-            else:
-                res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in parts) else "both"
+        location = locate(problem, nominal)
+        timing["locate"] = time.perf_counter() - t
+        mismatch = chi2_0 > limit
+        res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
+                              None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0)
+        if not mismatch:
+            res.location.points, res.location.members = [], []
+            notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
         else:
-            res.loop = "open" if not ctx.closed_loop else "both"
-            notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
-    if mismatch:
-        res.location.points, res.location.members = located_from_fits(res, chi2_0)
-    # validation
-    if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
-        say("validating")
-        t = time.perf_counter()
-        try:
-            res.validation = validate(problem, nominal, res.selected_state(), plant=plant,
-                                      spec_level=res.selected.spec_level, seed=design_seed, key=rerun_key(res.selected))
-        except (VlabError, ImportError) as exc:
-            notes.append(f"validation rerun not possible: {exc}")
-        timing["validate"] = time.perf_counter() - t
-    if res.selected is not None and not explains(res, chi2_0):
-        h = res.selected
-        notes.append(f"the best candidate, {h.label}, removes only {100 * (1 - h.chi2_ / chi2_0):.0f} % of the "
-                     "weighted misfit" + ("" if res.validation is None else
-                                          f" and the rerun lowers the FRF misfit only {res.validation.misfit_before / res.validation.misfit_after:.2g}x")
-                     + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
-        res.selected, res.validation, res.alternatives = None, None, []
-        res.misfit_selected = misfit_0
-        res.location.points, res.location.members = located_from_fits(res, chi2_0)
+            if validate_run and isinstance(data, FrfData) and data.recording is not None and plant != "linear" \
+                    and importlib.util.find_spec("mujoco") is not None:
+                start_background_rerun(problem, nominal, "nominal", "mujoco", seed=design_seed)  # on the other core
+            say("screening hypotheses")
+            t = time.perf_counter()
+            hyps = prune(library(nominal, ctx, effects=effects), location.sensitivity)
+            scored = []
+            for h in hyps:
+                try:
+                    trials = trials_for(h, problem)
+                    est = getattr(h, "estimate_", None)
+                    if est is not None and np.isfinite(est):
+                        trials = np.vstack([trials, [[est]], [[est * 0.7]], [[est * 1.4]]])
+                    scored.append((screen(h, problem, trials)[0][0], h))
+                except (VlabError, ValueError, np.linalg.LinAlgError):
+                    continue
+            scored.sort(key=lambda s: s[0])
+            keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
+            # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
+            broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
+            keep += [h for h in broad[:shortlist // 2] if h not in keep]
+            seen = {h.effect for h in keep}
+            for _, h in scored:
+                if h.effect not in seen:
+                    keep.append(h)
+                    seen.add(h.effect)
+            timing["screen"] = time.perf_counter() - t
+            say("fitting")
+            t = time.perf_counter()
+            fitted = []
+            for h in keep:
+                try:
+                    fitted.append(fit_hypothesis(h, problem))
+                except (VlabError, ValueError, np.linalg.LinAlgError):
+                    continue
+            ranked = rank(fitted)
+            timing["fit"] = time.perf_counter() - t
+            best = ranked[0] if ranked else None
+            if pairs and best is not None and best.chi2_ > limit:
+                say("fitting pairs")
+                t = time.perf_counter()
+                ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
+                timing["pairs"] = time.perf_counter() - t
+            res.ranked = ranked
+            chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
+            res.overdispersion = c_hat
+            if chosen is not None and validate_run and data_has_signals(data) and \
+                    any(needs_rerun_check(h) for h in [chosen] + alts):
+                say("separating look-alikes by rerun")
+                t = time.perf_counter()
+                chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes)
+                timing["tie_break"] = time.perf_counter() - t
+            res.alternatives = alts
+            if chosen is not None:
+                res.selected = chosen
+                res.misfit_selected = float(chosen.misfit_)
+                parts = res.selected_parts
+                if not ctx.closed_loop:
+                    res.loop = "open"
+                else:
+                    res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in parts) else "both"
+            else:
+                res.loop = "open" if not ctx.closed_loop else "both"
+                notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
+        if mismatch:
+            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+        # validation
+        if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
+            say("validating")
+            t = time.perf_counter()
+            try:
+                res.validation = validate(problem, nominal, res.selected_state(), plant=plant,
+                                          spec_level=res.selected.spec_level, seed=design_seed, key=rerun_key(res.selected))
+            except (VlabError, ImportError) as exc:
+                notes.append(f"validation rerun not possible: {exc}")
+            timing["validate"] = time.perf_counter() - t
+        if res.selected is not None and not explains(res, chi2_0):
+            h = res.selected
+            notes.append(f"the best candidate, {h.label}, removes only {100 * (1 - h.chi2_ / chi2_0):.0f} % of the "
+                         "weighted misfit" + ("" if res.validation is None else
+                                              f" and the rerun lowers the FRF misfit only {res.validation.misfit_before / res.validation.misfit_after:.2g}x")
+                         + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
+            res.selected, res.validation, res.alternatives = None, None, []
+            res.misfit_selected = misfit_0
+            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+    finally:
+        stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start
     res.timing_s = timing
     if out_dir is not None:

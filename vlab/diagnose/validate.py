@@ -262,6 +262,74 @@ def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points
     return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}
 
 
+def _background_job(conn, *args) -> None:
+    """Body of a background rerun process: sends ``("ok", (dt_s, signals))`` or ``("error", message)``."""
+    try:
+        conn.send(("ok", _rerun_job(*args)))
+    except VlabError as exc:
+        conn.send(("error", str(exc)))
+    finally:
+        conn.close()
+
+
+def start_background_rerun(problem, state: LabState, key: str, plant: str, *, seed: int = 0) -> bool:
+    """Start the rerun of ``state`` in a background process, to be picked up by :func:`reruns` under
+    ``(key, plant)`` (the nominal lab's MuJoCo rerun, while the hypotheses are fitted).
+
+    The process is a daemon: it ends with the diagnosis, and :func:`stop_background` ends it early.
+
+    Returns
+    -------
+    bool
+        Whether it was started (False where no process can be started; the
+        rerun is then made when asked for).
+    """
+    import multiprocessing
+
+    data: FrfData = problem.data
+    if data.recording is None:
+        return False
+    force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    try:
+        recv, send = multiprocessing.Pipe(duplex=False)
+        proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
+            send, state, force, data.excitation_point, tuple(data.output_points), plant, seed))
+        proc.start()
+        send.close()
+    except (OSError, AssertionError, ValueError):  # AssertionError: a daemon process may not start children
+        return False
+    problem.__dict__.setdefault("_background", {})[(key, plant)] = (proc, recv)
+    return True
+
+
+def _collect_background(problem, keys: list) -> None:
+    """Move the background reruns of ``keys`` into the rerun cache, waiting for them; a failed one is
+    dropped, to be rerun in the foreground (where its error is reported)."""
+    pending = problem.__dict__.get("_background", {})
+    cache = problem.__dict__.setdefault("_reruns", {})
+    for key in keys:
+        if key not in pending:
+            continue
+        proc, recv = pending.pop(key)
+        try:
+            status, payload = recv.recv()
+            if status == "ok":
+                cache[key] = Recording.from_signals(*payload)
+        except (EOFError, OSError):
+            pass
+        finally:
+            recv.close()
+            proc.join()
+
+
+def stop_background(problem) -> None:
+    """End the background reruns of ``problem`` that were never asked for."""
+    for proc, recv in problem.__dict__.pop("_background", {}).values():
+        proc.terminate()
+        proc.join()
+        recv.close()
+
+
 def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
@@ -288,6 +356,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
+    _collect_background(problem, [(k, plant) for _st, k in jobs if k is not None])
     out: dict = {}
     todo = [(i, st) for i, (st, k) in enumerate(jobs) if k is None or (k, plant) not in cache]
     if workers > 1 and len(todo) > 1:

@@ -12,10 +12,15 @@ The model is Eq. (3.1) of the dissertation without damping and control:
 - lumped masses and rotary inertias; grounded springs (the plates' W*Y,
   Sec. 2.2.1); the crosspiece as a single-DOF spring-mass (Sec. 2.1.1);
 - supports removing DOFs.
+
+An element's global matrices are memoised on its inputs (section, length,
+pre-stress, inserts, direction; :func:`_element_matrices`), so a model that
+differs from the last ones in a few elements is assembled from the rest.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,6 +91,26 @@ class FEModel:
         return u
 
 
+@functools.lru_cache(maxsize=4096)
+def _element_matrices(ei: float, gj: float, rho_a: float, rho_ip: float, length: float, shear_stiffness,
+                      axial: tuple, shear: tuple, moment: tuple, r2: float, offsets: tuple,
+                      direction: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Global stiffness (with the gravity geometric stiffness) and mass of one grillage element, 6x6
+    each (read-only, memoised): DOFs ``w, rx, ry`` at ends a and b [SI]."""
+    kl, ml = beam_matrices(ei=ei, gj=gj, rho_a=rho_a, rho_ip=rho_ip, length=length, shear_stiffness=shear_stiffness)
+    kl = kl + geometric_stiffness(length=length, axial=axial, shear=shear, moment=moment, polar_radius_sq=r2)
+    a1, a2 = offsets
+    ml = ml + _insert_mass(rho_a, a1, a2)
+    # a rigid insert of length a under axial force N: rotational geometric stiffness N a
+    kl[1, 1] += axial[0] * a1
+    kl[4, 4] += axial[1] * a2
+    t = rigid_offset(a1, a2) @ local_to_global(*direction)
+    ke, me = t.T @ kl @ t, t.T @ ml @ t
+    ke.setflags(write=False)
+    me.setflags(write=False)
+    return ke, me
+
+
 def build_fe_model(spec: StructureSpec) -> FEModel:
     """Assemble the FE model of ``spec``.
 
@@ -131,37 +156,20 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
         return out
 
     def scatter(target: np.ndarray, local: np.ndarray, idx: list[int | None]) -> None:
-        keep = [i for i, g in enumerate(idx) if g is not None]
-        g = [idx[i] for i in keep]
-        target[np.ix_(g, g)] += local[np.ix_(keep, keep)]
+        keep = np.array([i for i, g in enumerate(idx) if g is not None])
+        g = np.array([idx[i] for i in keep])
+        target[g[:, None], g[None, :]] += local[keep[:, None], keep[None, :]]
 
     for el, forces in zip(mesh.elements, gravity.element_forces):
         sec = spec.sections[el.section]
-        kl, ml = beam_matrices(
-            ei=sec.ei.si,
-            gj=sec.gj.si,
-            rho_a=sec.rho_a,
-            rho_ip=sec.rho_ip,
-            length=el.flexible_length,
-            shear_stiffness=sec.shear_stiffness.si if sec.shear_stiffness else None,
-        )
-        kl = kl + geometric_stiffness(
-            length=el.flexible_length,
-            axial=forces.axial,
-            shear=forces.shear,
-            moment=forces.moment,
-            polar_radius_sq=polar_radius_sq(sec.width.si, sec.thickness.si),
-        )
-        a1, a2 = el.offsets
-        ml = ml + _insert_mass(sec.rho_a, a1, a2)
-        # a rigid insert of length a under axial force N: rotational geometric stiffness N a
-        kl = kl.copy()
-        kl[1, 1] += forces.axial[0] * a1
-        kl[4, 4] += forces.axial[1] * a2
-        t = rigid_offset(a1, a2) @ local_to_global(*el.direction)
+        ke, me = _element_matrices(
+            sec.ei.si, sec.gj.si, sec.rho_a, sec.rho_ip, el.flexible_length,
+            sec.shear_stiffness.si if sec.shear_stiffness else None,
+            tuple(forces.axial), tuple(forces.shear), tuple(forces.moment),
+            polar_radius_sq(sec.width.si, sec.thickness.si), tuple(el.offsets), tuple(el.direction))
         idx = gidx(el.a) + gidx(el.b)
-        scatter(k, t.T @ kl @ t, idx)
-        scatter(m, t.T @ ml @ t, idx)
+        scatter(k, ke, idx)
+        scatter(m, me, idx)
 
     for s in spec.strings:
         if (s.point, "w") not in dofs:

@@ -10,6 +10,10 @@ every element. Points of strings whose tension is "reaction" and supports
 marked ``inplane = "pinned"`` (or ``true``) are pinned in the plane, ``"clamped"``
 ones also fixed in in-plane rotation.
 
+Results are memoised on everything the solution reads (:func:`_inputs`): a
+model changed only out of its plane (a softened joint, a spring) reuses the
+solution, which the mismatch diagnosis does thousands of times.
+
 Source: Przemieniecki (1968) Ch. 5 (plane frame element); consistent nodal
 loads of a uniformly distributed load.
 """
@@ -99,8 +103,29 @@ def _distributed_load_local(q_local: np.ndarray, L: float) -> np.ndarray:
     return np.array([qx * L / 2, qy * L / 2, qy * L**2 / 12, qx * L / 2, qy * L / 2, -qy * L**2 / 12])
 
 
+#: Memoised solutions, keyed by :func:`_inputs` (cleared when it holds more than _CACHE_SIZE).
+_CACHE: dict = {}
+_CACHE_SIZE = 256
+
+
+def _inputs(spec: StructureSpec, mesh: Mesh) -> tuple:
+    """Everything :func:`solve_gravity` reads, as a hashable key."""
+    secs = spec.sections
+    return (
+        spec.name, tuple(spec.gravity_direction), tuple(mesh.nodes),
+        tuple((el.a, el.b, el.length, tuple(el.direction), secs[el.section].ea, secs[el.section].ei_inplane,
+               secs[el.section].rho_a) for el in mesh.elements),
+        tuple((m.point, m.mass.si) for m in spec.masses),
+        tuple((c.point, secs[c.section].rho_a, c.arm_length.si, c.tip_mass.si, c.clamp_mass.si)
+              for c in spec.crosspieces),
+        tuple((s.id, s.point, None if s.tension is None else s.tension.si, tuple(s.direction))
+              for s in spec.strings),
+        tuple((sup.point, sup.inplane) for sup in spec.supports),
+    )
+
+
 def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
-    """Solve the in-plane frame under gravity and string tensions.
+    """Solve the in-plane frame under gravity and string tensions (memoised; treat the result as read-only).
 
     Parameters
     ----------
@@ -121,6 +146,17 @@ def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
         If the structure is not held in its plane (loads not in equilibrium with
         the supports: a rigid-body motion would be loaded).
     """
+    key = _inputs(spec, mesh)
+    hit = _CACHE.get(key)
+    if hit is None:
+        hit = _solve(spec, mesh)
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.clear()
+        _CACHE[key] = hit
+    return hit
+
+
+def _solve(spec: StructureSpec, mesh: Mesh) -> GravityState:
     nodes = list(mesh.nodes)
     pos = {n: i for i, n in enumerate(nodes)}
     ndof = 3 * len(nodes)
