@@ -74,8 +74,15 @@ def _x(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
 
 
 def trials_for(h: Hypothesis, problem: Problem) -> np.ndarray:
-    """Trial values [SI] of ``h``, shape (n, k): its own, or for a one-parameter effect that moves
-    the modes (``h.moves_modes``) :data:`COARSE_POINTS` values spanning them."""
+    """Trial values [SI] of ``h`` on ``problem`` (its nominal lab and context), shape (n, k): the
+    hypothesis's own, or for a one-parameter effect that moves the modes (``h.moves_modes``)
+    :data:`COARSE_POINTS` values spanning them (log-spaced for a log parameter).
+
+    Raises
+    ------
+    ModelError
+        From the hypothesis's ``space`` (a lab it cannot apply to).
+    """
     trials, _, _ = h.space(problem.base, problem.ctx)
     if not (h.moves_modes and h.n_params == 1 and len(trials) > 1):
         return trials

@@ -278,6 +278,18 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
 
     The process is a daemon: it ends with the diagnosis, and :func:`stop_background` ends it early.
 
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording (its force is played back).
+    state : LabState
+        The lab to rerun.
+    key : str
+        Cache key of the rerun (``"nominal"``).
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise (as :func:`reruns`).
+
     Returns
     -------
     bool
