@@ -39,7 +39,7 @@ import mujoco
 import numpy as np
 
 from vlab.sim import MujocoPlant, SimOptions, build_plant
-from vlab.sim.builder import LAB_PERIOD_S
+from vlab.sim.timestep import LAB_PERIOD_S
 from vlab.spec import STRUCTURES_DIR, load_spec
 
 TARGET_RT = {"bcc": 20.0, "grid": 1.0}

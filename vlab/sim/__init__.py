@@ -1,8 +1,9 @@
 """MuJoCo plant of a structure, built with MjSpec from the same spec as the FE model.
 
 - :mod:`vlab.sim.builder`: :func:`build_plant` (hinge-chain members, strings as
-  tendons, crosspiece arms, pendulum plates, voice coils and velocity sensors),
-  timestep choice and check;
+  tendons, crosspiece arms, pendulum plates, voice coils and velocity sensors);
+- :mod:`vlab.sim.timestep`: the hinge chain's highest frequency, the automatic
+  step, selective mass scaling and the stability check;
 - :mod:`vlab.sim.damping`: hinge damping and modal damping tendons;
 - :mod:`vlab.sim.linearize`: settle, ``mjd_transitionFD``, modes;
 - :mod:`vlab.sim.crosscheck`: FE cross-check (frequencies, MAC), free decay,
@@ -12,17 +13,7 @@
 - :mod:`vlab.sim.export`: the complete plant as MJCF.
 """
 
-from .builder import (
-    BuildInfo,
-    Plant,
-    SimOptions,
-    auto_timestep,
-    build_mjspec,
-    build_plant,
-    check_timestep,
-    hinge_layout,
-    hinge_omega_max,
-)
+from .builder import BuildInfo, Plant, SimOptions, build_mjspec, build_plant, hinge_layout
 from .checks import FreeRun, free_run, total_energy
 from .crosscheck import (
     CrossCheck,
@@ -39,6 +30,7 @@ from .damping import DampingReport, ModalDamping, load_modal_damping
 from .export import export_mjcf, load_mjcf
 from .linearize import LinearModel, SimModes, linearize, modes, settle
 from .runtime import MujocoPlant, load_plant_for_experiment, sensor_rows
+from .timestep import auto_timestep, check_timestep, hinge_omega_max
 
 __all__ = [
     "BuildInfo", "CrossCheck", "DampingReport", "FreeDecay", "FreeRun", "LinearModel", "ModePair",

@@ -420,7 +420,7 @@ def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), 
     """
     import time
 
-    from .builder import hinge_omega_max
+    from .timestep import hinge_omega_max
 
     rows = []
     for layout in layouts:

@@ -101,7 +101,7 @@ def _check_state(model: mujoco.MjModel, data: mujoco.MjData, what: str) -> None:
         raise SimulationError(
             f"{what}: the simulation diverged (MuJoCo warnings {bad or 'none'}, non-finite state: "
             f"{not np.all(np.isfinite(data.qvel))}); the timestep is likely too large for the hinge "
-            "chain (see vlab.sim.builder.check_timestep)"
+            "chain (see vlab.sim.timestep.check_timestep)"
         )
 
 
