@@ -204,3 +204,19 @@ def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
     out = " ".join(res.output.split())  # rich wraps long lines
     assert "selected: [{'effect': 'added_mass'" in out and "the measured noise alone leaves" in out
     assert (tmp_path / "out" / "diagnosis.md").is_file()
+
+
+def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
+    """The nominal rerun started in a background process (while the hypotheses are fitted) is picked up by
+    the validation (no rerun in this process) and equals the rerun made here, sample for sample."""
+    from vlab.diagnose import validate as vmod
+
+    p = mass_run.problem
+    assert vmod.start_background_rerun(p, mass_run.nominal, "background", "linear")
+    with monkeypatch.context() as mp:
+        mp.setattr(vmod, "rerun", lambda *a, **k: pytest.fail("reran in the foreground"))
+        bg = vmod.reruns(p, [(mass_run.nominal, "background")], "linear")[0]
+    fg = vmod.reruns(p, [(mass_run.nominal, None)], "linear", workers=1)[0]
+    assert "_background" not in p.__dict__ or not p.__dict__["_background"]
+    for q in p.data.output_points:
+        np.testing.assert_array_equal(np.asarray(bg[f"vel{q}"]), np.asarray(fg[f"vel{q}"]))

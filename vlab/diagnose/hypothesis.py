@@ -60,6 +60,9 @@ class Hypothesis:
         modal: RMS relative frequency error) at the optimum.
     n_evaluations_ : int
     success_ : bool
+    coarse_ : ndarray, shape (k,)
+        Set by :func:`vlab.diagnose.fit.screen`: the screened value with the
+        least smoothed error; ``coarse_error_`` that error.
     """
 
     effect: ClassVar[str] = ""

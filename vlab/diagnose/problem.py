@@ -46,7 +46,7 @@ from .labmodel import LabState, natural_frequencies, predict_frf
 #: Residual returned for a state the model cannot be built for (unstable, singular).
 _PENALTY = 1e3
 
-#: Standard deviation, in ``ln f``, of the Gaussian smoothing of :meth:`Problem.smoothed_error`
+#: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
 #: (10 %: 0.4 Hz at 4 Hz). A chosen scale, not fitted: ten half-power bandwidths of a 0.5 % damped mode.
 SMOOTH_REL_WIDTH = 0.1
 
@@ -136,6 +136,7 @@ class Problem:
         self.floor, self.use_phase = float(floor), bool(use_phase)
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
         self.n_evaluations = 0
+        self._smooth = None  # kernel of the smoothed error, made on first use (:meth:`_smoother`)
         if isinstance(data, FrfData):
             srel = data.sigma_rel
             self.mask = (srel <= MAX_RELATIVE_NOISE) & (np.abs(data.h) > 0)
@@ -256,7 +257,7 @@ class Problem:
 
     def _smoother(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Kernel ``W`` (n_f, n_f), its masked row sums (n_f, n_o) and the smoothed data (n_f, n_o), cached."""
-        if getattr(self, "_smooth", None) is None:
+        if self._smooth is None:
             lf = np.log(np.maximum(self.data.freq_hz, 1e-9))
             w = np.exp(-0.5 * ((lf[:, None] - lf[None, :]) / SMOOTH_REL_WIDTH) ** 2)
             m = self.mask.astype(float)
