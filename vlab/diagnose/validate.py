@@ -356,7 +356,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
         Seed of the controller's sensor noise.
     workers : int
         Parallel processes when more than one rerun is needed (falls back to
-        one process where a pool cannot start).
+        one process where a pool cannot start); a rerun of ``jobs`` already
+        running in the background (:func:`start_background_rerun`) holds one
+        of them, and the others are made while it finishes.
 
     Returns
     -------
@@ -368,9 +370,13 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
-    _collect_background(problem, [(k, plant) for _st, k in jobs if k is not None])
+    pending = problem.__dict__.get("_background", {})
+    waiting = [(k, plant) for _st, k in jobs if k is not None and (k, plant) in pending]
     out: dict = {}
-    todo = [(i, st) for i, (st, k) in enumerate(jobs) if k is None or (k, plant) not in cache]
+    # the reruns still to make run while the background ones finish (they hold a core each)
+    todo = [(i, st) for i, (st, k) in enumerate(jobs)
+            if k is None or ((k, plant) not in cache and (k, plant) not in pending)]
+    workers = max(1, workers - len(waiting))
     if workers > 1 and len(todo) > 1:
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool
@@ -386,13 +392,20 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
                         out[i] = exc
         except (OSError, BrokenProcessPool):
             out = {}  # no process pool here: sequential
+    def here(st: LabState):
+        try:
+            return rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
+                         seed=seed)[0]
+        except VlabError as exc:
+            return exc
+
     for i, st in todo:
         if i not in out:
-            try:
-                out[i] = rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
-                               seed=seed)[0]
-            except VlabError as exc:
-                out[i] = exc
+            out[i] = here(st)
+    _collect_background(problem, waiting)
+    for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
+        if k is not None and (k, plant) in waiting and (k, plant) not in cache:
+            out[i] = here(st)
     for i, (_st, k) in enumerate(jobs):
         if k is None:
             continue
