@@ -173,7 +173,7 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
                     excitation_point=excitation_point, excitation=np.asarray(force, dtype=float),
                     duration_s=n * state.chain.period_s, chain=state.chain, seed=seed,
-                    shape_points=tuple(measured_points))
+                    shape_points=())
     return loop.recording, kind
 
 

@@ -260,7 +260,7 @@ class SampleDelay(_Block):
     def update(self, u) -> None:
         """Push sample ``u[n]``, shape (size,), taken at ``t_n``."""
         u = self._input(u)
-        self._buf = np.roll(self._buf, 1, axis=0)
+        self._buf[1:] = self._buf[:-1]  # numpy buffers the overlapping copy
         self._buf[0] = u
         self.n_samples += 1
 
