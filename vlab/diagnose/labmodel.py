@@ -42,6 +42,42 @@ from ..spec import StructureSpec
 
 
 @dataclass(frozen=True)
+class PointModes:
+    """Modes of the structure from a model other than the FE model (the MuJoCo plant's linearisation).
+
+    Attributes
+    ----------
+    omega : ndarray, shape (n,)
+        Undamped natural frequencies [rad/s].
+    zeta : ndarray, shape (n,)
+        Modal damping ratios [1].
+    shapes : ndarray, shape (n_points, n)
+        Out-of-plane displacement at ``points`` of the mass-normalised modes
+        (``phi^T M phi = 1``) [m/sqrt(kg)], so that the receptance is
+        ``sum_r shapes[o, r] shapes[i, r] / (omega_r^2 - w^2 + 2 j zeta_r omega_r w)``.
+    points : tuple of int
+        Point ids of the rows of ``shapes``.
+    source : str
+        Where the modes come from (for reports).
+    """
+
+    omega: np.ndarray
+    zeta: np.ndarray
+    shapes: np.ndarray
+    points: tuple[int, ...]
+    source: str = ""
+
+    def rows(self, points) -> np.ndarray:
+        """Rows of ``shapes`` at ``points``, shape (len(points), n). Raises ModelError for a point not carried."""
+        idx = {p: i for i, p in enumerate(self.points)}
+        missing = [p for p in points if p not in idx]
+        if missing:
+            raise ModelError(f"points {missing} are not among the points {list(self.points)} of the modes of "
+                             f"{self.source or 'the other model'}")
+        return self.shapes[[idx[p] for p in points], :]
+
+
+@dataclass(frozen=True)
 class LabState:
     """The laboratory as one hypothesis sees it (immutable).
 
@@ -68,6 +104,10 @@ class LabState:
     rms_force_n : dict
         Actuator point -> RMS command force [N] used by the saturation describing function
         (filled in by :func:`with_command_rms`).
+    point_modes : PointModes or None
+        Modes of the structure to use instead of the FE model's (the MuJoCo
+        plant's own linearisation, :mod:`vlab.diagnose.plantfit`); dropped by
+        :meth:`with_spec`, since they belong to one spec.
     """
 
     spec: StructureSpec
@@ -78,6 +118,7 @@ class LabState:
     frictions: tuple[tuple[int, float, float], ...] = ()
     step_s: float | None = None
     rms_force_n: dict = field(default_factory=dict)
+    point_modes: PointModes | None = None
 
     @property
     def h_s(self) -> float:
@@ -91,7 +132,7 @@ class LabState:
 
     def with_spec(self, spec: StructureSpec) -> "LabState":
         """Copy with a new spec and its FE model (built here). Raises ModelError/SpecError."""
-        return replace(self, spec=spec, fe=build_fe_model(spec))
+        return replace(self, spec=spec, fe=build_fe_model(spec), point_modes=None)
 
 
 def _modal(state: LabState) -> tuple[Modes, np.ndarray]:
@@ -148,13 +189,17 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     ModelError
         Unknown or constrained point, unstable model.
     """
-    md, zeta = _modal(state)
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
     dash = [(p, c) for p, c in state.dashpots if c > 0.0] + [(p, c) for p, _f, c in state.frictions if c > 0.0]
     d_pts = [p for p, _ in dash]
     all_pts = list(out_points) + list(in_points) + d_pts
-    ph = md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
-    den = md.omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * md.omega[None, :] * w[:, None]
+    if state.point_modes is not None:
+        pm = state.point_modes
+        omega, zeta, ph = pm.omega, pm.zeta, pm.rows(all_pts)
+    else:
+        md, zeta = _modal(state)
+        omega, ph = md.omega, md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
+    den = omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * w[:, None]
     r = 1.0 / den
     alpha = (ph[None] * r.real[:, None, :]) @ ph.T + 1j * ((ph[None] * r.imag[:, None, :]) @ ph.T)  # (n_f, n_p, n_p)
     no, ni = len(out_points), len(in_points)

@@ -26,7 +26,10 @@ Pipeline (issue 6):
 5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
    back through the 2 kHz loop on the nominal and on the modified plant (the
    nominal MuJoCo rerun starts in a background process as soon as a
-   mismatch is found, while the hypotheses are fitted);
+   mismatch is found, while the hypotheses are fitted); before a MuJoCo
+   rerun, the parameter of a mode-moving effect is refitted on the plant's
+   own linearisation (:mod:`vlab.diagnose.plantfit`), since the FE fit
+   absorbs the FE/MuJoCo frequency offsets;
    FRF and time-domain misfits before and after. An effect that removes
    less than half of the weighted misfit, and whose rerun does not halve
    the FRF misfit either, is not selected (the mismatch is reported as not
@@ -53,6 +56,7 @@ from .hypotheses import Hypothesis, library
 from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
+from .plantfit import refit_on_plant
 from .problem import Problem
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
@@ -278,11 +282,24 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             res.location.points, res.location.members = located_from_fits(res, chi2_0)
         # validation
         if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
+            modified, key = res.selected_state(), rerun_key(res.selected)
+            if plant != "linear" and res.selected.spec_level and importlib.util.find_spec("mujoco") is not None:
+                say("refitting on the MuJoCo plant's linearisation")
+                t = time.perf_counter()
+                res.plant_refit = refit_on_plant(problem, res.selected)
+                if res.plant_refit is not None:
+                    modified, key = res.plant_refit.state, key + "@plant"
+                timing["plant_refit"] = time.perf_counter() - t
             say("validating")
             t = time.perf_counter()
             try:
-                res.validation = validate(problem, nominal, res.selected_state(), plant=plant,
-                                          spec_level=res.selected.spec_level, seed=design_seed, key=rerun_key(res.selected))
+                res.validation = validate(problem, nominal, modified, plant=plant,
+                                          spec_level=res.selected.spec_level, seed=design_seed, key=key)
+                if res.plant_refit is not None and not res.validation.plant.startswith("MuJoCo"):
+                    # the plant's value belongs to the plant: a linear rerun takes the FE value
+                    res.plant_refit = None
+                    res.validation = validate(problem, nominal, res.selected_state(), plant="linear",
+                                              spec_level=False, seed=design_seed, key=rerun_key(res.selected))
             except (VlabError, ImportError) as exc:
                 notes.append(f"validation rerun not possible: {exc}")
             timing["validate"] = time.perf_counter() - t

@@ -121,7 +121,13 @@ def markdown(res: dict) -> str:
     v = res["validated"]
     what = ("RMS relative frequency error" if res["data"]["kind"] == "modal"
             else "FRF log-magnitude misfit [decades]")
-    lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", "",
+    lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", ""]
+    if v.get("refit"):
+        r = v["refit"]
+        lines += [f"The rerun used {r['parameter']} = {r['value']:.5g}, refitted on {r['on']} "
+                  f"(FE fit {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; chi-square on the plant's "
+                  f"linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g}).", ""]
+    lines += [
               f"- {what}: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
               + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]
     if v.get("noise_misfit") is not None:

@@ -11,6 +11,7 @@ from .data import FrfData, ModalData
 from .hypotheses import Combination, Hypothesis
 from .labmodel import LabState
 from .locate import FLAG, Location
+from .plantfit import PlantRefit
 from .problem import Problem
 from .validate import Validation
 
@@ -48,6 +49,9 @@ class DiagnosisResult:
         Hypotheses the data cannot tell apart from the selected one.
     overdispersion : float
         ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.evidence`).
+    plant_refit : PlantRefit or None
+        The selected effect's mode-moving parameter refitted on the MuJoCo
+        plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.plantfit`).
     """
 
     structure: str
@@ -70,6 +74,7 @@ class DiagnosisResult:
     files: dict = field(default_factory=dict)
     alternatives: list = field(default_factory=list)
     overdispersion: float = 1.0
+    plant_refit: PlantRefit | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -127,6 +132,9 @@ class DiagnosisResult:
                    "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}
         if self.validation is not None:
             validated = self.validation.as_dict()
+            if self.plant_refit is not None:
+                validated["parameters"] = {self.plant_refit.name: self.plant_refit.value}
+                validated["refit"] = self.plant_refit.as_dict()
         else:
             if self.selected is None:
                 why = "none (no effect selected)"

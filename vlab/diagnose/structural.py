@@ -132,7 +132,7 @@ class SupportStiffness(_PointSet):
         for p in self.points:
             i = state.fe.dofs.index(p, self.dof)
             k[i, i] += float(x[0])
-        return replace(state, spec=spec, fe=replace(state.fe, spec=spec, k=k))
+        return replace(state, spec=spec, fe=replace(state.fe, spec=spec, k=k), point_modes=None)
 
     def _null(self, state, ctx):
         return None if self._released(state) else np.array([0.0])
@@ -393,7 +393,7 @@ class GravityPrestress(Hypothesis):
     def _apply(self, state, x, ctx):
         k0 = self._k0(state, ctx)
         k = k0 + (float(x[0]) / G_SI) * (state.fe.k - k0)
-        return replace(state, fe=replace(state.fe, k=k))
+        return replace(state, fe=replace(state.fe, k=k), point_modes=None)
 
     def _null(self, state, ctx):
         return np.array([G_SI])

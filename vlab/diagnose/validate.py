@@ -356,9 +356,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
         Seed of the controller's sensor noise.
     workers : int
         Parallel processes when more than one rerun is needed (falls back to
-        one process where a pool cannot start); a rerun of ``jobs`` already
-        running in the background (:func:`start_background_rerun`) holds one
-        of them, and the others are made while it finishes.
+        one process where a pool cannot start); each rerun running in the
+        background (:func:`start_background_rerun`) holds one of them, and
+        one of ``jobs`` is made while it finishes.
 
     Returns
     -------
@@ -376,7 +376,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     # the reruns still to make run while the background ones finish (they hold a core each)
     todo = [(i, st) for i, (st, k) in enumerate(jobs)
             if k is None or ((k, plant) not in cache and (k, plant) not in pending)]
-    workers = max(1, workers - len(waiting))
+    workers = max(1, workers - len(pending))  # a background rerun holds a core
     if workers > 1 and len(todo) > 1:
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool
