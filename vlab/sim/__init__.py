@@ -8,12 +8,13 @@
 - :mod:`vlab.sim.linearize`: settle, ``mjd_transitionFD``, modes;
 - :mod:`vlab.sim.crosscheck`: FE cross-check (frequencies, MAC), free decay,
   convergence study;
+- :mod:`vlab.sim.planner`: the bodies, joints and constraints of a plant, planned from the spec;
 - :mod:`vlab.sim.runtime`: :class:`MujocoPlant`, the steppable plant of the lab loop;
 - :mod:`vlab.sim.checks`: energy and divergence checks;
 - :mod:`vlab.sim.export`: the complete plant as MJCF.
 """
 
-from .builder import BuildInfo, Plant, SimOptions, build_mjspec, build_plant, hinge_layout
+from .builder import BuildInfo, Plant, SimOptions, build_mjspec, build_plant
 from .checks import FreeRun, free_run, total_energy
 from .crosscheck import (
     CrossCheck,
@@ -29,6 +30,7 @@ from .crosscheck import (
 from .damping import DampingReport, ModalDamping, load_modal_damping
 from .export import export_mjcf, load_mjcf
 from .linearize import LinearModel, SimModes, linearize, modes, settle
+from .planner import hinge_layout
 from .runtime import MujocoPlant, load_plant_for_experiment, sensor_rows
 from .timestep import auto_timestep, check_timestep, hinge_omega_max
 
