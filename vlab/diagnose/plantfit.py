@@ -75,9 +75,10 @@ def plant_modes(spec: StructureSpec, points) -> PointModes:
     Returns
     -------
     PointModes
-        All structural modes of the plant (:func:`vlab.sim.modes`), shapes
-        mass-normalised (``phi^T M phi = 1`` in joint space) [m/sqrt(kg)], the
-        damping ratios of the linearised plant (its applied modal damping).
+        All structural modes of the plant (:func:`vlab.sim.modes`; those its
+        modal damping was designed on, :attr:`vlab.sim.Plant.modes`, when it
+        has one), shapes mass-normalised (``phi^T M phi = 1`` in joint space)
+        [m/sqrt(kg)], with the plant's damping ratios.
 
     Raises
     ------
@@ -91,12 +92,13 @@ def plant_modes(spec: StructureSpec, points) -> PointModes:
         raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
     pts = list(points)
     try:
-        model = build_plant(spec).model
-        data = settle(model)
-        sm = modes(model, pts, data=data, linear=linearize(model, data))
+        plant = build_plant(spec)
+        data = settle(plant.model)
+        # the modes its damping was designed on (vlab.sim.damping), else a linearisation of its own
+        sm = plant.modes or modes(plant.model, pts, data=data, linear=linearize(plant.model, data))
     except SimulationError as exc:
         raise ModelError(f"the MuJoCo plant of {spec.name!r} cannot be linearised: {exc}") from None
-    w = site_jacobian_w(model, data, [f"p{p}" for p in pts]) @ sm.joint_shapes
+    w = site_jacobian_w(plant.model, data, [f"p{p}" for p in pts]) @ sm.joint_shapes
     return PointModes(sm.omega, sm.damping_ratios, w, tuple(pts), "the MuJoCo plant's linearisation")
 
 

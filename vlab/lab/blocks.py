@@ -88,8 +88,9 @@ class _Block:
 
     def _input(self, u) -> np.ndarray:
         arr = self._vector(u, signal=self.INPUT)
-        if not np.all(np.isfinite(arr)):
-            raise SimulationError(f"{self.name}.{self.INPUT}: non-finite input {arr}")
+        if not math.isfinite(arr.sum()):  # one reduction: a NaN or inf anywhere makes the sum non-finite
+            if not np.all(np.isfinite(arr)):
+                raise SimulationError(f"{self.name}.{self.INPUT}: non-finite input {arr}")
         return arr.copy()
 
     def _initial(self, value, *, what: str = "initial_value") -> np.ndarray:

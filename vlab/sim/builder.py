@@ -453,6 +453,12 @@ class Plant:
     info : BuildInfo
     damping : DampingReport or None
         Modal damping targets and coefficients (None when disabled).
+    modes : SimModes or None
+        All modes of the plant as its damping was designed (frequencies and
+        shapes of the settled, linearised plant; the designed damping ratios),
+        a by-product of the modal damping (None when it is disabled): what
+        :func:`vlab.sim.modes` of the damped plant would return, without a
+        second linearisation.
 
     The applied modal damping (if any) lives in the model's custom numerics;
     step with :class:`vlab.sim.MujocoPlant` (or :meth:`step`) to have it.
@@ -467,6 +473,7 @@ class Plant:
     sensor_rows: dict[int, int]
     info: BuildInfo
     damping: Any = None
+    modes: Any = None
 
     @property
     def timestep_s(self) -> float:
@@ -633,10 +640,12 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     beta = opts.stiffness_damping_s
     report = None
     md = None
+    designed = None
     if spec.damping is not None and (opts.modal_damping or beta is None):
-        beta, md, report = modal_damping_plan(spec, model0, beta, opts.n_damped_modes, method=opts.damping_method)
+        beta, md, report, designed = modal_damping_plan(spec, model0, beta, opts.n_damped_modes,
+                                                        method=opts.damping_method)
         if not opts.modal_damping:
-            md, report = None, None
+            md, report, designed = None, None, None
     beta = float(beta or 0.0)
     if beta > 0.0:
         ms, extra = build_mjspec(spec, opts, beta=beta, armature=armature)
@@ -667,4 +676,4 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
         armature=armature,
     )
     return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=beta), ms, model, acts, sens,
-                 _sensor_rows(model, sens, acts), info, report)
+                 _sensor_rows(model, sens, acts), info, report, designed)

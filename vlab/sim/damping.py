@@ -56,6 +56,7 @@ numerics and fixed tendons (``doc/XMLreference.rst``); implicit joint damping
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import mujoco
@@ -232,8 +233,7 @@ def default_beta(ratios: np.ndarray, omega: np.ndarray, fraction: float = 0.2) -
 
 
 def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float | None,
-                       n_damped: int | None = None, *, method: str = "applied"
-                       ) -> tuple[float, ModalDamping, DampingReport]:
+                       n_damped: int | None = None, *, method: str = "applied"):
     """Settle and linearise the undamped plant; choose ``beta`` and the modal damping.
 
     Parameters
@@ -253,6 +253,10 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
     beta : float
     damping : ModalDamping
     report : DampingReport
+    modes : SimModes
+        All modes of the plant as damped: the undamped plant's frequencies and
+        shapes (the modal damping is diagonal in them, the hinge damping nearly
+        so) with the designed ratios, ``beta phi^T k phi / (2 omega) + c / (2 omega)``.
 
     Raises
     ------
@@ -273,7 +277,9 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
     c = np.clip(2 * omega * (ratios - beta_part), 0.0, None)
     md = ModalDamping(pm.mass_matrix @ phi, c)
     report = DampingReport(method, float(beta), pm.frequencies_hz[idx], ratios, spec_modes, beta_part, c)
-    return float(beta), md, report
+    zeta = beta * np.einsum("ir,i,ir->r", pm.joint_shapes, k, pm.joint_shapes) / (2 * pm.omega)
+    zeta[idx] += c / (2 * omega)
+    return float(beta), md, report, dataclasses.replace(pm, damping_ratios=zeta)
 
 
 def store_modal_damping(ms: mujoco.MjSpec, md: ModalDamping) -> None:
