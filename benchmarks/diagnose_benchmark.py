@@ -85,6 +85,7 @@ from vlab.diagnose.hypotheses import Context  # noqa: E402
 from vlab.diagnose.labmodel import LabState, natural_frequencies, predict_frf, with_command_rms  # noqa: E402
 from vlab.diagnose.nominal import context_for, nominal_design, settling_time  # noqa: E402
 from vlab.diagnose.validate import rerun  # noqa: E402
+from vlab.errors import ModelError  # noqa: E402
 from vlab.fe import build_fe_model  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
@@ -237,6 +238,10 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
     nominal plant from the same random numbers (a large second effect can
     hide a small first one).
 
+    A draw the structure cannot carry (an FE model that is not positive
+    definite: an added mass that buckles a member of the hanging grid) is
+    drawn again; it counts as one of the attempts.
+
     Returns
     -------
     (LabState, list of dict, bool)
@@ -248,12 +253,20 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
     for _pair in range(attempts):
         state, truths, used, redraw, hidden = st0, [], set(), None, False
         for fam in families:
+            drawn = None
             for _attempt in range(attempts):
                 before = copy.deepcopy(rng)
-                cand, t = draw_effect(rng, fam, state, ctx, used)
+                try:
+                    cand, t = draw_effect(rng, fam, state, ctx, used)
+                except ModelError:  # a draw the structure cannot carry (a mass that buckles the grid): draw again
+                    continue
+                drawn = (cand, t, before)
                 seen = _visible(state, cand, freq_hz, exc, meas)
                 if seen:
                     break
+            if drawn is None:
+                raise ModelError(f"no {fam} effect the structure can carry in {attempts} draws")
+            cand, t, before = drawn
             hidden = hidden or not seen
             redraw = (before, fam, set(used))
             state = cand

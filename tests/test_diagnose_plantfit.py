@@ -9,7 +9,7 @@ import pytest
 
 from vlab.calibration import open_loop_ratios
 from vlab.diagnose import specedit
-from vlab.diagnose.data import FrfData
+from vlab.diagnose.data import FrfData, refer_to_model
 from vlab.diagnose.fit import fit_hypothesis
 from vlab.diagnose.hypotheses import JointFlexibility, library
 from vlab.diagnose.hypothesis import Combination
@@ -34,27 +34,37 @@ def other_model_modes(spec, points) -> PointModes:
     return PointModes(md.omega, open_loop_ratios(spec, len(md.omega)), md.shapes[rows, :], tuple(points), "test")
 
 
-@pytest.fixture(scope="module")
-def joint_on_other_model():
-    """FRFs of the *other* model of the grid with joint 18 softened to 6000 N m/rad, 1 % noise."""
+def _referred_problem(edit, name: str) -> Problem:
+    """FRFs of the *other* model of the grid changed by ``edit`` (spec -> spec), 1 % noise, referred to the FE
+    model through a baseline recording of the unchanged other model (as ``vlab diagnose --baseline`` does)."""
     fe = nominal_fe_model("grid")
     nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    truth = nominal.with_spec(specedit.soften_joint(fe.spec, 18, 6000.0))
+    truth = nominal.with_spec(edit(fe.spec))
     test = TESTS["grid"]
     exc = fe.spec.instrumentation.excitation
     outs = tuple(test.measured_points)
     pts = tuple(dict.fromkeys(outs + nominal.actuators))
     freq = np.arange(4, 201) * 0.05
-    h = predict_frf(replace(truth, point_modes=other_model_modes(truth.spec, pts)), freq,
-                    excitation_point=exc, output_points=outs)
-    data = FrfData("grid-joint18-other.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
-    ctx = context_for(nominal, test.band_hz, data)
-    return Problem(data, nominal, ctx)
+
+    def recorded(st: LabState, source: str) -> FrfData:
+        h = predict_frf(replace(st, point_modes=other_model_modes(st.spec, pts)), freq, excitation_point=exc,
+                        output_points=outs)
+        return FrfData(source, "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
+
+    data = refer_to_model(recorded(truth, name), recorded(nominal, "baseline.uff"),
+                          predict_frf(nominal, freq, excitation_point=exc, output_points=outs))
+    return Problem(data, nominal, context_for(nominal, test.band_hz, data))
+
+
+@pytest.fixture(scope="module")
+def joint_on_other_model():
+    """Joint 18 softened to 6000 N m/rad on the other model, referred to the FE model through a baseline."""
+    return _referred_problem(lambda spec: specedit.soften_joint(spec, 18, 6000.0), "grid-joint18-other.uff")
 
 
 def test_refit_on_the_other_model_recovers_the_drawn_stiffness(joint_on_other_model):
-    """The FE fit absorbs the other model's 1 % frequency offset into the stiffness; the refit on that
-    model's modes removes it."""
+    """The baseline removes the other model's 1 % offset where the modes are, not where the joint moves two
+    of them to: the FE fit absorbs what is left into the stiffness; the refit on that model's modes removes it."""
     problem = joint_on_other_model
     h = fit_hypothesis(JointFlexibility(point=18), problem)
     assert abs(h.params_[0] / 6000.0 - 1.0) > 0.02  # the FE value is biased (the test has something to fix)
@@ -102,3 +112,44 @@ def test_mujoco_plant_modes_give_the_fe_receptance_between_resonances():
     assert np.allclose(np.abs(b / a), 1.0, atol=0.03)
     with pytest.raises(Exception, match="not among the points"):
         plant_frf(replace(st, point_modes=pm), freq, (fe.spec.instrumentation.excitation, 999), pts)
+
+
+# ---------------------------------------------------------------- the pair rule again on the plant
+
+
+def _pair_and_singles(problem, second):
+    """The joint alone, ``second`` alone and the pair, fitted on the FE model (the pair from the joint's value)."""
+    from vlab.diagnose.plantfit import PlantModel
+
+    joint = fit_hypothesis(JointFlexibility(point=18), problem)
+    other = fit_hypothesis(second, problem)
+    starts = np.array([[joint.params_[0], x] for x in other.params_[0] * np.array([0.1, 0.3, 1.0, 3.0])])
+    pair = fit_hypothesis(Combination(first=JointFlexibility(point=18), second=second), problem, starts=starts)
+    return PlantModel(problem, modes_of=other_model_modes), pair, [pair, joint, other]
+
+
+def test_a_second_effect_that_only_absorbs_the_model_difference_is_dropped_on_the_plant(joint_on_other_model):
+    """On the FE model an added mass at 18 lowers the chi-square next to the biased joint (it absorbs part of
+    the other model's offset); on the other model's modes the joint alone fits, and the pair is reduced to it."""
+    from vlab.diagnose.hypotheses import AddedMass
+    from vlab.diagnose.plantfit import reduce_pair_on_plant
+
+    problem = joint_on_other_model
+    model, pair, ranked = _pair_and_singles(problem, AddedMass(point=18))
+    assert pair.chi2_ < ranked[1].chi2_  # on the FE model the second effect helps
+    chosen, refit, note = reduce_pair_on_plant(model, pair, ranked)
+    assert chosen is ranked[1] and note is not None and "alone fits" in note
+    assert refit.value == pytest.approx(6000.0, rel=0.005)
+
+
+def test_a_real_second_effect_keeps_the_pair_on_the_plant():
+    """Joint 18 and a real 0.5 kg mass at point 3, both in the other model's data: the pair stays."""
+    from vlab.diagnose.hypotheses import AddedMass
+    from vlab.diagnose.plantfit import reduce_pair_on_plant
+
+    problem = _referred_problem(lambda spec: specedit.add_mass(specedit.soften_joint(spec, 18, 6000.0), 3, 0.5),
+                                "grid-joint18-mass3-other.uff")
+    model, pair, ranked = _pair_and_singles(problem, AddedMass(point=3))
+    chosen, refit, note = reduce_pair_on_plant(model, pair, ranked)
+    assert chosen is pair and note is None
+    assert refit is not None  # the part that explains more alone, refitted in the pair

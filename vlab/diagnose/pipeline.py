@@ -52,11 +52,11 @@ from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
 from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
 from .fit import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
-from .hypotheses import Hypothesis, library
+from .hypotheses import Combination, Hypothesis, library
 from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
-from .plantfit import refit_on_plant
+from .plantfit import PlantModel, reduce_pair_on_plant
 from .problem import Problem
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
@@ -77,6 +77,24 @@ def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool
         return True
     v = res.validation
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
+
+
+def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list) -> Hypothesis:
+    """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.plantfit`); a pair
+    is first checked there (:func:`reduce_pair_on_plant`). Sets ``res.plant_refit``; returns the choice."""
+    try:
+        model = PlantModel(problem)
+    except (VlabError, ImportError) as exc:
+        notes.append(f"the MuJoCo plant could not be linearised for a refit: {exc}")
+        return chosen
+    if isinstance(chosen, Combination):
+        reduced, res.plant_refit, note = reduce_pair_on_plant(model, chosen, res.ranked)
+        if note is not None:
+            notes.append(note)
+            res.alternatives = [h for h in res.alternatives if h is not reduced]
+        return reduced
+    res.plant_refit = model.refit(chosen, chosen.params_)
+    return chosen
 
 
 def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str = "none",
@@ -202,6 +220,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     chi2_0 = problem.chi2(nominal)
     limit = problem.noise_chi2()
     misfit_0 = problem.misfit(nominal)
+    # a MuJoCo validation rerun will follow: its nominal rerun starts early, the effect is refitted on its plant
+    on_plant = validate_run and isinstance(data, FrfData) and data.recording is not None and plant != "linear" \
+        and importlib.util.find_spec("mujoco") is not None
     try:
         say("locating")
         t = time.perf_counter()
@@ -214,8 +235,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             res.location.points, res.location.members = [], []
             notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
         else:
-            if validate_run and isinstance(data, FrfData) and data.recording is not None and plant != "linear" \
-                    and importlib.util.find_spec("mujoco") is not None:
+            if on_plant:
                 start_background_rerun(problem, nominal, "nominal", "mujoco", seed=design_seed)  # on the other core
             say("screening hypotheses")
             t = time.perf_counter()
@@ -267,6 +287,11 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes)
                 timing["tie_break"] = time.perf_counter() - t
             res.alternatives = alts
+            if chosen is not None and on_plant and chosen.spec_level:
+                say("refitting on the MuJoCo plant's linearisation")
+                t = time.perf_counter()
+                chosen = _refit_on_plant(res, problem, chosen, notes)
+                timing["plant_refit"] = time.perf_counter() - t
             if chosen is not None:
                 res.selected = chosen
                 res.misfit_selected = float(chosen.misfit_)
@@ -283,13 +308,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         # validation
         if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
             modified, key = res.selected_state(), rerun_key(res.selected)
-            if plant != "linear" and res.selected.spec_level and importlib.util.find_spec("mujoco") is not None:
-                say("refitting on the MuJoCo plant's linearisation")
-                t = time.perf_counter()
-                res.plant_refit = refit_on_plant(problem, res.selected)
-                if res.plant_refit is not None:
-                    modified, key = res.plant_refit.state, key + "@plant"
-                timing["plant_refit"] = time.perf_counter() - t
+            if res.plant_refit is not None:
+                modified, key = res.plant_refit.state, key + "@plant"
             say("validating")
             t = time.perf_counter()
             try:
