@@ -126,7 +126,9 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
     acts = [p for p in st.actuators if p not in used]
     if family == "added_mass":
         p = int(rng.choice(free))
-        m = ctx.point_mass[p] * _logu(rng, 0.03, 0.25)
+        # a point near a support has a huge modal mass (8 t at the grid's top-beam ends): the scale is capped
+        # at twice the structure's own mass, so that no draw is a mass no one would hang on it
+        m = min(ctx.point_mass[p], MASS_CAP * _structure_mass(st)) * _logu(rng, 0.03, 0.25)
         return st.with_spec(specedit.add_mass(spec, p, m)), {"effect": "added_mass", "location": {"point": p},
                                                             "parameters": {"mass_kg": m}}
     if family == "support_stiffness":
@@ -214,10 +216,31 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
 VISIBLE = 0.05
 
 
-def _visible(a: LabState, b: LabState, freq_hz, exc: int, meas: tuple) -> bool:
-    """Does ``b`` change the predicted FRF of some line of ``a`` by ``VISIBLE`` (log magnitude)?"""
-    h0 = predict_frf(a, freq_hz, excitation_point=exc, output_points=meas)
-    h1 = predict_frf(b, freq_hz, excitation_point=exc, output_points=meas)
+#: Added masses are drawn relative to the modal mass at the point, capped at this many times the structure's mass.
+MASS_CAP = 2.0
+
+
+def _structure_mass(st: LabState) -> float:
+    """Sum of the out-of-plane diagonal masses of the FE model [kg] (the structure's moving mass)."""
+    rows = [st.fe.dofs.index(p, "w") for p in st.spec.points if (p, "w") in st.fe.dofs]
+    return float(np.sum(np.diag(st.fe.m)[rows]))
+
+
+def _on_plant(st: LabState, plant: str, points: tuple) -> LabState:
+    """``st`` with the structure's modes of the plant that records the case (the FE model's for the linear plant)."""
+    if plant != "mujoco":
+        return st
+    from vlab.diagnose.plantfit import plant_modes
+
+    return replace(st, point_modes=plant_modes(st.spec, points))
+
+
+def _visible(a: LabState, b: LabState, freq_hz, exc: int, meas: tuple, plant: str = "linear") -> bool:
+    """Does ``b`` change the predicted FRF of some line of ``a`` by ``VISIBLE`` (log magnitude), on the plant
+    that records the case (for the MuJoCo plant: its linearisation, :func:`vlab.diagnose.plantfit.plant_modes`)?"""
+    pts = tuple(dict.fromkeys(tuple(meas) + a.actuators))
+    h0 = predict_frf(_on_plant(a, plant, pts), freq_hz, excitation_point=exc, output_points=meas)
+    h1 = predict_frf(_on_plant(b, plant, pts), freq_hz, excitation_point=exc, output_points=meas)
     return bool(np.max(np.abs(np.log(h1 / h0))) >= VISIBLE)
 
 
@@ -228,11 +251,14 @@ def _stage(family: str) -> int:
 
 
 def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int, meas: tuple,
-            attempts: int = 8) -> tuple[LabState, list, bool]:
+            attempts: int = 8, plant: str = "linear") -> tuple[LabState, list, bool]:
     """Draw the effects of ``families`` into ``st0``, each visible in the final plant.
 
     Effects are drawn in the order of :func:`_stage`. Each effect's size is redrawn (up to ``attempts`` times) until it changes
-    some FRF line by ``VISIBLE`` on top of the effects drawn before it. With
+    some FRF line by ``VISIBLE`` on top of the effects drawn before it, on
+    the ``plant`` that records the case (a member-stiffness change on the
+    grid's shear-flexible top beam can move the FE model's FRF by 5 % and the
+    MuJoCo plant's by less than the noise). With
     two effects the pair is redrawn until the first is also visible next to
     the second: the final plant against the second effect drawn alone on the
     nominal plant from the same random numbers (a large second effect can
@@ -261,7 +287,7 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
                 except ModelError:  # a draw the structure cannot carry (a mass that buckles the grid): draw again
                     continue
                 drawn = (cand, t, before)
-                seen = _visible(state, cand, freq_hz, exc, meas)
+                seen = _visible(state, cand, freq_hz, exc, meas, plant)
                 if seen:
                     break
             if drawn is None:
@@ -275,7 +301,7 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
         if len(families) < 2:
             return state, truths, hidden
         second_alone, _ = draw_effect(redraw[0], redraw[1], st0, ctx, redraw[2])
-        if _visible(second_alone, state, freq_hz, exc, meas):
+        if _visible(second_alone, state, freq_hz, exc, meas, plant):
             return state, truths, hidden
     return state, truths, True
 
@@ -363,9 +389,9 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     ctx.excitation_point = exc
     ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
     meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
-    truth_state, truths, hidden = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas)
-    t0 = time.perf_counter()
     plant = case.get("plant", "linear")
+    truth_state, truths, hidden = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas, plant=plant)
+    t0 = time.perf_counter()
     path = os.path.join(workdir, f"case{case['index']}.uff")
     # the baseline: the same test (the same excitation record, replayed) on the unmodified plant, other noise
     runs = [(truth_state, force, exc, meas, plant, case["index"])]

@@ -9,7 +9,7 @@ but a mode that an effect moves far (a softened joint moves two top-beam
 modes of the grid by 20 %) leaves its offset behind, and the FE fit absorbs
 the offset into the parameter: on the grid's joint 18 the FE fit found
 5.65 kN m/rad for a plant drawn at 6.06 kN m/rad, right to 7 %, but the
-MuJoCo rerun with that value put a resonance 1 % off and lowered the misfit
+MuJoCo rerun with that value put two resonances about 2 % off and lowered the misfit
 only 2x.
 
 So, before a MuJoCo rerun, the one parameter of a spec-level, mode-moving
@@ -42,6 +42,7 @@ fitted on, so it is refitted on the model that is rerun.
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, replace
@@ -177,6 +178,8 @@ class PlantModel:
 
     Attributes
     ----------
+    fe_problem : Problem
+        The problem given (on the FE model).
     problem : Problem
         The same data on the plant's linearisation: data referred through a
         baseline (``h = H_rec H_FE / H_base``) are referred to the plant's
@@ -193,7 +196,7 @@ class PlantModel:
         data = problem.data
         if not isinstance(data, FrfData):
             raise ModelError("a refit on the plant needs FRF data (a recording or FRFs), not a modal table")
-        self.base, self.ctx, self._modes_of = problem.base, problem.ctx, modes_of
+        self.fe_problem, self.base, self.ctx, self._modes_of = problem, problem.base, problem.ctx, modes_of
         self.points = tuple(dict.fromkeys(tuple(data.output_points) + self.base.actuators))
         self._nominal_modes = modes_of(self.base.spec, self.points)
         nominal = replace(self.base, point_modes=self._nominal_modes)
@@ -312,11 +315,11 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     (:func:`vlab.diagnose.fit.select`). A second effect can pass that rule by
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
-    and each of its parts alone (their own FE fits, from ``ranked``) are
-    scored on the plant's linearisation, and the same rule decides. A part
-    alone that moves modes is refitted there (:meth:`PlantModel.refit`); in
-    the pair, the part with the better BIC alone is refitted and the other
-    held at its FE value (one refit, not a two-parameter search).
+    and each of its parts alone (at its value in the pair) are scored on the
+    plant's linearisation, and the same rule decides. A part alone that
+    moves modes is refitted there (:meth:`PlantModel.refit`); in the pair,
+    the part with the better BIC alone is refitted and the other held at its
+    FE value (one refit, not a two-parameter search).
 
     Parameters
     ----------
@@ -324,7 +327,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     pair : Combination
         The selected pair (fitted).
     ranked : list of Hypothesis
-        The fitted hypotheses; a part without its own single fit there keeps the pair.
+        The fitted hypotheses: a part's own FE fit there decides which part
+        is refitted in the pair and is returned when the pair is reduced to
+        it (a part without one is fitted on the FE model then).
 
     Returns
     -------
@@ -337,23 +342,24 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     """
     from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence
 
-    singles = [next((h for h in ranked if not isinstance(h, Combination) and h.label == p.label), None)
-               for p in pair.parts]
-    if any(s is None for s in singles):
-        return pair, model.refit(pair, pair.params_), None
-    # the part that explains more alone is refitted in the pair (the other held at its FE value)
-    main = pair.parts[int(np.argmin([s.bic_ for s in singles]))]
+    # each part alone keeps its value in the pair; the part that explains more alone (its own FE fit, where
+    # ``ranked`` has one) is the one refitted in the pair, the other held at its FE value
+    k0 = pair.parts[0].n_params
+    values = (pair.params_[:k0], pair.params_[k0:])
+    own = [next((h for h in ranked if not isinstance(h, Combination) and h.label == p.label), None)
+           for p in pair.parts]
+    main = pair.parts[int(np.argmin([h.bic_ if h is not None else math.inf for h in own]))]
 
-    def scored(h: Hypothesis):
-        r = model.refit(h, h.params_, refit_index(h, main if isinstance(h, Combination) else None))
-        x = h.params_ if r is None else r.params
+    def scored(h: Hypothesis, x0):
+        r = model.refit(h, x0, refit_index(h, main if isinstance(h, Combination) else None))
+        x = x0 if r is None else r.params
         chi2 = model.chi2(h, x) if r is None else r.chi2
         misfit = model.problem.misfit(model.state(h, x)) if math.isfinite(chi2) else math.inf
         return _Score(chi2, h.n_params), misfit, r
 
-    s_pair, m_pair, r_pair = scored(pair)
-    alone = [(h, *scored(h)) for h in singles]
-    h1, s1, m1, r1 = min(alone, key=lambda t: t[1].chi2_ + t[1].n_params * math.log(model.problem.n_obs))
+    s_pair, m_pair, r_pair = scored(pair, pair.params_)
+    alone = [(i, *scored(part, x)) for i, (part, x) in enumerate(zip(pair.parts, values))]
+    i1, s1, m1, r1 = min(alone, key=lambda t: t[1].chi2_ + t[1].n_params * math.log(model.problem.n_obs))
     n_obs = model.problem.n_obs
     c_hat = max(1.0, s1.chi2_ / max(n_obs - s1.n_params, 1))
     ev = evidence(s_pair, s1, chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
@@ -361,6 +367,12 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     nonlinear = any(p.effect in NONLINEAR for p in pair.parts)
     if ev >= STRONG_EVIDENCE and (nonlinear or gain >= PAIR_MISFIT_GAIN):
         return pair, r_pair, None
+    h1 = own[i1]
+    if h1 is None:  # no FE fit of its own among the ranked: fit it now (the answer's parameters are FE fits)
+        from .fit import fit_hypothesis
+
+        h1 = fit_hypothesis(copy.copy(pair.parts[i1]), model.fe_problem)
+        r1 = model.refit(h1, h1.params_) if r1 is not None else None
     note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
             f"(quasi-BIC evidence for the pair {ev:.3g} < {STRONG_EVIDENCE:g}, or misfit gain {gain:.3g} < "
             f"{PAIR_MISFIT_GAIN:g}): the second effect absorbed the FE/plant model-form difference; "
