@@ -329,7 +329,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          "weighted misfit" + ("" if res.validation is None else
                                               f" and the rerun lowers the FRF misfit only {res.validation.misfit_before / res.validation.misfit_after:.2g}x")
                          + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
-            res.selected, res.validation, res.alternatives = None, None, []
+            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
             res.location.points, res.location.members = located_from_fits(res, chi2_0)
     finally:

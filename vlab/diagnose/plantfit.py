@@ -31,8 +31,9 @@ as the value the rerun used.
 
 A selected *pair* is first checked on the plant's linearisation
 (:func:`reduce_pair_on_plant`): the selection's pair rule is applied again
-there, with each mode-moving parameter refitted, since a second effect can
-pass it on the FE model only by absorbing the same model-form difference.
+there (the main part's mode-moving parameter refitted), since a second
+effect can pass it on the FE model only by absorbing the same model-form
+difference.
 
 Source: the two-model idea is that of model updating with a reference model
 (Friswell & Mottershead, *Finite Element Model Updating in Structural
@@ -336,7 +337,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     chosen : Hypothesis
         ``pair`` or one of the single fits of ``ranked``.
     refit : PlantRefit or None
-        The chosen one's refit on the plant (None where nothing moves modes).
+        The chosen one's refit on the plant, started from its own FE fit
+        (None where nothing moves modes).
     note : str or None
         What was decided and why, when the pair was reduced.
     """
@@ -372,7 +374,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
         from .fit import fit_hypothesis
 
         h1 = fit_hypothesis(copy.copy(pair.parts[i1]), model.fe_problem)
-        r1 = model.refit(h1, h1.params_) if r1 is not None else None
+    if r1 is not None:  # refit again from its own FE value, which the report quotes as the start
+        r1 = model.refit(h1, h1.params_)
     note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
             f"(quasi-BIC evidence for the pair {ev:.3g} < {STRONG_EVIDENCE:g}, or misfit gain {gain:.3g} < "
             f"{PAIR_MISFIT_GAIN:g}): the second effect absorbed the FE/plant model-form difference; "
