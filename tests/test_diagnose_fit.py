@@ -92,3 +92,78 @@ def test_coarse_scan_finds_the_narrow_chi2_well(softened_grid_joint):
     trials, _, _ = cls(point=18).space(problem.base, problem.ctx)
     old = fit_hypothesis(cls(point=18), problem, starts=trials)  # the trial values only, as before the scan
     assert old.chi2_ > 100 * h.chi2_
+
+
+# ---------------------------------------------------------------- local mismatch, masses near a support
+
+
+@pytest.fixture(scope="module")
+def grid_frf_problem():
+    """Exact FRFs of the nominal linear grid with 1 % noise variance: a problem builder for edited data."""
+    import numpy as np
+
+    from vlab.diagnose.data import FrfData
+    from vlab.diagnose.labmodel import predict_frf
+
+    fe = nominal_fe_model("grid")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    test = TESTS["grid"]
+    freq = np.arange(6, 200) * 0.05
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    h = predict_frf(nominal, freq, excitation_point=exc, output_points=outs)
+
+    def problem(h_data):
+        data = FrfData("grid.uff", "frf", freq, h_data, (0.01 * np.abs(h)) ** 2, exc, outs)
+        return Problem(data, nominal, context_for(nominal, test.band_hz, data))
+
+    return nominal, h, problem
+
+
+def test_one_line_out_of_the_noise_is_a_mismatch(grid_frf_problem):
+    """A 10 % error on one line of one channel adds ~160 to a chi-square whose noise limit is ~3000, but
+    stands 13 noise deviations out: the peak test (Bonferroni over all lines) flags it, the clean data pass."""
+    nominal, h, problem = grid_frf_problem
+    clean = problem(h)
+    assert clean.peak(nominal) < 1e-12 and clean.within_noise(nominal)
+    h_bad = h.copy()
+    h_bad[120, 2] *= 1.1
+    bad = problem(h_bad)
+    assert bad.chi2(nominal) < bad.noise_chi2()  # the total test alone misses it
+    assert bad.peak(nominal) > bad.peak_limit()
+    assert not bad.within_noise(nominal)
+    assert 20.0 < bad.peak_limit() < 50.0  # chi2(2) at 0.1 % / n, times 1.2
+
+
+def test_added_mass_near_a_support_is_screened_at_attachable_sizes(grid_frf_problem):
+    """Point 14 sits 22 mm from the grid's top-beam support (modal mass ~8 t): the trials stay below the
+    structure's own mass, and a trial that buckles the hanging grid scores infinity instead of dropping
+    the hypothesis."""
+    import math
+
+    import numpy as np
+
+    from vlab.diagnose.fit import screen, trials_for
+    from vlab.errors import ModelError
+
+    nominal, h, problem = grid_frf_problem
+    pb = problem(h)
+    hyp = AddedMass(point=14)
+    trials = trials_for(hyp, pb)
+    assert trials.max() <= pb.ctx.total_mass_kg
+    with pytest.raises(ModelError):
+        nominal.with_spec(specedit.add_mass(nominal.spec, 14, 5000.0))
+    out = screen(hyp, pb, np.array([[1.0], [5000.0]]))
+    assert math.isinf(out[-1][0]) and out[-1][1][0] == 5000.0
+    assert math.isfinite(out[0][0])
+
+
+def test_a_friction_saturation_pair_is_checked_against_either_part_alone():
+    """Both parts of a friction + saturation pair are nonlinear: the parsimony check reruns each alone."""
+    from vlab.diagnose.hypotheses import Combination, Friction, Saturation
+    from vlab.diagnose.selection import _nonlinear_alone
+
+    fric, sat = Friction(point=7), Saturation()
+    pair = Combination(first=Friction(point=7), second=Saturation())
+    assert [g.label for g in _nonlinear_alone(pair, [fric, sat, pair], None)] == [fric.label, sat.label]
+    assert _nonlinear_alone(fric, [fric, sat, pair], None) == []

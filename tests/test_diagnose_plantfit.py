@@ -153,3 +153,19 @@ def test_a_real_second_effect_keeps_the_pair_on_the_plant():
     chosen, refit, note = reduce_pair_on_plant(model, pair, ranked)
     assert chosen is pair and note is None
     assert refit is not None  # the part that explains more alone, refitted in the pair
+
+
+def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_model):
+    """A selected joint 19 with joint 18 as its look-alike: on the other model's modes joint 18 (the drawn one)
+    fits far better, is chosen and refitted; joint 19, no longer a look-alike there, leaves the alternatives."""
+    from vlab.diagnose.plantfit import PlantModel, choose_on_plant
+
+    problem = joint_on_other_model
+    wrong = fit_hypothesis(JointFlexibility(point=19), problem)
+    right = fit_hypothesis(JointFlexibility(point=18), problem)
+    model = PlantModel(problem, modes_of=other_model_modes)
+    chosen, refit, alts, note = choose_on_plant(model, wrong, [right])
+    assert chosen is right and refit.value == pytest.approx(6000.0, rel=0.005)
+    assert alts == [] and "joint_flexibility(point=18) is selected" in note
+    same, refit2, alts2, note2 = choose_on_plant(model, right, [])  # nothing to compare: the refit alone
+    assert same is right and note2 is None and refit2.value == pytest.approx(6000.0, rel=0.005)

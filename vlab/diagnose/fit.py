@@ -37,9 +37,9 @@ import math
 import numpy as np
 import scipy.optimize
 
-from ..errors import VlabError
+from ..errors import ModelError, VlabError
 from .hypotheses import Combination, Hypothesis
-from .problem import Problem
+from .problem import PENALTY, Problem
 
 #: BIC difference that counts as strong evidence.
 STRONG_EVIDENCE = 10.0
@@ -109,19 +109,32 @@ def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) ->
     ``h.coarse_``: the trial with the least smoothed error
     (:meth:`Problem.scores`), and ``h.coarse_error_``, that error.
 
+    A trial the structure cannot carry (:class:`ModelError` from the FE
+    model: a mass that buckles the hanging grid) scores infinity.
+
     Returns
     -------
     list of (chi2, x)
         ``x`` [SI], shape (k,).
+
+    Raises
+    ------
+    ModelError
+        When no trial value gives a model the structure can carry.
     """
     if trials is None:
         trials = trials_for(h, problem)
     out = []
     smooth = []
     for x in trials:
-        c, sm = problem.scores(problem.state_for(h, x))
+        try:
+            c, sm = problem.scores(problem.state_for(h, x))
+        except ModelError:
+            c, sm = math.inf, math.inf
         out.append((c, np.asarray(x, dtype=float)))
         smooth.append(sm)
+    if not np.isfinite(min(c for c, _ in out)):
+        raise ModelError(f"{h.label}: no trial value gives a model the structure can carry")
     i = int(np.argmin(smooth))
     h.coarse_, h.coarse_error_ = out[i][1], float(smooth[i])
     out.sort(key=lambda t: t[0])
@@ -179,7 +192,10 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
         z0 = np.clip(z0, zlo + 1e-6 * span, zhi - 1e-6 * span)
 
         def fun(u: np.ndarray) -> np.ndarray:
-            return problem.residual(problem.state_for(h, _x(u * scale, log)))
+            try:
+                return problem.residual(problem.state_for(h, _x(u * scale, log)))
+            except ModelError:  # a model the structure cannot carry (buckling): the fit steps back
+                return np.full(problem.n_obs, PENALTY)
 
         try:
             sol = scipy.optimize.least_squares(fun, z0 / scale, bounds=(zlo / scale, zhi / scale), method="trf",

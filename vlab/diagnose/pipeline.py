@@ -9,8 +9,11 @@ Pipeline (issue 6):
    (:func:`vlab.diagnose.labmodel.predict_frf`).
 2. **Decide** whether there is a mismatch: the weighted chi-square of the
    nominal model against the data must exceed what the measured noise
-   explains (:meth:`Problem.noise_chi2`); otherwise the answer is "no
-   significant mismatch" and no effect is proposed.
+   explains (:meth:`Problem.noise_chi2`), or one line of one channel must
+   stand out of the noise (:meth:`Problem.peak_limit`: a local mismatch,
+   such as one shifted resonance of a top-beam segment, that adds little
+   to the total); otherwise the answer is "no significant mismatch" and no
+   effect is proposed.
 3. **Locate** (:mod:`vlab.diagnose.locate`): modes, sensors, band, loop and,
    by sensitivity-based localisation, points and members.
 4. **Explain**: every hypothesis of the library that can show in these data
@@ -29,11 +32,13 @@ Pipeline (issue 6):
    mismatch is found, while the hypotheses are fitted); before a MuJoCo
    rerun, the parameter of a mode-moving effect is refitted on the plant's
    own linearisation (:mod:`vlab.diagnose.plantfit`), since the FE fit
-   absorbs the FE/MuJoCo frequency offsets;
+   absorbs the FE/MuJoCo frequency offsets (look-alikes the FE fit cannot
+   tell apart are refitted there too, and the best on the plant is chosen);
    FRF and time-domain misfits before and after. An effect that removes
-   less than half of the weighted misfit, and whose rerun does not halve
-   the FRF misfit either, is not selected (the mismatch is reported as not
-   explained by the library).
+   less than half of the weighted misfit, whose rerun does not halve
+   the FRF misfit either, and that does not bring the data within the
+   noise (both tests of step 2), is not selected (the mismatch is reported
+   as not explained by the library).
 6. **Report** (:mod:`vlab.diagnose.report`).
 """
 
@@ -56,7 +61,7 @@ from .hypotheses import Combination, Hypothesis, library
 from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
-from .plantfit import PlantModel, reduce_pair_on_plant
+from .plantfit import PlantModel, choose_on_plant, reduce_pair_on_plant
 from .problem import Problem
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
@@ -68,12 +73,14 @@ __all__ = ["diagnose", "DiagnosisResult"]
 
 def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool:
     """Whether the selected effect of ``res`` explains the mismatch: it removes at least ``share`` of the
-    nominal chi-square ``chi2_0`` (linear model), or its validation rerun lowers the FRF misfit by at least
-    ``1 / (1 - share)`` (effects whose linear model is only a describing function: friction, saturation)."""
+    nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
+    (:meth:`Problem.within_noise`: a local mismatch removed), or its validation rerun lowers the FRF misfit
+    by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function: friction,
+    saturation)."""
     h = res.selected
     if h is None:
         return False
-    if h.chi2_ <= (1.0 - share) * chi2_0:
+    if h.chi2_ <= (1.0 - share) * chi2_0 or res.problem.within_noise(res.selected_state()):
         return True
     v = res.validation
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
@@ -81,7 +88,9 @@ def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool
 
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.plantfit`); a pair
-    is first checked there (:func:`reduce_pair_on_plant`). Sets ``res.plant_refit``; returns the choice."""
+    is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
+    look-alikes (:func:`choose_on_plant`). Sets ``res.plant_refit`` (and ``res.alternatives``); returns the
+    choice."""
     try:
         model = PlantModel(problem)
     except (VlabError, ImportError) as exc:
@@ -93,7 +102,9 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
             notes.append(note)
             res.alternatives = [h for h in res.alternatives if h is not reduced]
         return reduced
-    res.plant_refit = model.refit(chosen, chosen.params_)
+    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives)
+    if note is not None:
+        notes.append(note)
     return chosen
 
 
@@ -217,8 +228,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
 
     ctx = context_for(nominal, band, data)
     problem = Problem(data, nominal, ctx, floor=floor)
-    chi2_0 = problem.chi2(nominal)
-    limit = problem.noise_chi2()
+    chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
+    limit, peak_limit = problem.noise_chi2(), problem.peak_limit()
     misfit_0 = problem.misfit(nominal)
     # a MuJoCo validation rerun will follow: its nominal rerun starts early, the effect is refitted on its plant
     on_plant = validate_run and isinstance(data, FrfData) and data.recording is not None and plant != "linear" \
@@ -228,9 +239,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         t = time.perf_counter()
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
-        mismatch = chi2_0 > limit
+        mismatch = chi2_0 > limit or peak_0 > peak_limit
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
-                              None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0)
+                              None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
+                              peak_nominal=peak_0, peak_limit=peak_limit)
         if not mismatch:
             res.location.points, res.location.members = [], []
             notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
@@ -272,7 +284,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             ranked = rank(fitted)
             timing["fit"] = time.perf_counter() - t
             best = ranked[0] if ranked else None
-            if pairs and best is not None and best.chi2_ > limit:
+            if pairs and best is not None and not problem.within_noise(problem.state_for(best, best.params_)):
                 say("fitting pairs")
                 t = time.perf_counter()
                 ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))

@@ -33,7 +33,11 @@ A selected *pair* is first checked on the plant's linearisation
 (:func:`reduce_pair_on_plant`): the selection's pair rule is applied again
 there (the main part's mode-moving parameter refitted), since a second
 effect can pass it on the FE model only by absorbing the same model-form
-difference.
+difference. A selected *single* effect is compared there with its
+look-alikes (:func:`choose_on_plant`: effects the FE fit cannot tell from
+it, each refitted on the plant; the least chi-square wins), since the
+FE/plant difference can order look-alikes wrongly (the stiffness of one end
+segment of the grid's top beam against its mirror).
 
 Source: the two-model idea is that of model updating with a reference model
 (Friswell & Mottershead, *Finite Element Model Updating in Structural
@@ -381,3 +385,73 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
             f"{PAIR_MISFIT_GAIN:g}): the second effect absorbed the FE/plant model-form difference; "
             f"{h1.label} is selected")
     return h1, r1, note
+
+
+#: Most look-alikes of a selected single effect scored on the plant by :func:`choose_on_plant`, and how
+#: many of the best of them (with the selected one) are refitted there (a refit takes ~11 linearisations,
+#: ~4 s on the grid; a score at the FE value one).
+MAX_LOOKALIKES = 6
+REFIT_BEST = 2
+
+
+def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, *,
+                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = REFIT_BEST
+                    ) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+    """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
+
+    The FE model cannot tell apart effects the data cannot (within
+    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in BIC): the stiffness of one
+    end segment of the grid's top beam or of its mirror. The FE/plant
+    model-form difference can also order them wrongly, and the plant is the
+    model that is rerun. Here the selected effect and up to
+    ``max_lookalikes`` of its single, refittable alternatives
+    (:func:`refit_index`) are scored on the plant's linearisation at their
+    FE values, the ``refit_best`` best of them are refitted there
+    (:meth:`PlantModel.refit`, from their own FE fits), and the least plant
+    chi-square wins. The alternatives left are those whose plant chi-square
+    (refitted, else at the FE value) is within ``STRONG_EVIDENCE`` of the
+    winner's, and those not scored.
+
+    Parameters
+    ----------
+    model : PlantModel
+    chosen : Hypothesis
+        The selected single effect (fitted).
+    alternatives : list of Hypothesis
+        Its look-alikes on the FE model (:func:`vlab.diagnose.fit.select`).
+    max_lookalikes, refit_best : int
+
+    Returns
+    -------
+    chosen : Hypothesis
+        The winner (one of ``[chosen] + alternatives``).
+    refit : PlantRefit or None
+        Its refit (None when ``chosen`` has no refittable parameter; nothing is compared then).
+    alternatives : list of Hypothesis
+    note : str or None
+        The plant chi-squares, when look-alikes were compared.
+    """
+    from .fit import STRONG_EVIDENCE
+
+    looks = [h for h in alternatives if not isinstance(h, Combination) and refit_index(h) is not None
+             ][:max_lookalikes]
+    if refit_index(chosen) is None or not looks:
+        return chosen, model.refit(chosen, chosen.params_), alternatives, None
+    cands = [chosen] + looks
+    known = {h.label: model.chi2(h, h.params_) for h in cands}  # at the FE values: one linearisation each
+    refits = {}
+    for h in sorted(cands, key=lambda h: known[h.label])[:refit_best]:
+        r = model.refit(h, h.params_)
+        if r is not None:
+            refits[h.label] = r
+            known[h.label] = min(known[h.label], r.chi2)
+    best = min((h for h in cands if h.label in refits), key=lambda h: refits[h.label].chi2, default=None)
+    if best is None:
+        return chosen, None, alternatives, None
+    c_best = refits[best.label].chi2
+    alts = [h for h in [chosen] + list(alternatives)
+            if h is not best and (h.label not in known or known[h.label] - c_best < STRONG_EVIDENCE)]
+    note = ("look-alikes compared on the MuJoCo plant's linearisation (chi-square, refitted for the best "
+            f"{len(refits)}): " + ", ".join(f"{h.label}: {known[h.label]:.4g}" for h in cands)
+            + f"; {best.label} is selected")
+    return best, refits[best.label], alts, note

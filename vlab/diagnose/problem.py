@@ -17,7 +17,8 @@ compared with the mode that is nominal mode ``n``.
 
 The sum of squares is a chi-square statistic when the weights are the noise:
 it drives the least-squares fits, the information criteria
-(:mod:`vlab.diagnose.fit`) and the decision whether there is a mismatch at all.
+(:mod:`vlab.diagnose.fit`) and, with its largest single term (:meth:`Problem.peak`, which
+catches a mismatch local to one resonance), the decision whether there is a mismatch at all.
 
 A lightly damped structure makes that chi-square a rugged function of a
 stiffness or mass: a resonance that misses its measured line by more than a
@@ -44,7 +45,7 @@ from .hypotheses import Context, Hypothesis
 from .labmodel import LabState, natural_frequencies, predict_frf
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
-_PENALTY = 1e3
+PENALTY = 1e3
 
 #: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
 #: (10 %: 0.4 Hz at 4 Hz). A chosen scale, not fitted: ten half-power bandwidths of a 0.5 % damped mode.
@@ -227,15 +228,15 @@ class Problem:
                 return self._frf_residual(self.predict(state))
             r = self._modal_residual(state)
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
-            return np.full(self.n_obs, _PENALTY)
-        return np.where(np.isfinite(r), r, _PENALTY)
+            return np.full(self.n_obs, PENALTY)
+        return np.where(np.isfinite(r), r, PENALTY)
 
     def _frf_residual(self, hm: np.ndarray) -> np.ndarray:
         ratio = hm[self.mask] / self.data.h[self.mask]
         with np.errstate(divide="ignore", invalid="ignore"):
             re = np.log(np.abs(ratio)) / self.part_sigma
             r = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
-        return np.where(np.isfinite(r), r, _PENALTY)
+        return np.where(np.isfinite(r), r, PENALTY)
 
     def _modal_residual(self, state: LabState) -> np.ndarray:
         d: ModalData = self.data
@@ -282,7 +283,7 @@ class Problem:
         try:
             hm = self.predict(state)
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
-            return float(self.n_obs * _PENALTY**2), float("inf")
+            return float(self.n_obs * PENALTY**2), float("inf")
         r = self._frf_residual(hm)
         w, norm, sd = self._smoother()
         sm = (w @ (self.mask * hm)) / norm
@@ -314,6 +315,39 @@ class Problem:
         periods is itself uncertain, hence the margin.
         """
         return float(safety * scipy.stats.chi2.ppf(quantile, self.n_obs))
+
+    def peak(self, state: LabState) -> float:
+        """Largest squared residual of one observation of the lab ``state``: for FRF data the largest
+        ``re^2 + im^2`` of one line and channel (chi-square with 2 degrees of freedom under noise, 1 without
+        phase), for modal data the largest squared residual. A local mismatch (one resonance of a
+        top-beam segment) can stand far out of the noise while adding little to the total chi-square."""
+        r = self.residual(state)
+        if isinstance(self.data, FrfData) and self.use_phase:
+            n = r.size // 2
+            r2 = r[:n] ** 2 + r[n:] ** 2
+        else:
+            r2 = r**2
+        return float(np.max(r2))
+
+    def peak_limit(self, *, quantile: float = 0.999, safety: float = 1.2) -> float:
+        """Largest :meth:`peak` the nominal model may have for the data to count as 'within the noise'.
+
+        ``safety * chi2.isf((1 - quantile) / n, dof)`` over the ``n``
+        observations (Bonferroni: the chance that the largest of ``n``
+        independent noise-only residuals exceeds it is at most
+        ``1 - quantile``); ``dof`` = 2 for FRF lines with phase, else 1. The
+        same ``quantile`` and ``safety`` as :meth:`noise_chi2`.
+        """
+        if isinstance(self.data, FrfData) and self.use_phase:
+            n, dof = self.n_obs // 2, 2
+        else:
+            n, dof = self.n_obs, 1
+        return float(safety * scipy.stats.chi2.isf((1.0 - quantile) / max(n, 1), dof))
+
+    def within_noise(self, state: LabState) -> bool:
+        """Whether the lab ``state`` explains the data within the noise: its chi-square is within
+        :meth:`noise_chi2` and no single observation exceeds :meth:`peak_limit`."""
+        return self.chi2(state) <= self.noise_chi2() and self.peak(state) <= self.peak_limit()
 
     def information(self, chi2: float, k: int) -> tuple[float, float]:
         """``(AIC, BIC) = (chi2 + 2k, chi2 + k ln N)`` (Akaike 1974; Schwarz 1978)."""

@@ -22,6 +22,7 @@ run leaves no partial file; existing files are replaced only with
 from __future__ import annotations
 
 import json
+import math
 import os
 import uuid
 from pathlib import Path
@@ -52,6 +53,15 @@ def _params(d: dict, ci: dict) -> str:
     return "; ".join(parts)
 
 
+def _peak_text(s: dict) -> str:
+    """The local test of the verdict: the largest single-line residual against its limit."""
+    p, lim = s.get("peak_nominal"), s.get("peak_limit")
+    if p is None or lim is None or not (math.isfinite(p) and math.isfinite(lim)):
+        return ""
+    word = "exceeds" if p > lim else "is within"
+    return f"; largest single-line residual {p:.3g} {word} its limit {lim:.3g}"
+
+
 def markdown(res: dict) -> str:
     """The report text from ``res``, the JSON object of a diagnosis."""
     s = res["statistics"]
@@ -62,18 +72,19 @@ def markdown(res: dict) -> str:
     for n in res.get("notes", []):
         lines.append(f"- {n}")
     lines += ["", "## Verdict", ""]
+    peak = _peak_text(s)
     if not res["mismatch"]:
         lines += [f"**No significant mismatch.** The nominal model's weighted residual chi2 = {s['chi2_nominal']:.4g} "
-                  f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}); no effect "
-                  "is proposed.", ""]
+                  f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}){peak}; no "
+                  "effect is proposed.", ""]
     elif not res["selected"]:
-        lines += [f"**Mismatch, not explained.** chi2 = {s['chi2_nominal']:.4g} exceeds the noise limit "
-                  f"{s['chi2_limit']:.4g}, but no hypothesis of the library (alone or in pairs) improves the BIC by "
-                  "10 or more.", ""]
+        lines += [f"**Mismatch, not explained.** chi2 = {s['chi2_nominal']:.4g} (noise limit "
+                  f"{s['chi2_limit']:.4g}){peak}, but no hypothesis of the library (alone or in pairs) improves the "
+                  "BIC by 10 or more and explains it.", ""]
     else:
         sel = " + ".join(f"`{x['effect']}` at {_loc(x['location'])}" for x in res["selected"])
         lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g} -> {res['ranked'][0]['chi2']:.4g} "
-                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}).", ""]
+                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}){peak}.", ""]
         for x in res["selected"]:
             lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}")
         lines.append("")

@@ -29,6 +29,9 @@ class DiagnosisResult:
     mismatch : bool
     chi2_nominal, chi2_limit : float
         Weighted chi-square of the nominal model and the noise limit.
+    peak_nominal, peak_limit : float
+        Largest squared residual of one line and channel of the nominal model and its noise limit
+        (:meth:`Problem.peak`, :meth:`Problem.peak_limit`).
     location : Location
     loop : str or None
         "open", "closed", "both" (None when there is no mismatch).
@@ -75,6 +78,8 @@ class DiagnosisResult:
     alternatives: list = field(default_factory=list)
     overdispersion: float = 1.0
     plant_refit: PlantRefit | None = None
+    peak_nominal: float = float("nan")
+    peak_limit: float = float("nan")
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -165,6 +170,7 @@ class DiagnosisResult:
             "structure": self.structure, "controller": self.controller, "data": data,
             "mismatch": bool(self.mismatch),
             "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
+                           "peak_nominal": self.peak_nominal, "peak_limit": self.peak_limit,
                            "n_obs": self.problem.n_obs, "floor": self.problem.floor,
                            "overdispersion": self.overdispersion},
             "located": located,

@@ -103,19 +103,23 @@ def needs_rerun_check(h: Hypothesis) -> bool:
     return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
 
 
-def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> Hypothesis | None:
-    """The fitted single effect that is the nonlinear part of the pair ``h`` (friction fitted as a dashpot
-    swapped back), for the parsimony check of :func:`tie_break_by_rerun`; None if ``h`` has no such part."""
-    part = next((p for p in h.parts if p.effect in NONLINEAR), None) if isinstance(h, Combination) else None
-    if part is None:
-        return None
+def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypothesis]:
+    """The fitted single effects that are the nonlinear parts of the pair ``h`` (friction fitted as a dashpot
+    swapped back), for the parsimony check of :func:`tie_break_by_rerun`; empty if ``h`` has no such part
+    (both parts of a friction + saturation pair are returned)."""
+    if not isinstance(h, Combination):
+        return []
     singles = [g for g in ranked if not isinstance(g, Combination)]
-    single = next((g for g in singles if g.label == part.label), None)
-    if single is None:
-        swapped = [_swap(g, problem) for g in singles
-                   if isinstance(g, (PointDamping, Friction)) and g.location == part.location]
-        single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
-    return single
+    out = []
+    for part in (p for p in h.parts if p.effect in NONLINEAR):
+        single = next((g for g in singles if g.label == part.label), None)
+        if single is None:
+            swapped = [_swap(g, problem) for g in singles
+                       if isinstance(g, (PointDamping, Friction)) and g.location == part.location]
+            single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
+        if single is not None:
+            out.append(single)
+    return out
 
 
 def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
@@ -129,7 +133,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     histories separate them. When the winner is a pair with such a
     nonlinear part, its linear misfit cannot judge the second effect: the
     pair is kept only if its rerun error is below ``parsimony`` times that
-    of the nonlinear effect alone.
+    of its nonlinear part alone (of the better one, when both parts are
+    nonlinear: friction with saturation).
 
     The reruns (linear plant, the recorded force played back) run in
     parallel processes (:func:`vlab.diagnose.validate.reruns`).
@@ -161,10 +166,10 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             seen.add(h.label)
             cands.append(h)
     cands = cands[:max_candidates]
-    singles = {h.label: g for h in cands if (g := _nonlinear_alone(h, ranked, problem)) is not None}
+    singles = {h.label: g for h in cands if (g := _nonlinear_alone(h, ranked, problem))}
     # rerun the candidates when there is a choice, and pairs with a nonlinear part and that part alone
     todo: dict = {}
-    for h in [h for h in cands if len(cands) > 1 or h.label in singles] + list(singles.values()):
+    for h in [h for h in cands if len(cands) > 1 or h.label in singles] + [g for gs in singles.values() for g in gs]:
         todo.setdefault(h.label, h)
     runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo.values()], "linear")
     errors = {label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
@@ -175,8 +180,9 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     if len(cands) > 1:
         notes.append("look-alikes compared by rerun (time-domain error): "
                      + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
-    single = singles.get(best.label)
-    if single is not None:
+    alone = singles.get(best.label)
+    if alone:
+        single = min(alone, key=lambda g: errors[g.label])
         e_pair, e_single = errors[best.label], errors[single.label]
         notes.append(f"pair with a nonlinear effect checked by rerun: {best.label}: {e_pair:.3g}, "
                      f"{single.label} alone: {e_single:.3g}")

@@ -44,6 +44,9 @@ class AddedMass(_PointSet):
     (e.g. something attached to every actuator).
 
     Parameters: ``mass_kg`` [kg] >= 0 (per point). Applied with :func:`specedit.add_mass`.
+    Trials: 0.5-60 % of the smallest modal mass seen at the point in the band
+    (:class:`Context`), capped at the structure's mass; a trial the structure
+    cannot carry (buckling) scores infinity (:func:`vlab.diagnose.fit.screen`).
     """
 
     effect = "added_mass"
@@ -54,7 +57,9 @@ class AddedMass(_PointSet):
     stage = 0
 
     def _space(self, state, ctx):
-        m = min(ctx.point_mass.get(p, ctx.total_mass_kg) for p in self.points)
+        # the modal mass seen at a point next to a support is huge (8 t at the grid's top-beam ends): the
+        # trial scale is capped at the structure's own mass, so the trials stay masses one would attach
+        m = min(min(ctx.point_mass.get(p, ctx.total_mass_kg), ctx.total_mass_kg) for p in self.points)
         return (np.array([[m * f] for f in (0.005, 0.015, 0.04, 0.1, 0.25, 0.6)]),
                 np.array([0.0]), np.array([max(5.0 * m, 0.5 * ctx.total_mass_kg)]))
 
