@@ -5,9 +5,10 @@ The recorded excitation force is played back through the 2 kHz loop of
 sampling) on a plant built from the lab state -- the MuJoCo plant of
 :mod:`vlab.sim` built from the (modified) spec when the effect can be
 expressed in a spec and MuJoCo is available, else the exact linear plant
-(:class:`vlab.lab.linear_plant.LinearPlant`). Both runs (nominal and with the
-effect) start from rest, as the recording did, so the transient is
-reproduced too.
+(:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
+runs (nominal and with the effect) start one period before the analysed
+ones, in the lab's periodic steady state (:mod:`vlab.diagnose.warmstart`);
+otherwise from rest, as the recording did.
 
 Misfits (before = nominal, after = with the effect):
 
@@ -37,6 +38,7 @@ from ..measure.frf import h1
 from .data import FrfData
 from .labmodel import LabState
 from .problem import log_misfit, noise_misfit
+from .warmstart import period_ticks, start_tick, warm_start
 
 
 class FrictionPlant:
@@ -65,6 +67,13 @@ class FrictionPlant:
         self._ff = np.array([f for _, f in frictions], dtype=float)
         self._v_s = v_s
         self._f = np.zeros(len(self.actuator_points))
+
+    def set_periodic_state(self, freq_hz, forces) -> None:
+        """The inner plant's periodic steady state of the coil forces ``forces`` (n_f, n_act) at
+        ``freq_hz`` [Hz], without friction (its transient decays in the guard period of
+        :mod:`vlab.diagnose.warmstart`)."""
+        F = np.asarray(forces, dtype=complex)
+        self.inner.set_periodic_state(freq_hz, np.hstack([F, np.zeros((F.shape[0], len(self._fp)))]))
 
     def set_forces(self, forces) -> None:
         """Coil forces [N], shape (n_act,)."""
@@ -132,8 +141,8 @@ def mujoco_plant(state: LabState):
 
 
 def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
-          plant: str = "linear", seed: int = 0) -> tuple[Recording, str]:
-    """Play the recorded excitation back through the lab loop.
+          plant: str = "linear", seed: int = 0, start: int = 0, period: int = 0) -> tuple[Recording, str]:
+    """Play the recorded excitation back through the lab loop, from rest or from a warm start.
 
     Parameters
     ----------
@@ -146,11 +155,19 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     plant : {"linear", "mujoco"}
     seed : int
         Seed of the controller's sensor noise (the chain's ``noise_m_s``).
+    start : int
+        Tick to start at (0: from rest at the first tick). A later start
+        begins in the lab's periodic steady state there
+        (:func:`vlab.diagnose.warmstart.warm_start`) and needs ``period``.
+    period : int
+        Ticks per excitation period (for a warm start).
 
     Returns
     -------
     (Recording, str)
-        The rerun and a description of the plant used.
+        The rerun from tick ``start`` on (its metadata ``start_s`` says where
+        it begins on the recording's time axis [s]) and a description of the
+        plant used.
 
     Raises
     ------
@@ -169,12 +186,29 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     engine = None
     if d is not None:
         engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
-    n = len(force)
+    force = np.asarray(force, dtype=float)
+    if start:
+        warm_start(state, p, engine, force, excitation_point=excitation_point, start=start, n_per=period)
+    n = len(force) - start
     loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
-                    excitation_point=excitation_point, excitation=np.asarray(force, dtype=float),
+                    excitation_point=excitation_point, excitation=force[start:],
                     duration_s=n * state.chain.period_s, chain=state.chain, seed=seed,
-                    shape_points=())
+                    shape_points=(), metadata={"start_s": start * state.chain.period_s})
     return loop.recording, kind
+
+
+def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
+    """First analysed sample of ``data``'s recording and of the rerun ``rec`` (which may begin later,
+    at its metadata ``start_s``)."""
+    first = int(round(data.analysed_from_s / rec.dt_s))
+    return first, first - int(round(float(rec.metadata.get("start_s", 0.0)) / rec.dt_s))
+
+
+def rerun_window(data: FrfData, dt_s: float) -> tuple[int, int]:
+    """``(start, period)`` ticks of a rerun of ``data``'s test: a warm start one guard period before the
+    analysed part where the test is periodic (:func:`vlab.diagnose.warmstart.start_tick`), else ``(0, 0)``."""
+    k0 = start_tick(data, dt_s)
+    return (k0, period_ticks(data, dt_s)) if k0 else (0, 0)
 
 
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
@@ -190,7 +224,7 @@ def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
             out[:, j] = np.interp(f0, frf.freq_hz, frf.h.real) + 1j * np.interp(f0, frf.freq_hz, frf.h.imag)
         return out
     n_per = int(round(1.0 / (df * dt)))
-    start = int(round(data.analysed_from_s / dt))
+    start = _offset(rec, data)[1]
     x = np.asarray(rec[f"force{data.excitation_point}"])[start:]
     m = x.size // n_per
     x = x[: m * n_per].reshape(m, n_per)
@@ -205,12 +239,14 @@ def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
 
 def time_error(rec: Recording, data: FrfData) -> float:
     """``||v_rerun - v_recorded|| / ||v_recorded||`` of the rerun ``rec`` against the recording of ``data``,
-    over the velocity channels after the transient."""
-    start = int(round(data.analysed_from_s / rec.dt_s))
+    over the velocity channels after the transient (a warm-started rerun aligned by its ``start_s``)."""
+    first, own = _offset(rec, data)
     num = den = 0.0
     for p in data.output_points:
-        a = np.asarray(data.recording[f"vel{p}"])[start:]
-        b = np.asarray(rec[f"vel{p}"])[start:]
+        a = np.asarray(data.recording[f"vel{p}"])[first:]
+        b = np.asarray(rec[f"vel{p}"])[own:]
+        n = min(a.size, b.size)
+        a, b = a[:n], b[:n]
         num += float(np.sum((b - a) ** 2))
         den += float(np.sum(a**2))
     return float(np.sqrt(num / den)) if den > 0 else float("nan")
@@ -234,7 +270,8 @@ class Validation:
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
         FRFs of the reruns on the data's lines.
     v_before, v_after : dict
-        Point -> rerun velocity [m/s], shape (n_samples,).
+        Point -> rerun velocity [m/s] on the recording's time axis, shape (n_samples,)
+        (NaN before a warm-started rerun begins).
     """
 
     plant: str
@@ -256,10 +293,18 @@ class Validation:
 
 
 def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,
-               seed: int) -> tuple[float, dict]:
-    """Worker of a parallel rerun: returns ``(dt_s, {channel: samples})`` (picklable)."""
-    rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed)
-    return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}
+               seed: int, window: tuple[int, int] = (0, 0)) -> tuple[float, dict, dict]:
+    """Worker of a parallel rerun from tick ``window[0]`` (period ``window[1]``): returns
+    ``(dt_s, {channel: samples}, metadata)`` (picklable)."""
+    rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed,
+                   start=window[0], period=window[1])
+    return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}, dict(rec.metadata)
+
+
+def _recording(payload: tuple[float, dict, dict]) -> Recording:
+    """The :class:`Recording` of a :func:`_rerun_job` result."""
+    dt, signals, meta = payload
+    return Recording.from_signals(dt, signals, metadata=meta)
 
 
 def _background_job(conn, *args) -> None:
@@ -302,10 +347,11 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    window = rerun_window(data, data.recording.dt_s)
     try:
         recv, send = multiprocessing.Pipe(duplex=False)
         proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
-            send, state, force, data.excitation_point, tuple(data.output_points), plant, seed))
+            send, state, force, data.excitation_point, tuple(data.output_points), plant, seed, window))
         proc.start()
         send.close()
     except (OSError, AssertionError, ValueError):  # AssertionError: a daemon process may not start children
@@ -326,7 +372,7 @@ def _collect_background(problem, keys: list) -> None:
         try:
             status, payload = recv.recv()
             if status == "ok":
-                cache[key] = Recording.from_signals(*payload)
+                cache[key] = _recording(payload)
         except (EOFError, OSError):
             pass
         finally:
@@ -368,6 +414,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    window = rerun_window(data, data.recording.dt_s)
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})
@@ -383,11 +430,11 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
 
         try:
             with ProcessPoolExecutor(min(workers, len(todo))) as ex:
-                futs = [(i, ex.submit(_rerun_job, st, force, data.excitation_point, pts, plant, seed)) for i, st in todo]
+                futs = [(i, ex.submit(_rerun_job, st, force, data.excitation_point, pts, plant, seed, window))
+                        for i, st in todo]
                 for i, fu in futs:
                     try:
-                        dt, sig = fu.result()
-                        out[i] = Recording.from_signals(dt, sig)
+                        out[i] = _recording(fu.result())
                     except VlabError as exc:
                         out[i] = exc
         except (OSError, BrokenProcessPool):
@@ -395,7 +442,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     def here(st: LabState):
         try:
             return rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
-                         seed=seed)[0]
+                         seed=seed, start=window[0], period=window[1])[0]
         except VlabError as exc:
             return exc
 
@@ -492,6 +539,16 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data),
                       noise_misfit(target[mask], target_var[mask], w), hb, ha,
-                      {p: np.asarray(runs[0][f"vel{p}"]) for p in pts},
-                      {p: np.asarray(runs[1][f"vel{p}"]) for p in pts})
+                      {p: _on_recording_axis(runs[0], p, rec) for p in pts},
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts})
+
+
+def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:
+    """Velocity ``vel<p>`` of a rerun on the recording's time axis, shape (rec.n_samples,): NaN before a
+    warm-started rerun begins (its metadata ``start_s``)."""
+    out = np.full(rec.n_samples, np.nan)
+    k0 = int(round(float(run.metadata.get("start_s", 0.0)) / rec.dt_s))
+    v = np.asarray(run[f"vel{p}"])[: max(rec.n_samples - k0, 0)]
+    out[k0:k0 + v.size] = v
+    return out
 

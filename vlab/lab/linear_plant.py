@@ -59,8 +59,44 @@ class LinearPlant:
         e = scipy.linalg.expm(big)
         self._ad, self._bd = e[:nx, :nx], e[:nx, nx:]
         self._n = n
+        self._mck, self._u = (m, c, k), u
         self.x = np.zeros(nx)
         self._f = np.zeros(nu)
+        self.time_s = 0.0
+
+    def set_periodic_state(self, freq_hz, forces) -> None:
+        """Put the plant in the steady state of periodic forces, at a period's start (warm start).
+
+        For forces ``f(t) = Re sum_k F_k exp(j 2 pi f_k t)`` the steady state is
+        ``q(t) = Re sum_k Q_k exp(j w_k t)`` with
+        ``(k - w_k^2 m + j w_k c) Q_k = U F_k`` (Eq. 3.1 in the frequency domain);
+        the state is set to ``q(0)``, ``q'(0)`` and the time to 0. The discrete
+        stepping differs from it by the hold over a physics step, a transient
+        that decays within the lab's settling time.
+
+        Parameters
+        ----------
+        freq_hz : ndarray, shape (n_f,)
+            Frequencies of the force lines [Hz].
+        forces : ndarray, complex, shape (n_f, n_act)
+            Phasors ``F_k`` per input, order :attr:`actuator_points` [N].
+
+        Raises
+        ------
+        ModelError
+            Wrong shapes or non-finite values.
+        """
+        f = np.asarray(freq_hz, dtype=float)
+        F = np.asarray(forces, dtype=complex)
+        if F.shape != (f.size, self._u.shape[1]) or not np.all(np.isfinite(F)):
+            raise ModelError(f"set_periodic_state: forces must be finite, shape ({f.size}, {self._u.shape[1]}); "
+                             f"got {F.shape}")
+        m, c, k = self._mck
+        w = 2 * np.pi * f
+        rhs = (self._u @ F.T).T                                           # (n_f, n)
+        q = np.linalg.solve(k[None] - (w**2)[:, None, None] * m[None] + 1j * w[:, None, None] * c[None],
+                            rhs[:, :, None])[:, :, 0]
+        self.x = np.concatenate([np.sum(1j * w[:, None] * q, axis=0).real, np.sum(q, axis=0).real])
         self.time_s = 0.0
 
     def set_forces(self, forces: np.ndarray) -> None:

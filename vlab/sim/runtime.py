@@ -26,7 +26,7 @@ from ..errors import SimulationError
 from ..spec import StructureSpec
 from .builder import Plant, SimOptions, build_plant
 from .damping import load_modal_damping
-from .linearize import settle
+from .linearize import modes, settle, site_jacobian_w
 
 
 def _numbered(model: mujoco.MjModel, objtype, count: int, prefix: str) -> dict[int, int]:
@@ -130,6 +130,7 @@ class MujocoPlant:
         self.data = mujoco.MjData(model)
         self._rows_cache: dict[tuple, np.ndarray | None] = {}
         self.modal_damping = load_modal_damping(model)
+        self._modes = None  # modal model, made on first use (:meth:`modal_model`)
         self.reset()
 
     # -- state
@@ -146,6 +147,88 @@ class MujocoPlant:
     def time_s(self) -> float:
         """Simulated time since :meth:`reset` [s]."""
         return float(self.data.time)
+
+    def modal_model(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The plant's out-of-plane modes around the settled state, as its modal damping was designed.
+
+        The modes of :attr:`vlab.sim.Plant.modes` (those the applied modal
+        damping was designed on, with the designed ratios) when the plant was
+        built here, else a linearisation of the model (:func:`vlab.sim.modes`).
+
+        Parameters
+        ----------
+        points : sequence of int
+            Points whose out-of-plane displacement is returned.
+
+        Returns
+        -------
+        omega : ndarray, shape (n_modes,)
+            Undamped natural frequencies [rad/s].
+        zeta : ndarray, shape (n_modes,)
+            Damping ratios [1].
+        joint_shapes : ndarray, shape (nv, n_modes)
+            Mass-normalised shapes in joint coordinates (``phi^T M phi = 1``).
+        w : ndarray, shape (len(points), n_modes)
+            Their out-of-plane displacement at ``points`` [m/sqrt(kg)].
+
+        Raises
+        ------
+        SimulationError
+            An unknown point, or a model whose linearisation is unstable.
+        """
+        pts = list(points)
+        missing = [p for p in pts if p not in self._sites]
+        if missing:
+            raise SimulationError(f"unknown points {missing}; points are {sorted(self._sites)}")
+        if self._modes is None:
+            sm = self.plant.modes if self.plant is not None and self.plant.modes is not None else None
+            if sm is None:
+                sm = modes(self.model, pts, data=self._ref)
+            self._modes = sm
+        sm = self._modes
+        w = site_jacobian_w(self.model, self._ref, [f"p{p}" for p in pts]) @ sm.joint_shapes
+        return sm.omega, np.asarray(sm.damping_ratios), sm.joint_shapes, w
+
+    def set_periodic_state(self, freq_hz, forces) -> None:
+        """Put the plant in the steady state of periodic coil forces, at a period's start (warm start).
+
+        The coil forces ``f(t) = Re sum_k F_k exp(j 2 pi f_k t)`` drive each
+        mode ``r`` of :meth:`modal_model`; its steady-state coordinate is
+        ``q_r = sum_k Re(w_r . F_k / (omega_r^2 - omega_k^2 + 2 j zeta_r omega_r omega_k))``
+        at ``t = 0`` (modal superposition, e.g. Ewins, *Modal Testing*, 2nd
+        ed., 2000, Sec. 2.5), and the joint state is the settled one plus
+        ``Phi q`` and velocity ``Phi q'``. Modes outside the model (the
+        discretisation's highest) and the plant's small nonlinearity leave a
+        transient that decays within the lab's settling time.
+
+        Parameters
+        ----------
+        freq_hz : ndarray, shape (n_f,)
+            Frequencies of the force lines [Hz].
+        forces : ndarray, complex, shape (n_f, n_act)
+            Phasors ``F_k`` per coil, order :attr:`actuator_points` [N].
+
+        Raises
+        ------
+        SimulationError
+            Wrong shapes, non-finite values, or no modal model (see :meth:`modal_model`).
+        """
+        f = np.asarray(freq_hz, dtype=float)
+        F = np.asarray(forces, dtype=complex)
+        if F.shape != (f.size, len(self.actuator_points)) or not np.all(np.isfinite(F)):
+            raise SimulationError(f"set_periodic_state: forces must be finite, shape ({f.size}, "
+                                  f"{len(self.actuator_points)}); got {F.shape}")
+        omega, zeta, phi, w = self.modal_model(self.actuator_points)
+        wl = 2 * np.pi * f
+        den = omega[None, :] ** 2 - wl[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * wl[:, None]
+        q = (F @ w) / den                                  # (n_f, n_modes) modal phasors
+        dq = phi @ np.sum(q, axis=0).real                  # joint displacement at t = 0
+        v = phi @ np.sum(1j * wl[:, None] * q, axis=0).real
+        self.reset()
+        d = self.data
+        mujoco.mj_integratePos(self.model, d.qpos, dq, 1.0)
+        d.qvel[:] = v
+        mujoco.mj_forward(self.model, d)
 
     # -- loop protocol
     def set_forces(self, forces) -> None:
