@@ -89,13 +89,14 @@ def test_rerun_window_is_one_guard_period_before_the_analysed_part():
     data = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                    analysed_from_s=3 * n_per * dt)
     assert start_tick(data, dt) == (3 - GUARD_PERIODS) * n_per
-    assert rerun_window(data, dt) == ((3 - GUARD_PERIODS) * n_per, n_per)
+    assert rerun_window(data, dt) == ((3 - GUARD_PERIODS) * n_per, n_per, None)
+    assert rerun_window(data, dt, 1) == ((3 - GUARD_PERIODS) * n_per, n_per, 4 * n_per)  # one analysed period
     one = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                   analysed_from_s=GUARD_PERIODS * n_per * dt)
-    assert rerun_window(one, dt) == (0, 0)  # nothing to skip: from rest
+    assert rerun_window(one, dt) == (0, 0, None)  # nothing to skip: from rest
     h1 = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                  analysed_from_s=3 * n_per * dt, periodic=False)
-    assert rerun_window(h1, dt) == (0, 0)  # H1 with a window over the whole record: from rest
+    assert rerun_window(h1, dt) == (0, 0, None)  # H1 with a window over the whole record: from rest
 
 
 def test_excitation_lines_rebuild_the_period():
@@ -124,6 +125,9 @@ def test_frf_and_time_error_align_a_warm_started_rerun():
     np.testing.assert_allclose(frf_of(warm, data), frf_of(cold, data), rtol=1e-3)
     assert time_error(cold, data) == 0.0
     assert time_error(warm, data) < 1e-3
+    short, _ = rerun(lab, force, excitation_point=exc, measured_points=pts, plant="linear", start=3 * n_per,
+                     period=n_per, stop=5 * n_per)  # one of the two analysed periods
+    assert short.n_samples == 2 * n_per and time_error(short, data) < 1e-3
     v = _on_recording_axis(warm, pts[0], cold)
     assert v.shape == (cold.n_samples,) and np.all(np.isnan(v[: 2 * n_per])) and np.all(np.isfinite(v[2 * n_per:]))
 

@@ -141,7 +141,8 @@ def mujoco_plant(state: LabState):
 
 
 def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
-          plant: str = "linear", seed: int = 0, start: int = 0, period: int = 0) -> tuple[Recording, str]:
+          plant: str = "linear", seed: int = 0, start: int = 0, period: int = 0,
+          stop: int | None = None) -> tuple[Recording, str]:
     """Play the recorded excitation back through the lab loop, from rest or from a warm start.
 
     Parameters
@@ -161,6 +162,8 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
         (:func:`vlab.diagnose.warmstart.warm_start`) and needs ``period``.
     period : int
         Ticks per excitation period (for a warm start).
+    stop : int, optional
+        Tick to stop before (default: the end of ``force``).
 
     Returns
     -------
@@ -186,7 +189,7 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     engine = None
     if d is not None:
         engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
-    force = np.asarray(force, dtype=float)
+    force = np.asarray(force, dtype=float)[:stop]
     if start:
         warm_start(state, p, engine, force, excitation_point=excitation_point, start=start, n_per=period)
     n = len(force) - start
@@ -204,11 +207,26 @@ def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
     return first, first - int(round(float(rec.metadata.get("start_s", 0.0)) / rec.dt_s))
 
 
-def rerun_window(data: FrfData, dt_s: float) -> tuple[int, int]:
-    """``(start, period)`` ticks of a rerun of ``data``'s test: a warm start one guard period before the
-    analysed part where the test is periodic (:func:`vlab.diagnose.warmstart.start_tick`), else ``(0, 0)``."""
+def rerun_window(data: FrfData, dt_s: float, periods: int | None = None) -> tuple[int, int, int | None]:
+    """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
+    the analysed part where the test is periodic (:func:`vlab.diagnose.warmstart.start_tick`; else from
+    rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None: the whole record).
+
+    Parameters
+    ----------
+    data : FrfData
+        With a recording.
+    dt_s : float
+        Controller period [s].
+    periods : int, optional
+        Analysed periods to keep.
+    """
     k0 = start_tick(data, dt_s)
-    return (k0, period_ticks(data, dt_s)) if k0 else (0, 0)
+    n_per = period_ticks(data, dt_s) if data.periodic else 0
+    stop = None
+    if periods is not None and n_per:
+        stop = int(round(data.analysed_from_s / dt_s)) + periods * n_per
+    return (k0, n_per if k0 else 0, stop)
 
 
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
@@ -293,11 +311,11 @@ class Validation:
 
 
 def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,
-               seed: int, window: tuple[int, int] = (0, 0)) -> tuple[float, dict, dict]:
-    """Worker of a parallel rerun from tick ``window[0]`` (period ``window[1]``): returns
-    ``(dt_s, {channel: samples}, metadata)`` (picklable)."""
+               seed: int, window: tuple = (0, 0, None)) -> tuple[float, dict, dict]:
+    """Worker of a parallel rerun over the ticks ``window`` (start, period, stop; :func:`rerun_window`):
+    returns ``(dt_s, {channel: samples}, metadata)`` (picklable)."""
     rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed,
-                   start=window[0], period=window[1])
+                   start=window[0], period=window[1], stop=window[2])
     return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}, dict(rec.metadata)
 
 
@@ -388,7 +406,7 @@ def stop_background(problem) -> None:
         recv.close()
 
 
-def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, periods: int | None = None) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
     Parameters
@@ -405,6 +423,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
         one process where a pool cannot start); each rerun running in the
         background (:func:`start_background_rerun`) holds one of them, and
         one of ``jobs`` is made while it finishes.
+    periods : int, optional
+        Analysed periods to rerun (default all; fewer for a comparison of
+        time histories only). Cached under the keys with ``#<periods>``.
 
     Returns
     -------
@@ -414,7 +435,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s)
+    window = rerun_window(data, data.recording.dt_s, periods)
+    if periods is not None:
+        jobs = [(st, None if k is None else f"{k}#{periods}") for st, k in jobs]
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})
@@ -442,7 +465,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     def here(st: LabState):
         try:
             return rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
-                         seed=seed, start=window[0], period=window[1])[0]
+                         seed=seed, start=window[0], period=window[1], stop=window[2])[0]
         except VlabError as exc:
             return exc
 

@@ -47,7 +47,15 @@ LINE_FLOOR = 1e-6
 
 
 def period_ticks(data: FrfData, dt_s: float) -> int:
-    """Controller ticks per excitation period of ``data`` (``1 / (resolution dt)``)."""
+    """Controller ticks per excitation period of ``data`` (``1 / (resolution dt)``).
+
+    Parameters
+    ----------
+    data : FrfData
+        Its lines are multiples of the resolution [Hz].
+    dt_s : float
+        Controller period [s].
+    """
     df = float(np.min(np.diff(data.freq_hz))) if data.freq_hz.size > 1 else float(data.freq_hz[0])
     return int(round(1.0 / (df * dt_s)))
 
