@@ -12,8 +12,8 @@ import pytest
 
 from vlab.diagnose.labmodel import LabState
 from vlab.diagnose.nominal import nominal_design
-from vlab.diagnose.validate import _on_recording_axis, frf_of, rerun, rerun_window, time_error
-from vlab.diagnose.warmstart import GUARD_PERIODS, excitation_lines, start_tick
+from vlab.diagnose.validate import _on_recording_axis, frf_of, rerun, time_error
+from vlab.diagnose.warmstart import GUARD_PERIODS, RERUN_PERIODS, excitation_lines, rerun_window, start_tick
 from vlab.diagnose.data import FrfData
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
@@ -89,11 +89,11 @@ def test_rerun_window_is_one_guard_period_before_the_analysed_part():
     data = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                    analysed_from_s=3 * n_per * dt)
     assert start_tick(data, dt) == (3 - GUARD_PERIODS) * n_per
-    assert rerun_window(data, dt) == ((3 - GUARD_PERIODS) * n_per, n_per, None)
-    assert rerun_window(data, dt, 1) == ((3 - GUARD_PERIODS) * n_per, n_per, 4 * n_per)  # one analysed period
+    assert rerun_window(data, dt) == ((3 - GUARD_PERIODS) * n_per, n_per, (3 + RERUN_PERIODS) * n_per)
+    assert rerun_window(data, dt, None) == ((3 - GUARD_PERIODS) * n_per, n_per, None)  # to the end
     one = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                   analysed_from_s=GUARD_PERIODS * n_per * dt)
-    assert rerun_window(one, dt) == (0, 0, None)  # nothing to skip: from rest
+    assert rerun_window(one, dt) == (0, 0, (1 + RERUN_PERIODS) * n_per)  # nothing to skip: from rest
     h1 = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                  analysed_from_s=3 * n_per * dt, periodic=False)
     assert rerun_window(h1, dt) == (0, 0, None)  # H1 with a window over the whole record: from rest

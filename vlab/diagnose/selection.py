@@ -22,10 +22,6 @@ from .locate import located_places
 from .problem import Problem
 from .validate import reruns, time_error
 
-#: Analysed periods rerun to compare look-alikes by their time histories (one is enough to see clipping
-#: or friction; a validation rerun makes all of them).
-COMPARED_PERIODS = 1
-
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
 
@@ -140,9 +136,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     of its nonlinear part alone (of the better one, when both parts are
     nonlinear: friction with saturation).
 
-    The reruns (linear plant, the recorded force played back over
-    :data:`COMPARED_PERIODS` analysed period) run in parallel processes
-    (:func:`vlab.diagnose.validate.reruns`).
+    The reruns (linear plant, the recorded force played back,
+    :func:`vlab.diagnose.validate.reruns`) run in parallel processes.
 
     Parameters
     ----------
@@ -176,8 +171,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     todo: dict = {}
     for h in [h for h in cands if len(cands) > 1 or h.label in singles] + [g for gs in singles.values() for g in gs]:
         todo.setdefault(h.label, h)
-    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo.values()], "linear",
-                  periods=COMPARED_PERIODS)
+    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo.values()], "linear")
     errors = {label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
               for label, r in zip(todo, runs)}
     errs = [errors[h.label] for h in cands] if len(cands) > 1 else [float("nan")]

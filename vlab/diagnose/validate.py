@@ -7,8 +7,9 @@ sampling) on a plant built from the lab state -- the MuJoCo plant of
 expressed in a spec and MuJoCo is available, else the exact linear plant
 (:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
 runs (nominal and with the effect) start one period before the analysed
-ones, in the lab's periodic steady state (:mod:`vlab.diagnose.warmstart`);
-otherwise from rest, as the recording did.
+ones, in the lab's periodic steady state, and simulate one analysed period
+(:mod:`vlab.diagnose.warmstart`); otherwise they start from rest, as the
+recording did.
 
 Misfits (before = nominal, after = with the effect):
 
@@ -38,7 +39,7 @@ from ..measure.frf import h1
 from .data import FrfData
 from .labmodel import LabState
 from .problem import log_misfit, noise_misfit
-from .warmstart import period_ticks, start_tick, warm_start
+from .warmstart import rerun_window, warm_start
 
 
 class FrictionPlant:
@@ -205,28 +206,6 @@ def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
     at its metadata ``start_s``)."""
     first = int(round(data.analysed_from_s / rec.dt_s))
     return first, first - int(round(float(rec.metadata.get("start_s", 0.0)) / rec.dt_s))
-
-
-def rerun_window(data: FrfData, dt_s: float, periods: int | None = None) -> tuple[int, int, int | None]:
-    """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
-    the analysed part where the test is periodic (:func:`vlab.diagnose.warmstart.start_tick`; else from
-    rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None: the whole record).
-
-    Parameters
-    ----------
-    data : FrfData
-        With a recording.
-    dt_s : float
-        Controller period [s].
-    periods : int, optional
-        Analysed periods to keep.
-    """
-    k0 = start_tick(data, dt_s)
-    n_per = period_ticks(data, dt_s) if data.periodic else 0
-    stop = None
-    if periods is not None and n_per:
-        stop = int(round(data.analysed_from_s / dt_s)) + periods * n_per
-    return (k0, n_per if k0 else 0, stop)
 
 
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
@@ -406,7 +385,7 @@ def stop_background(problem) -> None:
         recv.close()
 
 
-def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, periods: int | None = None) -> list:
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
     Parameters
@@ -423,9 +402,6 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         one process where a pool cannot start); each rerun running in the
         background (:func:`start_background_rerun`) holds one of them, and
         one of ``jobs`` is made while it finishes.
-    periods : int, optional
-        Analysed periods to rerun (default all; fewer for a comparison of
-        time histories only). Cached under the keys with ``#<periods>``.
 
     Returns
     -------
@@ -435,9 +411,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, periods)
-    if periods is not None:
-        jobs = [(st, None if k is None else f"{k}#{periods}") for st, k in jobs]
+    window = rerun_window(data, data.recording.dt_s)
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})

@@ -20,9 +20,11 @@ did. This is the periodic steady-state initialisation of circuit
 simulation (Aprille & Trick, Proc. IEEE 60 (1972) 108-114) done in the
 frequency domain.
 
-The grid's 100 s test (3 dropped, 2 analysed 20 s periods) is rerun in 60 s
-of simulated time; a test that drops only what the guard keeps is rerun from
-rest as before.
+A rerun then simulates :data:`RERUN_PERIODS` analysed period: the grid's 100 s
+test (3 dropped, 2 analysed 20 s periods) is rerun in 40 s of simulated time.
+A test that drops only what the guard keeps is rerun from rest (to the end
+of its first analysed period); one not estimated period by period (H1 with a
+window) is rerun whole.
 """
 
 from __future__ import annotations
@@ -41,6 +43,11 @@ from .labmodel import LabState, PointModes, predict_frf, sensor_path
 #: (7 s for the grid's mode 1, 2 s for the BCC's): one 20 s period leaves
 #: ``e^-2.8 = 6 %`` of an already small start error. A chosen margin.
 GUARD_PERIODS = 1
+
+#: Analysed periods a rerun simulates (after the guard period). A rerun's only noise is the controller's
+#: sensor noise (1e-6 m/s), so one period gives its FRF and its time history to far better than the
+#: recording's noise; the recording keeps all its analysed periods. A chosen length.
+RERUN_PERIODS = 1
 
 #: Lines of the excitation below this fraction of its largest are left out of the start.
 LINE_FLOOR = 1e-6
@@ -78,6 +85,28 @@ def start_tick(data: FrfData, dt_s: float) -> int:
     first = int(round(data.analysed_from_s / dt_s))
     k0 = first - GUARD_PERIODS * n_per
     return k0 if k0 > 0 and k0 % n_per == 0 else 0
+
+
+def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS) -> tuple[int, int, int | None]:
+    """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
+    the analysed part where the test is periodic (:func:`start_tick`; else from
+    rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None: the whole record).
+
+    Parameters
+    ----------
+    data : FrfData
+        With a recording.
+    dt_s : float
+        Controller period [s].
+    periods : int or None
+        Analysed periods to rerun (default :data:`RERUN_PERIODS`; None: to the end of the record).
+    """
+    k0 = start_tick(data, dt_s)
+    n_per = period_ticks(data, dt_s) if data.periodic else 0
+    stop = None
+    if periods is not None and n_per:
+        stop = int(round(data.analysed_from_s / dt_s)) + periods * n_per
+    return (k0, n_per if k0 else 0, stop)
 
 
 def excitation_lines(force: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
