@@ -30,3 +30,31 @@ def test_noise_misfit_matches_a_monte_carlo_of_circular_noise():
         noise = np.sqrt(var / 2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
         sq.append(log_misfit(h, h + noise, w) ** 2)
     assert np.sqrt(np.mean(sq)) == pytest.approx(noise_misfit(h, var, w), rel=0.02)
+
+
+def _problem(n_lines: int, var_dof):
+    from vlab.diagnose.data import FrfData
+    from vlab.diagnose.problem import Problem
+
+    f = np.arange(1, n_lines + 1) * 0.05
+    ones = np.ones((n_lines, 1))
+    data = FrfData("synthetic", "frf", f, ones.astype(complex), 1e-4 * ones, 4, (4,), var_dof=var_dof)
+    return Problem(data, None, None, floor=0.0)
+
+
+def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
+    """Residuals scaled by a noise variance estimated with nu degrees of freedom (each line its own estimate,
+    the worst case) exceed the F-based peak limit in about 1 - quantile of noise-only records; the
+    chi-square limit, which takes the variance as known, is exceeded far more often."""
+    from vlab.diagnose.data import pooled_dof
+
+    n, nu, trials = 1000, pooled_dof(2), 2000
+    rng = np.random.default_rng(7)
+    z2 = rng.chisquare(2, (trials, n))                  # |e|^2 / (sigma^2 / 2) with the true sigma
+    est = rng.chisquare(nu, (trials, n)) / nu           # estimated sigma^2 / true sigma^2
+    peak = np.max(z2 / est, axis=1)
+    f_limit = _problem(n, nu).peak_limit(safety=1.0)
+    chi_limit = _problem(n, None).peak_limit(safety=1.0)
+    assert f_limit > 1.5 * chi_limit
+    assert np.mean(peak > f_limit) < 0.005              # 0.001 nominal
+    assert np.mean(peak > chi_limit) > 0.05

@@ -83,6 +83,10 @@ class FrfData:
         baseline recording (:func:`refer_to_model`); None otherwise.
     var_recorded : ndarray, shape (n_f, n_o) or None
         The variance of ``h_recorded`` (the recording's own noise) [((m/s)/N)^2].
+    var_dof : float or None
+        Effective real degrees of freedom of ``var`` when it is estimated from
+        the data (period-to-period scatter, pooled over neighbouring lines:
+        :func:`pooled_dof`); None when it is taken as known.
     """
 
     source: str
@@ -100,6 +104,7 @@ class FrfData:
     periodic: bool = True
     h_recorded: np.ndarray | None = None
     var_recorded: np.ndarray | None = None
+    var_dof: float | None = None
 
     @property
     def sigma_rel(self) -> np.ndarray:
@@ -186,11 +191,30 @@ def _is_periodic(x: np.ndarray, n: int) -> bool:
     return bool(np.max(np.abs(a - b)) <= 1e-9 * max(np.max(np.abs(a)), 1e-300))
 
 
-def _pooled_variance(own: np.ndarray, dof: int, width: int = 21) -> np.ndarray:
+#: Lines in the running median that pools the per-line variance estimates.
+POOL_WIDTH = 21
+
+
+def _pooled_variance(own: np.ndarray, dof: int, width: int = POOL_WIDTH) -> np.ndarray:
     """Running-median pooling of per-line variance estimates with ``dof`` real degrees of freedom."""
     med = scipy.stats.chi2.median(dof) / dof
     pooled = scipy.ndimage.median_filter(own, size=(width, 1), mode="nearest") / med
     return pooled
+
+
+def pooled_dof(dof: int, width: int = POOL_WIDTH) -> float:
+    """Effective degrees of freedom of a variance pooled by the running median of ``width`` estimates with
+    ``dof`` real degrees of freedom each: ``(2 / pi) width dof``, the large-sample efficiency of the median
+    against the mean (Kendall & Stuart, *The Advanced Theory of Statistics*, vol. 1, Sec. 10.10).
+
+    Parameters
+    ----------
+    dof : int
+        Real degrees of freedom of each per-line estimate (``2 (m - 1)`` from ``m`` periods).
+    width : int
+        Lines pooled.
+    """
+    return 2.0 / math.pi * width * dof
 
 
 def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, path: str,
@@ -288,10 +312,12 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
             own = np.sum(np.abs(hp - h) ** 2, axis=0) / (m - 1) / m
             dof = 2 * (m - 1)
             var = np.maximum(_pooled_variance(own, dof), own)
+            var_dof = pooled_dof(dof)
             notes.append(f"periodic excitation: {m} period(s) of {n_per * dt:g} s analysed after dropping {skip}; "
                          "noise from the period-to-period scatter")
         else:
             var = np.zeros_like(h.real)
+            var_dof = None
             notes.append(f"periodic excitation: one period analysed after dropping {skip}; no noise estimate "
                          "(needs two): the model-error floor alone sets the weights")
         freq = f_all[lines]
@@ -317,12 +343,13 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
         h = np.array(hs).T[sel]
         coh = np.clip(np.array(cs).T[sel], 1e-6, 1.0)
         var = np.abs(h) ** 2 * (1 - coh) / (2 * n_avg * coh)
+        var_dof = None
         force_amp = None
         vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(c.samples) ** 2))) for c in vels}
         notes.append(f"non-periodic excitation: H1 with Hann window, {n_avg} averages; noise from coherence")
         t0 = 0.0
     return FrfData(path, "recording", freq, h, var, fch.point_id, outs, force_amp, vrms, rec, t0, notes,
-                   periodic=force_amp is not None)
+                   periodic=force_amp is not None, var_dof=var_dof)
 
 
 # ----------------------------------------------------------------------------- FRF files
