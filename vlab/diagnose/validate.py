@@ -56,25 +56,29 @@ class FrictionPlant:
         With the friction points appended to its actuator points.
     actuator_points : tuple of int
         The coil points (the first inputs of ``inner``).
-    frictions : sequence of (int, float)
-        ``(point, F [N])``.
+    frictions : sequence of (int, float) or (int, float, float)
+        ``(point, F [N])``, optionally with the equivalent dashpot ``c_eq`` [N*s/m]
+        (for the warm start, :meth:`set_periodic_state`; 0 without).
     """
 
     def __init__(self, inner: LinearPlant, actuator_points: tuple[int, ...], frictions, *, v_s: float = 1e-6):
         self.inner = inner
         self.actuator_points = tuple(actuator_points)
         self.timestep_s = inner.timestep_s
-        self._fp = tuple(p for p, _ in frictions)
-        self._ff = np.array([f for _, f in frictions], dtype=float)
+        self._fp = tuple(fr[0] for fr in frictions)
+        self._ff = np.array([fr[1] for fr in frictions], dtype=float)
+        self._c_eq = np.array([fr[2] if len(fr) > 2 else 0.0 for fr in frictions], dtype=float)
         self._v_s = v_s
         self._f = np.zeros(len(self.actuator_points))
 
     def set_periodic_state(self, freq_hz, forces) -> None:
         """The inner plant's periodic steady state of the coil forces ``forces`` (n_f, n_act) at
-        ``freq_hz`` [Hz], without friction (its transient decays in the guard period of
+        ``freq_hz`` [Hz], with each friction force replaced by its equivalent dashpot (the describing
+        function the frequency-domain model uses; what it misses decays in the guard period of
         :mod:`vlab.diagnose.warmstart`)."""
         F = np.asarray(forces, dtype=complex)
-        self.inner.set_periodic_state(freq_hz, np.hstack([F, np.zeros((F.shape[0], len(self._fp)))]))
+        self.inner.set_periodic_state(freq_hz, np.hstack([F, np.zeros((F.shape[0], len(self._fp)))]),
+                                      extra_damping=dict(zip(self._fp, self._c_eq)))
 
     def set_forces(self, forces) -> None:
         """Coil forces [N], shape (n_act,)."""
@@ -116,7 +120,7 @@ def linear_plant(state: LabState):
         fe.dofs.index(p, "w")
     inputs = state.actuators + tuple(p for p, _f, _c in state.frictions)
     inner = LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=inputs, timestep_s=state.h_s)
-    return FrictionPlant(inner, state.actuators, [(p, f) for p, f, _c in state.frictions])
+    return FrictionPlant(inner, state.actuators, state.frictions)
 
 
 def mujoco_plant(state: LabState):

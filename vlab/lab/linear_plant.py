@@ -64,7 +64,7 @@ class LinearPlant:
         self._f = np.zeros(nu)
         self.time_s = 0.0
 
-    def set_periodic_state(self, freq_hz, forces) -> None:
+    def set_periodic_state(self, freq_hz, forces, *, extra_damping=None) -> None:
         """Put the plant in the steady state of periodic forces, at a period's start (warm start).
 
         For forces ``f(t) = Re sum_k F_k exp(j 2 pi f_k t)`` the steady state is
@@ -80,6 +80,10 @@ class LinearPlant:
             Frequencies of the force lines [Hz].
         forces : ndarray, complex, shape (n_f, n_act)
             Phasors ``F_k`` per input, order :attr:`actuator_points` [N].
+        extra_damping : dict of int to float, optional
+            Point -> dashpot [N*s/m] added to ``c`` for the steady state only
+            (the equivalent damping of a nonlinear force the inputs carry,
+            e.g. Coulomb friction, :class:`vlab.diagnose.validate.FrictionPlant`).
 
         Raises
         ------
@@ -92,6 +96,11 @@ class LinearPlant:
             raise ModelError(f"set_periodic_state: forces must be finite, shape ({f.size}, {self._u.shape[1]}); "
                              f"got {F.shape}")
         m, c, k = self._mck
+        if extra_damping:
+            c = c.copy()
+            for p, cp in extra_damping.items():
+                i = self._pidx[p]
+                c[i, i] += float(cp)
         w = 2 * np.pi * f
         rhs = (self._u @ F.T).T                                           # (n_f, n)
         q = np.linalg.solve(k[None] - (w**2)[:, None, None] * m[None] + 1j * w[:, None, None] * c[None],
