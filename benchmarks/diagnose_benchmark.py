@@ -452,10 +452,11 @@ def score(case: dict) -> dict:
                    None)
         matched.append(hit)
     out["right"] = all(h is not None for h in matched) and len(sel) == len(truths)
-    # a single effect reported with look-alikes the data cannot tell from it (dBIC < 10): is the truth one?
-    looks = {a.replace(" ", "") for a in d.get("alternatives", [])}
-    out["lookalike"] = (not out["right"] and len(truths) == 1 and len(sel) == 1
-                        and _label(truths[0]).replace(" ", "") in looks)
+    # the selection reported with look-alikes the data cannot tell from it (dBIC < 10): is the truth one?
+    # (a pair's look-alikes are pairs, "a + b", matched in either order)
+    looks = {frozenset(p.replace(" ", "") for p in a.split(" + ")) for a in d.get("alternatives", [])}
+    out["lookalike"] = (not out["right"] and len(sel) == len(truths)
+                        and frozenset(_label(t).replace(" ", "") for t in truths) in looks)
     for t, h in zip(truths, matched):
         if h is None:
             continue

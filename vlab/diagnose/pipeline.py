@@ -33,7 +33,9 @@ Pipeline (issue 6):
    rerun, the parameter of a mode-moving effect is refitted on the plant's
    own linearisation (:mod:`vlab.diagnose.plantfit`), since the FE fit
    absorbs the FE/MuJoCo frequency offsets (look-alikes the FE fit cannot
-   tell apart are refitted there too, and the best on the plant is chosen);
+   tell apart are refitted there too, and the best on the plant is chosen;
+   a single effect that still leaves more than noise there gets a second
+   effect searched on the data referred through it, :mod:`vlab.diagnose.plantpair`);
    FRF and time-domain misfits before and after. An effect that removes
    less than half of the weighted misfit, whose rerun does not halve
    the FRF misfit either, and that does not bring the data within the
@@ -62,6 +64,7 @@ from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import context_for, nominal_design, read_data, settling_time
 from .plantfit import PlantModel, choose_on_plant, reduce_pair_on_plant
+from .plantpair import second_effect_on_plant
 from .problem import Problem
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
@@ -86,11 +89,13 @@ def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
 
 
-def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list) -> Hypothesis:
+def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
+                    pool: list[Hypothesis]) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.plantfit`); a pair
     is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
-    look-alikes (:func:`choose_on_plant`). Sets ``res.plant_refit`` (and ``res.alternatives``); returns the
-    choice."""
+    look-alikes (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
+    ``pool`` is searched next to it (:func:`vlab.diagnose.plantpair.second_effect_on_plant`). Sets
+    ``res.plant_refit`` (and ``res.alternatives``); returns the choice."""
     try:
         model = PlantModel(problem)
     except (VlabError, ImportError) as exc:
@@ -105,6 +110,12 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives)
     if note is not None:
         notes.append(note)
+    single = chosen
+    chosen, res.plant_refit, looks, note = second_effect_on_plant(model, chosen, res.plant_refit, pool)
+    if note is not None:
+        notes.append(note)
+    if chosen is not single:
+        res.alternatives = looks  # the pair's look-alikes on the plant, not those of the single effect
     return chosen
 
 
@@ -302,7 +313,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             if chosen is not None and on_plant and chosen.spec_level:
                 say("refitting on the MuJoCo plant's linearisation")
                 t = time.perf_counter()
-                chosen = _refit_on_plant(res, problem, chosen, notes)
+                chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
                 timing["plant_refit"] = time.perf_counter() - t
             if chosen is not None:
                 res.selected = chosen

@@ -228,14 +228,16 @@ class PlantModel:
         except (ModelError, SpecError):
             return math.inf
 
-    def refit(self, h: Hypothesis, x0, index: int | None = None) -> PlantRefit | None:
+    def refit(self, h: Hypothesis, x0, index: int | None = None, *, half_width: float = SCAN_HALF_WIDTH,
+              points: int = SCAN_POINTS) -> PlantRefit | None:
         """Refit the mode-moving parameter of ``h``, starting from ``x0`` [SI] (the FE fit), the others held.
 
         ``index`` picks the parameter (default :func:`refit_index`: the one
         mode-moving parameter of ``h``).
 
-        A chi-square scan of :data:`SCAN_POINTS` values within ``+-SCAN_HALF_WIDTH``
-        in ``ln p``, then a bounded Brent search (:data:`XTOL`) between the best
+        A chi-square scan of ``points`` values (odd; default :data:`SCAN_POINTS`)
+        within ``+-half_width`` in ``ln p`` (default :data:`SCAN_HALF_WIDTH`),
+        then a bounded Brent search (:data:`XTOL`) between the best
         scan point's neighbours; the least chi-square seen is kept, so the
         result is never worse than ``x0``.
 
@@ -263,8 +265,8 @@ class PlantModel:
                 seen[u] = self.chi2(h, params(u))
             return seen[u]
 
-        step = SCAN_HALF_WIDTH / (SCAN_POINTS // 2)
-        grid = step * np.arange(-(SCAN_POINTS // 2), SCAN_POINTS // 2 + 1)  # 0 (the FE value) exactly in the middle
+        step = half_width / (points // 2)
+        grid = step * np.arange(-(points // 2), points // 2 + 1)  # 0 (the FE value) exactly in the middle
         b = int(np.argmin([chi2(u) for u in grid]))
         scipy.optimize.minimize_scalar(chi2, bounds=(grid[b] - step, grid[b] + step), method="bounded",
                                        options={"xatol": XTOL})
@@ -303,7 +305,7 @@ def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> 
 
 
 @dataclass(frozen=True)
-class _Score:
+class PlantScore:
     """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.evidence` reads)."""
 
     chi2_: float
@@ -361,7 +363,7 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
         x = x0 if r is None else r.params
         chi2 = model.chi2(h, x) if r is None else r.chi2
         misfit = model.problem.misfit(model.state(h, x)) if math.isfinite(chi2) else math.inf
-        return _Score(chi2, h.n_params), misfit, r
+        return PlantScore(chi2, h.n_params), misfit, r
 
     s_pair, m_pair, r_pair = scored(pair, pair.params_)
     alone = [(i, *scored(part, x)) for i, (part, x) in enumerate(zip(pair.parts, values))]

@@ -135,9 +135,12 @@ def markdown(res: dict) -> str:
     lines += ["## Validation", "", f"Plant: {v.get('plant', 'model')}.", ""]
     if v.get("refit"):
         r = v["refit"]
+        others = {n: x for n, x in v.get("parameters", {}).items() if n != r["parameter"]}
         lines += [f"The rerun used {r['parameter']} = {r['value']:.5g}, refitted on {r['on']} "
                   f"(FE fit {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; chi-square on the plant's "
-                  f"linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g}).", ""]
+                  f"linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g})"
+                  + ("; with " + ", ".join(f"{n} = {x:.5g}" for n, x in others.items()) if others else "")
+                  + ".", ""]
     lines += [
               f"- {what}: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
               + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]

@@ -138,7 +138,8 @@ class DiagnosisResult:
         if self.validation is not None:
             validated = self.validation.as_dict()
             if self.plant_refit is not None:
-                validated["parameters"] = {self.plant_refit.name: self.plant_refit.value}
+                validated["parameters"] = {n: float(x) for n, x in zip(self.selected.param_names,
+                                                                       self.plant_refit.params)}
                 validated["refit"] = self.plant_refit.as_dict()
         else:
             if self.selected is None:

@@ -1,0 +1,75 @@
+"""vlab.diagnose.plantpair: a second effect searched on the data referred through the first one's plant refit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from test_diagnose_plantfit import _referred_problem, other_model_modes
+from vlab.diagnose import specedit
+from vlab.diagnose.fit import fit_hypothesis
+from vlab.diagnose.hypotheses import JointFlexibility, library
+from vlab.diagnose.hypothesis import Combination
+from vlab.diagnose.plantfit import PlantModel
+from vlab.diagnose.plantpair import referred_through, second_effect_on_plant
+
+#: Candidates for the second effect in these tests (the drawn one and neighbours), to keep them fast.
+POOL = ("added_mass(point=3)", "added_mass(point=4)", "added_mass(point=7)", "support_stiffness(point=3, dof=w)",
+        "joint_flexibility(point=9)")
+
+
+def _pool(problem):
+    return [h for h in library(problem.base, problem.ctx) if h.label in POOL]
+
+
+def _joint_and_refit(problem):
+    model = PlantModel(problem, modes_of=other_model_modes)
+    joint = fit_hypothesis(JointFlexibility(point=18), problem)
+    return model, joint, model.refit(joint, joint.params_)
+
+
+@pytest.fixture(scope="module")
+def joint_and_mass():
+    """Joint 18 at 6000 N m/rad and 0.5 kg at point 3 in the other model's data, referred through a baseline."""
+    return _referred_problem(lambda spec: specedit.add_mass(specedit.soften_joint(spec, 18, 6000.0), 3, 0.5),
+                             "grid-joint18-mass3-other.uff")
+
+
+def test_referred_data_leave_on_the_fe_model_what_the_plant_leaves(joint_and_mass):
+    """d' = d H_FE(h, x_FE) / H_plant(h, x_P): the FE model with h at x_FE has on d' the residual the plant
+    with h at x_P has on d (the same chi-square to rounding), and the scaled variance keeps the weights."""
+    model, joint, r = _joint_and_refit(joint_and_mass)
+    referred = referred_through(model, joint, joint.params_, r.params)
+    fe_chi2 = referred.chi2(referred.state_for(joint, joint.params_))
+    assert fe_chi2 == pytest.approx(model.problem.chi2(model.state(joint, r.params)), rel=1e-9)
+    assert fe_chi2 > referred.noise_chi2()  # the mass is left: the search has something to find
+
+
+def test_a_second_effect_is_added_when_the_plant_leaves_more_than_noise(joint_and_mass):
+    model, joint, r = _joint_and_refit(joint_and_mass)
+    chosen, refit, looks, note = second_effect_on_plant(model, joint, r, _pool(joint_and_mass))
+    assert isinstance(chosen, Combination) and chosen.parts[1].label == "added_mass(point=3)"
+    assert "is selected" in note and looks == []
+    assert model.problem.within_noise(model.state(chosen, refit.params))
+    assert refit.params[0] == pytest.approx(6000.0, rel=0.02)  # the joint at its plant value
+    assert refit.params[1] == pytest.approx(0.5, rel=0.05)  # the mass refitted on the plant
+    assert refit.state.spec.masses != joint_and_mass.base.spec.masses  # the rerun's lab carries both
+
+
+def test_no_second_effect_when_the_plant_leaves_only_noise():
+    """Joint 18 alone in the data: its refit on the other model leaves only noise, nothing is searched."""
+    problem = _referred_problem(lambda spec: specedit.soften_joint(spec, 18, 6000.0), "grid-joint18-other.uff")
+    model, joint, r = _joint_and_refit(problem)
+    chosen, refit, looks, note = second_effect_on_plant(model, joint, r, _pool(problem))
+    assert chosen is joint and refit is r and looks == [] and note is None
+
+
+def test_a_pair_that_does_not_reach_the_noise_is_not_selected(joint_and_mass):
+    """Without the drawn mass among the candidates, no pair brings the residual into the noise: the single
+    effect stays, and the note says why."""
+    model, joint, r = _joint_and_refit(joint_and_mass)
+    pool = [h for h in _pool(joint_and_mass) if h.label != "added_mass(point=3)"]
+    chosen, refit, looks, note = second_effect_on_plant(model, joint, r, pool)
+    assert chosen is joint and refit is r and looks == []
+    assert note is not None and "the single effect stays" in note
+    assert np.isfinite(model.problem.chi2(model.state(joint, r.params)))
