@@ -306,7 +306,15 @@ def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> 
 
 @dataclass(frozen=True)
 class PlantScore:
-    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.evidence` reads)."""
+    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.evidence` reads).
+
+    Parameters
+    ----------
+    chi2_ : float
+        Chi-square on the plant's linearisation.
+    n_params : int
+        Number of fitted parameters.
+    """
 
     chi2_: float
     n_params: int

@@ -23,10 +23,10 @@ with the modified model as the reference), so that on ``d'`` the FE model
 with ``h`` at ``x_FE`` leaves exactly the residual the plant leaves on
 ``d``. A second effect is then searched on ``d'`` by the forward step of
 :func:`vlab.diagnose.fit.fit_pairs` (``h`` held while screening), and the
-best pair is judged on the plant's linearisation by the selection's own pair
-rule (:func:`vlab.diagnose.plantfit.reduce_pair_on_plant`: quasi-BIC
-evidence of 10 and a misfit gain of 1.5 over either part alone). Only a
-pair that passes there replaces the single effect.
+best pairs are refitted on the plant's linearisation and judged there by
+the selection's own pair rule against the single effect (quasi-BIC evidence
+of 10, and a misfit gain of 1.5 or a residual brought into the noise). Only
+a pair that passes there replaces the single effect.
 
 The pair's ``parameters`` in the answer are its fit on ``d'`` (the FE model
 with the first effect's FE/plant difference removed); the values the rerun
@@ -46,7 +46,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import ModelError, SpecError, VlabError
-from .fit import fit_pairs
+from .fit import PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_pairs, rank
 from .hypothesis import Combination, Hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, refit_index
 from .problem import Problem
@@ -107,12 +107,14 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     :func:`vlab.diagnose.fit.fit_pairs`). Each is scored on the plant's
     linearisation with ``chosen`` at its plant value and the second effect at
     its referred fit; the ``refit_best`` best have the second effect's
-    mode-moving parameter refitted there (``+-SECOND_HALF_WIDTH``). The best
-    pair on the plant replaces ``chosen`` only if it leaves the data within
-    the noise there (:meth:`~vlab.diagnose.problem.Problem.within_noise`:
+    mode-moving parameter refitted there (``+-SECOND_HALF_WIDTH``), and the
+    best of those has each part refitted once more with the other in the
+    model. It replaces ``chosen`` only if it beats it there by
+    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and either leaves
+    the data within the noise (:meth:`~vlab.diagnose.problem.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
-    and beats it by :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC:
-    a second effect is added only to bring the residual into the noise.
+    or lowers the misfit :data:`vlab.diagnose.fit.PAIR_MISFIT_GAIN` times
+    (the pair rule of :func:`vlab.diagnose.fit.select`).
 
     Parameters
     ----------
@@ -141,8 +143,6 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     note : str or None
         What was tried and decided (None when the plant already left only noise or nothing could be fitted).
     """
-    from .fit import PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, rank
-
     if isinstance(chosen, Combination) or not chosen.spec_level:
         return chosen, refit, [], None
     x_plant = refit.params if refit is not None else np.asarray(chosen.params_, dtype=float)
@@ -179,12 +179,12 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
                            at_fit[c.label], at_fit[c.label], 0, 0.0)
         if r is not None:
             refits[c.label] = (c, r)
+    plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
             f"{single_chi2:.4g}, largest residual {single_peak:.3g}, limits "
             f"{plant.noise_chi2():.4g} and {plant.peak_limit():.3g}): a second effect searched on the data "
             "referred through it; on the plant: "
-            + ", ".join(f"{c.parts[1].label}: {min(at_fit[c.label], refits[c.label][1].chi2) if c.label in refits else at_fit[c.label]:.4g}"
-                        for c in pairs))
+            + ", ".join(f"{c.parts[1].label}: {plant_chi2[c.label]:.4g}" for c in pairs))
     if not refits:
         return chosen, refit, [], head + "; none could be refitted there, the single effect stays"
     best, r = min(refits.values(), key=lambda t: t[1].chi2)
@@ -196,12 +196,12 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
                            r.n_evaluations + r1.n_evaluations, r.seconds + r1.seconds)
     n_obs = plant.n_obs
     c_hat = max(1.0, single_chi2 / max(n_obs - k, 1))
-    ev = evidence(PlantScore(r.chi2, best.n_params), PlantScore(single_chi2, k), chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
+    ev = evidence(PlantScore(r.chi2, best.n_params), PlantScore(single_chi2, k), chi2_0=math.inf, n_obs=n_obs,
+                  c_hat=c_hat)
     pair_state = model.state(best, r.params)
     inside = plant.within_noise(pair_state)
     gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
     if ev >= STRONG_EVIDENCE and (inside or gain >= PAIR_MISFIT_GAIN):
-        plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
         looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < STRONG_EVIDENCE]
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "
