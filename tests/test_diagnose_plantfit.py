@@ -152,7 +152,9 @@ def test_a_real_second_effect_keeps_the_pair_on_the_plant():
     model, pair, ranked = _pair_and_singles(problem, AddedMass(point=3))
     chosen, refit, note = reduce_pair_on_plant(model, pair, ranked)
     assert chosen is pair and note is None
-    assert refit is not None  # the part that explains more alone, refitted in the pair
+    assert refit is not None  # the part that explains more alone, refitted in the pair, then the other
+    assert refit.params == pytest.approx([6000.0, 0.5], rel=0.02)
+    assert refit.chi2 < 0.01 * refit.chi2_fe_value
 
 
 def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_model):

@@ -31,7 +31,8 @@ as the value the rerun used.
 
 A selected *pair* is first checked on the plant's linearisation
 (:func:`reduce_pair_on_plant`): the selection's pair rule is applied again
-there (the main part's mode-moving parameter refitted), since a second
+there (the main part's mode-moving parameter refitted; in a kept pair the
+other part's too, :func:`refit_parts`), since a second
 effect can pass it on the FE model only by absorbing the same model-form
 difference. A selected *single* effect is compared there with its
 look-alikes (:func:`choose_on_plant`: effects the FE fit cannot tell from
@@ -276,6 +277,37 @@ class PlantModel:
                           chi2(0.0), seen[u_best], self.n_linearisations - n0, time.perf_counter() - t0)
 
 
+def refit_parts(model: PlantModel, pair: Combination, r: PlantRefit, parts) -> PlantRefit:
+    """The pair's refit ``r`` improved by refitting, in turn, the mode-moving parameter of each of ``parts``
+    (parts of ``pair``) with the others at their values in ``r`` (coordinate descent, one pass); a part's
+    refit is kept only where it lowers the plant chi-square. ``name``, ``fe_value`` and ``chi2_fe_value``
+    stay those of ``r``; ``value`` follows the parameter ``r`` names.
+
+    Parameters
+    ----------
+    model : PlantModel
+    pair : Combination
+        Fitted pair (``params_`` set).
+    r : PlantRefit
+        Its refit so far (``params`` shape ``(pair.n_params,)``, SI).
+    parts : sequence of Hypothesis
+        Parts of ``pair`` to refit, in this order (those without a mode-moving parameter are skipped).
+
+    Returns
+    -------
+    PlantRefit
+        ``r`` or a better one (never a higher plant chi-square).
+    """
+    j = pair.param_names.index(r.name)
+    for part in parts:
+        i = refit_index(pair, part)
+        r1 = None if i is None else model.refit(pair, r.params, i)
+        if r1 is not None and r1.chi2 < r.chi2:
+            r = PlantRefit(r.name, r.fe_value, float(r1.params[j]), r1.params, r1.state, r.chi2_fe_value, r1.chi2,
+                           r.n_evaluations + r1.n_evaluations, r.seconds + r1.seconds)
+    return r
+
+
 def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> PlantRefit | None:
     """Refit the mode-moving parameter of the fitted hypothesis ``h`` on the plant's linearisation.
 
@@ -334,7 +366,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     plant's linearisation, and the same rule decides. A part alone that
     moves modes is refitted there (:meth:`PlantModel.refit`); in the pair,
     the part with the better BIC alone is refitted and the other held at its
-    FE value (one refit, not a two-parameter search).
+    FE value for the decision; a pair that is kept then has its other part
+    refitted too, when it moves modes, and the main part again
+    (:func:`refit_parts`: coordinate descent, not a two-parameter search).
 
     Parameters
     ----------
@@ -382,6 +416,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     gain = m1 / m_pair if m_pair > 0 else math.inf
     nonlinear = any(p.effect in NONLINEAR for p in pair.parts)
     if ev >= STRONG_EVIDENCE and (nonlinear or gain >= PAIR_MISFIT_GAIN):
+        others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
+        if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
+            r_pair = refit_parts(model, pair, r_pair, others + [main])
         return pair, r_pair, None
     h1 = own[i1]
     if h1 is None:  # no FE fit of its own among the ranked: fit it now (the answer's parameters are FE fits)

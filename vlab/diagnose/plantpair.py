@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import ModelError, SpecError, VlabError
 from .fit import PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_pairs, rank
 from .hypothesis import Combination, Hypothesis
-from .plantfit import PlantModel, PlantRefit, PlantScore, refit_index
+from .plantfit import PlantModel, PlantRefit, PlantScore, refit_index, refit_parts
 from .problem import Problem
 
 
@@ -188,12 +188,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     if not refits:
         return chosen, refit, [], head + "; none could be refitted there, the single effect stays"
     best, r = min(refits.values(), key=lambda t: t[1].chi2)
-    for part in (best.parts[0], best.parts[1]):  # each effect again with the other in the model (one round)
-        i = refit_index(best, part)
-        r1 = None if i is None else model.refit(best, r.params, i)
-        if r1 is not None and r1.chi2 < r.chi2:
-            r = PlantRefit(r.name, r.fe_value, float(r1.params[k]), r1.params, r1.state, r.chi2_fe_value, r1.chi2,
-                           r.n_evaluations + r1.n_evaluations, r.seconds + r1.seconds)
+    r = refit_parts(model, best, r, best.parts)  # each effect again with the other in the model (one round)
     n_obs = plant.n_obs
     c_hat = max(1.0, single_chi2 / max(n_obs - k, 1))
     ev = evidence(PlantScore(r.chi2, best.n_params), PlantScore(single_chi2, k), chi2_0=math.inf, n_obs=n_obs,
