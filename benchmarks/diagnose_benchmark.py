@@ -584,7 +584,8 @@ def main(argv=None) -> int:
         print(f"parameter error: median {100 * summary['param_error_median']:.2f} %, max "
               f"{100 * summary['param_error_max']:.1f} %, within 15 %: {100 * summary['param_within_15pct_share']:.0f} %")
     if rerr:
-        print(f"parameter error of the values the MuJoCo rerun used (the mode-moving ones refitted on the plant's linearisation, the others at their FE fit; "
+        print("parameter error of the values the MuJoCo rerun used (the mode-moving ones refitted on the plant's "
+              "linearisation, the others at their FE fit; "
               f"{len(rerr)} values): median {100 * summary['refit_error_median']:.2f} %, "
               f"max {100 * summary['refit_error_max']:.1f} %")
     if mr:

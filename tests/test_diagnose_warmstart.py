@@ -162,3 +162,17 @@ def test_warm_start_with_friction_starts_from_its_describing_function():
     fric0 = vmod.linear_plant(replace(lab, frictions=((6, 0.01, 0.0),)))
     fric0.set_periodic_state(f, forces)
     assert np.linalg.norm(fric0.inner.x - dash.x) > 1e-3 * np.linalg.norm(dash.x)  # the dashpot matters here
+
+
+def test_extra_damping_at_an_unknown_point_or_negative_is_refused():
+    from dataclasses import replace
+
+    from vlab.diagnose import validate as vmod
+
+    lab = _lab("bcc", "none")
+    plant = vmod.linear_plant(replace(lab, dashpots=((6, 0.4),)))
+    f, forces = np.array([1.5]), np.full((1, len(lab.actuators)), 0.1, dtype=complex)
+    with pytest.raises(ModelError, match="damped point 999 has no DOF"):
+        plant.set_periodic_state(f, forces, extra_damping={999: 0.4})
+    with pytest.raises(ModelError, match="dashpot at point 6 must be finite and >= 0"):
+        plant.set_periodic_state(f, forces, extra_damping={6: -1.0})

@@ -213,6 +213,11 @@ def pooled_dof(dof: int, width: int = POOL_WIDTH) -> float:
         Real degrees of freedom of each per-line estimate (``2 (m - 1)`` from ``m`` periods).
     width : int
         Lines pooled.
+
+    Returns
+    -------
+    float
+        Effective real degrees of freedom of the pooled variance (27 for ``dof`` = 2, ``width`` = 21).
     """
     return 2.0 / math.pi * width * dof
 

@@ -201,7 +201,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "
                                        f"misfit gain {gain:.3g}) passes the pair rule and is selected")
-    return chosen, refit, [], (head + f"; the best, {best.label} (chi-square {r.chi2:.4g} refitted), has quasi-BIC "
-                               f"evidence {ev:.3g} (needs {STRONG_EVIDENCE:g}) and misfit gain {gain:.3g} (needs "
-                               f"{PAIR_MISFIT_GAIN:g}) and does not leave the data within the noise: the single "
-                               "effect stays")
+    why = (f"quasi-BIC evidence {ev:.3g} < {STRONG_EVIDENCE:g}" if ev < STRONG_EVIDENCE else
+           f"misfit gain {gain:.3g} < {PAIR_MISFIT_GAIN:g} and the data not within the noise")
+    return chosen, refit, [], (head + f"; the best, {best.label} (chi-square {r.chi2:.4g} refitted), fails the "
+                               f"pair rule ({why}): the single effect stays")

@@ -82,13 +82,15 @@ class LinearPlant:
             Phasors ``F_k`` per input, order :attr:`actuator_points` [N].
         extra_damping : dict of int to float, optional
             Point -> dashpot [N*s/m] added to ``c`` for the steady state only
-            (the equivalent damping of a nonlinear force the inputs carry,
-            e.g. Coulomb friction, :class:`vlab.diagnose.validate.FrictionPlant`).
+            (the equivalent damping of a nonlinear force the inputs carry:
+            for Coulomb friction of force ``F`` at velocity amplitude ``V``,
+            ``4 F / (pi V)``, its describing function).
 
         Raises
         ------
         ModelError
-            Wrong shapes or non-finite values.
+            Wrong shapes or non-finite values; a damped point without a DOF
+            or a negative or non-finite dashpot.
         """
         f = np.asarray(freq_hz, dtype=float)
         F = np.asarray(forces, dtype=complex)
@@ -99,8 +101,13 @@ class LinearPlant:
         if extra_damping:
             c = c.copy()
             for p, cp in extra_damping.items():
-                i = self._pidx[p]
-                c[i, i] += float(cp)
+                if p not in self._pidx:
+                    raise ModelError(f"set_periodic_state: damped point {p} has no DOF "
+                                     f"(points: {sorted(self._pidx)})")
+                if not (np.isfinite(cp) and cp >= 0.0):
+                    raise ModelError(f"set_periodic_state: dashpot at point {p} must be finite and >= 0 N*s/m, "
+                                     f"got {cp!r}")
+                c[self._pidx[p], self._pidx[p]] += float(cp)
         w = 2 * np.pi * f
         rhs = (self._u @ F.T).T                                           # (n_f, n)
         q = np.linalg.solve(k[None] - (w**2)[:, None, None] * m[None] + 1j * w[:, None, None] * c[None],
