@@ -11,7 +11,7 @@ from vlab.diagnose.fit import fit_hypothesis
 from vlab.diagnose.hypotheses import JointFlexibility, library
 from vlab.diagnose.hypothesis import Combination
 from vlab.diagnose.plantfit import PlantModel
-from vlab.diagnose.plantpair import referred_through, second_effect_on_plant
+from vlab.diagnose.plantpair import REFERRED_FIT, referred_through, second_effect_on_plant
 
 #: Candidates for the second effect in these tests (the drawn one and neighbours), to keep them fast.
 POOL = ("added_mass(point=3)", "added_mass(point=4)", "added_mass(point=7)", "support_stiffness(point=3, dof=w)",
@@ -54,6 +54,7 @@ def test_a_second_effect_is_added_when_the_plant_leaves_more_than_noise(joint_an
     assert refit.params[0] == pytest.approx(6000.0, rel=0.02)  # the joint at its plant value
     assert refit.params[1] == pytest.approx(0.5, rel=0.05)  # the mass refitted on the plant
     assert refit.state.spec.masses != joint_and_mass.base.spec.masses  # the rerun's lab carries both
+    assert refit.start == REFERRED_FIT and refit.as_dict()["start"] == REFERRED_FIT  # the report's label
 
 
 def test_no_second_effect_when_the_plant_leaves_only_noise():

@@ -141,7 +141,7 @@ class PlantRefit:
     name : str
         Parameter name (SI unit in the name; ``first.``/``second.`` in a pair).
     fe_value, value : float
-        FE-fitted and refitted values [SI].
+        Starting (in general the FE-fitted) and refitted values [SI].
     params : ndarray, shape (k,)
         All parameters of the hypothesis with the refitted one [SI].
     state : LabState
@@ -152,6 +152,9 @@ class PlantRefit:
         Linearisations made.
     seconds : float
         Wall time.
+    start : str
+        Where ``fe_value`` came from: ``"FE fit"``, or for a second effect found on the plant
+        (:mod:`vlab.diagnose.plantpair`) the fit on the data referred through the first.
     """
 
     name: str
@@ -163,13 +166,14 @@ class PlantRefit:
     chi2: float
     n_evaluations: int
     seconds: float
+    start: str = "FE fit"
 
     def as_dict(self) -> dict:
         """JSON-ready summary."""
         return {"parameter": self.name, "fe_value": self.fe_value, "value": self.value,
                 "change": self.value / self.fe_value - 1.0, "chi2_fe_value": self.chi2_fe_value,
                 "chi2": self.chi2, "n_evaluations": self.n_evaluations, "seconds": self.seconds,
-                "on": "the MuJoCo plant's linearisation"}
+                "on": "the MuJoCo plant's linearisation", "start": self.start}
 
 
 class PlantModel:
@@ -280,8 +284,8 @@ class PlantModel:
 def refit_parts(model: PlantModel, pair: Combination, r: PlantRefit, parts) -> PlantRefit:
     """The pair's refit ``r`` improved by refitting, in turn, the mode-moving parameter of each of ``parts``
     (parts of ``pair``) with the others at their values in ``r`` (coordinate descent, one pass); a part's
-    refit is kept only where it lowers the plant chi-square. ``name``, ``fe_value`` and ``chi2_fe_value``
-    stay those of ``r``; ``value`` follows the parameter ``r`` names.
+    refit is kept only where it lowers the plant chi-square. ``name``, ``fe_value``, ``chi2_fe_value`` and
+    ``start`` stay those of ``r``; ``value`` follows the parameter ``r`` names.
 
     Parameters
     ----------
@@ -303,8 +307,9 @@ def refit_parts(model: PlantModel, pair: Combination, r: PlantRefit, parts) -> P
         i = refit_index(pair, part)
         r1 = None if i is None else model.refit(pair, r.params, i)
         if r1 is not None and r1.chi2 < r.chi2:
-            r = PlantRefit(r.name, r.fe_value, float(r1.params[j]), r1.params, r1.state, r.chi2_fe_value, r1.chi2,
-                           r.n_evaluations + r1.n_evaluations, r.seconds + r1.seconds)
+            r = replace(r, value=float(r1.params[j]), params=r1.params, state=r1.state, chi2=r1.chi2,
+                        n_evaluations=r.n_evaluations + r1.n_evaluations,
+                        seconds=r.seconds + r1.seconds)
     return r
 
 

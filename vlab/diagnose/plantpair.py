@@ -51,6 +51,8 @@ from .hypothesis import Combination, Hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, refit_index, refit_parts
 from .problem import Problem
 
+#: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
+REFERRED_FIT = "fit on the data referred through the first effect"
 
 def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem:
     """The FE problem of ``model`` with its data referred through ``h``: ``d' = d H_FE(h, x_fe) / H_plant(h, x_plant)``.
@@ -178,7 +180,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
             r = PlantRefit(c.param_names[k], float(x[k]), float(x[k]), x, c.apply(model.base, x, model.ctx),
                            at_fit[c.label], at_fit[c.label], 0, 0.0)
         if r is not None:
-            refits[c.label] = (c, r)
+            refits[c.label] = (c, replace(r, start=REFERRED_FIT))
     plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
             f"{single_chi2:.4g}, largest residual {single_peak:.3g}, limits "

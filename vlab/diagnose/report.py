@@ -137,7 +137,7 @@ def markdown(res: dict) -> str:
         r = v["refit"]
         others = {n: x for n, x in v.get("parameters", {}).items() if n != r["parameter"]}
         lines += [f"The rerun used {r['parameter']} = {r['value']:.5g}, refitted on {r['on']} "
-                  f"(FE fit {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; chi-square on the plant's "
+                  f"({r.get('start', 'FE fit')} {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; chi-square on the plant's "
                   f"linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g})"
                   + ("; with " + ", ".join(f"{n} = {x:.5g}" for n, x in others.items()) if others else "")
                   + ".", ""]
