@@ -235,6 +235,139 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
     raise ModelError(f"unknown plant {cfg.plant!r}; use 'mujoco' or 'linear'")
 
 
+@dataclass(frozen=True)
+class Measurement:
+    """What one run of the test measured (:func:`measure`).
+
+    Attributes
+    ----------
+    config : ExperimentConfig
+        The settings, with ``duration_s`` and ``resolution_hz`` filled in.
+    loop : LoopResult
+        The run: recording at the controller rate, commands and displacements.
+    frfs : dict[str, FRF]
+        H1 velocity FRFs [(m/s)/N] from the excitation force, keyed ``"vel<point>"`` for every measured point.
+    freq_hz : ndarray, shape (n_f,)
+        Frequency lines of the test band [Hz].
+    measured : ndarray, complex, shape (n_f,)
+        FRF at the response point on those lines, in the test's ``response_quantity``
+        ([m/N] for ``"displacement"``, [(m/s)/N] for ``"velocity"``).
+    plant_info : dict
+        Description of the plant, with ``"actuators"``.
+    settle_samples : int
+        Samples of the recording discarded as settling before the FRFs were measured.
+    """
+
+    config: ExperimentConfig
+    loop: LoopResult
+    frfs: dict[str, FRF]
+    freq_hz: np.ndarray
+    measured: np.ndarray
+    plant_info: dict
+    settle_samples: int
+
+
+def measure(
+    cfg: ExperimentConfig,
+    fe: FEModel,
+    design=None,
+    *,
+    plant=None,
+    measured_points: tuple[int, ...] | None = None,
+    shape_points: tuple[int, ...] | None = None,
+    metadata: dict | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> Measurement:
+    """Run the test of Sec. 5.4.2 once and measure its H1 FRFs (no analysis).
+
+    The controller runs on the Eq. (5.1) engine in the 2 kHz loop with
+    ``cfg.chain`` (Sec. 5.3); the excitation of ``cfg.excitation`` is added at
+    the structure's excitation channel; for random excitation the first record
+    settles and is discarded.
+
+    Parameters
+    ----------
+    cfg : ExperimentConfig
+        Settings of the experiment (``cfg.controller`` is not read: ``design`` is run).
+    fe : FEModel
+        The nominal FE model: its spec gives the test, channels and points.
+    design : ControllerDesign, optional
+        The controller run (its Eq. (5.1) matrices ``f11``-``f22``); None runs open loop.
+    plant : (plant, info), optional
+        A plant with the loop's Plant protocol and a dict describing it; by
+        default :func:`make_plant` builds ``cfg.plant``.
+    measured_points : tuple of int, optional
+        Points whose velocity is recorded and H1 is measured; default the
+        test's :attr:`StructureTest.measured_points` and the actuators.
+    shape_points : tuple of int, optional
+        Points whose displacement is recorded for the deflection shape; default
+        every point with an out-of-plane DOF (the supports stay at rest).
+    metadata : dict, optional
+        Stored with the recording; default structure, controller, excitation, seed and plant.
+    progress : callable, optional
+        Receives the fraction of the run done.
+
+    Returns
+    -------
+    Measurement
+
+    Raises
+    ------
+    ModelError
+        Structure without a test definition, unknown excitation or plant.
+    MeasurementError
+        Duration too short for the frequency resolution.
+    SimulationError
+        The plant diverged (the message says when; the partial recording is kept).
+    """
+    name = fe.spec.name
+    if name not in TESTS:
+        raise ModelError(f"no test definition for structure {name!r}")
+    test = TESTS[name]
+    acts = tuple(fe.spec.instrumentation.actuators)
+    exc_point = fe.spec.instrumentation.excitation
+    res_hz = cfg.resolution_hz or test.resolution_hz
+    record_s = 1.0 / res_hz
+    duration = cfg.duration_s if cfg.duration_s is not None else cfg.periods * record_s
+    if duration < 2 * record_s - 1e-9:
+        raise MeasurementError(
+            f"duration {duration:g} s is too short for a {res_hz:g} Hz resolution: it needs one record of "
+            f"{record_s:g} s to settle and at least one to measure ({2 * record_s:g} s); "
+            "raise --duration or coarsen the resolution"
+        )
+    plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
+    info = {**info, "actuators": acts}
+    engine = None
+    if design is not None:
+        engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
+    meas = tuple(dict.fromkeys((measured_points or test.measured_points) + acts))
+    if shape_points is None:
+        shape_points = tuple(p for p in fe.spec.points if (p, "w") in fe.dofs)  # supports stay at rest
+    loop = run_loop(
+        plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
+        excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
+        seed=cfg.seed, progress=progress, shape_points=shape_points,
+        metadata=metadata if metadata is not None else {
+            "structure": name, "controller": cfg.controller, "excitation": cfg.excitation, "seed": cfg.seed,
+            "plant": info.get("kind", "")},
+    )
+    rec = loop.recording
+    skip = int(round(record_s / rec.dt_s)) if cfg.excitation == "random" else 0
+    x = np.asarray(rec[f"force{exc_point}"])[skip:]
+    window = "boxcar" if cfg.excitation == "random" else "hann"
+    frfs = {}
+    for p in meas:
+        frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
+                             window=window, f_max_hz=test.band_hz[1] * 1.2, input_name=f"force{exc_point}",
+                             output_name=f"vel{p}", input_point=exc_point, output_point=p)
+    resp = frfs[f"vel{test.response_point}"]
+    sel = (resp.freq_hz >= test.band_hz[0]) & (resp.freq_hz <= test.band_hz[1])
+    f, h = resp.freq_hz[sel], resp.h[sel]
+    if test.response_quantity == "displacement":
+        h = h / (2j * np.pi * f)
+    return Measurement(replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h, info, skip)
+
+
 def run_experiment(
     cfg: ExperimentConfig,
     fe: FEModel,
@@ -242,7 +375,7 @@ def run_experiment(
     design=None,
     progress: Callable[[float], None] | None = None,
 ) -> ExperimentResult:
-    """Run one experiment and compare it with the analysis.
+    """Run one experiment (:func:`measure`) and compare it with the analysis.
 
     Parameters
     ----------
@@ -282,41 +415,8 @@ def run_experiment(
         from ..design import design_controller
 
         design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed)
-    res_hz = cfg.resolution_hz or test.resolution_hz
-    record_s = 1.0 / res_hz
-    duration = cfg.duration_s if cfg.duration_s is not None else cfg.periods * record_s
-    if duration < 2 * record_s - 1e-9:
-        raise MeasurementError(
-            f"duration {duration:g} s is too short for a {res_hz:g} Hz resolution: it needs one record of "
-            f"{record_s:g} s to settle and at least one to measure ({2 * record_s:g} s); "
-            "raise --duration or coarsen the resolution"
-        )
-    plant, info = make_plant(cfg, fe, acts)
-    info = {**info, "actuators": acts}
-    engine = None
-    if design is not None:
-        engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
-    meas = tuple(dict.fromkeys(test.measured_points + acts))
-    loop = run_loop(
-        plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
-        excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
-        seed=cfg.seed, progress=progress,
-        shape_points=tuple(p for p in fe.spec.points if (p, "w") in fe.dofs),  # supports stay at rest
-        metadata={"structure": name, "controller": cfg.controller, "excitation": cfg.excitation,
-                  "seed": cfg.seed, "plant": info.get("kind", "")},
-    )
-    rec = loop.recording
-    skip = int(round(record_s / rec.dt_s)) if cfg.excitation == "random" else 0
-    x = np.asarray(rec[f"force{exc_point}"])[skip:]
-    window = "boxcar" if cfg.excitation == "random" else "hann"
-    frfs = {}
-    for p in meas:
-        frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
-                             window=window, f_max_hz=test.band_hz[1] * 1.2, input_name=f"force{exc_point}",
-                             output_name=f"vel{p}", input_point=exc_point, output_point=p)
-    f = frfs[f"vel{test.response_point}"].freq_hz
-    sel = (f >= test.band_hz[0]) & (f <= test.band_hz[1])
-    f = f[sel]
+    m = measure(cfg, fe, design, progress=progress)
+    f = m.freq_hz
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
     u = fe.force_input(acts)
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
@@ -333,23 +433,23 @@ def run_experiment(
             delay_periods=chain.delay_periods, filter_hz=chain.filter_hz)
     h_cont = closed_loop_frf(g_fb, g_out, k_cont, ex)[:, 0]
     h_samp = closed_loop_frf(g_fb, g_out, k_samp, ex)[:, 0]
-    h_meas = frfs[f"vel{test.response_point}"].h[sel]
     if test.response_quantity == "displacement":
         iw = 2j * np.pi * f
-        h_cont, h_samp, h_meas = h_cont / iw, h_samp / iw, h_meas / iw
+        h_cont, h_samp = h_cont / iw, h_samp / iw
     fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
     in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
     fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
-    modes = compare_modes(f, h_samp, h_meas, fm, zm, response=test.response_quantity)
-    warnings = self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[skip:], rec.dt_s,
-                                        band_hz=test.band_hz)
+    modes = compare_modes(f, h_samp, m.measured, fm, zm, response=test.response_quantity)
+    rec = m.loop.recording
+    warnings = self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
+                                        rec.dt_s, band_hz=test.band_hz)
     for mc in modes:
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
             warnings.append(f"mode {mc.mode} could not be identified (no resonance peak: overdamped or not "
                             f"observable at point {test.response_point})")
     return ExperimentResult(
-        replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h_cont, h_samp, h_meas, modes,
-        average_error(modes), design, info, tuple(warnings),
+        m.config, m.loop, m.frfs, f, h_cont, h_samp, m.measured, modes, average_error(modes), design,
+        m.plant_info, tuple(warnings),
     )
 
 

@@ -31,13 +31,10 @@ import numpy as np
 from ..analysis import closed_loop_frf, closed_loop_modes, continuous_controller_frf, velocity_frf
 from ..design import ControllerDesign, DesignModel
 from ..errors import MeasurementError, ModelError
-from ..lab.engine import ControllerEngine
-from ..lab.excitation import pseudo_random
-from ..lab.experiment import TESTS
+from ..fe import FEModel
+from ..lab.experiment import TESTS, ExperimentConfig, make_plant, measure
 from ..lab.linear_plant import LinearPlant
-from ..lab.loop import HardwareChain, run_loop
 from ..measure.compare import compare_modes
-from ..measure.frf import h1
 from .closedloop import actuator_input
 from .context import LabStructure, ReproContext
 
@@ -105,21 +102,18 @@ class VirtualRun:
     wall_s: float
 
 
-def _plant(ctx: ReproContext, structure: str, plant: str, actuators: tuple[int, ...], period_s: float):
-    fe = ctx.fe(structure)
-    if plant == "linear":
-        lab: LabStructure = ctx.lab(structure)
+def _plant(ctx: ReproContext, cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...]):
+    if cfg.plant == "linear":
+        lab: LabStructure = ctx.lab(cfg.structure)
         pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
         return LinearPlant(lab.m, lab.c, lab.k, point_index=pidx, actuator_points=actuators,
-                           timestep_s=period_s / 2), f"linear plant: {lab.description}"
-    if plant == "mujoco":
+                           timestep_s=cfg.chain.period_s / 2), f"linear plant: {lab.description}"
+    if cfg.plant == "mujoco":
         if ctx.lab_kind != "nominal":
             raise ModelError("the MuJoCo plant is built from the nominal spec: use lab='nominal' with plant='mujoco'")
-        from ..sim import load_plant_for_experiment
-
-        p, info = load_plant_for_experiment(fe.spec, actuators=actuators)
+        p, info = make_plant(cfg, fe, actuators)
         return p, f"{info.get('kind', 'MuJoCo plant')} ({info.get('source', fe.spec.name)})"
-    raise ModelError(f"unknown plant {plant!r}; use one of {PLANTS}")
+    raise ModelError(f"unknown plant {cfg.plant!r}; use one of {PLANTS}")
 
 
 def run_virtual_experiment(spec: RunSpec, *, ctx: ReproContext | None = None, plant: str = "linear",
@@ -153,33 +147,14 @@ def run_virtual_experiment(spec: RunSpec, *, ctx: ReproContext | None = None, pl
     if spec.periods < 2:
         raise ModelError(f"{spec.key}: needs at least 2 periods (one to settle), got {spec.periods}")
     fe = ctx.fe(spec.structure)
-    test = TESTS[spec.structure]
-    acts = tuple(fe.spec.instrumentation.actuators)
-    exc_point = fe.spec.instrumentation.excitation
-    chain = HardwareChain()
-    engine = None
-    if spec.controller != "none":
-        d = ctx.design(spec.structure, spec.controller, spec.model)
-        engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=chain.period_s)
-    p, desc = _plant(ctx, spec.structure, plant, acts, chain.period_s)
-    record_s = 1.0 / spec.resolution_hz
-    duration = spec.periods * record_s
-    resp = test.response_point
-    excitation = lambda t: pseudo_random(t, band_hz=test.band_hz, resolution_hz=spec.resolution_hz,  # noqa: E731
-                                         rms_n=test.rms_n, seed=spec.seed)
-    loop = run_loop(p, engine, feedback_points=acts, measured_points=(resp,), excitation_point=exc_point,
-                    excitation=excitation, duration_s=duration, chain=chain, seed=spec.seed, progress=progress,
-                    shape_points=(resp,), metadata={"run": spec.key})
-    rec = loop.recording
-    skip = int(round(record_s / rec.dt_s))
-    frf = h1(np.asarray(rec[f"force{exc_point}"])[skip:], np.asarray(rec[f"vel{resp}"])[skip:], dt_s=rec.dt_s,
-             resolution_hz=spec.resolution_hz, window="boxcar", f_max_hz=test.band_hz[1] * 1.2)
-    f = np.asarray(frf.freq_hz)
-    sel = (f >= test.band_hz[0]) & (f <= test.band_hz[1])
-    h = np.asarray(frf.h)[sel]
-    if test.response_quantity == "displacement":
-        h = h / (2j * np.pi * f[sel])
-    return VirtualRun(spec, f[sel], h, desc, duration, time.perf_counter() - t0)
+    resp = TESTS[spec.structure].response_point
+    cfg = ExperimentConfig(structure=spec.structure, controller=spec.controller, excitation="random",
+                           periods=spec.periods, seed=spec.seed, plant=plant, resolution_hz=spec.resolution_hz)
+    design = None if spec.controller == "none" else ctx.design(spec.structure, spec.controller, spec.model)
+    p, desc = _plant(ctx, cfg, fe, tuple(fe.spec.instrumentation.actuators))
+    m = measure(cfg, fe, design, plant=(p, {"kind": desc}), measured_points=(resp,), shape_points=(resp,),
+                metadata={"run": spec.key}, progress=progress)
+    return VirtualRun(spec, m.freq_hz, m.measured, desc, m.config.duration_s, time.perf_counter() - t0)
 
 
 def analysis_frf(dm: DesignModel, design: ControllerDesign | None, freq_hz: np.ndarray, structure: str,
