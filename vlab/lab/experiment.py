@@ -137,23 +137,14 @@ class ExperimentResult:
 
     Attributes
     ----------
-    config : ExperimentConfig
-        The settings, with ``duration_s`` and ``resolution_hz`` filled in.
-    loop : LoopResult
-        The run: recording at the controller rate, commands and displacements.
-    frfs : dict[str, FRF]
-        H1 velocity FRFs [(m/s)/N] from the excitation force, keyed
-        ``"vel<point>"`` for every measured point.
-    freq_hz : ndarray, shape (n_f,)
-        Frequency lines of the comparison band [Hz].
+    config, loop, frfs, freq_hz, measured, plant_info
+        As in :class:`Measurement` (``freq_hz``: the comparison band).
     analysis_continuous : ndarray, complex, shape (n_f,)
         Closed-loop FRF at the response point with the continuous controller,
         as the dissertation computed it (Sec. 6.1), in the units of
         ``response_quantity`` ([m/N] or [(m/s)/N]).
     analysis_sampled : ndarray, complex, shape (n_f,)
         The same with the sampled-data controller (hold, delay, RC filter).
-    measured : ndarray, complex, shape (n_f,)
-        Measured FRF at the response point, same units.
     modes : list of ModeComparison
         Mode-by-mode comparison of ``analysis_sampled`` with ``measured``
         (Tables 10, 19-21).
@@ -161,9 +152,6 @@ class ExperimentResult:
         Average peak level error ``mean |1 - ratio|`` over the identified modes.
     design : ControllerDesign or None
         The controller run (None for open loop).
-    plant_info : dict
-        Description of the plant (``"kind"``, ``"timestep_s"``, ``"actuators"``,
-        and for MuJoCo ``"source"``, ``"nv"``, ...; see :func:`make_plant`).
     warnings : tuple of str
         Warnings of the run (self-excited oscillation, modes not identified).
     """
@@ -253,7 +241,8 @@ class Measurement:
         FRF at the response point on those lines, in the test's ``response_quantity``
         ([m/N] for ``"displacement"``, [(m/s)/N] for ``"velocity"``).
     plant_info : dict
-        Description of the plant, with ``"actuators"``.
+        Description of the plant (``"kind"``, ``"timestep_s"``, ``"actuators"``,
+        and for MuJoCo ``"source"``, ``"nv"``, ...; see :func:`make_plant`).
     settle_samples : int
         Samples of the recording discarded as settling before the FRFs were measured.
     """
