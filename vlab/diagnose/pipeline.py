@@ -62,7 +62,8 @@ from .fit import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
 from .hypotheses import Combination, Hypothesis, library
 from .labmodel import LabState, predict_frf
 from .locate import locate
-from .nominal import context_for, nominal_design, read_data, settling_time
+from .nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, plant_resolution, read_data,
+                      settling_time)
 from .plantfit import PlantModel, choose_on_plant, reduce_pair_on_plant
 from .plantpair import second_effect_on_plant
 from .problem import Problem
@@ -208,8 +209,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     state_box: dict = {}
 
     def nominal_state() -> LabState:
-        if "s" not in state_box:
-            state_box["s"] = LabState(spec, fe, chain, nominal_design(fe, controller, design_seed))
+        if "s" not in state_box:  # the controller that ran: designed on the spec's own mesh
+            design = nominal_design(fe, controller, design_seed)
+            state_box["s"] = LabState(model_spec, fe_model, chain, design)
         return state_box["s"]
 
     def settle() -> float:
@@ -222,6 +224,17 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         what, obj = read_uff_any(path)
         if seed is None and what == "recording" and isinstance(obj.metadata.get("seed"), int):
             design_seed = int(obj.metadata["seed"])
+    # a MuJoCo validation rerun will follow: the effect is refitted on its plant, and the model compared with
+    # the data is meshed as that plant resolves the structure
+    on_plant = validate_run and what == "recording" and plant != "linear" \
+        and importlib.util.find_spec("mujoco") is not None
+    model_spec = plant_resolution(spec) if on_plant else spec
+    fe_model = fe if model_spec is spec else build_fe_model(model_spec)
+    if model_spec is not spec:
+        notes.append("compared with the MuJoCo plant: the FE model meshed as that plant resolves the structure "
+                     f"({PLANT_RESOLUTION_ELEMENTS} elements per segment of a shear-flexible member, "
+                     f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
+                     "mesh")
     data = read_data(spec, fe, path, what, obj, controller=controller, resolution_hz=resolution_hz, band_hz=band,
                  settle_of=settle, notes=notes)
     nominal = nominal_state()
@@ -242,9 +255,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
     limit, peak_limit = problem.noise_chi2(), problem.peak_limit()
     misfit_0 = problem.misfit(nominal)
-    # a MuJoCo validation rerun will follow: its nominal rerun starts early, the effect is refitted on its plant
-    on_plant = validate_run and isinstance(data, FrfData) and data.recording is not None and plant != "linear" \
-        and importlib.util.find_spec("mujoco") is not None
+    on_plant = on_plant and isinstance(data, FrfData) and data.recording is not None
     try:
         say("locating")
         t = time.perf_counter()
