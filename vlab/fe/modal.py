@@ -84,7 +84,7 @@ def modal_analysis(m: np.ndarray, k: np.ndarray, n_modes: int | None = None) -> 
     if n_modes is not None:
         lam, phi = lam[: min(n_modes, n)], phi[:, : min(n_modes, n)]
     # Rayleigh-quotient refinement of the eigenvalues (second-order accurate in the vector error)
-    lam = np.einsum("ij,ik,kj->j", phi, k, phi) / np.einsum("ij,ik,kj->j", phi, m, phi)
+    lam = np.sum(phi * (k @ phi), axis=0) / np.sum(phi * (m @ phi), axis=0)  # diag(phi^T k phi) / diag(phi^T m phi)
     scale = max(abs(lam).max(), 1e-300)
     if lam.min() < -1e-8 * scale:
         raise ModelError(f"model is unstable: eigenvalue {lam.min():.3g} < 0 (negative stiffness)")
