@@ -61,7 +61,8 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
     Returns
     -------
     StructureSpec
-        ``spec`` itself when no member needs more elements, else a copy with those members' ``elements_per_segment`` raised.
+        ``spec`` itself when no member needs more elements, else a copy with those members'
+        ``elements_per_segment`` raised.
     """
     refine = {m.id for m in spec.members if spec.sections[m.section].shear_stiffness is not None
               and m.elements_per_segment < PLANT_RESOLUTION_ELEMENTS}

@@ -256,6 +256,13 @@ class Measurement:
     settle_samples: int
 
 
+def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
+    """The structure's test, its actuator points (channel order) and its excitation point; ModelError if none."""
+    if fe.spec.name not in TESTS:
+        raise ModelError(f"no test definition for structure {fe.spec.name!r}")
+    return TESTS[fe.spec.name], tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
+
+
 def measure(
     cfg: ExperimentConfig,
     fe: FEModel,
@@ -309,12 +316,7 @@ def measure(
     SimulationError
         The plant diverged (the message says when; the partial recording is kept).
     """
-    name = fe.spec.name
-    if name not in TESTS:
-        raise ModelError(f"no test definition for structure {name!r}")
-    test = TESTS[name]
-    acts = tuple(fe.spec.instrumentation.actuators)
-    exc_point = fe.spec.instrumentation.excitation
+    test, acts, exc_point = _test_of(fe)
     res_hz = cfg.resolution_hz or test.resolution_hz
     record_s = 1.0 / res_hz
     duration = cfg.duration_s if cfg.duration_s is not None else cfg.periods * record_s
@@ -337,8 +339,8 @@ def measure(
         excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
         seed=cfg.seed, progress=progress, shape_points=shape_points,
         metadata=metadata if metadata is not None else {
-            "structure": name, "controller": cfg.controller, "excitation": cfg.excitation, "seed": cfg.seed,
-            "plant": info.get("kind", "")},
+            "structure": fe.spec.name, "controller": cfg.controller, "excitation": cfg.excitation,
+            "seed": cfg.seed, "plant": info.get("kind", "")},
     )
     rec = loop.recording
     skip = int(round(record_s / rec.dt_s)) if cfg.excitation == "random" else 0
@@ -386,18 +388,11 @@ def run_experiment(
     Raises
     ------
     ModelError
-        Unknown controller/excitation, LQR requested (needs the full state).
-    MeasurementError
-        Duration too short for the frequency resolution.
-    SimulationError
-        The plant diverged (the message says when; the partial recording is kept).
+        Unknown controller, LQR requested (needs the full state); and as :func:`measure`.
+    MeasurementError, SimulationError
+        As :func:`measure`.
     """
-    name = fe.spec.name
-    if name not in TESTS:
-        raise ModelError(f"no test definition for structure {name!r}")
-    test = TESTS[name]
-    acts = tuple(fe.spec.instrumentation.actuators)
-    exc_point = fe.spec.instrumentation.excitation
+    test, acts, exc_point = _test_of(fe)
     if cfg.controller == "lqr":
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
     if design is None and cfg.controller != "none":
