@@ -587,7 +587,7 @@ def main(argv=None) -> int:
         print("parameter error of the values the MuJoCo rerun used (the mode-moving ones refitted on the plant's "
               "linearisation, the others at their FE fit; "
               f"{len(rerr)} values): median {100 * summary['refit_error_median']:.2f} %, "
-              f"max {100 * summary['refit_error_max']:.1f} %")
+              f"max {100 * summary['refit_error_max']:.2f} %")
     if mr:
         print(f"misfit reduction (validation rerun, FRF log magnitude): median {summary['misfit_ratio_median']:.1f}x, "
               f"min {summary['misfit_ratio_min']:.1f}x, >= 5x in {100 * summary['misfit_ratio_5x_share']:.0f} % of cases; "
