@@ -6,7 +6,10 @@ Pipeline (issue 6):
    spec's FE model with its open-loop damping, the thesis controller
    (:func:`vlab.design.design_controller`, same seed as the experiment) and
    the nominal hardware chain, in the frequency domain
-   (:func:`vlab.diagnose.labmodel.predict_frf`).
+   (:func:`vlab.diagnose.labmodel.predict_frf`). A recording diagnosed
+   against the MuJoCo plant is compared with the FE model meshed as that
+   plant resolves the structure (:func:`vlab.diagnose.nominal.plant_resolution`),
+   the controller staying the one designed on the spec's own mesh.
 2. **Decide** whether there is a mismatch: the weighted chi-square of the
    nominal model against the data must exceed what the measured noise
    explains (:meth:`Problem.noise_chi2`), or one line of one channel must
