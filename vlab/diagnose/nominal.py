@@ -49,14 +49,15 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
     pair, and a spring or a mass on the
     top beam shifts the pair differently when its spacing differs -- a
     781 N/m spring at point 17 moves them +1.06/+1.62 % on the thesis mesh
-    and +2.2/+0.5 % on the MuJoCo plant, so a fit on the thesis mesh put it
-    at 473 N/m (measured on benchmark case 0 of seed 1; 738 N/m on the
-    refined mesh). The BCC has no shear-flexible section and is returned
-    unchanged.
+    and +2.2/+0.5 % on the MuJoCo plant, so the diagnosis on the thesis mesh
+    fitted it at 473 N/m (benchmark seed 1, case 0), and on this mesh at
+    742 N/m (776 N/m refitted on the plant). The BCC has no shear-flexible
+    section and is returned unchanged.
 
     Parameters
     ----------
     spec : StructureSpec
+        The structure as its TOML defines it (the thesis's mesh).
 
     Returns
     -------

@@ -345,7 +345,7 @@ def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> 
 class PlantScore:
     """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.evidence` reads).
 
-    Parameters
+    Attributes
     ----------
     chi2_ : float
         Chi-square on the plant's linearisation.

@@ -54,6 +54,7 @@ from .problem import Problem
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
 REFERRED_FIT = "fit on the data referred through the first effect"
 
+
 def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem:
     """The FE problem of ``model`` with its data referred through ``h``: ``d' = d H_FE(h, x_fe) / H_plant(h, x_plant)``.
 

@@ -137,13 +137,13 @@ def markdown(res: dict) -> str:
         r = v["refit"]
         others = {n: x for n, x in v.get("parameters", {}).items() if n != r["parameter"]}
         lines += [f"The rerun used {r['parameter']} = {r['value']:.5g}, refitted on {r['on']} "
-                  f"({r.get('start', 'FE fit')} {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; chi-square on the plant's "
-                  f"linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g})"
+                  f"({r.get('start', 'FE fit')} {r['fe_value']:.5g}, {100 * r['change']:+.1f} %; "
+                  f"chi-square on the plant's linearisation {r['chi2_fe_value']:.4g} -> {r['chi2']:.4g})"
                   + ("; with " + ", ".join(f"{n} = {x:.5g}" for n, x in others.items()) if others else "")
                   + ".", ""]
-    lines += [
-              f"- {what}: {_fmt(v['misfit_before'])} -> {_fmt(v['misfit_after'])}"
-              + (f" ({v['misfit_before'] / v['misfit_after']:.3g}x lower)" if _ok(v['misfit_before'], v['misfit_after']) else "")]
+    before, after = v['misfit_before'], v['misfit_after']
+    lines.append(f"- {what}: {_fmt(before)} -> {_fmt(after)}"
+                 + (f" ({before / after:.3g}x lower)" if _ok(before, after) else ""))
     if v.get("noise_misfit") is not None:
         lines.append(f"- the same misfit of an exact model, from the measured noise alone: {_fmt(v['noise_misfit'])}")
     if v.get("modes"):
