@@ -3,6 +3,8 @@ Monte Carlo simulation of circular complex noise."""
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,14 @@ def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
     assert f_limit > 1.5 * chi_limit
     assert np.mean(peak > f_limit) < 0.005              # 0.001 nominal
     assert np.mean(peak > chi_limit) > 0.05
+
+
+def test_a_problem_pickles_without_its_background_reruns():
+    """Worker processes get the problem; its background rerun processes and rerun cache stay here."""
+    problem = _problem(4, None)
+    problem.__dict__["_background"] = {("nominal", "mujoco"): (lambda: None, None)}  # not picklable
+    problem.__dict__["_reruns"] = {("nominal", "mujoco"): "a recording"}
+    back = pickle.loads(pickle.dumps(problem))
+    assert "_background" not in back.__dict__ and "_reruns" not in back.__dict__
+    assert np.array_equal(back.data.h, problem.data.h) and back.n_obs == problem.n_obs
+    assert "_background" in problem.__dict__  # the original keeps them

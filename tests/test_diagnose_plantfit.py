@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from vlab.calibration import open_loop_ratios
+from vlab.errors import ModelError
 from vlab.diagnose import specedit
 from vlab.diagnose.data import FrfData, refer_to_model
 from vlab.diagnose.fit import fit_hypothesis
@@ -15,7 +16,7 @@ from vlab.diagnose.hypotheses import JointFlexibility, library
 from vlab.diagnose.hypothesis import Combination
 from vlab.diagnose.labmodel import LabState, PointModes, natural_frequencies, plant_frf, predict_frf
 from vlab.diagnose.nominal import context_for
-from vlab.diagnose.plantfit import plant_modes, refit_index, refit_on_plant
+from vlab.diagnose.plantfit import map_on_plant, plant_modes, refit_index, refit_on_plant
 from vlab.diagnose.problem import Problem
 from vlab.fe import build_fe_model, modal_analysis
 from vlab.lab.experiment import TESTS
@@ -190,3 +191,18 @@ def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
     f_thesis, f_fine = (modal_analysis(fe.m, fe.k).omega[6] for fe in map(build_fe_model, (grid, fine)))
     assert f_thesis / f_plant - 1 > 0.01
     assert abs(f_fine / f_plant - 1) < 0.003
+
+
+def _scaled_or_fail(model: float, x: float) -> float:
+    """A job of map_on_plant: ``model * x``, a plant error for negative ``x``."""
+    if x < 0:
+        raise ModelError("no plant for a negative value")
+    return model * x
+
+
+def test_map_on_plant_keeps_the_order_in_processes_and_gives_none_for_a_plant_error():
+    jobs = [(1.0,), (-1.0,), (3.0,)]
+    assert map_on_plant(_scaled_or_fail, 2.0, jobs) == [2.0, None, 6.0]
+    assert map_on_plant(_scaled_or_fail, 2.0, jobs, workers=1) == [2.0, None, 6.0]
+    # a job that cannot be sent to a process (a local function) runs in this one
+    assert map_on_plant(lambda m, x: m + x, 1.0, [(1.0,), (2.0,)]) == [2.0, 3.0]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -44,6 +46,15 @@ def test_recording_is_immutable():
     ch = Channel(name="vel1", point_id=1, quantity="velocity", samples=src)
     src[0] = 5.0
     assert ch.samples[0] == 1.0
+
+
+def test_pickles_with_its_read_only_metadata():
+    """A recording goes to worker processes (vlab.diagnose's parallel refits) whole."""
+    rec = _rec().with_metadata(seed=3)
+    back = pickle.loads(pickle.dumps(rec))
+    assert back == rec and back.metadata["seed"] == 3
+    with pytest.raises(TypeError):
+        back.metadata["seed"] = 2
 
 
 def test_copies_and_equality():

@@ -151,3 +151,13 @@ def test_modes_just_above_the_damped_ones_get_the_default_ratio(spec):
     for f, z in above:
         assert f <= ABOVE_DAMPED * 1.02 * top
         assert z == spec.damping.default_ratio
+
+
+def test_forward_and_centred_linearisations_give_the_same_modes(spec, bare):
+    """The default forward-difference linearisation (half the steps) keeps the grid's modes of the centred one."""
+    d = settle(bare.model)
+    pts = sorted(spec.points)
+    fwd = modes(bare.model, pts, 20, data=d, linear=linearize(bare.model, d))
+    cen = modes(bare.model, pts, 20, data=d, linear=linearize(bare.model, d, centred=True))
+    assert np.max(np.abs(fwd.frequencies_hz / cen.frequencies_hz - 1.0)) < 1e-8
+    assert np.max(np.abs(fwd.damping_ratios - cen.damping_ratios)) < 1e-8

@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import ModelError, SpecError, VlabError
 from .fit import PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_pairs, rank
 from .hypothesis import Combination, Hypothesis
-from .plantfit import PlantModel, PlantRefit, PlantScore, refit_index, refit_parts
+from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
 from .problem import Problem
 
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
@@ -86,16 +86,47 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best
-#: :data:`REFIT_BEST` of them have their second effect refitted on the plant. Chosen, not fitted: on the grid
+#: :data:`REFIT_BEST` of them are refitted on the plant. Chosen, not fitted: on the grid
 #: with a hinge-like joint the top-beam springs at 14-21 all fit the referred data alike (chi-square
-#: 763-793), and the true one ranked 5th there.
+#: 763-793), and the true one ranked 5th there; a pair's plant chi-square at its referred fit can sit
+#: 80 above its refitted one (a 23 kN/m spring at 17 with 1.5 kg at 15: 903 at the referred fit, 827 with
+#: both parts refitted), more than the spread of the three best at the referred fit (842-903) there.
 N_FIT = 6
-REFIT_BEST = 2
+REFIT_BEST = 3
 
 #: Half-width in ``ln p`` of the plant refit of the second effect (a factor 2 each way: the referred FE
 #: fit of a spring next to a hinge-like joint came out half the drawn value) and its scan points.
 SECOND_HALF_WIDTH = math.log(2.0)
 SECOND_POINTS = 7
+
+
+def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> PlantRefit | None:
+    """Refit a pair found on the referred data on the plant: its second effect's mode-moving parameter
+    (``+-SECOND_HALF_WIDTH`` around ``x``), then each part once more with the other in the model
+    (:func:`vlab.diagnose.plantfit.refit_parts`).
+
+    Parameters
+    ----------
+    model : PlantModel
+    pair : Combination
+        The first effect and a second one.
+    x : ndarray, shape (pair.n_params,)
+        Start [SI]: the first effect at its plant value, the second at its referred fit.
+    chi2_at_x : float
+        The plant chi-square at ``x`` (kept for a second effect with nothing to refit, a chain effect).
+
+    Returns
+    -------
+    PlantRefit or None
+        ``start`` :data:`REFERRED_FIT`; None when nothing could be evaluated on the plant.
+    """
+    k = pair.parts[0].n_params
+    i = refit_index(pair, pair.parts[1])
+    r = None if i is None else model.refit(pair, x, i, half_width=SECOND_HALF_WIDTH, points=SECOND_POINTS)
+    if r is None and math.isfinite(chi2_at_x):  # nothing to refit (a chain effect): its fitted value
+        r = PlantRefit(pair.param_names[k], float(x[k]), float(x[k]), x, pair.apply(model.base, x, model.ctx),
+                       chi2_at_x, chi2_at_x, 0, 0.0)
+    return None if r is None else refit_parts(model, pair, replace(r, start=REFERRED_FIT), pair.parts)
 
 
 def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None,
@@ -110,9 +141,11 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     :func:`vlab.diagnose.fit.fit_pairs`). Each is scored on the plant's
     linearisation with ``chosen`` at its plant value and the second effect at
     its referred fit; the ``refit_best`` best have the second effect's
-    mode-moving parameter refitted there (``+-SECOND_HALF_WIDTH``), and the
-    best of those has each part refitted once more with the other in the
-    model. It replaces ``chosen`` only if it beats it there by
+    mode-moving parameter refitted there (``+-SECOND_HALF_WIDTH``) and then
+    each part once more with the other in the model
+    (:func:`vlab.diagnose.plantfit.refit_parts`), so that they are compared
+    at the same level of refit (in parallel processes, :func:`vlab.diagnose.plantfit.map_on_plant`); the
+    best of them replaces ``chosen`` only if it beats it there by
     :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and either leaves
     the data within the noise (:meth:`~vlab.diagnose.problem.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
@@ -171,17 +204,9 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         return np.concatenate([x_plant, np.asarray(c.params_[k:], dtype=float)])
 
     at_fit = {c.label: model.chi2(c, on_plant(c)) for c in pairs}
-    refits: dict = {}
-    for c in sorted(pairs, key=lambda c: at_fit[c.label])[:refit_best]:
-        i = refit_index(c, c.parts[1])
-        r = None if i is None else model.refit(c, on_plant(c), i, half_width=SECOND_HALF_WIDTH,
-                                               points=SECOND_POINTS)
-        if r is None and math.isfinite(at_fit[c.label]):  # nothing to refit (a chain effect): its fitted value
-            x = on_plant(c)
-            r = PlantRefit(c.param_names[k], float(x[k]), float(x[k]), x, c.apply(model.base, x, model.ctx),
-                           at_fit[c.label], at_fit[c.label], 0, 0.0)
-        if r is not None:
-            refits[c.label] = (c, replace(r, start=REFERRED_FIT))
+    best_at_fit = sorted(pairs, key=lambda c: at_fit[c.label])[:refit_best]
+    done = map_on_plant(refit_pair, model, [(c, on_plant(c), at_fit[c.label]) for c in best_at_fit])
+    refits = {c.label: (c, r) for c, r in zip(best_at_fit, done) if r is not None}
     plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
             f"{single_chi2:.4g}, largest residual {single_peak:.3g}, limits "
@@ -191,7 +216,6 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     if not refits:
         return chosen, refit, [], head + "; none could be refitted there, the single effect stays"
     best, r = min(refits.values(), key=lambda t: t[1].chi2)
-    r = refit_parts(model, best, r, best.parts)  # each effect again with the other in the model (one round)
     n_obs = plant.n_obs
     c_hat = max(1.0, single_chi2 / max(n_obs - k, 1))
     ev = evidence(PlantScore(r.chi2, best.n_params), PlantScore(single_chi2, k), chi2_0=math.inf, n_obs=n_obs,

@@ -207,6 +207,10 @@ class Recording:
         object.__setattr__(self, "channels", chans)
         object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
 
+    def __reduce__(self):
+        """Pickled (to a worker process) with its metadata as a plain dict; rebuilt read-only."""
+        return (Recording, (self.dt_s, self.channels, dict(self.metadata)))
+
     # -- construction -----------------------------------------------------
     @classmethod
     def from_signals(cls, dt_s: float, signals: Mapping[str, Any], *,
