@@ -133,7 +133,7 @@ def test_a_second_effect_that_only_absorbs_the_model_difference_is_dropped_on_th
     """On the FE model an added mass at 18 lowers the chi-square next to the biased joint (it absorbs part of
     the other model's offset); on the other model's modes the joint alone fits, and the pair is reduced to it."""
     from vlab.diagnose.hypotheses import AddedMass
-    from vlab.diagnose.plantfit import reduce_pair_on_plant
+    from vlab.diagnose.plantchoice import reduce_pair_on_plant
 
     problem = joint_on_other_model
     model, pair, ranked = _pair_and_singles(problem, AddedMass(point=18))
@@ -146,7 +146,7 @@ def test_a_second_effect_that_only_absorbs_the_model_difference_is_dropped_on_th
 def test_a_real_second_effect_keeps_the_pair_on_the_plant():
     """Joint 18 and a real 0.5 kg mass at point 3, both in the other model's data: the pair stays."""
     from vlab.diagnose.hypotheses import AddedMass
-    from vlab.diagnose.plantfit import reduce_pair_on_plant
+    from vlab.diagnose.plantchoice import reduce_pair_on_plant
 
     problem = _referred_problem(lambda spec: specedit.add_mass(specedit.soften_joint(spec, 18, 6000.0), 3, 0.5),
                                 "grid-joint18-mass3-other.uff")
@@ -161,7 +161,8 @@ def test_a_real_second_effect_keeps_the_pair_on_the_plant():
 def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_model):
     """A selected joint 19 with joint 18 as its look-alike: on the other model's modes joint 18 (the drawn one)
     fits far better, is chosen and refitted; joint 19, no longer a look-alike there, leaves the alternatives."""
-    from vlab.diagnose.plantfit import PlantModel, choose_on_plant
+    from vlab.diagnose.plantchoice import choose_on_plant
+    from vlab.diagnose.plantfit import PlantModel
 
     problem = joint_on_other_model
     wrong = fit_hypothesis(JointFlexibility(point=19), problem)

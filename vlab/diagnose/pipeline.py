@@ -67,7 +67,8 @@ from .labmodel import LabState, predict_frf
 from .locate import locate
 from .nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, plant_resolution, read_data,
                       settling_time)
-from .plantfit import PlantModel, choose_on_plant, reduce_pair_on_plant
+from .plantchoice import choose_on_plant, reduce_pair_on_plant
+from .plantfit import PlantModel
 from .plantpair import second_effect_on_plant
 from .problem import Problem
 from .result import DiagnosisResult

@@ -29,16 +29,11 @@ The FE-fitted parameters stay the diagnosis's answer (``selected``); the
 refitted value is reported with the validation (``validated.parameters``)
 as the value the rerun used.
 
-A selected *pair* is first checked on the plant's linearisation
-(:func:`reduce_pair_on_plant`): the selection's pair rule is applied again
-there (the main part's mode-moving parameter refitted; in a kept pair the
-other part's too, :func:`refit_parts`), since a second
-effect can pass it on the FE model only by absorbing the same model-form
-difference. A selected *single* effect is compared there with its
-look-alikes (:func:`choose_on_plant`: effects the FE fit cannot tell from
-it, each refitted on the plant; the least chi-square wins), since the
-FE/plant difference can order look-alikes wrongly (the stiffness of one end
-segment of the grid's top beam against its mirror).
+What is decided on the plant with these refits is in
+:mod:`vlab.diagnose.plantchoice` (a selected pair or single effect against
+its parts or look-alikes) and :mod:`vlab.diagnose.plantpair` (a second
+effect found there). The refits of several candidates run in two processes
+(:func:`map_on_plant`).
 
 Source: the two-model idea is that of model updating with a reference model
 (Friswell & Mottershead, *Finite Element Model Updating in Structural
@@ -48,7 +43,6 @@ fitted on, so it is refitted on the model that is rerun.
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, replace
@@ -357,91 +351,6 @@ class PlantScore:
     n_params: int
 
 
-def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> tuple[Hypothesis, PlantRefit | None,
-                                                                                     str | None]:
-    """Apply the pair rule of the selection again on the plant's linearisation.
-
-    The FE fit selects a pair only if it beats the best single effect by
-    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and lowers the
-    misfit :data:`vlab.diagnose.fit.PAIR_MISFIT_GAIN` times
-    (:func:`vlab.diagnose.fit.select`). A second effect can pass that rule by
-    absorbing the FE/plant model-form difference left next to a mode-moving
-    effect (grid joint 11 with a spurious added mass at 18). Here the pair
-    and each of its parts alone (at its value in the pair) are scored on the
-    plant's linearisation, and the same rule decides. A part alone that
-    moves modes is refitted there (:meth:`PlantModel.refit`); in the pair,
-    the part with the better BIC alone is refitted and the other held at its
-    FE value for the decision; a pair that is kept then has its other part
-    refitted too, when it moves modes, and the main part again
-    (:func:`refit_parts`: coordinate descent, not a two-parameter search).
-
-    Parameters
-    ----------
-    model : PlantModel
-    pair : Combination
-        The selected pair (fitted).
-    ranked : list of Hypothesis
-        The fitted hypotheses: a part's own FE fit there decides which part
-        is refitted in the pair and is returned when the pair is reduced to
-        it (a part without one is fitted on the FE model then).
-
-    Returns
-    -------
-    chosen : Hypothesis
-        ``pair`` or one of the single fits of ``ranked``.
-    refit : PlantRefit or None
-        The chosen one's refit on the plant, started from its own FE fit
-        (None where nothing moves modes).
-    note : str or None
-        What was decided and why, when the pair was reduced.
-    """
-    from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence
-
-    # each part alone keeps its value in the pair; the part that explains more alone (its own FE fit, where
-    # ``ranked`` has one) is the one refitted in the pair, the other held at its FE value
-    k0 = pair.parts[0].n_params
-    values = (pair.params_[:k0], pair.params_[k0:])
-    own = [next((h for h in ranked if not isinstance(h, Combination) and h.label == p.label), None)
-           for p in pair.parts]
-    main = pair.parts[int(np.argmin([h.bic_ if h is not None else math.inf for h in own]))]
-
-    jobs = [(pair, pair.params_, main)] + [(part, x, main) for part, x in zip(pair.parts, values)]
-    (s_pair, m_pair, r_pair), *singles = [
-        out if out is not None else (PlantScore(math.inf, h.n_params), math.inf, None)
-        for (h, _x, _m), out in zip(jobs, map_on_plant(_scored, model, jobs))]
-    alone = [(i, *t) for i, t in enumerate(singles)]
-    i1, s1, m1, r1 = min(alone, key=lambda t: t[1].chi2_ + t[1].n_params * math.log(model.problem.n_obs))
-    n_obs = model.problem.n_obs
-    c_hat = max(1.0, s1.chi2_ / max(n_obs - s1.n_params, 1))
-    ev = evidence(s_pair, s1, chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
-    gain = m1 / m_pair if m_pair > 0 else math.inf
-    nonlinear = any(p.effect in NONLINEAR for p in pair.parts)
-    if ev >= STRONG_EVIDENCE and (nonlinear or gain >= PAIR_MISFIT_GAIN):
-        others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
-        if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
-            r_pair = refit_parts(model, pair, r_pair, others + [main])
-        return pair, r_pair, None
-    h1 = own[i1]
-    if h1 is None:  # no FE fit of its own among the ranked: fit it now (the answer's parameters are FE fits)
-        from .fit import fit_hypothesis
-
-        h1 = fit_hypothesis(copy.copy(pair.parts[i1]), model.fe_problem)
-    if r1 is not None:  # refit again from its own FE value, which the report quotes as the start
-        r1 = model.refit(h1, h1.params_)
-    note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
-            f"(quasi-BIC evidence for the pair {ev:.3g} < {STRONG_EVIDENCE:g}, or misfit gain {gain:.3g} < "
-            f"{PAIR_MISFIT_GAIN:g}): the second effect absorbed the FE/plant model-form difference; "
-            f"{h1.label} is selected")
-    return h1, r1, note
-
-
-#: Most look-alikes of a selected single effect scored on the plant by :func:`choose_on_plant`, and how
-#: many of the best of them (with the selected one) are refitted there (a refit takes ~11 linearisations,
-#: ~3.5 s on the grid; a score at the FE value one).
-MAX_LOOKALIKES = 6
-REFIT_BEST = 2
-
-
 def _job(fn, model: PlantModel, *args):
     """Worker of :func:`map_on_plant`: ``fn(model, *args)``, None where the plant cannot be built."""
     try:
@@ -481,82 +390,3 @@ def map_on_plant(fn, model: PlantModel, jobs: list, *, workers: int = 2) -> list
         except (OSError, BrokenProcessPool, PicklingError, AttributeError, TypeError):
             pass  # no process pool here, or a model that cannot be pickled: one process
     return [_job(fn, model, *job) for job in jobs]
-
-
-def _scored(model: PlantModel, h: Hypothesis, x0, main: Hypothesis):
-    """``h`` (a pair or one part of it) refitted on the plant from ``x0`` (in a pair: the parameter of its
-    part ``main``), as ``(PlantScore, misfit, PlantRefit or None)`` (a job of :func:`map_on_plant`)."""
-    r = model.refit(h, x0, refit_index(h, main if isinstance(h, Combination) else None))
-    x = x0 if r is None else r.params
-    chi2 = model.chi2(h, x) if r is None else r.chi2
-    misfit = model.problem.misfit(model.state(h, x)) if math.isfinite(chi2) else math.inf
-    return PlantScore(chi2, h.n_params), misfit, r
-
-
-def _refit_own(model: PlantModel, h: Hypothesis) -> PlantRefit | None:
-    """``h`` refitted on the plant from its own FE fit (a job of :func:`map_on_plant`)."""
-    return model.refit(h, h.params_)
-
-
-def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, *,
-                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = REFIT_BEST
-                    ) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
-    """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
-
-    The FE model cannot tell apart effects the data cannot (within
-    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in BIC): the stiffness of one
-    end segment of the grid's top beam or of its mirror. The FE/plant
-    model-form difference can also order them wrongly, and the plant is the
-    model that is rerun. Here the selected effect and up to
-    ``max_lookalikes`` of its single, refittable alternatives
-    (:func:`refit_index`) are scored on the plant's linearisation at their
-    FE values, the ``refit_best`` best of them are refitted there
-    (:meth:`PlantModel.refit`, from their own FE fits; in parallel processes,
-    :func:`map_on_plant`), and the least plant
-    chi-square wins. The alternatives left are those whose plant chi-square
-    (refitted, else at the FE value) is within ``STRONG_EVIDENCE`` of the
-    winner's, and those not scored.
-
-    Parameters
-    ----------
-    model : PlantModel
-    chosen : Hypothesis
-        The selected single effect (fitted).
-    alternatives : list of Hypothesis
-        Its look-alikes on the FE model (:func:`vlab.diagnose.fit.select`).
-    max_lookalikes, refit_best : int
-
-    Returns
-    -------
-    chosen : Hypothesis
-        The winner (one of ``[chosen] + alternatives``).
-    refit : PlantRefit or None
-        Its refit (None when ``chosen`` has no refittable parameter; nothing is compared then).
-    alternatives : list of Hypothesis
-    note : str or None
-        The plant chi-squares, when look-alikes were compared.
-    """
-    from .fit import STRONG_EVIDENCE
-
-    looks = [h for h in alternatives if not isinstance(h, Combination) and refit_index(h) is not None
-             ][:max_lookalikes]
-    if refit_index(chosen) is None or not looks:
-        return chosen, model.refit(chosen, chosen.params_), alternatives, None
-    cands = [chosen] + looks
-    known = {h.label: model.chi2(h, h.params_) for h in cands}  # at the FE values: one linearisation each
-    refits = {}
-    best_known = sorted(cands, key=lambda h: known[h.label])[:refit_best]
-    for h, r in zip(best_known, map_on_plant(_refit_own, model, [(h,) for h in best_known])):
-        if r is not None:
-            refits[h.label] = r
-            known[h.label] = min(known[h.label], r.chi2)
-    best = min((h for h in cands if h.label in refits), key=lambda h: refits[h.label].chi2, default=None)
-    if best is None:
-        return chosen, None, alternatives, None
-    c_best = refits[best.label].chi2
-    alts = [h for h in [chosen] + list(alternatives)
-            if h is not best and (h.label not in known or known[h.label] - c_best < STRONG_EVIDENCE)]
-    note = ("look-alikes compared on the MuJoCo plant's linearisation (chi-square, refitted for the best "
-            f"{len(refits)}): " + ", ".join(f"{h.label}: {known[h.label]:.4g}" for h in cands)
-            + f"; {best.label} is selected")
-    return best, refits[best.label], alts, note

@@ -130,11 +130,6 @@ class Problem:
         Number of real residuals N.
     """
 
-    def __getstate__(self) -> dict:
-        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.validate`
-        (background processes and the rerun cache), which stays with the process that made it."""
-        return {k: v for k, v in self.__dict__.items() if k not in ("_background", "_reruns")}
-
     def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
                  use_phase: bool = True, freq_sigma: float = 0.01, damping_sigma: float = 0.25,
                  shape_sigma: float = 0.05):
@@ -157,6 +152,11 @@ class Problem:
             n = len(data.freq_hz)
             nz = np.isfinite(data.damping) & (data.damping > 0)
             self.n_obs = n + int(nz.sum()) + (n if data.shapes is not None else 0)
+
+    def __getstate__(self) -> dict:
+        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.validate`
+        (background processes and the rerun cache), which stays with the process that made it."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_background", "_reruns")}
 
     # ------------------------------------------------------------------ modal helpers
     def _nominal_modes(self, base: LabState) -> None:
