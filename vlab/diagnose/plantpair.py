@@ -102,8 +102,8 @@ SECOND_POINTS = 7
 
 def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> PlantRefit | None:
     """Refit a pair found on the referred data on the plant: its second effect's mode-moving parameter
-    (``+-SECOND_HALF_WIDTH`` around ``x``), then each part once more with the other in the model
-    (:func:`vlab.diagnose.plantfit.refit_parts`).
+    (``+-SECOND_HALF_WIDTH`` around ``x``), then the first effect's with the second in the model and,
+    where that lowered the chi-square, the second's once more (:func:`vlab.diagnose.plantfit.refit_parts`).
 
     Parameters
     ----------
@@ -126,7 +126,12 @@ def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> Pla
     if r is None and math.isfinite(chi2_at_x):  # nothing to refit (a chain effect): its fitted value
         r = PlantRefit(pair.param_names[k], float(x[k]), float(x[k]), x, pair.apply(model.base, x, model.ctx),
                        chi2_at_x, chi2_at_x, 0, 0.0)
-    return None if r is None else refit_parts(model, pair, replace(r, start=REFERRED_FIT), pair.parts)
+    if r is None:
+        return None
+    r = replace(r, start=REFERRED_FIT)
+    moved = refit_parts(model, pair, r, pair.parts[:1])
+    # the second again only where the first moved (else it was just refitted with the first where it is)
+    return r if moved is r else refit_parts(model, pair, moved, pair.parts[1:])
 
 
 def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None,
@@ -140,12 +145,10 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     best pairs are fitted jointly (the forward step of
     :func:`vlab.diagnose.fit.fit_pairs`). Each is scored on the plant's
     linearisation with ``chosen`` at its plant value and the second effect at
-    its referred fit; the ``refit_best`` best have the second effect's
-    mode-moving parameter refitted there (``+-SECOND_HALF_WIDTH``) and then
-    each part once more with the other in the model
-    (:func:`vlab.diagnose.plantfit.refit_parts`), so that they are compared
-    at the same level of refit (in parallel processes, :func:`vlab.diagnose.plantfit.map_on_plant`); the
-    best of them replaces ``chosen`` only if it beats it there by
+    its referred fit; the ``refit_best`` best are refitted there in full
+    (:func:`refit_pair`; in parallel processes,
+    :func:`vlab.diagnose.plantfit.map_on_plant`), so that they are compared
+    at the same level of refit; the best of them replaces ``chosen`` only if it beats it there by
     :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and either leaves
     the data within the noise (:meth:`~vlab.diagnose.problem.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
