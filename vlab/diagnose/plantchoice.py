@@ -81,10 +81,10 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     main = pair.parts[int(np.argmin([h.bic_ if h is not None else math.inf for h in own]))]
 
     jobs = [(pair, pair.params_, main)] + [(part, x, main) for part, x in zip(pair.parts, values)]
-    (s_pair, m_pair, r_pair), *singles = [
-        out if out is not None else (PlantScore(math.inf, h.n_params), math.inf, None)
-        for (h, _x, _m), out in zip(jobs, map_on_plant(_scored, model, jobs))]
-    alone = [(i, *t) for i, t in enumerate(singles)]
+    scores = [out if out is not None else (PlantScore(math.inf, h.n_params), math.inf, None)  # no plant: inf
+              for (h, _x, _m), out in zip(jobs, map_on_plant(_scored, model, jobs))]
+    s_pair, m_pair, r_pair = scores[0]
+    alone = [(i, *t) for i, t in enumerate(scores[1:])]
     i1, s1, m1, r1 = min(alone, key=lambda t: t[1].chi2_ + t[1].n_params * math.log(model.problem.n_obs))
     n_obs = model.problem.n_obs
     c_hat = max(1.0, s1.chi2_ / max(n_obs - s1.n_params, 1))
@@ -114,7 +114,7 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
 #: many of the best of them (with the selected one) are refitted there (a refit takes ~11 linearisations,
 #: ~3.5 s on the grid; a score at the FE value one).
 MAX_LOOKALIKES = 6
-REFIT_BEST = 2
+LOOKALIKES_REFITTED = 2
 
 
 def _scored(model: PlantModel, h: Hypothesis, x0, main: Hypothesis):
@@ -133,7 +133,7 @@ def _refit_own(model: PlantModel, h: Hypothesis) -> PlantRefit | None:
 
 
 def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, *,
-                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = REFIT_BEST
+                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = LOOKALIKES_REFITTED
                     ) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
 

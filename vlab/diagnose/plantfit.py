@@ -378,15 +378,31 @@ def map_on_plant(fn, model: PlantModel, jobs: list, *, workers: int = 2) -> list
     -------
     list
         One result per job, in order; None where ``fn`` raised :class:`ModelError` or :class:`SpecError`.
+
+    Raises
+    ------
+    Exception
+        Any other error of ``fn`` (from the worker process that ran it).
     """
-    if workers > 1 and len(jobs) > 1:
+    if workers > 1 and len(jobs) > 1 and _picklable((fn, model, jobs)):
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool
-        from pickle import PicklingError
 
         try:
             with ProcessPoolExecutor(min(workers, len(jobs))) as ex:
                 return list(ex.map(_job, *zip(*[(fn, model, *job) for job in jobs])))
-        except (OSError, BrokenProcessPool, PicklingError, AttributeError, TypeError):
-            pass  # no process pool here, or a model that cannot be pickled: one process
+        except (OSError, BrokenProcessPool):
+            pass  # no process pool here: one process
     return [_job(fn, model, *job) for job in jobs]
+
+
+def _picklable(obj) -> bool:
+    """Whether ``obj`` can be sent to a worker process (a local function or a test's own ``modes_of``
+    cannot)."""
+    import pickle
+
+    try:
+        pickle.dumps(obj)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return False
+    return True

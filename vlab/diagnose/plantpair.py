@@ -86,13 +86,13 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best
-#: :data:`REFIT_BEST` of them are refitted on the plant. Chosen, not fitted: on the grid
+#: :data:`PAIRS_REFITTED` of them are refitted on the plant. Chosen, not fitted: on the grid
 #: with a hinge-like joint the top-beam springs at 14-21 all fit the referred data alike (chi-square
 #: 763-793), and the true one ranked 5th there; a pair's plant chi-square at its referred fit can sit
 #: 80 above its refitted one (a 23 kN/m spring at 17 with 1.5 kg at 15: 903 at the referred fit, 827 with
 #: both parts refitted), more than the spread of the three best at the referred fit (842-903) there.
 N_FIT = 6
-REFIT_BEST = 3
+PAIRS_REFITTED = 3
 
 #: Half-width in ``ln p`` of the plant refit of the second effect (a factor 2 each way: the referred FE
 #: fit of a spring next to a hinge-like joint came out half the drawn value) and its scan points.
@@ -135,7 +135,7 @@ def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> Pla
 
 
 def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None,
-                           pool: list[Hypothesis], *, n_fit: int = N_FIT, refit_best: int = REFIT_BEST,
+                           pool: list[Hypothesis], *, n_fit: int = N_FIT, refit_best: int = PAIRS_REFITTED,
                            max_nfev: int = 40) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """Search a second effect next to the selected single ``chosen`` when the plant leaves more than noise.
 
