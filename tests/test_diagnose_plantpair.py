@@ -8,6 +8,7 @@ import pytest
 from test_diagnose_plantfit import _referred_problem, other_model_modes
 from vlab.diagnose import specedit
 from vlab.diagnose.fit import fit_hypothesis
+from vlab.diagnose.chain import Saturation
 from vlab.diagnose.hypotheses import JointFlexibility, library
 from vlab.diagnose.hypothesis import Combination
 from vlab.diagnose.plantfit import PlantModel
@@ -74,3 +75,13 @@ def test_a_pair_that_does_not_reach_the_noise_is_not_selected(joint_and_mass):
     assert chosen is joint and refit is r and looks == []
     assert note is not None and "the single effect stays" in note
     assert np.isfinite(model.problem.chi2(model.state(joint, r.params)))
+
+
+def test_a_nonlinear_effect_gets_no_second_effect_search(joint_and_mass):
+    """A saturation's linear model is a describing function: what it leaves on the plant is not judged by the
+    noise limits, so no second effect is searched next to it (pairs with it are judged by rerun)."""
+    model, _, _ = _joint_and_refit(joint_and_mass)
+    sat = Saturation()
+    sat.params_ = np.array([5.0])
+    chosen, refit, looks, note = second_effect_on_plant(model, sat, None, _pool(joint_and_mass))
+    assert chosen is sat and refit is None and looks == [] and note is None
