@@ -7,8 +7,8 @@ import pytest
 
 from test_diagnose_plantfit import _referred_problem, other_model_modes
 from vlab.diagnose import specedit
-from vlab.diagnose.fit import fit_hypothesis
 from vlab.diagnose.chain import Saturation
+from vlab.diagnose.fit import fit_hypothesis
 from vlab.diagnose.hypotheses import JointFlexibility, library
 from vlab.diagnose.hypothesis import Combination
 from vlab.diagnose.plantfit import PlantModel

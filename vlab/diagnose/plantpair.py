@@ -159,10 +159,11 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     friction) is left alone: its linear model is a describing function, so
     what its linearisation leaves on the plant is mostly the nonlinearity's
     own distortion, which no linear second effect explains and which
-    :meth:`~vlab.diagnose.problem.Problem.within_noise` cannot judge (grid
-    benchmark case 12, a saturation: chi-square 5.5e5 against a noise limit
-    of 3.1e3, and the best pair's quasi-BIC evidence 1.7). Pairs with a
-    nonlinear part are judged by rerun instead
+    :meth:`~vlab.diagnose.problem.Problem.within_noise` cannot judge (MuJoCo
+    grid benchmark, seed 0, case 12, a saturation: chi-square 5.5e5 against a
+    noise limit of 3.1e3, and the best pair's quasi-BIC evidence 1.7; the
+    search failed on every benchmark case with a nonlinear single effect, at
+    20-35 s each). Pairs with a nonlinear part are judged by rerun instead
     (:func:`vlab.diagnose.selection.tie_break_by_rerun`).
 
     Parameters
@@ -175,7 +176,11 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     pool : list of Hypothesis
         Candidates for the second effect (the library; effects the MuJoCo
         plant cannot carry, ``spec_level`` false, are skipped).
-    n_fit, refit_best : int
+    n_fit : int
+        Pairs fitted jointly on the referred data (default :data:`N_FIT`).
+    refit_best : int
+        Of those, the best (plant chi-square at the referred fit) refitted on the plant in full
+        (default :data:`PAIRS_REFITTED`).
     max_nfev : int
         Evaluation budget of each joint fit on the referred data.
 
@@ -190,7 +195,14 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         is within ``STRONG_EVIDENCE`` of the selected one's (the data cannot tell them apart: a spring at
         the grid's top-beam point 14 or 15 next to a hinge-like joint 8); else empty.
     note : str or None
-        What was tried and decided (None when the plant already left only noise or nothing could be fitted).
+        What was tried and decided (None when nothing was searched: ``chosen`` is a pair, not spec-level or
+        nonlinear, or the plant already left only noise; or when nothing could be fitted).
+
+    Raises
+    ------
+    Exception
+        Only errors that are not a model, spec or fit failure (those end the search and keep
+        ``chosen``), e.g. a bug in a worker process of :func:`~vlab.diagnose.plantfit.map_on_plant`.
     """
     if isinstance(chosen, Combination) or not chosen.spec_level or chosen.effect in NONLINEAR:
         return chosen, refit, [], None
