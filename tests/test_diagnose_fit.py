@@ -3,6 +3,7 @@ replacement (Miller 2002, Sec. 3.3) corrects it. Modal data of the linear BCC mo
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from vlab.calibration import open_loop_ratios
@@ -167,3 +168,70 @@ def test_a_friction_saturation_pair_is_checked_against_either_part_alone():
     pair = Combination(first=Friction(point=7), second=Saturation())
     assert [g.label for g in _nonlinear_alone(pair, [fric, sat, pair], None)] == [fric.label, sat.label]
     assert _nonlinear_alone(fric, [fric, sat, pair], None) == []
+
+
+def _fitted(*hyps):
+    """Give hypotheses fitted-looking attributes (the values do not enter the rerun decision)."""
+    for h in hyps:
+        h.params_ = np.ones(h.n_params)
+        h.ci95_ = np.ones((h.n_params, 2))
+        h.chi2_ = h.aic_ = h.bic_ = h.misfit_ = 1.0
+        h.success_ = True
+
+
+class _FakeProblem:
+    """Just enough of a Problem for :func:`tie_break_by_rerun`'s decision (reruns replaced by time errors)."""
+
+    data = None
+
+    def state_for(self, h, x):
+        return h.label
+
+
+def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
+    """Run the parsimony check with rerun time errors ``errors[(plant, label)]``; returns the winner and the plants
+    the reruns were asked of."""
+    from vlab.diagnose import selection
+
+    asked = []
+
+    def fake_reruns(problem, jobs, kind, **_kw):
+        asked.append(kind)
+        return [(kind, state) for state, _key in jobs]
+
+    monkeypatch.setattr(selection, "reruns", fake_reruns)
+    monkeypatch.setattr(selection, "lookalikes", lambda h, problem: [])  # none: the decision alone is tested
+    monkeypatch.setattr(selection, "time_error", lambda run, data: errors[run])
+    notes: list = []
+    best, _ = selection.tie_break_by_rerun(_FakeProblem(), pair, [], ranked, notes, plant=plant)
+    return best, asked, notes
+
+
+def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came_from_it(monkeypatch):
+    """MuJoCo grid benchmark seed 1 case 4 (a lag next to a saturation): on the linear plant the pair's time error
+    was 0.84x the saturation's alone (0.275 against 0.328, the FE/MuJoCo model-form error in both), and the pair
+    was dropped; on the MuJoCo plant the two are 0.041 and 0.162."""
+    from vlab.diagnose.hypotheses import ActuatorLag, Combination, Saturation
+
+    lag, sat = ActuatorLag(), Saturation()
+    pair = Combination(first=ActuatorLag(), second=Saturation())
+    _fitted(lag, sat, pair)
+    errors = {("linear", pair.label): 0.275, ("linear", sat.label): 0.328,
+              ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162}
+    best, asked, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
+    assert best.label == sat.label and asked == ["linear"]
+    best, asked, notes = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
+    assert best.label == pair.label and asked == ["linear", "mujoco"]
+    assert "MuJoCo plant" in notes[-1]
+
+
+def test_a_friction_pair_stays_on_the_linear_plant(monkeypatch):
+    """Friction cannot be carried by the MuJoCo plant: its pair is judged on the linear reruns alone."""
+    from vlab.diagnose.hypotheses import ActuatorLag, Combination, Friction
+
+    fric = Friction(point=7)
+    pair = Combination(first=ActuatorLag(), second=Friction(point=7))
+    _fitted(fric, pair)
+    errors = {("linear", pair.label): 0.275, ("linear", fric.label): 0.328}
+    best, asked, notes = _tie_break_with(monkeypatch, pair, [pair, fric], errors, "mujoco")
+    assert best.label == fric.label and asked == ["linear"] and "linear FE plant" in notes[-1]

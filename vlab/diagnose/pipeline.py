@@ -70,7 +70,7 @@ from .nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, pl
 from .plantchoice import choose_on_plant, reduce_pair_on_plant
 from .plantfit import PlantModel
 from .plantpair import second_effect_on_plant
-from .problem import Problem
+from .problem import Problem, changed_beyond_noise
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                         rerun_key, tie_break_by_rerun)
@@ -266,6 +266,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
         mismatch = chi2_0 > limit or peak_0 > peak_limit
+        if not mismatch and baseline is not None:  # within the model floor; is it within the noise?
+            mismatch, note = changed_beyond_noise(problem, nominal)
+            if mismatch:
+                notes.append(note)
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
                               None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
                               peak_nominal=peak_0, peak_limit=peak_limit)
@@ -322,7 +326,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                     any(needs_rerun_check(h) for h in [chosen] + alts):
                 say("separating look-alikes by rerun")
                 t = time.perf_counter()
-                chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes)
+                chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes,
+                                                  plant="mujoco" if on_plant else "linear", seed=design_seed)
                 timing["tie_break"] = time.perf_counter() - t
             res.alternatives = alts
             if chosen is not None and on_plant and chosen.spec_level:

@@ -419,6 +419,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})
+    _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core
     waiting = [(k, plant) for _st, k in jobs if k is not None and (k, plant) in pending]
     out: dict = {}
     # the reruns still to make run while the background ones finish (they hold a core each)

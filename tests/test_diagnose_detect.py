@@ -1,0 +1,77 @@
+"""vlab.diagnose.problem.changed_beyond_noise: with a baseline, a change is judged against the noise alone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vlab.diagnose import specedit
+from vlab.diagnose.data import FrfData, refer_to_model
+from vlab.diagnose.labmodel import LabState, predict_frf
+from vlab.diagnose.nominal import context_for
+from vlab.diagnose.problem import Problem, changed_beyond_noise
+from vlab.errors import ModelError
+from vlab.lab.experiment import TESTS
+from vlab.lab.loop import HardwareChain
+from vlab.models import nominal_fe_model
+
+#: Relative noise of each recorded line (what two periods of a clean periodic test give at a resonance).
+NOISE = 2e-4
+
+#: A mass at point 5 that moves the BCC's lightly damped resonances by less than the 0.5 % floor allows [kg].
+MASS_KG = 5e-5
+
+
+@pytest.fixture(scope="module")
+def bcc():
+    fe = nominal_fe_model("bcc")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    test = TESTS["bcc"]
+    freq = np.arange(int(test.band_hz[0] / 0.05) + 1, int(test.band_hz[1] / 0.05) + 1) * 0.05
+    return nominal, test, freq
+
+
+def _recorded(st: LabState, freq, test, seed: int, source: str, noise: float = NOISE) -> FrfData:
+    exc, outs = st.spec.instrumentation.excitation, tuple(test.measured_points)
+    h = predict_frf(st, freq, excitation_point=exc, output_points=outs)
+    rng = np.random.default_rng(seed)
+    sigma = noise * np.abs(h)
+    h = h + sigma / np.sqrt(2) * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape))
+    return FrfData(source, "frf", freq, h, sigma**2, exc, outs)
+
+
+def _problem(bcc, truth: LabState, seed: int, noise: float = NOISE) -> Problem:
+    nominal, test, freq = bcc
+    data = refer_to_model(_recorded(truth, freq, test, seed, "rec.uff", noise),
+                          _recorded(nominal, freq, test, seed + 1, "base.uff", noise),
+                          predict_frf(nominal, freq, excitation_point=nominal.spec.instrumentation.excitation,
+                                      output_points=tuple(test.measured_points)))
+    return Problem(data, nominal, context_for(nominal, test.band_hz, data))
+
+
+def test_a_change_within_the_floor_but_far_out_of_the_noise_is_found(bcc):
+    nominal = bcc[0]
+    problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1)
+    assert problem.within_noise(nominal)  # the 0.5 % floor takes the change for model error
+    changed, note = changed_beyond_noise(problem, nominal)
+    assert changed and "baseline" in note and "limit" in note
+
+
+def test_two_recordings_of_the_same_structure_do_not_differ(bcc):
+    nominal = bcc[0]
+    for seed in (3, 5, 7):
+        assert changed_beyond_noise(_problem(bcc, nominal, seed=seed), nominal) == (False, "")
+
+
+def test_lines_without_a_noise_estimate_leave_the_floor_alone(bcc):
+    nominal = bcc[0]
+    problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1, noise=0.0)
+    assert changed_beyond_noise(problem, nominal) == (False, "")
+
+
+def test_data_not_referred_through_a_baseline_is_refused(bcc):
+    nominal, test, freq = bcc
+    data = _recorded(nominal, freq, test, 0, "plain.uff")
+    problem = Problem(data, nominal, context_for(nominal, test.band_hz, data))
+    with pytest.raises(ModelError, match="plain.uff"):
+        changed_beyond_noise(problem, nominal)
