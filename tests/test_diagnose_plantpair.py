@@ -84,4 +84,5 @@ def test_a_nonlinear_effect_gets_no_second_effect_search(joint_and_mass):
     sat = Saturation()
     sat.params_ = np.array([5.0])
     chosen, refit, looks, note = second_effect_on_plant(model, sat, None, _pool(joint_and_mass))
-    assert chosen is sat and refit is None and looks == [] and note is None
+    assert chosen is sat and refit is None and looks == []
+    assert "no second effect searched" in note and sat.label in note  # the report says why

@@ -195,8 +195,9 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         is within ``STRONG_EVIDENCE`` of the selected one's (the data cannot tell them apart: a spring at
         the grid's top-beam point 14 or 15 next to a hinge-like joint 8); else empty.
     note : str or None
-        What was tried and decided (None when nothing was searched: ``chosen`` is a pair, not spec-level or
-        nonlinear, or the plant already left only noise; or when nothing could be fitted).
+        What was tried and decided, or why nothing was searched next to a nonlinear effect (None when nothing
+        was searched otherwise: ``chosen`` is a pair or not spec-level, or the plant already left only noise;
+        or when nothing could be fitted).
 
     Raises
     ------
@@ -204,8 +205,12 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         Only errors that are not a model, spec or fit failure (those end the search and keep
         ``chosen``), e.g. a bug in a worker process of :func:`~vlab.diagnose.plantfit.map_on_plant`.
     """
-    if isinstance(chosen, Combination) or not chosen.spec_level or chosen.effect in NONLINEAR:
+    if isinstance(chosen, Combination) or not chosen.spec_level:
         return chosen, refit, [], None
+    if chosen.effect in NONLINEAR:
+        return chosen, refit, [], (f"no second effect searched on the MuJoCo plant's linearisation next to "
+                                   f"{chosen.label}: its linear model is a describing function, and what it leaves "
+                                   "there is the nonlinearity's own distortion (pairs with it are judged by rerun)")
     x_plant = refit.params if refit is not None else np.asarray(chosen.params_, dtype=float)
     plant = model.problem
     try:
