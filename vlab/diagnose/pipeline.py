@@ -15,8 +15,11 @@ Pipeline (issue 6):
    explains (:meth:`Problem.noise_chi2`), or one line of one channel must
    stand out of the noise (:meth:`Problem.peak_limit`: a local mismatch,
    such as one shifted resonance of a top-beam segment, that adds little
-   to the total); otherwise the answer is "no significant mismatch" and no
-   effect is proposed.
+   to the total). With a baseline, data within those limits are tested once
+   more without the model-error floor (:func:`vlab.diagnose.problem.changed_beyond_noise`:
+   the nominal model's residual is then the recorded change itself, which
+   only the two recordings' noise can hide). Otherwise the answer is "no
+   significant mismatch" and no effect is proposed.
 3. **Locate** (:mod:`vlab.diagnose.locate`): modes, sensors, band, loop and,
    by sensitivity-based localisation, points and members.
 4. **Explain**: every hypothesis of the library that can show in these data
@@ -29,6 +32,11 @@ Pipeline (issue 6):
    re-chosen with the other held (sequential replacement). An
    effect is selected only if it lowers the BIC by 10 or more (strong
    evidence), a pair only if it beats the best single effect by 10.
+   Look-alikes only a rerun separates (a saturation and a gain, friction
+   and a dashpot) are compared by the time-domain error of reruns, and a
+   pair with a nonlinear part is kept only if its rerun beats that part's
+   alone (:func:`vlab.diagnose.selection.tie_break_by_rerun`; on the MuJoCo
+   plant when the recording is diagnosed against it).
 5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
    back through the 2 kHz loop on the nominal and on the modified plant (the
    nominal MuJoCo rerun starts in a background process as soon as a
