@@ -220,3 +220,19 @@ def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
     assert "_background" not in p.__dict__ or not p.__dict__["_background"]
     for q in p.data.output_points:
         np.testing.assert_array_equal(np.asarray(bg[f"vel{q}"]), np.asarray(fg[f"vel{q}"]))
+
+
+def test_reruns_are_cached_per_seed(mass_run, monkeypatch):
+    """A rerun is cached under its key, plant and sensor-noise seed: another seed is rerun, not looked up."""
+    from vlab.diagnose import validate as vmod
+
+    calls = []
+
+    def fake_rerun(state, force, *, seed=0, **_kw):
+        calls.append(seed)
+        return f"run with seed {seed}", "linear FE plant"
+
+    monkeypatch.setattr(vmod, "rerun", fake_rerun)
+    p = mass_run.problem
+    first = [vmod.reruns(p, [(mass_run.nominal, "seeded")], "linear", seed=s, workers=1)[0] for s in (0, 0, 1)]
+    assert calls == [0, 1] and first == ["run with seed 0", "run with seed 0", "run with seed 1"]

@@ -40,10 +40,15 @@ def _recorded(st: LabState, freq, test, seed: int, source: str, noise: float = N
     return FrfData(source, "frf", freq, h, sigma**2, exc, outs)
 
 
-def _problem(bcc, truth: LabState, seed: int, noise: float = NOISE) -> Problem:
+def _problem(bcc, truth: LabState, seed: int, noise: float = NOISE, base_noise: float | None = None,
+             plant=lambda spec: spec) -> Problem:
+    """``truth`` recorded against a baseline of the unchanged structure, both on a plant ``plant(spec)`` (the
+    model-form error the referral removes), with relative noise ``noise`` (the baseline's ``base_noise``)."""
     nominal, test, freq = bcc
-    data = refer_to_model(_recorded(truth, freq, test, seed, "rec.uff", noise),
-                          _recorded(nominal, freq, test, seed + 1, "base.uff", noise),
+    on_plant = lambda st: st.with_spec(plant(st.spec))  # noqa: E731
+    base_noise = noise if base_noise is None else base_noise
+    data = refer_to_model(_recorded(on_plant(truth), freq, test, seed, "rec.uff", noise),
+                          _recorded(on_plant(nominal), freq, test, seed + 1, "base.uff", base_noise),
                           predict_frf(nominal, freq, excitation_point=nominal.spec.instrumentation.excitation,
                                       output_points=tuple(test.measured_points)))
     return Problem(data, nominal, context_for(nominal, test.band_hz, data))
@@ -64,9 +69,17 @@ def test_two_recordings_of_the_same_structure_do_not_differ(bcc):
 
 
 def test_lines_without_a_noise_estimate_leave_the_floor_alone(bcc):
+    """Without the noise of either recording, the referral's own term (model-form error x change) would be the
+    only weight, and it weighs a change of any size alike: a plant 1 g off the model at point 3 and a change of
+    1e-9 kg must not count."""
     nominal = bcc[0]
-    problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1, noise=0.0)
-    assert changed_beyond_noise(problem, nominal) == (False, "")
+    truth = nominal.with_spec(specedit.add_mass(nominal.spec, 5, 1e-9))
+    offset = lambda spec: specedit.add_mass(spec, 3, 1e-3)  # noqa: E731
+    for noise, base_noise in ((0.0, 0.0), (NOISE, 0.0), (0.0, NOISE)):
+        problem = _problem(bcc, truth, seed=1, noise=noise, base_noise=base_noise, plant=offset)
+        assert changed_beyond_noise(problem, nominal) == (False, "")
+    # the same plant with both noises measured: a 1e-9 kg change stays within them
+    assert changed_beyond_noise(_problem(bcc, truth, seed=1, plant=offset), nominal) == (False, "")
 
 
 def test_data_not_referred_through_a_baseline_is_refused(bcc):

@@ -195,16 +195,18 @@ def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
 
     asked = []
 
-    def fake_reruns(problem, jobs, kind, **_kw):
-        asked.append(kind)
+    def fake_reruns(problem, jobs, kind, *, seed):
+        asked.append((kind, seed))
+        if (kind, "fail") in errors:
+            return [errors[(kind, "fail")] for _ in jobs]
         return [(kind, state) for state, _key in jobs]
 
     monkeypatch.setattr(selection, "reruns", fake_reruns)
     monkeypatch.setattr(selection, "lookalikes", lambda h, problem: [])  # none: the decision alone is tested
     monkeypatch.setattr(selection, "time_error", lambda run, data: errors[run])
     notes: list = []
-    best, _ = selection.tie_break_by_rerun(_FakeProblem(), pair, [], ranked, notes, plant=plant)
-    return best, asked, notes
+    best, _ = selection.tie_break_by_rerun(_FakeProblem(), pair, [], ranked, notes, plant=plant, seed=7)
+    return best, [kind for kind, _seed in asked], notes, {s for _kind, s in asked}
 
 
 def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came_from_it(monkeypatch):
@@ -212,17 +214,24 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     was 0.84x the saturation's alone (0.275 against 0.328, the FE/MuJoCo model-form error in both), and the pair
     was dropped; on the MuJoCo plant the two are 0.041 and 0.162."""
     from vlab.diagnose.hypotheses import ActuatorLag, Combination, Saturation
+    from vlab.errors import ModelError, SimulationError
 
     lag, sat = ActuatorLag(), Saturation()
     pair = Combination(first=ActuatorLag(), second=Saturation())
     _fitted(lag, sat, pair)
     errors = {("linear", pair.label): 0.275, ("linear", sat.label): 0.328,
               ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162}
-    best, asked, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
-    assert best.label == sat.label and asked == ["linear"]
-    best, asked, notes = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
-    assert best.label == pair.label and asked == ["linear", "mujoco"]
+    best, asked, _, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
+    assert best.label == sat.label and asked == ["linear"] and seeds == {7}
+    best, asked, notes, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
+    assert best.label == pair.label and asked == ["linear", "mujoco"] and seeds == {7}
     assert "MuJoCo plant" in notes[-1]
+    # a MuJoCo rerun that fails leaves the decision to the linear reruns, and the note says why
+    errors[("mujoco", "fail")] = SimulationError("the plant diverged")
+    best, asked, notes, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
+    assert best.label == sat.label and asked == ["linear", "mujoco"] and "diverged" in notes[-1]
+    with pytest.raises(ModelError, match="auto"):
+        _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "auto")
 
 
 def test_a_friction_pair_stays_on_the_linear_plant(monkeypatch):
@@ -233,5 +242,5 @@ def test_a_friction_pair_stays_on_the_linear_plant(monkeypatch):
     pair = Combination(first=ActuatorLag(), second=Friction(point=7))
     _fitted(fric, pair)
     errors = {("linear", pair.label): 0.275, ("linear", fric.label): 0.328}
-    best, asked, notes = _tie_break_with(monkeypatch, pair, [pair, fric], errors, "mujoco")
+    best, asked, notes, _ = _tie_break_with(monkeypatch, pair, [pair, fric], errors, "mujoco")
     assert best.label == fric.label and asked == ["linear"] and "linear FE plant" in notes[-1]

@@ -83,6 +83,9 @@ class FrfData:
         baseline recording (:func:`refer_to_model`); None otherwise.
     var_recorded : ndarray, shape (n_f, n_o) or None
         The variance of ``h_recorded`` (the recording's own noise) [((m/s)/N)^2].
+    var_baseline : ndarray, shape (n_f, n_o) or None
+        The variance of the baseline's FRFs (its own noise) when ``h`` has been
+        referred through a baseline [((m/s)/N)^2]; None otherwise.
     var_dof : float or None
         Effective real degrees of freedom of ``var`` when it is estimated from
         the data (period-to-period scatter, pooled over neighbouring lines:
@@ -104,6 +107,7 @@ class FrfData:
     periodic: bool = True
     h_recorded: np.ndarray | None = None
     var_recorded: np.ndarray | None = None
+    var_baseline: np.ndarray | None = None
     var_dof: float | None = None
 
     @property
@@ -608,7 +612,8 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     -------
     FrfData
         ``h`` referred to the model, ``var`` propagated, ``h_recorded`` and
-        ``var_recorded`` the recorded FRFs and their noise; a note says so.
+        ``var_recorded`` the recorded FRFs and their noise, ``var_baseline``
+        the baseline's noise; a note says so.
 
     Raises
     ------
@@ -639,4 +644,4 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     note = (f"referred to the model through the baseline {baseline.source}: H = H_recorded * H_model / "
             "H_baseline (the model-form error present in the baseline is removed to first order)")
     return replace(data, h=h, var=rel_var * np.abs(h) ** 2, h_recorded=data.h,
-                   var_recorded=data.var, notes=list(data.notes) + [note])
+                   var_recorded=data.var, var_baseline=baseline.var, notes=list(data.notes) + [note])

@@ -380,7 +380,10 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str
     out, passed as model error (MuJoCo grid benchmark, seed 1, case 2: 1.05 kg
     at point 20 under LQG; nominal chi-square 1161 with the 0.5 % floor,
     16 873 without, limit 3099). The same tests as :meth:`Problem.within_noise`
-    (total chi-square and largest line), on weights ``1 / sigma_rel^2``.
+    (total chi-square and largest line), on weights ``1 / sigma_rel^2``: the
+    two recordings' relative noise variances plus the referral's own
+    second-order term (model-form error x change), which
+    :func:`~vlab.diagnose.data.refer_to_model` adds to ``var``.
 
     Parameters
     ----------
@@ -394,8 +397,10 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str
     (bool, str)
         Whether the data changed beyond the noise, and a line for the report
         with the statistics (empty when they did not). False when a used line
-        has no noise estimate (FRF files without coherence): the floor then
-        stays the only weight.
+        of the recording or of the baseline has no noise estimate (FRF files
+        without coherence): the floor then stays the only weight, since the
+        referral's term alone would weigh a change of any size as about
+        ``1 / |ln(H_model / H_baseline)|``.
 
     Raises
     ------
@@ -406,7 +411,9 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str
     if not isinstance(data, FrfData) or data.h_recorded is None:
         raise ModelError(f"{getattr(data, 'source', 'data')}: only data referred through a baseline can be tested "
                          "for a change without the model-error floor")
-    if not np.all(data.var[problem.mask] > 0):
+    m = problem.mask
+    noise = (data.var_recorded, data.var_baseline)
+    if any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, ""
     raw = Problem(data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase)
     c, c_lim, p, p_lim = raw.chi2(nominal), raw.noise_chi2(), raw.peak(nominal), raw.peak_limit()

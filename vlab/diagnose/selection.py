@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import VlabError
+from ..errors import ModelError, VlabError
 from .data import FrfData
 from .fit import NONLINEAR
 from .hypotheses import Combination, Friction, Hypothesis, PointDamping
@@ -143,8 +143,11 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     its gain (MuJoCo grid benchmark, seed 1, case 4: a lag next to a
     saturation, 0.275 against 0.328 on the linear plant).
 
-    The reruns (linear plant, the recorded force played back,
-    :func:`vlab.diagnose.validate.reruns`) run in parallel processes.
+    The reruns (the recorded force played back,
+    :func:`vlab.diagnose.validate.reruns`: the linear plant, and the MuJoCo
+    plant for the parsimony check with ``plant="mujoco"``) run in parallel
+    processes. A MuJoCo rerun that fails leaves the check to the linear
+    reruns, and the note says why.
 
     Parameters
     ----------
@@ -170,7 +173,14 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     -------
     (Hypothesis, list of Hypothesis)
         The winner and the others.
+
+    Raises
+    ------
+    ModelError
+        ``plant`` is neither ``"linear"`` nor ``"mujoco"``.
     """
+    if plant not in ("linear", "mujoco"):
+        raise ModelError(f"unknown plant {plant!r} for the rerun check; use 'linear' or 'mujoco'")
     cands, seen = [], set()
     for h in [chosen] + lookalikes(chosen, problem) + [h for h in alts if h.n_params == chosen.n_params]:
         if h.label not in seen:
@@ -200,7 +210,10 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         if plant == "mujoco" and best.spec_level and single.spec_level:
             runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in (best, single)],
                           "mujoco", seed=seed)
-            if not any(isinstance(r, VlabError) for r in runs):
+            failed = [r for r in runs if isinstance(r, VlabError)]
+            if failed:
+                where += f" (the MuJoCo rerun failed: {failed[0]})"
+            else:
                 e_pair, e_single = (time_error(r, problem.data) for r in runs)
                 where = "MuJoCo plant"
         notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "

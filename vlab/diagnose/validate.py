@@ -320,7 +320,7 @@ def _background_job(conn, *args) -> None:
 
 def start_background_rerun(problem, state: LabState, key: str, plant: str, *, seed: int = 0) -> bool:
     """Start the rerun of ``state`` in a background process, to be picked up by :func:`reruns` under
-    ``(key, plant)`` (the nominal lab's MuJoCo rerun, while the hypotheses are fitted).
+    ``(key, plant, seed)`` (the nominal lab's MuJoCo rerun, while the hypotheses are fitted).
 
     The process is a daemon: it ends with the diagnosis, and :func:`stop_background` ends it early.
 
@@ -357,7 +357,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
         send.close()
     except (OSError, AssertionError, ValueError):  # AssertionError: a daemon process may not start children
         return False
-    problem.__dict__.setdefault("_background", {})[(key, plant)] = (proc, recv)
+    problem.__dict__.setdefault("_background", {})[(key, plant, seed)] = (proc, recv)
     return True
 
 
@@ -403,9 +403,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
         Seed of the controller's sensor noise.
     workers : int
         Parallel processes when more than one rerun is needed (falls back to
-        one process where a pool cannot start); each rerun running in the
-        background (:func:`start_background_rerun`) holds one of them, and
-        one of ``jobs`` is made while it finishes.
+        one process where a pool cannot start); each rerun still running in
+        the background (:func:`start_background_rerun`) holds one of them, and
+        one of ``jobs`` is made while it finishes (background reruns already
+        finished are collected first and hold none).
 
     Returns
     -------
@@ -420,11 +421,11 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})
     _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core
-    waiting = [(k, plant) for _st, k in jobs if k is not None and (k, plant) in pending]
+    waiting = [(k, plant, seed) for _st, k in jobs if k is not None and (k, plant, seed) in pending]
     out: dict = {}
     # the reruns still to make run while the background ones finish (they hold a core each)
     todo = [(i, st) for i, (st, k) in enumerate(jobs)
-            if k is None or ((k, plant) not in cache and (k, plant) not in pending)]
+            if k is None or ((k, plant, seed) not in cache and (k, plant, seed) not in pending)]
     workers = max(1, workers - len(pending))  # a background rerun holds a core
     if workers > 1 and len(todo) > 1:
         from concurrent.futures import ProcessPoolExecutor
@@ -453,15 +454,15 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
             out[i] = here(st)
     _collect_background(problem, waiting)
     for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
-        if k is not None and (k, plant) in waiting and (k, plant) not in cache:
+        if k is not None and (k, plant, seed) in waiting and (k, plant, seed) not in cache:
             out[i] = here(st)
     for i, (_st, k) in enumerate(jobs):
         if k is None:
             continue
         if i not in out:
-            out[i] = cache[(k, plant)]
+            out[i] = cache[(k, plant, seed)]
         elif not isinstance(out[i], VlabError):
-            cache[(k, plant)] = out[i]
+            cache[(k, plant, seed)] = out[i]
     return [out[i] for i in range(len(jobs))]
 
 
