@@ -58,14 +58,15 @@ def test_a_change_within_the_floor_but_far_out_of_the_noise_is_found(bcc):
     nominal = bcc[0]
     problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1)
     assert problem.within_noise(nominal)  # the 0.5 % floor takes the change for model error
-    changed, note = changed_beyond_noise(problem, nominal)
-    assert changed and "baseline" in note and "limit" in note
+    changed, stats = changed_beyond_noise(problem, nominal)
+    assert changed and stats["peak"] > stats["peak_limit"]
 
 
 def test_two_recordings_of_the_same_structure_do_not_differ(bcc):
     nominal = bcc[0]
     for seed in (3, 5, 7):
-        assert changed_beyond_noise(_problem(bcc, nominal, seed=seed), nominal) == (False, "")
+        changed, stats = changed_beyond_noise(_problem(bcc, nominal, seed=seed), nominal)
+        assert not changed and stats["chi2"] <= stats["chi2_limit"]
 
 
 def test_lines_without_a_noise_estimate_leave_the_floor_alone(bcc):
@@ -77,9 +78,10 @@ def test_lines_without_a_noise_estimate_leave_the_floor_alone(bcc):
     offset = lambda spec: specedit.add_mass(spec, 3, 1e-3)  # noqa: E731
     for noise, base_noise in ((0.0, 0.0), (NOISE, 0.0), (0.0, NOISE)):
         problem = _problem(bcc, truth, seed=1, noise=noise, base_noise=base_noise, plant=offset)
-        assert changed_beyond_noise(problem, nominal) == (False, "")
+        assert changed_beyond_noise(problem, nominal) == (False, {})
     # the same plant with both noises measured: a 1e-9 kg change stays within them
-    assert changed_beyond_noise(_problem(bcc, truth, seed=1, plant=offset), nominal) == (False, "")
+    changed, stats = changed_beyond_noise(_problem(bcc, truth, seed=1, plant=offset), nominal)
+    assert not changed and stats  # tested, and within the noise
 
 
 def test_data_not_referred_through_a_baseline_is_refused(bcc):

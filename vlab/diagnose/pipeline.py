@@ -274,13 +274,18 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
         mismatch = chi2_0 > limit or peak_0 > peak_limit
+        noise_only = None
         if not mismatch and baseline is not None:  # within the model floor; is it within the noise?
-            mismatch, note = changed_beyond_noise(problem, nominal)
+            mismatch, stats = changed_beyond_noise(problem, nominal)
             if mismatch:
-                notes.append(note)
+                noise_only = stats
+                notes.append(f"the recording differs from its baseline beyond the noise of the two (chi-square "
+                             f"{stats['chi2']:.4g}, limit {stats['chi2_limit']:.4g}; largest line {stats['peak']:.3g}, "
+                             f"limit {stats['peak_limit']:.3g}), though within the model-error floor of "
+                             f"{100 * problem.floor:g} % a line: a small change")
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
                               None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
-                              peak_nominal=peak_0, peak_limit=peak_limit)
+                              peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only)
         if not mismatch:
             res.location.points, res.location.members = [], []
             notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")

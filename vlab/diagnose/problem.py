@@ -368,7 +368,7 @@ class Problem:
         return chi2 + 2.0 * k, chi2 + k * math.log(self.n_obs)
 
 
-def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str]:
+def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
     """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
     of the two recordings, with no model-error floor.
 
@@ -394,9 +394,10 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str
 
     Returns
     -------
-    (bool, str)
-        Whether the data changed beyond the noise, and a line for the report
-        with the statistics (empty when they did not). False when a used line
+    (bool, dict)
+        Whether the data changed beyond the noise, and the statistics of the
+        test without the floor: ``chi2``, ``chi2_limit``, ``peak``,
+        ``peak_limit`` (empty when it cannot be made). False when a used line
         of the recording or of the baseline has no noise estimate (FRF files
         without coherence): the floor then stays the only weight, since the
         referral's term alone would weigh a change of any size as about
@@ -414,11 +415,8 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, str
     m = problem.mask
     noise = (data.var_recorded, data.var_baseline)
     if any(v is None or not np.all(v[m] > 0) for v in noise):
-        return False, ""
+        return False, {}
     raw = Problem(data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase)
-    c, c_lim, p, p_lim = raw.chi2(nominal), raw.noise_chi2(), raw.peak(nominal), raw.peak_limit()
-    if c <= c_lim and p <= p_lim:
-        return False, ""
-    return True, (f"the recording differs from its baseline beyond the noise of the two (chi-square {c:.4g}, "
-                  f"limit {c_lim:.4g}; largest line {p:.3g}, limit {p_lim:.3g}), though within the model-error floor "
-                  f"of {100 * problem.floor:g} % a line: a small change")
+    stats = {"chi2": raw.chi2(nominal), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal),
+             "peak_limit": raw.peak_limit()}
+    return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats

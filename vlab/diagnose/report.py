@@ -73,6 +73,11 @@ def markdown(res: dict) -> str:
         lines.append(f"- {n}")
     lines += ["", "## Verdict", ""]
     peak = _peak_text(s)
+    if s.get("noise_only"):  # found by the test without the model-error floor (a baseline given)
+        q = s["noise_only"]
+        peak += (f"; within the {100 * s['floor']:g} % model-error floor, but the recording differs from its "
+                 f"baseline beyond the noise of the two: chi2 = {q['chi2']:.4g} (limit {q['chi2_limit']:.4g}), "
+                 f"largest single-line residual {q['peak']:.3g} (limit {q['peak_limit']:.3g})")
     if not res["mismatch"]:
         lines += [f"**No significant mismatch.** The nominal model's weighted residual chi2 = {s['chi2_nominal']:.4g} "
                   f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}){peak}; no "

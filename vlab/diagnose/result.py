@@ -32,6 +32,10 @@ class DiagnosisResult:
     peak_nominal, peak_limit : float
         Largest squared residual of one line and channel of the nominal model and its noise limit
         (:meth:`Problem.peak`, :meth:`Problem.peak_limit`).
+    noise_only : dict or None
+        When the mismatch was found only by the test without the model-error floor (a baseline given,
+        :func:`vlab.diagnose.problem.changed_beyond_noise`): its ``chi2``, ``chi2_limit``, ``peak``,
+        ``peak_limit``; else None.
     location : Location
     loop : str or None
         "open", "closed", "both" (None when there is no mismatch).
@@ -80,6 +84,7 @@ class DiagnosisResult:
     plant_refit: PlantRefit | None = None
     peak_nominal: float = float("nan")
     peak_limit: float = float("nan")
+    noise_only: dict | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -173,6 +178,7 @@ class DiagnosisResult:
             "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
                            "peak_nominal": self.peak_nominal, "peak_limit": self.peak_limit,
                            "n_obs": self.problem.n_obs, "floor": self.problem.floor,
+                           "noise_only": self.noise_only,
                            "overdispersion": self.overdispersion},
             "located": located,
             "ranked": [self._entry(h) for h in self.ranked],
