@@ -189,8 +189,9 @@ class _FakeProblem:
 
 
 def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
-    """Run the parsimony check with rerun time errors ``errors[(plant, label)]``; returns the winner and the plants
-    the reruns were asked of."""
+    """Run the parsimony check (seed 7) with rerun time errors ``errors[(plant, label)]`` (``errors[(plant,
+    "fail")]``: every rerun on that plant fails with it); returns the winner, the plants the reruns were asked
+    of, in order, the notes and the set of seeds asked for."""
     from vlab.diagnose import selection
 
     asked = []

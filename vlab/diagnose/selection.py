@@ -31,6 +31,11 @@ def rerun_key(h: Hypothesis) -> str:
     return f"{h.label}:{np.asarray(h.params_).tobytes().hex()}"
 
 
+def _rerun_jobs(problem: Problem, hyps) -> list:
+    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for :func:`vlab.diagnose.validate.reruns`."""
+    return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
+
+
 def data_has_signals(data) -> bool:
     """True when ``data`` holds time histories (a rerun is possible)."""
     return isinstance(data, FrfData) and data.recording is not None
@@ -192,8 +197,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     todo: dict = {}
     for h in [h for h in cands if len(cands) > 1 or h.label in singles] + [g for gs in singles.values() for g in gs]:
         todo.setdefault(h.label, h)
-    runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in todo.values()], "linear",
-                  seed=seed)
+    runs = reruns(problem, _rerun_jobs(problem, todo.values()), "linear", seed=seed)
     errors = {label: (float("inf") if isinstance(r, VlabError) else time_error(r, problem.data))
               for label, r in zip(todo, runs)}
     errs = [errors[h.label] for h in cands] if len(cands) > 1 else [float("nan")]
@@ -208,8 +212,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         e_pair, e_single = errors[best.label], errors[single.label]
         where = "linear FE plant"
         if plant == "mujoco" and best.spec_level and single.spec_level:
-            runs = reruns(problem, [(problem.state_for(h, h.params_), rerun_key(h)) for h in (best, single)],
-                          "mujoco", seed=seed)
+            runs = reruns(problem, _rerun_jobs(problem, (best, single)), "mujoco", seed=seed)
             failed = [r for r in runs if isinstance(r, VlabError)]
             if failed:
                 where += f" (the MuJoCo rerun failed: {failed[0]})"
