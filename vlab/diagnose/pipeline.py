@@ -120,7 +120,7 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
             notes.append(note)
             res.alternatives = [h for h in res.alternatives if h is not reduced]
         return reduced
-    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives)
+    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives, res.ranked)
     if note is not None:
         notes.append(note)
     single = chosen
