@@ -175,6 +175,51 @@ def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_mod
     assert same is right and note2 is None and refit2.value == pytest.approx(6000.0, rel=0.005)
 
 
+class _TablePlant:
+    """A stand-in for :class:`PlantModel`: plant chi-squares from tables (at the FE value; refitted)."""
+
+    def __init__(self, at_fe: dict, refitted: dict):
+        self.at_fe, self.refitted = at_fe, refitted
+
+    def chi2(self, h, x) -> float:
+        return self.at_fe[h.label]
+
+    def refit(self, h, x0):
+        from vlab.diagnose.plantfit import PlantRefit
+
+        x = np.asarray(x0, dtype=float)
+        return PlantRefit("mass_kg", float(x[0]), float(x[0]), x, None, self.at_fe[h.label],
+                          self.refitted[h.label], 1, 0.0)
+
+
+def _mass(point: int, kg: float, chi2: float):
+    from vlab.diagnose.hypotheses import AddedMass
+
+    h = AddedMass(point=point)
+    h.params_, h.chi2_ = np.array([kg]), chi2
+    return h
+
+
+def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
+    """The numbers of grid benchmark seed 1, case 2 (1.05 kg at point 20): the FE fit put the mass at 21
+    (chi-square 765) before 20 (797), 32 apart, not a look-alike (dBIC >= 10). The chosen effect's own
+    chi-square moves by 114 from the FE model to the plant, so 20 is compared there, where it fits better
+    (603 refitted, against 641) and is chosen. A fit further than that difference (point 16, 1166) is not
+    compared, however well it would fit on the plant; with a small FE/plant difference 20 is not either."""
+    from vlab.diagnose.plantchoice import choose_on_plant
+
+    at21, at20, at16 = _mass(21, 2.06, 765.0), _mass(20, 0.80, 797.0), _mass(16, 0.0001, 1166.0)
+    refitted = {at21.label: 641.0, at20.label: 603.0, at16.label: 10.0}
+    model = _TablePlant({at21.label: 651.0, at20.label: 631.0, at16.label: 10.0}, refitted)
+    chosen, refit, alts, note = choose_on_plant(model, at21, [], [at21, at20, at16])
+    assert chosen is at20 and refit.chi2 == 603.0
+    assert "within 114" in note and at16.label not in note
+    assert alts == []  # 21 is 38 worse on the plant: not a look-alike there
+    close = _TablePlant({at21.label: 760.0, at20.label: 631.0, at16.label: 10.0}, refitted)
+    same, _, alts2, note2 = choose_on_plant(close, at21, [], [at21, at20, at16])
+    assert same is at21 and note2 is None and alts2 == []
+
+
 def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
     """The thesis mesh's grid mode 7 (top-beam bending) lies > 1 % above the MuJoCo plant's; two elements per
     top-beam segment (:func:`vlab.diagnose.nominal.plant_resolution`) bring it within 0.3 %. The BCC (no
