@@ -44,7 +44,9 @@ Pipeline (issue 6):
    rerun, the parameter of a mode-moving effect is refitted on the plant's
    own linearisation (:mod:`vlab.diagnose.plantfit`), since the FE fit
    absorbs the FE/MuJoCo frequency offsets (look-alikes the FE fit cannot
-   tell apart are refitted there too, and the best on the plant is chosen;
+   tell apart, and fits it orders by less than the FE/plant difference
+   measured on the chosen effect, are scored there too, and the best on the
+   plant is chosen;
    a single effect that still leaves more than noise there gets a second
    effect searched on the data referred through it, :mod:`vlab.diagnose.plantpair`);
    FRF and time-domain misfits before and after. An effect that removes
@@ -106,7 +108,8 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
                     pool: list[Hypothesis]) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.plantfit`); a pair
     is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
-    look-alikes (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
+    look-alikes and the fits of ``res.ranked`` the FE model orders by less than its difference from the plant
+    (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
     ``pool`` is searched next to it (:func:`vlab.diagnose.plantpair.second_effect_on_plant`). Sets
     ``res.plant_refit`` (and ``res.alternatives``); returns the choice."""
     try:
