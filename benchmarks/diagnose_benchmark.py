@@ -63,9 +63,12 @@ Usage::
     python benchmarks/diagnose_benchmark.py --cases 24 [--seed 0] [--jobs 2] [--json out.json]
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline --keep DIR
+    python benchmarks/diagnose_benchmark.py --kept DIR [--only 2 5] [--json out.json]
 
 ``--keep DIR`` only generates: the recordings (and baselines) and each case's
-truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``.
+truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``;
+``--kept DIR [--only ...]`` diagnoses and scores them (another release on the
+same recordings, without simulating them again).
 """
 
 from __future__ import annotations
@@ -73,9 +76,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import glob
 import json
 import math
 import os
+import re
 import sys
 import tempfile
 import time
@@ -421,16 +426,23 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
         with open(os.path.join(workdir, f"case{case['index']}.json"), "w") as fh:
             json.dump(rec, fh, indent=1)
         return {**rec, "time_generate_s": t_gen, "time_diagnose_s": 0.0, "result": None, "error": "not diagnosed"}
+    return diagnose_case({**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "recording": path,
+                          "baseline": base_path}, t_gen)
+
+
+def diagnose_case(rec: dict, t_gen: float = 0.0) -> dict:
+    """Diagnose one generated case blind (``rec``: the case with its ``recording`` and ``baseline`` paths, as
+    ``case<i>.json`` of ``--keep`` holds it) and return it with the result, the error and the times."""
     t0 = time.perf_counter()
     try:
-        res = diagnose(case["structure"], path, controller=case["controller"], plant=plant, baseline=base_path)
+        res = diagnose(rec["structure"], rec["recording"], controller=rec["controller"],
+                       plant=rec.get("plant", "linear"), baseline=rec["baseline"])
         d = res.as_dict()
         err = None
     except Exception as exc:  # a benchmark records failures instead of stopping
         d, err = None, f"{type(exc).__name__}: {exc}"
-    t_diag = time.perf_counter() - t0
-    return {**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "time_generate_s": t_gen,
-            "time_diagnose_s": t_diag, "result": d, "error": err}
+    return {**rec, "time_generate_s": t_gen, "time_diagnose_s": time.perf_counter() - t0, "result": d,
+            "error": err}
 
 
 def _same_location(a: dict, b: dict) -> bool:
@@ -517,7 +529,11 @@ def main(argv=None) -> int:
                     help="also record the unmodified plant and pass it to the diagnosis as its baseline")
     ap.add_argument("--keep", type=str, default=None,
                     help="only generate: write the recordings and each case's truth (case<i>.json) to this folder")
+    ap.add_argument("--kept", type=str, default=None,
+                    help="diagnose and score the cases --keep left in this folder (all, or those of --only)")
     args = ap.parse_args(argv)
+    if args.kept:
+        return _run_kept(args)
     cases = [make_case(i, args.seed, args.plant, tuple(args.structures)) for i in range(args.cases)]
     if args.only:
         cases = [c for c in cases if c["index"] in args.only]
@@ -545,6 +561,30 @@ def main(argv=None) -> int:
     if args.keep:
         print(f"recordings and truths written to {args.keep}")
         return 0
+    return _summarise(results, time.perf_counter() - t_all, args.json)
+
+
+def _run_kept(args) -> int:
+    """``--kept DIR``: diagnose the cases generated earlier with ``--keep DIR`` (generation times not known)."""
+    recs = []
+    for f in glob.glob(os.path.join(args.kept, "case*.json")):
+        if re.fullmatch(r"case\d+\.json", os.path.basename(f)):
+            with open(f) as fh:
+                recs.append(json.load(fh))
+    recs = sorted((r for r in recs if not args.only or r["index"] in args.only), key=lambda r: r["index"])
+    if not recs:
+        raise SystemExit(f"{args.kept}: no case<i>.json left by --keep" + (f" among {args.only}" if args.only else ""))
+    t_all = time.perf_counter()
+    results = []
+    for rec in recs:
+        results.append(diagnose_case(rec))
+        print(_line(results[-1], score(results[-1])), flush=True)
+    return _summarise(results, time.perf_counter() - t_all, args.json)
+
+
+def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
+    """Print the summary of scored cases (and write them with their scores to ``json_path``); ``wall_s``:
+    the run's wall time [s]."""
     scores = [score(r) for r in results]
     with_eff = [s for r, s in zip(results, scores) if r["truth"]]
     no_eff = [s for r, s in zip(results, scores) if not r["truth"]]
@@ -577,7 +617,7 @@ def main(argv=None) -> int:
         "diagnose_time_s_median": float(np.median(td)), "diagnose_time_s_max": float(np.max(td)),
         "case_time_s_max": float(np.max(np.array(td) + np.array(tg))),
         "errors": [r["error"] for r in results if r["error"]],
-        "wall_s": time.perf_counter() - t_all,
+        "wall_s": wall_s,
     }
     print()
     print(f"cases: {summary['cases']} ({summary['with_effect']} with concealed effects, "
@@ -607,8 +647,8 @@ def main(argv=None) -> int:
           f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s")
     if summary["errors"]:
         print("errors:", summary["errors"])
-    if args.json:
-        with open(args.json, "w") as fh:
+    if json_path:
+        with open(json_path, "w") as fh:
             json.dump({"summary": summary, "cases": results, "scores": scores}, fh, indent=1, default=str)
     return 0
 
