@@ -103,3 +103,30 @@ def test_data_not_referred_through_a_baseline_is_refused(bcc):
     problem = Problem(data, nominal, context_for(nominal, test.band_hz, data))
     with pytest.raises(ModelError, match="plain.uff"):
         changed_beyond_noise(problem, nominal)
+
+
+def test_a_change_found_only_without_the_floor_is_explained_only_without_it(bcc):
+    """With the floor the nominal model is already within the noise, so any effect would leave the data within
+    it: the selected effect is judged without the floor then (``pipeline.explained_share``). The drawn mass
+    removes the change; a mass of 1e-9 kg at point 1 removes none of it and is refused (with the floor's test
+    it passed)."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.pipeline import explained_share, explains
+
+    nominal = bcc[0]
+    problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1)
+    chi2_0 = problem.chi2(nominal)
+    _, stats = changed_beyond_noise(problem, nominal)
+
+    def selected(point: int, kg: float) -> SimpleNamespace:
+        st = nominal.with_spec(specedit.add_mass(nominal.spec, point, kg))
+        return SimpleNamespace(selected=SimpleNamespace(chi2_=problem.chi2(st)), problem=problem, noise_only=stats,
+                               validation=None, selected_state=lambda: st)
+
+    right, wrong = selected(5, MASS_KG), selected(1, 1e-9)
+    assert explains(right, chi2_0) and explained_share(right, chi2_0)[0] > 0.9
+    assert problem.within_noise(wrong.selected_state())  # the floor's test passes any effect here
+    assert not explains(wrong, chi2_0) and explained_share(wrong, chi2_0)[0] < 0.01
+    wrong.noise_only = None  # a mismatch found with the floor: judged with it (as before)
+    assert explains(wrong, chi2_0)

@@ -52,7 +52,8 @@ Pipeline (issue 6):
    FRF and time-domain misfits before and after. An effect that removes
    less than half of the weighted misfit, whose rerun does not halve
    the FRF misfit either, and that does not bring the data within the
-   noise (both tests of step 2), is not selected (the mismatch is reported
+   noise (both tests of step 2; all without the model-error floor when the
+   mismatch was found only without it), is not selected (the mismatch is reported
    as not explained by the library).
 6. **Report** (:mod:`vlab.diagnose.report`).
 """
@@ -80,7 +81,7 @@ from .nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, pl
 from .plantchoice import choose_on_plant, reduce_pair_on_plant
 from .plantfit import PlantModel
 from .plantpair import second_effect_on_plant
-from .problem import Problem, changed_beyond_noise
+from .problem import Problem, changed_beyond_noise, without_floor
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                         rerun_key, tie_break_by_rerun)
@@ -89,16 +90,30 @@ from .validate import start_background_rerun, stop_background, validate
 __all__ = ["diagnose", "DiagnosisResult"]
 
 
+def explained_share(res: DiagnosisResult, chi2_0: float) -> tuple[float, bool]:
+    """Share of the nominal chi-square ``chi2_0`` the selected effect of ``res`` removes on the linear model,
+    and whether it leaves the data within the noise (:meth:`Problem.within_noise`). A mismatch found only
+    without the model-error floor (``res.noise_only``, :func:`changed_beyond_noise`) is judged without it
+    too (:func:`vlab.diagnose.problem.without_floor`): with the floor the nominal model is already within
+    the noise, and any effect would pass."""
+    state = res.selected_state()
+    if res.noise_only:
+        raw = without_floor(res.problem)
+        return 1.0 - raw.chi2(state) / res.noise_only["chi2"], raw.within_noise(state)
+    return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
+
+
 def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool:
     """Whether the selected effect of ``res`` explains the mismatch: it removes at least ``share`` of the
     nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
-    (:meth:`Problem.within_noise`: a local mismatch removed), or its validation rerun lowers the FRF misfit
-    by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function: friction,
-    saturation)."""
-    h = res.selected
-    if h is None:
+    (:meth:`Problem.within_noise`: a local mismatch removed), both without the model-error floor when the
+    mismatch was found only without it (:func:`explained_share`), or its validation rerun lowers the FRF
+    misfit by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function:
+    friction, saturation)."""
+    if res.selected is None:
         return False
-    if h.chi2_ <= (1.0 - share) * chi2_0 or res.problem.within_noise(res.selected_state()):
+    removed, within = explained_share(res, chi2_0)
+    if removed >= share or within:
         return True
     v = res.validation
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
@@ -384,8 +399,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             timing["validate"] = time.perf_counter() - t
         if res.selected is not None and not explains(res, chi2_0):
             h = res.selected
-            notes.append(f"the best candidate, {h.label}, removes only {100 * (1 - h.chi2_ / chi2_0):.0f} % of the "
-                         "weighted misfit" + ("" if res.validation is None else
+            notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_0)[0]:.0f} % "
+                         "of the weighted misfit" + ("" if res.validation is None else
                                               f" and the rerun lowers the FRF misfit only {res.validation.misfit_before / res.validation.misfit_after:.2g}x")
                          + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None

@@ -368,6 +368,13 @@ class Problem:
         return chi2 + 2.0 * k, chi2 + k * math.log(self.n_obs)
 
 
+def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
+    """``problem`` with no model-error floor: the same data, nominal lab (or ``nominal``), context and phase
+    use, weighted by the data's own variance alone (the weights of :func:`changed_beyond_noise`)."""
+    return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
+                   use_phase=problem.use_phase)
+
+
 def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
     """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
     of the two recordings, with no model-error floor.
@@ -416,7 +423,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     noise = (data.var_recorded, data.var_baseline)
     if any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, {}
-    raw = Problem(data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase)
+    raw = without_floor(problem, nominal)
     stats = {"chi2": raw.chi2(nominal), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal),
              "peak_limit": raw.peak_limit()}
     return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats
