@@ -570,7 +570,12 @@ def _run_kept(args) -> int:
     for f in glob.glob(os.path.join(args.kept, "case*.json")):
         if re.fullmatch(r"case\d+\.json", os.path.basename(f)):
             with open(f) as fh:
-                recs.append(json.load(fh))
+                rec = json.load(fh)
+            # the files as they lie in DIR now (DIR may have been given relative to another folder, or moved)
+            rec["recording"] = os.path.join(args.kept, os.path.basename(rec["recording"]))
+            if rec.get("baseline"):
+                rec["baseline"] = os.path.join(args.kept, os.path.basename(rec["baseline"]))
+            recs.append(rec)
     recs = sorted((r for r in recs if not args.only or r["index"] in args.only), key=lambda r: r["index"])
     if not recs:
         raise SystemExit(f"{args.kept}: no case<i>.json left by --keep" + (f" among {args.only}" if args.only else ""))
@@ -644,7 +649,8 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     print(f"cases with an effect drawn below visibility ({100 * VISIBLE:g} % on every line, 8 tries): "
           f"{summary['hidden_effect_cases'] or 'none'}")
     print(f"time per case: diagnosis median {summary['diagnose_time_s_median']:.0f} s, max "
-          f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s")
+          f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s"
+          + (" (simulation not timed: cases generated earlier, --kept)" if not any(tg) else ""))
     if summary["errors"]:
         print("errors:", summary["errors"])
     if json_path:

@@ -117,7 +117,8 @@ def test_a_change_found_only_without_the_floor_is_explained_only_without_it(bcc)
     nominal = bcc[0]
     problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1)
     chi2_0 = problem.chi2(nominal)
-    _, stats = changed_beyond_noise(problem, nominal)
+    changed, stats = changed_beyond_noise(problem, nominal)
+    assert changed and problem.within_noise(nominal)  # found only without the floor
 
     def selected(point: int, kg: float) -> SimpleNamespace:
         st = nominal.with_spec(specedit.add_mass(nominal.spec, point, kg))

@@ -193,7 +193,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
         return chosen, model.refit(chosen, chosen.params_), alternatives, None
     known = {chosen.label: model.chi2(chosen, chosen.params_)}  # at the FE values: one linearisation each
     delta = abs(known[chosen.label] - chosen.chi2_) if math.isfinite(known[chosen.label]) else 0.0
-    near = sorted((h for h in ranked if h.chi2_ - chosen.chi2_ < delta), key=lambda h: h.chi2_)
+    near = sorted((h for h in ranked if abs(h.chi2_ - chosen.chi2_) < delta), key=lambda h: h.chi2_)
     looks = list({h.label: h for h in list(alternatives) + near if h.label != chosen.label and
                   not isinstance(h, Combination) and refit_index(h) is not None}.values())[:max_lookalikes]
     if not looks:

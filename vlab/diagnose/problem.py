@@ -372,7 +372,8 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
     """``problem`` with no model-error floor: the same data, nominal lab (or ``nominal``), context and phase
     use, weighted by the data's own variance alone (the weights of :func:`changed_beyond_noise`)."""
     return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
-                   use_phase=problem.use_phase)
+                   use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
+                   shape_sigma=problem.shape_sigma)
 
 
 def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
