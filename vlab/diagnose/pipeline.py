@@ -91,11 +91,34 @@ __all__ = ["diagnose", "DiagnosisResult"]
 
 
 def explained_share(res: DiagnosisResult, chi2_0: float) -> tuple[float, bool]:
-    """Share of the nominal chi-square ``chi2_0`` the selected effect of ``res`` removes on the linear model,
-    and whether it leaves the data within the noise (:meth:`Problem.within_noise`). A mismatch found only
-    without the model-error floor (``res.noise_only``, :func:`changed_beyond_noise`) is judged without it
-    too (:func:`vlab.diagnose.problem.without_floor`): with the floor the nominal model is already within
-    the noise, and any effect would pass."""
+    """What the selected effect of ``res`` explains on the linear model (the test of :func:`explains`).
+
+    A mismatch found only without the model-error floor (``res.noise_only``,
+    :func:`changed_beyond_noise`) is judged without it too
+    (:func:`vlab.diagnose.problem.without_floor`): with the floor the nominal
+    model is already within the noise, and any effect would pass.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        With a selected effect (``res.selected`` fitted; ``res.selected_state()`` its lab).
+    chi2_0 : float
+        The nominal model's chi-square with the floor (used when ``res.noise_only`` is None).
+
+    Returns
+    -------
+    share : float
+        ``1 - chi2 / chi2_nominal`` (dimensionless; negative when the effect fits worse than nothing),
+        without the floor against ``res.noise_only["chi2"]`` when the mismatch was found only there.
+    within : bool
+        Whether the effect leaves the data within the noise (:meth:`Problem.within_noise`: total
+        chi-square and largest line), on the same weights.
+
+    Raises
+    ------
+    ModelError, SpecError
+        The selected effect's lab cannot be built (as :meth:`Problem.chi2`).
+    """
     state = res.selected_state()
     if res.noise_only:
         raw = without_floor(res.problem)

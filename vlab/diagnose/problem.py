@@ -369,8 +369,21 @@ class Problem:
 
 
 def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
-    """``problem`` with no model-error floor: the same data, nominal lab (or ``nominal``), context and phase
-    use, weighted by the data's own variance alone (the weights of :func:`changed_beyond_noise`)."""
+    """``problem`` with no model-error floor (``floor = 0``).
+
+    Parameters
+    ----------
+    problem : Problem
+        Its data, context, phase use and modal sigmas are kept.
+    nominal : LabState, optional
+        The nominal lab of the new problem (default ``problem.base``).
+
+    Returns
+    -------
+    Problem
+        Residuals weighted by the data's own variance alone (``1 / sigma_rel^2``
+        per line of FRF data), the weights of :func:`changed_beyond_noise`.
+    """
     return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
                    use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
                    shape_sigma=problem.shape_sigma)
