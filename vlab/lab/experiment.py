@@ -208,8 +208,16 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
     Raises
     ------
     ModelError
-        Unknown plant kind. DataFileError / SimulationError from the MuJoCo side.
+        Unknown plant kind; an MJCF file with the linear plant (``--mjcf``
+        with ``--plant linear``: the linear plant is the FE model, it cannot
+        run an MJCF); an MJCF that breaks the naming contract
+        (:func:`vlab.sim.runtime.check_plant_contract`: its ``coil<ID>`` /
+        ``vel<ID>`` at the spec's instrumentation and the test's measured
+        points). DataFileError / SimulationError from the MuJoCo side.
     """
+    if cfg.mjcf is not None and cfg.plant != "mujoco":
+        raise ModelError(f"--mjcf {cfg.mjcf} needs the MuJoCo plant (--plant mujoco); --plant {cfg.plant} "
+                         "would ignore it: drop one of the two options")
     if cfg.plant == "linear":
         c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
         pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
@@ -219,7 +227,9 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
     if cfg.plant == "mujoco":
         from ..sim import load_plant_for_experiment
 
-        return load_plant_for_experiment(fe.spec, mjcf=cfg.mjcf, actuators=actuators)
+        test = TESTS.get(cfg.structure)
+        return load_plant_for_experiment(fe.spec, mjcf=cfg.mjcf, actuators=actuators,
+                                         sensors=test.measured_points if test is not None else ())
     raise ModelError(f"unknown plant {cfg.plant!r}; use 'mujoco' or 'linear'")
 
 

@@ -99,6 +99,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -315,7 +316,8 @@ def _emit(spec: StructureSpec, plan: _Plan, opts: SimOptions, beta: float) -> mu
     ms.option.gravity = g.tolist()
     ms.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     ms.comment = (
-        f"vlab MuJoCo plant of '{spec.title}' built from {spec._file()} by vlab.sim.builder "
+        f"vlab MuJoCo plant of '{spec.title}' ({spec.name}) built from "
+        f"{Path(spec.path).name if spec.path else 'an in-memory spec'} by vlab.sim.builder "
         f"(segments_per_element={opts.segments_per_element}, crosspiece_segments={opts.crosspiece_segments}, "
         f"timestep={opts.timestep_s}, beta={beta:.3g} s). Out-of-plane motion only; SI units."
     )

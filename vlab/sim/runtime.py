@@ -5,8 +5,28 @@
 ``velocities``, ``displacements``) on a compiled vlab plant -- built from a
 spec (:func:`vlab.sim.build_plant`) or loaded from an exported MJCF file --
 starting from its settled state. It finds everything by name: actuators
-``coil<ID>``, sensors ``vel<ID>`` (``actuatorvel``, or ``framelinvel`` whose z
-component is used) and sites ``p<ID>``.
+``coil<ID>``, sensors ``vel<ID>`` (``actuatorvel``, or ``framelinvel`` /
+``velocimeter`` whose z component is used) and sites ``p<ID>``.
+
+Measured velocities come from the model's own ``vel<ID>`` sensors
+(``MjData.sensordata``), so an edited MJCF is measured as edited: a sensor
+moved to another site measures there, and a sensor's ``cutoff`` clips its
+reading to ``[-cutoff, cutoff]`` m/s as MuJoCo computes it (a saturating
+transducer). What vlab cannot honour is refused when an MJCF is loaded
+(:func:`check_plant_contract`): a missing or renamed ``coil<ID>`` /
+``vel<ID>``, a ``vel<ID>`` of another sensor type, and a non-zero ``noise``
+(MuJoCo does not apply it; the lab's sensor noise is ``--noise``),
+``delay``, ``interval`` or ``nsample``.
+
+Sampling instant: ``mj_step`` evaluates the sensors (and site positions) at
+the start of the step, before integrating, so after it ``sensordata`` lags the
+state by one physics step. The plant therefore brings the position and
+velocity stages (``mj_fwdPosition``, ``mj_fwdVelocity``, ``mj_sensorVel``)
+up to date before it is read after a step: :meth:`MujocoPlant.velocities` and
+:meth:`MujocoPlant.displacements` give the state at the time
+:attr:`MujocoPlant.time_s`. These stages only fill derived quantities that the
+next ``mj_step`` recomputes from ``qpos``/``qvel``, so the trajectory is
+unchanged (tested bit for bit).
 
 Sign conventions: a positive force on ``coil<ID>`` pushes point ``ID`` along
 world +z, and ``vel<ID>`` reads +z velocity positive -- so collocated rate
@@ -22,7 +42,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..errors import SimulationError
+from ..errors import ModelError, SimulationError
 from ..spec import StructureSpec
 from .builder import Plant, SimOptions, build_plant
 from .damping import load_modal_damping
@@ -51,7 +71,8 @@ def sensor_rows(model: mujoco.MjModel) -> dict[int, int]:
     Returns
     -------
     dict of int to int
-        ``actuatorvel`` sensors: their address; ``framelinvel``: address + 2 (z).
+        ``actuatorvel`` sensors: their address; ``framelinvel`` and
+        ``velocimeter``: address + 2 (the z component, in the sensor's frame).
 
     Raises
     ------
@@ -69,6 +90,84 @@ def sensor_rows(model: mujoco.MjModel) -> dict[int, int]:
         else:
             raise SimulationError(f"sensor vel{p} has type {mujoco.mjtSensor(kind).name}: not a velocity sensor")
     return rows
+
+
+#: Velocity sensor types a ``vel<ID>`` sensor may have, with the offset of the out-of-plane component.
+VELOCITY_SENSORS = {
+    int(mujoco.mjtSensor.mjSENS_ACTUATORVEL): 0,
+    int(mujoco.mjtSensor.mjSENS_FRAMELINVEL): 2,
+    int(mujoco.mjtSensor.mjSENS_VELOCIMETER): 2,
+}
+
+
+def check_plant_contract(model: mujoco.MjModel, *, actuators, sensors, source: str) -> None:
+    """Refuse a plant whose actuators or sensors break vlab's naming contract.
+
+    The contract (as :func:`vlab.sim.build_plant` writes it): a voice-coil
+    actuator ``coil<ID>`` at every actuator point, and a velocity sensor
+    ``vel<ID>`` of type ``actuatorvel``, ``framelinvel`` or ``velocimeter`` at
+    every sensor / measured point. Every ``vel<ID>`` sensor of the model must
+    also be one vlab reads as MuJoCo computes it: ``noise`` 0 (MuJoCo 4.0 does
+    not apply sensor noise; give the lab's sensor noise with ``--noise``,
+    :attr:`vlab.lab.loop.HardwareChain.noise_m_s`), and no ``delay``,
+    ``interval`` or ``nsample`` (the loop samples every sensor at each tick;
+    the chain's delay and sensor lag model the hardware). A ``cutoff`` is
+    honoured (MuJoCo clips the reading to ``[-cutoff, cutoff]`` m/s).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The plant, e.g. loaded from an edited MJCF.
+    actuators : sequence of int
+        Points that need a ``coil<ID>`` actuator.
+    sensors : sequence of int
+        Points that need a ``vel<ID>`` velocity sensor.
+    source : str
+        Where the model came from (the MJCF file), named in the error.
+
+    Raises
+    ------
+    ModelError
+        Naming ``source`` and every missing, renamed or unsupported element
+        (and the model's sensors/actuators outside the naming scheme, which a
+        renamed one would be).
+    """
+    problems = []
+    coils = _numbered(model, mujoco.mjtObj.mjOBJ_ACTUATOR, model.nu, "coil")
+    vels = _numbered(model, mujoco.mjtObj.mjOBJ_SENSOR, model.nsensor, "vel")
+    for p in dict.fromkeys(actuators):
+        if p not in coils:
+            problems.append(f"actuator coil{p} (voice coil at point {p}) is missing")
+    for p in dict.fromkeys(sensors):
+        if p not in vels:
+            problems.append(f"sensor vel{p} (velocity sensor at point {p}) is missing")
+    for p, i in sorted(vels.items()):
+        kind = int(model.sensor_type[i])
+        if kind not in VELOCITY_SENSORS:
+            problems.append(f"sensor vel{p} has type {mujoco.mjtSensor(kind).name}; vlab reads only "
+                            "actuatorvel, framelinvel and velocimeter sensors")
+        if float(model.sensor_noise[i]) != 0.0:
+            problems.append(f"sensor vel{p} has noise=\"{float(model.sensor_noise[i]):g}\", which MuJoCo does not "
+                            "apply; remove the attribute and give the sensor noise with --noise "
+                            "(HardwareChain.noise_m_s)")
+        if float(model.sensor_delay[i]) != 0.0:
+            problems.append(f"sensor vel{p} has delay=\"{float(model.sensor_delay[i]):g}\", which vlab does not "
+                            "support; use --delay-samples (HardwareChain.delay_periods) or sensor_lag_hz")
+        if float(model.sensor_interval[i][0]) != 0.0:
+            problems.append(f"sensor vel{p} has interval=\"{float(model.sensor_interval[i][0]):g}\", which vlab "
+                            "does not support (the loop samples every sensor each tick)")
+        if int(model.sensor_history[i][0]) != 0:
+            problems.append(f"sensor vel{p} has nsample=\"{int(model.sensor_history[i][0])}\", which vlab does "
+                            "not support")
+    if problems:
+        others = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i) or f"#{i}" for i in range(model.nsensor)
+                  if i not in vels.values()]
+        others += [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) or f"#{i}" for i in range(model.nu)
+                   if i not in coils.values()
+                   and not (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) or "").startswith("prestress")]
+        hint = f" (elements outside the naming scheme: {', '.join(others)})" if others else ""
+        raise ModelError(f"{source}: the plant breaks vlab's naming contract (actuators coil<ID>, velocity "
+                         f"sensors vel<ID>): " + "; ".join(problems) + hint)
 
 
 class MujocoPlant:
@@ -93,6 +192,11 @@ class MujocoPlant:
         Points of the driven coils, order of :meth:`set_forces`.
     sensor_points : tuple of int
         Points with a ``vel<ID>`` sensor.
+    site_velocity_fallback : bool
+        Whether :meth:`velocities` reads the ``p<ID>`` site's velocity at a
+        point without a ``vel<ID>`` sensor (an ideal extra transducer): True
+        for a plant built here, False for a bare model (an MJCF), which is
+        measured by its own sensors only.
     model : mujoco.MjModel
     data : mujoco.MjData
     modal_damping : ModalDamping or None
@@ -129,6 +233,8 @@ class MujocoPlant:
         self._z0 = self._ref.site_xpos[:, 2].copy()
         self.data = mujoco.MjData(model)
         self._rows_cache: dict[tuple, np.ndarray | None] = {}
+        self.site_velocity_fallback = self.plant is not None
+        self._fresh = False  # position/velocity stages and sensordata computed at data.time
         self.modal_damping = load_modal_damping(model)
         self._modes = None  # modal model, made on first use (:meth:`modal_model`)
         self.reset()
@@ -141,7 +247,17 @@ class MujocoPlant:
         d.qpos[:] = self._ref.qpos
         d.qvel[:] = 0.0
         mujoco.mj_forward(self.model, d)
+        self._fresh = True
         self._warning = d.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)]
+
+    def _sync(self) -> None:
+        """Bring site positions, velocities and velocity sensors to the current state (after ``mj_step``)."""
+        if not self._fresh:
+            m, d = self.model, self.data
+            mujoco.mj_fwdPosition(m, d)
+            mujoco.mj_fwdVelocity(m, d)
+            mujoco.mj_sensorVel(m, d)
+            self._fresh = True
 
     @property
     def time_s(self) -> float:
@@ -229,6 +345,7 @@ class MujocoPlant:
         mujoco.mj_integratePos(self.model, d.qpos, dq, 1.0)
         d.qvel[:] = v
         mujoco.mj_forward(self.model, d)
+        self._fresh = True
 
     # -- loop protocol
     def set_forces(self, forces) -> None:
@@ -267,6 +384,7 @@ class MujocoPlant:
             gives the time.
         """
         d = self.data
+        self._fresh = False
         if self.modal_damping is None:
             mujoco.mj_step(self.model, d, nstep=n)
         else:
@@ -278,10 +396,13 @@ class MujocoPlant:
             )
 
     def velocities(self, points) -> np.ndarray:
-        """Out-of-plane velocities [m/s] at ``points``, shape (len(points),).
+        """Out-of-plane velocities [m/s] at ``points`` at time :attr:`time_s`, shape (len(points),).
 
-        Sensor points read their ``vel<ID>`` sensor; other points the ``p<ID>``
-        site's world z velocity.
+        Sensor points read their ``vel<ID>`` sensor from ``sensordata`` (its
+        ``cutoff`` applied by MuJoCo), computed at the current state (see the
+        module notes on the sampling instant). Other points read the ``p<ID>``
+        site's world z velocity when :attr:`site_velocity_fallback` is set, and
+        are refused otherwise.
 
         Parameters
         ----------
@@ -290,8 +411,10 @@ class MujocoPlant:
         Raises
         ------
         SimulationError
-            For an unknown point id.
+            For an unknown point id, or a point without a ``vel<ID>`` sensor
+            in a plant measured by its own sensors only.
         """
+        self._sync()
         key = tuple(points)
         rows = self._rows_cache.get(key, False)
         if rows is False:
@@ -304,6 +427,9 @@ class MujocoPlant:
                          for p in key])
 
     def _site_vel(self, p: int) -> float:
+        if not self.site_velocity_fallback:
+            raise SimulationError(f"no velocity sensor vel{p} in the plant; its velocity sensors are at points "
+                                  f"{list(self.sensor_points)}")
         if p not in self._sites:
             raise SimulationError(f"unknown point {p}; points are {sorted(self._sites)}")
         v = np.zeros(6)
@@ -311,7 +437,7 @@ class MujocoPlant:
         return float(v[5])
 
     def displacements(self, points) -> np.ndarray:
-        """Out-of-plane displacements [m] from the settled state at ``points``, shape (len(points),).
+        """Out-of-plane displacements [m] from the settled state at ``points`` at time :attr:`time_s`, shape (len(points),).
 
         Parameters
         ----------
@@ -322,6 +448,7 @@ class MujocoPlant:
         SimulationError
             For an unknown point id.
         """
+        self._sync()
         try:
             ids = [self._sites[p] for p in points]
         except KeyError as exc:
@@ -330,19 +457,29 @@ class MujocoPlant:
 
 
 def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = None, actuators=None,
-                              options: SimOptions | None = None) -> tuple[MujocoPlant, dict]:
+                              options: SimOptions | None = None, sensors=()) -> tuple[MujocoPlant, dict]:
     """The MuJoCo plant of an experiment, ready for :func:`vlab.lab.loop.run_loop`.
+
+    An MJCF plant is checked against the naming contract first
+    (:func:`check_plant_contract`): a ``coil<ID>`` at every actuator point of
+    the spec and of ``actuators``, a supported ``vel<ID>`` sensor at every
+    sensor and actuator point of the spec and at ``sensors``; it is then
+    measured by its own sensors only (no site-velocity fallback).
 
     Parameters
     ----------
     spec : StructureSpec
-        The structure (used to build the plant when ``mjcf`` is None).
+        The structure (used to build the plant when ``mjcf`` is None; its
+        instrumentation gives the points an MJCF must have).
     mjcf : str or Path, optional
         An exported plant (:func:`vlab.sim.export_mjcf`) to load instead.
     actuators : sequence of int, optional
         Coil points driven by the loop, in order; default all coils.
     options : SimOptions, optional
         Build options (ignored with ``mjcf``).
+    sensors : sequence of int
+        Further points whose velocity the experiment records (they need a
+        ``vel<ID>`` sensor in an MJCF).
 
     Returns
     -------
@@ -358,11 +495,18 @@ def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = 
         If the plant cannot be built or settled, or an actuator point has no coil.
     DataFileError
         If ``mjcf`` cannot be loaded.
+    ModelError
+        If the MJCF breaks the naming contract (names the file and each element).
     """
     from .export import load_mjcf
 
     if mjcf is not None:
         model = load_mjcf(mjcf)
+        ins = spec.instrumentation
+        spec_acts = tuple(ins.actuators) if ins is not None else ()
+        spec_sens = tuple(ins.sensors) if ins is not None else ()
+        check_plant_contract(model, actuators=spec_acts + tuple(actuators or ()),
+                             sensors=spec_acts + spec_sens + tuple(sensors), source=str(mjcf))
         sim = MujocoPlant(model, actuators=actuators)
         return sim, {"kind": "MuJoCo plant (MJCF)", "source": str(mjcf), "timestep_s": sim.timestep_s,
                      "nv": int(model.nv)}
