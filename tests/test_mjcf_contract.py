@@ -192,6 +192,17 @@ def test_mjcf_with_the_linear_plant_is_refused(exported):
         make_plant(cfg, None, (5, 7, 9))
 
 
+def test_experiment_plant_from_mjcf_checks_the_measured_points(exported, tmp_path):
+    from vlab.models import nominal_fe_model
+
+    fe = nominal_fe_model("bcc")
+    sim, info = make_plant(ExperimentConfig(structure="bcc", mjcf=exported), fe, (5, 7, 9))
+    assert sim.sensor_points == (5, 6, 7, 9) and info["source"] == str(exported)
+    path = _edit(exported, tmp_path / "no_vel9.xml", lambda s, a: s.remove(_named(s, "vel9")))
+    with pytest.raises(ModelError, match=r"no_vel9\.xml.*sensor vel9 .*missing"):
+        make_plant(ExperimentConfig(structure="bcc", mjcf=path), fe, (5, 7, 9))
+
+
 def test_export_header_names_the_structure_and_file_only(plant, spec, exported):
     text = exported.read_text()
     header = text[text.index("<!--"): text.index("-->")]

@@ -23,6 +23,12 @@ from .builder import Plant
 def export_mjcf(plant: Plant, path: str | Path) -> Path:
     """Write the plant as an MJCF file.
 
+    Its header comment names the structure (title and name) and the spec's
+    file name only, never a folder (no absolute path, no user home). Run the
+    file with :func:`vlab.sim.load_plant_for_experiment` (``vlab experiment
+    --mjcf``), which checks its actuators and sensors against the naming
+    contract (:func:`vlab.sim.runtime.check_plant_contract`).
+
     Parameters
     ----------
     plant : Plant

@@ -437,7 +437,10 @@ class MujocoPlant:
         return float(v[5])
 
     def displacements(self, points) -> np.ndarray:
-        """Out-of-plane displacements [m] from the settled state at ``points`` at time :attr:`time_s`, shape (len(points),).
+        """Out-of-plane displacements [m] from the settled state at ``points``, shape (len(points),).
+
+        Site positions at the current state, time :attr:`time_s` (see the
+        module notes on the sampling instant).
 
         Parameters
         ----------
