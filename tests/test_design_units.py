@@ -227,4 +227,4 @@ def test_lqg_realization_is_made_at_the_loop_period(quick_bcc_test):
 def test_bad_period_option_is_a_clear_error():
     res = CliRunner().invoke(app, ["design", "bcc", "--controller", "lqg", "--period-ms", "-1"])
     assert res.exit_code == 2
-    assert "--period-ms" in res.output
+    assert "--period-ms must be a positive number" in " ".join(res.output.split())
