@@ -56,9 +56,10 @@ def test_design_cli_json_keys():
     res = CliRunner().invoke(app, ["design", "bcc", "--controller", "mfdrf", "--json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
-    for key in ("controller", "gain", "damping_ratios", "frequencies_hz", "performance_index", "gamma", "converged"):
+    for key in ("controller", "gain_n_s_per_m", "gain_thesis_lb_s_per_in", "damping_ratios", "frequencies_hz",
+                "performance_index_thesis_units", "gamma_lb_s_per_in", "gamma_n_s_per_m", "period_s", "converged"):
         assert key in out
-    assert np.shape(out["gain"]) == (3, 3)
+    assert np.shape(out["gain_n_s_per_m"]) == (3, 3)
 
 
 def test_corrected_guyan_grid_from_virtual_modal_test_matches_table3():

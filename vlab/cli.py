@@ -140,30 +140,30 @@ def design(
     reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
     modes_file: str = typer.Option(None, "--modes", help="UFF 55 measured modes for corrected-guyan"),
     seed: int = typer.Option(0, help="seed of the optimiser's multi-start"),
+    period_ms: float = typer.Option(None, "--period-ms",
+                                    help="sampling period of the realization [ms] (default: the thesis's, "
+                                         "LQG 1, others 0.5)"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from .design import design_controller
+    from .io.results import design_summary
+    from .lab.experiment import period_source
     from .models import nominal_fe_model
 
     try:
+        period_s = _period_s(period_ms)
         fe = nominal_fe_model(structure.value)
         measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
         d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
-                              measured_modes=measured, seed=seed)
+                              measured_modes=measured, seed=seed, period_s=period_s)
     except (VlabError, ValueError) as exc:
         _fail(exc)
     if as_json:
-        _print_json({
-            "structure": d.structure, "controller": d.controller, "reduction": d.model,
-            "gain": d.gain, "gain_units": "N*s/m" if d.controller in ("mfdrf", "lqdrf", "lqdrf-diag") else "N per SI state",
-            "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
-            "performance_index": d.performance_index, "performance_index_units": "thesis (in, lbf, cs)",
-            "gamma": d.gamma, "beta": d.beta, "converged": d.converged, "message": d.message,
-            "extra": {k: v for k, v in d.extra.items() if not isinstance(v, np.ndarray) or v.ndim < 3},
-        })
+        _print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
         return
     console.print(f"[bold]{structure.value} {d.controller}[/] on the {d.model} model — converged: {d.converged} ({d.message})")
+    console.print(f"sampling period {d.period_s * 1e3:g} ms ({period_source(d.controller, d.period_s)})")
     if d.gamma is not None:
         console.print(f"gamma = {d.gamma:.4f} lb*s/in" + (f", beta = {d.beta:.4g}" if d.beta is not None else ""))
     g = d.extra.get("gain_thesis_lb_s_per_in")
@@ -209,6 +209,9 @@ def experiment(
     excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
     duration: float = typer.Option(None, "--duration", help="run length [s] (default: 3 records)"),
     delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods]"),
+    period_ms: float = typer.Option(None, "--period-ms",
+                                    help="controller sampling period [ms] (default: the thesis's for the "
+                                         "controller, Sec. 5.3: LQG 1, others 0.5)"),
     noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s]"),
     seed: int = typer.Option(0, "--seed"),
     mjcf: str = typer.Option(None, "--mjcf", help="run on an exported (and edited) MJCF plant"),
@@ -217,20 +220,25 @@ def experiment(
     spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live"),
     as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
 ) -> None:
-    """Run a closed-loop experiment at 2 kHz, measure it like a modal test, compare with analysis."""
+    """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test."""
     from pathlib import Path
 
     from rich.progress import Progress
 
     from .io.results import experiment_summary, write_outputs
-    from .lab.experiment import ExperimentConfig, run_experiment
-    from .lab.loop import HardwareChain
+    from .lab.experiment import ExperimentConfig, default_chain, run_experiment
     from .models import nominal_fe_model
 
+    try:
+        period_s = _period_s(period_ms)
+        chain = default_chain(controller.value, delay_periods=delay_samples, noise_m_s=noise,
+                              **({} if period_s is None else {"period_s": period_s}))
+    except (VlabError, ValueError) as exc:
+        _fail(exc)
     cfg = ExperimentConfig(
         structure=structure.value, controller=controller.value,
         reduction=reduction.value if reduction else None, excitation=excitation.value, duration_s=duration,
-        chain=HardwareChain(delay_periods=delay_samples, noise_m_s=noise), seed=seed, plant=plant.value,
+        chain=chain, seed=seed, plant=plant.value,
         mjcf=Path(mjcf) if mjcf else None,
     )
     try:
@@ -259,6 +267,7 @@ def experiment(
         t.add_row(str(m.mode), f"{m.frequency_predicted_hz:.3f}", f"{m.frequency_measured_hz:.3f}",
                   f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
     console.print(t)
+    console.print(f"sampling period {summary['period_s'] * 1e3:g} ms ({summary['period_source']})")
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
     for w in result.warnings:
         err_console.print(f"[bold yellow]warning:[/] {w}")
@@ -382,6 +391,17 @@ def diagnose(
     if v.get("noise_misfit") is not None:
         console.print(f"validation ({v['plant']}): FRF misfit {v['misfit_before']:.3g} -> {v['misfit_after']:.3g} "
                       f"decades; the measured noise alone leaves {v['noise_misfit']:.3g}")
+
+
+def _period_s(period_ms: float | None) -> float | None:
+    """``--period-ms`` in seconds (None stays None); a non-positive or non-finite value is an error."""
+    from .errors import ModelError
+
+    if period_ms is None:
+        return None
+    if not np.isfinite(period_ms) or period_ms <= 0:
+        raise ModelError(f"--period-ms must be a positive number of milliseconds, got {period_ms!r}")
+    return period_ms * 1e-3
 
 
 def _measured_modes(fe, modes_file: str | None):

@@ -36,7 +36,42 @@ from .units import CS_S, INCH_M, LBF_N
 
 CONTROLLERS = ("lqr", "lqg", "mfdrf", "lqdrf", "lqdrf-diag")
 DESIGN_MODELS = ("full", "exact", "guyan", "corrected-guyan")
+#: Sampling period of the DRF controllers in the laboratory [s] (Sec. 5.3: 2000 samples/s).
 PERIOD_S = 0.5e-3
+#: Sampling period [s] at which the laboratory ran each controller (Sec. 5.3): the DRF laws "at the maximum
+#: sampling rate of 2000 samples per second", LQG discretised "at Delta t = 0.001 seconds" (Eqs. 5.11-5.12,
+#: 1000 samples per second). ``"none"`` (open loop) and LQR (never run: it needs the full state) take 0.5 ms.
+THESIS_PERIOD_S = {"none": PERIOD_S, "lqr": PERIOD_S, "lqg": 1e-3, "mfdrf": PERIOD_S, "lqdrf": PERIOD_S,
+                   "lqdrf-diag": PERIOD_S}
+
+
+def thesis_period_s(controller: str) -> float:
+    """The sampling period [s] the dissertation's laboratory used for ``controller`` (Sec. 5.3).
+
+    MFDRF and LQDRF ran at 2000 samples per second (0.5 ms); LQG was
+    discretised and run at ``Delta t = 0.001`` s (1000 samples per second,
+    the text after Eq. 5.12). The PC-1000's computation delay is 1.35
+    sampling periods in both cases (Sec. 5.3: "1.35 Delta t, where Delta t is
+    the sampling period"), so it scales with the period.
+
+    Parameters
+    ----------
+    controller : str
+        ``"none"`` (open loop) or one of :data:`CONTROLLERS`.
+
+    Returns
+    -------
+    float
+        The period [s]: 1e-3 for ``"lqg"``, 5e-4 otherwise.
+
+    Raises
+    ------
+    ModelError
+        Unknown controller name.
+    """
+    if controller not in THESIS_PERIOD_S:
+        raise ModelError(f"unknown controller {controller!r}; use 'none' or one of {CONTROLLERS}")
+    return THESIS_PERIOD_S[controller]
 
 
 @dataclass(frozen=True)
@@ -131,27 +166,51 @@ class ControllerDesign:
     ----------
     structure, controller, model : str
     gain : ndarray
-        SI: DRF ``D`` (n_c, n_c) [N*s/m]; LQR/LQG ``F`` (n_c, 2n_R) in thesis
-        state units converted to force per SI state.
+        SI. DRF: ``D`` (n_c, n_c) [N*s/m], ``u = -D y`` with ``y`` in m/s.
+        LQR/LQG: the regulator gain ``F`` (n_c, 2n_d) [N per SI state],
+        ``u = -F x`` with ``x = [q'; q]`` in SI: m/s (rad/s for rotational
+        DOFs) for the first n_d columns, m (rad) for the last n_d, DOFs in
+        the order of the design model's labels (:attr:`state_labels`). The
+        thesis gain ``F_th`` (lbf per state in in/cs, rad/cs, in, rad) is
+        ``F = LBF_N * F_th / s_x`` with ``s_x`` the SI value of one thesis
+        state unit (0.0254 / 0.01 m/s, 1 / 0.01 rad/s, 0.0254 m, 1 rad).
     damping_ratios, frequencies_hz : ndarray, shape (n_modes,)
-        Closed loop on the design model.
+        Closed loop on the design model (LQG on a reduced model: the reduced
+        controller closed around the full model, as Tables 8 and 12).
+        Damping ratios [-], frequencies [Hz].
     performance_index : ndarray, shape (n_f,)
-        J_i (thesis units, Eqs. 4.7, 4.20, 4.33) for modal initial conditions.
+        J_i (thesis units: the integral over time in cs of the quadratic form
+        in the thesis states and lbf, Eqs. 4.7, 4.20, 4.33) for modal initial
+        conditions.
     gamma, beta : float or None
-        MFDRF / LQDRF objectives (thesis units: lb*s/in, and J).
+        MFDRF objective ``gamma`` [lbf*s/in] (max row sum of ``|D|``, Table 7)
+        and LQDRF objective ``beta`` (thesis units, like ``performance_index``).
     converged : bool
         Whether the design's optimiser converged (always True for LQR/LQG).
     message : str
         The optimiser's or the design's message.
     f11, f12, f21, f22 : ndarray
-        Eq. (5.1) coefficients with ``y`` in m/s and ``u`` in N.
+        Eq. (5.1) coefficients with ``y`` in m/s and ``u`` in N, realised at
+        :attr:`period_s` (Eqs. 5.2-5.5 for LQG); the controller state of LQG
+        stays in thesis state units (it is internal to the engine).
     continuous : dict
-        Continuous controller for analysis, ``u = -K(s) y``: ``{"d": D}`` or
-        ``{"a", "b", "c"}`` (SI, seconds).
+        Continuous controller for analysis, ``u = -K(s) y`` (y in m/s, u in
+        N): ``{"d": D}`` [N*s/m] or ``{"a", "b", "c"}`` with ``x' = a x + b y``,
+        ``u = -c x``, ``K(s) = c (sI - a)^-1 b``, whose state ``x`` is the SI
+        estimate of ``[q'; q]`` (``a`` [1/s], ``b`` [SI state/s per m/s],
+        ``c`` = ``gain`` [N per SI state]).
     extra : dict
-        Further numbers of the design, e.g. ``"gain_thesis_lb_s_per_in"`` and
-        ``"active_constraints"`` (DRF), ``"gain_thesis"`` (LQR),
+        Further numbers of the design, every key with its unit:
+        ``"gain_thesis_lb_s_per_in"`` and ``"active_constraints"`` (indices,
+        DRF), ``"gain_thesis_lbf_per_thesis_state"`` (LQR/LQG: ``F_th``),
         ``"kalman_poles_max_real_per_s"`` and the spillover results (LQG).
+    state_labels : tuple of str
+        LQR/LQG: name and SI unit of each column of ``gain``, e.g.
+        ``"dw/dt@5 [m/s]"`` or ``"rx@6 [rad]"``; empty for DRF (columns =
+        sensors, the actuator points in order).
+    period_s : float
+        Sampling period [s] at which ``f11``-``f22`` were realised (default
+        :func:`thesis_period_s` of the controller: LQG 1 ms, DRF 0.5 ms).
     """
 
     structure: str
@@ -171,16 +230,43 @@ class ControllerDesign:
     f22: np.ndarray
     continuous: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
-
-    @property
-    def period_s(self) -> float:
-        """Controller sampling period [s]."""
-        return PERIOD_S
+    state_labels: tuple = ()
+    period_s: float = PERIOD_S
 
 
 def _unit_scaling(labels) -> np.ndarray:
     """diag S with q_SI = S q_thesis: inch for translations, 1 for rotations."""
     return np.array([INCH_M if dof == "w" else 1.0 for _node, dof in labels])
+
+
+def _state_scaling(labels) -> np.ndarray:
+    """SI value of one thesis state unit, shape (2 n_d,): ``x_SI = s_x * x_thesis`` for ``x = [q'; q]``.
+
+    Velocities: 1 in/cs = 0.0254 / 0.01 m/s, 1 rad/cs = 100 rad/s; positions:
+    1 in = 0.0254 m, 1 rad = 1 rad (Sec. 3.1 units).
+    """
+    s = _unit_scaling(labels)
+    return np.concatenate([s / CS_S, s])
+
+
+def state_labels(labels) -> tuple[str, ...]:
+    """Names and SI units of the states ``x = [q'; q]`` of a design model (Eqs. 3.2-3.3).
+
+    Parameters
+    ----------
+    labels : sequence of (node, dof), length n_d
+        DOF labels of the design model; ``"w"`` is a translation [m], any
+        other dof a rotation [rad].
+
+    Returns
+    -------
+    tuple of str, length 2 n_d
+        ``"d<dof>/dt@<node> [m/s]"`` (or ``[rad/s]``) for the velocities, then
+        ``"<dof>@<node> [m]"`` (or ``[rad]``) for the displacements.
+    """
+    vel = tuple(f"d{d}/dt@{nd} [{'m/s' if d == 'w' else 'rad/s'}]" for nd, d in labels)
+    pos = tuple(f"{d}@{nd} [{'m' if d == 'w' else 'rad'}]" for nd, d in labels)
+    return vel + pos
 
 
 def to_thesis_units(a: np.ndarray, labels) -> np.ndarray:
@@ -280,6 +366,7 @@ def design_controller(
     measured_modes=None,
     seed: int = 0,
     n_starts: int | None = None,
+    period_s: float | None = None,
 ) -> ControllerDesign:
     """Design one of the thesis's controllers for ``fe`` with the thesis's settings.
 
@@ -299,6 +386,11 @@ def design_controller(
         to 32 for MFDRF (its min-max problem has many local minima, and a
         start costs milliseconds: with 4 starts the BCC design stops at
         gamma = 0.0507 instead of 0.0498 lb*s/in) and 4 for LQDRF.
+    period_s : float, optional
+        Sampling period [s] of the Eq. (5.1) realization (LQG: Eqs. 5.2-5.5
+        integrate the observer over one period); default
+        :func:`thesis_period_s` (LQG 1 ms, DRF 0.5 ms, Sec. 5.3). The DRF
+        realization ``F11 = -D`` does not depend on it.
 
     Returns
     -------
@@ -307,7 +399,8 @@ def design_controller(
     Raises
     ------
     ModelError
-        Unknown controller or structure without thesis settings.
+        Unknown controller or structure without thesis settings, or a
+        ``period_s`` that is not a positive finite number.
     ReductionError
         Unknown design model.
     controllers.errors.ControllerError
@@ -319,6 +412,10 @@ def design_controller(
     if name not in THESIS_SETTINGS:
         raise ModelError(f"no thesis design settings for structure {name!r}")
     st = THESIS_SETTINGS[name]
+    period = thesis_period_s(controller) if period_s is None else period_s
+    if not (isinstance(period, (int, float, np.floating)) and np.isfinite(period) and period > 0):
+        raise ModelError(f"period_s must be a positive number of seconds, got {period_s!r}")
+    period = float(period)
     if model is None:
         model = "full" if (name == "bcc" and controller in ("mfdrf", "lqdrf", "lqdrf-diag", "lqr")) else st.default_model
     dm = design_model(fe, model, measured_modes=measured_modes)
@@ -355,30 +452,37 @@ def design_controller(
             gamma, beta, des.converged, des.message,
             -d_si, np.zeros((len(d_si), 0)), np.zeros((0, len(d_si))), np.zeros((0, 0)),
             {"d": d_si}, {"gain_thesis_lb_s_per_in": des.gain_per_s, "active_constraints": des.active_constraints},
+            (), period,
         )
+    # SI value of one thesis state unit: [q' (in/cs or rad/cs); q (in or rad)] -> [m/s or rad/s; m or rad]
+    sx = _state_scaling(dm.labels)
+    labels = state_labels(dm.labels)
     if controller == "lqr":
         des = lqr(a, b, q, r, time_unit_s=CS_S)
         modes_cl = cl_modes(a - b @ des.gain, time_unit_s=CS_S)
         perf = np.einsum("ij,ik,kj->j", x0, des.riccati, x0)
-        sx = np.concatenate([np.full(n, 1 / CS_S), np.ones(n)]) * np.concatenate([_unit_scaling(dm.labels)] * 2)
         f_si = des.gain * LBF_N / sx
         return ControllerDesign(
             name, controller, model, f_si, modes_cl.damping_ratios, modes_cl.frequencies_hz, perf, None, None,
             True, "LQR needs the full state; realise it as LQG for an experiment",
             np.zeros((len(dm.actuator_rows), 0)), np.zeros((len(dm.actuator_rows), 0)), np.zeros((0, 0)),
-            np.zeros((0, 0)), {}, {"gain_thesis": des.gain},
+            np.zeros((0, 0)), {}, {"gain_thesis_lbf_per_thesis_state": des.gain}, labels, period,
         )
     # LQG on the design model
     des = lqg(a, b, cm, q, r, st.v1 * np.eye(2 * n), st.v2 * np.eye(len(dm.actuator_rows)), alpha=st.alpha,
               time_unit_s=CS_S)
-    real = des.realize(PERIOD_S)
+    real = des.realize(period)
     perf = des.performance_index(x0)
     f11 = np.asarray(real.F11) * LBF_N / INCH_M
     f12 = np.asarray(real.F12) * LBF_N
     f21 = np.asarray(real.F21) / INCH_M
     f22 = np.asarray(real.F22)
     at = des.controller_matrix
-    cont = {"a": at / CS_S, "b": des.estimator.gain / INCH_M, "c": des.regulator.gain * LBF_N}
+    f_si = des.regulator.gain * LBF_N / sx
+    # the controller with its state in SI: x_SI = diag(sx) x_th; y_th [in/cs] = y [m/s] * CS_S / INCH_M
+    cont = {"a": (sx[:, None] * at / sx[None, :]) / CS_S, "b": sx[:, None] * des.estimator.gain / INCH_M,
+            "c": f_si}
+    extra["gain_thesis_lbf_per_thesis_state"] = des.regulator.gain
     extra["kalman_poles_max_real_per_s"] = float(np.max(des.estimator.eigenvalues.real) / CS_S)
     damping, freqs = des.damping_ratios, des.frequencies_hz
     if model != "full":
@@ -397,6 +501,6 @@ def design_controller(
         extra["spillover_lowered_modes"] = list(sp.lowered)
         extra["reduced_model_damping_ratios"] = des.damping_ratios
     return ControllerDesign(
-        name, controller, model, des.regulator.gain * LBF_N, damping, freqs,
-        np.asarray(perf), None, None, True, "LQG (Eqs. 4.8-4.22)", f11, f12, f21, f22, cont, extra,
+        name, controller, model, f_si, damping, freqs,
+        np.asarray(perf), None, None, True, "LQG (Eqs. 4.8-4.22)", f11, f12, f21, f22, cont, extra, labels, period,
     )

@@ -258,7 +258,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         controller = "none"
     # seed of the design: from the recording if it says
     design_seed = 0 if seed is None else seed
-    chain = HardwareChain()
+    from ..design import thesis_period_s
+
+    chain = HardwareChain(period_s=thesis_period_s(controller))  # the period the design was realised at
     state_box: dict = {}
 
     def nominal_state() -> LabState:

@@ -3,9 +3,11 @@
 ``results.json`` keys (stable):
 
 - ``structure``, ``controller``, ``reduction``, ``excitation``, ``plant``, ``seed``
+- ``period_s``: the controller's sampling period [s], and ``period_source``: whether it is
+  the thesis's value for the controller (Sec. 5.3: LQG 1 ms, DRF 0.5 ms) or a user setting
 - ``duration_s``, ``resolution_hz``, ``hardware`` (period_s, delay_periods, filter_hz,
   amplifier_gain, amplifier_limit_n, noise_m_s)
-- ``design`` (gain [SI], damping_ratios, frequencies_hz, gamma, converged) or null
+- ``design``: :func:`design_summary` (gains with their units in the keys) or null
 - ``modes``: list of {mode, frequency_predicted_hz, frequency_measured_hz,
   damping_predicted, damping_measured, peak_predicted, peak_measured, peak_level_ratio}
 - ``avg_peak_error``: mean |1 - ratio| (Tables 10, 19-21)
@@ -75,6 +77,61 @@ def write_json(path: Path, obj: dict) -> Path:
     return path
 
 
+DRF_CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag")
+
+
+def design_summary(d) -> dict:
+    """A controller design as a JSON object whose every number carries its unit in its key.
+
+    SI unless the key says otherwise (``_thesis_...``: the dissertation's
+    inch, lbf, centisecond system, Sec. 3.1). Used by ``vlab design --json``
+    and the ``design`` entry of results.json.
+
+    Parameters
+    ----------
+    d : ControllerDesign
+        The design (:func:`vlab.design.design_controller`).
+
+    Returns
+    -------
+    dict
+        ``structure``, ``controller``, ``reduction``; ``period_s`` (sampling
+        period of the Eq. (5.1) realization [s]); for DRF ``gain_n_s_per_m``
+        (D, shape (n_c, n_c), ``u = -D y``) and ``gain_thesis_lb_s_per_in``
+        (the form of Tables 7, 11, 15); for LQR/LQG ``gain_n_per_si_state``
+        (F, shape (n_c, 2n_d), ``u = -F x``), ``gain_state_labels`` (name
+        and SI unit of each column) and ``gain_thesis_lbf_per_thesis_state``
+        (per in/cs, rad/cs, in, rad); ``damping_ratios`` [-] and
+        ``frequencies_hz`` of the closed loop; ``performance_index_thesis_units``
+        (J_i, Eqs. 4.7, 4.20, 4.33); ``gamma_lb_s_per_in`` and
+        ``gamma_n_s_per_m`` (MFDRF/LQDRF max row sum of ``|D|``, null for
+        LQ designs); ``beta_thesis_units`` (LQDRF); ``converged``,
+        ``message``; ``extra`` (the design's further numbers, keys with units).
+    """
+    from ..units import INCH_M, LBF_N
+
+    drf = d.controller in DRF_CONTROLLERS
+    out: dict = {"structure": d.structure, "controller": d.controller, "reduction": d.model,
+                 "period_s": d.period_s}
+    extra = dict(d.extra)
+    if drf:
+        out["gain_n_s_per_m"] = d.gain
+        out["gain_thesis_lb_s_per_in"] = extra.pop("gain_thesis_lb_s_per_in", None)
+    else:
+        out["gain_n_per_si_state"] = d.gain
+        out["gain_state_labels"] = list(d.state_labels)
+        out["gain_thesis_lbf_per_thesis_state"] = extra.pop("gain_thesis_lbf_per_thesis_state", None)
+    out.update({
+        "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
+        "performance_index_thesis_units": d.performance_index,
+        "gamma_lb_s_per_in": d.gamma,
+        "gamma_n_s_per_m": None if d.gamma is None else d.gamma * LBF_N / INCH_M,
+        "beta_thesis_units": d.beta, "converged": d.converged, "message": d.message,
+        "extra": {k: v for k, v in extra.items() if not isinstance(v, np.ndarray) or v.ndim < 3},
+    })
+    return out
+
+
 def experiment_summary(result) -> dict:
     """The results.json object of an :class:`~vlab.lab.experiment.ExperimentResult`.
 
@@ -88,6 +145,8 @@ def experiment_summary(result) -> dict:
     dict
         The stable keys listed in the module docstring (without ``files``).
     """
+    from ..lab.experiment import period_source
+
     cfg = result.config
     d = result.design
     ch = cfg.chain
@@ -98,6 +157,8 @@ def experiment_summary(result) -> dict:
         "excitation": cfg.excitation,
         "plant": result.plant_info.get("kind"),
         "seed": cfg.seed,
+        "period_s": ch.period_s,
+        "period_source": period_source(cfg.controller, ch.period_s),
         "duration_s": cfg.duration_s,
         "resolution_hz": cfg.resolution_hz,
         "hardware": {
@@ -105,10 +166,7 @@ def experiment_summary(result) -> dict:
             "amplifier_gain": ch.amplifier_gain, "amplifier_limit_n": ch.amplifier_limit_n,
             "noise_m_s": ch.noise_m_s,
         },
-        "design": None if d is None else {
-            "gain": d.gain, "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
-            "gamma": d.gamma, "converged": d.converged,
-        },
+        "design": None if d is None else design_summary(d),
         "modes": [m.as_dict() for m in result.modes],
         "avg_peak_error": result.avg_peak_error,
         "warnings": list(result.warnings),
@@ -141,7 +199,8 @@ def report_markdown(summary: dict) -> str:
         "",
         f"Plant: {summary['plant']}; excitation: {summary['excitation']}; duration {summary['duration_s']:.1f} s; "
         f"resolution {summary['resolution_hz']:g} Hz; seed {summary['seed']}.",
-        f"Hardware: period {summary['hardware']['period_s'] * 1e3:g} ms, delay {summary['hardware']['delay_periods']} periods, "
+        f"Hardware: period {summary['hardware']['period_s'] * 1e3:g} ms "
+        f"({summary.get('period_source', 'period source not recorded')}), delay {summary['hardware']['delay_periods']} periods, "
         f"RC filter {summary['hardware']['filter_hz']} Hz, sensor noise {summary['hardware']['noise_m_s']} m/s.",
         "",
         "Prediction: the sampled-data analysis (zero-order hold, delay and filter) on the FE model, measured",

@@ -10,7 +10,7 @@ dissertation computed and the sampled-data FRF with hold, delay and filter.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
@@ -104,8 +104,11 @@ class ExperimentConfig:
         Number of records of length ``1 / resolution_hz`` [s] run when
         ``duration_s`` is None (the first is discarded as settling for random
         excitation).
-    chain : HardwareChain
-        Hardware between controller and coils (Sec. 5.3).
+    chain : HardwareChain or None
+        Hardware between controller and coils (Sec. 5.3). None (default) =
+        the thesis chain at the thesis's sampling period for ``controller``
+        (:func:`vlab.design.thesis_period_s`: LQG 1 ms, the others 0.5 ms);
+        after construction it is always a :class:`HardwareChain`.
     seed : int
         Seed of the excitation, the sensor noise and the DRF optimisers' multi-start.
     plant : str
@@ -124,11 +127,95 @@ class ExperimentConfig:
     excitation: str = "random"
     duration_s: float | None = None
     periods: int = 3
-    chain: HardwareChain = field(default_factory=HardwareChain)
+    chain: HardwareChain | None = None
     seed: int = 0
     plant: str = "mujoco"
     mjcf: Path | None = None
     resolution_hz: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.chain is None:
+            object.__setattr__(self, "chain", default_chain(self.controller))
+
+
+def default_chain(controller: str, **settings) -> HardwareChain:
+    """The Sec. 5.3 hardware chain at the thesis's sampling period for ``controller``.
+
+    Parameters
+    ----------
+    controller : str
+        ``"none"`` or one of :data:`vlab.design.CONTROLLERS`; selects the
+        period (:func:`vlab.design.thesis_period_s`: LQG 1 ms, others 0.5 ms).
+    **settings
+        Other :class:`HardwareChain` fields (``delay_periods``, ``noise_m_s``,
+        ...); ``period_s`` here overrides the thesis period.
+
+    Returns
+    -------
+    HardwareChain
+
+    Raises
+    ------
+    ModelError
+        Unknown controller.
+    """
+    from ..design import thesis_period_s
+
+    settings.setdefault("period_s", thesis_period_s(controller))
+    return HardwareChain(**settings)
+
+
+def period_source(controller: str, period_s: float) -> str:
+    """Where a run's sampling period comes from, for reports: the thesis's value or a user setting.
+
+    Parameters
+    ----------
+    controller : str
+        ``"none"`` or one of :data:`vlab.design.CONTROLLERS`.
+    period_s : float
+        The period used [s].
+
+    Returns
+    -------
+    str
+        E.g. ``"thesis value for lqg (Sec. 5.3)"`` or ``"set by the user (thesis value for lqg: 1 ms)"``.
+
+    Raises
+    ------
+    ModelError
+        Unknown controller.
+    """
+    from ..design import thesis_period_s
+
+    ref = thesis_period_s(controller)
+    if abs(period_s - ref) <= 1e-12 * ref:
+        return f"thesis value for {controller} (Sec. 5.3)"
+    return f"set by the user (thesis value for {controller}: {ref * 1e3:g} ms)"
+
+
+def check_design_period(design, chain: HardwareChain) -> None:
+    """Raise unless ``design`` was realised at the chain's sampling period (Eqs. 5.2-5.5 depend on it).
+
+    Parameters
+    ----------
+    design : ControllerDesign or None
+        The controller run (its ``period_s`` [s]); None (open loop) passes.
+    chain : HardwareChain
+        The loop's chain (its ``period_s`` [s]).
+
+    Raises
+    ------
+    ModelError
+        The two periods differ.
+    """
+    if design is None:
+        return
+    p = getattr(design, "period_s", chain.period_s)
+    if abs(p - chain.period_s) > 1e-12 * chain.period_s:
+        raise ModelError(
+            f"the {design.controller} design was realised at a {p * 1e3:g} ms period but the loop runs at "
+            f"{chain.period_s * 1e3:g} ms: design it with period_s={chain.period_s!r}"
+        )
 
 
 @dataclass(frozen=True)
@@ -398,7 +485,9 @@ def run_experiment(
     Raises
     ------
     ModelError
-        Unknown controller, LQR requested (needs the full state); and as :func:`measure`.
+        Unknown controller, LQR requested (needs the full state), a given
+        ``design`` realised at another period than ``cfg.chain.period_s``;
+        and as :func:`measure`.
     MeasurementError, SimulationError
         As :func:`measure`.
     """
@@ -408,7 +497,9 @@ def run_experiment(
     if design is None and cfg.controller != "none":
         from ..design import design_controller
 
-        design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed)
+        design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed,
+                                   period_s=cfg.chain.period_s)
+    check_design_period(design, cfg.chain)
     m = measure(cfg, fe, design, progress=progress)
     f = m.freq_hz
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))

@@ -119,7 +119,11 @@ def thesis_controller(design: ControllerDesign) -> dict:
     -----
     From the SI controller (seconds): with ``y_SI = y (INCH_M / CS_S)`` and
     ``tau = t / CS_S``: ``D = D_SI INCH_M / (CS_S LBF_N)``,
-    ``a = CS_S a_SI``, ``b = INCH_M b_SI``, ``c = c_SI / LBF_N``.
+    ``a = CS_S a_SI``, ``b = INCH_M b_SI``, ``c = c_SI / LBF_N``. The
+    controller's state keeps the SI basis of ``design.continuous`` (SI
+    estimate of ``[q'; q]``), a similarity transform of the thesis's: the
+    transfer function ``K(s)`` and every closed-loop quantity with a zero
+    initial controller state are unchanged.
     """
     cont = design.continuous
     if "d" in cont:
@@ -127,8 +131,8 @@ def thesis_controller(design: ControllerDesign) -> dict:
     if {"a", "b", "c"} <= set(cont):
         return {"a": np.asarray(cont["a"]) * CS_S, "b": np.asarray(cont["b"]) * INCH_M,
                 "c": np.asarray(cont["c"]) / LBF_N}
-    if "gain_thesis" in design.extra:
-        return {"f": np.asarray(design.extra["gain_thesis"])}
+    if "gain_thesis_lbf_per_thesis_state" in design.extra:
+        return {"f": np.asarray(design.extra["gain_thesis_lbf_per_thesis_state"])}
     raise ModelError(f"design {design.controller} on {design.model} has no controller to close a loop with")
 
 

@@ -1,7 +1,9 @@
 """Virtual experiments for the peak-level-ratio tables (10, 19-21) and the FRF figures (22-31).
 
 Each run is the laboratory procedure of Sec. 5.4.2 in the virtual lab: the
-controller runs on the 2 kHz engine (Eq. 5.1) with the 1.35-period delay,
+controller runs on the Eq. (5.1) engine at the thesis's sampling period for
+it (Sec. 5.3: DRF at 2 kHz, LQG at 1 kHz; :func:`vlab.design.thesis_period_s`)
+with the 1.35-period delay,
 zero-order hold, 677 Hz RC filter and current amplifier of Sec. 5.3
 (:class:`vlab.lab.loop.HardwareChain`), a periodic pseudo-random force is
 added to the excitation channel (BCC: point 9, 0.5-25 Hz; grid: joint 4,
@@ -32,7 +34,7 @@ from ..analysis import closed_loop_frf, closed_loop_modes, continuous_controller
 from ..design import ControllerDesign, DesignModel
 from ..errors import MeasurementError, ModelError
 from ..fe import FEModel
-from ..lab.experiment import TESTS, ExperimentConfig, make_plant, measure
+from ..lab.experiment import TESTS, ExperimentConfig, check_design_period, make_plant, measure
 from ..lab.linear_plant import LinearPlant
 from ..measure.compare import compare_modes
 from .closedloop import actuator_input
@@ -151,6 +153,7 @@ def run_virtual_experiment(spec: RunSpec, *, ctx: ReproContext | None = None, pl
     cfg = ExperimentConfig(structure=spec.structure, controller=spec.controller, excitation="random",
                            periods=spec.periods, seed=spec.seed, plant=plant, resolution_hz=spec.resolution_hz)
     design = None if spec.controller == "none" else ctx.design(spec.structure, spec.controller, spec.model)
+    check_design_period(design, cfg.chain)  # both at the thesis period of the controller
     p, desc = _plant(ctx, cfg, fe, tuple(fe.spec.instrumentation.actuators))
     m = measure(cfg, fe, design, plant=(p, {"kind": desc}), measured_points=(resp,), shape_points=(resp,),
                 metadata={"run": spec.key}, progress=progress)
