@@ -61,6 +61,28 @@ def test_close_pair_agrees_with_the_fe_crosspiece(check):
         assert abs(p.error_pct) < 0.15, check.table()
 
 
+def test_unpaired_plant_mode_is_the_crosspiece_arms_antisymmetric_bending(plant, check):
+    """The one plant mode below 25 Hz without an FE partner is the arms' anti-symmetric bending, which the
+    FE's single-DOF crosspiece cannot represent: all its hinge strain energy lies in the arms, the two arms'
+    hinges turning in opposite senses."""
+    assert [u.sim_mode for u in check.unpaired] == [3], check.table()
+    m = plant.model
+    phi = check.sim_modes.joint_shapes[:, 2]
+    k = np.zeros(m.nv)
+    arm = {}
+    for j in range(m.njnt):
+        k[m.jnt_dofadr[j]] = m.jnt_stiffness[j]
+        name = m.joint(j).name
+        if name.startswith("crosspiece.arm"):
+            arm[name] = phi[m.jnt_dofadr[j]]
+    energy = k * phi**2
+    in_arms = sum(energy[m.jnt_dofadr[m.joint(n).id]] for n in arm)
+    assert in_arms >= 0.99 * energy.sum()
+    for name, v in arm.items():
+        if ".arma." in name:
+            assert v == pytest.approx(-arm[name.replace(".arma.", ".armb.")], rel=1e-6)
+
+
 def test_free_decay_frequency_matches_linearisation(plant, check):
     j = check.pairs[0].sim_mode
     fd = free_decay(plant, j, sim_modes=check.sim_modes)
