@@ -98,9 +98,9 @@ class LabState:
         model uses the equivalent dashpot ``c_eq``, a rerun the friction force.
     step_s : float or None
         Physics step of the plant [s] (the linear plant of an experiment uses
-        half a period). The loop applies the RC filter's and the actuator
-        lag's end-of-step output over each step, a lead of half a step that
-        the model includes.
+        half a period). The loop applies the RC filter's exact average over
+        each step (the continuous filter's phase) and the actuator lag's
+        discrete recursion at this step, which the model includes.
     rms_force_n : dict
         Actuator point -> RMS command force [N] used by the saturation describing function
         (filled in by :func:`with_command_rms`).
@@ -260,8 +260,8 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     w = 2 * np.pi * f
     factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
     if ch.filter_hz is not None:
-        # the loop applies the filter's end-of-step value over each physics step: lead h/2
-        factor = factor / (1 + 1j * f / ch.filter_hz) * np.exp(0.5j * w * state.h_s)
+        # the loop applies the filter's exact average over each physics step (no lead)
+        factor = factor / (1 + 1j * f / ch.filter_hz)
     return core * factor[:, None, None]
 
 

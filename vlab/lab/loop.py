@@ -6,7 +6,7 @@ One controller tick every ``period_s`` (0.5 ms, 2 kHz, Sec. 5.3)::
     u_k  = engine.step(y_k)                               (Eq. 5.1)
     DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay)
     for each physics step h in the tick:
-        RC  : filtered DAC voltage                        (677 Hz, exact)
+        RC  : filtered DAC voltage, averaged over the step (677 Hz, exact)
         f   = amplifier(RC output + excitation on one channel)
         plant.step(f)
 
@@ -305,10 +305,12 @@ def run_loop(
         e_vec[exc_ch] = exc[k]
         for s in range(n_sub):
             t = t_k + s * h
-            dac = delay.mean_over(t, t + h)
             if rc is not None:
-                rc.update(dac)
-                dac = rc.output()
+                # the force is held over the physics step: the RC's exact average over it
+                rc.update_segments(delay.segments_over(t, t + h))
+                dac = rc.mean()
+            else:
+                dac = delay.mean_over(t, t + h)
             f = amp.output(dac + e_vec) * act_gain
             if a_act is not None:
                 lag_act = a_act * lag_act + (1 - a_act) * f
