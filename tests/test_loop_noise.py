@@ -125,3 +125,20 @@ def test_open_loop_linear_plant_recording_minus_noise_free_run_has_sigma():
     # reproducible from the seed
     np.testing.assert_array_equal(run(SIGMA)["vel6"], noisy["vel6"])
     assert not np.array_equal(run(SIGMA, seed=2)["vel6"], noisy["vel6"])
+
+
+def test_lab_model_predicts_the_sensor_gain_and_lag_on_recorded_sensor_channels():
+    """The diagnosis's FRF model records a sensor point through the sensor, as the loop now does (open loop)."""
+    from vlab.diagnose.labmodel import LabState, predict_frf
+
+    fe = nominal_fe_model("bcc")
+    f = np.array([2.0, 7.5, 30.0])
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    gain, lag_hz = 1.7, 120.0
+    faulty = LabState(fe.spec, fe, HardwareChain(sensor_gain={9: gain}, sensor_lag_hz=lag_hz), None)
+    h0 = predict_frf(nominal, f, excitation_point=9, output_points=(6, 9))
+    h1 = predict_frf(faulty, f, excitation_point=9, output_points=(6, 9))
+    a = math.exp(-2 * math.pi * lag_hz * T)
+    lag = (1 - a) / (1 - a * np.exp(-2j * np.pi * f * T))  # y_k = a y_{k-1} + (1 - a) v_k
+    np.testing.assert_allclose(h1[:, 1] / h0[:, 1], gain * lag, rtol=1e-12)
+    np.testing.assert_allclose(h1[:, 0], h0[:, 0], rtol=1e-12)  # point 6 has no feedback sensor

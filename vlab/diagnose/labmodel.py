@@ -11,7 +11,7 @@ turns a state into the FRFs an experiment measures, in the frequency domain::
     sensors    S(w)   = diag(g_s,i L_s(w))                L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
     controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis)
     force      f      = (I + A K S G_fb)^-1 A e_exc ZOH(w) x
-    measured   v      = G_out f
+    measured   v      = S_out G_out f                   S_out: S(w) at a sensor (actuator) point, 1 elsewhere
 
 ``ZOH(w) = (1 - e^{-jwT}) / (jwT)`` is the hold of the excitation command
 over a controller period (the recorded force is that command), ``n_i`` the
@@ -329,7 +329,9 @@ def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
     Returns
     -------
     h : ndarray, complex, shape (n_f, n_o)
-        ``v_out / x`` [(m/s)/N].
+        ``v_out / x`` [(m/s)/N]; at an output point that is a feedback
+        sensor (an actuator point) the sensor's gain and lag are included,
+        as the loop records that sensor's signal.
     (f, cmd) : ndarray, complex, shape (n_f, n_act), only with ``return_forces``
         Coil forces and amplifier commands per unit excitation.
 
@@ -362,6 +364,12 @@ def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
         force = np.linalg.solve(mat, rhs)[:, :, 0]
         cmd = force / a
     h = np.einsum("foa,fa->fo", g_out, force)
+    # a recorded channel at a feedback sensor is that sensor's signal (gain and lag), open loop too
+    sens_out = [(o, acts.index(p)) for o, p in enumerate(outs) if p in acts]
+    if sens_out:
+        s = sensor_path(state, f)
+        for o, i in sens_out:
+            h[:, o] = h[:, o] * s[:, i]
     if return_forces:
         return h, (force, cmd)
     return h
