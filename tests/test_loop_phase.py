@@ -139,7 +139,7 @@ def test_loop_phase_equals_hold_delay_and_rc_at_every_physics_step(h):
     for f in FREQS_HZ:
         lag = measured_lag_deg(h, f)
         # the exact phase of the step averages (fundamental + folded images)
-        assert lag == pytest.approx(expected_lag_deg(f, n_sub), abs=1e-3), f"f = {f} Hz"
+        assert lag == pytest.approx(expected_lag_deg(f, n_sub), abs=1e-6), f"f = {f} Hz"
         if n_sub > 1:
             # w T/2 + 1.35 w T + atan(f / 677 Hz) within 0.01 deg
             assert abs(lag - simple_lag_deg(f)) < 0.01, f"f = {f} Hz"
