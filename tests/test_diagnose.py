@@ -162,9 +162,8 @@ def test_modal_table_with_concealed_mass(tmp_path):
 def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     """The diagnosis's lab model against vlab.analysis (velocity FRF, Eq. 5.1 controller, closed loop).
 
-    The excitation's hold is divided out; the loop's RC filter is applied at the end of each physics step,
-    which the lab model writes as a lead of half a step: the analysis gets the same by a delay shorter by
-    h/2 (an independent composition of the same chain)."""
+    The excitation's hold is divided out; the loop applies the RC filter's exact average over each physics
+    step, so the lab model and the analysis have the same chain (an independent composition of it)."""
     from vlab.analysis import closed_loop_frf, sampled_data_controller_frf, velocity_frf
     from vlab.calibration import modal_damping_matrix, open_loop_ratios
     from vlab.diagnose.labmodel import predict_frf, zoh
@@ -183,7 +182,7 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
         ref = g_out[:, 0, acts.index(9)]
     else:
         k = sampled_data_controller_frf(f, d.f11, d.f12, d.f21, d.f22, chain.period_s,
-                                        delay_periods=chain.delay_periods - 0.5 * st.h_s / chain.period_s,
+                                        delay_periods=chain.delay_periods,
                                         filter_hz=chain.filter_hz)
         ref = closed_loop_frf(g_fb, g_out, k, acts.index(9))[:, 0]
     np.testing.assert_allclose(h, ref, rtol=1e-8)

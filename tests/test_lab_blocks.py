@@ -206,6 +206,54 @@ def test_rc_in_the_dac_chain_smooths_the_stairstep():
     np.testing.assert_allclose(ys, expect, atol=1e-12)
 
 
+def test_rc_step_average_of_a_switched_input_matches_numerical_integration():
+    """Step average over physics steps with a DAC switch inside (h = T / 17): quadrature of the continuous ODE."""
+    import scipy.integrate
+
+    n_sub = 17
+    h = DT / n_sub
+    dac = SampleDelay(period_s=DT, delay_periods=1.35)
+    rc = RCLowPass(step_s=h)
+    tau = rc.time_constant_s
+    samples = [1.0, -0.5, 2.0, 0.3]
+    means, ends = [], []
+    for k, u in enumerate(samples):
+        dac.update([u])
+        for s in range(n_sub):
+            t = k * DT + s * h
+            segs = dac.segments_over(t, t + h)
+            assert sum(d for d, _ in segs) == pytest.approx(h, rel=1e-12)
+            rc.update_segments(segs)
+            means.append(rc.mean()[0])
+            ends.append(rc.output()[0])
+
+    def u_of(t):  # the delayed staircase, written out here
+        j = math.floor(t / DT - 1.35 + 1e-12)
+        return samples[j] if j >= 0 else 0.0
+
+    sol = scipy.integrate.solve_ivp(lambda t, y: [(u_of(t) - y[0]) / tau, y[0]], (0, len(samples) * DT), [0.0, 0.0],
+                                    method="RK45", rtol=1e-11, atol=1e-14, max_step=h / 20,
+                                    t_eval=h * np.arange(len(means) + 1))
+    y, integral = sol.y
+    np.testing.assert_allclose(ends, y[1:], atol=1e-8)
+    np.testing.assert_allclose(means, np.diff(integral) / h, atol=1e-8)
+    # the end-of-step value is not the step average (half a step ahead)
+    assert np.max(np.abs(np.array(ends) - np.array(means))) > 0.05
+
+
+def test_rc_update_sets_the_step_average_and_refuses_bad_pieces():
+    h = DT / 10
+    rc = RCLowPass(step_s=h, initial_value=0.25)
+    rc.update([1.0])
+    tau = rc.time_constant_s
+    # int_0^h (1 - 0.75 exp(-t/tau)) dt / h
+    assert rc.mean()[0] == pytest.approx(1 - 0.75 * tau * (1 - math.exp(-h / tau)) / h, rel=1e-12)
+    with pytest.raises(ModelError, match="duration"):
+        rc.update_segments([(-1e-6, [0.0])])
+    with pytest.raises(ModelError, match="no duration"):
+        rc.update_segments([(0.0, [0.0])])
+
+
 # --------------------------------------------------------------------------- amplifier
 def test_amplifier_gain_and_saturation():
     amp = CurrentAmplifier(gain=[2.0, 1.0], limit=3.0, size=2)

@@ -71,8 +71,10 @@ class ActuatorLag(_Lag):
 class SensorLag(_Lag):
     """``sensor_lag``: a first-order lag of the velocity sensors fed back (all channels).
 
-    Parameter: ``corner_hz`` [Hz] (log10). Sets ``HardwareChain.sensor_lag_hz``;
-    the recorded velocities are not filtered, so it shows only closed loop.
+    Parameter: ``corner_hz`` [Hz] (log10). Sets ``HardwareChain.sensor_lag_hz``.
+    The recorded channel of a feedback sensor is that sensor's signal, so
+    the lag also shows open loop at a measured sensor point; the hypothesis
+    is still tried only on closed-loop data.
     """
 
     effect = "sensor_lag"
@@ -123,8 +125,10 @@ class ActuatorGain(_Gain):
 class SensorGain(_Gain):
     """``sensor_gain``: sensitivity of one feedback velocity sensor.
 
-    Parameter: ``gain`` [1] (log10) multiplying ``HardwareChain.sensor_gain[channel]``;
-    only closed loop (the recorded velocities are not affected).
+    Parameter: ``gain`` [1] (log10) multiplying ``HardwareChain.sensor_gain[channel]``.
+    The recorded channel of the sensor is that sensor's signal, so the gain
+    also shows open loop when the point is measured; the hypothesis is still
+    tried only on closed-loop data.
     """
 
     effect = "sensor_gain"

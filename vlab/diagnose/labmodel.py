@@ -11,7 +11,7 @@ turns a state into the FRFs an experiment measures, in the frequency domain::
     sensors    S(w)   = diag(g_s,i L_s(w))                L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
     controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis)
     force      f      = (I + A K S G_fb)^-1 A e_exc ZOH(w) x
-    measured   v      = G_out f
+    measured   v      = S_out G_out f                   S_out: S(w) at a sensor (actuator) point, 1 elsewhere
 
 ``ZOH(w) = (1 - e^{-jwT}) / (jwT)`` is the hold of the excitation command
 over a controller period (the recorded force is that command), ``n_i`` the
@@ -98,9 +98,9 @@ class LabState:
         model uses the equivalent dashpot ``c_eq``, a rerun the friction force.
     step_s : float or None
         Physics step of the plant [s] (the linear plant of an experiment uses
-        half a period). The loop applies the RC filter's and the actuator
-        lag's end-of-step output over each step, a lead of half a step that
-        the model includes.
+        half a period). The loop applies the RC filter's exact average over
+        each step (the continuous filter's phase) and the actuator lag's
+        discrete recursion at this step, which the model includes.
     rms_force_n : dict
         Actuator point -> RMS command force [N] used by the saturation describing function
         (filled in by :func:`with_command_rms`).
@@ -260,8 +260,8 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     w = 2 * np.pi * f
     factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
     if ch.filter_hz is not None:
-        # the loop applies the filter's end-of-step value over each physics step: lead h/2
-        factor = factor / (1 + 1j * f / ch.filter_hz) * np.exp(0.5j * w * state.h_s)
+        # the loop applies the filter's exact average over each physics step (no lead)
+        factor = factor / (1 + 1j * f / ch.filter_hz)
     return core * factor[:, None, None]
 
 
@@ -329,7 +329,9 @@ def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
     Returns
     -------
     h : ndarray, complex, shape (n_f, n_o)
-        ``v_out / x`` [(m/s)/N].
+        ``v_out / x`` [(m/s)/N]; at an output point that is a feedback
+        sensor (an actuator point) the sensor's gain and lag are included,
+        as the loop records that sensor's signal.
     (f, cmd) : ndarray, complex, shape (n_f, n_act), only with ``return_forces``
         Coil forces and amplifier commands per unit excitation.
 
@@ -362,6 +364,12 @@ def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
         force = np.linalg.solve(mat, rhs)[:, :, 0]
         cmd = force / a
     h = np.einsum("foa,fa->fo", g_out, force)
+    # a recorded channel at a feedback sensor is that sensor's signal (gain and lag), open loop too
+    sens_out = [(o, acts.index(p)) for o, p in enumerate(outs) if p in acts]
+    if sens_out:
+        s = sensor_path(state, f)
+        for o, i in sens_out:
+            h[:, o] = h[:, o] * s[:, i]
     if return_forces:
         return h, (force, cmd)
     return h

@@ -29,9 +29,10 @@ A typical loop (controller period ``dt``, ``n_sub`` physics steps per period)::
         dac.update(u_k)                            # DAC switches at t_k + 1.35 dt
         for s in range(n_sub):
             t = t_k + s * h
-            f = amp.output(rc.output() + f_exc(t))  # coil force over [t, t+h); the
-                                                   # excitation joins before the amplifier (Fig. 21)
-            rc.update(dac.output_at(t))            # 677 Hz smoothing (or dac.mean_over(t, t + h))
+            rc.update_segments(dac.segments_over(t, t + h))  # 677 Hz smoothing, exact
+            f = amp.output(rc.mean() + f_exc(t))   # coil force held over [t, t+h): the RC's
+                                                   # step average; the excitation joins
+                                                   # before the amplifier (Fig. 21)
             plant.step(h, f)
 """
 
@@ -297,6 +298,48 @@ class SampleDelay(_Block):
         """
         return self._value(self._sample_index(t_s), t_s)
 
+    def segments_over(self, t_start_s: float, t_end_s: float) -> list[tuple[float, np.ndarray]]:
+        """The held pieces of ``y(t)`` over ``[t_start_s, t_end_s]``, in time order.
+
+        Parameters
+        ----------
+        t_start_s, t_end_s : float
+            Interval [s], within the times :meth:`output_at` accepts.
+
+        Returns
+        -------
+        list of (float, ndarray of shape (size,))
+            ``(duration [s], held value)`` for each constant piece; the
+            durations sum to ``t_end_s - t_start_s`` (one piece of zero length
+            for an empty interval). What :meth:`RCLowPass.update_segments`
+            takes.
+
+        Raises
+        ------
+        ModelError
+            If ``t_end_s < t_start_s``.
+        SimulationError
+            If a needed sample was not pushed yet or has left the buffer.
+        """
+        t0, t1 = float(t_start_s), float(t_end_s)
+        if t1 < t0:
+            raise ModelError(f"{self.name}.segments_over: t_end_s {t1} < t_start_s {t0}")
+        if t1 - t0 <= _TIME_TOL * self.period_s:
+            return [(t1 - t0, self.output_at(t0))]
+        j0 = self._sample_index(t0)
+        # last sample whose hold interval starts strictly before t1
+        x1 = (t1 - self.offset_s) / self.period_s - self.delay_periods
+        j1 = max(j0, int(math.ceil(x1 - _TIME_TOL)) - 1)
+        if j1 == j0:
+            return [(t1 - t0, self._value(j0, t0))]
+        out = []
+        for j in range(j0, j1 + 1):
+            a = t0 if j == j0 else self.offset_s + (j + self.delay_periods) * self.period_s
+            b = t1 if j == j1 else self.offset_s + (j + 1 + self.delay_periods) * self.period_s
+            if b > a:
+                out.append((b - a, self._value(j, t0 if j == j0 else a)))
+        return out
+
     def mean_over(self, t_start_s: float, t_end_s: float) -> np.ndarray:
         """Average of ``y(t)`` over ``[t_start_s, t_end_s]``, shape (size,).
 
@@ -306,35 +349,37 @@ class SampleDelay(_Block):
         t0, t1 = float(t_start_s), float(t_end_s)
         if t1 < t0:
             raise ModelError(f"{self.name}.mean_over: t_end_s {t1} < t_start_s {t0}")
-        if t1 - t0 <= _TIME_TOL * self.period_s:
-            return self.output_at(t0)
-        j0 = self._sample_index(t0)
-        # last sample whose hold interval starts strictly before t1
-        x1 = (t1 - self.offset_s) / self.period_s - self.delay_periods
-        j1 = max(j0, int(math.ceil(x1 - _TIME_TOL)) - 1)
-        acc = np.zeros(self.size)
-        for j in range(j0, j1 + 1):
-            a = max(t0, self.offset_s + (j + self.delay_periods) * self.period_s)
-            b = min(t1, self.offset_s + (j + 1 + self.delay_periods) * self.period_s)
-            if b > a:
-                acc += (b - a) * self._value(j, t0 if j == j0 else a)
-        return acc / (t1 - t0)
+        segs = self.segments_over(t0, t1)
+        if len(segs) == 1:
+            return segs[0][1]
+        return sum(d * v for d, v in segs) / (t1 - t0)
 
 
 class RCLowPass(_Block):
-    """Single-stage passive RC low-pass, exactly discretised at the physics step.
+    """Single-stage passive RC low-pass, exact for a piecewise-constant input, with its step average.
 
-    Continuous: ``tau * dy/dt = u - y`` with ``tau = 1 / (2 pi f_c)``.
-    For ``u`` held constant over a step ``h``::
+    Continuous: ``tau * dy/dt = u - y`` with ``tau = 1 / (2 pi f_c)``. Over a
+    piece of duration ``d`` on which ``u`` is constant, starting from ``y0``::
 
-        y[k+1] = a y[k] + (1 - a) u[k],     a = exp(-2 pi f_c h)
+        y(s)            = u + (y0 - u) exp(-s / tau),                      0 <= s <= d
+        y_end           = u + (y0 - u) e,            e = exp(-d / tau)
+        int_0^d y(s) ds = u d + (y0 - u) tau (1 - e)
 
-    which is exact (step response ``y[k] = 1 - a**k = 1 - exp(-t_k / tau)``).
+    :meth:`update_segments` chains these over the pieces of one physics step
+    (e.g. the DAC staircase with a switch inside the step,
+    :meth:`SampleDelay.segments_over`) and keeps the end value (the state)
+    and the step average ``mean = (sum of the integrals) / (sum of d)``.
+    For ``u`` held over a whole step ``h`` (:meth:`update`) this is::
+
+        y[k+1]   = a y[k] + (1 - a) u[k],                    a = exp(-2 pi f_c h)
+        ybar[k]  = u[k] + (y[k] - u[k]) (1 - a) tau / h      (average over the step)
+
+    both exact (step response ``y[k] = 1 - a**k = 1 - exp(-t_k / tau)``).
 
     Parameters
     ----------
     step_s : float
-        Integration step ``h`` [s] (the physics step, e.g. 0.5 ms / 10).
+        Integration step ``h`` [s] (the physics step, e.g. 0.5 ms / 10) used by :meth:`update`.
     corner_hz : float
         Corner frequency ``f_c`` [Hz]; 677 Hz in the laboratory (Sec. 5.3).
     size : int
@@ -347,15 +392,19 @@ class RCLowPass(_Block):
     Raises
     ------
     ModelError
-        Non-positive step or corner frequency, bad shapes.
+        Non-positive step or corner frequency, bad shapes, a negative or
+        non-finite piece duration.
     SimulationError
         Non-finite input.
 
     Notes
     -----
-    In a loop, apply ``output()`` (the value at the start of the step) to the
-    plant over ``[t_k, t_k + h)`` and call ``update(u)`` with the input held
-    over that step.
+    A plant holds a force constant over its physics step, so the value to
+    apply over ``[t_k, t_k + h)`` is the step average :meth:`mean` after
+    ``update_segments(dac.segments_over(t_k, t_k + h))``: it carries the
+    filter's exact impulse over the step, where the end-of-step value
+    :meth:`output` would lead the continuous filter by ``h / 2``. Source:
+    the 677 Hz RC smoothing filters of Sec. 5.3 (Fig. 21).
     """
 
     def __init__(self, *, step_s: float, corner_hz: float = RC_CORNER_HZ, size: int = 1,
@@ -373,8 +422,9 @@ class RCLowPass(_Block):
         return 1.0 / (2.0 * math.pi * self.corner_hz)
 
     def reset(self) -> None:
-        """Return to ``y = initial_value``."""
+        """Return to ``y = initial_value`` (and a step average equal to it)."""
         self._y = self._x0.copy()
+        self._mean = self._x0.copy()
 
     @property
     def state(self) -> np.ndarray:
@@ -382,12 +432,58 @@ class RCLowPass(_Block):
         return self._y.copy()
 
     def update(self, u) -> None:
-        """Advance one step with ``u`` (shape (size,)) held: ``y <- a y + (1-a) u``."""
-        self._y = self.a * self._y + (1.0 - self.a) * self._input(u)
+        """Advance one step ``step_s`` with ``u`` (shape (size,)) held: ``y <- a y + (1-a) u``.
+
+        Also sets :meth:`mean` to ``u + (y - u) (1 - a) tau / h``.
+        """
+        u = self._input(u)
+        dy = self._y - u
+        self._mean = u + dy * ((1.0 - self.a) * self.time_constant_s / self.step_s)
+        self._y = u + self.a * dy
+
+    def update_segments(self, segments) -> None:
+        """Advance over consecutive pieces of constant input and keep their average.
+
+        Parameters
+        ----------
+        segments : sequence of (float, array_like of shape (size,))
+            ``(duration [s], input held over it)`` in time order, e.g.
+            :meth:`SampleDelay.segments_over` of one physics step; durations
+            >= 0, not all zero.
+
+        Raises
+        ------
+        ModelError
+            A negative or non-finite duration, or a total duration of zero.
+        SimulationError
+            Non-finite input.
+        """
+        tau = self.time_constant_s
+        y = self._y
+        acc = np.zeros(self.size)
+        total = 0.0
+        for d, u in segments:
+            d = float(d)
+            if not (d >= 0.0 and math.isfinite(d)):
+                raise ModelError(f"{self.name}.update_segments: duration must be finite and >= 0 s, got {d!r}")
+            u = self._input(u)
+            e = math.exp(-d / tau)
+            dy = y - u
+            acc += u * d + dy * (tau * (1.0 - e))
+            y = u + dy * e
+            total += d
+        if total <= 0.0:
+            raise ModelError(f"{self.name}.update_segments: the pieces have no duration ({list(segments)!r})")
+        self._y = y
+        self._mean = acc / total
 
     def output(self) -> np.ndarray:
-        """Filter output ``y[k]``, shape (size,)."""
+        """Filter output ``y[k]`` at the end of the last step, shape (size,)."""
         return self._y.copy()
+
+    def mean(self) -> np.ndarray:
+        """Average of the filter output over the last step, shape (size,): the value a plant holds over it."""
+        return self._mean.copy()
 
 
 class CurrentAmplifier(_Block):

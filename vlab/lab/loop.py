@@ -2,11 +2,11 @@
 
 One controller tick every ``period_s`` (0.5 ms, 2 kHz, Sec. 5.3)::
 
-    y_k  = velocity at the sensor points + noise          (sampled at t_k)
+    y_k  = sensor gain x velocity (x lag) + noise         (sampled at t_k; also recorded)
     u_k  = engine.step(y_k)                               (Eq. 5.1)
     DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay)
     for each physics step h in the tick:
-        RC  : filtered DAC voltage                        (677 Hz, exact)
+        RC  : filtered DAC voltage, averaged over the step (677 Hz, exact)
         f   = amplifier(RC output + excitation on one channel)
         plant.step(f)
 
@@ -120,7 +120,10 @@ class HardwareChain:
     amplifier_limit_n : float or None
         Force saturation [N] (None = linear).
     noise_m_s : float
-        Velocity-sensor noise standard deviation [m/s] (0 = off).
+        Velocity-sensor noise standard deviation [m/s] (0 = off), on every
+        sensor: the feedback sensors and the measured points (one independent
+        draw per sensor per tick), so it is in the recording as in the
+        feedback.
     actuator_gain : dict[int, float]
         Per-channel force gain [-] keyed by actuator point id, multiplying the
         amplifier output of that coil (missing points: 1). Not in the
@@ -128,16 +131,18 @@ class HardwareChain:
         (e.g. a coil constant that is off).
     sensor_gain : dict[int, float]
         Per-channel sensitivity [-] keyed by feedback (sensor) point id,
-        multiplying the velocity the controller reads (missing points: 1).
-        A diagnosis hypothesis, like ``actuator_gain``.
+        multiplying the velocity that sensor measures (missing points: 1): the
+        controller reads it and, where the point is measured, the recording
+        holds it. A diagnosis hypothesis, like ``actuator_gain``.
     actuator_lag_hz : float or None
         Corner frequency [Hz] of an extra first-order lag on each coil force,
         applied at every physics step (None = off). A diagnosis hypothesis
         (e.g. coil inductance), not part of the Sec. 5.3 chain.
     sensor_lag_hz : float or None
-        Corner frequency [Hz] of an extra first-order lag on each sensed
-        velocity, applied once per controller period before the noise
-        (None = off). A diagnosis hypothesis, not part of the Sec. 5.3 chain.
+        Corner frequency [Hz] of an extra first-order lag on each feedback
+        sensor's velocity, applied once per controller period before the noise
+        (None = off); the recorded channel of that point carries it too. A
+        diagnosis hypothesis, not part of the Sec. 5.3 chain.
     """
 
     period_s: float = PC1000_PERIOD_S
@@ -157,10 +162,24 @@ class LoopResult:
     """Sampled signals of a run at the controller rate.
 
     ``recording`` holds the excitation force ``force<exc>`` [N] and the
-    velocities ``vel<p>`` [m/s] of every measured point (as the data
-    acquisition saw them, without the controller's sensor noise); ``commands``
-    the controller outputs ``u_k`` (n_ticks, n_act) [N]; ``displacements``
-    (n_ticks, n_points) [m] at ``shape_points`` (for the animated shape).
+    velocities ``vel<p>`` [m/s] of every measured point as the sensors
+    measured them: at a feedback sensor point the very signal the controller
+    read (sensor gain, sensor lag and noise included), at any other measured
+    point the velocity plus its own sensor noise (same sigma, independent);
+    ``commands`` the controller outputs ``u_k`` (n_ticks, n_act) [N];
+    ``displacements`` (n_ticks, n_points) [m] at ``shape_points`` (noise-free,
+    for the animated shape).
+
+    Attributes
+    ----------
+    recording : Recording
+        ``force<exc>`` [N] and ``vel<p>`` [m/s] at the controller rate.
+    commands : ndarray, shape (n_ticks, n_act)
+        Controller outputs [N] (zeros open loop).
+    displacements : ndarray, shape (n_ticks, n_points)
+        Displacements from the settled state [m] at ``shape_points``.
+    shape_points : tuple of int
+        Points of the columns of ``displacements``.
     """
 
     recording: Recording
@@ -196,7 +215,8 @@ def run_loop(
     feedback_points : tuple of int
         Sensor points fed to the controller (collocated with the actuators).
     measured_points : tuple of int
-        Points whose velocity is recorded.
+        Points whose measured velocity is recorded (a feedback point records
+        the controller's own input; see :class:`LoopResult`).
     excitation_point : int
         Actuator point that carries the excitation (added before the amplifier).
     excitation : ndarray, shape (n_ticks,), or callable t_s -> force [N]
@@ -207,7 +227,9 @@ def run_loop(
         Hardware between controller and coils (Sec. 5.3); the default is the
         PC-1000 chain (0.5 ms period, 1.35-period delay, 677 Hz RC filter).
     seed : int
-        Seed of the sensor noise.
+        Seed of the sensor noise: each tick draws one value per sensor, the
+        feedback points first, then the measured points that are not
+        feedback points, in the given orders (open loop too).
     progress : callable, optional
         Called with the fraction done, about every 1 % of the run.
     metadata : dict, optional
@@ -259,15 +281,20 @@ def run_loop(
     delay = SampleDelay(period_s=period, delay_periods=chain.delay_periods, size=n_act, name="DAC")
     rc = RCLowPass(step_s=h, corner_hz=chain.filter_hz, size=n_act, name="RC") if chain.filter_hz else None
     amp = CurrentAmplifier(gain=chain.amplifier_gain, limit=chain.amplifier_limit_n, size=n_act)
-    noise = SensorNoise(sigma_m_s=chain.noise_m_s, seed=seed, size=len(fb)) if chain.noise_m_s > 0 else None
+    meas = tuple(measured_points)
+    # the sensors: feedback points, then the other measured points; one signal each
+    sensors = fb + tuple(dict.fromkeys(p for p in meas if p not in fb))
+    n_fb = len(fb)
+    meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
+    noise = (SensorNoise(sigma_m_s=chain.noise_m_s, seed=seed, size=len(sensors), name="sensor noise")
+             if chain.noise_m_s > 0 and sensors else None)
     act_gain = np.array([chain.actuator_gain.get(p, 1.0) for p in acts])
     sen_gain = np.array([chain.sensor_gain.get(p, 1.0) for p in fb])
     a_act = math.exp(-2 * math.pi * chain.actuator_lag_hz * h) if chain.actuator_lag_hz else None
     a_sen = math.exp(-2 * math.pi * chain.sensor_lag_hz * period) if chain.sensor_lag_hz else None
     lag_act = np.zeros(n_act)
-    lag_sen = np.zeros(len(fb))
+    lag_sen = np.zeros(n_fb)
 
-    meas = tuple(measured_points)
     vel = np.zeros((n_ticks, len(meas)))
     shape = tuple(shape_points) if shape_points is not None else meas
     disp = np.zeros((n_ticks, len(shape)))
@@ -278,25 +305,28 @@ def run_loop(
     failure: SimulationError | None = None
     for k in range(n_ticks):
         t_k = k * period
-        v_meas = plant.velocities(meas)
-        if not np.abs(v_meas).max(initial=0.0) <= 1e3:  # also catches NaN
+        v_sens = np.asarray(plant.velocities(sensors), dtype=float) if sensors else np.zeros(0)
+        if not np.abs(v_sens).max(initial=0.0) <= 1e3:  # also catches NaN
             failure = SimulationError(
-                f"simulation diverged at t = {t_k:.4f} s (velocity {np.max(np.abs(v_meas)):.3g} m/s at "
-                f"points {meas}): controller unstable on this plant or timestep too large"
+                f"simulation diverged at t = {t_k:.4f} s (velocity {np.max(np.abs(v_sens)):.3g} m/s at "
+                f"points {sensors}): controller unstable on this plant or timestep too large"
             )
             done = k
             break
-        vel[k] = v_meas
+        y_all = v_sens.copy()
+        if n_fb:
+            y_fb = v_sens[:n_fb] * sen_gain
+            if a_sen is not None:
+                lag_sen = a_sen * lag_sen + (1 - a_sen) * y_fb
+                y_fb = lag_sen
+            y_all[:n_fb] = y_fb
+        if noise is not None:
+            y_all = noise.output(y_all)
+        vel[k] = y_all[meas_idx]
         if shape:
             disp[k] = plant.displacements(shape)
         if engine is not None:
-            y = plant.velocities(fb) * sen_gain
-            if a_sen is not None:
-                lag_sen = a_sen * lag_sen + (1 - a_sen) * y
-                y = lag_sen
-            if noise is not None:
-                y = noise.output(y)
-            u = engine.step(y)
+            u = engine.step(y_all[:n_fb])
         else:
             u = np.zeros(n_act)
         cmds[k] = u
@@ -305,10 +335,12 @@ def run_loop(
         e_vec[exc_ch] = exc[k]
         for s in range(n_sub):
             t = t_k + s * h
-            dac = delay.mean_over(t, t + h)
             if rc is not None:
-                rc.update(dac)
-                dac = rc.output()
+                # the force is held over the physics step: the RC's exact average over it
+                rc.update_segments(delay.segments_over(t, t + h))
+                dac = rc.mean()
+            else:
+                dac = delay.mean_over(t, t + h)
             f = amp.output(dac + e_vec) * act_gain
             if a_act is not None:
                 lag_act = a_act * lag_act + (1 - a_act) * f
