@@ -100,12 +100,18 @@ def _element_matrices(ei: float, gj: float, rho_a: float, rho_ip: float, length:
     kl, ml = beam_matrices(ei=ei, gj=gj, rho_a=rho_a, rho_ip=rho_ip, length=length, shear_stiffness=shear_stiffness)
     kl = kl + geometric_stiffness(length=length, axial=axial, shear=shear, moment=moment, polar_radius_sq=r2)
     a1, a2 = offsets
-    ml = ml + _insert_mass(rho_a, a1, a2)
     # a rigid insert of length a under axial force N: rotational geometric stiffness N a
     kl[1, 1] += axial[0] * a1
     kl[4, 4] += axial[1] * a2
-    t = rigid_offset(a1, a2) @ local_to_global(*direction)
-    ke, me = t.T @ kl @ t, t.T @ ml @ t
+    # The flexible part's matrices act on the element-end DOFs: carried to the
+    # node DOFs across the inserts, then rotated. The inserts' own mass is
+    # already on the node DOFs (:func:`_insert_mass`): rotated only, so that it
+    # is not carried across the offset a second time (issue 25, item 1).
+    off = rigid_offset(a1, a2)
+    rot = local_to_global(*direction)
+    t = off @ rot
+    ke = t.T @ kl @ t
+    me = t.T @ ml @ t + rot.T @ _insert_mass(rho_a, rho_ip, a1, a2) @ rot
     ke.setflags(write=False)
     me.setflags(write=False)
     return ke, me
@@ -246,15 +252,39 @@ def crosspiece_sdof(spec: StructureSpec, c) -> tuple[float, float, float]:
     return 2.0 * k1, 2.0 * m1, 2.0 * rest1 + c.clamp_mass.si
 
 
-def _insert_mass(rho_a: float, a1: float, a2: float) -> np.ndarray:
-    """Mass of the beam over rigid inserts, as rigid bars on the nodes' (w, b)."""
+def _insert_mass(rho_a: float, rho_ip: float, a1: float, a2: float) -> np.ndarray:
+    """Mass of the beam over rigid inserts, as rigid bars on the nodes' (w, b).
+
+    The insert at node 1 spans ``s = 0 .. a1`` from the node, so its deflection
+    is ``w1 + s*b1``; the one at node 2 spans ``s = -a2 .. 0``, ``w2 + s*b2``.
+    Integrating ``rho_a*(w + s*b)**2 / 2`` gives the (w, b) blocks; the
+    insert twists with its node, adding ``rho_ip*a`` on the twist DOF.
+
+    Parameters
+    ----------
+    rho_a : float
+        Mass per length [kg/m].
+    rho_ip : float
+        Polar mass moment of inertia per length [kg*m].
+    a1, a2 : float
+        Insert lengths [m] at node 1 and node 2 (0 for none).
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+        Mass [kg, kg*m, kg*m^2] on the *node* local DOFs
+        ``[w1, b1, t1, w2, b2, t2]`` (not the element-end DOFs of
+        :func:`vlab.fe.elements.rigid_offset`): it must be rotated to global
+        DOFs but not carried across the offset again.
+    """
     ml = np.zeros((6, 6))
-    for a, (iw, ib), sign in ((a1, (0, 1), 1.0), (a2, (3, 4), -1.0)):
+    for a, (iw, ib, it), sign in ((a1, (0, 1, 2), 1.0), (a2, (3, 4, 5), -1.0)):
         if a > 0.0:
             mass = rho_a * a
             ml[np.ix_([iw, ib], [iw, ib])] += mass * np.array(
                 [[1.0, sign * a / 2.0], [sign * a / 2.0, a**2 / 3.0]]
             )
+            ml[it, it] += rho_ip * a
     return ml
 
 
