@@ -216,14 +216,20 @@ def experiment(
     out: str = typer.Option("out/experiment", "--out", help="output folder"),
     spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live"),
     as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
+    allow_unstable: bool = typer.Option(False, "--allow-unstable",
+                                        help="exit 0 even when a warning calls the comparison not meaningful"),
 ) -> None:
-    """Run a closed-loop experiment at 2 kHz, measure it like a modal test, compare with analysis."""
+    """Run a closed-loop experiment at 2 kHz, measure it like a modal test, compare with analysis.
+
+    The outputs are always written; a run whose own warning calls the comparison not meaningful
+    (self-excited oscillation, limit cycle) exits with status 1 unless --allow-unstable.
+    """
     from pathlib import Path
 
     from rich.progress import Progress
 
     from .io.results import experiment_summary, write_outputs
-    from .lab.experiment import ExperimentConfig, run_experiment
+    from .lab.experiment import ExperimentConfig, not_meaningful, run_experiment
     from .lab.loop import HardwareChain
     from .models import nominal_fe_model
 
@@ -249,8 +255,17 @@ def experiment(
             err_console.print(f"the recording up to the failure is kept in {kept}")
         _fail(exc)
     summary = experiment_summary(result)
+    blocking = not_meaningful(result.warnings)
+
+    def _exit_if_not_meaningful() -> None:
+        if blocking and not allow_unstable:
+            err_console.print(f"[bold red]error:[/] the comparison is not meaningful ({blocking[0]}); outputs "
+                              f"written to {files['results'].parent}/; use --allow-unstable to exit 0")
+            raise typer.Exit(code=1)
+
     if as_json:
         _print_json(summary)
+        _exit_if_not_meaningful()
         return
     t = Table(title=f"{fe.spec.title}, {controller.value}: analysis (sampled-data) vs experiment ({summary['plant']})")
     for col in ("mode", "f pred [Hz]", "f meas [Hz]", "zeta pred", "zeta meas", "peak ratio"):
@@ -262,6 +277,7 @@ def experiment(
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
     for w in result.warnings:
         err_console.print(f"[bold yellow]warning:[/] {w}")
+    _exit_if_not_meaningful()
 
 
 @app.command()
