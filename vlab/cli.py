@@ -207,7 +207,8 @@ def experiment(
     controller: ExpController = typer.Option(ExpController.mfdrf, "--controller"),
     reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
     excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
-    duration: float = typer.Option(None, "--duration", help="run length [s] (default: 3 records)"),
+    duration: float = typer.Option(
+        None, "--duration", help="run length [s] (default: the records the slowest mode needs to settle + 2 measured)"),
     delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods]"),
     noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s]"),
     seed: int = typer.Option(0, "--seed"),
