@@ -154,7 +154,8 @@ class ExperimentResult:
     design : ControllerDesign or None
         The controller run (None for open loop).
     warnings : tuple of str
-        Warnings of the run (self-excited oscillation, modes not identified).
+        Warnings of the run (a run too short to settle the slowest mode, self-excited
+        oscillation, modes not identified); see :func:`not_meaningful`.
     """
 
     config: ExperimentConfig
@@ -512,7 +513,7 @@ def run_experiment(
         h_cont, h_samp = h_cont / iw, h_samp / iw
     modes = compare_modes(f, h_samp, m.measured, fm, zm, response=test.response_quantity)
     rec = m.loop.recording
-    warnings = list(m.warnings) + self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
+    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
                                         rec.dt_s, band_hz=test.band_hz)
     for mc in modes:
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
@@ -522,6 +523,61 @@ def run_experiment(
         m.config, m.loop, m.frfs, f, h_cont, h_samp, m.measured, modes, average_error(modes), design,
         m.plant_info, tuple(warnings),
     )
+
+
+def under_resolved_peaks(freq_hz, damping, resolution_hz: float, *, lines_per_bandwidth: float = 2.0) -> list[str]:
+    """Warn about modes whose half-power bandwidth ``2 zeta f`` spans fewer than ``lines_per_bandwidth`` lines.
+
+    Peak levels are read on the FRF lines (:func:`vlab.measure.modal.peak_levels`,
+    Sec. 5.4.1). A peak narrower than the line spacing ``df`` may fall
+    between lines: a line ``df / 2`` from the natural frequency shows only
+    ``1 / sqrt(1 + (df / (2 zeta f))^2)`` of the peak (single mode near
+    resonance). Analysis and experiment are read on the same lines, so their
+    ratio is right when both peaks sit at the same frequency; a plant whose
+    mode is shifted by a fraction of a line changes the measured level by up
+    to that factor (the dissertation's explanation of its open-loop ratios,
+    Sec. 6.1, Table 2).
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_modes,)
+        Predicted natural frequencies [Hz].
+    damping : array_like, shape (n_modes,)
+        Predicted damping ratios zeta [-].
+    resolution_hz : float
+        FRF line spacing ``df`` [Hz].
+    lines_per_bandwidth : float
+        Lines a half-power bandwidth should span to be resolved.
+
+    Returns
+    -------
+    list of str
+        Empty, or one message listing every under-resolved mode with its
+        frequency, zeta, bandwidth and the worst-case level read on a line.
+
+    Raises
+    ------
+    ModelError
+        Shapes differ or a non-positive resolution.
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    z = np.asarray(damping, dtype=float)
+    if f.shape != z.shape or f.ndim != 1:
+        raise ModelError(f"freq_hz {f.shape} and damping {z.shape} must be equal 1-D shapes")
+    if not resolution_hz > 0:
+        raise ModelError(f"resolution_hz must be > 0, got {resolution_hz!r}")
+    bw = 2 * z * f
+    bad = [i for i in range(f.size) if np.isfinite(bw[i]) and 0 < bw[i] < lines_per_bandwidth * resolution_hz]
+    if not bad:
+        return []
+    parts = []
+    for i in bad:
+        worst = 1.0 / np.sqrt(1.0 + (resolution_hz / bw[i]) ** 2)
+        parts.append(f"mode {i + 1} ({f[i]:.2f} Hz, zeta {z[i]:.4f}, bandwidth {bw[i]:.3f} Hz: a line may read "
+                     f"{100 * worst:.0f} % of the peak)")
+    return [f"peaks narrower than {lines_per_bandwidth:g} lines of {resolution_hz:g} Hz: " + "; ".join(parts)
+            + ". Analysis and experiment are read on the same lines; where the plant's mode is shifted by a fraction "
+              "of a line the peak level ratio of that mode is biased by up to that factor: use a finer resolution"]
 
 
 #: Phrase that marks a warning saying the run's FRF comparison cannot be used (see :func:`not_meaningful`).
