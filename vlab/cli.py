@@ -207,7 +207,8 @@ def experiment(
     controller: ExpController = typer.Option(ExpController.mfdrf, "--controller"),
     reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
     excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
-    duration: float = typer.Option(None, "--duration", help="run length [s] (default: 3 records)"),
+    duration: float = typer.Option(
+        None, "--duration", help="run length [s] (default: the records the slowest mode needs to settle + 2 measured)"),
     delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods]"),
     period_ms: float = typer.Option(None, "--period-ms",
                                     help="controller sampling period [ms] (default: the thesis's for the "
@@ -219,14 +220,20 @@ def experiment(
     out: str = typer.Option("out/experiment", "--out", help="output folder"),
     spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live"),
     as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
+    allow_unstable: bool = typer.Option(False, "--allow-unstable",
+                                        help="exit 0 even when a warning calls the comparison not meaningful"),
 ) -> None:
-    """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test."""
+    """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test.
+
+    The outputs are always written; a run whose own warning calls the comparison not meaningful
+    (self-excited oscillation, limit cycle) exits with status 1 unless --allow-unstable.
+    """
     from pathlib import Path
 
     from rich.progress import Progress
 
     from .io.results import experiment_summary, write_outputs
-    from .lab.experiment import ExperimentConfig, default_chain, run_experiment
+    from .lab.experiment import ExperimentConfig, default_chain, not_meaningful, run_experiment
     from .models import nominal_fe_model
 
     try:
@@ -257,8 +264,17 @@ def experiment(
             err_console.print(f"the recording up to the failure is kept in {kept}")
         _fail(exc)
     summary = experiment_summary(result)
+    blocking = not_meaningful(result.warnings)
+
+    def _exit_if_not_meaningful() -> None:
+        if blocking and not allow_unstable:
+            err_console.print(f"[bold red]error:[/] the comparison is not meaningful ({blocking[0]}); outputs "
+                              f"written to {files['results'].parent}/; use --allow-unstable to exit 0")
+            raise typer.Exit(code=1)
+
     if as_json:
         _print_json(summary)
+        _exit_if_not_meaningful()
         return
     t = Table(title=f"{fe.spec.title}, {controller.value}: analysis (sampled-data) vs experiment ({summary['plant']})")
     for col in ("mode", "f pred [Hz]", "f meas [Hz]", "zeta pred", "zeta meas", "peak ratio"):
@@ -271,6 +287,7 @@ def experiment(
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
     for w in result.warnings:
         err_console.print(f"[bold yellow]warning:[/] {w}")
+    _exit_if_not_meaningful()
 
 
 @app.command()

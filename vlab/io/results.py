@@ -236,8 +236,10 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     """Write the output folder of an experiment.
 
     Files: ``recording.uff`` (UFF 58 time histories), ``frf.uff`` (UFF 58 FRFs),
-    ``results.json``, ``report.md``, ``frf.png`` (analysis over experiment, log
-    magnitude, as Figs. 22-31) and ``run.rrd`` (rerun).
+    ``results.json``, ``report.md``, ``frf.png`` (the response point's velocity
+    FRF of ``frf.uff`` [(m/s)/N] over the excited band: magnitude with the
+    analysis dashed over it as Figs. 22-31, phase, coherence) and ``run.rrd``
+    (rerun). ``frf.uff`` holds only the excited band's lines.
 
     Parameters
     ----------
@@ -265,7 +267,7 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
         If the folder cannot be created, or a UFF file cannot be written
         (e.g. it exists and ``overwrite`` is False).
     """
-    from ..viz.figures import frf_figure
+    from ..viz.figures import frf_panels_figure
     from ..viz.rerun_log import log_experiment, structure_geometry
     from .uff import write_frfs, write_recording
 
@@ -283,20 +285,25 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
         "rerun": out / "run.rrd",
     }
     write_recording(files["recording"], result.loop.recording, overwrite=overwrite)
-    write_frfs(files["frf"], result.frfs, overwrite=overwrite)
+    from ..lab.experiment import TESTS
+
+    band = TESTS[result.config.structure].band_hz
+    write_frfs(files["frf"], result.frfs, overwrite=overwrite, band_hz=band)
     summary = experiment_summary(result)
     summary["files"] = {k: p.name for k, p in files.items()}
     write_json(files["results"], summary)
     files["report"].write_text(report_markdown(summary))
     cfg = result.config
-    unit = "m/N" if cfg.structure == "bcc" else "(m/s)/N"
-    frf_figure(
-        result.freq_hz,
-        {"experiment": result.measured, "analysis (sampled-data)": result.analysis_sampled,
-         "analysis (continuous, as 1990)": result.analysis_continuous},
-        title=f"{cfg.structure} {cfg.controller}: excitation at {result.loop.recording.channels[0].point_id}, "
-              f"response at {result.config.structure and _response_point(result)}",
-        ylabel=f"|H| [{unit}]",
+    # frf.png: the response point's velocity FRF of frf.uff [(m/s)/N], analysis in the same unit
+    resp = result.frfs[f"vel{_response_point(result)}"]
+    to_vel = 2j * np.pi * result.freq_hz if TESTS[cfg.structure].response_quantity == "displacement" else 1.0
+    frf_panels_figure(
+        resp.freq_hz,
+        {"experiment (H1)": resp.h, "analysis (sampled-data)": result.analysis_sampled * to_vel,
+         "analysis (continuous, as 1990)": result.analysis_continuous * to_vel},
+        resp.coherence, unit=resp.unit,
+        title=f"{cfg.structure} {cfg.controller}, {cfg.excitation}: {resp.name}, "
+              f"excited band {band[0]:g}-{band[1]:g} Hz",
         path=files["figure"],
     )
     pts, members = structure_geometry(spec)

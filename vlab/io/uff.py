@@ -341,8 +341,12 @@ def _read_sidecar(p: Path) -> dict:
 
 # --------------------------------------------------------------------------- FRFs
 def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF], *,
-               overwrite: bool = False, binary: bool = True) -> Path:
+               overwrite: bool = False, binary: bool = True,
+               band_hz: tuple[float, float] | None = None) -> Path:
     """Write FRFs as UFF 58 function type 4 records (each followed by its coherence, type 6).
+
+    ID line 4 of every record states the band: ``"excited band <lo>-<hi> Hz"``
+    when ``band_hz`` is given, otherwise ``"lines <first>-<last> Hz"``.
 
     Parameters
     ----------
@@ -354,6 +358,9 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
         Replace an existing file.
     binary : bool
         Dataset 58b (exact doubles, default) or ASCII.
+    band_hz : (float, float), optional
+        The excited band [Hz]; every FRF's lines must lie in it (the lines
+        outside an excited band carry no measured information).
 
     Returns
     -------
@@ -363,7 +370,8 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
     ------
     DataFileError
         Target exists, no FRFs, an FRF without point ids or with non-finite
-        values (names it; pyuff would write NaN as 0), pyuff failure.
+        values (names it; pyuff would write NaN as 0), an FRF with lines
+        outside ``band_hz`` (names it and the line), pyuff failure.
     """
     p = Path(path)
     _check_target(p, overwrite)
@@ -381,6 +389,16 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
             # pyuff would silently write NaN as 0
             raise DataFileError(f"{p}: FRF {frf.name}: non-finite values cannot be written "
                                 "(restrict it with FRF.band() to the excited lines)")
+        fr = np.asarray(frf.freq_hz)
+        if band_hz is not None:
+            lo, hi = (float(b) for b in band_hz)
+            out = np.flatnonzero((fr < lo - 1e-9 * max(1.0, abs(lo))) | (fr > hi + 1e-9 * max(1.0, abs(hi))))
+            if out.size:
+                raise DataFileError(f"{p}: FRF {frf.name}: line {fr[out[0]]:g} Hz lies outside the excited band "
+                                    f"{lo:g}-{hi:g} Hz (restrict it with FRF.band())")
+            band_line = f"excited band {lo:g}-{hi:g} Hz"
+        else:
+            band_line = f"lines {fr[0]:g}-{fr[-1]:g} Hz" if fr.size else "NONE"
         le, fe = _UNIT_EXP[frf.response]
         navg = "NONE" if frf.n_averages is None else f"n_averages={frf.n_averages}"
         base = dict(type=58, binary=int(binary), rsp_node=frf.output_point, rsp_dir=3,
@@ -394,14 +412,14 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
                  ordinate_axis_units_lab=_UNITS[frf.response],
                  orddenom_spec_data_type=SPEC_DATA_TYPE["force"], orddenom_force_unit_exp=1,
                  orddenom_axis_lab="Force", orddenom_axis_units_lab="N")
-        d.update(_ids(frf.name, "vlab FRF", i, n_rec, id3=navg))
+        d.update(_ids(frf.name, "vlab FRF", i, n_rec, id3=navg, id4=band_line))
         dsets.append(d)
         if frf.coherence is not None:
             i += 1
             c = dict(base, func_type=_FUNC_COH, data=np.array(frf.coherence, dtype=float),
                      ordinate_spec_data_type=0, ordinate_axis_lab="Coherence",
                      ordinate_axis_units_lab="1", orddenom_spec_data_type=0)
-            c.update(_ids(frf.name, "vlab coherence", i, n_rec, id3=navg))
+            c.update(_ids(frf.name, "vlab coherence", i, n_rec, id3=navg, id4=band_line))
             dsets.append(c)
     _write_uff(p, dsets)
     return p

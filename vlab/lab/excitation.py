@@ -394,3 +394,110 @@ def half_sine_pulse(t_s, *, peak_n: float, duration_s: float, start_s: float = 0
     tau = t - float(start_s)
     inside = (tau >= 0) & (tau <= dur)
     return np.where(inside, p * np.sin(np.pi * np.clip(tau, 0, dur) / dur), 0.0)
+
+
+def periodic_chirp(t_s, *, band_hz: tuple[float, float], period_s: float, amplitude_n: float) -> np.ndarray:
+    """Linear sine sweep repeated every ``period_s`` (a periodic chirp).
+
+    ::
+
+        f(t) = amplitude_n * cos(2 pi (f0 tau + (f1 - f0) tau^2 / (2 P))),   tau = t mod P
+
+    with ``(f0, f1) = band_hz`` and ``P = period_s``. The force repeats exactly
+    every record of ``P`` seconds, so once the response has settled each
+    record is one period of a periodic steady state: an H1 estimate with a
+    rectangular window over blocks of ``P`` seconds is free of leakage at the
+    lines ``k / P`` (like :func:`pseudo_random`), which a single sweep across
+    the whole run is not (its transient tails and its spectrum, spread over
+    the run, bias the lightly damped peaks).
+
+    Parameters
+    ----------
+    t_s : array_like, shape (n,)
+        Sample instants [s].
+    band_hz : (float, float)
+        Start and stop frequencies of each sweep [Hz].
+    period_s : float
+        Sweep (and record) length [s], ``1 / resolution_hz``.
+    amplitude_n : float
+        Force amplitude [N].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Force [N].
+
+    Raises
+    ------
+    ModelError
+        Bad band, period or amplitude.
+
+    Notes
+    -----
+    Source: Sec. 5.4.1 (sine sweep); periodic chirp after Pintelon &
+    Schoukens, *System Identification*, 2nd ed., Sec. 2.4 (periodic
+    excitations and leakage-free FRF measurement).
+    """
+    t, _ = _time(t_s)
+    f0, f1 = _band(band_hz)
+    period = _positive(period_s, "period_s")
+    amp = _positive(amplitude_n, "amplitude_n")
+    tau = np.mod(t, period)
+    return amp * np.cos(2.0 * np.pi * (f0 * tau + 0.5 * (f1 - f0) * tau**2 / period))
+
+
+def pulse_train(t_s, *, peak_n: float, duration_s: float, period_s: float, start_s: float = 0.0) -> np.ndarray:
+    """Half-sine pulses (:func:`half_sine_pulse`) repeated every ``period_s`` (repeated impacts).
+
+    ::
+
+        f(t) = peak_n * sin(pi tau / duration_s)   for 0 <= tau <= duration_s,  tau = (t - start_s) mod P
+        f(t) = 0                                   otherwise
+
+    One pulse per record of ``P = period_s`` seconds: after the response has
+    settled every record is one period of a periodic steady state, so H1
+    with a rectangular window over blocks of ``P`` is exact at the lines
+    ``k / P`` even when the free decay of a lightly damped mode outlasts one
+    record (the tail of the previous impact is part of the steady state).
+
+    Parameters
+    ----------
+    t_s : array_like, shape (n,)
+        Sample instants [s].
+    peak_n : float
+        Peak force [N] (may be negative).
+    duration_s : float
+        Pulse length [s]; the spectrum of one pulse is nearly flat below
+        ``~0.5 / duration_s`` and has its first zero at ``1.5 / duration_s`` [Hz].
+    period_s : float
+        Repetition period [s], at least ``duration_s``.
+    start_s : float
+        Start of the first pulse [s].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Force [N].
+
+    Raises
+    ------
+    ModelError
+        Non-positive duration or period, a period shorter than the pulse,
+        non-finite values.
+
+    Notes
+    -----
+    Source: Ewins, *Modal Testing*, 2nd ed., Sec. 3.9 (impact excitation);
+    Sec. 5.4.1 of the dissertation (decay measurements).
+    """
+    t, _ = _time(t_s)
+    dur = _positive(duration_s, "duration_s")
+    period = _positive(period_s, "period_s")
+    if period < dur:
+        raise ModelError(f"period_s={period_s} is shorter than the pulse duration_s={duration_s}")
+    p = float(peak_n)
+    if not math.isfinite(p) or not math.isfinite(float(start_s)):
+        raise ModelError(f"peak_n and start_s must be finite, got {peak_n!r}, {start_s!r}")
+    tau = np.mod(t - float(start_s), period)
+    inside = (t >= float(start_s)) & (tau <= dur)
+    return np.where(inside, p * np.sin(np.pi * np.clip(tau, 0, dur) / dur), 0.0)

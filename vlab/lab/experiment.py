@@ -29,7 +29,7 @@ from ..fe import FEModel
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import FRF, h1
 from .engine import ControllerEngine
-from .excitation import half_sine_pulse, pseudo_random, sine_sweep
+from .excitation import periodic_chirp, pseudo_random, pulse_train
 from .linear_plant import LinearPlant
 from .loop import HardwareChain, LoopResult, run_loop
 
@@ -102,8 +102,9 @@ class ExperimentConfig:
         Run length [s]; None = ``periods`` records of ``1 / resolution_hz``.
     periods : int
         Number of records of length ``1 / resolution_hz`` [s] run when
-        ``duration_s`` is None (the first is discarded as settling for random
-        excitation).
+        ``duration_s`` is None: ``periods - 1`` records are measured after the
+        settling records (one, or more for lightly damped modes; see
+        :func:`settle_records`).
     chain : HardwareChain or None
         Hardware between controller and coils (Sec. 5.3). None (default) =
         the thesis chain at the thesis's sampling period for ``controller``
@@ -240,7 +241,8 @@ class ExperimentResult:
     design : ControllerDesign or None
         The controller run (None for open loop).
     warnings : tuple of str
-        Warnings of the run (self-excited oscillation, modes not identified).
+        Warnings of the run (a run too short to settle the slowest mode, self-excited
+        oscillation, modes not identified); see :func:`not_meaningful`.
     """
 
     config: ExperimentConfig
@@ -257,16 +259,72 @@ class ExperimentResult:
     warnings: tuple[str, ...] = ()
 
 
+#: Remaining share of the start-up transient (relative to its initial amplitude) allowed when the
+#: settling records end; the records measured after it see a transient below this level.
+SETTLE_TOLERANCE = 0.01
+
+
 def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float, duration_s: float) -> Callable:
+    """The excitation force of ``cfg.excitation`` as a function of time, periodic over one record.
+
+    All three repeat every record of ``1 / resolution_hz`` seconds (Sec. 5.4.1): a
+    periodic pseudo-random multisine, a linear sweep across the band once per
+    record (:func:`~vlab.lab.excitation.periodic_chirp`), or one half-sine
+    impact per record (:func:`~vlab.lab.excitation.pulse_train`, length
+    ``1.5 / (1.2 f_high)`` so that its first spectral zero lies at 1.2 times the
+    band's upper edge). Once settled, every record is a period of the steady
+    state and H1 with a rectangular window is leakage-free.
+    """
     lo, hi = test.band_hz
+    record_s = 1.0 / resolution_hz
     if cfg.excitation == "random":
         return lambda t: pseudo_random(t, band_hz=(lo, hi), resolution_hz=resolution_hz, rms_n=test.rms_n,
                                        seed=cfg.seed)
     if cfg.excitation == "sweep":
-        return lambda t: sine_sweep(t, f_start_hz=lo, f_stop_hz=hi, amplitude_n=test.rms_n * np.sqrt(2))
+        return lambda t: periodic_chirp(t, band_hz=(lo, hi), period_s=record_s, amplitude_n=test.rms_n * np.sqrt(2))
     if cfg.excitation == "impulse":
-        return lambda t: half_sine_pulse(t, peak_n=20 * test.rms_n, duration_s=1.0 / (2 * hi), start_s=0.1)
+        return lambda t: pulse_train(t, peak_n=20 * test.rms_n, duration_s=1.5 / (1.2 * hi), period_s=record_s)
     raise ModelError(f"unknown excitation {cfg.excitation!r}; use one of {EXCITATIONS}")
+
+
+def settle_records(decay_rate_1_s: float | None, record_s: float, *, tolerance: float = SETTLE_TOLERANCE) -> int:
+    """Records to discard so that the start-up transient has decayed to ``tolerance``.
+
+    The free response started with the excitation decays as
+    ``exp(-sigma t)`` with ``sigma = zeta * 2 pi f_n`` of the slowest mode;
+    ``n = max(1, ceil(ln(1 / tolerance) / (sigma * record_s)))`` records bring
+    it below ``tolerance`` of its initial size (which is about the mode's
+    steady-state amplitude when the run starts at rest).
+
+    Parameters
+    ----------
+    decay_rate_1_s : float or None
+        Slowest decay rate ``sigma = zeta omega_n`` of the modes in band [1/s];
+        None = one record (no damping known).
+    record_s : float
+        Record length [s].
+    tolerance : float
+        Transient share left at the end of the settling records [-], in (0, 1).
+
+    Returns
+    -------
+    int
+        Number of settling records, at least 1.
+
+    Raises
+    ------
+    ModelError
+        A non-positive record length or decay rate, or a tolerance outside (0, 1).
+    """
+    if not record_s > 0:
+        raise ModelError(f"record_s must be > 0, got {record_s!r}")
+    if not 0 < tolerance < 1:
+        raise ModelError(f"tolerance must lie in (0, 1), got {tolerance!r}")
+    if decay_rate_1_s is None:
+        return 1
+    if not (np.isfinite(decay_rate_1_s) and decay_rate_1_s > 0):
+        raise ModelError(f"decay_rate_1_s must be a positive finite rate [1/s], got {decay_rate_1_s!r}")
+    return max(1, int(np.ceil(np.log(1.0 / tolerance) / (decay_rate_1_s * record_s) - 1e-9)))
 
 
 def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], timestep_s: float | None = None):
@@ -331,7 +389,8 @@ class Measurement:
     loop : LoopResult
         The run: recording at the controller rate, commands and displacements.
     frfs : dict[str, FRF]
-        H1 velocity FRFs [(m/s)/N] from the excitation force, keyed ``"vel<point>"`` for every measured point.
+        H1 velocity FRFs [(m/s)/N] from the excitation force, keyed ``"vel<point>"`` for every measured
+        point, on the excited lines only (the test band, edges included).
     freq_hz : ndarray, shape (n_f,)
         Frequency lines of the test band [Hz].
     measured : ndarray, complex, shape (n_f,)
@@ -342,6 +401,8 @@ class Measurement:
         and for MuJoCo ``"source"``, ``"nv"``, ...; see :func:`make_plant`).
     settle_samples : int
         Samples of the recording discarded as settling before the FRFs were measured.
+    warnings : tuple of str
+        Warnings of the measurement (a settling time too short for the slowest mode).
     """
 
     config: ExperimentConfig
@@ -351,6 +412,7 @@ class Measurement:
     measured: np.ndarray
     plant_info: dict
     settle_samples: int
+    warnings: tuple[str, ...] = ()
 
 
 def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
@@ -370,13 +432,17 @@ def measure(
     shape_points: tuple[int, ...] | None = None,
     metadata: dict | None = None,
     progress: Callable[[float], None] | None = None,
+    decay_rate_1_s: float | None = None,
 ) -> Measurement:
     """Run the test of Sec. 5.4.2 once and measure its H1 FRFs (no analysis).
 
     The controller runs on the Eq. (5.1) engine in the 2 kHz loop with
     ``cfg.chain`` (Sec. 5.3); the excitation of ``cfg.excitation`` is added at
-    the structure's excitation channel; for random excitation the first record
-    settles and is discarded.
+    the structure's excitation channel. Every excitation repeats once per
+    record of ``1 / resolution_hz`` seconds; the first records settle and are
+    discarded (:func:`settle_records`: enough for the slowest mode's start-up
+    transient to decay to :data:`SETTLE_TOLERANCE`), the rest are analysed
+    with H1 and a rectangular window over blocks of one record.
 
     Parameters
     ----------
@@ -399,6 +465,13 @@ def measure(
         Stored with the recording; default structure, controller, excitation, seed and plant.
     progress : callable, optional
         Receives the fraction of the run done.
+    decay_rate_1_s : float, optional
+        Slowest expected decay rate ``zeta omega_n`` of the modes in band [1/s]
+        (e.g. from :func:`vlab.analysis.closed_loop_modes`); sets the number of
+        settling records. None = one record. With ``cfg.duration_s`` None the run
+        lasts the settling records plus ``cfg.periods - 1`` measured records;
+        a given duration too short to settle is run anyway with a warning
+        naming the transient left.
 
     Returns
     -------
@@ -407,7 +480,8 @@ def measure(
     Raises
     ------
     ModelError
-        Structure without a test definition, unknown excitation or plant.
+        Structure without a test definition, unknown excitation or plant, a
+        non-positive ``decay_rate_1_s``.
     MeasurementError
         Duration too short for the frequency resolution.
     SimulationError
@@ -416,13 +490,24 @@ def measure(
     test, acts, exc_point = _test_of(fe)
     res_hz = cfg.resolution_hz or test.resolution_hz
     record_s = 1.0 / res_hz
-    duration = cfg.duration_s if cfg.duration_s is not None else cfg.periods * record_s
+    n_settle = settle_records(decay_rate_1_s, record_s)
+    duration = cfg.duration_s if cfg.duration_s is not None else (n_settle + cfg.periods - 1) * record_s
     if duration < 2 * record_s - 1e-9:
         raise MeasurementError(
             f"duration {duration:g} s is too short for a {res_hz:g} Hz resolution: it needs one record of "
             f"{record_s:g} s to settle and at least one to measure ({2 * record_s:g} s); "
             "raise --duration or coarsen the resolution"
         )
+    warnings = []
+    n_records = int(np.floor(duration / record_s + 1e-9))
+    if n_settle > n_records - 1:
+        left = float(np.exp(-decay_rate_1_s * (n_records - 1) * record_s))
+        warnings.append(
+            f"the run of {duration:g} s settles only {(n_records - 1) * record_s:g} s before the last record; the "
+            f"slowest mode decays at {decay_rate_1_s:.4g} 1/s, so {100 * left:.0f} % of its start-up transient is "
+            f"left when the measured record starts: its FRF and peak level may be off by up to about that; a run "
+            f"of at least {(n_settle + 1) * record_s:g} s settles to {100 * SETTLE_TOLERANCE:g} %")
+        n_settle = n_records - 1
     plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
     info = {**info, "actuators": acts}
     engine = None
@@ -440,20 +525,21 @@ def measure(
             "seed": cfg.seed, "plant": info.get("kind", "")},
     )
     rec = loop.recording
-    skip = int(round(record_s / rec.dt_s)) if cfg.excitation == "random" else 0
+    skip = int(round(n_settle * record_s / rec.dt_s))
     x = np.asarray(rec[f"force{exc_point}"])[skip:]
-    window = "boxcar" if cfg.excitation == "random" else "hann"
+    window = "boxcar"  # every excitation is periodic over one record (_excitation)
     frfs = {}
     for p in meas:
         frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
-                             window=window, f_max_hz=test.band_hz[1] * 1.2, input_name=f"force{exc_point}",
-                             output_name=f"vel{p}", input_point=exc_point, output_point=p)
+                             window=window, f_max_hz=test.band_hz[1], input_name=f"force{exc_point}",
+                             output_name=f"vel{p}", input_point=exc_point,
+                             output_point=p).band(*test.band_hz)  # only the excited lines (issue 25 item 8)
     resp = frfs[f"vel{test.response_point}"]
-    sel = (resp.freq_hz >= test.band_hz[0]) & (resp.freq_hz <= test.band_hz[1])
-    f, h = resp.freq_hz[sel], resp.h[sel]
+    f, h = resp.freq_hz, resp.h
     if test.response_quantity == "displacement":
         h = h / (2j * np.pi * f)
-    return Measurement(replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h, info, skip)
+    return Measurement(replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h, info, skip,
+                       tuple(warnings))
 
 
 def run_experiment(
@@ -500,10 +586,15 @@ def run_experiment(
         design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed,
                                    period_s=cfg.chain.period_s)
     check_design_period(design, cfg.chain)
-    m = measure(cfg, fe, design, progress=progress)
-    f = m.freq_hz
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
     u = fe.force_input(acts)
+    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
+    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
+    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
+    sigma = 2 * np.pi * fm * zm
+    sigma = sigma[np.isfinite(sigma) & (sigma > 0)]
+    m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=float(sigma.min()) if sigma.size else None)
+    f = m.freq_hz
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
     g_fb, g_out = g[:, : len(acts), :], g[:, len(acts):, :]
     ex = acts.index(exc_point)
@@ -521,12 +612,9 @@ def run_experiment(
     if test.response_quantity == "displacement":
         iw = 2j * np.pi * f
         h_cont, h_samp = h_cont / iw, h_samp / iw
-    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
-    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
-    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
     modes = compare_modes(f, h_samp, m.measured, fm, zm, response=test.response_quantity)
     rec = m.loop.recording
-    warnings = self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
+    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
                                         rec.dt_s, band_hz=test.band_hz)
     for mc in modes:
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
@@ -536,6 +624,84 @@ def run_experiment(
         m.config, m.loop, m.frfs, f, h_cont, h_samp, m.measured, modes, average_error(modes), design,
         m.plant_info, tuple(warnings),
     )
+
+
+def under_resolved_peaks(freq_hz, damping, resolution_hz: float, *, lines_per_bandwidth: float = 2.0) -> list[str]:
+    """Warn about modes whose half-power bandwidth ``2 zeta f`` spans fewer than ``lines_per_bandwidth`` lines.
+
+    Peak levels are read on the FRF lines (:func:`vlab.measure.modal.peak_levels`,
+    Sec. 5.4.1). A peak narrower than the line spacing ``df`` may fall
+    between lines: a line ``df / 2`` from the natural frequency shows only
+    ``1 / sqrt(1 + (df / (2 zeta f))^2)`` of the peak (single mode near
+    resonance). Analysis and experiment are read on the same lines, so their
+    ratio is right when both peaks sit at the same frequency; a plant whose
+    mode is shifted by a fraction of a line changes the measured level by up
+    to that factor (the dissertation's explanation of its open-loop ratios,
+    Sec. 6.1, Table 2).
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_modes,)
+        Predicted natural frequencies [Hz].
+    damping : array_like, shape (n_modes,)
+        Predicted damping ratios zeta [-].
+    resolution_hz : float
+        FRF line spacing ``df`` [Hz].
+    lines_per_bandwidth : float
+        Lines a half-power bandwidth should span to be resolved.
+
+    Returns
+    -------
+    list of str
+        Empty, or one message listing every under-resolved mode with its
+        frequency, zeta, bandwidth and the worst-case level read on a line.
+
+    Raises
+    ------
+    ModelError
+        Shapes differ or a non-positive resolution.
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    z = np.asarray(damping, dtype=float)
+    if f.shape != z.shape or f.ndim != 1:
+        raise ModelError(f"freq_hz {f.shape} and damping {z.shape} must be equal 1-D shapes")
+    if not resolution_hz > 0:
+        raise ModelError(f"resolution_hz must be > 0, got {resolution_hz!r}")
+    bw = 2 * z * f
+    bad = [i for i in range(f.size) if np.isfinite(bw[i]) and 0 < bw[i] < lines_per_bandwidth * resolution_hz]
+    if not bad:
+        return []
+    parts = []
+    for i in bad:
+        worst = 1.0 / np.sqrt(1.0 + (resolution_hz / bw[i]) ** 2)
+        parts.append(f"mode {i + 1} ({f[i]:.2f} Hz, zeta {z[i]:.4f}, bandwidth {bw[i]:.3f} Hz: a line may read "
+                     f"{100 * worst:.0f} % of the peak)")
+    return [f"peaks narrower than {lines_per_bandwidth:g} lines of {resolution_hz:g} Hz: " + "; ".join(parts)
+            + ". Analysis and experiment are read on the same lines; where the plant's mode is shifted by a fraction "
+              "of a line the peak level ratio of that mode is biased by up to that factor: use a finer resolution"]
+
+
+#: Phrase that marks a warning saying the run's FRF comparison cannot be used (see :func:`not_meaningful`).
+NOT_MEANINGFUL = "the FRF comparison is not meaningful"
+
+
+def not_meaningful(warnings) -> list[str]:
+    """The warnings that say the run's FRF comparison is not meaningful.
+
+    ``vlab experiment`` exits with status 1 when there is one, unless
+    ``--allow-unstable`` (issue 25 item 7).
+
+    Parameters
+    ----------
+    warnings : sequence of str
+        Warnings of a run (:attr:`ExperimentResult.warnings`).
+
+    Returns
+    -------
+    list of str
+        Those containing :data:`NOT_MEANINGFUL` (a self-excited oscillation or limit cycle).
+    """
+    return [w for w in warnings if NOT_MEANINGFUL in w]
 
 
 def self_excited_oscillation(v: np.ndarray, dt_s: float, *, band_hz: tuple[float, float]) -> list[str]:
@@ -570,5 +736,5 @@ def self_excited_oscillation(v: np.ndarray, dt_s: float, *, band_hz: tuple[float
     return [
         f"self-excited oscillation at {f_dom:.1f} Hz ({100 * share:.0f} % of the response RMS lies above the "
         f"excitation band): the controller destabilises a mode outside its design model (spillover) or the "
-        "loop runs in a limit cycle; the FRF comparison is not meaningful"
+        f"loop runs in a limit cycle; {NOT_MEANINGFUL}"
     ]

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import DataFileError, MeasurementError
 
-__all__ = ["comparison_bar", "frf_figure", "misfit_overlay"]
+__all__ = ["comparison_bar", "frf_figure", "frf_panels_figure", "misfit_overlay"]
 
 _FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 #: Labels containing one of these words are drawn dashed by :func:`frf_figure` (analysis over experiment).
@@ -182,6 +182,93 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
     ax.grid(True, which="major", alpha=0.4)
     ax.grid(True, which="minor", alpha=0.15)
     ax.legend(loc="best", fontsize="small")
+    return _save(fig, path, dpi)
+
+
+def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *, unit: str,
+                      path: str | Path = "frf.png", title: str = "",
+                      figsize: tuple[float, float] = (7.0, 7.5), dpi: float = 120.0) -> Path:
+    """FRF magnitude, phase and coherence in three panels sharing the frequency axis.
+
+    The magnitude is drawn on a log axis as the dissertation's Figs. 22-31;
+    curves whose label contains a word of :data:`ANALYSIS_WORDS` are dashed
+    and drawn over the measured (solid) ones. The phase is ``angle(H)`` in
+    degrees, the coherence the H1 estimate's ordinary coherence gamma^2.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,)
+        Frequency lines [Hz], strictly increasing (the excited band).
+    curves : mapping of str to array_like
+        Legend label -> complex FRF, shape (n_freq,), in ``unit``.
+    coherence : array_like, shape (n_freq,)
+        Coherence [-] of the measured FRF, in [0, 1].
+    unit : str
+        Unit of the FRF values, e.g. ``"(m/s)/N"``, written on the magnitude axis.
+    path : str or Path
+        Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
+    title : str
+        Figure title.
+    figsize : (float, float)
+        Figure size [in]; the PNG is ``figsize * dpi`` pixels.
+    dpi : float
+        Resolution [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    MeasurementError
+        No curves, a curve or the coherence whose shape does not match
+        ``freq_hz`` (names it), non-finite values, coherence outside [0, 1].
+    DataFileError
+        Unsupported file suffix.
+    """
+    if not curves:
+        raise MeasurementError("frf_panels_figure: no curves to plot")
+    f = _freq(freq_hz, "freq_hz")
+    data = {}
+    for lb, v in curves.items():
+        h = np.asarray(v)
+        if h.shape != f.shape:
+            raise MeasurementError(f"curve {lb!r}: expected shape {f.shape}, got {h.shape}")
+        if not np.all(np.isfinite(h)):
+            raise MeasurementError(f"curve {lb!r}: non-finite values")
+        data[lb] = h.astype(complex)
+    coh = np.asarray(coherence, dtype=float)
+    if coh.shape != f.shape:
+        raise MeasurementError(f"coherence: expected shape {f.shape}, got {coh.shape}")
+    if not np.all(np.isfinite(coh)) or np.any(coh < -1e-12) or np.any(coh > 1 + 1e-9):
+        raise MeasurementError("coherence: values must be finite and within [0, 1]")
+    fig, (ax_m, ax_p, ax_c) = _new_figure(figsize, dpi, nrows=3, sharex=True)
+    dashed_set = {lb for lb in data if _is_analysis(lb)}
+    order = [lb for lb in data if lb not in dashed_set] + [lb for lb in data if lb in dashed_set]
+    color_of = {lb: f"C{i % 10}" for i, lb in enumerate(data)}
+    for z, lb in enumerate(order):
+        h = data[lb]
+        mag = np.abs(h)
+        mag[mag == 0] = np.nan
+        style = dict(color=color_of[lb], lw=1.6 if lb in dashed_set else 1.2,
+                     ls="--" if lb in dashed_set else "-", zorder=2 + z)
+        ax_m.semilogy(f, mag, label=lb, **style)
+        ax_p.plot(f, np.degrees(np.angle(h)), **style)
+    ax_c.plot(f, coh, color="C0", lw=1.2)
+    ax_m.set_ylabel(f"|H| [{unit}]")
+    ax_p.set_ylabel("phase [deg]")
+    ax_p.set_ylim(-180, 180)
+    ax_p.set_yticks([-180, -90, 0, 90, 180])
+    ax_c.set_ylabel("coherence [-]")
+    ax_c.set_ylim(0, 1.05)
+    ax_c.set_xlabel("Frequency [Hz]")
+    ax_c.set_xlim(f[0], f[-1])
+    for ax in (ax_m, ax_p, ax_c):
+        ax.grid(True, which="major", alpha=0.4)
+    ax_m.legend(loc="best", fontsize="small")
+    if title:
+        ax_m.set_title(title)
     return _save(fig, path, dpi)
 
 
