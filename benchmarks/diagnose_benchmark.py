@@ -99,8 +99,7 @@ from vlab.errors import ModelError  # noqa: E402
 from vlab.fe import build_fe_model  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
-from vlab.lab.experiment import TESTS  # noqa: E402
-from vlab.lab.loop import HardwareChain  # noqa: E402
+from vlab.lab.experiment import TESTS, default_chain  # noqa: E402
 from vlab.lab.recording import Recording  # noqa: E402
 from vlab.spec import load_spec  # noqa: E402
 from vlab.units import G_SI  # noqa: E402
@@ -126,7 +125,7 @@ def _two_sided(rng, lo, hi):
 def nominal_state(structure: str, controller: str) -> LabState:
     spec = load_spec(structure)
     fe = build_fe_model(spec)
-    return LabState(spec, fe, HardwareChain(noise_m_s=1e-6), nominal_design(fe, controller, 0))
+    return LabState(spec, fe, default_chain(controller, noise_m_s=1e-6), nominal_design(fe, controller, 0))
 
 
 def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tuple[LabState, dict]:

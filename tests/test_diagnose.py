@@ -16,7 +16,7 @@ from vlab.diagnose.nominal import nominal_design
 from vlab.diagnose.validate import rerun
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
-from vlab.lab.experiment import TESTS
+from vlab.lab.experiment import TESTS, default_chain
 from vlab.lab.loop import HardwareChain
 from vlab.lab.recording import Recording
 from vlab.models import nominal_fe_model
@@ -169,7 +169,7 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     from vlab.diagnose.labmodel import predict_frf, zoh
 
     fe = nominal_fe_model("bcc")
-    chain = HardwareChain()
+    chain = default_chain(controller)  # the thesis period of the controller (LQG 1 ms)
     acts = tuple(fe.spec.instrumentation.actuators)
     f = np.linspace(0.5, 25.0, 200)
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))

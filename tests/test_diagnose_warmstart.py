@@ -17,8 +17,7 @@ from vlab.diagnose.warmstart import GUARD_PERIODS, RERUN_PERIODS, excitation_lin
 from vlab.diagnose.data import FrfData
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
-from vlab.lab.experiment import TESTS
-from vlab.lab.loop import HardwareChain
+from vlab.lab.experiment import TESTS, default_chain
 from vlab.lab.recording import Recording
 from vlab.models import nominal_fe_model
 
@@ -28,7 +27,7 @@ PERIODS = 6
 
 def _lab(structure: str, controller: str) -> LabState:
     fe = nominal_fe_model(structure)
-    return LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), nominal_design(fe, controller, 0))
+    return LabState(fe.spec, fe, default_chain(controller, noise_m_s=0.0), nominal_design(fe, controller, 0))
 
 
 def _force(state: LabState) -> tuple[np.ndarray, int]:

@@ -120,6 +120,11 @@ class LabState:
     rms_force_n: dict = field(default_factory=dict)
     point_modes: PointModes | None = None
 
+    def __post_init__(self) -> None:
+        from ..lab.experiment import check_design_period
+
+        check_design_period(self.design, self.chain)  # Eq. (5.1)'s coefficients hold at one period only
+
     @property
     def h_s(self) -> float:
         """Physics step [s] (half the controller period unless given)."""

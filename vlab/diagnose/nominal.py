@@ -74,11 +74,14 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
         for m in spec.members))
 
 
-def nominal_design(fe: FEModel, controller: str, seed: int):
+def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | None = None):
     """The thesis controller ``controller`` designed on ``fe`` with multi-start ``seed`` (None for "none").
 
-    Cached per FE model object, controller and seed (the benchmark and the
-    tests diagnose many recordings of one lab).
+    Realised (Eqs. 5.2-5.5) at ``period_s`` [s]; None = the thesis's period
+    for the controller (:func:`vlab.design.thesis_period_s`, Sec. 5.3: LQG
+    1 ms, the others 0.5 ms). Cached per FE model object, controller, seed
+    and period (the benchmark and the tests diagnose many recordings of one
+    lab).
 
     Raises
     ------
@@ -87,7 +90,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int):
     """
     if controller == "none":
         return None
-    key = (fe.spec.name, id(fe), controller, seed)
+    key = (fe.spec.name, id(fe), controller, seed, period_s)
     hit = _DESIGNS.get(key)
     if hit is not None and hit[0] is fe:
         return hit[1]
@@ -95,7 +98,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int):
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
     from ..design import design_controller
 
-    d = design_controller(fe, controller, seed=seed)
+    d = design_controller(fe, controller, seed=seed, period_s=period_s)
     _DESIGNS[key] = (fe, d)
     return d
 

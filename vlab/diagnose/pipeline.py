@@ -260,12 +260,15 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     design_seed = 0 if seed is None else seed
     from ..design import thesis_period_s
 
-    chain = HardwareChain(period_s=thesis_period_s(controller))  # the period the design was realised at
+    # the controller's sampling period: a recording's own sample interval (it was sampled at the controller
+    # rate), else the thesis's period for the controller (Sec. 5.3)
+    period_box = {"s": thesis_period_s(controller)}
     state_box: dict = {}
 
     def nominal_state() -> LabState:
-        if "s" not in state_box:  # the controller that ran: designed on the spec's own mesh
-            design = nominal_design(fe, controller, design_seed)
+        if "s" not in state_box:  # the controller that ran: designed on the spec's own mesh, at its period
+            chain = HardwareChain(period_s=period_box["s"])
+            design = nominal_design(fe, controller, design_seed, period_s=chain.period_s)
             state_box["s"] = LabState(model_spec, fe_model, chain, design)
         return state_box["s"]
 
@@ -279,6 +282,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         what, obj = read_uff_any(path)
         if seed is None and what == "recording" and isinstance(obj.metadata.get("seed"), int):
             design_seed = int(obj.metadata["seed"])
+        if what == "recording":
+            period_box["s"] = float(obj.dt_s)
     # a MuJoCo validation rerun will follow: the effect is refitted on its plant, and the model compared with
     # the data is meshed as that plant resolves the structure
     on_plant = validate_run and what == "recording" and plant != "linear" \
