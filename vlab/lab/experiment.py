@@ -422,6 +422,43 @@ def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
     return TESTS[fe.spec.name], tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
 
 
+def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
+    """Slowest decay rate ``zeta_r omega_r`` [1/s] of the predicted modes in the test's band.
+
+    The modes are those of the continuous closed loop on the FE model with
+    the spec's open-loop modal damping (:func:`vlab.analysis.closed_loop_modes`;
+    open loop when ``design`` is None), the first ``n_modes`` of the test in
+    its band (:data:`TESTS`). It sets how many records :func:`measure` lets
+    settle (:func:`settle_records`).
+
+    Parameters
+    ----------
+    fe : FEModel
+        The nominal FE model (its spec selects the test).
+    design : ControllerDesign, optional
+        The controller (its ``continuous`` form); None = open loop.
+
+    Returns
+    -------
+    float or None
+        The smallest positive finite decay rate [1/s]; None when no mode in the band has one.
+
+    Raises
+    ------
+    ModelError
+        Structure without a test definition.
+    """
+    test, acts, _ = _test_of(fe)
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    u = fe.force_input(acts)
+    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
+    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
+    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
+    sigma = 2 * np.pi * fm * zm
+    sigma = sigma[np.isfinite(sigma) & (sigma > 0)]
+    return float(sigma.min()) if sigma.size else None
+
+
 def measure(
     cfg: ExperimentConfig,
     fe: FEModel,
@@ -588,12 +625,7 @@ def run_experiment(
     check_design_period(design, cfg.chain)
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
     u = fe.force_input(acts)
-    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
-    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
-    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
-    sigma = 2 * np.pi * fm * zm
-    sigma = sigma[np.isfinite(sigma) & (sigma > 0)]
-    m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=float(sigma.min()) if sigma.size else None)
+    m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
     f = m.freq_hz
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
     g_fb, g_out = g[:, : len(acts), :], g[:, len(acts):, :]

@@ -8,7 +8,9 @@ zero-order hold, 677 Hz RC filter and current amplifier of Sec. 5.3
 (:class:`vlab.lab.loop.HardwareChain`), a periodic pseudo-random force is
 added to the excitation channel (BCC: point 9, 0.5-25 Hz; grid: joint 4,
 0.2-10 Hz), and the H1 FRF to the response point (BCC: displacement at
-point 6; grid: velocity at joint 4) is measured over one settled period.
+point 6; grid: velocity at joint 4) is measured over the settled periods
+(as many settling periods as the slowest predicted mode needs to decay to
+1 %, :func:`vlab.lab.experiment.settle_records`).
 The plant is the laboratory structure of :mod:`vlab.reproduce.context`
 (``plant="linear"``: stepped exactly; ``plant="mujoco"``: the MuJoCo model of
 the nominal spec).
@@ -34,7 +36,7 @@ from ..analysis import closed_loop_frf, closed_loop_modes, continuous_controller
 from ..design import ControllerDesign, DesignModel
 from ..errors import MeasurementError, ModelError
 from ..fe import FEModel
-from ..lab.experiment import TESTS, ExperimentConfig, check_design_period, make_plant, measure
+from ..lab.experiment import TESTS, ExperimentConfig, check_design_period, make_plant, measure, slowest_decay_rate
 from ..lab.linear_plant import LinearPlant
 from ..measure.compare import compare_modes
 from .closedloop import actuator_input
@@ -58,7 +60,8 @@ class RunSpec:
     resolution_hz : float
         Frequency resolution = 1 / period of the pseudo-random force [Hz].
     periods : int
-        Periods run; the first settles and is discarded (>= 2).
+        Periods measured + 1 (>= 2); before them, as many periods settle and
+        are discarded as the slowest predicted mode needs (at least one).
     seed : int
         Seed of the excitation phases.
     """
@@ -156,7 +159,7 @@ def run_virtual_experiment(spec: RunSpec, *, ctx: ReproContext | None = None, pl
     check_design_period(design, cfg.chain)  # both at the thesis period of the controller
     p, desc = _plant(ctx, cfg, fe, tuple(fe.spec.instrumentation.actuators))
     m = measure(cfg, fe, design, plant=(p, {"kind": desc}), measured_points=(resp,), shape_points=(resp,),
-                metadata={"run": spec.key}, progress=progress)
+                metadata={"run": spec.key}, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
     return VirtualRun(spec, m.freq_hz, m.measured, desc, m.config.duration_s, time.perf_counter() - t0)
 
 
