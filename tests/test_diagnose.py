@@ -25,16 +25,22 @@ RES_HZ = 0.2          # 5 s periods: coarse lines, fast runs
 PERIODS = 3
 
 
-def _record(state: LabState, path, *, noise: float = 0.01, seed: int = 1) -> str:
-    """Run the lab loop on ``state`` with the structure's pseudo-random test signal; add sensor noise."""
+def _record(state: LabState, path, *, noise: float = 0.01, seed: int = 1, steady: bool = False) -> str:
+    """Run the lab loop on ``state`` with the structure's pseudo-random test signal; add sensor noise.
+
+    ``steady``: start the run in the lab's periodic steady state (a warm start one period in), as a lightly
+    damped open loop needs (its transient outlasts the short record)."""
     spec = state.spec
     test = TESTS[spec.name]
-    n = int(round(PERIODS / RES_HZ / state.chain.period_s))
+    n_per = int(round(1 / RES_HZ / state.chain.period_s))
+    n = PERIODS * n_per + (n_per if steady else 0)
     force = pseudo_random(np.arange(n) * state.chain.period_s, band_hz=test.band_hz, resolution_hz=RES_HZ,
                           rms_n=test.rms_n, seed=seed)
     exc = spec.instrumentation.excitation
     meas = tuple(dict.fromkeys(test.measured_points + spec.instrumentation.actuators))
-    rec, _ = rerun(state, force, excitation_point=exc, measured_points=meas)
+    rec, _ = rerun(state, force, excitation_point=exc, measured_points=meas,
+                   **({"start": n_per, "period": n_per} if steady else {}))
+    force = force[n - rec.n_samples:]
     rng = np.random.default_rng(seed)
     sig = {f"force{exc}": force}
     for p in meas:
@@ -235,3 +241,17 @@ def test_reruns_are_cached_per_seed(mass_run, monkeypatch):
     p = mass_run.problem
     first = [vmod.reruns(p, [(mass_run.nominal, "seeded")], "linear", seed=s, workers=1)[0] for s in (0, 0, 1)]
     assert calls == [0, 1] and first == ["run with seed 0", "run with seed 0", "run with seed 1"]
+
+
+def test_open_loop_sensor_gain_is_found_on_the_recorded_sensor_channel(tmp_path):
+    """Open loop, the recorded channel of a feedback sensor is that sensor's signal (issue 25 item 10): a
+    sensor reading 1.4x at point 7 scales only vel7. Before sensor_gain was tried open loop, no library
+    effect could explain it."""
+    fe = nominal_fe_model("bcc")
+    open_lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=1e-6), None)
+    truth = replace(open_lab, chain=replace(open_lab.chain, sensor_gain={7: 1.4}))
+    path = _record(truth, tmp_path / "rec.uff", steady=True)
+    r = diagnose("bcc", path, controller="none", validate_run=False)
+    assert r.mismatch and r.selected is not None
+    assert r.selected.effect == "sensor_gain" and r.selected.location == {"channel": 7}
+    assert r.selected.params_[0] == pytest.approx(1.4, rel=0.05)

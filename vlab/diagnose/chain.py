@@ -127,14 +127,17 @@ class SensorGain(_Gain):
 
     Parameter: ``gain`` [1] (log10) multiplying ``HardwareChain.sensor_gain[channel]``.
     The recorded channel of the sensor is that sensor's signal, so the gain
-    also shows open loop when the point is measured; the hypothesis is still
-    tried only on closed-loop data.
+    also shows open loop on a recording of that point: it is tried on
+    closed-loop data, and on open-loop time histories that recorded the
+    sensor's point.
     """
 
     effect = "sensor_gain"
     attr = "sensor_gain"
-    needs = "closed"
     order = 10
+
+    def _applies(self, ctx):
+        return ctx.closed_loop or self.channel in ctx.velocity_rms
 
 
 class Saturation(Hypothesis):
