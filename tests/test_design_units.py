@@ -129,8 +129,10 @@ def test_mfdrf_gamma_in_both_units_and_gain_in_n_s_per_m():
 
 # keys of numbers that are dimensionless (ratios, counts, indices) or carry their unit as a suffix
 _DIMENSIONLESS = {"damping_ratios", "reduced_model_damping_ratios", "spillover_destabilised_modes",
-                  "spillover_lowered_modes", "seed"}
-_UNIT_SUFFIX = re.compile(r"_(hz|s|per_s|n_s_per_m|lb_s_per_in|n_per_si_state|lbf_per_thesis_state|thesis_units)$")
+                  "spillover_lowered_modes", "seed", "mode", "damping_predicted", "damping_measured",
+                  "peak_level_ratio", "avg_peak_error"}
+_UNIT_SUFFIX = re.compile(r"_(hz|s|per_s|n_s_per_m|lb_s_per_in|n_per_si_state|lbf_per_thesis_state|thesis_units|"
+                          r"periods|n|m_s|m_per_n|m_s_per_n|n_per_n)$")
 
 
 def _numeric_keys(obj, key=None):
@@ -200,6 +202,10 @@ def test_lqg_experiment_runs_at_the_thesis_period_or_the_option(quick_bcc_test, 
     assert summary["hardware"]["period_s"] == pytest.approx(expected_s, rel=1e-12)
     assert summary["design"]["period_s"] == pytest.approx(expected_s, rel=1e-12)
     assert summary["period_source"].startswith("set by the user") == (period_ms is not None)
+    bad = sorted(k for k in set(_numeric_keys(summary)) if k not in _DIMENSIONLESS and not _UNIT_SUFFIX.search(str(k)))
+    assert not bad, f"numbers without a unit in their key: {bad}"
+    modes = summary["modes"]
+    assert modes and all("peak_measured_m_per_n" in m for m in modes)  # the BCC's FRF is a displacement FRF
     results = json.loads((out / "results.json").read_text())
     assert results["period_s"] == pytest.approx(expected_s, rel=1e-12)
     rec = read_recording(out / "recording.uff")

@@ -6,10 +6,11 @@
 - ``period_s``: the controller's sampling period [s], and ``period_source``: whether it is
   the thesis's value for the controller (Sec. 5.3: LQG 1 ms, DRF 0.5 ms) or a user setting
 - ``duration_s``, ``resolution_hz``, ``hardware`` (period_s, delay_periods, filter_hz,
-  amplifier_gain, amplifier_limit_n, noise_m_s)
+  amplifier_gain_n_per_n, amplifier_limit_n, noise_m_s)
 - ``design``: :func:`design_summary` (gains with their units in the keys) or null
 - ``modes``: list of {mode, frequency_predicted_hz, frequency_measured_hz,
-  damping_predicted, damping_measured, peak_predicted, peak_measured, peak_level_ratio}
+  damping_predicted, damping_measured, peak_predicted_m_per_n and peak_measured_m_per_n (BCC,
+  displacement FRF; ``_m_s_per_n`` for the grid's velocity FRF), peak_level_ratio, response}
 - ``avg_peak_error``: mean |1 - ratio| (Tables 10, 19-21)
 - ``files``: names of the other outputs
 """
@@ -163,7 +164,7 @@ def experiment_summary(result) -> dict:
         "resolution_hz": cfg.resolution_hz,
         "hardware": {
             "period_s": ch.period_s, "delay_periods": ch.delay_periods, "filter_hz": ch.filter_hz,
-            "amplifier_gain": ch.amplifier_gain, "amplifier_limit_n": ch.amplifier_limit_n,
+            "amplifier_gain_n_per_n": ch.amplifier_gain, "amplifier_limit_n": ch.amplifier_limit_n,
             "noise_m_s": ch.noise_m_s,
         },
         "design": None if d is None else design_summary(d),

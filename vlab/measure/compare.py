@@ -41,6 +41,9 @@ class ModeComparison:
     peak_level_ratio : float
         ``peak_predicted / peak_measured``, the dissertation's analytical /
         experimental peak level ratio (Tables 2, 10, 19-21).
+    response : str
+        ``"displacement"`` or ``"velocity"``: the FRF's quantity, which sets the
+        unit of the peak levels (and their keys in :meth:`as_dict`).
     """
 
     mode: int
@@ -51,10 +54,21 @@ class ModeComparison:
     peak_predicted: float
     peak_measured: float
     peak_level_ratio: float
+    response: str = "displacement"
 
     def as_dict(self) -> dict:
-        """JSON-ready dict with the stable keys of results.json."""
-        return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in asdict(self).items()}
+        """JSON-ready dict with the stable keys of results.json, each number's unit in its key.
+
+        The peak levels are ``peak_predicted_m_per_n``/``peak_measured_m_per_n``
+        for a displacement FRF and ``..._m_s_per_n`` for a velocity FRF.
+        """
+        unit = {"displacement": "m_per_n", "velocity": "m_s_per_n"}[self.response]
+        out = {}
+        for k, v in asdict(self).items():
+            if k in ("peak_predicted", "peak_measured"):
+                k = f"{k}_{unit}"
+            out[k] = float(v) if isinstance(v, (float, np.floating)) else v
+        return out
 
 
 def compare_modes(
@@ -115,7 +129,7 @@ def compare_modes(
         results.append(vals)
     out = []
     for i, ((fa, za, pa), (fe, ze, pe)) in enumerate(zip(*results)):
-        out.append(ModeComparison(i + 1, fa, fe, za, ze, pa, pe, pa / pe if pe else np.nan))
+        out.append(ModeComparison(i + 1, fa, fe, za, ze, pa, pe, pa / pe if pe else np.nan, response))
     return out
 
 
