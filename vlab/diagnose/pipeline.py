@@ -284,6 +284,12 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             design_seed = int(obj.metadata["seed"])
         if what == "recording":
             period_box["s"] = float(obj.dt_s)
+    if controller != "none":
+        src = ("the recording's sample interval" if what == "recording" else
+               f"the thesis's period for {controller} (Sec. 5.3): FRF files do not say at which period the "
+               "controller ran")
+        notes.append(f"the {controller} controller is realised at a {period_box['s'] * 1e3:g} ms sampling period "
+                     f"({src})")
     # a MuJoCo validation rerun will follow: the effect is refitted on its plant, and the model compared with
     # the data is meshed as that plant resolves the structure
     on_plant = validate_run and what == "recording" and plant != "linear" \
