@@ -5,7 +5,7 @@ Glue between the lab's models (SI) and the stand-alone design package
 corrected Guyan) is converted to the thesis's unit system (inch, lbf,
 centisecond; Sec. 3.1) where its weights Q and R mean what they meant in
 1990, the design is made there, and the gains and the Eq. (5.1)
-realization are converted back to SI for the 2 kHz loop.
+realization are converted back to SI for the digital loop (2 kHz; LQG 1 kHz, Sec. 5.3).
 
 Thesis settings (Sec. 6.1, 6.2):
 

@@ -2,7 +2,7 @@
 
 ``run_experiment`` designs the controller on the nominal model, builds the
 plant (MuJoCo from the same spec, an exported/edited MJCF, or the linear FE
-model), runs the 2 kHz digital loop with the hardware chain of Sec. 5.3,
+model), runs the digital loop (2 kHz; LQG 1 kHz) with the hardware chain of Sec. 5.3,
 excites it the way Sec. 5.4 describes, measures H1 FRFs and compares them
 mode by mode with the analysis: the continuous closed-loop FRF the
 dissertation computed and the sampled-data FRF with hold, delay and filter.
@@ -96,8 +96,9 @@ class ExperimentConfig:
         (:func:`vlab.design.design_controller`).
     excitation : str
         One of :data:`EXCITATIONS`: ``"random"`` (periodic pseudo-random),
-        ``"sweep"`` (sine sweep) or ``"impulse"`` (half-sine pulse), in the
-        structure's band (Sec. 5.4).
+        ``"sweep"`` (a linear sweep across the band once per record) or
+        ``"impulse"`` (one half-sine pulse per record), in the structure's band
+        (Sec. 5.4); all three periodic over a record.
     duration_s : float or None
         Run length [s]; None = ``periods`` records of ``1 / resolution_hz``.
     periods : int
@@ -478,7 +479,7 @@ def measure(
 ) -> Measurement:
     """Run the test of Sec. 5.4.2 once and measure its H1 FRFs (no analysis).
 
-    The controller runs on the Eq. (5.1) engine in the 2 kHz loop with
+    The controller runs on the Eq. (5.1) engine in the digital loop (period ``cfg.chain.period_s``) with
     ``cfg.chain`` (Sec. 5.3); the excitation of ``cfg.excitation`` is added at
     the structure's excitation channel. Every excitation repeats once per
     record of ``1 / resolution_hz`` seconds; the first records settle and are

@@ -1,6 +1,7 @@
 """The digital control loop of Fig. 21, run against any plant.
 
-One controller tick every ``period_s`` (0.5 ms, 2 kHz, Sec. 5.3)::
+One controller tick every ``chain.period_s`` (Sec. 5.3: 0.5 ms, 2 kHz, for the DRF
+controllers; 1 ms for LQG)::
 
     y_k  = sensor gain x velocity (x lag) + noise         (sampled at t_k; also recorded)
     u_k  = engine.step(y_k)                               (Eq. 5.1)
