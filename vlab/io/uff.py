@@ -49,7 +49,8 @@ import numpy as np
 import pyuff
 
 from ..errors import DataFileError, MeasurementError
-from ..lab.recording import Channel, Recording, channel_name
+from ..lab.recording import (CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
+                             parse_channel_name)
 from ..measure.frf import FRF
 
 #: UFF specific data type code of each quantity.
@@ -64,6 +65,14 @@ _RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
 _DT_RE = re.compile(r"^dt_s=(\S+)$")
 _NAVG_RE = re.compile(r"^n_averages=(\d+)$")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_CONV_RE = re.compile(r"^(force|disp|vel|acc)\d+$")
+#: Unit labels accepted for each quantity (compared case-insensitively; ``NONE`` or empty = not given).
+_UNIT_LABELS = {"displacement": {"m"}, "velocity": {"m/s"}, "acceleration": {"m/s^2", "m/s2", "m/s**2"},
+                "force": {"n"}}
+#: UFF direction codes of a translation (1..3 = X, Y, Z; negative = opposite sense).
+_TRANSLATIONS = (-3, -2, -1, 1, 2, 3)
+#: Fewest samples a time-response record needs (a sampling interval is defined by two).
+MIN_SAMPLES = 2
 
 
 # --------------------------------------------------------------------------- files
@@ -163,6 +172,42 @@ def _label(dset: dict, fallback: str) -> str:
     return name if name and name.upper() != "NONE" else fallback
 
 
+def _get_int(p: Path, s: dict, key: str, where: str) -> int:
+    """Integer header field ``key`` of a record (``where`` names the record in the error)."""
+    if key not in s:
+        raise DataFileError(f"{p}: {where}: header field {key!r} is missing")
+    try:
+        v = float(s[key])
+    except (TypeError, ValueError):
+        raise DataFileError(f"{p}: {where}: header field {key!r} is not a number: {s[key]!r}") from None
+    if not math.isfinite(v) or v != int(v):
+        raise DataFileError(f"{p}: {where}: header field {key!r} is not an integer: {s[key]!r}")
+    return int(v)
+
+
+def _check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
+    """Refuse an ordinate unit label that contradicts the specific data type (``in/s`` on a velocity)."""
+    lab = str(s.get("ordinate_axis_units_lab", "") or "").strip()
+    if lab and lab.upper() != "NONE" and lab.lower() not in _UNIT_LABELS[quantity]:
+        raise DataFileError(f"{p}: {where}: ordinate unit label {lab!r} does not match its data type "
+                            f"{quantity} (SI {_UNITS[quantity]!r} expected; vlab reads SI only)")
+
+
+def _check_direction(p: Path, s: dict, key: str, where: str) -> int:
+    d = _get_int(p, s, key, where)
+    if d not in _TRANSLATIONS:
+        raise DataFileError(f"{p}: {where}: {key} = {d} is not a translation direction code "
+                            f"(expected one of {list(_TRANSLATIONS)}; 3 = out of plane)")
+    return d
+
+
+def _check_node(p: Path, s: dict, key: str, where: str) -> int:
+    n = _get_int(p, s, key, where)
+    if n < 1:
+        raise DataFileError(f"{p}: {where}: {key} = {n} is not a point id (positive integers)")
+    return n
+
+
 # --------------------------------------------------------------------------- recordings
 def write_recording(path: str | os.PathLike, recording: Recording, *, overwrite: bool = False,
                     binary: bool = True) -> Path:
@@ -227,7 +272,8 @@ def _jsonable(v: Any) -> bool:
         return False
 
 
-def read_recording(path: str | os.PathLike) -> Recording:
+def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
+                   allow_implausible: bool = False) -> Recording:
     """Read UFF 58 time histories (function type 1) into a :class:`Recording`.
 
     Channel names come from ID line 1 when it is a valid identifier (vlab
@@ -236,10 +282,40 @@ def read_recording(path: str | os.PathLike) -> Recording:
     increment. Metadata come from the JSON sidecar if it exists (plus
     ``"source_file"``).
 
+    Every record is checked, and the first problem is reported with the
+    file, the record number (1-based, file order), the channel and the
+    offending value:
+
+    * non-finite samples (count and first index);
+    * clipping: more than :data:`vlab.lab.recording.CLIP_RUN` (3) consecutive
+      samples exactly at the channel's maximum or minimum (a flat top);
+    * mis-sampling: fewer than :data:`MIN_SAMPLES` (2) samples, uneven
+      abscissa, a non-positive or non-finite step, channels at different
+      steps, a step that disagrees with the ``period_s`` of the sidecar
+      metadata (the controller period, when the sidecar states it);
+    * mislabelling: an abscissa that is not time (specific data type 17),
+      an ordinate unit label that contradicts the data type (``in/s`` on a
+      velocity: vlab reads SI only), a direction code that is not a
+      translation (+-1..3), a node that is not a positive point id, a
+      conventional channel name (``vel4``) that contradicts the record's
+      quantity or node, two channels of one quantity at one node and
+      direction;
+    * inconsistency: channels of different lengths, a header sample count
+      that differs from the data;
+    * implausible magnitudes: an RMS above
+      :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS` (velocity 10 m/s,
+      force 1000 N, displacement 0.1 m, acceleration 1e4 m/s^2; derived
+      from the sensors and coils of Sec. 5.3), which is a mis-scaled file.
+
     Parameters
     ----------
     path : str or path-like
         UFF file.
+    allow_clipped : bool
+        Accept channels with a flat top (e.g. to inspect a run whose
+        amplifier saturated on purpose).
+    allow_implausible : bool
+        Accept RMS values beyond :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS`.
 
     Returns
     -------
@@ -249,37 +325,58 @@ def read_recording(path: str | os.PathLike) -> Recording:
     ------
     DataFileError
         Missing, empty, malformed or truncated file; no time-response
-        record; unknown ordinate type; uneven or mismatched sampling
-        intervals; mismatched lengths; NaN/inf samples; duplicate channel
-        names; unreadable sidecar. The message names the file and channel.
+        record; unknown ordinate type; mislabelled, mis-sampled or
+        inconsistent records (above); NaN/inf samples; duplicate channels;
+        unreadable sidecar. The message names the file, record and channel.
+    MeasurementError
+        A clipped channel or an implausible RMS (names file, record, channel
+        and the value).
     """
     p, sets = _read_uff(path)
     recs = [s for s in sets if s.get("type") == 58 and s.get("func_type") == _FUNC_TIME]
     if not recs:
         raise DataFileError(f"{p}: no dataset-58 time-response (function type 1) record")
+    metadata = _read_sidecar(p)
     channels = []
+    keys: dict[tuple[int, str, int], str] = {}
     dt_ref = None
     ref_name = None
-    for s in recs:
-        code = int(s.get("ordinate_spec_data_type", 0))
-        node = int(s["rsp_node"])
+    for i, s in enumerate(recs, start=1):
+        where = f"record {i}"
+        code = _get_int(p, s, "ordinate_spec_data_type", where)
+        node = _check_node(p, s, "rsp_node", where)
         if code not in _CODE_QUANTITY:
-            raise DataFileError(f"{p}: record {_label(s, f'node {node}')!r}: unsupported ordinate "
+            raise DataFileError(f"{p}: record {i} ({_label(s, f'node {node}')!r}): unsupported ordinate "
                                 f"specific data type {code} (known: {sorted(_CODE_QUANTITY)})")
         quantity = _CODE_QUANTITY[code]
         fallback = channel_name(quantity, node)
         name = _label(s, fallback)
         if not _NAME_RE.match(name):
             name = fallback
-        data = np.asarray(s["data"])
+        where = f"record {i}, channel {name}"
+        if _CONV_RE.match(name):
+            q_name, n_name = parse_channel_name(name)
+            if (q_name, n_name) != (quantity, node):
+                raise DataFileError(f"{p}: {where}: the name says {q_name} at point {n_name}, the record holds "
+                                    f"{quantity} (data type {code}) at node {node} (mislabelled channel)")
+        direction = _check_direction(p, s, "rsp_dir", where)
+        _check_unit_label(p, s, quantity, where)
+        absc = int(s.get("abscissa_spec_data_type", _TIME) or 0)
+        if absc not in (0, _TIME):
+            raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not time ({_TIME})")
+        data = np.asarray(s["data"]) if "data" in s else np.zeros(0)
         if np.iscomplexobj(data):
-            raise DataFileError(f"{p}: channel {name}: complex samples in a time response")
+            raise DataFileError(f"{p}: {where}: complex samples in a time response")
         if data.size != int(s.get("num_pts", data.size)):
-            raise DataFileError(f"{p}: channel {name}: {data.size} samples, header announces "
+            raise DataFileError(f"{p}: {where}: {data.size} samples, header announces "
                                 f"{s['num_pts']} (truncated file)")
+        if data.size < MIN_SAMPLES:
+            raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
         bad = np.flatnonzero(~np.isfinite(data))
         if bad.size:
-            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]}")
+            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({data[bad[0]]!r}; "
+                                f"{bad.size} in all, record {i})")
+        data = data.astype(float)
         dt = _time_step(p, name, s)
         if dt_ref is None:
             dt_ref, ref_name = dt, name
@@ -290,10 +387,41 @@ def read_recording(path: str | os.PathLike) -> Recording:
             raise DataFileError(f"{p}: channel {name} has {data.size} samples, channel "
                                 f"{channels[0].name} has {channels[0].samples.size}")
         if any(c.name == name for c in channels):
-            raise DataFileError(f"{p}: duplicate channel {name}")
-        channels.append(Channel(name=name, point_id=node, quantity=quantity,
-                                samples=data.astype(float), direction=int(s.get("rsp_dir", 3))))
-    metadata = _read_sidecar(p)
+            raise DataFileError(f"{p}: duplicate channel {name} (record {i})")
+        key = (node, quantity, direction)
+        if key in keys:
+            raise DataFileError(f"{p}: {where}: duplicates channel {keys[key]} ({quantity} at node {node}, "
+                                f"direction {direction})")
+        keys[key] = name
+        if not allow_implausible:
+            rms = float(np.sqrt(np.mean(data ** 2)))
+            if rms > MAX_PLAUSIBLE_RMS[quantity]:
+                raise MeasurementError(
+                    f"{p}: {where}: RMS {rms:.4g} {_UNITS[quantity]} is implausible for the lab's hardware "
+                    f"(limit {MAX_PLAUSIBLE_RMS[quantity]:g} {_UNITS[quantity]}, Sec. 5.3): a mis-scaled file "
+                    "(wrong unit or gain)?")
+        if not allow_clipped:
+            clip = find_clipping(data)
+            if clip is not None:
+                run, start, word, value = clip
+                raise MeasurementError(
+                    f"{p}: {where}: clipped: {run} consecutive samples at its {word} {value:.6g} "
+                    f"{_UNITS[quantity]} from index {start} (more than {CLIP_RUN} equal extreme samples: "
+                    "saturated amplifier or ADC range)")
+        try:
+            channels.append(Channel(name=name, point_id=node, quantity=quantity, samples=data,
+                                    direction=direction))
+        except MeasurementError as exc:
+            raise DataFileError(f"{p}: record {i}: {exc}") from exc
+    period = metadata.get("period_s")
+    if period is not None:
+        if isinstance(period, bool) or not isinstance(period, (int, float)) or not (
+                math.isfinite(period) and period > 0):
+            raise DataFileError(f"{sidecar_path(p)}: field 'period_s': expected a positive number of seconds, "
+                                f"got {period!r}")
+        if not math.isclose(float(period), dt_ref, rel_tol=1e-6):
+            raise DataFileError(f"{p}: channels are sampled every {dt_ref!r} s, the sidecar's controller period "
+                                f"'period_s' is {period!r} s (mis-sampled recording)")
     try:
         return Recording(dt_s=dt_ref, channels=tuple(channels), metadata=metadata)
     except MeasurementError as exc:
@@ -302,10 +430,11 @@ def read_recording(path: str | os.PathLike) -> Recording:
 
 def _time_step(p: Path, name: str, s: dict) -> float:
     m = _DT_RE.match(str(s.get("id4", "")).strip())
-    if int(s.get("abscissa_spacing", 1)) == 1:
+    even = "abscissa_spacing" not in s or _get_int(p, s, "abscissa_spacing", f"channel {name}") == 1
+    if even:
         inc = float(s.get("abscissa_inc", 0.0))
     else:
-        x = np.asarray(s["x"], dtype=float)
+        x = np.asarray(s.get("x", []), dtype=float)
         if x.size < 2:
             raise DataFileError(f"{p}: channel {name}: fewer than two samples")
         d = np.diff(x)
