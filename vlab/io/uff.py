@@ -572,7 +572,11 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
     DataFileError
         Missing, malformed or truncated file; no FRF record; unknown
         response type; a denominator that is not force; non-finite values;
-        a coherence on a different frequency axis (names the FRF).
+        a frequency axis that is negative or not increasing; a coherence
+        outside [0, 1]; a node that is not a point id, a direction that is
+        not a translation, a unit label or channel name that contradicts the
+        record (mislabelled); two FRFs between the same nodes. The message
+        names the file, the FRF record and the value.
     """
     p, sets = _read_uff(path)
     sets = [s for s in sets if s.get("type") == 58]
@@ -580,31 +584,79 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
     if not frf_sets:
         raise DataFileError(f"{p}: no dataset-58 FRF (function type 4) record")
     cohs = [s for s in sets if s.get("func_type") == _FUNC_COH]
+    for c in cohs:  # the node fields the pairing needs
+        for key in ("rsp_node", "ref_node", "rsp_dir", "ref_dir"):
+            _get_int(p, c, key, f"coherence record {_label(c, '?')!r}")
     out = []
-    for s in frf_sets:
-        code = int(s.get("ordinate_spec_data_type", 0))
+    seen: dict[tuple[int, int, str], str] = {}
+    for i, s in enumerate(frf_sets, start=1):
+        where = f"FRF record {i}"
+        out_node = _check_node(p, s, "rsp_node", where)
+        in_node = _check_node(p, s, "ref_node", where)
+        code = _get_int(p, s, "ordinate_spec_data_type", where)
         if code not in (8, 11, 12):
-            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: unsupported response "
+            raise DataFileError(f"{p}: FRF {_label(s, str(out_node))}: unsupported response "
                                 f"specific data type {code} (8, 11 or 12 expected)")
         response = _CODE_QUANTITY[code]
-        den = int(s.get("orddenom_spec_data_type", 0))
+        den = int(s.get("orddenom_spec_data_type", 0) or 0)
         if den not in (0, 9, 13):
-            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: denominator type {den} is not a force")
-        out_node, in_node = int(s["rsp_node"]), int(s["ref_node"])
+            raise DataFileError(f"{p}: FRF {_label(s, str(out_node))}: denominator type {den} is not a force")
         default = f"{channel_name(response, out_node)}/{channel_name('force', in_node)}"
         label = _label(s, default)
         if label.count("/") != 1:
             label = default
         out_name, in_name = label.split("/")
-        f = np.asarray(s["x"], dtype=float)
-        h = np.asarray(s["data"])
+        where = f"FRF record {i} ({label})"
+        # the output name is the measured channel (an FRF converted to displacement keeps 'vel1'): its
+        # point must match; the input must be a force at the reference node
+        if _CONV_RE.match(out_name) and parse_channel_name(out_name)[1] != out_node:
+            raise DataFileError(f"{p}: {where}: output channel name {out_name!r} contradicts the record's "
+                                f"response node {out_node} (mislabelled FRF)")
+        if _CONV_RE.match(in_name) and parse_channel_name(in_name) != ("force", in_node):
+            raise DataFileError(f"{p}: {where}: input channel name {in_name!r} contradicts the record's "
+                                f"force at reference node {in_node} (mislabelled FRF)")
+        _check_direction(p, s, "rsp_dir", where)
+        _check_direction(p, s, "ref_dir", where)
+        _check_unit_label(p, s, response, where)
+        absc = int(s.get("abscissa_spec_data_type", _FREQ) or 0)
+        if absc not in (0, _FREQ):
+            raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not frequency ({_FREQ})")
+        f = np.asarray(s.get("x", []))
+        h = np.asarray(s.get("data", []))
+        if np.iscomplexobj(f):
+            raise DataFileError(f"{p}: {where}: complex frequency axis")
+        f = f.astype(float)
         if h.size != int(s.get("num_pts", h.size)) or f.size != h.size:
             raise DataFileError(f"{p}: FRF {label}: {h.size} values, header announces {s.get('num_pts')}")
-        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))):
-            raise DataFileError(f"{p}: FRF {label}: non-finite values")
+        if h.size == 0:
+            raise DataFileError(f"{p}: {where}: no frequency line")
+        for what, arr in (("frequency", f), ("value", h)):
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:
+                raise DataFileError(f"{p}: FRF {label}: non-finite values ({what} {arr[bad[0]]!r} at line "
+                                    f"{bad[0]}, {bad.size} in all)")
+        if f[0] < 0:
+            raise DataFileError(f"{p}: {where}: negative frequency {f[0]:g} Hz at line 0")
+        steps = np.diff(f)
+        if steps.size and np.any(steps <= 0):
+            k = int(np.flatnonzero(steps <= 0)[0])
+            raise DataFileError(f"{p}: {where}: frequency axis not increasing: line {k + 1} at {f[k + 1]:g} Hz "
+                                f"after {f[k]:g} Hz")
+        key = (out_node, in_node, response)
+        if key in seen:
+            raise DataFileError(f"{p}: {where}: a second {response} FRF from node {in_node} to node {out_node} "
+                                f"(first: {seen[key]})")
+        seen[key] = label
         c = _coherence_for(s, f, sets, cohs)
-        if c is not None and not np.all(np.isfinite(c)):
-            raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values")
+        if c is not None:
+            bad = np.flatnonzero(~np.isfinite(c))
+            if bad.size:
+                raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values ({c[bad[0]]!r} at "
+                                    f"{f[bad[0]]:g} Hz)")
+            bad = np.flatnonzero((c < -1e-9) | (c > 1 + 1e-9))
+            if bad.size:
+                raise DataFileError(f"{p}: coherence of FRF {label}: {c[bad[0]]:g} at {f[bad[0]]:g} Hz is "
+                                    "outside [0, 1]")
         m = _NAVG_RE.match(str(s.get("id3", "")).strip())
         try:
             out.append(FRF(freq_hz=f, h=h.astype(complex), response=response, coherence=c,
@@ -740,13 +792,15 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
     return p
 
 
-def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
+def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = None) -> ModeShapes:
     """Read UFF 55 normal or complex modes (Z component) into :class:`ModeShapes`.
 
     Parameters
     ----------
     path : str or path-like
         UFF file.
+    points : sequence of int, optional
+        Point ids of the structure; a node outside them is refused.
 
     Returns
     -------
@@ -756,7 +810,11 @@ def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
     ------
     DataFileError
         Missing, malformed or truncated file; no dataset 55 of analysis
-        type 2 or 3; records over different nodes; non-finite values.
+        type 2 or 3; records over different nodes; a node that is not a
+        positive integer, repeats, or is not in ``points``; a record without
+        Z values; non-finite or all-zero shapes; a frequency that is not
+        positive and finite; a damping ratio outside [0, 1); a repeated mode
+        number. The message names the file, the record and the value.
     """
     p, sets = _read_uff(path)
     recs = [s for s in sets if s.get("type") == 55 and s.get("analysis_type") in (2, 3)]
@@ -765,22 +823,56 @@ def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
     counts = {int(m.group(2)) for s in recs if (m := _RECORD_RE.match(str(s.get("id5", "")).strip()))}
     if counts and counts != {len(recs)}:
         raise DataFileError(f"{p}: truncated UFF: {len(recs)} mode record(s), ID lines announce {counts}")
-    nodes = np.asarray(recs[0]["node_nums"], dtype=int)
-    freqs, zetas, cols = [], [], []
-    for s in recs:
-        nn = np.asarray(s["node_nums"], dtype=int)
+    if "node_nums" not in recs[0]:
+        raise DataFileError(f"{p}: mode record 1 has no node numbers")
+    nodes = np.asarray(recs[0]["node_nums"], dtype=float)
+    if nodes.size == 0:
+        raise DataFileError(f"{p}: mode record 1 has no node")
+    badn = np.flatnonzero(~np.isfinite(nodes) | (nodes < 1) | (nodes != np.round(nodes)))
+    if badn.size:
+        raise DataFileError(f"{p}: mode record 1: node {nodes[badn[0]]!r} is not a point id (positive integers)")
+    nodes = nodes.astype(int)
+    dup = sorted({n for n in nodes.tolist() if nodes.tolist().count(n) > 1})
+    if dup:
+        raise DataFileError(f"{p}: mode record 1: node {dup[0]} appears more than once")
+    if points is not None:
+        unknown = [n for n in nodes.tolist() if n not in set(points)]
+        if unknown:
+            raise DataFileError(f"{p}: node {unknown[0]} is not a point of the structure "
+                                f"(points: {sorted(points)})")
+    freqs, zetas, cols, numbers = [], [], [], []
+    for i, s in enumerate(recs, start=1):
+        mode_n = s.get("mode_n", i)
+        where = f"mode record {i} (mode {mode_n})"
+        nn = np.asarray(s.get("node_nums", []), dtype=float)
         if not np.array_equal(nn, nodes):
-            raise DataFileError(f"{p}: mode {s.get('mode_n')} is given at different nodes than mode 1")
+            raise DataFileError(f"{p}: mode {mode_n} is given at different nodes than mode 1")
+        if int(s.get("data_ch", 2) or 2) not in (2, 3) or "r3" not in s:
+            raise DataFileError(f"{p}: {where}: data characteristic {s.get('data_ch')!r} holds no Z value "
+                                "(3 DOF translation, data_ch = 2, expected)")
         z = np.asarray(s["r3"])
         if z.size != nodes.size:
-            raise DataFileError(f"{p}: mode {s.get('mode_n')}: {z.size} values for {nodes.size} nodes")
+            raise DataFileError(f"{p}: mode {mode_n}: {z.size} values for {nodes.size} nodes")
+        bad = np.flatnonzero(~np.isfinite(z))
+        if bad.size:
+            raise DataFileError(f"{p}: {where}: non-finite shape value {z[bad[0]]!r} at node {nodes[bad[0]]}")
+        if not np.any(z != 0):
+            raise DataFileError(f"{p}: {where}: the shape is zero at every node")
         if s["analysis_type"] == 2:
-            freqs.append(float(s["freq"]))
-            zetas.append(float(s.get("modal_damp_vis", 0.0)))
+            fr, zeta = float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0))
         else:
-            lam = complex(s["eig"])
-            freqs.append(abs(lam) / (2 * np.pi))
-            zetas.append(-lam.real / abs(lam) if lam != 0 else 0.0)
+            lam = complex(s.get("eig", np.nan))
+            fr = abs(lam) / (2 * np.pi)
+            zeta = -lam.real / abs(lam) if lam != 0 and np.isfinite(abs(lam)) else 0.0
+        if not (math.isfinite(fr) and fr > 0):
+            raise DataFileError(f"{p}: {where}: natural frequency {fr!r} Hz is not a positive finite number")
+        if not (math.isfinite(zeta) and 0.0 <= zeta < 1.0):
+            raise DataFileError(f"{p}: {where}: damping ratio {zeta!r} is outside [0, 1)")
+        if mode_n in numbers:
+            raise DataFileError(f"{p}: {where}: mode number {mode_n} repeats")
+        numbers.append(mode_n)
+        freqs.append(fr)
+        zetas.append(zeta)
         cols.append(z)
     desc = _label(recs[0], "")
     try:
