@@ -238,6 +238,9 @@ def check_plant_values(model: mujoco.MjModel, *, source: str) -> None:
             i = int(rows[0])
             if objtype is None:
                 label = f"{attr}[{i}]"
+            elif objtype == mujoco.mjtObj.mjOBJ_DOF:  # DOFs are named by their joint
+                j = int(model.dof_jntid[i])
+                label = f"joint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f'#{j}'!r}"
             else:
                 label = f"{objtype.name[6:].lower()} {mujoco.mj_id2name(model, objtype, i) or f'#{i}'!r}"
             raise ModelError(f"{source}: {label}: {what} {np.ravel(arr[i]).tolist()} is not finite")
