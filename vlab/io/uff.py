@@ -374,7 +374,7 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
             raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
         bad = np.flatnonzero(~np.isfinite(data))
         if bad.size:
-            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({data[bad[0]]!r}; "
+            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({float(data[bad[0]])}; "
                                 f"{bad.size} in all, record {i})")
         data = data.astype(float)
         dt = _time_step(p, name, s)
@@ -633,7 +633,7 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
         for what, arr in (("frequency", f), ("value", h)):
             bad = np.flatnonzero(~np.isfinite(arr))
             if bad.size:
-                raise DataFileError(f"{p}: FRF {label}: non-finite values ({what} {arr[bad[0]]!r} at line "
+                raise DataFileError(f"{p}: FRF {label}: non-finite values ({what} {complex(arr[bad[0]]) if np.iscomplexobj(arr) else float(arr[bad[0]])} at line "
                                     f"{bad[0]}, {bad.size} in all)")
         if f[0] < 0:
             raise DataFileError(f"{p}: {where}: negative frequency {f[0]:g} Hz at line 0")
@@ -651,7 +651,7 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
         if c is not None:
             bad = np.flatnonzero(~np.isfinite(c))
             if bad.size:
-                raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values ({c[bad[0]]!r} at "
+                raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values ({float(c[bad[0]])} at "
                                     f"{f[bad[0]]:g} Hz)")
             bad = np.flatnonzero((c < -1e-9) | (c > 1 + 1e-9))
             if bad.size:
@@ -830,7 +830,7 @@ def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = 
         raise DataFileError(f"{p}: mode record 1 has no node")
     badn = np.flatnonzero(~np.isfinite(nodes) | (nodes < 1) | (nodes != np.round(nodes)))
     if badn.size:
-        raise DataFileError(f"{p}: mode record 1: node {nodes[badn[0]]!r} is not a point id (positive integers)")
+        raise DataFileError(f"{p}: mode record 1: node {float(nodes[badn[0]]):g} is not a point id (positive integers)")
     nodes = nodes.astype(int)
     dup = sorted({n for n in nodes.tolist() if nodes.tolist().count(n) > 1})
     if dup:
@@ -855,7 +855,7 @@ def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = 
             raise DataFileError(f"{p}: mode {mode_n}: {z.size} values for {nodes.size} nodes")
         bad = np.flatnonzero(~np.isfinite(z))
         if bad.size:
-            raise DataFileError(f"{p}: {where}: non-finite shape value {z[bad[0]]!r} at node {nodes[bad[0]]}")
+            raise DataFileError(f"{p}: {where}: non-finite shape value {z[bad[0]]} at node {nodes[bad[0]]}")
         if not np.any(z != 0):
             raise DataFileError(f"{p}: {where}: the shape is zero at every node")
         if s["analysis_type"] == 2:
