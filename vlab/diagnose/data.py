@@ -159,8 +159,10 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
     """Raise MeasurementError for NaN, dead (constant) or clipped samples of one channel.
 
     Clipping: more than :data:`CLIP_RUN` consecutive samples exactly at the
-    channel's maximum or minimum (a saturated amplifier or ADC holds its
-    limit; a smooth signal sampled at 2 kHz does not repeat its extreme).
+    channel's maximum or minimum, or more than 2 % of them there
+    (:func:`vlab.lab.recording.find_clipping`: a saturated amplifier or ADC
+    holds its limit; a smooth signal sampled at 2 kHz does not repeat its
+    extreme).
 
     Raises
     ------
@@ -174,10 +176,10 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
         raise MeasurementError(f"{path}: channel {name}: constant signal (dead sensor or disconnected channel)")
     clip = find_clipping(x, CLIP_RUN + 1)
     if clip is not None:
-        run, start, word, ext = clip
+        run, start, word, ext, count = clip
         raise MeasurementError(
-            f"{path}: channel {name}: clipped: {run} consecutive samples at its {word} "
-            f"{ext:.6g} from index {start} (saturated amplifier or ADC range)")
+            f"{path}: channel {name}: clipped: {count} samples at its {word} {ext:.6g}, {run} consecutive "
+            f"from index {start} (saturated amplifier or ADC range)")
 
 
 def _check_points(path: str, spec: StructureSpec, fe: FEModel, items: list[tuple[str, int]]) -> None:

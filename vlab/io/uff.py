@@ -49,7 +49,7 @@ import numpy as np
 import pyuff
 
 from ..errors import DataFileError, MeasurementError
-from ..lab.recording import (CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
+from ..lab.recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
                              parse_channel_name)
 from ..measure.frf import FRF
 
@@ -71,8 +71,8 @@ _UNIT_LABELS = {"displacement": {"m"}, "velocity": {"m/s"}, "acceleration": {"m/
                 "force": {"n"}}
 #: UFF direction codes of a translation (1..3 = X, Y, Z; negative = opposite sense).
 _TRANSLATIONS = (-3, -2, -1, 1, 2, 3)
-#: Fewest samples a time-response record needs (a sampling interval is defined by two).
-MIN_SAMPLES = 2
+#: Fewest samples a time-response record needs (an FFT of fewer has no line between DC and Nyquist).
+MIN_SAMPLES = 4
 
 
 # --------------------------------------------------------------------------- files
@@ -288,8 +288,10 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
 
     * non-finite samples (count and first index);
     * clipping: more than :data:`vlab.lab.recording.CLIP_RUN` (3) consecutive
-      samples exactly at the channel's maximum or minimum (a flat top);
-    * mis-sampling: fewer than :data:`MIN_SAMPLES` (2) samples, uneven
+      samples exactly at the channel's maximum or minimum, or more than
+      :data:`vlab.lab.recording.CLIP_FRACTION` (2 %) of its samples there (a
+      flat top; :func:`vlab.lab.recording.find_clipping`);
+    * mis-sampling: fewer than :data:`MIN_SAMPLES` (4) samples, uneven
       abscissa, a non-positive or non-finite step, channels at different
       steps, a step that disagrees with the ``period_s`` of the sidecar
       metadata (the controller period, when the sidecar states it);
@@ -403,11 +405,11 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
         if not allow_clipped:
             clip = find_clipping(data)
             if clip is not None:
-                run, start, word, value = clip
+                run, start, word, value, count = clip
                 raise MeasurementError(
-                    f"{p}: {where}: clipped: {run} consecutive samples at its {word} {value:.6g} "
-                    f"{_UNITS[quantity]} from index {start} (more than {CLIP_RUN} equal extreme samples: "
-                    "saturated amplifier or ADC range)")
+                    f"{p}: {where}: clipped: {count} samples at its {word} {value:.6g} {_UNITS[quantity]}, "
+                    f"{run} in a row from index {start} (a flat top: more than {CLIP_RUN} in a row or "
+                    f"{100 * CLIP_FRACTION:g} % of the samples; saturated amplifier or ADC range)")
         try:
             channels.append(Channel(name=name, point_id=node, quantity=quantity, samples=data,
                                     direction=direction))

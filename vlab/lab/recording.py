@@ -69,11 +69,21 @@ MAX_PLAUSIBLE_RMS: Mapping[str, float] = MappingProxyType({
 })
 
 
-def find_clipping(x: Any, min_run: int = CLIP_RUN + 1) -> tuple[int, int, str, float] | None:
-    """The longest run of consecutive samples exactly at the signal's maximum or minimum, if it is a flat top.
+#: Fraction of a channel's samples exactly at its maximum (or minimum) beyond which it is
+#: clipped even without a long run: a clipped noise-like signal touches its limit often,
+#: in short runs. A continuous-valued signal has a single sample at its extreme; a 12-bit
+#: quantised sine holds its extreme code for about 1 % of its samples.
+CLIP_FRACTION = 0.02
 
-    A channel clipped by a saturated amplifier or ADC holds its limit for
-    several samples in a row; a constant signal (``max == min``) is not
+
+def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
+                  fraction: float = CLIP_FRACTION) -> tuple[int, int, str, float, int] | None:
+    """Where a signal is clipped: a flat top at its maximum or minimum.
+
+    A channel clipped by a saturated amplifier or ADC holds its limit: either
+    ``min_run`` or more consecutive samples exactly at the channel's maximum
+    (or minimum), or more than ``fraction`` of all samples (and at least
+    ``min_run``) exactly at it. A constant signal (``max == min``) is not
     reported here (it is a dead channel, not a clipped one).
 
     Parameters
@@ -82,25 +92,31 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1) -> tuple[int, int, str, f
         Finite samples.
     min_run : int
         Shortest run reported (default :data:`CLIP_RUN` + 1 = 4 samples).
+    fraction : float
+        Share of samples at one extreme that is clipping whatever the runs
+        (default :data:`CLIP_FRACTION` = 2 %).
 
     Returns
     -------
-    (run_length, start_index, "maximum" or "minimum", value) or None
-        The longest run at an extreme when it has at least ``min_run``
-        samples, else None.
+    (longest_run, run_start_index, "maximum" or "minimum", value, count) or None
+        The clipped extreme, its longest run of equal samples and where it
+        starts, and how many samples sit at it; None if not clipped.
 
     Raises
     ------
     MeasurementError
-        If ``min_run`` is smaller than 2.
+        If ``min_run`` is smaller than 2 or ``fraction`` is not in (0, 1].
 
     Notes
     -----
-    Threshold: :data:`CLIP_RUN` (3) equal extreme samples are accepted, 4 or
-    more are clipping (DESIGN.md conventions; Sec. 5.3 for the sampling).
+    Thresholds: :data:`CLIP_RUN` (3) equal extreme samples in a row are
+    accepted, 4 or more are clipping; so are more than :data:`CLIP_FRACTION`
+    of the samples at one extreme (Sec. 5.3 for the PC-1000's sampling).
     """
     if min_run < 2:
         raise MeasurementError(f"find_clipping: min_run must be >= 2, got {min_run}")
+    if not 0.0 < fraction <= 1.0:
+        raise MeasurementError(f"find_clipping: fraction must be in (0, 1], got {fraction}")
     arr = np.asarray(x, dtype=float).reshape(-1)
     if arr.size < min_run or not np.all(np.isfinite(arr)):
         return None
@@ -110,15 +126,17 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1) -> tuple[int, int, str, f
     best = None
     for ext, word in ((hi, "maximum"), (lo, "minimum")):
         at = arr == ext
-        if int(at.sum()) < min_run:
+        count = int(at.sum())
+        if count < min_run:
             continue
         d = np.diff(np.concatenate(([0], at.astype(np.int8), [0])))
         starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
         runs = ends - starts
         k = int(np.argmax(runs))
-        if runs[k] >= min_run and (best is None or runs[k] > best[0]):
-            best = (int(runs[k]), int(starts[k]), word, ext)
+        if (runs[k] >= min_run or count > fraction * arr.size) and (best is None or count > best[4]):
+            best = (int(runs[k]), int(starts[k]), word, ext, count)
     return best
+
 
 _PREFIX_QUANTITY = {p: q for q, p in QUANTITY_PREFIXES.items()}
 

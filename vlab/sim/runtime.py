@@ -208,7 +208,7 @@ def check_plant_values(model: mujoco.MjModel, *, source: str) -> None:
     most :data:`MAX_BODY_MASS_KG` = 1000 kg), and body inertias and positions,
     joint stiffnesses, positions, axes and spring references, DOF damping and
     armature, actuator gears and gains, tendon stiffnesses, damping and
-    spring lengths, site positions (finite).
+    spring lengths, site positions and custom numeric data (finite).
 
     Parameters
     ----------
@@ -244,6 +244,14 @@ def check_plant_values(model: mujoco.MjModel, *, source: str) -> None:
             else:
                 label = f"{objtype.name[6:].lower()} {mujoco.mj_id2name(model, objtype, i) or f'#{i}'!r}"
             raise ModelError(f"{source}: {label}: {what} {np.ravel(arr[i]).tolist()} is not finite")
+    for i in range(model.nnumeric):  # custom data (vlab's modal damping matrices)
+        adr, size = int(model.numeric_adr[i]), int(model.numeric_size[i])
+        vals = np.asarray(model.numeric_data[adr:adr + size], dtype=float)
+        bad = np.flatnonzero(~np.isfinite(vals))
+        if bad.size:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i) or f"#{i}"
+            raise ModelError(f"{source}: custom numeric {name!r}: value {vals[bad[0]]} at position {bad[0]} "
+                             "is not finite")
     heavy = np.flatnonzero(np.asarray(model.body_mass) > MAX_BODY_MASS_KG)
     if heavy.size:
         i = int(heavy[0])
