@@ -372,12 +372,12 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
         if data.size != int(s.get("num_pts", data.size)):
             raise DataFileError(f"{p}: {where}: {data.size} samples, header announces "
                                 f"{s['num_pts']} (truncated file)")
-        if data.size < MIN_SAMPLES:
-            raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
         bad = np.flatnonzero(~np.isfinite(data))
         if bad.size:
             raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({float(data[bad[0]])}; "
                                 f"{bad.size} in all, record {i})")
+        if data.size < MIN_SAMPLES:
+            raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
         data = data.astype(float)
         dt = _time_step(p, name, s)
         if dt_ref is None:
