@@ -396,7 +396,8 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
                                 f"direction {direction})")
         keys[key] = name
         if not allow_implausible:
-            rms = float(np.sqrt(np.mean(data ** 2)))
+            with np.errstate(over="ignore"):
+                rms = float(np.sqrt(np.mean(data ** 2)))
             if rms > MAX_PLAUSIBLE_RMS[quantity]:
                 raise MeasurementError(
                     f"{p}: {where}: RMS {rms:.4g} {_UNITS[quantity]} is implausible for the lab's hardware "
