@@ -210,3 +210,17 @@ def test_baseline_of_another_test_is_refused():
         refer_to_model(_frf_data(h, var), _frf_data(h, var, outputs=(5, 7), source="base.uff"), h)
     with pytest.raises(DataFileError, match="base.uff.*lines"):
         refer_to_model(_frf_data(h, var), _frf_data(h, var, freq=np.linspace(1, 3, 10), source="base.uff"), h)
+
+
+def test_modal_csv_uncertainty_columns_follow_the_frequency_order(tmp_path):
+    from vlab.diagnose.data import read_modal_csv
+    from vlab.spec import load_spec
+
+    p = tmp_path / "modes.csv"
+    p.write_text("\ufeffmode,frequency_hz,damping_ratio,frequency_sigma_hz,damping_sigma\n"
+                 "2,4.8,0.002,0.02,\n1,1.9,0.004,0.01,0.001\n", encoding="utf-8")  # BOM, unsorted, one blank
+    md = read_modal_csv(p, load_spec("bcc"))
+    assert md.modes.tolist() == [1, 2]
+    np.testing.assert_array_equal(md.freq_sigma_hz, [0.01, 0.02])
+    assert md.damping_sigma[0] == 0.001 and np.isnan(md.damping_sigma[1])
+    assert not md.notes                                   # the sigma columns are used, not ignored

@@ -115,8 +115,8 @@ def test_malformed_missing_and_empty_files(tmp_path):
 def test_nan_sample_names_file_and_channel(tmp_path):
     # pyuff replaces NaN by 0 when writing, so patch a sentinel in the binary data instead
     sentinel = 12345.678
-    path = _write_raw(tmp_path / "nan.uff", [_raw58(4, [0.0, 1.0, 2.0], code=13, binary=1),
-                                            _raw58(1, [0.0, sentinel, 2.0], name="vel1", binary=1)])
+    path = _write_raw(tmp_path / "nan.uff", [_raw58(4, [0.0, 1.0, 2.0, 3.0], code=13, binary=1),
+                                            _raw58(1, [0.0, sentinel, 2.0, 3.0], name="vel1", binary=1)])
     raw = path.read_bytes()
     packed = struct.pack("<d", sentinel)
     assert raw.count(packed) == 1

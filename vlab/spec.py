@@ -46,6 +46,35 @@ _KIND_UNITS = {
     "ratio": {"1"},
 }
 
+#: Plausible range [SI] of each kind of value in a structure definition. The lab's
+#: structures (Sec. 2: metre-sized steel and aluminium frames, cables and coils) lie
+#: well inside; the bounds are wide enough for validation models (strings of density
+#: 1 kg/m^3, EI 1e-7 N m^2) and catch the slips of units or exponents that make a
+#: model meaningless (EI x 1e30 gives modes at 0 Hz and 3e15 Hz). Lengths 1 um .. 1 km;
+#: moduli 1 kPa .. 10 TPa (diamond: 1.2 TPa); densities 1e-3 .. 1e5 kg/m^3 (osmium:
+#: 22 600); masses 1 ug .. 1000 t; rigidities 1e-15 .. 1e10 N m^2 (BCC beam: 26,
+#: grid top beam: 8.4e3); springs 1e-9 .. 1e12 N/m or N m/rad; tensions and shear
+#: stiffnesses 1 uN .. 100 MN (kGA up to 1e12 N); inertias 1e-15 .. 1e6 kg m^2.
+PLAUSIBLE_RANGES: dict[str, tuple[float, float, str]] = {
+    "length": (1e-6, 1e3, "m"),
+    "force": (1e-6, 1e8, "N"),
+    "mass": (1e-9, 1e6, "kg"),
+    "stiffness": (1e-9, 1e12, "N/m"),
+    "rot_stiffness": (1e-9, 1e12, "N*m/rad"),
+    "rigidity": (1e-15, 1e10, "N*m^2"),
+    "modulus": (1e3, 1e13, "Pa"),
+    "density": (1e-3, 1e5, "kg/m^3"),
+    "inertia": (1e-15, 1e6, "kg*m^2"),
+    "shear_force": (1e-6, 1e12, "N"),
+    "ratio": (0.0, 1.0, "1"),
+}
+
+#: Most finite elements per member segment (the shipped structures use 1-4).
+MAX_ELEMENTS_PER_SEGMENT = 200
+
+#: Largest coordinate magnitude of a point [m].
+MAX_COORDINATE_M = 1000.0
+
 
 @dataclass(frozen=True)
 class Quantity:
@@ -520,6 +549,11 @@ class _Reader:
             q.fail("value", f"must be positive, got {value!r}")
         if not positive and si < 0.0:
             q.fail("value", f"must not be negative, got {value!r}")
+        lo, hi, si_unit = PLAUSIBLE_RANGES[kind]
+        if not math.isfinite(si) or si > hi or (si < lo and not (si == 0.0 and not positive)):
+            q.fail("value", f"{value!r} {unit} = {si:.4g} {si_unit} is outside the plausible range "
+                            f"[{lo:g}, {hi:g}] {si_unit} of a {kind.replace('_', ' ')} in a laboratory structure "
+                            "(a unit or exponent slip?)")
         return Quantity(si, source)
 
     def done(self) -> None:
@@ -542,11 +576,12 @@ def _section(r: _Reader, name: str) -> Section:
     if tk > bw:
         r.fail("thickness", "thickness larger than width: the out-of-plane axis is the thin one")
     area = bw * tk
+    ei_calc = e.si * bw * tk**3 / 12.0
+    gj_calc = g.si * bw * tk**3 / 3.0 * (1.0 - 0.63 * tk / bw)
     if ei is None:
-        ei = Quantity(e.si * bw * tk**3 / 12.0, f"E*b*t^3/12 ({e.source})")
+        ei = Quantity(ei_calc, f"E*b*t^3/12 ({e.source})")
     if gj is None:
-        j = bw * tk**3 / 3.0 * (1.0 - 0.63 * tk / bw)
-        gj = Quantity(g.si * j, f"G*b*t^3/3*(1-0.63 t/b) ({g.source})")
+        gj = Quantity(gj_calc, f"G*b*t^3/3*(1-0.63 t/b) ({g.source})")
     return Section(
         name=name,
         width=b,
@@ -563,8 +598,10 @@ def _section(r: _Reader, name: str) -> Section:
 
 def _direction(r: _Reader, key: str) -> tuple[float, float]:
     v = r.raw(key, types=(list,))
-    if len(v) != 2 or not all(isinstance(x, (int, float)) for x in v):
+    if len(v) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
         r.fail(key, f"expected [x, y], got {v!r}")
+    if not all(math.isfinite(x) for x in v):
+        r.fail(key, f"expected finite [x, y], got {v!r}")
     n = math.hypot(*v)
     if n == 0:
         if key == "gravity":
@@ -595,9 +632,10 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
     Raises
     ------
     SpecError
-        If the file is missing, is not valid TOML, has a missing, unknown or
-        mistyped field, a non-positive stiffness/mass, or an unknown point id;
-        the message names the file and field.
+        If the file is missing or unreadable, is not UTF-8 (names the byte
+        offset and line), is not valid TOML, has a missing, unknown or
+        mistyped field, a non-positive stiffness/mass, a value outside
+        :data:`PLAUSIBLE_RANGES`, or an unknown point id; the message names the file and field.
     """
     path = Path(name_or_path)
     if path.suffix != ".toml":
@@ -608,7 +646,17 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
     if not path.exists():
         raise SpecError(f"{path}: file not found")
     try:
-        doc = tomllib.loads(path.read_text())
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot be read: {exc.strerror or exc}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise SpecError(f"{path}: not UTF-8 text: byte {raw[exc.start:exc.start + 1]!r} at offset {exc.start} "
+                        f"(line {line}); TOML files must be UTF-8") from None
+    try:
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
     return spec_from_dict(doc, path=path)
@@ -634,8 +682,11 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     ------
     SpecError
         If a field is missing, unknown or mistyped, a unit does not fit its
-        quantity, a value is not positive (or negative where zero is allowed),
-        a point, section or DOF is unknown, a referenced data file is missing,
+        quantity, a value is not positive (or negative where zero is allowed)
+        or outside :data:`PLAUSIBLE_RANGES`, a coordinate is not finite or beyond
+        :data:`MAX_COORDINATE_M`, two consecutive member points coincide,
+        ``elements_per_segment`` exceeds :data:`MAX_ELEMENTS_PER_SEGMENT`, a
+        point, section or DOF is unknown, a referenced data file is missing,
         or member ids repeat; the message names the file and the dotted field.
     """
     file = str(path) if path else "<dict>"
@@ -660,9 +711,14 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         xy = coords.raw(key, types=(list,))
         if not key.isdigit():
             coords.fail(key, "point ids must be positive integers")
-        if len(xy) != 2 or not all(isinstance(x, (int, float)) for x in xy):
+        if len(xy) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in xy):
             coords.fail(key, f"expected [x, y], got {xy!r}")
-        points[int(key)] = (xy[0] * scale, xy[1] * scale)
+        xy_m = (xy[0] * scale, xy[1] * scale)
+        if not all(math.isfinite(x) and abs(x) <= MAX_COORDINATE_M for x in xy_m):
+            coords.fail(key, f"coordinates {xy!r} {unit} must be finite and within {MAX_COORDINATE_M:g} m")
+        if int(key) in points:
+            coords.fail(key, f"point {int(key)} is given twice")
+        points[int(key)] = xy_m
     p.done()
 
     sections = {}
@@ -684,14 +740,17 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         if len(pts) < 2:
             r.fail("points", "a member needs at least two points")
         for pid in pts:
-            if pid not in points:
+            if not isinstance(pid, int) or isinstance(pid, bool) or pid not in points:
                 r.fail("points", f"unknown point id {pid!r}; points are {sorted(points)}")
+        for a, b in zip(pts, pts[1:]):
+            if points[a] == points[b]:
+                r.fail("points", f"points {a} and {b} coincide: a segment of zero length")
         sec = r.str("section")
         if sec not in sections:
             r.fail("section", f"unknown section {sec!r}; sections are {sorted(sections)}")
         n = r.int("elements_per_segment", 1)
-        if n < 1:
-            r.fail("elements_per_segment", f"must be >= 1, got {n}")
+        if not 1 <= n <= MAX_ELEMENTS_PER_SEGMENT:
+            r.fail("elements_per_segment", f"must be between 1 and {MAX_ELEMENTS_PER_SEGMENT}, got {n}")
         inserts = []
         for j, ins in enumerate(r.raw("rigid_inserts", [], types=(list,))):
             ri = _Reader(file, ins, f"{r.path}.rigid_inserts[{j}]")
@@ -781,8 +840,10 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         sens = tuple(ir.raw("sensors", types=(list,)))
         for key, ids in (("actuators", acts), ("sensors", sens)):
             for pid in ids:
-                if pid not in points:
+                if not isinstance(pid, int) or isinstance(pid, bool) or pid not in points:
                     ir.fail(key, f"unknown point id {pid!r}; points are {sorted(points)}")
+            if len(set(ids)) != len(ids):
+                ir.fail(key, f"repeated point ids in {list(ids)}")
         exc = point_of(ir, "excitation")
         if exc not in acts:
             ir.fail("excitation", f"excitation point {exc} must be one of the actuators {list(acts)}")
@@ -794,14 +855,18 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     if dr is not None:
         ratios = dr.raw("modal_ratios", types=(list,))
         for z in ratios:
-            if not isinstance(z, (int, float)) or not 0.0 <= z < 1.0:
+            if not isinstance(z, (int, float)) or isinstance(z, bool) or not 0.0 <= z < 1.0:
                 dr.fail("modal_ratios", f"damping ratios must be in [0, 1), got {z!r}")
         default = dr.raw("default_ratio", types=(int, float))
+        if isinstance(default, bool) or not 0.0 <= default < 1.0:
+            dr.fail("default_ratio", f"a damping ratio must be in [0, 1), got {default!r}")
         damping = Damping(tuple(float(z) for z in ratios), float(default), dr.str("source"))
         dr.done()
 
     reference = dict(top.raw("reference", {}, types=(dict,)))
     for key, fname in reference.items():
+        if not isinstance(fname, str):
+            top.fail(f"reference.{key}", f"expected a file name, got {fname!r}")
         if not (DATA_DIR / fname).exists():
             top.fail(f"reference.{key}", f"data file {fname!r} not found in {DATA_DIR}")
     masters: dict[str, tuple[tuple[int, str], ...]] = {}

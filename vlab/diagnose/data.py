@@ -39,12 +39,13 @@ import scipy.stats
 
 from ..errors import DataFileError, MeasurementError, VlabError
 from ..fe import FEModel
-from ..lab.recording import Recording
+from ..lab.recording import CLIP_RUN, Recording, find_clipping
 from ..measure.frf import h1
 from ..spec import StructureSpec
 
-#: Longest run of identical samples at a channel's extreme that is not taken as clipping.
-CLIP_RUN = 3
+#: Sampling rates of the PC-1000 digital controller, 2 to 2000 samples per second (Sec. 5.3):
+#: a recording at another rate is not a recording of the lab's loop.
+PC1000_RATE_HZ = (2.0, 2000.0)
 #: Lines whose relative noise exceeds this (SNR below ~2) are not used.
 MAX_RELATIVE_NOISE = 0.5
 
@@ -135,6 +136,10 @@ class ModalData:
     notes : list of str
     kind : str
         Always ``"modal"``.
+    freq_sigma_hz : ndarray, shape (n_m,) or None
+        Standard uncertainty of each frequency [Hz] (column ``frequency_sigma_hz``; NaN where blank).
+    damping_sigma : ndarray, shape (n_m,) or None
+        Standard uncertainty of each damping ratio [-] (column ``damping_sigma``; NaN where blank).
     """
 
     source: str
@@ -145,6 +150,8 @@ class ModalData:
     shape_points: tuple[int, ...] = ()
     notes: list = field(default_factory=list)
     kind: str = "modal"
+    freq_sigma_hz: np.ndarray | None = None
+    damping_sigma: np.ndarray | None = None
 
 
 # ----------------------------------------------------------------------------- checks
@@ -152,8 +159,10 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
     """Raise MeasurementError for NaN, dead (constant) or clipped samples of one channel.
 
     Clipping: more than :data:`CLIP_RUN` consecutive samples exactly at the
-    channel's maximum or minimum (a saturated amplifier or ADC holds its
-    limit; a smooth signal sampled at 2 kHz does not repeat its extreme).
+    channel's maximum or minimum, or more than 2 % of them there
+    (:func:`vlab.lab.recording.find_clipping`: a saturated amplifier or ADC
+    holds its limit; a smooth signal sampled at 2 kHz does not repeat its
+    extreme).
 
     Raises
     ------
@@ -165,16 +174,12 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
         raise MeasurementError(f"{path}: channel {name}: non-finite sample at index {bad[0]}")
     if x.size == 0 or np.ptp(x) == 0.0:
         raise MeasurementError(f"{path}: channel {name}: constant signal (dead sensor or disconnected channel)")
-    for ext, word in ((x.max(), "maximum"), (x.min(), "minimum")):
-        at = x == ext
-        if at.sum() > CLIP_RUN:
-            d = np.diff(np.concatenate(([0], at.astype(np.int8), [0])))
-            runs = np.flatnonzero(d == -1) - np.flatnonzero(d == 1)
-            if runs.max() > CLIP_RUN:
-                start = int(np.flatnonzero(d == 1)[np.argmax(runs)])
-                raise MeasurementError(
-                    f"{path}: channel {name}: clipped: {int(runs.max())} consecutive samples at its {word} "
-                    f"{ext:.6g} from index {start} (saturated amplifier or ADC range)")
+    clip = find_clipping(x, CLIP_RUN + 1)
+    if clip is not None:
+        run, start, word, ext, count = clip
+        raise MeasurementError(
+            f"{path}: channel {name}: clipped: {count} samples at its {word} {ext:.6g}, {run} consecutive "
+            f"from index {start} (saturated amplifier or ADC range)")
 
 
 def _check_points(path: str, spec: StructureSpec, fe: FEModel, items: list[tuple[str, int]]) -> None:
@@ -254,12 +259,19 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
     Raises
     ------
     DataFileError
-        No or several force channels, a channel at an unknown or fixed point,
-        the force not at an actuator, channels other than force/velocity.
+        A sampling rate outside the PC-1000's 2-2000 samples/s
+        (:data:`PC1000_RATE_HZ`, Sec. 5.3), no or several force channels, a
+        channel at an unknown or fixed point, the force not at an actuator,
+        channels other than force/velocity.
     MeasurementError
         NaN, dead or clipped channel; record shorter than two periods
         (periodic excitation) or one block (other excitation).
     """
+    rate = 1.0 / rec.dt_s
+    if not PC1000_RATE_HZ[0] * (1 - 1e-9) <= rate <= PC1000_RATE_HZ[1] * (1 + 1e-9):
+        raise DataFileError(f"{path}: sampled at {rate:.6g} samples/s (dt {rec.dt_s!r} s); the lab's PC-1000 "
+                            f"samples at {PC1000_RATE_HZ[0]:g} to {PC1000_RATE_HZ[1]:g} samples/s (Sec. 5.3): "
+                            "a mis-sampled recording")
     forces = [c for c in rec.channels if c.quantity == "force"]
     if len(forces) != 1:
         raise DataFileError(f"{path}: expected exactly one force channel (the excitation), found "
@@ -433,6 +445,9 @@ def frfs_from_uff(frfs: list, spec: StructureSpec, fe: FEModel, *, path: str,
 # ----------------------------------------------------------------------------- modal CSV
 _FREQ = ("frequency_hz", "experimental_hz", "freq_hz", "frequency")
 _DAMP = ("damping_ratio", "damping_experimental", "zeta", "damping")
+#: Highest natural frequency a measured modal table may hold [Hz]: the Nyquist
+#: frequency of the PC-1000 at its fastest rate, 2000 samples/s (Sec. 5.3).
+MAX_MODAL_FREQUENCY_HZ = 1000.0
 
 
 def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
@@ -441,8 +456,11 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
     Columns: ``mode`` (positive integers), a frequency column
     (``frequency_hz`` or ``experimental_hz``) [Hz], optional damping
     (``damping_ratio`` or ``damping_experimental``), optional shape columns
-    ``shape_<point id>`` (or ``phi_<point id>``). Lines starting with ``#``
-    are comments; other columns are ignored (and listed in the notes).
+    ``shape_<point id>`` (or ``phi_<point id>``), optional standard
+    uncertainties ``frequency_sigma_hz`` [Hz] and ``damping_sigma`` [-]
+    (non-negative; blank = not given). Lines starting with ``#`` are
+    comments; other columns are ignored (and listed in the notes). The file
+    may start with a UTF-8 byte-order mark.
 
     Parameters
     ----------
@@ -459,23 +477,45 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
     Raises
     ------
     DataFileError
-        Missing file or column, a row with the wrong number of fields, a
-        non-numeric or non-positive frequency, a damping ratio outside
-        [0, 1), repeated mode numbers, a shape column for a point the
-        structure does not have. The message names the file, row and column.
+        Missing file or column, a file that is not UTF-8, a repeated or empty
+        column name, a row with the wrong number of fields, a non-numeric or
+        non-finite value, a non-positive frequency or one above
+        :data:`MAX_MODAL_FREQUENCY_HZ` (1000 Hz), a damping ratio outside
+        [0, 1), a negative uncertainty, repeated mode numbers or
+        frequencies, a shape column for a point the structure does not have,
+        a shape that is zero at every point. The message names the file,
+        line and column and the value.
     """
     p = Path(path)
     if not p.is_file():
         raise DataFileError(f"{p}: no such file")
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+        raw = p.read_bytes()
+    except OSError as exc:
         raise DataFileError(f"{p}: unreadable: {exc}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise DataFileError(f"{p}: line {line}: not UTF-8 text (byte {raw[exc.start:exc.start + 1]!r} at offset "
+                            f"{exc.start})") from None
+    if "\x00" in text:
+        raise DataFileError(f"{p}: line {text[:text.index(chr(0))].count(chr(10)) + 1}: NUL byte (a binary file?)")
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 2:
         raise DataFileError(f"{p}: no data rows (a header line and at least one mode are needed)")
-    rows = list(csv.reader([ln for _, ln in lines]))
+    try:
+        rows = list(csv.reader([ln for _, ln in lines]))
+    except csv.Error as exc:
+        raise DataFileError(f"{p}: malformed CSV: {exc}") from None
     header = [h.strip() for h in rows[0]]
+    hline = lines[0][0]
+    for i, h in enumerate(header):
+        if not h:
+            raise DataFileError(f"{p}: line {hline}: column {i + 1} has no name (header: {header})")
+        if header.index(h) != i:
+            raise DataFileError(f"{p}: line {hline}: column {h!r} appears twice (columns {header.index(h) + 1} "
+                                f"and {i + 1})")
     col = {h: i for i, h in enumerate(header)}
     if "mode" not in col:
         raise DataFileError(f"{p}: no 'mode' column (columns: {header})")
@@ -495,9 +535,12 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
                     raise DataFileError(f"{p}: column {h!r}: point id {pid} is not a point of {spec.name!r} "
                                         f"(points: {sorted(spec.points)})")
                 shape_cols[pid] = col[h]
-    used = {"mode", fcol, dcol} | {header[i] for i in shape_cols.values()}
+    sigma_cols = {c: col[c] for c in ("frequency_sigma_hz", "damping_sigma") if c in col}
+    if "damping_sigma" in sigma_cols and dcol is None:
+        raise DataFileError(f"{p}: column 'damping_sigma' without a damping column (one of {_DAMP})")
+    used = {"mode", fcol, dcol} | {header[i] for i in shape_cols.values()} | set(sigma_cols)
     ignored = [h for h in header if h not in used]
-    modes, freq, damp, shapes = [], [], [], []
+    modes, freq, damp, shapes, sigmas = [], [], [], [], []
     for (lineno, _), row in zip(lines[1:], rows[1:]):
         if len(row) != len(header):
             raise DataFileError(f"{p}: line {lineno}: {len(row)} fields, the header has {len(header)}")
@@ -520,16 +563,32 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
         fv = num(fcol, col[fcol])
         if fv <= 0:
             raise DataFileError(f"{p}: line {lineno}, column {fcol!r}: frequency must be > 0 Hz, got {fv}")
+        if fv > MAX_MODAL_FREQUENCY_HZ:
+            raise DataFileError(f"{p}: line {lineno}, column {fcol!r}: {fv:g} Hz is above the "
+                                f"{MAX_MODAL_FREQUENCY_HZ:g} Hz Nyquist frequency of the PC-1000 at 2000 samples/s "
+                                "(Sec. 5.3): not a measured mode (a unit slip?)")
         dv = num(dcol, col[dcol], allow_empty=True) if dcol else float("nan")
         if math.isfinite(dv) and not 0.0 <= dv < 1.0:
             raise DataFileError(f"{p}: line {lineno}, column {dcol!r}: damping ratio must be in [0, 1), got {dv}")
+        sig = []
+        for c, idx in sigma_cols.items():
+            sv = num(c, idx, allow_empty=True)
+            if math.isfinite(sv) and sv < 0:
+                raise DataFileError(f"{p}: line {lineno}, column {c!r}: an uncertainty must be >= 0, got {sv}")
+            sig.append(sv)
+        sigmas.append(sig)
         modes.append(int(mv))
         freq.append(fv)
         damp.append(dv)
         shapes.append([num(header[i], i) for i in shape_cols.values()])
     if len(set(modes)) != len(modes):
         raise DataFileError(f"{p}: column 'mode': repeated mode numbers {sorted(m for m in set(modes) if modes.count(m) > 1)}")
+    dupf = sorted({f for f in freq if freq.count(f) > 1})
+    if dupf:
+        raise DataFileError(f"{p}: column {fcol!r}: repeated frequency {dupf[0]:g} Hz (a duplicated row?)")
     order = np.argsort(freq)
+    sig_arr = np.array(sigmas, dtype=float).reshape(len(modes), len(sigma_cols))[order]
+    sig_of = {c: sig_arr[:, j] for j, c in enumerate(sigma_cols)}
     notes = []
     if ignored:
         notes.append(f"columns not used: {ignored}")
@@ -537,7 +596,8 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
     if sh is not None and np.any(np.all(sh == 0, axis=0)):
         raise DataFileError(f"{p}: a mode shape is zero at every point")
     return ModalData(str(p), np.array(modes)[order], np.array(freq)[order], np.array(damp)[order], sh,
-                     tuple(shape_cols), notes)
+                     tuple(shape_cols), notes, freq_sigma_hz=sig_of.get("frequency_sigma_hz"),
+                     damping_sigma=sig_of.get("damping_sigma"))
 
 
 # ----------------------------------------------------------------------------- dispatch

@@ -49,7 +49,8 @@ import numpy as np
 import pyuff
 
 from ..errors import DataFileError, MeasurementError
-from ..lab.recording import Channel, Recording, channel_name
+from ..lab.recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
+                             parse_channel_name)
 from ..measure.frf import FRF
 
 #: UFF specific data type code of each quantity.
@@ -64,6 +65,14 @@ _RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
 _DT_RE = re.compile(r"^dt_s=(\S+)$")
 _NAVG_RE = re.compile(r"^n_averages=(\d+)$")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_CONV_RE = re.compile(r"^(force|disp|vel|acc)\d+$")
+#: Unit labels accepted for each quantity (compared case-insensitively; ``NONE`` or empty = not given).
+_UNIT_LABELS = {"displacement": {"m"}, "velocity": {"m/s"}, "acceleration": {"m/s^2", "m/s2", "m/s**2"},
+                "force": {"n"}}
+#: UFF direction codes of a translation (1..3 = X, Y, Z; negative = opposite sense).
+_TRANSLATIONS = (-3, -2, -1, 1, 2, 3)
+#: Fewest samples a time-response record needs (an FFT of fewer has no line between DC and Nyquist).
+MIN_SAMPLES = 4
 
 
 # --------------------------------------------------------------------------- files
@@ -163,6 +172,42 @@ def _label(dset: dict, fallback: str) -> str:
     return name if name and name.upper() != "NONE" else fallback
 
 
+def _get_int(p: Path, s: dict, key: str, where: str) -> int:
+    """Integer header field ``key`` of a record (``where`` names the record in the error)."""
+    if key not in s:
+        raise DataFileError(f"{p}: {where}: header field {key!r} is missing")
+    try:
+        v = float(s[key])
+    except (TypeError, ValueError):
+        raise DataFileError(f"{p}: {where}: header field {key!r} is not a number: {s[key]!r}") from None
+    if not math.isfinite(v) or v != int(v):
+        raise DataFileError(f"{p}: {where}: header field {key!r} is not an integer: {s[key]!r}")
+    return int(v)
+
+
+def _check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
+    """Refuse an ordinate unit label that contradicts the specific data type (``in/s`` on a velocity)."""
+    lab = str(s.get("ordinate_axis_units_lab", "") or "").strip()
+    if lab and lab.upper() != "NONE" and lab.lower() not in _UNIT_LABELS[quantity]:
+        raise DataFileError(f"{p}: {where}: ordinate unit label {lab!r} does not match its data type "
+                            f"{quantity} (SI {_UNITS[quantity]!r} expected; vlab reads SI only)")
+
+
+def _check_direction(p: Path, s: dict, key: str, where: str) -> int:
+    d = _get_int(p, s, key, where)
+    if d not in _TRANSLATIONS:
+        raise DataFileError(f"{p}: {where}: {key} = {d} is not a translation direction code "
+                            f"(expected one of {list(_TRANSLATIONS)}; 3 = out of plane)")
+    return d
+
+
+def _check_node(p: Path, s: dict, key: str, where: str) -> int:
+    n = _get_int(p, s, key, where)
+    if n < 1:
+        raise DataFileError(f"{p}: {where}: {key} = {n} is not a point id (positive integers)")
+    return n
+
+
 # --------------------------------------------------------------------------- recordings
 def write_recording(path: str | os.PathLike, recording: Recording, *, overwrite: bool = False,
                     binary: bool = True) -> Path:
@@ -227,7 +272,8 @@ def _jsonable(v: Any) -> bool:
         return False
 
 
-def read_recording(path: str | os.PathLike) -> Recording:
+def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
+                   allow_implausible: bool = False) -> Recording:
     """Read UFF 58 time histories (function type 1) into a :class:`Recording`.
 
     Channel names come from ID line 1 when it is a valid identifier (vlab
@@ -236,10 +282,42 @@ def read_recording(path: str | os.PathLike) -> Recording:
     increment. Metadata come from the JSON sidecar if it exists (plus
     ``"source_file"``).
 
+    Every record is checked, and the first problem is reported with the
+    file, the record number (1-based, file order), the channel and the
+    offending value:
+
+    * non-finite samples (count and first index);
+    * clipping: more than :data:`vlab.lab.recording.CLIP_RUN` (3) consecutive
+      samples exactly at the channel's maximum or minimum, or more than
+      :data:`vlab.lab.recording.CLIP_FRACTION` (2 %) of its samples there (a
+      flat top; :func:`vlab.lab.recording.find_clipping`);
+    * mis-sampling: fewer than :data:`MIN_SAMPLES` (4) samples, uneven
+      abscissa, a non-positive or non-finite step, channels at different
+      steps, a step that disagrees with the ``period_s`` of the sidecar
+      metadata (the controller period, when the sidecar states it);
+    * mislabelling: an abscissa that is not time (specific data type 17),
+      an ordinate unit label that contradicts the data type (``in/s`` on a
+      velocity: vlab reads SI only), a direction code that is not a
+      translation (+-1..3), a node that is not a positive point id, a
+      conventional channel name (``vel4``) that contradicts the record's
+      quantity or node, two channels of one quantity at one node and
+      direction;
+    * inconsistency: channels of different lengths, a header sample count
+      that differs from the data;
+    * implausible magnitudes: an RMS above
+      :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS` (velocity 10 m/s,
+      force 1000 N, displacement 0.1 m, acceleration 1e4 m/s^2; derived
+      from the sensors and coils of Sec. 5.3), which is a mis-scaled file.
+
     Parameters
     ----------
     path : str or path-like
         UFF file.
+    allow_clipped : bool
+        Accept channels with a flat top (e.g. to inspect a run whose
+        amplifier saturated on purpose).
+    allow_implausible : bool
+        Accept RMS values beyond :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS`.
 
     Returns
     -------
@@ -249,37 +327,58 @@ def read_recording(path: str | os.PathLike) -> Recording:
     ------
     DataFileError
         Missing, empty, malformed or truncated file; no time-response
-        record; unknown ordinate type; uneven or mismatched sampling
-        intervals; mismatched lengths; NaN/inf samples; duplicate channel
-        names; unreadable sidecar. The message names the file and channel.
+        record; unknown ordinate type; mislabelled, mis-sampled or
+        inconsistent records (above); NaN/inf samples; duplicate channels;
+        unreadable sidecar. The message names the file, record and channel.
+    MeasurementError
+        A clipped channel or an implausible RMS (names file, record, channel
+        and the value).
     """
     p, sets = _read_uff(path)
     recs = [s for s in sets if s.get("type") == 58 and s.get("func_type") == _FUNC_TIME]
     if not recs:
         raise DataFileError(f"{p}: no dataset-58 time-response (function type 1) record")
+    metadata = _read_sidecar(p)
     channels = []
+    keys: dict[tuple[int, str, int], str] = {}
     dt_ref = None
     ref_name = None
-    for s in recs:
-        code = int(s.get("ordinate_spec_data_type", 0))
-        node = int(s["rsp_node"])
+    for i, s in enumerate(recs, start=1):
+        where = f"record {i}"
+        code = _get_int(p, s, "ordinate_spec_data_type", where)
+        node = _check_node(p, s, "rsp_node", where)
         if code not in _CODE_QUANTITY:
-            raise DataFileError(f"{p}: record {_label(s, f'node {node}')!r}: unsupported ordinate "
+            raise DataFileError(f"{p}: record {i} ({_label(s, f'node {node}')!r}): unsupported ordinate "
                                 f"specific data type {code} (known: {sorted(_CODE_QUANTITY)})")
         quantity = _CODE_QUANTITY[code]
         fallback = channel_name(quantity, node)
         name = _label(s, fallback)
         if not _NAME_RE.match(name):
             name = fallback
-        data = np.asarray(s["data"])
+        where = f"record {i}, channel {name}"
+        if _CONV_RE.match(name):
+            q_name, n_name = parse_channel_name(name)
+            if (q_name, n_name) != (quantity, node):
+                raise DataFileError(f"{p}: {where}: the name says {q_name} at point {n_name}, the record holds "
+                                    f"{quantity} (data type {code}) at node {node} (mislabelled channel)")
+        direction = _check_direction(p, s, "rsp_dir", where)
+        _check_unit_label(p, s, quantity, where)
+        absc = int(s.get("abscissa_spec_data_type", _TIME) or 0)
+        if absc not in (0, _TIME):
+            raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not time ({_TIME})")
+        data = np.asarray(s["data"]) if "data" in s else np.zeros(0)
         if np.iscomplexobj(data):
-            raise DataFileError(f"{p}: channel {name}: complex samples in a time response")
+            raise DataFileError(f"{p}: {where}: complex samples in a time response")
         if data.size != int(s.get("num_pts", data.size)):
-            raise DataFileError(f"{p}: channel {name}: {data.size} samples, header announces "
+            raise DataFileError(f"{p}: {where}: {data.size} samples, header announces "
                                 f"{s['num_pts']} (truncated file)")
         bad = np.flatnonzero(~np.isfinite(data))
         if bad.size:
-            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]}")
+            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({float(data[bad[0]])}; "
+                                f"{bad.size} in all, record {i})")
+        if data.size < MIN_SAMPLES:
+            raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
+        data = data.astype(float)
         dt = _time_step(p, name, s)
         if dt_ref is None:
             dt_ref, ref_name = dt, name
@@ -290,10 +389,42 @@ def read_recording(path: str | os.PathLike) -> Recording:
             raise DataFileError(f"{p}: channel {name} has {data.size} samples, channel "
                                 f"{channels[0].name} has {channels[0].samples.size}")
         if any(c.name == name for c in channels):
-            raise DataFileError(f"{p}: duplicate channel {name}")
-        channels.append(Channel(name=name, point_id=node, quantity=quantity,
-                                samples=data.astype(float), direction=int(s.get("rsp_dir", 3))))
-    metadata = _read_sidecar(p)
+            raise DataFileError(f"{p}: duplicate channel {name} (record {i})")
+        key = (node, quantity, direction)
+        if key in keys:
+            raise DataFileError(f"{p}: {where}: duplicates channel {keys[key]} ({quantity} at node {node}, "
+                                f"direction {direction})")
+        keys[key] = name
+        if not allow_implausible:
+            with np.errstate(over="ignore"):
+                rms = float(np.sqrt(np.mean(data ** 2)))
+            if rms > MAX_PLAUSIBLE_RMS[quantity]:
+                raise MeasurementError(
+                    f"{p}: {where}: RMS {rms:.4g} {_UNITS[quantity]} is implausible for the lab's hardware "
+                    f"(limit {MAX_PLAUSIBLE_RMS[quantity]:g} {_UNITS[quantity]}, Sec. 5.3): a mis-scaled file "
+                    "(wrong unit or gain)?")
+        if not allow_clipped:
+            clip = find_clipping(data)
+            if clip is not None:
+                run, start, word, value, count = clip
+                raise MeasurementError(
+                    f"{p}: {where}: clipped: {count} samples at its {word} {value:.6g} {_UNITS[quantity]}, "
+                    f"{run} in a row from index {start} (a flat top: more than {CLIP_RUN} in a row or "
+                    f"{100 * CLIP_FRACTION:g} % of the samples; saturated amplifier or ADC range)")
+        try:
+            channels.append(Channel(name=name, point_id=node, quantity=quantity, samples=data,
+                                    direction=direction))
+        except MeasurementError as exc:
+            raise DataFileError(f"{p}: record {i}: {exc}") from exc
+    period = metadata.get("period_s")
+    if period is not None:
+        if isinstance(period, bool) or not isinstance(period, (int, float)) or not (
+                math.isfinite(period) and period > 0):
+            raise DataFileError(f"{sidecar_path(p)}: field 'period_s': expected a positive number of seconds, "
+                                f"got {period!r}")
+        if not math.isclose(float(period), dt_ref, rel_tol=1e-6):
+            raise DataFileError(f"{p}: channels are sampled every {dt_ref!r} s, the sidecar's controller period "
+                                f"'period_s' is {period!r} s (mis-sampled recording)")
     try:
         return Recording(dt_s=dt_ref, channels=tuple(channels), metadata=metadata)
     except MeasurementError as exc:
@@ -302,10 +433,11 @@ def read_recording(path: str | os.PathLike) -> Recording:
 
 def _time_step(p: Path, name: str, s: dict) -> float:
     m = _DT_RE.match(str(s.get("id4", "")).strip())
-    if int(s.get("abscissa_spacing", 1)) == 1:
+    even = "abscissa_spacing" not in s or _get_int(p, s, "abscissa_spacing", f"channel {name}") == 1
+    if even:
         inc = float(s.get("abscissa_inc", 0.0))
     else:
-        x = np.asarray(s["x"], dtype=float)
+        x = np.asarray(s.get("x", []), dtype=float)
         if x.size < 2:
             raise DataFileError(f"{p}: channel {name}: fewer than two samples")
         d = np.diff(x)
@@ -443,7 +575,11 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
     DataFileError
         Missing, malformed or truncated file; no FRF record; unknown
         response type; a denominator that is not force; non-finite values;
-        a coherence on a different frequency axis (names the FRF).
+        a frequency axis that is negative or not increasing; a coherence
+        outside [0, 1]; a node that is not a point id, a direction that is
+        not a translation, a unit label or channel name that contradicts the
+        record (mislabelled); two FRFs between the same nodes. The message
+        names the file, the FRF record and the value.
     """
     p, sets = _read_uff(path)
     sets = [s for s in sets if s.get("type") == 58]
@@ -451,31 +587,79 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
     if not frf_sets:
         raise DataFileError(f"{p}: no dataset-58 FRF (function type 4) record")
     cohs = [s for s in sets if s.get("func_type") == _FUNC_COH]
+    for c in cohs:  # the node fields the pairing needs
+        for key in ("rsp_node", "ref_node", "rsp_dir", "ref_dir"):
+            _get_int(p, c, key, f"coherence record {_label(c, '?')!r}")
     out = []
-    for s in frf_sets:
-        code = int(s.get("ordinate_spec_data_type", 0))
+    seen: dict[tuple[int, int, str], str] = {}
+    for i, s in enumerate(frf_sets, start=1):
+        where = f"FRF record {i}"
+        out_node = _check_node(p, s, "rsp_node", where)
+        in_node = _check_node(p, s, "ref_node", where)
+        code = _get_int(p, s, "ordinate_spec_data_type", where)
         if code not in (8, 11, 12):
-            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: unsupported response "
+            raise DataFileError(f"{p}: FRF {_label(s, str(out_node))}: unsupported response "
                                 f"specific data type {code} (8, 11 or 12 expected)")
         response = _CODE_QUANTITY[code]
-        den = int(s.get("orddenom_spec_data_type", 0))
+        den = int(s.get("orddenom_spec_data_type", 0) or 0)
         if den not in (0, 9, 13):
-            raise DataFileError(f"{p}: FRF {_label(s, str(s['rsp_node']))}: denominator type {den} is not a force")
-        out_node, in_node = int(s["rsp_node"]), int(s["ref_node"])
+            raise DataFileError(f"{p}: FRF {_label(s, str(out_node))}: denominator type {den} is not a force")
         default = f"{channel_name(response, out_node)}/{channel_name('force', in_node)}"
         label = _label(s, default)
         if label.count("/") != 1:
             label = default
         out_name, in_name = label.split("/")
-        f = np.asarray(s["x"], dtype=float)
-        h = np.asarray(s["data"])
+        where = f"FRF record {i} ({label})"
+        # the output name is the measured channel (an FRF converted to displacement keeps 'vel1'): its
+        # point must match; the input must be a force at the reference node
+        if _CONV_RE.match(out_name) and parse_channel_name(out_name)[1] != out_node:
+            raise DataFileError(f"{p}: {where}: output channel name {out_name!r} contradicts the record's "
+                                f"response node {out_node} (mislabelled FRF)")
+        if _CONV_RE.match(in_name) and parse_channel_name(in_name) != ("force", in_node):
+            raise DataFileError(f"{p}: {where}: input channel name {in_name!r} contradicts the record's "
+                                f"force at reference node {in_node} (mislabelled FRF)")
+        _check_direction(p, s, "rsp_dir", where)
+        _check_direction(p, s, "ref_dir", where)
+        _check_unit_label(p, s, response, where)
+        absc = int(s.get("abscissa_spec_data_type", _FREQ) or 0)
+        if absc not in (0, _FREQ):
+            raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not frequency ({_FREQ})")
+        f = np.asarray(s.get("x", []))
+        h = np.asarray(s.get("data", []))
+        if np.iscomplexobj(f):
+            raise DataFileError(f"{p}: {where}: complex frequency axis")
+        f = f.astype(float)
         if h.size != int(s.get("num_pts", h.size)) or f.size != h.size:
             raise DataFileError(f"{p}: FRF {label}: {h.size} values, header announces {s.get('num_pts')}")
-        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))):
-            raise DataFileError(f"{p}: FRF {label}: non-finite values")
+        if h.size == 0:
+            raise DataFileError(f"{p}: {where}: no frequency line")
+        for what, arr in (("frequency", f), ("value", h)):
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:
+                raise DataFileError(f"{p}: FRF {label}: non-finite values ({what} {complex(arr[bad[0]]) if np.iscomplexobj(arr) else float(arr[bad[0]])} at line "
+                                    f"{bad[0]}, {bad.size} in all)")
+        if f[0] < 0:
+            raise DataFileError(f"{p}: {where}: negative frequency {f[0]:g} Hz at line 0")
+        steps = np.diff(f)
+        if steps.size and np.any(steps <= 0):
+            k = int(np.flatnonzero(steps <= 0)[0])
+            raise DataFileError(f"{p}: {where}: frequency axis not increasing: line {k + 1} at {f[k + 1]:g} Hz "
+                                f"after {f[k]:g} Hz")
+        key = (out_node, in_node, response)
+        if key in seen:
+            raise DataFileError(f"{p}: {where}: a second {response} FRF from node {in_node} to node {out_node} "
+                                f"(first: {seen[key]})")
+        seen[key] = label
         c = _coherence_for(s, f, sets, cohs)
-        if c is not None and not np.all(np.isfinite(c)):
-            raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values")
+        if c is not None:
+            bad = np.flatnonzero(~np.isfinite(c))
+            if bad.size:
+                raise DataFileError(f"{p}: coherence of FRF {label}: non-finite values ({float(c[bad[0]])} at "
+                                    f"{f[bad[0]]:g} Hz)")
+            bad = np.flatnonzero((c < -1e-9) | (c > 1 + 1e-9))
+            if bad.size:
+                raise DataFileError(f"{p}: coherence of FRF {label}: {c[bad[0]]:g} at {f[bad[0]]:g} Hz is "
+                                    "outside [0, 1]")
         m = _NAVG_RE.match(str(s.get("id3", "")).strip())
         try:
             out.append(FRF(freq_hz=f, h=h.astype(complex), response=response, coherence=c,
@@ -611,13 +795,15 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
     return p
 
 
-def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
+def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = None) -> ModeShapes:
     """Read UFF 55 normal or complex modes (Z component) into :class:`ModeShapes`.
 
     Parameters
     ----------
     path : str or path-like
         UFF file.
+    points : sequence of int, optional
+        Point ids of the structure; a node outside them is refused.
 
     Returns
     -------
@@ -627,7 +813,11 @@ def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
     ------
     DataFileError
         Missing, malformed or truncated file; no dataset 55 of analysis
-        type 2 or 3; records over different nodes; non-finite values.
+        type 2 or 3; records over different nodes; a node that is not a
+        positive integer, repeats, or is not in ``points``; a record without
+        Z values; non-finite or all-zero shapes; a frequency that is not
+        positive and finite; a damping ratio outside [0, 1); a repeated mode
+        number. The message names the file, the record and the value.
     """
     p, sets = _read_uff(path)
     recs = [s for s in sets if s.get("type") == 55 and s.get("analysis_type") in (2, 3)]
@@ -636,22 +826,56 @@ def read_mode_shapes(path: str | os.PathLike) -> ModeShapes:
     counts = {int(m.group(2)) for s in recs if (m := _RECORD_RE.match(str(s.get("id5", "")).strip()))}
     if counts and counts != {len(recs)}:
         raise DataFileError(f"{p}: truncated UFF: {len(recs)} mode record(s), ID lines announce {counts}")
-    nodes = np.asarray(recs[0]["node_nums"], dtype=int)
-    freqs, zetas, cols = [], [], []
-    for s in recs:
-        nn = np.asarray(s["node_nums"], dtype=int)
+    if "node_nums" not in recs[0]:
+        raise DataFileError(f"{p}: mode record 1 has no node numbers")
+    nodes = np.asarray(recs[0]["node_nums"], dtype=float)
+    if nodes.size == 0:
+        raise DataFileError(f"{p}: mode record 1 has no node")
+    badn = np.flatnonzero(~np.isfinite(nodes) | (nodes < 1) | (nodes != np.round(nodes)))
+    if badn.size:
+        raise DataFileError(f"{p}: mode record 1: node {float(nodes[badn[0]]):g} is not a point id (positive integers)")
+    nodes = nodes.astype(int)
+    dup = sorted({n for n in nodes.tolist() if nodes.tolist().count(n) > 1})
+    if dup:
+        raise DataFileError(f"{p}: mode record 1: node {dup[0]} appears more than once")
+    if points is not None:
+        unknown = [n for n in nodes.tolist() if n not in set(points)]
+        if unknown:
+            raise DataFileError(f"{p}: node {unknown[0]} is not a point of the structure "
+                                f"(points: {sorted(points)})")
+    freqs, zetas, cols, numbers = [], [], [], []
+    for i, s in enumerate(recs, start=1):
+        mode_n = s.get("mode_n", i)
+        where = f"mode record {i} (mode {mode_n})"
+        nn = np.asarray(s.get("node_nums", []), dtype=float)
         if not np.array_equal(nn, nodes):
-            raise DataFileError(f"{p}: mode {s.get('mode_n')} is given at different nodes than mode 1")
+            raise DataFileError(f"{p}: mode {mode_n} is given at different nodes than mode 1")
+        if int(s.get("data_ch", 2) or 2) not in (2, 3) or "r3" not in s:
+            raise DataFileError(f"{p}: {where}: data characteristic {s.get('data_ch')!r} holds no Z value "
+                                "(3 DOF translation, data_ch = 2, expected)")
         z = np.asarray(s["r3"])
         if z.size != nodes.size:
-            raise DataFileError(f"{p}: mode {s.get('mode_n')}: {z.size} values for {nodes.size} nodes")
+            raise DataFileError(f"{p}: mode {mode_n}: {z.size} values for {nodes.size} nodes")
+        bad = np.flatnonzero(~np.isfinite(z))
+        if bad.size:
+            raise DataFileError(f"{p}: {where}: non-finite shape value {z[bad[0]]} at node {nodes[bad[0]]}")
+        if not np.any(z != 0):
+            raise DataFileError(f"{p}: {where}: the shape is zero at every node")
         if s["analysis_type"] == 2:
-            freqs.append(float(s["freq"]))
-            zetas.append(float(s.get("modal_damp_vis", 0.0)))
+            fr, zeta = float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0))
         else:
-            lam = complex(s["eig"])
-            freqs.append(abs(lam) / (2 * np.pi))
-            zetas.append(-lam.real / abs(lam) if lam != 0 else 0.0)
+            lam = complex(s.get("eig", np.nan))
+            fr = abs(lam) / (2 * np.pi)
+            zeta = -lam.real / abs(lam) if lam != 0 and np.isfinite(abs(lam)) else 0.0
+        if not (math.isfinite(fr) and fr > 0):
+            raise DataFileError(f"{p}: {where}: natural frequency {fr!r} Hz is not a positive finite number")
+        if not (math.isfinite(zeta) and 0.0 <= zeta < 1.0):
+            raise DataFileError(f"{p}: {where}: damping ratio {zeta!r} is outside [0, 1)")
+        if mode_n in numbers:
+            raise DataFileError(f"{p}: {where}: mode number {mode_n} repeats")
+        numbers.append(mode_n)
+        freqs.append(fr)
+        zetas.append(zeta)
         cols.append(z)
     desc = _label(recs[0], "")
     try:

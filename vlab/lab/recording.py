@@ -45,6 +45,99 @@ QUANTITY_PREFIXES: Mapping[str, str] = MappingProxyType({
 })
 
 _NAME_RE = re.compile(r"^(force|disp|vel|acc)(\d+)$")
+
+#: Longest run of identical samples at a channel's maximum or minimum that is not
+#: taken as clipping (a saturated amplifier or ADC holds its limit; a smooth signal
+#: sampled by the PC-1000 at up to 2000 samples/s, Sec. 5.3, does not repeat its
+#: extreme exactly four times in a row).
+CLIP_RUN = 3
+
+#: Largest plausible RMS of a recorded channel, by quantity, in SI units. Derived
+#: from the hardware of Sec. 5.3 and the structures: the coil velocity sensors are
+#: linear over about 1/4 in (6.4 mm peak to peak), which at the highest modes of
+#: interest (about 20 Hz) is a velocity amplitude of 2 pi 20 Hz x 3.2 mm = 0.4 m/s;
+#: 10 m/s RMS is 25 times beyond it. The voice-coil actuators (loudspeaker-type
+#: coils driven by controlled-current amplifiers) deliver forces of order 1-10 N;
+#: 1000 N RMS is two orders of magnitude beyond. Displacement 0.1 m RMS is
+#: 30 times the sensors' and probes' range (1/8 in); acceleration 1e4 m/s^2 RMS is
+#: 10 m/s at 160 Hz. A channel beyond these is mis-scaled (wrong unit or gain).
+MAX_PLAUSIBLE_RMS: Mapping[str, float] = MappingProxyType({
+    "force": 1.0e3,
+    "displacement": 0.1,
+    "velocity": 10.0,
+    "acceleration": 1.0e4,
+})
+
+
+#: Fraction of a channel's samples exactly at its maximum (or minimum) beyond which it is
+#: clipped even without a long run: a clipped noise-like signal touches its limit often,
+#: in short runs. A continuous-valued signal has a single sample at its extreme; a 12-bit
+#: quantised sine holds its extreme code for about 1 % of its samples.
+CLIP_FRACTION = 0.02
+
+
+def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
+                  fraction: float = CLIP_FRACTION) -> tuple[int, int, str, float, int] | None:
+    """Where a signal is clipped: a flat top at its maximum or minimum.
+
+    A channel clipped by a saturated amplifier or ADC holds its limit: either
+    ``min_run`` or more consecutive samples exactly at the channel's maximum
+    (or minimum), or more than ``fraction`` of all samples (and at least
+    ``min_run``) exactly at it. A constant signal (``max == min``) is not
+    reported here (it is a dead channel, not a clipped one).
+
+    Parameters
+    ----------
+    x : array_like, shape (n_samples,)
+        Finite samples.
+    min_run : int
+        Shortest run reported (default :data:`CLIP_RUN` + 1 = 4 samples).
+    fraction : float
+        Share of samples at one extreme that is clipping whatever the runs
+        (default :data:`CLIP_FRACTION` = 2 %).
+
+    Returns
+    -------
+    (longest_run, run_start_index, "maximum" or "minimum", value, count) or None
+        The clipped extreme, its longest run of equal samples and where it
+        starts, and how many samples sit at it; None if not clipped.
+
+    Raises
+    ------
+    MeasurementError
+        If ``min_run`` is smaller than 2 or ``fraction`` is not in (0, 1].
+
+    Notes
+    -----
+    Thresholds: :data:`CLIP_RUN` (3) equal extreme samples in a row are
+    accepted, 4 or more are clipping; so are more than :data:`CLIP_FRACTION`
+    of the samples at one extreme (Sec. 5.3 for the PC-1000's sampling).
+    """
+    if min_run < 2:
+        raise MeasurementError(f"find_clipping: min_run must be >= 2, got {min_run}")
+    if not 0.0 < fraction <= 1.0:
+        raise MeasurementError(f"find_clipping: fraction must be in (0, 1], got {fraction}")
+    arr = np.asarray(x, dtype=float).reshape(-1)
+    if arr.size < min_run or not np.all(np.isfinite(arr)):
+        return None
+    hi, lo = float(arr.max()), float(arr.min())
+    if hi == lo:
+        return None
+    best = None
+    for ext, word in ((hi, "maximum"), (lo, "minimum")):
+        at = arr == ext
+        count = int(at.sum())
+        if count < min_run:
+            continue
+        d = np.diff(np.concatenate(([0], at.astype(np.int8), [0])))
+        starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+        runs = ends - starts
+        k = int(np.argmax(runs))
+        if (runs[k] >= min_run or count > fraction * arr.size) and (best is None or count > best[4]):
+            best = (int(runs[k]), int(starts[k]), word, ext, count)
+    return best
+
+
 _PREFIX_QUANTITY = {p: q for q, p in QUANTITY_PREFIXES.items()}
 
 

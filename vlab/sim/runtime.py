@@ -170,6 +170,96 @@ def check_plant_contract(model: mujoco.MjModel, *, actuators, sensors, source: s
                          f"sensors vel<ID>): " + "; ".join(problems) + hint)
 
 
+#: Longest physics step an MJCF plant may have [s]: the PC-1000's slowest controller period
+#: (2 samples/s, Sec. 5.3); the loop needs whole physics steps per controller period.
+MAX_TIMESTEP_S = 0.5
+#: Heaviest plausible body of a plant [kg]: the lab structures weigh a few kg to tens of kg
+#: (the grid's end plates, 27 kg, are the heaviest parts); 1000 kg is a unit or exponent slip.
+MAX_BODY_MASS_KG = 1.0e3
+
+# (MjModel attribute, object type, what it is) of the values checked for finiteness
+_FINITE_FIELDS = (
+    ("body_mass", mujoco.mjtObj.mjOBJ_BODY, "mass [kg]"),
+    ("body_inertia", mujoco.mjtObj.mjOBJ_BODY, "inertia [kg*m^2]"),
+    ("body_pos", mujoco.mjtObj.mjOBJ_BODY, "pos [m]"),
+    ("jnt_stiffness", mujoco.mjtObj.mjOBJ_JOINT, "stiffness"),
+    ("jnt_pos", mujoco.mjtObj.mjOBJ_JOINT, "pos [m]"),
+    ("jnt_axis", mujoco.mjtObj.mjOBJ_JOINT, "axis"),
+    ("qpos_spring", None, "springref"),
+    ("dof_damping", mujoco.mjtObj.mjOBJ_DOF, "damping"),
+    ("dof_armature", mujoco.mjtObj.mjOBJ_DOF, "armature"),
+    ("actuator_gear", mujoco.mjtObj.mjOBJ_ACTUATOR, "gear"),
+    ("actuator_gainprm", mujoco.mjtObj.mjOBJ_ACTUATOR, "gainprm"),
+    ("tendon_stiffness", mujoco.mjtObj.mjOBJ_TENDON, "stiffness"),
+    ("tendon_damping", mujoco.mjtObj.mjOBJ_TENDON, "damping"),
+    ("tendon_lengthspring", mujoco.mjtObj.mjOBJ_TENDON, "springlength [m]"),
+    ("site_pos", mujoco.mjtObj.mjOBJ_SITE, "pos [m]"),
+)
+
+
+def check_plant_values(model: mujoco.MjModel, *, source: str) -> None:
+    """Refuse an MJCF plant with non-finite or implausible physical values.
+
+    MuJoCo 4.0 loads an MJCF with ``mass="inf"``, ``timestep="nan"`` or
+    ``gravity="0 nan 0"`` (it only warns about a NaN on stderr); such a plant
+    would run and give NaN or meaningless results. Checked: the physics step
+    (finite, positive, at most :data:`MAX_TIMESTEP_S` = 0.5 s, the PC-1000's
+    slowest period, Sec. 5.3), gravity (finite), every body mass (finite, at
+    most :data:`MAX_BODY_MASS_KG` = 1000 kg), and body inertias and positions,
+    joint stiffnesses, positions, axes and spring references, DOF damping and
+    armature, actuator gears and gains, tendon stiffnesses, damping and
+    spring lengths, site positions and custom numeric data (finite).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The loaded plant.
+    source : str
+        Where it came from (the MJCF file), named in the error.
+
+    Raises
+    ------
+    ModelError
+        Naming ``source``, the element (``body 'J1'``), the attribute and the value.
+    """
+    ts = float(model.opt.timestep)
+    if not (math.isfinite(ts) and 0.0 < ts <= MAX_TIMESTEP_S):
+        raise ModelError(f"{source}: option timestep=\"{ts:g}\" s must be positive, finite and at most "
+                         f"{MAX_TIMESTEP_S:g} s (the PC-1000's slowest controller period, Sec. 5.3)")
+    g = np.asarray(model.opt.gravity, dtype=float)
+    if not np.all(np.isfinite(g)):
+        raise ModelError(f"{source}: option gravity=\"{' '.join(f'{v:g}' for v in g)}\" is not finite")
+    for attr, objtype, what in _FINITE_FIELDS:
+        arr = np.asarray(getattr(model, attr), dtype=float)
+        if arr.size == 0:
+            continue
+        rows = np.flatnonzero(~np.all(np.isfinite(arr.reshape(arr.shape[0], -1)), axis=1))
+        if rows.size:
+            i = int(rows[0])
+            if objtype is None:
+                label = f"{attr}[{i}]"
+            elif objtype == mujoco.mjtObj.mjOBJ_DOF:  # DOFs are named by their joint
+                j = int(model.dof_jntid[i])
+                label = f"joint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f'#{j}'!r}"
+            else:
+                label = f"{objtype.name[6:].lower()} {mujoco.mj_id2name(model, objtype, i) or f'#{i}'!r}"
+            raise ModelError(f"{source}: {label}: {what} {np.ravel(arr[i]).tolist()} is not finite")
+    for i in range(model.nnumeric):  # custom data (vlab's modal damping matrices)
+        adr, size = int(model.numeric_adr[i]), int(model.numeric_size[i])
+        vals = np.asarray(model.numeric_data[adr:adr + size], dtype=float)
+        bad = np.flatnonzero(~np.isfinite(vals))
+        if bad.size:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i) or f"#{i}"
+            raise ModelError(f"{source}: custom numeric {name!r}: value {vals[bad[0]]} at position {bad[0]} "
+                             "is not finite")
+    heavy = np.flatnonzero(np.asarray(model.body_mass) > MAX_BODY_MASS_KG)
+    if heavy.size:
+        i = int(heavy[0])
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or f"#{i}"
+        raise ModelError(f"{source}: body {name!r}: mass {float(model.body_mass[i]):g} kg is beyond "
+                         f"{MAX_BODY_MASS_KG:g} kg, implausible for the lab's structures (a unit slip?)")
+
+
 class MujocoPlant:
     """A running MuJoCo plant.
 
@@ -499,12 +589,14 @@ def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = 
     DataFileError
         If ``mjcf`` cannot be loaded.
     ModelError
-        If the MJCF breaks the naming contract (names the file and each element).
+        If the MJCF breaks the naming contract (names the file and each element)
+        or holds non-finite or implausible values (:func:`check_plant_values`).
     """
     from .export import load_mjcf
 
     if mjcf is not None:
         model = load_mjcf(mjcf)
+        check_plant_values(model, source=str(mjcf))
         ins = spec.instrumentation
         spec_acts = tuple(ins.actuators) if ins is not None else ()
         spec_sens = tuple(ins.sensors) if ins is not None else ()

@@ -1,0 +1,1150 @@
+"""Bad-input corpus of vlab's readers (issue 26, item 5): structure TOML, UFF 58 time
+histories, UFF 58 FRFs, UFF 55 mode shapes, modal CSV and MJCF plants.
+
+Every case writes a good file with vlab's own writer (or copies a shipped one),
+corrupts it programmatically (bytes, values, headers) and names the reader, the
+error class expected and fragments the message must contain (the offending
+field, record, channel or value). ``tests/test_readers_bad_inputs.py`` runs them
+and also checks that the message names the file and that nothing is written.
+
+A case is ``Case(id, kind, make, read, error, fragments)``: ``make(d)`` writes
+the corrupted file in the folder ``d`` and returns its path; ``read(path)`` is
+the reader under test.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import struct
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pyuff
+
+from vlab.errors import DataFileError, MeasurementError, ModelError, SpecError
+
+DT = 0.5e-3
+N = 2000
+ASSETS = Path(__file__).resolve().parents[2] / "assets" / "structures"
+
+
+@dataclass(frozen=True)
+class Case:
+    id: str
+    kind: str
+    make: Callable[[Path], Path]
+    read: Callable[[Path], object]
+    error: type
+    fragments: tuple[str, ...]
+
+
+CASES: list[Case] = []
+
+
+def case(kind, read, error, *fragments):
+    def deco(make):
+        CASES.append(Case(make.__name__, kind, make, read, error, tuple(fragments)))
+        return make
+    return deco
+
+
+# ------------------------------------------------------------------------ shared models
+@lru_cache(maxsize=1)
+def _bcc():
+    from vlab.fe import build_fe_model
+    from vlab.spec import load_spec
+
+    spec = load_spec("bcc")
+    return spec, build_fe_model(spec)
+
+
+# ------------------------------------------------------------------------ readers
+def read_rec(p):
+    from vlab.io.uff import read_recording
+    return read_recording(p)
+
+
+def diagnose_rec(p):
+    from vlab.diagnose.data import frfs_from_recording
+    spec, fe = _bcc()
+    return frfs_from_recording(read_rec(p), spec, fe, path=str(p), resolution_hz=1.0, band_hz=(0.5, 25.0))
+
+
+def read_frf(p):
+    from vlab.io.uff import read_frfs
+    return read_frfs(p)
+
+
+def diagnose_frf(p):
+    from vlab.diagnose.data import frfs_from_uff
+    spec, fe = _bcc()
+    return frfs_from_uff(read_frf(p), spec, fe, path=str(p), band_hz=(0.5, 25.0))
+
+
+def read_modes(p):
+    from vlab.io.uff import read_mode_shapes
+    return read_mode_shapes(p, points=sorted(_bcc()[0].points))
+
+
+def read_csv(p):
+    from vlab.diagnose.data import read_modal_csv
+    return read_modal_csv(p, _bcc()[0])
+
+
+def read_toml(p):
+    from vlab.spec import load_spec
+    return load_spec(p)
+
+
+def read_mjcf(p):
+    from vlab.sim import load_plant_for_experiment
+    return load_plant_for_experiment(_bcc()[0], mjcf=p)
+
+
+# ------------------------------------------------------------------------ good files
+def good_recording():
+    from vlab.lab.recording import Recording
+
+    rng = np.random.default_rng(7)
+    t = np.arange(N) * DT
+    sig = {"force9": 0.5 * rng.standard_normal(N)}
+    for p in (5, 7, 9, 6):
+        sig[f"vel{p}"] = 1e-3 * np.sin(2 * np.pi * 1.3 * t + p) + 1e-5 * rng.standard_normal(N)
+    return Recording.from_signals(DT, sig, metadata={"structure": "bcc", "seed": 1})
+
+
+def write_rec(d, rec=None, name="rec.uff"):
+    from vlab.io.uff import write_recording
+    return write_recording(d / name, good_recording() if rec is None else rec)
+
+
+def good_frfs(points=(5, 7, 6), freq=None):
+    from vlab.measure.frf import FRF
+
+    f = np.arange(1, 126) * 0.2 if freq is None else freq
+    out = []
+    for k, p in enumerate(points):
+        h = 1e-3 * (1 + k) / (1 + 1j * f)
+        coh = np.full(f.size, 0.95)
+        out.append(FRF(freq_hz=f, h=h, response="velocity", coherence=coh, output_name=f"vel{p}",
+                       input_name="force9", output_point=p, input_point=9, n_averages=8))
+    return out
+
+
+def write_frf(d, frfs=None, name="frf.uff"):
+    from vlab.io.uff import write_frfs
+    return write_frfs(d / name, good_frfs() if frfs is None else frfs)
+
+
+def good_modes(points=(1, 3, 5, 7, 9, 6)):
+    from vlab.io.uff import ModeShapes
+
+    rng = np.random.default_rng(3)
+    return ModeShapes(freq_hz=[1.9, 4.8, 7.3], shapes=rng.standard_normal((len(points), 3)),
+                      point_ids=list(points), damping_ratio=[0.004, 0.002, 0.004], description="bcc modes")
+
+
+def write_modes(d, modes=None, name="modes.uff"):
+    from vlab.io.uff import write_mode_shapes
+    return write_mode_shapes(d / name, good_modes() if modes is None else modes)
+
+
+GOOD_CSV = ("# measured modes of the BCC\n"
+            "mode,frequency_hz,damping_ratio,frequency_sigma_hz,damping_sigma,shape_5,shape_7\n"
+            "1,1.9,0.004,0.01,0.001,0.3,0.5\n"
+            "2,4.8,0.002,0.02,0.0005,-0.6,0.2\n"
+            "3,7.3,0.004,0.03,0.001,0.4,-0.7\n")
+
+
+def write_text(d, name, text):
+    p = d / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+@lru_cache(maxsize=1)
+def good_mjcf_text():
+    import tempfile
+
+    from vlab.sim import build_plant, export_mjcf
+    with tempfile.TemporaryDirectory() as tmp:
+        p = export_mjcf(build_plant(_bcc()[0]), Path(tmp) / "bcc.xml")
+        return Path(p).read_text()
+
+
+# ------------------------------------------------------------------------ corruptions
+def rewrite(p, fn):
+    """Read every dataset with pyuff, apply ``fn(sets)``, write them back (records stay binary)."""
+    sets = pyuff.UFF(str(p)).read_sets()
+    sets = [sets] if isinstance(sets, dict) else sets
+    sets = fn(sets) or sets
+    os.remove(p)
+    pyuff.UFF(str(p)).write_sets(sets, mode="add")
+    return p
+
+
+def set_field(p, rec, **fields):
+    def fn(sets):
+        sets[rec].update(fields)
+    return rewrite(p, fn)
+
+
+def poke(p, sets_fn):
+    return rewrite(p, sets_fn)
+
+
+def put_bytes(p, old: float, new: float, count=1):
+    """Replace the binary double ``old`` by ``new`` (pyuff writes NaN as 0: this is the only way in)."""
+    raw = p.read_bytes()
+    a, b = struct.pack("<d", old), struct.pack("<d", new)
+    assert raw.count(a) >= count, "sentinel not found once"
+    p.write_bytes(raw.replace(a, b, count))
+    return p
+
+
+def rec_with(**changes):
+    """The good recording with channel samples replaced (name -> function of the samples)."""
+    from vlab.lab.recording import Recording
+
+    rec = good_recording()
+    sig = {c.name: np.array(c.samples) for c in rec.channels}
+    for name, fn in changes.items():
+        sig[name] = fn(sig[name])
+    return Recording.from_signals(DT, sig, metadata=dict(rec.metadata))
+
+
+def sentinel_recording(d, channel, index, value=0.123456789e-3, name="rec.uff", n_put=1):
+    def fn(x):
+        x = x.copy()
+        x[index:index + n_put] = value + np.arange(n_put) * 1e-9
+        return x
+    return write_rec(d, rec_with(**{channel: fn}), name=name)
+
+
+# ================================================================ UFF 58 time histories
+@case("uff58-time", read_rec, DataFileError, "vel7", "non-finite", "index 123")
+def time_nan_sample(d):
+    return put_bytes(sentinel_recording(d, "vel7", 123), 0.123456789e-3, float("nan"))
+
+
+@case("uff58-time", read_rec, DataFileError, "force9", "non-finite", "index 40", "inf")
+def time_inf_sample(d):
+    return put_bytes(sentinel_recording(d, "force9", 40, value=7.654321), 7.654321, float("inf"))
+
+
+@case("uff58-time", read_rec, DataFileError, "vel5", "non-finite", "100 in all")
+def time_hundred_nans(d):
+    p = sentinel_recording(d, "vel5", 500, n_put=100)
+    raw = p.read_bytes()
+    for k in range(100):
+        raw = raw.replace(struct.pack("<d", 0.123456789e-3 + k * 1e-9), struct.pack("<d", float("nan")), 1)
+    p.write_bytes(raw)
+    return p
+
+
+@case("uff58-time", read_rec, MeasurementError, "vel7", "RMS", "m/s", "implausible")
+def time_velocity_scaled_1e12(d):
+    return write_rec(d, rec_with(vel7=lambda x: x * 1e12))
+
+
+@case("uff58-time", read_rec, MeasurementError, "vel6", "RMS", "implausible")
+def time_velocity_in_wrong_unit(d):
+    return write_rec(d, rec_with(vel6=lambda x: x * 1e5))  # e.g. um/s written as m/s
+
+
+@case("uff58-time", read_rec, MeasurementError, "force9", "RMS", " N ")
+def time_force_scaled_1e6(d):
+    return write_rec(d, rec_with(force9=lambda x: x * 1e6))
+
+
+@case("uff58-time", read_rec, MeasurementError, "vel5", "clipped", "maximum")
+def time_clipped_top(d):
+    return write_rec(d, rec_with(vel5=lambda x: np.minimum(x, 0.8 * x.max())))
+
+
+@case("uff58-time", read_rec, MeasurementError, "force9", "clipped", "minimum")
+def time_clipped_bottom(d):
+    return write_rec(d, rec_with(force9=lambda x: np.maximum(x, 0.5 * x.min())))
+
+
+@case("uff58-time", read_rec, DataFileError, "vel5", "sampled every 0.001")
+def time_channels_at_two_rates(d):
+    return set_field(write_rec(d), 1, x=np.arange(N) * 1e-3, id4="dt_s=0.001")
+
+
+@case("uff58-time", read_rec, DataFileError, "force9", "ID line time step", "0.0005")
+def time_id_line_disagrees_with_header(d):
+    return set_field(write_rec(d), 0, x=np.arange(N) * 2e-3)
+
+
+@case("uff58-time", read_rec, DataFileError, "force9", "not positive")
+def time_zero_step(d):
+    return set_field(write_rec(d), 0, x=np.zeros(N), id4="dt_s=0.0")
+
+
+@case("uff58-time", read_rec, DataFileError, "force9", "not positive", "-0.0005")
+def time_negative_step(d):
+    return set_field(write_rec(d), 0, x=-np.arange(N) * 5e-4, id4="dt_s=-0.0005")
+
+
+@case("uff58-time", read_rec, DataFileError, "vel9", "1500 samples", "2000")
+def time_channels_of_different_lengths(d):
+    def fn(sets):
+        sets[3]["data"] = sets[3]["data"][:1500]
+        sets[3]["x"] = sets[3]["x"][:1500]
+    return poke(write_rec(d), fn)
+
+
+@case("uff58-time", read_rec, DataFileError, "record 1", "3 sample(s)", "at least 4")
+def time_three_samples(d):
+    def fn(sets):
+        for s in sets:
+            s["data"], s["x"] = s["data"][:3], s["x"][:3]
+    return poke(write_rec(d), fn)
+
+
+@case("uff58-time", read_rec, DataFileError, "record 3", "unsupported ordinate specific data type 2")
+def time_unknown_data_type(d):
+    return set_field(write_rec(d), 2, ordinate_spec_data_type=2, id1="NONE")
+
+
+@case("uff58-time", read_rec, DataFileError, "vel6", "'in/s'")
+def time_unit_label_in_per_s(d):
+    return set_field(write_rec(d), 4, ordinate_axis_units_lab="in/s")
+
+
+@case("uff58-time", read_rec, DataFileError, "force9", "'lbf'")
+def time_force_in_lbf(d):
+    return set_field(write_rec(d), 0, ordinate_axis_units_lab="lbf")
+
+
+@case("uff58-time", read_rec, DataFileError, "vel7", "rsp_dir = 7")
+def time_direction_seven(d):
+    return set_field(write_rec(d), 2, rsp_dir=7)
+
+
+@case("uff58-time", read_rec, DataFileError, "vel5", "rsp_dir = 0")
+def time_direction_scalar(d):
+    return set_field(write_rec(d), 1, rsp_dir=0)
+
+
+@case("uff58-time", read_rec, DataFileError, "record 2", "rsp_node = 0")
+def time_node_zero(d):
+    return set_field(write_rec(d), 1, rsp_node=0)
+
+
+@case("uff58-time", read_rec, DataFileError, "record 1", "rsp_node = -9")
+def time_negative_node(d):
+    return set_field(write_rec(d), 0, rsp_node=-9)
+
+
+@case("uff58-time", read_rec, DataFileError, "vel7", "point 7", "node 8", "mislabelled")
+def time_name_says_other_node(d):
+    return set_field(write_rec(d), 2, rsp_node=8)
+
+
+@case("uff58-time", read_rec, DataFileError, "vel7", "force", "mislabelled")
+def time_name_says_other_quantity(d):
+    return set_field(write_rec(d), 2, ordinate_spec_data_type=13)
+
+
+@case("uff58-time", read_rec, DataFileError, "duplicate channel vel5")
+def time_duplicated_record(d):
+    def fn(sets):
+        return sets[:2] + [dict(sets[1])] + sets[2:]
+    p = poke(write_rec(d), fn)
+    return _fix_counts(p)
+
+
+def _fix_counts(p):
+    """Renumber vlab's 'record i of n' ID lines after records were added or removed."""
+    def fn(sets):
+        for i, s in enumerate(sets, start=1):
+            s["id5"] = f"record {i} of {len(sets)}"
+    return rewrite(p, fn)
+
+
+@case("uff58-time", read_rec, DataFileError, "ref5", "duplicates channel vel5")
+def time_same_sensor_twice(d):
+    def fn(sets):
+        extra = dict(sets[1])
+        extra["id1"] = "ref5"
+        return sets + [extra]
+    return _fix_counts(poke(write_rec(d), fn))
+
+
+@case("uff58-time", read_rec, DataFileError, "vel9", "abscissa specific data type 18")
+def time_abscissa_is_frequency(d):
+    return set_field(write_rec(d), 3, abscissa_spec_data_type=18)
+
+
+@case("uff58-time", read_rec, DataFileError, "period_s", "0.001", "mis-sampled")
+def time_sidecar_period_disagrees(d):
+    p = write_rec(d)
+    side = p.with_name(p.name + ".json")
+    meta = json.loads(side.read_text())
+    meta["period_s"] = 1e-3
+    side.write_text(json.dumps(meta))
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "period_s", "'fast'")
+def time_sidecar_period_not_a_number(d):
+    p = write_rec(d)
+    side = p.with_name(p.name + ".json")
+    side.write_text(json.dumps({"structure": "bcc", "period_s": "fast"}))
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "rec.uff.json", "unreadable metadata sidecar")
+def time_sidecar_not_json(d):
+    p = write_rec(d)
+    p.with_name(p.name + ".json").write_text("{structure: bcc")
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "rec.uff.json", "JSON object")
+def time_sidecar_a_list(d):
+    p = write_rec(d)
+    p.with_name(p.name + ".json").write_text("[1, 2]")
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "truncated")
+def time_truncated_half(d):
+    p = write_rec(d)
+    raw = p.read_bytes()
+    p.write_bytes(raw[: len(raw) // 2])
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "truncated UFF", "record")
+def time_truncated_at_record_boundary(d):
+    return poke(write_rec(d), lambda sets: sets[:3])
+
+
+@case("uff58-time", read_rec, DataFileError, "empty file")
+def time_empty_file(d):
+    p = d / "rec.uff"
+    p.write_bytes(b"")
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "malformed UFF")
+def time_garbage(d):
+    p = d / "rec.uff"
+    p.write_bytes(b"    -1\n    58\nthis is not a UFF record\n    -1\n")
+    return p
+
+
+@case("uff58-time", read_rec, DataFileError, "no dataset-58 time-response")
+def time_frf_file_read_as_recording(d):
+    return write_frf(d, name="rec.uff")
+
+
+# -------- what the diagnosis adds (it knows the structure and the lab's controller rate)
+@case("uff58-time", diagnose_rec, DataFileError, "exactly one force channel", "none")
+def time_force_channel_missing(d):
+    return write_rec(d, good_recording().select(["vel5", "vel7", "vel9", "vel6"]))
+
+
+@case("uff58-time", diagnose_rec, DataFileError, "exactly one force channel", "force5")
+def time_two_force_channels(d):
+    from vlab.lab.recording import Recording
+    rec = good_recording()
+    sig = {c.name: np.array(c.samples) for c in rec.channels}
+    sig["force5"] = sig.pop("vel5") * 100
+    return write_rec(d, Recording.from_signals(DT, sig, metadata=dict(rec.metadata)))
+
+
+@case("uff58-time", diagnose_rec, DataFileError, "vel42", "point id 42")
+def time_channel_at_unknown_point(d):
+    from vlab.lab.recording import Recording
+    rec = good_recording()
+    sig = {c.name: np.array(c.samples) for c in rec.channels}
+    sig["vel42"] = sig.pop("vel6")
+    return write_rec(d, Recording.from_signals(DT, sig, metadata=dict(rec.metadata)))
+
+
+@case("uff58-time", diagnose_rec, DataFileError, "4096 samples/s", "PC-1000")
+def time_sampled_faster_than_the_pc1000(d):
+    from vlab.lab.recording import Recording
+    rec = good_recording()
+    return write_rec(d, Recording(1 / 4096, rec.channels, dict(rec.metadata)))
+
+
+@case("uff58-time", diagnose_rec, DataFileError, "acc6", "acceleration")
+def time_acceleration_channel(d):
+    return set_field(write_rec(d), 4, ordinate_spec_data_type=12, id1="acc6", ordinate_axis_units_lab="m/s^2")
+
+
+@case("uff58-time", diagnose_rec, DataFileError, "vel6", "direction 1")
+def time_in_plane_direction(d):
+    return set_field(write_rec(d), 4, rsp_dir=1)
+
+
+@case("uff58-time", diagnose_rec, MeasurementError, "vel9", "constant")
+def time_dead_channel(d):
+    return write_rec(d, rec_with(vel9=lambda x: np.zeros_like(x)))
+
+
+# ====================================================================== UFF 58 FRFs
+@case("uff58-frf", read_frf, DataFileError, "vel7/force9", "non-finite")
+def frf_nan_value(d):
+    from vlab.measure.frf import FRF
+    frfs = good_frfs()
+    h = np.array(frfs[1].h)
+    h[10] = 0.987654321e-3
+    frfs[1] = FRF(freq_hz=frfs[1].freq_hz, h=h, response="velocity", coherence=frfs[1].coherence,
+                  output_name="vel7", input_name="force9", output_point=7, input_point=9, n_averages=8)
+    return put_bytes(write_frf(d, frfs), 0.987654321e-3, float("nan"))
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel5/force9", "not increasing", "line 11")
+def frf_axis_not_increasing(d):
+    def fn(sets):
+        x = np.array(sets[0]["x"])
+        x[10], x[11] = x[11], x[10]
+        sets[0]["x"] = x
+    return poke(write_frf(d), fn)
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel5/force9", "not increasing")
+def frf_repeated_line(d):
+    def fn(sets):
+        x = np.array(sets[0]["x"])
+        x[5] = x[4]
+        sets[0]["x"] = x
+    return poke(write_frf(d), fn)
+
+
+@case("uff58-frf", read_frf, DataFileError, "negative frequency", "-0.2")
+def frf_negative_frequency(d):
+    def fn(sets):
+        x = np.array(sets[0]["x"])
+        x[0] = -0.2
+        sets[0]["x"] = x
+    return poke(write_frf(d), fn)
+
+
+@case("uff58-frf", read_frf, DataFileError, "coherence", "vel7/force9", "1.5", "outside [0, 1]")
+def frf_coherence_above_one(d):
+    def fn(sets):
+        c = np.array(sets[3]["data"])
+        c[7] = 1.5
+        sets[3]["data"] = c
+    return poke(write_frf(d), fn)
+
+
+@case("uff58-frf", read_frf, DataFileError, "denominator type 11", "not a force")
+def frf_denominator_velocity(d):
+    return set_field(write_frf(d), 0, orddenom_spec_data_type=11)
+
+
+@case("uff58-frf", read_frf, DataFileError, "unsupported response", "13")
+def frf_force_over_force(d):
+    return set_field(write_frf(d), 2, ordinate_spec_data_type=13)
+
+
+@case("uff58-frf", read_frf, DataFileError, "FRF record 1", "ref_node = 0")
+def frf_reference_node_zero(d):
+    return set_field(write_frf(d), 0, ref_node=0)
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel6/force9", "rsp_dir = 9")
+def frf_bad_direction(d):
+    return set_field(write_frf(d), 4, rsp_dir=9)
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel5/force9", "ref_dir = -7")
+def frf_bad_reference_direction(d):
+    return set_field(write_frf(d), 0, ref_dir=-7)
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel7/force9", "'g'")
+def frf_unit_label_g(d):
+    return set_field(write_frf(d), 2, ordinate_axis_units_lab="g")
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel5", "node 6", "mislabelled")
+def frf_output_name_other_node(d):
+    return set_field(write_frf(d), 0, rsp_node=6)
+
+
+@case("uff58-frf", read_frf, DataFileError, "force4", "reference node 9", "mislabelled")
+def frf_input_name_other_node(d):
+    return set_field(write_frf(d), 2, id1="vel7/force4")
+
+
+@case("uff58-frf", read_frf, DataFileError, "a second velocity FRF", "node 9 to node 5")
+def frf_duplicated(d):
+    from vlab.measure.frf import FRF
+    f = good_frfs()
+    twin = FRF(freq_hz=f[0].freq_hz, h=f[0].h, response="velocity", output_name="vel5b", input_name="force9",
+               output_point=5, input_point=9)
+    return write_frf(d, f + [twin])
+
+
+@case("uff58-frf", read_frf, DataFileError, "vel6/force9", "not frequency")
+def frf_abscissa_time(d):
+    return set_field(write_frf(d), 4, abscissa_spec_data_type=17)
+
+
+@case("uff58-frf", read_frf, DataFileError, "truncated")
+def frf_truncated(d):
+    p = write_frf(d)
+    raw = p.read_bytes()
+    p.write_bytes(raw[: 2 * len(raw) // 3])
+    return p
+
+
+@case("uff58-frf", read_frf, DataFileError, "no dataset-58 FRF")
+def frf_recording_read_as_frf(d):
+    return write_rec(d, name="frf.uff")
+
+
+@case("uff58-frf", diagnose_frf, DataFileError, "vel7/force9", "frequency axis differs", "vel5/force9")
+def frf_axes_differ(d):
+    f = good_frfs()
+    other = good_frfs(freq=np.arange(1, 126) * 0.25)
+    return write_frf(d, [f[0], other[1], f[2]])
+
+
+@case("uff58-frf", diagnose_frf, DataFileError, "several excitation points", "[7, 9]")
+def frf_two_references(d):
+    from vlab.measure.frf import FRF
+    f = good_frfs()
+    f[1] = FRF(freq_hz=f[1].freq_hz, h=f[1].h, response="velocity", output_name="vel6", input_name="force7",
+               output_point=6, input_point=7)
+    return write_frf(d, f[:2])
+
+
+@case("uff58-frf", diagnose_frf, DataFileError, "vel42", "point id 42")
+def frf_output_at_unknown_point(d):
+    return write_frf(d, good_frfs(points=(5, 42)))
+
+
+# ===================================================================== UFF 55 mode shapes
+@case("uff55", read_modes, DataFileError, "node 42", "not a point of the structure")
+def modes_unknown_node(d):
+    return write_modes(d, good_modes(points=(1, 3, 5, 42)))
+
+
+@case("uff55", read_modes, DataFileError, "mode record 1", "node 0", "not a point id")
+def modes_node_zero(d):
+    def fn(sets):
+        for s in sets:
+            s["node_nums"] = np.array([0, 3, 5, 7, 9, 6])
+    return poke(write_modes(d), fn)
+
+
+@case("uff55", read_modes, DataFileError, "node 5", "more than once")
+def modes_repeated_node(d):
+    def fn(sets):
+        for s in sets:
+            s["node_nums"] = np.array([1, 3, 5, 7, 5, 6])
+    return poke(write_modes(d), fn)
+
+
+@case("uff55", read_modes, DataFileError, "mode record 2", "natural frequency -4.8")
+def modes_negative_frequency(d):
+    return set_field(write_modes(d), 1, freq=-4.8)
+
+
+@case("uff55", read_modes, DataFileError, "mode record 1", "natural frequency 0.0")
+def modes_zero_frequency(d):
+    return set_field(write_modes(d), 0, freq=0.0)
+
+
+@case("uff55", read_modes, DataFileError, "mode record 3", "damping ratio 1.5")
+def modes_damping_above_one(d):
+    return set_field(write_modes(d), 2, modal_damp_vis=1.5)
+
+
+@case("uff55", read_modes, DataFileError, "mode record 2", "non-finite shape value", "node 5")
+def modes_nan_shape(d):
+    def fn(sets):
+        z = np.array(sets[1]["r3"], dtype=float)
+        z[2] = np.nan
+        sets[1]["r3"] = z
+    return poke(write_modes(d), fn)
+
+
+@case("uff55", read_modes, DataFileError, "mode record 1", "zero at every node")
+def modes_zero_shape(d):
+    def fn(sets):
+        sets[0]["r3"] = np.zeros(6)
+    return poke(write_modes(d), fn)
+
+
+@case("uff55", read_modes, DataFileError, "mode number 1 repeats")
+def modes_repeated_number(d):
+    return set_field(write_modes(d), 1, mode_n=1)
+
+
+@case("uff55", read_modes, DataFileError, "mode 2", "different nodes")
+def modes_nodes_differ(d):
+    def fn(sets):
+        sets[1]["node_nums"] = np.array([1, 3, 5, 7, 9, 8])
+    return poke(write_modes(d), fn)
+
+
+@case("uff55", read_modes, DataFileError, "truncated")
+def modes_truncated(d):
+    p = write_modes(d)
+    raw = p.read_bytes()
+    p.write_bytes(raw[: len(raw) // 2])
+    return p
+
+
+@case("uff55", read_modes, DataFileError, "truncated UFF", "mode record")
+def modes_record_missing(d):
+    return poke(write_modes(d), lambda sets: sets[:2])
+
+
+# ============================================================================ modal CSV
+def csv_case(*fragments, error=DataFileError):
+    def deco(fn):
+        def make(d):
+            return write_text(d, "modes.csv", fn(GOOD_CSV))
+        make.__name__ = fn.__name__
+        return case("csv", read_csv, error, *fragments)(make)
+    return deco
+
+
+def sub_line(text, lineno, old, new):
+    lines = text.split("\n")
+    assert old in lines[lineno - 1], (old, lines[lineno - 1])
+    lines[lineno - 1] = lines[lineno - 1].replace(old, new, 1)
+    return "\n".join(lines)
+
+
+@csv_case("line 3", "frequency_hz", "not finite", "nan")
+def csv_nan_frequency(t):
+    return sub_line(t, 3, "1.9", "nan")
+
+
+@csv_case("line 4", "shape_7", "not finite", "inf")
+def csv_inf_shape(t):
+    return sub_line(t, 4, "0.2", "inf")
+
+
+@csv_case("line 5", "frequency_hz", "not a number", "'7,3'")
+def csv_decimal_comma(t):
+    return sub_line(t, 5, "7.3", '"7,3"')
+
+
+@csv_case("line 3", "frequency_hz", "> 0 Hz")
+def csv_zero_frequency(t):
+    return sub_line(t, 3, "1.9", "0")
+
+
+@csv_case("line 4", "frequency_hz", "4800 Hz", "Nyquist")
+def csv_frequency_in_millihertz(t):
+    return sub_line(t, 4, "4.8", "4800")
+
+
+@csv_case("line 5", "damping_ratio", "1.2")
+def csv_damping_above_one(t):
+    return sub_line(t, 5, "0.004", "1.2")
+
+
+@csv_case("line 3", "damping_ratio", "-0.1")
+def csv_negative_damping(t):
+    return sub_line(t, 3, "0.004", "-0.1")
+
+
+@csv_case("line 4", "frequency_sigma_hz", "uncertainty", "-0.02")
+def csv_negative_sigma(t):
+    return sub_line(t, 4, "0.02", "-0.02")
+
+
+@csv_case("line 3", "damping_sigma", "not a number")
+def csv_sigma_text(t):
+    return sub_line(t, 3, "0.001,0.3", "big,0.3")
+
+
+@csv_case("line 2", "'shape_5' appears twice")
+def csv_duplicate_column(t):
+    return sub_line(t, 2, "shape_7", "shape_5")
+
+
+@csv_case("line 2", "column 3 has no name")
+def csv_empty_column_name(t):
+    return sub_line(t, 2, "damping_ratio", "")
+
+
+@csv_case("shape_42", "point id 42")
+def csv_shape_at_unknown_point(t):
+    return sub_line(t, 2, "shape_7", "shape_42")
+
+
+@csv_case("shape_x", "shape_<point id>")
+def csv_shape_column_without_point(t):
+    return sub_line(t, 2, "shape_7", "shape_x")
+
+
+@csv_case("no 'mode' column")
+def csv_mode_column_missing(t):
+    return sub_line(t, 2, "mode,", "number,")
+
+
+@csv_case("no frequency column")
+def csv_frequency_column_missing(t):
+    return sub_line(t, 2, "frequency_hz", "f")
+
+
+@csv_case("repeated mode numbers [2]")
+def csv_repeated_mode(t):
+    return sub_line(t, 5, "3,", "2,")
+
+
+@csv_case("repeated frequency 4.8")
+def csv_duplicated_row(t):
+    return t + "4,4.8,0.002,0.02,0.0005,-0.6,0.2\n"
+
+
+@csv_case("line 4", "8 fields", "7")
+def csv_extra_field(t):
+    return sub_line(t, 4, "0.2", "0.2,9")
+
+
+@csv_case("line 5", "6 fields")
+def csv_missing_field(t):
+    return sub_line(t, 5, ",-0.7", "")
+
+
+@csv_case("line 3", "column 'mode'", "positive integer", "'1.5'")
+def csv_fractional_mode(t):
+    return sub_line(t, 3, "1,1.9", "1.5,1.9")
+
+
+@csv_case("line 3", "column 'mode'", "positive integer", "'0'")
+def csv_mode_zero(t):
+    return sub_line(t, 3, "1,1.9", "0,1.9")
+
+
+@csv_case("zero at every point")
+def csv_zero_shape(t):
+    return sub_line(t, 4, "-0.6,0.2", "0,0")
+
+
+@csv_case("no data rows")
+def csv_header_only(t):
+    return "\n".join(t.split("\n")[:2]) + "\n"
+
+
+@csv_case("damping_sigma", "without a damping column")
+def csv_sigma_without_damping(t):
+    return t.replace("damping_ratio,", "note,")
+
+
+@case("csv", read_csv, DataFileError, "line 1", "not UTF-8", "offset")
+def csv_not_utf8(d):
+    p = d / "modes.csv"
+    p.write_bytes(GOOD_CSV.replace("BCC", "BCC \xe9t\xe9").encode("latin-1"))
+    return p
+
+
+@case("csv", read_csv, DataFileError, "NUL byte")
+def csv_binary(d):
+    p = d / "modes.csv"
+    p.write_bytes(GOOD_CSV.encode() + b"\x00\x01\x02\x03")
+    return p
+
+
+@case("csv", read_csv, DataFileError, "no such file")
+def csv_missing(d):
+    return d / "modes.csv"
+
+
+# ========================================================================= structure TOML
+BCC_TOML = (ASSETS / "bcc.toml").read_text(encoding="utf-8")
+
+
+def toml_case(*fragments, error=SpecError):
+    def deco(fn):
+        def make(d):
+            p = d / "bcc_edit.toml"
+            text = fn(BCC_TOML)
+            if isinstance(text, bytes):
+                p.write_bytes(text)
+            else:
+                assert text != BCC_TOML, "corruption did nothing"
+                p.write_text(text, encoding="utf-8")
+            return p
+        make.__name__ = fn.__name__
+        return case("toml", read_toml, error, *fragments)(make)
+    return deco
+
+
+def sub1(text, old, new):
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+@toml_case("not UTF-8", "line 1", "offset")
+def toml_latin1(t):
+    return t.replace("dissertation", "dissertation \xe9crite", 1).encode("latin-1")
+
+
+@toml_case("not UTF-8", "line 20")
+def toml_bad_byte_midway(t):
+    lines = t.encode().split(b"\n")
+    lines[19] += b" # \xff\xfe"
+    return b"\n".join(lines)
+
+
+@toml_case("sections.steel_beam.ei.value", "plausible range", "9.06e+33")
+def toml_ei_times_1e30(t):
+    return sub1(t, "value = 9060.0", "value = 9060.0e30")
+
+
+@toml_case("sections.steel_beam.ei.value", "plausible range")
+def toml_ei_times_1e_30(t):
+    return sub1(t, "value = 9060.0", "value = 9060.0e-30")
+
+
+@toml_case("sections.steel_beam.modulus.value", "finite", "nan")
+def toml_modulus_nan(t):
+    return sub1(t, "value = 29.0e6", "value = nan")
+
+
+@toml_case("sections.aluminium_crosspiece.density.value", "finite", "inf")
+def toml_density_inf(t):
+    return sub1(t, "value = 0.098", "value = inf")
+
+
+@toml_case("sections.steel_beam.density.value", "plausible range")
+def toml_density_in_wrong_unit(t):
+    return sub1(t, 'value = 0.283, unit = "lbf/in^3"', 'value = 0.283e9, unit = "lbf/in^3"')
+
+
+@toml_case("points.coordinates.5", "finite")
+def toml_coordinate_nan(t):
+    return sub1(t, "5 = [0, 40]", "5 = [0, nan]")
+
+
+@toml_case("points.coordinates.5", "within")
+def toml_coordinate_huge(t):
+    return sub1(t, "5 = [0, 40]", "5 = [0, 4e9]")
+
+
+@toml_case("points.coordinates.5", "expected [x, y]")
+def toml_coordinate_bool(t):
+    return sub1(t, "5 = [0, 40]", "5 = [false, 40]")
+
+
+@toml_case("members[0].points", "points 4 and 5 coincide")
+def toml_coincident_points(t):
+    return sub1(t, "5 = [0, 40]", "5 = [0, 50]")
+
+
+@toml_case("strings[1].tension.value", "positive", "-71.02")
+def toml_negative_tension(t):
+    return sub1(t, "value = 71.02", "value = -71.02")
+
+
+@toml_case("strings[1].tension.value", "plausible range")
+def toml_tension_huge(t):
+    return sub1(t, "value = 71.02", "value = 71.02e12")
+
+
+@toml_case("masses[0].mass.value", "plausible range")
+def toml_mass_huge(t):
+    return sub1(t, "value = 0.1447", "value = 0.1447e12")
+
+
+@toml_case("masses[2].mass.value", "plausible range")
+def toml_mass_tiny(t):
+    return sub1(t, 'id = "coil9"\npoint = 9\nmass = { value = 0.1703', 'id = "coil9"\npoint = 9\nmass = { value = 0.1703e-12')
+
+
+@toml_case("structure.gravity", "finite")
+def toml_gravity_nan(t):
+    return sub1(t, "gravity = [0.0, -1.0]", "gravity = [nan, -1.0]")
+
+
+@toml_case("sections.steel_beam.width.unit", "'furlong'")
+def toml_unknown_unit(t):
+    return sub1(t, 'width = { value = 2.0, unit = "in"', 'width = { value = 2.0, unit = "furlong"')
+
+
+@toml_case("members[0].elements_per_segment", "100000")
+def toml_too_many_elements(t):
+    return sub1(t, "elements_per_segment = 1", "elements_per_segment = 100000")
+
+
+@toml_case("members[0].elements_per_segment", "0")
+def toml_zero_elements(t):
+    return sub1(t, "elements_per_segment = 1", "elements_per_segment = 0")
+
+
+@toml_case("damping.default_ratio", "1.5")
+def toml_default_damping_above_one(t):
+    return sub1(t, "default_ratio = 0.01", "default_ratio = 1.5")
+
+
+@toml_case("damping.modal_ratios", "-0.1")
+def toml_negative_modal_damping(t):
+    return sub1(t, "modal_ratios = [0.004,", "modal_ratios = [-0.1,")
+
+
+@toml_case("instrumentation.actuators", "99")
+def toml_actuator_at_unknown_point(t):
+    return sub1(t, "actuators = [5, 7, 9]", "actuators = [5, 7, 99]")
+
+
+@toml_case("instrumentation.actuators", "repeated", "[5, 5, 9]")
+def toml_repeated_actuator(t):
+    return sub1(t, "actuators = [5, 7, 9]", "actuators = [5, 5, 9]")
+
+
+@toml_case("instrumentation.sensors", "6.0")
+def toml_float_point_id(t):
+    return sub1(t, "sensors = [5, 7, 9, 6]", "sensors = [5, 7, 9, 6.0]")
+
+
+@toml_case("not valid TOML")
+def toml_truncated(t):
+    return t[: t.index("[[masses]]") + 5]
+
+
+@toml_case("masses[0].mass.source", "missing")
+def toml_missing_source(t):
+    return sub1(t, ', source = "calibrated: Table 1 + Table 8 (cable attachment at the beam top)"', "")
+
+
+@toml_case("reference.frequencies", "5")
+def toml_reference_not_a_name(t):
+    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', "frequencies = 5")
+
+
+@toml_case("sections.steel_beam.shear_modulus.value", "positive")
+def toml_zero_shear_modulus(t):
+    return sub1(t, "value = 11.2e6", "value = 0")
+
+
+@toml_case("structure.dofs", "'wz'")
+def toml_unknown_dof(t):
+    return sub1(t, 'dofs = ["w", "rx"]', 'dofs = ["w", "wz"]')
+
+
+@toml_case("crosspieces[0].arm_length.value", "plausible range")
+def toml_arm_in_wrong_unit(t):
+    return sub1(t, "arm_length = { value = 15.0", "arm_length = { value = 15.0e6")
+
+
+def _missing_toml(d):
+    return d / "nope.toml"
+
+
+CASES.append(Case("toml_missing", "toml", _missing_toml, read_toml, SpecError, ("file not found",)))
+
+
+# =============================================================================== MJCF
+def mjcf_case(*fragments, error=ModelError):
+    def deco(fn):
+        def make(d):
+            p = d / "plant.xml"
+            text = fn(good_mjcf_text())
+            if isinstance(text, bytes):
+                p.write_bytes(text)
+            else:
+                assert text != good_mjcf_text(), "corruption did nothing"
+                p.write_text(text)
+            return p
+        make.__name__ = fn.__name__
+        return case("mjcf", read_mjcf, error, *fragments)(make)
+    return deco
+
+
+def _first_attr(t, attr):
+    m = re.search(rf'{attr}="([^"]*)"', t)
+    assert m, attr
+    return m
+
+
+def sub_attr(t, attr, value):
+    m = _first_attr(t, attr)
+    return t[:m.start()] + f'{attr}="{value}"' + t[m.end():]
+
+
+@mjcf_case("body 'J1'", "mass", "inf")
+def mjcf_mass_inf(t):
+    return sub_attr(t, "mass", "inf")
+
+
+@mjcf_case("body 'J1'", "mass 1e+12 kg")
+def mjcf_mass_huge(t):
+    return sub_attr(t, "mass", "1e12")
+
+
+@mjcf_case("timestep", "nan")
+def mjcf_timestep_nan(t):
+    return sub_attr(t, "timestep", "nan")
+
+
+@mjcf_case("timestep", "2")
+def mjcf_timestep_too_long(t):
+    return sub_attr(t, "timestep", "2")
+
+
+@mjcf_case("gravity", "nan")
+def mjcf_gravity_nan(t):
+    return sub_attr(t, "gravity", "0 nan 0")
+
+
+@mjcf_case("joint", "stiffness", "inf")
+def mjcf_stiffness_inf(t):
+    return sub_attr(t, "stiffness", "inf")
+
+
+@mjcf_case("joint", "damping", "nan")
+def mjcf_damping_nan(t):
+    return sub_attr(t, "damping", "nan")
+
+
+@mjcf_case("actuator 'coil5'", "gear", "nan")
+def mjcf_gear_nan(t):
+    return sub_attr(t, "gear", "0 0 nan")
+
+
+@mjcf_case("custom numeric 'vlab_modal_A'", "not finite")
+def mjcf_modal_data_nan(t):
+    m = re.search(r'(<numeric name="vlab_modal_A" size="\d+" data=")(\S+)', t)
+    assert m
+    return t[:m.start(2)] + "nan" + t[m.end(2):]
+
+
+@mjcf_case("sensor vel5", "missing")
+def mjcf_sensors_removed(t):
+    return re.sub(r"<sensor>.*?</sensor>", "", t, flags=re.S)
+
+
+@mjcf_case("coil9", "missing")
+def mjcf_coil_renamed(t):
+    return sub1(t, '<general name="coil9"', '<general name="coil9x"').replace('actuator="coil9"', 'actuator="coil9x"')
+
+
+@mjcf_case("not a loadable MJCF", error=DataFileError)
+def mjcf_truncated(t):
+    return t[: len(t) // 2]
+
+
+@mjcf_case("not a loadable MJCF", error=DataFileError)
+def mjcf_binary(t):
+    return b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4
+
+
+def _missing_mjcf(d):
+    return d / "nope.xml"
+
+
+CASES.append(Case("mjcf_missing", "mjcf", _missing_mjcf, read_mjcf, DataFileError, ("file not found",)))
