@@ -39,7 +39,7 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
     The thesis's mesh (one element per segment, on which the grid's kGA and
     half span were calibrated) is coarse for the grid's shear-flexible top
     beam: its mode 7 (top-beam bending, 5.683 Hz) lies 1.35 % above the
-    MuJoCo plant's (5.606 Hz; two to four links per top-beam segment), while
+    MuJoCo plant's (5.606 Hz; two or more links per 0.37-0.75 m top-beam segment), while
     the FE mesh at the plant's resolution (four top-beam elements per segment,
     :func:`vlab.sim.plant_resolution_spec`) gives 5.615 Hz. Two elements per
     top-beam segment bring the gap to 0.41 % (64 -> 91 DOF), and every one of
