@@ -221,8 +221,10 @@ def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
 
 def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
     """The thesis mesh's grid mode 7 (top-beam bending) lies > 1 % above the MuJoCo plant's; two elements per
-    top-beam segment (:func:`vlab.diagnose.nominal.plant_resolution`) bring it within 0.3 %. The BCC (no
-    shear-flexible section) is returned as it is."""
+    top-beam segment (:func:`vlab.diagnose.nominal.plant_resolution`) bring it within 0.5 % (measured 0.41 %
+    against the plant with two or more links per 0.37-0.75 m top-beam segment, 0.19 % against the former
+    one-link plant).
+    The BCC (no shear-flexible section) is returned as it is."""
     pytest.importorskip("mujoco")
     from vlab.diagnose.nominal import plant_resolution
     from vlab.spec import load_spec
@@ -235,7 +237,7 @@ def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
     f_plant = plant_modes(grid, (17,)).omega[6]
     f_thesis, f_fine = (modal_analysis(fe.m, fe.k).omega[6] for fe in map(build_fe_model, (grid, fine)))
     assert f_thesis / f_plant - 1 > 0.01
-    assert abs(f_fine / f_plant - 1) < 0.003
+    assert abs(f_fine / f_plant - 1) < 0.005
 
 
 def _scaled_or_fail(model: float, x: float) -> float:

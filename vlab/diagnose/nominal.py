@@ -38,20 +38,23 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
 
     The thesis's mesh (one element per segment, on which the grid's kGA and
     half span were calibrated) is coarse for the grid's shear-flexible top
-    beam: its mode 7 (top-beam bending, 5.683 Hz) lies 1.13 % above the
-    MuJoCo plant's (5.619 Hz), whose discretisation has converged there
-    (2-4 links per top-beam segment move it by at most 0.25 %), while a 4-element
-    FE mesh gives 5.617 Hz. Two elements per top-beam segment bring the gap
-    to 0.19 % (64 -> 91 DOF). The other first 12 modes then lie within
-    0.4 % of the plant's (mode 11, a bar mode), except mode 12 (-3.5 %), which
-    the plant's one link per shear-dominated segment places low. The gap
+    beam: its mode 7 (top-beam bending, 5.683 Hz) lies 1.35 % above the
+    MuJoCo plant's (5.606 Hz; two or more links per 0.37-0.75 m top-beam segment), while
+    the FE mesh at the plant's resolution (four top-beam elements per segment,
+    :func:`vlab.sim.plant_resolution_spec`) gives 5.615 Hz. Two elements per
+    top-beam segment bring the gap to 0.41 % (64 -> 91 DOF), and every one of
+    the first 12 modes then lies within 0.43 % of the plant's (mode 12
+    -0.43 %, MAC 0.9997; paired one-to-one, :func:`vlab.sim.pair_band`). The
+    former plant, one link per top-beam segment, was 0.19 % off in mode 7
+    and -3.46 % (MAC 0.90) in mode 12. The gap
     matters beyond the nominal modes: modes 7 and 8 (5.743 Hz) are a close
     pair, and a spring or a mass on the
     top beam shifts the pair differently when its spacing differs -- a
     781 N/m spring at point 17 moves them +1.06/+1.62 % on the thesis mesh
     and +2.2/+0.5 % on the MuJoCo plant, so the diagnosis on the thesis mesh
     fitted it at 473 N/m (benchmark seed 1, case 0), and on this mesh at
-    742 N/m (776 N/m refitted on the plant). The BCC has no shear-flexible
+    742 N/m (776 N/m refitted on the plant; these three measured with the
+    former one-link plant). The BCC has no shear-flexible
     section and is returned unchanged.
 
     Parameters

@@ -137,8 +137,10 @@ class SimOptions:
         Hinge-chain links per member segment (between consecutive points).
         ``[mujoco] segments_per_element``; default automatic (:func:`auto_links`:
         ``max(MIN_LINKS, ceil(L_f / LINK_LENGTH_M))``, 2 on the BCC, 3-4 on the
-        grid's bars) -- and 1 for shear-dominated members (``12 EI / (kGA L^2) >
-        SHEAR_DOMINATED``, the grid's sandwich top beam) unless set per member.
+        grid's bars, 2-4 on its shear-flexible top beam; 1 on a shear-flexible
+        segment short against its shear length, ``12 EI / (kGA L_f^2) >
+        SHEAR_SHORT_PHI``, the grid's 22 mm top-beam segments; see
+        :mod:`vlab.sim.planner`).
     member_segments : dict of str to int, optional
         Links per segment for individual members (member id -> n), over
         ``[mujoco] segments = { <member id> = n }`` and ``segments_per_element``.

@@ -358,7 +358,7 @@ class CrossCheck:
 
 #: Smallest number of elements per segment of the FE reference at the plant's resolution: a one-element
 #: segment is the thesis mesh itself, whose grid top beam is 1.2 % stiff in mode 7 against a converged mesh,
-#: while the plant's single top-beam link per segment carries a shear slide and a bending hinge.
+#: while the plant has at least two links (each with a shear slide and a bending hinge) per segment.
 MIN_PLANT_RESOLUTION_ELEMENTS = 2
 
 
@@ -663,8 +663,8 @@ def convergence_study(spec: StructureSpec, n_modes: int, *, segments=(2, 3, 4), 
     n_modes : int
         FE modes compared.
     segments : sequence of int
-        Links per member segment (and per crosspiece arm); shear-dominated
-        members keep their default (see :class:`~vlab.sim.builder.SimOptions`).
+        Links per member segment (and per crosspiece arm), for every member
+        (see :class:`~vlab.sim.builder.SimOptions`).
     layouts : sequence of str
         Hinge layouts.
     timesteps : sequence of float or None

@@ -41,7 +41,8 @@ Two parts:
    miss some ratios by 20-60 %.
 
 Which plant mode is "mode r" of the spec is decided by pairing with the FE
-modes (MAC at the structure points, :func:`vlab.sim.crosscheck.pair_modes`);
+modes (MAC at the structure points, one-to-one over a common band,
+:func:`vlab.sim.crosscheck.pair_band`);
 plant modes without FE partner below the highest damped one (the crosspiece
 arms' anti-symmetric bending, absent from the FE's single-DOF crosspiece) get
 the spec's ``default_ratio``, and so do all plant modes up to
@@ -179,29 +180,64 @@ ABOVE_DAMPED = 1.25
 
 
 def _targets(spec: StructureSpec, plant_modes, n_damped: int | None):
-    """Damping targets for the plant modes up to the highest damped spec mode."""
+    """Damping targets for the plant modes up to the highest damped spec mode.
+
+    The spec's modes 1..n are paired with plant modes one-to-one over a
+    common band (:func:`vlab.sim.crosscheck.pair_band`: the FE modes just
+    above mode n take part in the assignment, so that a plant mode whose own
+    FE partner is mode n+1 is not labelled mode n).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Its ``damping`` gives the ratios; its FE model the modes to pair with.
+    plant_modes : SimModes
+        All modes of the settled, undamped plant (shapes at ``plant_modes.points``).
+    n_damped : int or None
+        Spec modes damped (None: as many as ``spec.damping.modal_ratios``).
+
+    Returns
+    -------
+    idx : ndarray of int, shape (k,)
+        Plant modes (0-based) that get modal damping: all up to the highest one needed.
+    ratios : ndarray, shape (k,)
+        Their target damping ratios [-].
+    spec_modes : tuple of (int or None), length k
+        The spec mode (1-based, <= n) of each, None where it gets the default ratio.
+
+    Raises
+    ------
+    SimulationError
+        If ``n_damped`` exceeds the FE model's modes or no plant mode pairs with a damped FE mode.
+    """
     from ..fe import build_fe_model, modal_analysis
-    from .crosscheck import pair_modes
+    from .crosscheck import pair_band
 
     dmp = spec.damping
     n_spec = n_damped if n_damped is not None else len(dmp.modal_ratios)
     fe = build_fe_model(spec)
-    fem = modal_analysis(fe.m, fe.k, n_spec)
+    fem = modal_analysis(fe.m, fe.k)
+    if not 1 <= n_spec <= fem.frequencies_hz.size:
+        raise SimulationError(f"{spec._file()}: {n_spec} damped modes, but the FE model has "
+                              f"{fem.frequencies_hz.size}: cannot place modal damping")
     keep = [i for i, p in enumerate(plant_modes.points) if (p, "w") in fe.dofs]
     rows = [fe.dofs.index(plant_modes.points[i], "w") for i in keep]
-    pairs = pair_modes(fem.shapes[rows, :], plant_modes.shapes[keep, :])
+    bp = pair_band(fem.frequencies_hz, fem.shapes[rows, :], plant_modes.frequencies_hz,
+                   plant_modes.shapes[keep, :], n_spec)
+    pairs = bp.fe_to_sim[:n_spec]
+    f_top = float(fem.frequencies_hz[n_spec - 1])
     ratio_of = {}
-    for r, (j, _mac) in enumerate(pairs):
+    for r, j in enumerate(pairs):
         if j is not None:
             ratio_of[j] = (r + 1, dmp.modal_ratios[r] if r < len(dmp.modal_ratios) else dmp.default_ratio)
-    paired = [j for j, _ in pairs if j is not None]
+    paired = [j for j in pairs if j is not None]
     if not paired:
         raise SimulationError(f"{spec._file()}: no plant mode pairs with an FE mode: cannot place modal damping")
     # every plant mode up to ABOVE_DAMPED x the highest damped FE mode gets at least the default ratio, paired
     # or not, as every FE mode does (vlab.calibration.open_loop_ratios): a changed spec can move a mode down into the band
     # from above, or mix two close modes so that the MAC pairing misses one; with the hinge damping alone
     # (~0.1 x the smallest ratio) such a mode would ring far longer than in the FE model
-    below = np.flatnonzero(plant_modes.frequencies_hz <= ABOVE_DAMPED * fem.frequencies_hz[-1])
+    below = np.flatnonzero(plant_modes.frequencies_hz <= ABOVE_DAMPED * f_top)
     top = max(max(paired), int(below.max()) if below.size else 0)
     idx = list(range(top + 1))
     spec_modes = tuple(ratio_of[j][0] if j in ratio_of else None for j in idx)

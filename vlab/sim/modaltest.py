@@ -17,6 +17,7 @@ from ..errors import SimulationError
 from ..fe import FEModel
 from ..spec import StructureSpec
 from .builder import build_plant
+from .crosscheck import BAND_MARGIN
 from .linearize import modes as plant_modes
 from .linearize import settle, site_jacobian_w
 
@@ -78,9 +79,11 @@ def virtual_measured_modes(fe: FEModel) -> tuple[np.ndarray, np.ndarray]:
     """Measured modes for the corrected Guyan model when the user gives none (Secs. 3.3, 5.4.1).
 
     Shapes: :func:`virtual_modal_test` on the MuJoCo plant at the Guyan
-    masters, each plant mode paired with an FE mode by MAC at the masters (the
+    masters, each plant mode paired with an FE mode by MAC at the masters,
+    one-to-one over a common band (:func:`vlab.sim.crosscheck.pair_band`: the
     plant has modes the FE model does not, e.g. the BCC crosspiece arms'
-    antisymmetric bending, so order alone would mispair). Frequencies: the
+    antisymmetric bending, so order alone would mispair, and FE modes just
+    above the measured ones take part so that their partners are not taken). Frequencies: the
     published experimental ones (Table 3 for the grid, Table 1 for the BCC).
     Like the dissertation (eleven of the grid's twelve), one mode fewer than
     masters is used, so the highest reduced frequency shows the correction's
@@ -112,17 +115,25 @@ def virtual_measured_modes(fe: FEModel) -> tuple[np.ndarray, np.ndarray]:
     from ..fe import modal_analysis
     from ..models import master_indices
     from ..reference import column
-    from .crosscheck import pair_modes
+    from .crosscheck import pair_band
 
     idx = master_indices(fe, "guyan")
     labels = [fe.dofs.labels[i] for i in idx]
     f_exp = column(fe.spec.reference["frequencies"], "experimental_hz")
     n_m = min(len(f_exp), len(idx) - 1)
-    _f_plant, plant_shapes = virtual_modal_test(fe.spec, labels, min(n_m + 4, len(idx)))
-    fe_shapes = modal_analysis(fe.m, fe.k, n_m).shapes[idx, :]
-    pairs = pair_modes(fe_shapes, plant_shapes)
-    missing = [r + 1 for r, (j, _mac) in enumerate(pairs) if j is None]
+    fem = modal_analysis(fe.m, fe.k)
+    # plant modes up to the top of the pairing band (pair_band: (1 + margin)^2 x FE mode n_m), and a few more
+    f_band = (1.0 + BAND_MARGIN) ** 2 * float(fem.frequencies_hz[n_m - 1])
+    n_plant = n_m + 4
+    while True:
+        f_plant, plant_shapes = virtual_modal_test(fe.spec, labels, n_plant)
+        if f_plant.size < n_plant or f_plant[-1] > f_band:
+            break
+        n_plant *= 2
+    bp = pair_band(fem.frequencies_hz, fem.shapes[idx, :], f_plant, plant_shapes, n_m)
+    pairs = bp.fe_to_sim[:n_m]
+    missing = [r + 1 for r, j in enumerate(pairs) if j is None]
     if missing:
         raise SimulationError(f"{fe.spec.name}: FE modes {missing} have no plant mode with MAC >= 0.5 at the "
                               "Guyan masters: the virtual modal test cannot stand in for the measured shapes")
-    return f_exp[:n_m], plant_shapes[:, [j for j, _mac in pairs]]
+    return f_exp[:n_m], plant_shapes[:, list(pairs)]
