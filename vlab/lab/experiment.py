@@ -422,6 +422,16 @@ def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
     return TESTS[fe.spec.name], tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
 
 
+def _predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies [Hz] and damping ratios, each (n,), of the continuous closed loop's first test modes in band."""
+    test, acts, _ = _test_of(fe)
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    u = fe.force_input(acts)
+    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
+    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
+    return fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
+
+
 def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
     """Slowest decay rate ``zeta_r omega_r`` [1/s] of the predicted modes in the test's band.
 
@@ -448,12 +458,7 @@ def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
     ModelError
         Structure without a test definition.
     """
-    test, acts, _ = _test_of(fe)
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
-    u = fe.force_input(acts)
-    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
-    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
-    fm, zm = fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
+    fm, zm = _predicted_modes(fe, design)
     sigma = 2 * np.pi * fm * zm
     sigma = sigma[np.isfinite(sigma) & (sigma > 0)]
     return float(sigma.min()) if sigma.size else None
@@ -625,6 +630,7 @@ def run_experiment(
     check_design_period(design, cfg.chain)
     c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
     u = fe.force_input(acts)
+    fm, zm = _predicted_modes(fe, design)
     m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
     f = m.freq_hz
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
