@@ -601,7 +601,8 @@ def diagnose(
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
             res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=tmp,
                                plant=plant, baseline=baseline, overwrite=False,
-                               progress=lambda stage: bar.update(task, description=str(stage)))
+                               progress=lambda stage: bar.update(task, description=escape(str(stage))))
+    res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if as_json:
         _print_json(res.as_dict())
         return
