@@ -84,6 +84,8 @@ class _VlabGroup(TyperGroup):
     def invoke(self, ctx) -> Any:
         _STATE["debug"] = False  # set by the callback (--debug)
         _STATE["interrupted"] = "interrupted: nothing written"
+        _STATE["sigint"] = False
+        restore = _install_sigint_flag()
         try:
             return super().invoke(ctx)
         except (Exit, Abort, TyperException):  # exits, usage errors: typer's own handling
@@ -91,11 +93,12 @@ class _VlabGroup(TyperGroup):
         except KeyboardInterrupt:
             if _STATE["debug"]:
                 raise
-            err_console.print(escape(_STATE["interrupted"]), soft_wrap=True, highlight=False)
-            raise Exit(130) from None
+            _interrupted()
         except Exception as exc:  # noqa: BLE001 - the single error path of the CLI
             if _STATE["debug"]:
                 raise
+            if _STATE["sigint"]:  # a library turned the KeyboardInterrupt into its own error (pyuff does)
+                _interrupted()
             command = ctx.invoked_subcommand
             if isinstance(exc, VlabError) or isinstance(exc, (ValueError, OSError)):
                 text = str(exc) or type(exc).__name__
@@ -108,6 +111,36 @@ class _VlabGroup(TyperGroup):
                         "the traceback and report it)")
             _error_line(text)
             raise Exit(_exit_code(exc, command)) from None
+        finally:
+            restore()
+
+
+def _interrupted() -> None:
+    err_console.print(escape(_STATE["interrupted"]), soft_wrap=True, highlight=False)
+    raise Exit(130) from None
+
+
+def _install_sigint_flag():
+    """While a command runs, Ctrl-C also sets ``_STATE["sigint"]`` (a library may swallow the KeyboardInterrupt).
+
+    Only where SIGINT has Python's default handler (not ignored, not replaced) and on the main thread.
+    Returns the function restoring the previous handler.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return lambda: None
+
+    def on_sigint(signum, frame):
+        _STATE["sigint"] = True
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, on_sigint)
+    return lambda: signal.signal(signal.SIGINT, previous)
 
 
 app = typer.Typer(
