@@ -73,7 +73,7 @@ def _exit_code(exc: BaseException, command: str | None) -> int:
         return 2  # the recording given is the input
     if isinstance(exc, VlabError):
         return 1
-    if isinstance(exc, (ValueError, TypeError)) and not isinstance(exc, UnicodeError):
+    if isinstance(exc, (ValueError, TypeError)):  # UnicodeDecodeError included: a file that is not text
         return 2
     return 1
 
@@ -103,7 +103,7 @@ class _VlabGroup(TyperGroup):
             if isinstance(exc, VlabError) or isinstance(exc, (ValueError, OSError)):
                 text = str(exc) or type(exc).__name__
                 if isinstance(exc, OSError) and not isinstance(exc, VlabError):
-                    text = f"{exc.filename + ': ' if exc.filename else ''}{exc.strerror or exc}"
+                    text = f"{str(exc.filename) + ': ' if exc.filename else ''}{exc.strerror or exc}"
             elif isinstance(exc, MemoryError):
                 text = f"out of memory ({exc}); shorten the run or free memory"
             else:
