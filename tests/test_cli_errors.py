@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 import pytest
@@ -124,7 +125,12 @@ def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):
     with atomic_dir(out, overwrite=True) as tmp:
         (tmp / "new.txt").write_text("new")
     assert sorted(p.name for p in out.iterdir()) == ["new.txt"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    mask = os.umask(0)
+    os.umask(mask)
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()  # the permissions a plain mkdir gives
+    assert out.stat().st_mode & 0o777 == fresh.stat().st_mode & 0o777 == 0o777 & ~mask
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh", "out"]
 
 
 def test_atomic_file_and_missing_parent(tmp_path):
@@ -136,6 +142,9 @@ def test_atomic_file_and_missing_parent(tmp_path):
     with atomic_file(target, overwrite=True) as tmp:
         tmp.write_text("new")
     assert target.read_text() == "new"
+    mask = os.umask(0)
+    os.umask(mask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~mask
     with pytest.raises(OutputError, match="does not exist"):
         with atomic_file(tmp_path / "nope" / "x.xml") as tmp:
             pass

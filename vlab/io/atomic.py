@@ -138,6 +138,12 @@ def check_output_file(path: str | Path | None, *, overwrite: bool = False, optio
     return p
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextmanager
 def _interrupts_deferred() -> Iterator[None]:
     """Hold SIGINT back (main thread only) while the renames run."""
@@ -197,6 +203,7 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
         except OSError as exc:
             raise OutputError(f"{target}: cannot create the folder {target.absolute().parent} ({exc.strerror})") from None
     tmp = Path(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}{target.name}-", dir=target.absolute().parent))
+    os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's 0700 -> what mkdir would give
     try:
         yield tmp
         with _interrupts_deferred():
@@ -241,6 +248,7 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
                                 dir=target.absolute().parent)
     os.close(fd)
     tmp = Path(name)
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 -> what open() would give
     try:
         yield tmp
         with _interrupts_deferred():
