@@ -277,8 +277,13 @@ def design(
     _input_file("--modes", modes_file)
     fe = nominal_fe_model(structure.value)
     measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
-    d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
-                          measured_modes=measured, seed=seed, period_s=period_s)
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console,
+                  transient=True, disable=as_json) as bar:
+        bar.add_task(f"designing {controller.value} for {structure.value}", total=None)
+        d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
+                              measured_modes=measured, seed=seed, period_s=period_s)
     if as_json:
         _print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
         return
