@@ -133,10 +133,11 @@ def test_cli_exits_1_on_not_meaningful_warning(short_open_loop, tmp_path, monkey
     assert res.exit_code == 1, res.output
     assert "self-excited oscillation at 41.0 Hz" in res.output and (out / "results.json").exists()
     res = runner.invoke(app, ["experiment", "bcc", "--controller", "none", "--plant", "linear", "--out", str(out),
-                              "--allow-unstable"])
+                              "--allow-unstable", "--overwrite"])
     assert res.exit_code == 0, res.output
     monkeypatch.setattr(ex, "run_experiment", lambda cfg, fe, **kw: short_open_loop)
-    res = runner.invoke(app, ["experiment", "bcc", "--controller", "none", "--plant", "linear", "--out", str(out)])
+    res = runner.invoke(app, ["experiment", "bcc", "--controller", "none", "--plant", "linear", "--out", str(out),
+                              "--overwrite"])
     assert res.exit_code == 0, res.output
 
 

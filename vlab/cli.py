@@ -2,13 +2,40 @@
 
 Thin: every command parses its options, calls the library and prints a rich
 table or, with ``--json``, one JSON object with stable keys (README lists
-them). Errors of vlab (bad input, singular models, diverging simulations) are
-printed as one clear line and exit with status 2; nothing else is caught.
+them).
+
+One error path for every command (issue 26): a failure is printed as one line
+``error: <message>`` on stderr naming the file, field, option or value (escaped
+so that rich markup never eats a value such as ``[0.0]``), with no traceback
+unless the global ``--debug`` option is given. Exit status:
+
+- 0: success;
+- 1: a failed run: :class:`~vlab.errors.SimulationError` (the plant diverged),
+  :class:`~vlab.errors.MeasurementError` during a run, a run whose own warning
+  calls the comparison not meaningful, an operating-system error while
+  writing (disk full, ...), or an internal error;
+- 2: bad input, refused before any work starts: a bad option (Click's usage
+  errors, :class:`~vlab.errors.OptionError`), an output path that cannot be
+  written as asked (:class:`~vlab.errors.OutputError`: exists without
+  ``--overwrite``, missing parent folder, empty), a run too large for the
+  machine (:class:`~vlab.errors.ResourceError`), a bad spec, data file or
+  model (:class:`~vlab.errors.SpecError`, :class:`~vlab.errors.DataFileError`,
+  :class:`~vlab.errors.ModelError`, :class:`~vlab.errors.ReductionError`; the
+  classes of :data:`vlab.errors.BAD_INPUT_ERRORS`), and for ``diagnose`` a
+  recording that cannot be analysed (:class:`~vlab.errors.MeasurementError`);
+- 130: interrupted (Ctrl-C); nothing is written (or the message says what was kept).
+
+Every command that writes (experiment, reproduce, diagnose, export-mjcf)
+writes atomically (:mod:`vlab.io.atomic`): into a temporary folder or file
+beside the target, moved into place when complete; an existing non-empty
+folder or an existing file is replaced only with ``--overwrite``; parent
+folders are not created (except those of a command's default ``out/...``).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from enum import Enum
 from typing import Any
@@ -16,23 +43,120 @@ from typing import Any
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
+from typer.core import TyperGroup
+from typer.exceptions import Abort, Exit, TyperException
 
-from .errors import VlabError
+from .errors import BAD_INPUT_ERRORS, MeasurementError, OptionError, ResourceError, VlabError
+
+EPILOG = ("Exit status: 0 success; 1 failed run (simulation diverged, measurement failed during a run, "
+          "not-meaningful comparison, write error); 2 bad input (option, output path, spec, data file, model, "
+          "run too large for the machine), refused before any work starts; 130 interrupted (nothing written). "
+          "Errors are one line without traceback; --debug shows the traceback.")
+
+_STATE: dict[str, Any] = {"debug": False, "interrupted": "interrupted: nothing written"}
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _error_line(text: str) -> None:
+    err_console.print(f"[bold red]error:[/] {escape(text)}", soft_wrap=True, highlight=False)
+
+
+def _exit_code(exc: BaseException, command: str | None) -> int:
+    """Exit status of an exception (the mapping in the module docstring)."""
+    if isinstance(exc, BAD_INPUT_ERRORS):
+        return 2
+    if isinstance(exc, MeasurementError) and command == "diagnose":
+        return 2  # the recording given is the input
+    if isinstance(exc, VlabError):
+        return 1
+    if isinstance(exc, (ValueError, TypeError)):  # UnicodeDecodeError included: a file that is not text
+        return 2
+    return 1
+
+
+class _VlabGroup(TyperGroup):
+    """The app's group: turns every exception of a command into one error line and an exit status."""
+
+    def invoke(self, ctx) -> Any:
+        _STATE["debug"] = False  # set by the callback (--debug)
+        _STATE["interrupted"] = "interrupted: nothing written"
+        _STATE["sigint"] = False
+        restore = _install_sigint_flag()
+        try:
+            return super().invoke(ctx)
+        except (Exit, Abort, TyperException):  # exits, usage errors: typer's own handling
+            raise
+        except KeyboardInterrupt:
+            if _STATE["debug"]:
+                raise
+            _interrupted()
+        except Exception as exc:  # noqa: BLE001 - the single error path of the CLI
+            if _STATE["debug"]:
+                raise
+            if _STATE["sigint"]:  # a library turned the KeyboardInterrupt into its own error (pyuff does)
+                _interrupted()
+            command = ctx.invoked_subcommand
+            if isinstance(exc, VlabError) or isinstance(exc, (ValueError, OSError)):
+                text = str(exc) or type(exc).__name__
+                if isinstance(exc, OSError) and not isinstance(exc, VlabError):
+                    text = f"{str(exc.filename) + ': ' if exc.filename else ''}{exc.strerror or exc}"
+            elif isinstance(exc, MemoryError):
+                text = f"out of memory ({exc}); shorten the run or free memory"
+            else:
+                text = (f"internal error {type(exc).__name__}: {exc} (run `vlab --debug {command or ''} ...` for "
+                        "the traceback and report it)")
+            _error_line(text)
+            raise Exit(_exit_code(exc, command)) from None
+        finally:
+            restore()
+
+
+def _interrupted() -> None:
+    err_console.print(escape(_STATE["interrupted"]), soft_wrap=True, highlight=False)
+    raise Exit(130) from None
+
+
+def _install_sigint_flag():
+    """While a command runs, Ctrl-C also sets ``_STATE["sigint"]`` (a library may swallow the KeyboardInterrupt).
+
+    Only where SIGINT has Python's default handler (not ignored, not replaced) and on the main thread.
+    Returns the function restoring the previous handler.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return lambda: None
+
+    def on_sigint(signum, frame):
+        _STATE["sigint"] = True
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, on_sigint)
+    return lambda: signal.signal(signal.SIGINT, previous)
+
 
 app = typer.Typer(
+    cls=_VlabGroup,
     add_completion=False,
     no_args_is_help=True,
+    pretty_exceptions_enable=False,
     help="vlab: a virtual laboratory for active vibration control of flexible structures.",
+    epilog=EPILOG,
 )
-console = Console()
 
 
-@app.callback()
-def _root() -> None:
+@app.callback(epilog=EPILOG)
+def _root(debug: bool = typer.Option(False, "--debug", help="show the Python traceback of an error")) -> None:
     """vlab: a virtual laboratory for active vibration control of flexible structures."""
-
-err_console = Console(stderr=True)
+    _STATE["debug"] = debug
 
 
 class Structure(str, Enum):
@@ -44,11 +168,6 @@ class Reduction(str, Enum):
     full = "full"
     exact = "exact"
     guyan = "guyan"
-
-
-def _fail(exc: Exception) -> None:
-    err_console.print(f"[bold red]error:[/] {exc}")
-    raise typer.Exit(code=2)
 
 
 def _print_json(obj: dict[str, Any]) -> None:
@@ -79,18 +198,17 @@ def modes(
     from .models import nominal_fe_model, reduce_model
     from .reference import column
 
-    try:
-        fe = nominal_fe_model(structure.value)
-        if reduction is Reduction.full:
-            f = modal_analysis(fe.m, fe.k, n).frequencies_hz
-        else:
-            red = reduce_model(fe, reduction.value)
-            f = red.natural_frequencies_hz()[:n]
-        table = fe.spec.reference["frequencies"]
-        ref_a = column(table, "analytical_hz")
-        ref_e = column(table, "experimental_hz")
-    except VlabError as exc:
-        _fail(exc)
+    fe = nominal_fe_model(structure.value)
+    if n > fe.m.shape[0]:
+        raise OptionError(f"--n {n} exceeds the model's {fe.m.shape[0]} degrees of freedom")
+    if reduction is Reduction.full:
+        f = modal_analysis(fe.m, fe.k, n).frequencies_hz
+    else:
+        red = reduce_model(fe, reduction.value)
+        f = red.natural_frequencies_hz()[:n]
+    table = fe.spec.reference["frequencies"]
+    ref_a = column(table, "analytical_hz")
+    ref_e = column(table, "experimental_hz")
     n_shown = len(f)
     if as_json:
         _print_json(
@@ -139,7 +257,7 @@ def design(
     controller: ControllerName = typer.Option(ControllerName.mfdrf, "--controller", help="controller type"),
     reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
     modes_file: str = typer.Option(None, "--modes", help="UFF 55 measured modes for corrected-guyan"),
-    seed: int = typer.Option(0, help="seed of the optimiser's multi-start"),
+    seed: int = typer.Option(0, help="seed of the optimiser's multi-start, in [0, 2**32)"),
     period_ms: float = typer.Option(None, "--period-ms",
                                     help="sampling period of the realization [ms] (default: the thesis's, "
                                          "LQG 1, others 0.5)"),
@@ -151,18 +269,26 @@ def design(
     from .lab.experiment import period_source
     from .models import nominal_fe_model
 
-    try:
-        period_s = _period_s(period_ms)
-        fe = nominal_fe_model(structure.value)
-        measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
+    period_s = _period_s(period_ms)
+    _seed(seed)
+    if modes_file is not None and reduction is not DesignReduction.corrected_guyan:
+        raise OptionError("--modes is read only with --reduction corrected-guyan "
+                          f"(got --reduction {reduction.value if reduction else 'default'})")
+    _input_file("--modes", modes_file)
+    fe = nominal_fe_model(structure.value)
+    measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console,
+                  transient=True, disable=as_json) as bar:
+        bar.add_task(f"designing {controller.value} for {structure.value}", total=None)
         d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
                               measured_modes=measured, seed=seed, period_s=period_s)
-    except (VlabError, ValueError) as exc:
-        _fail(exc)
     if as_json:
         _print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
         return
-    console.print(f"[bold]{structure.value} {d.controller}[/] on the {d.model} model — converged: {d.converged} ({d.message})")
+    console.print(f"[bold]{structure.value} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
+                  f"({escape(str(d.message))})")
     console.print(f"sampling period {d.period_s * 1e3:g} ms ({period_source(d.controller, d.period_s)})")
     if d.gamma is not None:
         console.print(f"gamma = {d.gamma:.4f} lb*s/in" + (f", beta = {d.beta:.4g}" if d.beta is not None else ""))
@@ -201,6 +327,9 @@ class PlantKind(str, Enum):
     linear = "linear"
 
 
+EXPERIMENT_OUT = "out/experiment"
+
+
 @app.command()
 def experiment(
     structure: Structure = typer.Argument(Structure.bcc, help="bcc or grid"),
@@ -209,69 +338,109 @@ def experiment(
     excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
     duration: float = typer.Option(
         None, "--duration", help="run length [s] (default: the records the slowest mode needs to settle + 2 measured)"),
-    delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods]"),
+    delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods], >= 0"),
     period_ms: float = typer.Option(None, "--period-ms",
                                     help="controller sampling period [ms] (default: the thesis's for the "
                                          "controller, Sec. 5.3: LQG 1, others 0.5)"),
-    noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s]"),
-    seed: int = typer.Option(0, "--seed"),
-    mjcf: str = typer.Option(None, "--mjcf", help="run on an exported (and edited) MJCF plant"),
+    noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s], >= 0 (0 = off)"),
+    seed: int = typer.Option(0, "--seed", help="seed of excitation, noise and design, in [0, 2**32)"),
+    mjcf: str = typer.Option(None, "--mjcf", help="run on an exported (and edited) MJCF plant (--plant mujoco)"),
     plant: PlantKind = typer.Option(PlantKind.mujoco, "--plant", help="mujoco plant or the linear FE model"),
-    out: str = typer.Option("out/experiment", "--out", help="output folder"),
-    spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live"),
+    out: str = typer.Option(EXPERIMENT_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
+    spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live (needs a display)"),
     as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
     allow_unstable: bool = typer.Option(False, "--allow-unstable",
                                         help="exit 0 even when a warning calls the comparison not meaningful"),
 ) -> None:
     """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test.
 
-    The outputs are always written; a run whose own warning calls the comparison not meaningful
-    (self-excited oscillation, limit cycle) exits with status 1 unless --allow-unstable.
+    Every option is checked before the run starts; the run's memory and time are estimated and a run that
+    does not fit in the available memory is refused. The outputs are written atomically; a run whose own
+    warning calls the comparison not meaningful (self-excited oscillation, limit cycle) exits with status 1
+    unless --allow-unstable.
     """
     from pathlib import Path
 
-    from rich.progress import Progress
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+    from .io.atomic import atomic_dir
     from .io.results import experiment_summary, write_outputs
-    from .lab.experiment import ExperimentConfig, default_chain, not_meaningful, run_experiment
+    from .lab.experiment import TESTS, ExperimentConfig, default_chain, not_meaningful, run_experiment
     from .models import nominal_fe_model
 
-    try:
-        period_s = _period_s(period_ms)
-        chain = default_chain(controller.value, delay_periods=delay_samples, noise_m_s=noise,
-                              **({} if period_s is None else {"period_s": period_s}))
-    except (VlabError, ValueError) as exc:
-        _fail(exc)
+    # --- every option, before any work
+    out_path = _out_dir(out, EXPERIMENT_OUT, overwrite)
+    _number("--noise", noise, low=0.0, what="sensor noise sigma [m/s]")
+    _number("--delay-samples", delay_samples, low=0.0, what="computation delay [sampling periods]")
+    _number("--duration", duration, low=0.0, low_open=True, what="run length [s]")
+    period_s = _period_s(period_ms)
+    _seed(seed)
+    if controller is ExpController.lqr:
+        raise OptionError("--controller lqr needs every state measured; the laboratory ran it as LQG "
+                          "(use --controller lqg)")
+    if reduction is not None and controller is ExpController.none:
+        raise OptionError(f"--reduction {reduction.value} has no effect with --controller none (no design)")
+    if mjcf is not None:
+        if plant is PlantKind.linear:
+            raise OptionError(f"--mjcf {mjcf} runs a MuJoCo plant: it contradicts --plant linear")
+        _input_file("--mjcf", mjcf)
+    if spawn:
+        from .viz.rerun_log import viewer_unavailable_reason
+
+        why = viewer_unavailable_reason()
+        if why is not None:
+            raise OptionError(f"--spawn: the rerun viewer cannot be started here ({why}); run without --spawn "
+                              "and open run.rrd with `rerun` where there is a display")
+    chain = default_chain(controller.value, delay_periods=delay_samples, noise_m_s=noise,
+                          **({} if period_s is None else {"period_s": period_s}))
+    test = TESTS[structure.value]
+    if duration is not None and duration < 2.0 / test.resolution_hz - 1e-9:
+        raise OptionError(f"--duration {duration:g} s is too short for the {test.resolution_hz:g} Hz resolution: "
+                          f"one record of {1 / test.resolution_hz:g} s settles and at least one is measured "
+                          f"(>= {2 / test.resolution_hz:g} s)")
     cfg = ExperimentConfig(
         structure=structure.value, controller=controller.value,
         reduction=reduction.value if reduction else None, excitation=excitation.value, duration_s=duration,
         chain=chain, seed=seed, plant=plant.value,
         mjcf=Path(mjcf) if mjcf else None,
     )
+    fe = nominal_fe_model(structure.value)
+    _guard_experiment(fe, plant=plant.value, period_s=chain.period_s, duration_s=duration,
+                      delay_periods=delay_samples, quiet=as_json)
+    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+
+    # --- the run
     try:
-        fe = nominal_fe_model(structure.value)
-        with Progress(console=err_console, transient=True, disable=as_json) as bar:
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f} %"),
+                      TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                      console=err_console, transient=True, disable=as_json) as bar:
             task = bar.add_task(f"{structure.value} {controller.value}: simulating", total=1.0)
             result = run_experiment(cfg, fe, progress=lambda x: bar.update(task, completed=x))
-        files = write_outputs(result, fe.spec, Path(out), spawn=spawn)
-    except (VlabError, ValueError) as exc:
+    except VlabError as exc:
         partial = getattr(exc, "partial", None)
         if partial is not None:
             from .io.uff import write_recording
 
-            Path(out).mkdir(parents=True, exist_ok=True)
-            kept = write_recording(Path(out) / "recording_partial.uff", partial.recording, overwrite=True)
-            err_console.print(f"the recording up to the failure is kept in {kept}")
-        _fail(exc)
+            with atomic_dir(out_path, overwrite=overwrite, create_parent=out == EXPERIMENT_OUT) as tmp:
+                write_recording(tmp / "recording_partial.uff", partial.recording, overwrite=False)
+            err_console.print(f"the recording up to the failure is kept in {escape(str(out_path))}/recording_partial.uff",
+                              highlight=False, soft_wrap=True)
+        raise
+    if out == EXPERIMENT_OUT:
+        out_path.absolute().parent.mkdir(parents=True, exist_ok=True)
+    files = write_outputs(result, fe.spec, out_path, spawn=spawn, overwrite=overwrite)
     summary = experiment_summary(result)
     blocking = not_meaningful(result.warnings)
 
     def _exit_if_not_meaningful() -> None:
         if blocking and not allow_unstable:
-            err_console.print(f"[bold red]error:[/] the comparison is not meaningful ({blocking[0]}); outputs "
-                              f"written to {files['results'].parent}/; use --allow-unstable to exit 0")
+            _error_line(f"the comparison is not meaningful ({blocking[0]}); outputs written to "
+                        f"{files['results'].parent}/; use --allow-unstable to exit 0")
             raise typer.Exit(code=1)
 
+    for w in files["warnings"]:
+        err_console.print(f"[bold yellow]warning:[/] {escape(w)}", soft_wrap=True, highlight=False)
     if as_json:
         _print_json(summary)
         _exit_if_not_meaningful()
@@ -283,17 +452,23 @@ def experiment(
         t.add_row(str(m.mode), f"{m.frequency_predicted_hz:.3f}", f"{m.frequency_measured_hz:.3f}",
                   f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
     console.print(t)
-    console.print(f"sampling period {summary['period_s'] * 1e3:g} ms ({summary['period_source']})")
-    console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: {files['results'].parent}/")
+    console.print(f"sampling period {summary['period_s'] * 1e3:g} ms ({escape(summary['period_source'])})")
+    console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: "
+                  f"{escape(str(files['results'].parent))}/", highlight=False)
     for w in result.warnings:
-        err_console.print(f"[bold yellow]warning:[/] {w}")
+        err_console.print(f"[bold yellow]warning:[/] {escape(w)}", soft_wrap=True, highlight=False)
     _exit_if_not_meaningful()
+
+
+#: Largest ``crosscheck --segments`` accepted (the plant's bodies grow linearly with it).
+MAX_SEGMENTS = 64
 
 
 @app.command()
 def crosscheck(
     structure: Structure = typer.Argument(..., help="bcc or grid"),
-    segments: int = typer.Option(None, "--segments", min=1, help="hinges per element segment (default: chosen per member)"),
+    segments: int = typer.Option(None, "--segments", min=1, max=MAX_SEGMENTS,
+                                 help="hinges per element segment (default: chosen per member)"),
     n: int = typer.Option(None, "--n", min=1, help="modes compared (default 6 BCC, 12 grid)"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
@@ -309,17 +484,30 @@ def crosscheck(
     from .sim import free_decay
     from .spec import load_spec
 
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     n_modes = n or (6 if structure is Structure.bcc else 12)
-    try:
-        spec = load_spec(structure.value)
+    spec = load_spec(structure.value)
+    stages = ("building the MuJoCo plant", "pairing with the FE model (thesis mesh)",
+              "pairing with the FE model (plant resolution)", "free decay of mode 1")
+    with Progress(TextColumn("crosscheck {task.fields[stage]}"), BarColumn(), TimeElapsedColumn(),
+                  TextColumn("ETA"), TimeRemainingColumn(), console=err_console, transient=True,
+                  disable=as_json) as bar:
+        task = bar.add_task("crosscheck", total=len(stages), stage=stages[0])
+
+        def step(i: int) -> None:
+            bar.update(task, completed=i, stage=stages[min(i, len(stages) - 1)])
+
         plant = build_plant(spec, SimOptions(segments_per_element=segments))
-        refs = {"thesis_mesh": run_crosscheck(plant, n_modes),
-                "plant_resolution": run_crosscheck(plant, n_modes, mesh="plant")}
+        step(1)
+        refs = {"thesis_mesh": run_crosscheck(plant, n_modes)}
+        step(2)
+        refs["plant_resolution"] = run_crosscheck(plant, n_modes, mesh="plant")
+        step(3)
         cc = refs["thesis_mesh"]
         first = cc.pairs[0]
         decay = free_decay(plant, first.sim_mode, sim_modes=cc.sim_modes) if first.sim_mode else None
-    except (VlabError, ValueError) as exc:
-        _fail(exc)
+        step(4)
 
     def num(x: float) -> float | None:
         return None if x is None or not math.isfinite(x) else float(x)
@@ -381,35 +569,41 @@ def crosscheck(
 @app.command("export-mjcf")
 def export_mjcf_cmd(
     structure: Structure = typer.Argument(..., help="bcc or grid"),
-    output: str = typer.Option(None, "-o", "--output", help="MJCF file (default: <structure>.xml)"),
+    output: str = typer.Option(None, "-o", "--output",
+                               help="MJCF file, .xml (default: <structure>.xml); its folder must exist"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing file"),
 ) -> None:
     """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`."""
+    from .io.atomic import check_output_file
     from .sim import build_plant, export_mjcf
     from .spec import load_spec
 
-    path = output or f"{structure.value}.xml"
-    try:
-        written = export_mjcf(build_plant(load_spec(structure.value)), path)
-    except (VlabError, ValueError, OSError) as exc:
-        _fail(exc)
-    console.print(f"wrote {written}")
+    path = check_output_file(f"{structure.value}.xml" if output is None else output, overwrite=overwrite,
+                             option="--output", suffix=".xml")
+    written = export_mjcf(build_plant(load_spec(structure.value)), path, overwrite=overwrite)
+    console.print(f"wrote {escape(str(written))}", highlight=False)
+
+
+REPRODUCE_OUT = "out/reproduce"
+DIAGNOSE_OUT = "out/diagnose"
+DIAGNOSE_PLANTS = ("auto", "linear", "mujoco")
 
 
 @app.command()
 def reproduce(
-    out: str = typer.Option("out/reproduce", "--out", help="output folder"),
+    out: str = typer.Option(REPRODUCE_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
     fast: bool = typer.Option(False, "--fast", help="the quick subset of tables"),
     plant: PlantKind = typer.Option(PlantKind.linear, "--plant", help="plant of the virtual experiments"),
 ) -> None:
-    """Regenerate the dissertation's tables side by side with the published numbers."""
-    from pathlib import Path
-
+    """Regenerate the dissertation's tables side by side with the published numbers (written atomically)."""
     from .reproduce import reproduce as run_reproduce
 
-    try:
-        run_reproduce(Path(out), fast=fast, plant=plant.value, progress=True, console=console)
-    except (VlabError, ValueError) as exc:
-        _fail(exc)
+    out_path = _out_dir(out, REPRODUCE_OUT, overwrite)
+    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    if out == REPRODUCE_OUT:
+        out_path.absolute().parent.mkdir(parents=True, exist_ok=True)
+    run_reproduce(out_path, fast=fast, plant=plant.value, progress=True, console=console, overwrite=overwrite)
 
 
 @app.command()
@@ -417,7 +611,8 @@ def diagnose(
     structure: Structure = typer.Option(..., "--structure", help="bcc or grid"),
     recording: str = typer.Option(..., "--recording", help="UFF 58 time histories or FRFs, or a modal CSV"),
     controller: ExpController = typer.Option(ExpController.none, "--controller", help="controller that was running"),
-    out: str = typer.Option("out/diagnose", "--out", help="output folder"),
+    out: str = typer.Option(DIAGNOSE_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
     plant: str = typer.Option("auto", "--plant", help="validation plant: auto, linear or mujoco"),
     baseline: str = typer.Option(None, "--baseline",
                                         help="recording of the same test before the change (removes the "
@@ -427,30 +622,224 @@ def diagnose(
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
     from pathlib import Path
 
-    from .diagnose import diagnose as run_diagnose
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    try:
-        res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=Path(out),
-                           plant=plant, baseline=baseline)
-    except (VlabError, ValueError) as exc:
-        _fail(exc)
+    from .diagnose import diagnose as run_diagnose
+    from .io.atomic import atomic_dir
+
+    out_path = _out_dir(out, DIAGNOSE_OUT, overwrite)
+    if plant not in DIAGNOSE_PLANTS:
+        raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
+    _input_file("--recording", recording)
+    _input_file("--baseline", baseline)
+    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
+                  console=err_console, transient=True, disable=as_json) as bar:
+        task = bar.add_task("reading the recording", total=None)
+        with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
+            res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=tmp,
+                               plant=plant, baseline=baseline, overwrite=False,
+                               progress=lambda stage: bar.update(task, description=escape(str(stage))))
+    res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if as_json:
         _print_json(res.as_dict())
         return
     d = res.as_dict()
-    console.print(f"mismatch: {d['mismatch']}")
+    console.print(f"mismatch: {escape(str(d['mismatch']))}", highlight=False)
     t = Table(title="ranked hypotheses")
     for col in ("effect", "location", "parameters (SI)", "score", "misfit before", "misfit after"):
         t.add_column(col)
     for h in d["ranked"][:8]:
-        t.add_row(str(h["effect"]), str(h["location"]), str(h["parameters"]), f"{h['score']:.4g}",
+        t.add_row(escape(str(h["effect"])), escape(str(h["location"])), escape(str(h["parameters"])),
+                  f"{h['score']:.4g}",
                   f"{h['misfit_before']:.4g}", f"{h['misfit_after']:.4g}")
     console.print(t)
-    console.print(f"selected: {d['selected']}   report: {Path(out) / 'diagnosis.md'}")
+    console.print(f"selected: {escape(str(d['selected']))}   report: {escape(str(out_path / 'diagnosis.md'))}",
+                  highlight=False)
     v = d["validated"]
     if v.get("noise_misfit") is not None:
         console.print(f"validation ({v['plant']}): FRF misfit {v['misfit_before']:.3g} -> {v['misfit_after']:.3g} "
                       f"decades; the measured noise alone leaves {v['noise_misfit']:.3g}")
+
+# ------------------------------------------------------------------ option checks (before any work) ---
+
+
+def _number(option: str, value: float | None, *, low: float | None = None, high: float | None = None,
+            low_open: bool = False, what: str = "a number") -> float | None:
+    """``value`` of ``option`` checked finite and in range (None passes); raises OptionError naming both."""
+    if value is None:
+        return None
+    v = float(value)
+    if not math.isfinite(v):
+        raise OptionError(f"{option} must be a finite number ({what}), got {value!r}")
+    if low is not None and (v < low or (low_open and v == low)):
+        raise OptionError(f"{option} must be {'>' if low_open else '>='} {low:g} ({what}), got {value!r}")
+    if high is not None and v > high:
+        raise OptionError(f"{option} must be <= {high:g} ({what}), got {value!r}")
+    return v
+
+
+def _seed(value: int) -> int:
+    if value < 0 or value >= 2**32:
+        raise OptionError(f"--seed must be an integer in [0, 2**32), got {value!r}")
+    return value
+
+
+def _input_file(option: str, value: str | None) -> str | None:
+    """A file to read: exists and is a regular file (None passes)."""
+    from pathlib import Path
+
+    from .errors import DataFileError
+
+    if value is None:
+        return None
+    if str(value).strip() == "":
+        raise OptionError(f"{option}: an empty path is not a file")
+    p = Path(value)
+    if not p.exists():
+        raise DataFileError(f"{option} {value}: file not found")
+    if not p.is_file():
+        raise DataFileError(f"{option} {value}: not a regular file")
+    return value
+
+
+def _out_dir(value: str, default: str, overwrite: bool):
+    """``--out`` checked (:func:`vlab.io.atomic.check_output_dir`); the default's parent ``out/`` may be created."""
+    from .io.atomic import check_output_dir
+
+    return check_output_dir(value, overwrite=overwrite, option="--out", create_parent=(value == default))
+
+
+def available_memory_bytes() -> int | None:
+    """Memory available to a new run [bytes]: ``MemAvailable`` of ``/proc/meminfo``, else ``os.sysconf``.
+
+    Returns
+    -------
+    int or None
+        Bytes, or None where the system does not say.
+    """
+    import os
+
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+#: Rough controller ticks per second of the experiment loop (measured on the development machine,
+#: 2 shared cores, open loop, 40 s BCC / 100 s grid runs): linear plant ~4800, MuJoCo BCC ~3600;
+#: the MuJoCo grid (more bodies) is taken slower. Only for the time estimate shown before a run.
+LOOP_TICKS_PER_S = {("linear", "bcc"): 4800.0, ("linear", "grid"): 4800.0,
+                    ("mujoco", "bcc"): 3600.0, ("mujoco", "grid"): 1500.0}
+#: Memory bandwidth assumed for the delay line's per-tick shift [bytes/s] (time estimate only).
+SHIFT_BYTES_PER_S = 2e9
+
+
+def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | None,
+                        delay_periods: float) -> dict[str, float]:
+    """Memory and time an experiment run would need, estimated before it starts.
+
+    Memory: the loop's per-tick arrays (velocities of the measured points,
+    displacements of the shape points, commands, excitation, time) with the
+    copies the recording, H1 and the rerun log make (x3 for the signals), and
+    the computation-delay line of :class:`vlab.lab.blocks.SampleDelay`
+    (``floor(D) + 2`` samples per actuator, x3: buffer, shift copy, state).
+    Time: ticks / :data:`LOOP_TICKS_PER_S` plus the delay line's per-tick
+    shift at :data:`SHIFT_BYTES_PER_S`.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The nominal FE model (its spec selects the test of Sec. 5.4).
+    plant : {"linear", "mujoco"}
+        Plant kind.
+    period_s : float
+        Controller sampling period [s].
+    duration_s : float or None
+        Run length [s]; None = the default (settling records of the slowest
+        open-loop mode, :func:`vlab.lab.experiment.settle_records`, plus the
+        measured records).
+    delay_periods : float
+        Computation delay [sampling periods].
+
+    Returns
+    -------
+    dict
+        ``duration_s``, ``n_ticks``, ``memory_bytes``, ``time_s``.
+
+    Raises
+    ------
+    ModelError
+        Structure without a test definition.
+    """
+    from .lab.experiment import ExperimentConfig, TESTS, settle_records, slowest_decay_rate
+
+    test = TESTS[fe.spec.name] if fe.spec.name in TESTS else None
+    if test is None:
+        from .errors import ModelError
+
+        raise ModelError(f"structure {fe.spec.name!r} has no test definition")
+    record_s = 1.0 / test.resolution_hz
+    if duration_s is None:
+        n_settle = settle_records(slowest_decay_rate(fe, None), record_s)
+        duration_s = (n_settle + ExperimentConfig.periods - 1) * record_s
+    n_ticks = math.floor(duration_s / period_s + 1e-9)
+    acts = tuple(fe.spec.instrumentation.actuators)
+    n_meas = len(dict.fromkeys(tuple(test.measured_points) + acts))
+    n_shape = sum(1 for p in fe.spec.points if (p, "w") in fe.dofs)
+    per_tick = 8.0 * (3 * (n_meas + n_shape + len(acts)) + 4)
+    delay_bytes = 8.0 * (math.floor(delay_periods) + 2) * len(acts)
+    rate = LOOP_TICKS_PER_S.get((plant, fe.spec.name), 1500.0)
+    return {"duration_s": float(duration_s), "n_ticks": float(n_ticks),
+            "memory_bytes": n_ticks * per_tick + 3 * delay_bytes,
+            "time_s": n_ticks / rate + n_ticks * delay_bytes / SHIFT_BYTES_PER_S}
+
+
+def _human_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"
+
+
+def _human_s(t: float) -> str:
+    if t < 120:
+        return f"{t:.0f} s"
+    if t < 7200:
+        return f"{t / 60:.0f} min"
+    if t < 48 * 3600:
+        return f"{t / 3600:.1f} h"
+    return f"{t / 86400:.3g} days"
+
+
+def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | None, delay_periods: float,
+                      quiet: bool) -> dict[str, float]:
+    """Refuse a run that cannot fit in memory or whose delay exceeds it; print the estimate."""
+    est = estimate_experiment(fe, plant=plant, period_s=period_s, duration_s=duration_s, delay_periods=delay_periods)
+    if delay_periods >= est["n_ticks"]:
+        raise OptionError(f"--delay-samples {delay_periods:g} is longer than the whole run "
+                          f"({est['n_ticks']:.0f} sampling periods of {est['duration_s']:g} s): the controller "
+                          "output would never reach the coils")
+    avail = available_memory_bytes()
+    if avail is not None and est["memory_bytes"] > 0.8 * avail:
+        raise ResourceError(
+            f"the run ({est['duration_s']:g} s, {est['n_ticks']:.3g} ticks, delay line {delay_periods:g} "
+            f"periods) would need about {_human_bytes(est['memory_bytes'])} of memory; "
+            f"{_human_bytes(avail)} is available: shorten --duration or --delay-samples")
+    if not quiet:
+        err_console.print(f"estimate: {est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
+                          f"~{_human_bytes(est['memory_bytes'])} memory, ~{_human_s(est['time_s'])} for the loop "
+                          "(plus design and outputs)", highlight=False, soft_wrap=True)
+    return est
+
 
 
 def _period_s(period_ms: float | None) -> float | None:

@@ -37,3 +37,21 @@ class MeasurementError(VlabError, ValueError):
 
 class DataFileError(VlabError, ValueError):
     """A data file (UFF, CSV, MJCF) is missing, unreadable or inconsistent (names file and channel)."""
+
+
+class OptionError(VlabError, ValueError):
+    """A command-line option has an invalid value (non-finite, out of range, contradictory); names the option."""
+
+
+class OutputError(VlabError, ValueError):
+    """An output file or folder cannot be written as asked (exists, parent missing, not writable); names the path."""
+
+
+class ResourceError(VlabError, ValueError):
+    """A run would need more memory than the machine has available; says how much it would need."""
+
+
+#: Exception classes that mean bad input (command-line exit status 2); every other
+#: :class:`VlabError` (:class:`SimulationError`, :class:`MeasurementError` during a run)
+#: means a failed run (exit status 1).
+BAD_INPUT_ERRORS = (SpecError, ModelError, ReductionError, DataFileError, OptionError, OutputError, ResourceError)

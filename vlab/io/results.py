@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataFileError
 
 
 def jsonable(o: Any) -> Any:
@@ -248,35 +247,56 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
         The experiment (:func:`vlab.lab.experiment.run_experiment`).
     spec : StructureSpec
         The structure, for the geometry drawn in the rerun recording.
+    The folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
+    every file goes into a temporary folder beside ``out_dir`` that is
+    renamed into place only when complete, so that an interrupted or failed
+    write leaves ``out_dir`` as it was.
+
+    Parameters
+    ----------
     out_dir : Path
-        Output folder; created with its parents if missing.
+        Output folder; its parent must exist (it is not created).
     spawn : bool
-        Open the rerun viewer live while logging.
+        Open the rerun viewer live while logging. If the viewer cannot be
+        started or reached, the recording is logged to ``run.rrd`` alone and
+        a warning is returned under ``files["warnings"]`` (a list of str).
     overwrite : bool
-        Replace existing UFF files (passed to the UFF writers); with False an
-        existing ``recording.uff`` or ``frf.uff`` is an error.
+        Replace an existing non-empty ``out_dir`` whole (the old folder is
+        deleted only after the new one is in place); with False such a
+        folder is an error.
 
     Returns
     -------
     dict[str, Path]
         Output kind (``"recording"``, ``"frf"``, ``"results"``, ``"report"``,
-        ``"figure"``, ``"rerun"``) -> file path.
+        ``"figure"``, ``"rerun"``) -> file path in ``out_dir``; plus
+        ``"warnings"`` (list of str, possibly empty).
 
     Raises
     ------
+    OutputError
+        ``out_dir`` is a file, a non-empty folder without ``overwrite``, or
+        its parent folder is missing or not writable.
     DataFileError
-        If the folder cannot be created, or a UFF file cannot be written
-        (e.g. it exists and ``overwrite`` is False).
+        If a UFF file cannot be written.
     """
+    from .atomic import atomic_dir
+
+    final = Path(out_dir)
+    with atomic_dir(final, overwrite=overwrite) as tmp:
+        files, warnings = _write_outputs_into(result, spec, tmp, spawn=spawn)
+    out = {k: final / p.name for k, p in files.items()}
+    out["warnings"] = warnings
+    return out
+
+
+def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[str, Path], list[str]]:
+    """Write the experiment's files into the (temporary, empty) folder ``out``."""
     from ..viz.figures import frf_panels_figure
     from ..viz.rerun_log import log_experiment, structure_geometry
     from .uff import write_frfs, write_recording
 
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise DataFileError(f"{out}: cannot create the output folder ({exc})") from None
+    overwrite = False
     files = {
         "recording": out / "recording.uff",
         "frf": out / "frf.uff",
@@ -314,11 +334,20 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     disp = np.zeros((loop.displacements.shape[0], len(all_points)))
     for j, p in enumerate(loop.shape_points):
         disp[:, all_points.index(p)] = loop.displacements[:, j]
-    log_experiment(
-        files["rerun"], recording=loop.recording, structure_points=pts, members=members,
+    rerun_args = dict(
+        recording=loop.recording, structure_points=pts, members=members,
         displacement=disp, displacement_dt_s=loop.recording.dt_s, point_ids=all_points,
         frfs={"experiment": (result.freq_hz, result.measured), "analysis": (result.freq_hz, result.analysis_sampled)},
         extra_signals={f"u{p}": loop.commands[:, j] for j, p in enumerate(result.plant_info.get("actuators", []))},
-        metadata=summary, spawn=spawn,
-    )
-    return files
+        metadata=summary)
+    warnings: list[str] = []
+    if spawn:
+        try:
+            log_experiment(files["rerun"], spawn=True, **rerun_args)
+            return files, warnings
+        except (RuntimeError, OSError) as exc:  # no viewer executable, no display, gRPC connection refused
+            warnings.append(f"the rerun viewer could not be started or reached ({exc}); "
+                            f"{files['rerun'].name} is written, open it with `rerun {files['rerun'].name}`")
+            files["rerun"].unlink(missing_ok=True)
+    log_experiment(files["rerun"], spawn=False, **rerun_args)
+    return files, warnings

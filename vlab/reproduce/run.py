@@ -126,13 +126,19 @@ def _limit_cycle_figure(lc: LimitCycleResult, path: Path) -> Path:
 
 
 def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear", lab: str | None = None,
-              groups: Sequence[str] | None = None, progress=None, console=None, seed: int = 0) -> ReproduceResult:
+              groups: Sequence[str] | None = None, progress=None, console=None, seed: int = 0,
+              overwrite: bool = True) -> ReproduceResult:
     """Regenerate the dissertation's tables, figures and the Sec. 6.1 limit-cycle study.
+
+    The output folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
+    everything goes into a temporary folder beside ``out_dir``, renamed into
+    place when complete; a failed or interrupted run leaves ``out_dir`` as it was.
 
     Parameters
     ----------
     out_dir : str or Path
-        Output folder (created): ``report.md``, ``reproduce.json``, ``figures/``.
+        Output folder (created; its parent must exist): ``report.md``,
+        ``reproduce.json``, ``figures/``.
     fast : bool
         Coarser frequency resolution and short limit-cycle runs (a quick
         look; the numbers of the experiment tables move).
@@ -151,16 +157,38 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
         Where to print the agreement summary (nothing printed if None).
     seed : int
         Seed of the optimisers' multi-start and of the excitation.
+    overwrite : bool
+        Replace an existing non-empty ``out_dir`` whole (after the new one is complete).
 
     Returns
     -------
     ReproduceResult
+        With ``out_dir`` and ``figures`` in the final folder.
 
     Raises
     ------
     ModelError
         Unknown plant, lab or group; MuJoCo with the as-measured structure.
+    OutputError
+        ``out_dir`` is a file, a non-empty folder without ``overwrite``, or its
+        parent folder is missing or not writable.
     """
+    from dataclasses import replace
+
+    from ..io.atomic import atomic_dir, check_output_dir
+
+    final = check_output_dir(out_dir, overwrite=overwrite, option="out_dir")
+    with atomic_dir(final, overwrite=overwrite) as tmp:
+        result = _reproduce_into(tmp, fast=fast, plant=plant, lab=lab, groups=groups, progress=progress, seed=seed)
+    result = replace(result, out_dir=final, figures=tuple(final / p.relative_to(tmp) for p in result.figures))
+    if console is not None:
+        print_summary(result, console)
+    return result
+
+
+def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, groups: Sequence[str] | None,
+                    progress, seed: int) -> ReproduceResult:
+    """:func:`reproduce` written into the (temporary) folder ``out_dir``."""
     t_start = time.perf_counter()
     if plant not in PLANTS:
         raise ModelError(f"unknown plant {plant!r}; use one of {PLANTS}")
@@ -259,8 +287,6 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
     result = ReproduceResult(out, tuple(tables), lc, tuple(figures), settings, time.perf_counter() - t_start)
     _write_json(result, runs, out / "reproduce.json")
     (out / "report.md").write_text(report_markdown(result, runs))
-    if console is not None:
-        print_summary(result, console)
     return result
 
 

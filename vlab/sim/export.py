@@ -20,7 +20,7 @@ from ..errors import DataFileError, SimulationError
 from .builder import Plant
 
 
-def export_mjcf(plant: Plant, path: str | Path) -> Path:
+def export_mjcf(plant: Plant, path: str | Path, *, overwrite: bool = True) -> Path:
     """Write the plant as an MJCF file.
 
     Its header comment names the structure (title and name) and the spec's
@@ -33,7 +33,11 @@ def export_mjcf(plant: Plant, path: str | Path) -> Path:
     ----------
     plant : Plant
     path : str or Path
-        Target file (``.xml``); parent folders are created.
+        Target file (``.xml``); its parent folder must exist (it is not
+        created). Written atomically (:func:`vlab.io.atomic.atomic_file`): a
+        temporary file beside it renamed onto it when complete.
+    overwrite : bool
+        Replace an existing file.
 
     Returns
     -------
@@ -42,17 +46,22 @@ def export_mjcf(plant: Plant, path: str | Path) -> Path:
 
     Raises
     ------
+    OutputError
+        Empty path, not ``.xml``, a folder, an existing file without
+        ``overwrite``, or a missing or read-only parent folder.
     SimulationError
         If the spec does not compile or the file cannot be written.
     """
-    path = Path(path)
+    from ..io.atomic import atomic_file, check_output_file
+
+    path = check_output_file(path, overwrite=overwrite, option="path", suffix=".xml")
     try:
         xml = plant.mjspec.to_xml()
     except Exception as exc:  # compile error inside to_xml
         raise SimulationError(f"cannot export the plant: {exc}") from exc
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(xml)
+        with atomic_file(path, overwrite=overwrite) as tmp:
+            tmp.write_text(xml)
     except OSError as exc:
         raise SimulationError(f"cannot write {path}: {exc}") from exc
     return path

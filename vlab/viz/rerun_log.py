@@ -247,6 +247,33 @@ def open_recording(path: str | Path | None, *, app_id: str = "vlab", recording_i
     return rec
 
 
+def viewer_unavailable_reason() -> str | None:
+    """Why a live rerun viewer (``spawn=True``) cannot be started here, or None if it can be tried.
+
+    Checked before a run starts (``vlab experiment --spawn``), so that a run
+    is not done only to fail when the viewer is spawned: on Linux and other
+    X11/Wayland systems a display (``DISPLAY`` or ``WAYLAND_DISPLAY``) is
+    needed, and on every system the ``rerun`` viewer executable (on ``PATH``
+    or beside the Python interpreter).
+
+    Returns
+    -------
+    str or None
+        A one-line reason, or None.
+    """
+    import os
+    import shutil
+    import sys
+
+    if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return "no display: neither DISPLAY nor WAYLAND_DISPLAY is set"
+    exe_dir = os.path.dirname(sys.executable)
+    if shutil.which("rerun") is None and shutil.which("rerun", path=exe_dir) is None:
+        return "the rerun viewer executable is not on PATH"
+    return None
+
+
 def close_recording(rec) -> None:
     """Flush ``rec`` and close its file / viewer connection (the ``.rrd`` is complete after this)."""
     rec.flush()

@@ -1,0 +1,112 @@
+"""The CLI bad-input corpus (issue 26): every case is refused cleanly, before any work, changing nothing.
+
+Each case of ``cli_cases.json`` runs ``vlab <args>`` in-process (typer's
+CliRunner) in a fresh temporary folder and checks, independently of vlab:
+
+- the exit status (2 = bad input);
+- that the offending option, value or path appears in the output (whitespace
+  and rich's box characters normalised);
+- that no traceback is printed and no exception escapes;
+- that no work started: the functions that simulate, design, reproduce,
+  diagnose or export are replaced by a trap that fails the case, and a
+  20 s alarm fails a case that hangs;
+- that no file or folder of the temporary folder changed (SHA-256 of every
+  file, and the set of paths, before and after).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import signal
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from vlab.cli import app
+
+CASES = json.loads((Path(__file__).parent / "cli_cases.json").read_text())["cases"]
+
+
+class StartedWork(BaseException):
+    """Raised by the traps: a refused case must not reach the work (BaseException: no handler catches it)."""
+
+
+class TimedOut(BaseException):
+    """Raised by the per-case alarm."""
+
+
+def _trap(name):
+    def trap(*args, **kwargs):
+        raise StartedWork(f"{name} was called: the case started work before refusing")
+    return trap
+
+
+def _populate(root: Path) -> None:
+    (root / "existing_dir").mkdir()
+    (root / "existing_dir" / "inner_file.txt").write_text("keep me\n")
+    (root / "empty_dir").mkdir()
+    (root / "folder.xml").mkdir()
+    (root / "existing.xml").write_text("<mujoco/>\n")
+    (root / "existing_file.txt").write_text("precious\n")
+    (root / "rec.uff").write_text("    -1\n    58\n")
+    (root / "model.xml").write_text("<mujoco/>\n")
+
+
+def _snapshot(root: Path) -> dict[str, str]:
+    out = {}
+    for p in sorted(root.rglob("*")):
+        rel = str(p.relative_to(root))
+        out[rel] = hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
+    return out
+
+
+def _normalise(text: str) -> str:
+    return " ".join(re.sub(r"[│╭╮╰╯─]", " ", text).split())
+
+
+def test_corpus_is_large_and_unique():
+    ids = [c["id"] for c in CASES]
+    assert len(CASES) >= 90 and len(set(ids)) == len(ids)
+    assert {c["args"][0] for c in CASES} >= {"modes", "design", "experiment", "export-mjcf", "reproduce",
+                                              "diagnose", "crosscheck"}
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c["id"] for c in CASES])
+def test_cli_bad_input(case, tmp_path, monkeypatch):
+    import vlab.design
+    import vlab.diagnose
+    import vlab.lab.experiment
+    import vlab.reproduce
+    import vlab.sim
+
+    for mod, name in ((vlab.lab.experiment, "run_experiment"), (vlab.design, "design_controller"),
+                      (vlab.reproduce, "reproduce"), (vlab.diagnose, "diagnose"), (vlab.sim, "export_mjcf"),
+                      (vlab.sim, "build_plant")):
+        monkeypatch.setattr(mod, name, _trap(f"{mod.__name__}.{name}"))
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.chdir(tmp_path)
+    _populate(tmp_path)
+    before = _snapshot(tmp_path)
+
+    def alarm(signum, frame):
+        raise TimedOut(f"case {case['id']} ran over 20 s")
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(20)
+    try:
+        res = CliRunner().invoke(app, case["args"])
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    out = res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), (
+        f"{type(res.exception).__name__}: {res.exception}\n{out}")
+    assert res.exit_code == case["exit_code"], out
+    assert "Traceback" not in out, out
+    assert _normalise(case["message_contains"]) in _normalise(out), out
+    assert len(out.strip().splitlines()) <= 10, out  # one error line (typer usage errors: a small box)
+    assert _snapshot(tmp_path) == before

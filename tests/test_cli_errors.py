@@ -1,0 +1,199 @@
+"""The CLI's single error path, its atomic outputs and the --spawn fallback (issue 26)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from vlab.cli import app
+from vlab.errors import MeasurementError, OutputError, SimulationError, SpecError
+from vlab.io.atomic import atomic_dir, atomic_file
+
+runner = CliRunner()
+
+
+def _flat(text: str) -> str:
+    return " ".join(text.split())
+
+
+# ------------------------------------------------------------------ error path ---
+
+
+@pytest.mark.parametrize("message", [
+    "field 'structure.gravity': expected [list], got [0.0]",
+    "noise.sigma_m_s must be finite, got [inf]",
+    "value [bold]x[/bold] and [link=file:///etc]y[/link]",
+])
+def test_values_in_brackets_are_printed_verbatim(monkeypatch, message):
+    """Rich markup must not eat values: the message appears character for character."""
+    import vlab.models
+
+    def boom(*a, **k):
+        raise SpecError(message)
+
+    monkeypatch.setattr(vlab.models, "nominal_fe_model", boom)
+    res = runner.invoke(app, ["modes", "bcc"])
+    assert res.exit_code == 2
+    assert message in _flat(res.output), res.output
+    assert "Traceback" not in res.output
+
+
+@pytest.mark.parametrize("exc, code", [
+    (SpecError("bad spec"), 2),
+    (SimulationError("diverged at 1.2 s"), 1),
+    (MeasurementError("too short"), 1),
+    (OSError(28, "No space left on device", "out/x.uff"), 1),
+    (MemoryError("Unable to allocate 149. GiB"), 1),
+    (RuntimeError("something unexpected"), 1),
+])
+def test_exit_status_by_exception_class(monkeypatch, exc, code):
+    import vlab.models
+
+    def boom(*a, **k):
+        raise exc
+
+    monkeypatch.setattr(vlab.models, "nominal_fe_model", boom)
+    res = runner.invoke(app, ["modes", "bcc"])
+    assert res.exit_code == code, res.output
+    assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1, res.output
+    assert res.output.startswith("error:")
+
+
+def test_measurement_error_of_diagnose_is_bad_input(monkeypatch, tmp_path):
+    import vlab.diagnose
+
+    rec = tmp_path / "rec.uff"
+    rec.write_text("x")
+
+    def boom(*a, **k):
+        raise MeasurementError(f"{rec}: channel vel6 has 100 NaN samples")
+
+    monkeypatch.setattr(vlab.diagnose, "diagnose", boom)
+    res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--out",
+                              str(tmp_path / "d"), "--json"])
+    assert res.exit_code == 2 and "100 NaN samples" in _flat(res.output)
+    assert not (tmp_path / "d").exists() and [p.name for p in tmp_path.iterdir()] == ["rec.uff"]
+
+
+def test_debug_shows_the_traceback(monkeypatch):
+    import vlab.models
+
+    def boom(*a, **k):
+        raise RuntimeError("something unexpected")
+
+    monkeypatch.setattr(vlab.models, "nominal_fe_model", boom)
+    res = runner.invoke(app, ["--debug", "modes", "bcc"])
+    assert isinstance(res.exception, RuntimeError)  # propagates: the traceback is shown
+
+
+def test_help_documents_the_exit_status():
+    res = runner.invoke(app, ["--help"])
+    assert res.exit_code == 0 and "Exit status" in res.output and "130 interrupted" in _flat(res.output)
+
+
+# ------------------------------------------------------------------ atomic outputs ---
+
+
+def _tree(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    before = _tree(out)
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_dir(out, overwrite=True) as tmp:
+            (tmp / "new.txt").write_text("half")
+            raise KeyboardInterrupt
+    assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    with pytest.raises(OutputError, match="--overwrite"):
+        with atomic_dir(out) as tmp:
+            pass
+    with atomic_dir(out, overwrite=True) as tmp:
+        (tmp / "new.txt").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == ["new.txt"]
+    mask = os.umask(0)
+    os.umask(mask)
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()  # the permissions a plain mkdir gives
+    assert out.stat().st_mode & 0o777 == fresh.stat().st_mode & 0o777 == 0o777 & ~mask
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh", "out"]
+
+
+def test_atomic_file_and_missing_parent(tmp_path):
+    target = tmp_path / "x.xml"
+    target.write_text("old")
+    with pytest.raises(OutputError, match="exists"):
+        with atomic_file(target) as tmp:
+            pass
+    with atomic_file(target, overwrite=True) as tmp:
+        tmp.write_text("new")
+    assert target.read_text() == "new"
+    mask = os.umask(0)
+    os.umask(mask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~mask
+    with pytest.raises(OutputError, match="does not exist"):
+        with atomic_file(tmp_path / "nope" / "x.xml") as tmp:
+            pass
+    assert not (tmp_path / "nope").exists()
+
+
+def test_export_mjcf_overwrite(tmp_path):
+    path = tmp_path / "bcc.xml"
+    path.write_text("mine")
+    res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])
+    assert res.exit_code == 2 and path.read_text() == "mine"
+    res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path), "--overwrite"])
+    assert res.exit_code == 0, res.output
+    assert "<mujoco" in path.read_text() and sorted(p.name for p in tmp_path.iterdir()) == ["bcc.xml"]
+
+
+# ------------------------------------------------------------------ --spawn ---
+
+
+@pytest.fixture(scope="module")
+def short_run():
+    from vlab.lab.experiment import ExperimentConfig, run_experiment
+    from vlab.models import nominal_fe_model
+
+    cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", resolution_hz=0.25, duration_s=8.0)
+    return run_experiment(cfg, nominal_fe_model("bcc"))
+
+
+def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
+    """A viewer that cannot be reached after the run: every output is still written, with a warning."""
+    import rerun as rr
+
+    import vlab.lab.experiment as ex
+
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(ex, "run_experiment", lambda cfg, fe, **kw: short_run)
+
+    def no_viewer(self, **kw):
+        raise RuntimeError("Failed to connect to Rerun server at rerun+http://127.0.0.1:9876/proxy")
+
+    monkeypatch.setattr(rr.RecordingStream, "spawn", no_viewer)
+    import vlab.viz.rerun_log as rl
+
+    monkeypatch.setattr(rl, "viewer_unavailable_reason", lambda: None)
+    out = tmp_path / "o"
+    res = runner.invoke(app, ["experiment", "bcc", "--controller", "none", "--plant", "linear", "--spawn",
+                              "--duration", "40", "--out", str(out), "--allow-unstable"])
+    assert res.exit_code == 0, res.output
+    assert "rerun viewer could not be started" in _flat(res.output)
+    assert {"recording.uff", "frf.uff", "results.json", "report.md", "frf.png", "run.rrd"} <= {
+        p.name for p in out.iterdir()}
+    assert (out / "run.rrd").stat().st_size > 0
