@@ -1,7 +1,7 @@
 """Calibration of the Hanging Grid reconstruction to the dissertation's tables.
 
 The grid's drawing (Fig. 5, Refs. 51-52) is not available, so its geometry is a
-reconstruction (``shared/grid-reconstruction.md``, topology "D5a": a +/-45 deg
+reconstruction (``docs/grid-reconstruction.md``, topology "D5a": a +/-45 deg
 lattice of pitch ``a``, rows 2-4-3-2-1 with one horizontal bar 10-11, hung
 from the top beam at points 15, 17, 18, 20). Its unknown parameters (see
 :data:`GRID_PARAMETERS`) -- lattice pitch, top-beam half-span, plate width and
