@@ -207,7 +207,7 @@ def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
                                    "--plant", "linear", "--out", str(tmp_path / "out")])
     assert res.exit_code == 0, res.output
     out = " ".join(res.output.split())  # rich wraps long lines
-    assert "selected: [{'effect': 'added_mass'" in out and "the measured noise alone leaves" in out
+    assert "Selected: added_mass at point 6 (mass 0.12" in out and "the measured noise alone leaves" in out
     assert (tmp_path / "out" / "diagnosis.md").is_file()
 
 

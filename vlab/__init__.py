@@ -1,10 +1,368 @@
 """vlab: a virtual laboratory for active vibration control of flexible structures.
 
 Rebuilds the laboratory of the 1990 dissertation "Experimental and theoretical
-investigation of optimal control methods with model reduction" (see
-``shared/seed``): FE models of the Beam Cross-Cable and Hanging Grid
-structures, reduction and correction, MuJoCo plants, a 2 kHz digital control
-loop, modal-test style measurements and mismatch diagnosis.
+investigation of optimal control methods with model reduction": FE models of
+the Beam Cross-Cable and Hanging Grid structures, reduction and correction,
+MuJoCo plants, a 2 kHz digital control loop, modal-test style measurements and
+mismatch diagnosis.
+
+Python entry points (stable signatures; ``docs/python-api.md`` is the
+tutorial): :func:`load_spec`, :func:`modes`, :func:`design`,
+:func:`run_experiment`, :func:`diagnose`, :func:`export_mjcf`. They are
+imported lazily, so ``import vlab`` stays fast.
+
+``vlab.design`` and ``vlab.diagnose`` are also the names of subpackages; the
+modules are callable and calling them calls the entry points below
+(``vlab.design("bcc")``, ``vlab.diagnose("bcc", "recording.uff")``), while
+``vlab.design.design_controller`` and ``vlab.diagnose.report`` stay reachable.
 """
 
+from __future__ import annotations
+
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
 __version__ = "0.1.0"
+
+__all__ = ["load_spec", "modes", "design", "run_experiment", "diagnose", "export_mjcf", "__version__"]
+
+
+def load_spec(name_or_path: str | Path):
+    """Load a structure spec: a shipped structure's name or the path of a TOML file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        ``"bcc"`` (Beam Cross-Cable), ``"grid"`` (Hanging Grid) or a TOML file
+        in the format of ``assets/structures/*.toml``.
+
+    Returns
+    -------
+    StructureSpec
+        SI units throughout (:class:`vlab.spec.StructureSpec`).
+
+    Raises
+    ------
+    SpecError
+        Unknown name, missing file or an invalid field (named in the message).
+    """
+    from .spec import load_spec as _load
+
+    return _load(name_or_path)
+
+
+def _fe_model(structure):
+    from .models import nominal_fe_model
+    from .spec import StructureSpec
+
+    if isinstance(structure, StructureSpec):
+        from .fe import build_fe_model
+
+        return build_fe_model(structure)
+    return nominal_fe_model(str(structure))
+
+
+def modes(structure: Any = "bcc", n: int = 12, *, reduction: str = "full"):
+    """Natural frequencies and mode shapes of a structure's FE model (``vlab modes``).
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+    n : int
+        Number of modes, 1 to the model's degrees of freedom.
+    reduction : {"full", "exact", "guyan"}
+        Model: the full FE model, its exact reduction or its Guyan reduction
+        (:func:`vlab.models.reduce_model`).
+
+    Returns
+    -------
+    frequencies_hz : ndarray, shape (n,)
+        Undamped natural frequencies [Hz], ascending (compare with Table 1
+        for the BCC, Table 3 for the grid).
+    shapes : ndarray, shape (n_dof, n)
+        Mass-normalised mode shapes over the model's degrees of freedom
+        (``fe.dofs`` of the full model, the masters of a reduced one).
+
+    Raises
+    ------
+    OptionError
+        ``n`` out of range or an unknown ``reduction``.
+    SpecError, ModelError, ReductionError
+        As :func:`load_spec` and the model build.
+    """
+    import numpy as np
+
+    from .errors import OptionError
+    from .fe import modal_analysis
+
+    if reduction not in ("full", "exact", "guyan"):
+        raise OptionError(f"reduction {reduction!r} is not one of full, exact, guyan")
+    fe = _fe_model(structure)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= fe.m.shape[0]:
+        raise OptionError(f"n must be an integer in [1, {fe.m.shape[0]}] (the model's degrees of freedom), got {n!r}")
+    if reduction == "full":
+        m, k = fe.m, fe.k
+    else:
+        from .models import reduce_model
+
+        red = reduce_model(fe, reduction)
+        m, k = red.m, red.k
+        n = min(int(n), m.shape[0])
+    res = modal_analysis(m, k, int(n))
+    return res.frequencies_hz, res.shapes
+
+
+def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str | None = None, seed: int = 0,
+           period_s: float | None = None, measured_modes=None):
+    """Design one of the dissertation's controllers with its settings (``vlab design``).
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+    controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg", "lqr"}
+        Controller type.
+    reduction : {"full", "exact", "guyan", "corrected-guyan"}, optional
+        Design model; None = the thesis's choice (DRF on the full model for
+        the BCC, everything else on the structure's default reduction).
+    seed : int
+        Seed of the optimiser's multi-start, in [0, 2**32).
+    period_s : float, optional
+        Sampling period of the discrete realization [s]; None = the thesis's
+        (Sec. 5.3: LQG 1 ms, the others 0.5 ms).
+    measured_modes : (ndarray, ndarray), optional
+        For ``"corrected-guyan"``: measured frequencies [Hz], shape (m,), and
+        shapes at the Guyan masters, shape (n_masters, m).
+
+    Returns
+    -------
+    ControllerDesign
+        Gains, closed-loop frequencies [Hz] and damping ratios, performance
+        index, realization (:class:`vlab.design.ControllerDesign`).
+
+    Raises
+    ------
+    ModelError
+        Unknown controller or design model, a period that is not positive.
+    """
+    from .design import design_controller
+
+    return design_controller(_fe_model(structure), controller, model=reduction, measured_modes=measured_modes,
+                             seed=seed, period_s=period_s)
+
+
+def run_experiment(structure: str = "bcc", controller: str = "mfdrf", *, plant: str = "mujoco",
+                   excitation: str = "random", reduction: str | None = None, duration_s: float | None = None,
+                   delay_periods: float = 1.35, period_s: float | None = None, noise_m_s: float = 1e-6,
+                   seed: int = 0, mjcf: str | Path | None = None, out_dir: str | Path | None = None,
+                   overwrite: bool = False, progress=None):
+    """Run a closed-loop experiment and measure it like a modal test (``vlab experiment``).
+
+    The defaults are those of the command: the thesis's hardware chain
+    (Sec. 5.3), the structure's test (Sec. 5.4), the MuJoCo plant.
+
+    Parameters
+    ----------
+    structure : {"bcc", "grid"}
+        A structure with a test definition (:data:`vlab.lab.experiment.TESTS`).
+    controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
+        Controller in the loop (``"none"``: open loop).
+    plant : {"mujoco", "linear"}
+        MuJoCo plant, or the linear FE model stepped exactly (fast).
+    excitation : {"random", "sweep", "impulse"}
+        Periodic test force in the structure's band.
+    reduction : {"full", "exact", "guyan", "corrected-guyan"}, optional
+        Design model; None = the thesis's choice.
+    duration_s : float, optional
+        Run length [s], at least two records of ``1 / resolution`` (BCC 40 s,
+        grid 100 s); None = the settling records plus two measured.
+    delay_periods : float
+        Computation delay [sampling periods], >= 0.
+    period_s : float, optional
+        Controller sampling period [s]; None = the thesis's for the controller.
+    noise_m_s : float
+        Velocity-sensor noise standard deviation [m/s], >= 0.
+    seed : int
+        Seed of excitation, noise and design, in [0, 2**32).
+    mjcf : str or Path, optional
+        An exported (and edited) MJCF plant to run (``plant="mujoco"``).
+    out_dir : str or Path, optional
+        Folder to write the outputs to (``results.json``, ``recording.uff``,
+        ``frf.uff``, figures, ``run.rrd``), as ``vlab experiment --out``;
+        None = nothing written.
+    overwrite : bool
+        Replace an existing non-empty ``out_dir``.
+    progress : callable, optional
+        Receives the fraction of the run done, in [0, 1].
+
+    Returns
+    -------
+    ExperimentResult
+        Measured and predicted modes (``.modes``: frequencies [Hz], damping
+        ratios, peak level ratios), FRFs, the recording
+        (:class:`vlab.lab.experiment.ExperimentResult`).
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named), ``controller="lqr"`` (it needs every
+        state measured: use ``"lqg"``), or an unknown structure test.
+    ModelError, SimulationError, MeasurementError, OutputError
+        As :func:`vlab.lab.experiment.run_experiment` and the output writer.
+    """
+    import math
+
+    from .errors import OptionError
+    from .lab.experiment import TESTS, ExperimentConfig, default_chain
+    from .lab.experiment import run_experiment as _run
+
+    if controller == "lqr":
+        raise OptionError("controller 'lqr' needs every state measured; the laboratory ran it as LQG (use 'lqg')")
+    if structure not in TESTS:
+        raise OptionError(f"structure {structure!r} has no test definition (one of {', '.join(TESTS)})")
+    for name, v, low in (("delay_periods", delay_periods, 0.0), ("noise_m_s", noise_m_s, 0.0)):
+        if not math.isfinite(float(v)) or float(v) < low:
+            raise OptionError(f"{name} must be a finite number >= {low:g}, got {v!r}")
+    for name, v in (("duration_s", duration_s), ("period_s", period_s)):
+        if v is not None and (not math.isfinite(float(v)) or float(v) <= 0):
+            raise OptionError(f"{name} must be a finite number > 0, got {v!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise OptionError(f"seed must be an integer in [0, 2**32), got {seed!r}")
+    chain = default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s,
+                          **({} if period_s is None else {"period_s": period_s}))
+    cfg = ExperimentConfig(structure=structure, controller=controller, reduction=reduction, excitation=excitation,
+                           duration_s=duration_s, chain=chain, seed=seed, plant=plant,
+                           mjcf=Path(mjcf) if mjcf is not None else None)
+    fe = _fe_model(structure)
+    out_path = None
+    if out_dir is not None:
+        from .io.atomic import check_output_dir
+
+        out_path = check_output_dir(str(out_dir), overwrite=overwrite, option="out_dir", create_parent=False)
+    result = _run(cfg, fe, progress=progress)
+    if out_path is not None:
+        from .io.results import write_outputs
+
+        write_outputs(result, fe.spec, out_path, spawn=False, overwrite=overwrite)
+    return result
+
+
+def diagnose(structure: Any, recording: str | Path, *, controller: str = "none", out_dir: str | Path | None = None,
+             plant: str = "auto", baseline: str | Path | None = None, seed: int | None = None, **options: Any):
+    """Locate a mismatch between a recording and the simulation, name and fit the missing physics (``vlab diagnose``).
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+    recording : str or Path
+        UFF 58 time histories (as :func:`run_experiment` writes them), UFF 58
+        FRFs, or a CSV modal table.
+    controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
+        Controller that was running during the recording.
+    out_dir : str or Path, optional
+        Folder for ``diagnosis.md``, ``diagnosis.json`` and the figures.
+    plant : {"auto", "linear", "mujoco"}
+        Plant of the validation rerun.
+    baseline : str or Path, optional
+        Recording of the same test before the change.
+    seed : int, optional
+        Seed of the validation rerun (default: the recording's).
+    **options
+        Further keywords of :func:`vlab.diagnose.pipeline.diagnose`
+        (``resolution_hz``, ``effects``, ``floor``, ``pairs``, ...).
+
+    Returns
+    -------
+    DiagnosisResult
+        ``.mismatch``, ``.selected``, ``.ranked``; ``.as_dict()`` is the
+        ``vlab diagnose --json`` object (:class:`vlab.diagnose.result.DiagnosisResult`).
+
+    Raises
+    ------
+    DataFileError, MeasurementError
+        A recording that cannot be read or analysed.
+    SpecError, ModelError
+        As :func:`load_spec`.
+    """
+    from .diagnose.pipeline import diagnose as _diagnose
+
+    return _diagnose(structure, Path(recording), controller=controller, out_dir=out_dir, plant=plant,
+                     baseline=baseline, seed=seed, **options)
+
+
+def export_mjcf(structure: Any, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write a structure's complete MuJoCo plant as an MJCF file (``vlab export-mjcf``).
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+    path : str or Path
+        The ``.xml`` file to write; its folder must exist.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+        The file written; run it with ``run_experiment(..., mjcf=path)``.
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists without ``overwrite``, its folder is missing, or it
+        does not end in ``.xml``.
+    SpecError, ModelError
+        As :func:`load_spec` and the plant build.
+    """
+    from .io.atomic import check_output_file
+    from .sim import build_plant
+    from .sim import export_mjcf as _export
+    from .spec import StructureSpec
+
+    spec = structure if isinstance(structure, StructureSpec) else load_spec(structure)
+    out = check_output_file(str(path), overwrite=overwrite, option="path", suffix=".xml")
+    return _export(build_plant(spec), out, overwrite=overwrite)
+
+
+# ----------------------------------------------------------------- ``vlab.design`` / ``vlab.diagnose`` ---
+# The entry points share their names with the subpackages ``vlab.design`` and ``vlab.diagnose``; importing a
+# subpackage sets the attribute of this package to the module. The module is made callable (calling the entry
+# point) so that both ``vlab.design(...)`` and ``vlab.design.design_controller`` work, in whatever order
+# they are imported.
+
+_ENTRY = {"design": design, "diagnose": diagnose}
+
+
+class _CallableModule(types.ModuleType):
+    """A submodule that, called, calls the package's entry point of the same name."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return _ENTRY[self.__name__.rpartition(".")[2]](*args, **kwargs)
+
+
+def _callable(module: types.ModuleType) -> types.ModuleType:
+    name = module.__name__.rpartition(".")[2]
+    if module.__name__ == f"{__name__}.{name}" and name in _ENTRY and type(module) is types.ModuleType:
+        module.__class__ = _CallableModule
+        module.__wrapped__ = _ENTRY[name]  # inspect.signature(vlab.design) gives the entry point's
+    return module
+
+
+class _Package(types.ModuleType):
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, types.ModuleType) and name in _ENTRY:
+            value = _callable(value)
+        super().__setattr__(name, value)
+
+
+for _name in _ENTRY:  # a subpackage imported before this module finished (python -m vlab.design, ...)
+    _mod = sys.modules.get(f"{__name__}.{_name}")
+    if _mod is not None:
+        globals()[_name] = _callable(_mod)
+sys.modules[__name__].__class__ = _Package
+del _name

@@ -45,7 +45,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 from typer.exceptions import Abort, Exit, TyperException
 
 from .errors import BAD_INPUT_ERRORS, MeasurementError, OptionError, ResourceError, VlabError
@@ -57,7 +57,30 @@ EPILOG = ("Exit status: 0 success; 1 failed run (simulation diverged, measuremen
 
 _STATE: dict[str, Any] = {"debug": False, "interrupted": "interrupted: nothing written"}
 
-console = Console()
+#: Width of stdout's console when it is not a terminal (piped, redirected, captured) and COLUMNS is not set:
+#: wide enough that no table cell is cut and no row wraps (a line is as long as its content).
+PIPED_WIDTH = 10_000
+
+
+class _StdoutConsole(Console):
+    """Console of stdout: the terminal's width on a terminal; when piped, :data:`PIPED_WIDTH` (no cut cells)."""
+
+    @property
+    def size(self):
+        from rich.console import ConsoleDimensions
+
+        dims = super().size
+        columns = self._environ.get("COLUMNS")
+        if self._width is None and not self.is_terminal and not (columns and columns.isdigit()):
+            return ConsoleDimensions(PIPED_WIDTH, dims.height)
+        return dims
+
+    @size.setter
+    def size(self, new_size) -> None:
+        Console.size.fset(self, new_size)
+
+
+console = _StdoutConsole()
 err_console = Console(stderr=True)
 
 
@@ -78,8 +101,25 @@ def _exit_code(exc: BaseException, command: str | None) -> int:
     return 1
 
 
+def _untyped_help_option(option):
+    """``--help`` shown without a type in the help (it takes no value: not ``<bool>``)."""
+    if option is not None:
+        option.metavar = ""
+    return option
+
+
+class _VlabCommand(TyperCommand):
+    """A command whose ``--help`` option is shown without a type."""
+
+    def get_help_option(self, ctx):
+        return _untyped_help_option(super().get_help_option(ctx))
+
+
 class _VlabGroup(TyperGroup):
     """The app's group: turns every exception of a command into one error line and an exit status."""
+
+    def get_help_option(self, ctx):
+        return _untyped_help_option(super().get_help_option(ctx))
 
     def invoke(self, ctx) -> Any:
         _STATE["debug"] = False  # set by the callback (--debug)
@@ -143,6 +183,27 @@ def _install_sigint_flag():
     return lambda: signal.signal(signal.SIGINT, previous)
 
 
+STRUCTURE_HELP = "structure: bcc (Beam Cross-Cable) or grid (Hanging Grid)"
+REDUCTION_HELP = ("design model: full FE model, exact reduction, Guyan reduction or Guyan corrected with measured "
+                  "modes (default: the thesis's choice: DRF on the full model for the BCC, "
+                  "everything else on the structure's default reduction)")
+
+
+def _opt(default: Any, *decls: str, help: str, **kwargs: Any) -> Any:
+    """``typer.Option`` whose help is plain text: brackets such as ``[s]`` are escaped, not read as rich markup."""
+    return typer.Option(default, *decls, help=escape(help), **kwargs)
+
+
+def _flag(*decls: str, help: str) -> Any:
+    """An on/off option: off by default, shown without a type (no ``<bool>``) in ``--help``."""
+    return typer.Option(False, *decls, help=escape(help) + " (a flag; default: off)", metavar="",
+                        show_default=False)
+
+
+def _arg_structure() -> Any:
+    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False)
+
+
 app = typer.Typer(
     cls=_VlabGroup,
     add_completion=False,
@@ -154,7 +215,7 @@ app = typer.Typer(
 
 
 @app.callback(epilog=EPILOG)
-def _root(debug: bool = typer.Option(False, "--debug", help="show the Python traceback of an error")) -> None:
+def _root(debug: bool = _flag("--debug", help="show the Python traceback of an error")) -> None:
     """vlab: a virtual laboratory for active vibration control of flexible structures."""
     _STATE["debug"] = debug
 
@@ -186,12 +247,13 @@ def _pad(values: np.ndarray, n: int) -> list[float | None]:
     return out + [None] * (n - len(out))
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def modes(
-    structure: Structure = typer.Argument(..., help="bcc or grid"),
-    reduction: Reduction = typer.Option(Reduction.full, help="full model, exact reduction or Guyan reduction"),
-    n: int = typer.Option(12, "--n", min=1, help="number of modes"),
-    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+    structure: Structure = _arg_structure(),
+    reduction: Reduction = _opt(Reduction.full, "--reduction",
+                                help="model: the full FE model, its exact reduction or Guyan reduction"),
+    n: int = _opt(12, "--n", min=1, help="number of modes listed, >= 1 (at most the model's degrees of freedom)"),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
 ) -> None:
     """Natural frequencies against the dissertation's Table 1 (BCC) or Table 3 (grid)."""
     from .fe import modal_analysis
@@ -251,17 +313,20 @@ class DesignReduction(str, Enum):
     corrected_guyan = "corrected-guyan"
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def design(
-    structure: Structure = typer.Argument(..., help="bcc or grid"),
-    controller: ControllerName = typer.Option(ControllerName.mfdrf, "--controller", help="controller type"),
-    reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
-    modes_file: str = typer.Option(None, "--modes", help="UFF 55 measured modes for corrected-guyan"),
-    seed: int = typer.Option(0, help="seed of the optimiser's multi-start, in [0, 2**32)"),
-    period_ms: float = typer.Option(None, "--period-ms",
-                                    help="sampling period of the realization [ms] (default: the thesis's, "
-                                         "LQG 1, others 0.5)"),
-    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+    structure: Structure = _arg_structure(),
+    controller: ControllerName = _opt(ControllerName.mfdrf, "--controller",
+                                      help="controller: LQR (full state), LQG, MFDRF, LQDRF or LQDRF with a "
+                                           "diagonal gain"),
+    reduction: DesignReduction = _opt(None, "--reduction", help=REDUCTION_HELP),
+    modes_file: str = _opt(None, "--modes", help="UFF 55 file of measured modes, read only with --reduction "
+                                                  "corrected-guyan (default: a virtual modal test of the MuJoCo plant)"),
+    seed: int = _opt(0, "--seed", help="seed of the optimiser's multi-start, an integer in [0, 2**32)"),
+    period_ms: float = _opt(None, "--period-ms",
+                            help="sampling period of the realization [ms], > 0 (default: the thesis's, "
+                                 "Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the tables"),
 ) -> None:
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from .design import design_controller
@@ -308,8 +373,9 @@ def design(
 
 
 class ExpController(str, Enum):
+    """Controllers an experiment can run (LQR is not offered: it needs every state measured)."""
+
     none = "none"
-    lqr = "lqr"
     lqg = "lqg"
     mfdrf = "mfdrf"
     lqdrf = "lqdrf"
@@ -330,28 +396,38 @@ class PlantKind(str, Enum):
 EXPERIMENT_OUT = "out/experiment"
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def experiment(
-    structure: Structure = typer.Argument(Structure.bcc, help="bcc or grid"),
-    controller: ExpController = typer.Option(ExpController.mfdrf, "--controller"),
-    reduction: DesignReduction = typer.Option(None, "--reduction", help="design model (default: thesis choice)"),
-    excitation: Excitation = typer.Option(Excitation.random, "--excitation"),
-    duration: float = typer.Option(
-        None, "--duration", help="run length [s] (default: the records the slowest mode needs to settle + 2 measured)"),
-    delay_samples: float = typer.Option(1.35, "--delay-samples", help="computation delay [sampling periods], >= 0"),
-    period_ms: float = typer.Option(None, "--period-ms",
-                                    help="controller sampling period [ms] (default: the thesis's for the "
-                                         "controller, Sec. 5.3: LQG 1, others 0.5)"),
-    noise: float = typer.Option(1e-6, "--noise", help="velocity-sensor noise sigma [m/s], >= 0 (0 = off)"),
-    seed: int = typer.Option(0, "--seed", help="seed of excitation, noise and design, in [0, 2**32)"),
-    mjcf: str = typer.Option(None, "--mjcf", help="run on an exported (and edited) MJCF plant (--plant mujoco)"),
-    plant: PlantKind = typer.Option(PlantKind.mujoco, "--plant", help="mujoco plant or the linear FE model"),
-    out: str = typer.Option(EXPERIMENT_OUT, "--out", help="output folder (its parent must exist)"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
-    spawn: bool = typer.Option(False, "--spawn", help="open the rerun viewer live (needs a display)"),
-    as_json: bool = typer.Option(False, "--json", help="print results.json to stdout"),
-    allow_unstable: bool = typer.Option(False, "--allow-unstable",
-                                        help="exit 0 even when a warning calls the comparison not meaningful"),
+    structure: Structure = typer.Argument(Structure.bcc, help=STRUCTURE_HELP),
+    controller: ExpController = _opt(ExpController.mfdrf, "--controller",
+                                     help="controller in the loop: none (open loop), LQG, MFDRF, LQDRF or LQDRF "
+                                          "with a diagonal gain (LQR needs the full state: run it as LQG)"),
+    reduction: DesignReduction = _opt(None, "--reduction", help=REDUCTION_HELP + "; not with --controller none"),
+    excitation: Excitation = _opt(Excitation.random, "--excitation",
+                                  help="force at the excitation point, periodic over one record in the structure's "
+                                       "band (Sec. 5.4): pseudo-random, linear sweep or half-sine impulse"),
+    duration: float = _opt(
+        None, "--duration", help="run length [s], at least 2 records of 1/resolution (BCC: 2 x 20 s = 40 s; "
+                                 "grid: 2 x 50 s = 100 s) (default: the records the slowest mode needs to settle "
+                                 "+ 2 measured)"),
+    delay_samples: float = _opt(1.35, "--delay-samples",
+                                help="computation delay [sampling periods], >= 0 (Sec. 5.3)"),
+    period_ms: float = _opt(None, "--period-ms",
+                            help="controller sampling period [ms], > 0 (default: the thesis's for the "
+                                 "controller, Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
+    noise: float = _opt(1e-6, "--noise", help="velocity-sensor noise standard deviation [m/s], >= 0 (0 = off)"),
+    seed: int = _opt(0, "--seed", help="seed of the excitation, the sensor noise and the design's multi-start, "
+                                       "an integer in [0, 2**32)"),
+    mjcf: str = _opt(None, "--mjcf", help="MJCF file exported by `vlab export-mjcf` (and edited) to run instead "
+                                          "of the built plant; needs --plant mujoco (default: none)"),
+    plant: PlantKind = _opt(PlantKind.mujoco, "--plant",
+                            help="plant: the MuJoCo model or the linear FE model stepped exactly (fast)"),
+    out: str = _opt(EXPERIMENT_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    spawn: bool = _flag("--spawn", help="open the rerun viewer live (needs a display)"),
+    as_json: bool = _flag("--json", help="print results.json to stdout instead of the table"),
+    allow_unstable: bool = _flag("--allow-unstable",
+                                 help="exit 0 even when a warning calls the comparison not meaningful"),
 ) -> None:
     """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test.
 
@@ -376,9 +452,6 @@ def experiment(
     _number("--duration", duration, low=0.0, low_open=True, what="run length [s]")
     period_s = _period_s(period_ms)
     _seed(seed)
-    if controller is ExpController.lqr:
-        raise OptionError("--controller lqr needs every state measured; the laboratory ran it as LQG "
-                          "(use --controller lqg)")
     if reduction is not None and controller is ExpController.none:
         raise OptionError(f"--reduction {reduction.value} has no effect with --controller none (no design)")
     if mjcf is not None:
@@ -464,13 +537,14 @@ def experiment(
 MAX_SEGMENTS = 64
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def crosscheck(
-    structure: Structure = typer.Argument(..., help="bcc or grid"),
-    segments: int = typer.Option(None, "--segments", min=1, max=MAX_SEGMENTS,
-                                 help="hinges per element segment (default: chosen per member)"),
-    n: int = typer.Option(None, "--n", min=1, help="modes compared (default 6 BCC, 12 grid)"),
-    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+    structure: Structure = _arg_structure(),
+    segments: int = _opt(None, "--segments", min=1, max=MAX_SEGMENTS,
+                         help=f"rigid bodies (hinges) per FE element segment of the MuJoCo plant, 1 to {MAX_SEGMENTS} "
+                              "(default: chosen per member)"),
+    n: int = _opt(None, "--n", min=1, help="number of modes compared, >= 1 (default: 6 BCC, 12 grid)"),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
 ) -> None:
     """Cross-check the MuJoCo plant against the FE model: frequencies, MAC, free decay.
 
@@ -566,12 +640,12 @@ def crosscheck(
         console.print(f"free decay of mode 1: {decay.frequency_hz:.4f} Hz, zeta = {decay.damping_ratio:.4f}")
 
 
-@app.command("export-mjcf")
+@app.command("export-mjcf", cls=_VlabCommand)
 def export_mjcf_cmd(
-    structure: Structure = typer.Argument(..., help="bcc or grid"),
-    output: str = typer.Option(None, "-o", "--output",
-                               help="MJCF file, .xml (default: <structure>.xml); its folder must exist"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing file"),
+    structure: Structure = _arg_structure(),
+    output: str = _opt(None, "-o", "--output",
+                       help="MJCF file to write, ending in .xml; its folder must exist (default: <structure>.xml)"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing file"),
 ) -> None:
     """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`."""
     from .io.atomic import check_output_file
@@ -589,12 +663,13 @@ DIAGNOSE_OUT = "out/diagnose"
 DIAGNOSE_PLANTS = ("auto", "linear", "mujoco")
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def reproduce(
-    out: str = typer.Option(REPRODUCE_OUT, "--out", help="output folder (its parent must exist)"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
-    fast: bool = typer.Option(False, "--fast", help="the quick subset of tables"),
-    plant: PlantKind = typer.Option(PlantKind.linear, "--plant", help="plant of the virtual experiments"),
+    out: str = _opt(REPRODUCE_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    fast: bool = _flag("--fast", help="only the quick subset of tables"),
+    plant: PlantKind = _opt(PlantKind.linear, "--plant",
+                            help="plant of the virtual experiments: MuJoCo or the linear FE model (fast)"),
 ) -> None:
     """Regenerate the dissertation's tables side by side with the published numbers (written atomically)."""
     from .reproduce import reproduce as run_reproduce
@@ -606,18 +681,23 @@ def reproduce(
     run_reproduce(out_path, fast=fast, plant=plant.value, progress=True, console=console, overwrite=overwrite)
 
 
-@app.command()
+@app.command(cls=_VlabCommand)
 def diagnose(
-    structure: Structure = typer.Option(..., "--structure", help="bcc or grid"),
-    recording: str = typer.Option(..., "--recording", help="UFF 58 time histories or FRFs, or a modal CSV"),
-    controller: ExpController = typer.Option(ExpController.none, "--controller", help="controller that was running"),
-    out: str = typer.Option(DIAGNOSE_OUT, "--out", help="output folder (its parent must exist)"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing non-empty output folder"),
-    plant: str = typer.Option("auto", "--plant", help="validation plant: auto, linear or mujoco"),
-    baseline: str = typer.Option(None, "--baseline",
-                                        help="recording of the same test before the change (removes the "
-                                             "model's own offsets against the plant)"),
-    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+    structure: Structure = _opt(..., "--structure", help=STRUCTURE_HELP),
+    recording: str = _opt(..., "--recording",
+                          help="the recording: UFF 58 time histories (as `vlab experiment` writes) or FRFs, "
+                               "or a CSV modal table"),
+    controller: ExpController = _opt(ExpController.none, "--controller",
+                                     help="controller that was running during the recording (none = open loop)"),
+    out: str = _opt(DIAGNOSE_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    plant: str = _opt("auto", "--plant", metavar="<auto|linear|mujoco>",
+                      help="plant of the validation rerun: auto (MuJoCo where the effect can be modelled "
+                           "there, else linear), linear or mujoco"),
+    baseline: str = _opt(None, "--baseline",
+                         help="recording of the same test before the change; removes the model's own offsets "
+                              "against the plant (default: none)"),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
     from pathlib import Path
@@ -645,21 +725,28 @@ def diagnose(
         _print_json(res.as_dict())
         return
     d = res.as_dict()
-    console.print(f"mismatch: {escape(str(d['mismatch']))}", highlight=False)
-    t = Table(title="ranked hypotheses")
-    for col in ("effect", "location", "parameters (SI)", "score", "misfit before", "misfit after"):
-        t.add_column(col)
-    for h in d["ranked"][:8]:
-        t.add_row(escape(str(h["effect"])), escape(str(h["location"])), escape(str(h["parameters"])),
-                  f"{h['score']:.4g}",
-                  f"{h['misfit_before']:.4g}", f"{h['misfit_after']:.4g}")
-    console.print(t)
-    console.print(f"selected: {escape(str(d['selected']))}   report: {escape(str(out_path / 'diagnosis.md'))}",
-                  highlight=False)
-    v = d["validated"]
-    if v.get("noise_misfit") is not None:
-        console.print(f"validation ({v['plant']}): FRF misfit {v['misfit_before']:.3g} -> {v['misfit_after']:.3g} "
-                      f"decades; the measured noise alone leaves {v['noise_misfit']:.3g}")
+    _print_diagnosis(d, out_path)
+
+
+def _print_diagnosis(d: dict[str, Any], out_path) -> None:
+    """The ranked hypotheses as a table (units in the headers and cells) and the one-paragraph verdict."""
+    from .diagnose.report import hypothesis_rows, misfit_unit, verdict
+
+    rows = hypothesis_rows(d, limit=8)
+    unit = misfit_unit(d)
+    if rows:
+        t = Table(title=f"ranked hypotheses (best {len(rows)} of {len(d['ranked'])}; BIC: lower is better)")
+        for col, justify in (("#", "right"), ("effect", "left"), ("location", "left"),
+                             ("parameters, SI [95 % interval]", "left"), ("dBIC to the best", "right"),
+                             (escape(f"misfit after [{unit}]"), "right")):
+            t.add_column(col, justify=justify, overflow="fold")
+        for i, r in enumerate(rows, start=1):
+            t.add_row(str(i), escape(r["effect"]), escape(r["location"]), escape(r["parameters"]),
+                      r["delta_bic"], r["misfit_after"])
+        console.print(t)
+    console.print(escape(verdict(d)), highlight=False)
+    console.print(f"report: {escape(str(out_path / 'diagnosis.md'))}", highlight=False)
+
 
 # ------------------------------------------------------------------ option checks (before any work) ---
 

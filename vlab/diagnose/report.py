@@ -46,11 +46,7 @@ def _fmt(v, nd: int = 4) -> str:
 
 
 def _params(d: dict, ci: dict) -> str:
-    parts = []
-    for k, v in d.items():
-        lo, hi = ci.get(k, [None, None])
-        parts.append(f"{k} = {_fmt(v)} ({_fmt(lo, 3)} .. {_fmt(hi, 3)})")
-    return "; ".join(parts)
+    return format_parameters(d, ci, names=True)
 
 
 def _peak_text(s: dict) -> str:
@@ -71,7 +67,7 @@ def markdown(res: dict) -> str:
               f"Data: `{res['data']['source']}` (modal table, {res['data']['n_modes']} modes)", ""]
     for n in res.get("notes", []):
         lines.append(f"- {n}")
-    lines += ["", "## Verdict", ""]
+    lines += ["", "## Verdict", "", verdict(res), ""]
     peak = _peak_text(s)
     if s.get("noise_only"):  # found by the test without the model-error floor (a baseline given)
         q = s["noise_only"]
@@ -124,12 +120,14 @@ def markdown(res: dict) -> str:
         lines.append("")
     if res["ranked"]:
         lines += ["## Hypotheses (ranked by BIC, lower is better)", "",
-                  "| # | effect | location | parameters (95 % interval) | BIC | dBIC vs nominal | misfit before | "
-                  "misfit after |", "|---|---|---|---|---|---|---|---|"]
+                  "| # | effect | location | parameters [95 % interval] | BIC | dBIC to the best | dBIC vs nominal | "
+                  f"misfit before [{misfit_unit(res)}] | misfit after [{misfit_unit(res)}] |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        best = res["ranked"][0]["score"]
         for i, h in enumerate(res["ranked"][:15], start=1):
             lines.append(f"| {i} | {h['effect']} | {_loc(h['location'])} | {_params(h['parameters'], h['ci95'])} | "
-                         f"{h['score']:.5g} | {h['delta_bic']:.4g} | {_fmt(h['misfit_before'], 3)} | "
-                         f"{_fmt(h['misfit_after'], 3)} |")
+                         f"{h['score']:.5g} | {h['score'] - best:.4g} | {h['delta_bic']:.4g} | "
+                         f"{_fmt(h['misfit_before'], 3)} | {_fmt(h['misfit_after'], 3)} |")
         lines.append("")
         if res.get("alternatives"):
             lines += ["Within 10 of the selected BIC (not separable by these data): "
@@ -178,11 +176,7 @@ def _pct(v) -> str:
 
 
 def _loc(loc: dict) -> str:
-    if not loc:
-        return "(global)"
-    if "first" in loc:
-        return f"{_loc(loc['first'])} & {_loc(loc['second'])}"
-    return ", ".join(f"{k} {v}" for k, v in loc.items())
+    return format_location(loc)
 
 
 def _atomic_write(path: Path, data: bytes, overwrite: bool) -> None:
@@ -274,3 +268,250 @@ def write_report(out_dir: str | Path, res: dict, figures: dict, *, overwrite: bo
     _atomic_write(out / names["json"], (json.dumps(jsonable(res), indent=2) + "\n").encode(), True)
     _atomic_write(out / names["report"], markdown(res).encode(), True)
     return {**{k: out / v for k, v in files.items()}, "report": out / names["report"], "json": out / names["json"]}
+
+
+# ------------------------------------------------------------------ readable formatting (issue 27) ---
+
+#: Unit suffixes of parameter names (longest first) and how they are printed.
+UNIT_SUFFIXES = (
+    ("_n_m_per_rad", "N m/rad"), ("_n_s_per_m", "N s/m"), ("_m_per_s2", "m/s^2"), ("_n_per_m", "N/m"),
+    ("_n_m2", "N m^2"), ("_kg", "kg"), ("_hz", "Hz"), ("_n", "N"), ("_s", "s"), ("_m", "m"),
+)
+
+
+def parameter_unit(name: str) -> tuple[str, str]:
+    """Split a parameter name into its quantity and unit (``"mass_kg"`` -> ``("mass", "kg")``).
+
+    Parameters
+    ----------
+    name : str
+        A parameter name of :mod:`vlab.diagnose` (SI, the unit as a suffix:
+        ``mass_kg``, ``ei_n_m2``, ``c_n_s_per_m``, ...); a combination's
+        ``first.``/``second.`` prefix is kept in the quantity.
+
+    Returns
+    -------
+    quantity : str
+    unit : str
+        ``""`` for a dimensionless parameter (``damping_ratio``, ``gain``).
+    """
+    for suffix, unit in UNIT_SUFFIXES:
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)], unit
+    return name, ""
+
+
+def _sig(v: float, digits: int) -> str:
+    return f"{v:.{digits}g}"
+
+
+def format_parameter(name: str, value, ci95=None) -> str:
+    """One fitted parameter as ``"0.12 kg [0.1198, 0.1203]"``: value, unit, 95 % interval.
+
+    The significant digits (3 to 6) are the fewest that keep the interval's
+    two ends distinct.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name with its unit suffix (:func:`parameter_unit`).
+    value : float or None
+        Fitted value [SI unit of ``name``].
+    ci95 : sequence of two floats, optional
+        Lower and upper end of the 95 % interval [same unit]; None or
+        non-finite ends are left out.
+
+    Returns
+    -------
+    str
+    """
+    _, unit = parameter_unit(name)
+    if value is None or not np.isfinite(value):
+        return "n/a"
+    lo, hi = (ci95 if ci95 is not None and len(ci95) == 2 else (None, None))
+    have_ci = lo is not None and hi is not None and np.isfinite(lo) and np.isfinite(hi)
+    digits = 3
+    while have_ci and digits < 6 and _sig(lo, digits) == _sig(hi, digits):
+        digits += 1
+    text = _sig(float(value), digits) + (f" {unit}" if unit else "")
+    if have_ci:
+        text += f" [{_sig(float(lo), digits)}, {_sig(float(hi), digits)}]"
+    return text
+
+
+def format_parameters(params: dict, ci95: dict | None = None, *, names: bool = False) -> str:
+    """Every fitted parameter of a hypothesis, ``"; "``-separated (:func:`format_parameter`).
+
+    Parameters
+    ----------
+    params : dict
+        Name -> value (``parameters`` of an entry of ``ranked`` or ``selected``
+        in :meth:`DiagnosisResult.as_dict`).
+    ci95 : dict, optional
+        Name -> [low, high] (``ci95`` of the same entry).
+    names : bool
+        Prefix each value with its quantity (``"mass 0.12 kg [...]"``); always
+        done when there is more than one parameter.
+
+    Returns
+    -------
+    str
+    """
+    ci95 = ci95 or {}
+    parts = []
+    for k, v in params.items():
+        text = format_parameter(k, v, ci95.get(k))
+        if names or len(params) > 1:
+            q = parameter_unit(k)[0].replace("_", " ")
+            text = f"{'EI' if q.split('.')[-1] == 'ei' else q} {text}"
+        parts.append(text)
+    return "; ".join(parts)
+
+
+def format_location(loc: dict | None) -> str:
+    """Where a hypothesis acts, in words: ``"point 6"``, ``"beam 4-5"``, ``"channel 9"``, ``"all channels"``.
+
+    Parameters
+    ----------
+    loc : dict or None
+        ``location`` of an entry of ``ranked`` or ``selected``
+        (:meth:`DiagnosisResult.as_dict`): keys ``point``, ``points``,
+        ``dof``, ``member``, ``segment``, ``mode``, ``channel``, or
+        ``first``/``second`` for a combination of two effects.
+
+    Returns
+    -------
+    str
+        ``"global"`` for an empty location.
+    """
+    if not loc:
+        return "global"
+    if "first" in loc:
+        return f"{format_location(loc['first'])} + {format_location(loc['second'])}"
+    parts = []
+    for k, v in loc.items():
+        if k == "point":
+            parts.append(f"point {v}")
+        elif k == "points":
+            parts.append("points " + ", ".join(str(p) for p in v))
+        elif k == "member":
+            seg = loc.get("segment")
+            parts.append(f"{v} {seg[0]}-{seg[1]}" if seg else f"{v} (whole member)")
+        elif k == "segment":
+            continue
+        elif k == "channel":
+            parts.append("all channels" if v == "all" else f"channel {v}")
+        elif k == "dof":
+            parts.append(f"dof {v}")
+        else:
+            parts.append(f"{k} {v}")
+    return ", ".join(parts)
+
+
+def misfit_unit(res: dict) -> str:
+    """What the misfits of a diagnosis measure: ``"decades"`` (FRF data) or ``"rel. freq. error"`` (modal data).
+
+    Parameters
+    ----------
+    res : dict
+        :meth:`DiagnosisResult.as_dict`.
+
+    Returns
+    -------
+    str
+    """
+    return "rel. freq. error" if res["data"]["kind"] == "modal" else "decades"
+
+
+def hypothesis_rows(res: dict, limit: int | None = 8) -> list[dict]:
+    """The ranked hypotheses as readable text: effect, location, parameters, BIC difference, misfit.
+
+    Parameters
+    ----------
+    res : dict
+        :meth:`DiagnosisResult.as_dict`.
+    limit : int or None
+        At most this many rows (best first); None = all.
+
+    Returns
+    -------
+    list of dict
+        Keys ``effect``, ``location`` (:func:`format_location`),
+        ``parameters`` (:func:`format_parameters`, with the 95 % intervals),
+        ``delta_bic`` (BIC minus the best hypothesis' BIC: 0 for the first,
+        lower is better), ``misfit_after`` (misfit with the effect modelled, in
+        :func:`misfit_unit`), all strings.
+    """
+    ranked = res.get("ranked") or []
+    best = ranked[0]["score"] if ranked else None
+    rows = []
+    for h in ranked[: limit if limit is not None else len(ranked)]:
+        rows.append({"effect": str(h["effect"]), "location": format_location(h["location"]),
+                     "parameters": format_parameters(h["parameters"], h.get("ci95")),
+                     "delta_bic": _fmt(float(h["score"] - best), 4) if best is not None else "n/a",
+                     "misfit_after": _fmt(h["misfit_after"], 3)})
+    return rows
+
+
+def _ratio_text(before, after) -> str:
+    if not _ok(before, after) or before <= 0:
+        return ""
+    r = before / after
+    return f"{r:.3g} x lower" if r >= 1 else f"{1 / r:.3g} x higher"
+
+
+def verdict(res: dict) -> str:
+    """One paragraph: mismatch or not, what was selected and why, what the validation shows.
+
+    Parameters
+    ----------
+    res : dict
+        :meth:`DiagnosisResult.as_dict`.
+
+    Returns
+    -------
+    str
+        Plain text (no markup). The selection rule is the pipeline's
+        (:mod:`vlab.diagnose.pipeline`): lowest BIC, at least 10 below the
+        nominal model's, explaining the mismatch; the validation's misfit ratio
+        is given as "N x lower" or "N x higher".
+    """
+    s = res["statistics"]
+    n = s.get("n_obs")
+    if not res["mismatch"]:
+        return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
+                f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
+    text = (f"Mismatch: the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals exceeds the "
+            f"noise limit {_fmt(s['chi2_limit'])}.")
+    sel = res.get("selected") or []
+    if not sel:
+        return text + (" No hypothesis of the library (alone or in pairs) improves the BIC by 10 or more and "
+                       "explains it: the cause is not identified.")
+    what = " + ".join(f"{x['effect']} at {format_location(x['location'])} "
+                      f"({format_parameters(x['parameters'], x.get('ci95'), names=True)})" for x in sel)
+    ranked = res.get("ranked") or []
+    text += f" Selected: {what}"
+    top_is_selected = bool(ranked) and (len(sel) > 1 or ranked[0]["effect"] == sel[0]["effect"]) and (
+        ranked[0]["location"] == (sel[0]["location"] if len(sel) == 1 else
+                                  {"first": sel[0]["location"], "second": sel[1]["location"]}))
+    if top_is_selected:
+        top = ranked[0]
+        text += (f", the lowest BIC of {len(ranked)} fitted hypotheses (chi2 {_fmt(s['chi2_nominal'])} -> "
+                 f"{_fmt(top['chi2'])}")
+        if len(ranked) > 1:
+            text += f"; the next, {ranked[1]['effect']} at {format_location(ranked[1]['location'])}, is " \
+                    f"{_fmt(float(ranked[1]['score'] - top['score']))} higher"
+        text += ")"
+    text += "."
+    alts = res.get("alternatives") or []
+    if alts:
+        text += f" Not separable by these data (BIC within 10): {', '.join(alts)}."
+    v = res.get("validated") or {}
+    ratio = _ratio_text(v.get("misfit_before"), v.get("misfit_after"))
+    if ratio:
+        text += (f" Validation ({v.get('plant', 'model')}): misfit {_fmt(v['misfit_before'], 3)} -> "
+                 f"{_fmt(v['misfit_after'], 3)} {misfit_unit(res)}, {ratio}")
+        if v.get("noise_misfit") is not None:
+            text += f"; the measured noise alone leaves {_fmt(v['noise_misfit'], 3)}"
+        text += "."
+    return text
