@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from enum import Enum
 from typing import Any
@@ -124,6 +125,7 @@ class _VlabGroup(TyperGroup):
     def invoke(self, ctx) -> Any:
         _STATE["debug"] = False  # set by the callback (--debug)
         _STATE["interrupted"] = "interrupted: nothing written"
+        _STATE["out_path"] = _STATE["out_id"] = None
         _STATE["sigint"] = False
         restore = _install_sigint_flag()
         try:
@@ -155,8 +157,28 @@ class _VlabGroup(TyperGroup):
             restore()
 
 
+def _expect_output(out_path: Path) -> None:
+    """Remember the output folder (and the identity of what is there now) for the message of an interrupt."""
+    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    _STATE["out_path"] = out_path
+    _STATE["out_id"] = _folder_id(out_path)
+
+
+def _folder_id(path: Path) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
+
+
 def _interrupted() -> None:
-    err_console.print(escape(_STATE["interrupted"]), soft_wrap=True, highlight=False)
+    text = _STATE["interrupted"]
+    out_path = _STATE.get("out_path")
+    if out_path is not None and _folder_id(out_path) != _STATE.get("out_id"):
+        # the new folder was renamed into place before the interrupt landed (the rename is atomic)
+        text = f"interrupted after the outputs were written to {out_path}"
+    err_console.print(escape(text), soft_wrap=True, highlight=False)
     raise Exit(130) from None
 
 
@@ -481,7 +503,7 @@ def experiment(
     fe = nominal_fe_model(structure.value)
     _guard_experiment(fe, plant=plant.value, period_s=chain.period_s, duration_s=duration,
                       delay_periods=delay_samples, quiet=as_json)
-    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    _expect_output(out_path)
 
     # --- the run
     try:
@@ -675,7 +697,7 @@ def reproduce(
     from .reproduce import reproduce as run_reproduce
 
     out_path = _out_dir(out, REPRODUCE_OUT, overwrite)
-    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    _expect_output(out_path)
     if out == REPRODUCE_OUT:
         out_path.absolute().parent.mkdir(parents=True, exist_ok=True)
     run_reproduce(out_path, fast=fast, plant=plant.value, progress=True, console=console, overwrite=overwrite)
@@ -712,7 +734,7 @@ def diagnose(
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
     _input_file("--recording", recording)
     _input_file("--baseline", baseline)
-    _STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    _expect_output(out_path)
     with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
                   console=err_console, transient=True, disable=as_json) as bar:
         task = bar.add_task("reading the recording", total=None)

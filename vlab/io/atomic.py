@@ -213,8 +213,8 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
                 old = Path(tempfile.mkdtemp(prefix=f"{OLD_PREFIX}{target.name}-", dir=target.absolute().parent))
                 os.replace(target, old)  # replaces the empty placeholder folder
             os.replace(tmp, target)
-        if old is not None:
-            _remove(old)
+            if old is not None:  # still deferred: an interrupt now leaves no .vlab-old- folder behind
+                _remove(old)
     except BaseException:
         _remove(tmp)
         raise
