@@ -540,14 +540,15 @@ def experiment(
         _print_json(summary)
         _exit_if_not_meaningful()
         return
-    t = Table(title=f"{fe.spec.title}, {controller.value}: analysis (sampled-data) vs experiment ({summary['plant']})")
+    t = Table(title=f"{fe.spec.title}, {controller.value}: analysis vs experiment on the {summary['plant']}")
     for col in ("mode", "f pred [Hz]", "f meas [Hz]", "zeta pred", "zeta meas", "peak ratio"):
         t.add_column(col, justify="right")
     for m in result.modes:
         t.add_row(str(m.mode), f"{m.frequency_predicted_hz:.3f}", f"{m.frequency_measured_hz:.3f}",
                   f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
     console.print(t)
-    console.print(f"sampling period {summary['period_s'] * 1e3:g} ms ({escape(summary['period_source'])})")
+    console.print(f"analysis: the sampled-data loop (hold, delay, RC filter); sampling period "
+                  f"{summary['period_s'] * 1e3:g} ms ({escape(summary['period_source'])})", highlight=False)
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: "
                   f"{escape(str(files['results'].parent))}/", highlight=False)
     for w in result.warnings:
@@ -944,9 +945,10 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
             f"periods) would need about {_human_bytes(est['memory_bytes'])} of memory; "
             f"{_human_bytes(avail)} is available: shorten --duration or --delay-samples")
     if not quiet:
-        err_console.print(f"estimate: {est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
-                          f"~{_human_bytes(est['memory_bytes'])} memory, ~{_human_s(est['time_s'])} for the loop "
-                          "(plus design and outputs)", highlight=False, soft_wrap=True)
+        bound = "at most " if duration_s is None else ""  # the open loop's settling: a controller settles sooner
+        err_console.print(f"estimate: {bound}{est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
+                          f"~{_human_bytes(est['memory_bytes'])} memory, {bound}~{_human_s(est['time_s'])} for the "
+                          "loop (plus design and outputs)", highlight=False, soft_wrap=True)
     return est
 
 
