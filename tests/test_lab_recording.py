@@ -84,3 +84,18 @@ def test_errors_name_the_channel():
     ok = Recording.from_signals(1e-3, {"sensorA": [0.0]}, point_ids={"sensorA": 3},
                                 quantities={"sensorA": "velocity"})
     assert ok.channel("sensorA").point_id == 3
+
+
+@pytest.mark.parametrize("freq_hz", [1.9, 4.8, 20.0])
+@pytest.mark.parametrize("bits", [12, 16])
+def test_a_quantised_slow_signal_is_not_clipping_but_its_clipped_copy_is(freq_hz, bits):
+    """A real ADC's 12- or 16-bit codes hold a slow sine's extreme for many samples (24 at 1.9 Hz, 0.2 of full
+    scale, 2 kHz, 12 bits); that is not a flat top. The same signal clipped at 80 % of its peak is."""
+    from vlab.lab.recording import find_clipping
+
+    t = np.arange(0.0, 20.0, 1 / 2000.0)
+    x = 0.1 * np.sin(2 * np.pi * freq_hz * t) + 1e-5 * np.random.default_rng(0).standard_normal(t.size)
+    q = 1.0 / 2 ** bits  # +-0.5 full scale
+    xq = np.round(x / q) * q
+    assert find_clipping(xq) is None
+    assert find_clipping(np.clip(xq, -0.08, 0.08)) is not None

@@ -112,6 +112,10 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
     Thresholds: :data:`CLIP_RUN` (3) equal extreme samples in a row are
     accepted, 4 or more are clipping; so are more than :data:`CLIP_FRACTION`
     of the samples at one extreme (Sec. 5.3 for the PC-1000's sampling).
+    Quantised data hold their extreme code naturally for a while: both limits
+    are raised to twice what a smooth peak of the channel's height and RMS
+    rate would show (:func:`quantised_dwell`), so a slow quantised signal is
+    not taken for a clipped one.
     """
     if min_run < 2:
         raise MeasurementError(f"find_clipping: min_run must be >= 2, got {min_run}")
@@ -123,19 +127,71 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
     hi, lo = float(arr.max()), float(arr.min())
     if hi == lo:
         return None
+    q, w = _resolution_and_rate(arr)
+    mean = float(arr.mean())
     best = None
     for ext, word in ((hi, "maximum"), (lo, "minimum")):
         at = arr == ext
         count = int(at.sum())
-        if count < min_run:
+        # samples a smooth (unclipped) peak of this height spends within one quantisation step q of it
+        n_q = quantised_dwell(q, abs(ext - mean), w)
+        run_limit = max(min_run, int(np.ceil(2.0 * n_q)) + 1)
+        # a peak's extra samples at its code (beyond the one any peak has), about once per 2 pi / w samples
+        frac_limit = max(fraction, 2.0 * (n_q - 1.0) * w / (2.0 * np.pi))
+        if count < run_limit:
             continue
         d = np.diff(np.concatenate(([0], at.astype(np.int8), [0])))
         starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
         runs = ends - starts
         k = int(np.argmax(runs))
-        if (runs[k] >= min_run or count > fraction * arr.size) and (best is None or count > best[4]):
+        if (runs[k] >= run_limit or count > frac_limit * arr.size) and (best is None or count > best[4]):
             best = (int(runs[k]), int(starts[k]), word, ext, count)
     return best
+
+
+def _resolution_and_rate(arr: np.ndarray) -> tuple[float, float]:
+    """Quantisation step (smallest gap between distinct values) and RMS rate [rad/sample] of ``arr``."""
+    steps = np.diff(np.unique(arr))
+    q = float(steps.min()) if steps.size else 0.0
+    dev = arr - arr.mean()
+    rms = float(np.sqrt(np.mean(dev ** 2)))
+    w = float(np.sqrt(np.mean(np.diff(arr) ** 2)) / rms) if rms > 0 and arr.size > 1 else 0.0
+    return q, w
+
+
+def quantised_dwell(q: float, height: float, w: float) -> float:
+    """Samples a smooth, unclipped peak spends within one quantisation step of its extreme.
+
+    Near a peak of height ``A`` above the mean a signal whose RMS rate is
+    ``w`` [rad/sample] follows ``x_k ~ A (1 - w^2 k^2 / 2)`` (the curvature of
+    its maxima is set by the second spectral moment: Rice, *Mathematical
+    analysis of random noise*, 1944-45, Sec. 3.6), so it stays within ``q`` of
+    the peak for ``|k| <= sqrt(2 q / A) / w`` samples: ``2 sqrt(2 q / A) / w + 1``
+    in all. For continuous-valued data (``q`` at round-off) this is 1; for a
+    slow sine of 0.2 full scale sampled at 2 kHz and quantised to 12 bits it
+    is about 24, which a clipping test must not take for a flat top.
+
+    Parameters
+    ----------
+    q : float
+        Quantisation step of the data (its smallest gap between distinct values), same unit as ``height``.
+    height : float
+        Height of the peak above the mean (> 0).
+    w : float
+        RMS rate of the signal [rad/sample]: ``rms(diff x) / rms(x - mean)``.
+
+    Returns
+    -------
+    float
+        Expected run length [samples], >= 1.
+
+    Raises
+    ------
+    None.
+    """
+    if not (q > 0.0 and height > 0.0 and w > 0.0):
+        return 1.0
+    return 2.0 * float(np.sqrt(2.0 * q / height)) / w + 1.0
 
 
 _PREFIX_QUANTITY = {p: q for q, p in QUANTITY_PREFIXES.items()}
