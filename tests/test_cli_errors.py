@@ -107,6 +107,7 @@ def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old")
+    (out / "results.json").write_text("{}")  # a previous vlab output folder: the only kind --overwrite replaces
     before = _tree(out)
     with pytest.raises(KeyboardInterrupt):
         with atomic_dir(out, overwrite=True) as tmp:
@@ -119,6 +120,7 @@ def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old")
+    (out / "results.json").write_text("{}")  # a previous vlab output folder: the only kind --overwrite replaces
     with pytest.raises(OutputError, match="--overwrite"):
         with atomic_dir(out) as tmp:
             pass
@@ -197,3 +199,24 @@ def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
     assert {"recording.uff", "frf.uff", "results.json", "report.md", "frf.png", "run.rrd"} <= {
         p.name for p in out.iterdir()}
     assert (out / "run.rrd").stat().st_size > 0
+
+
+def test_overwrite_never_deletes_a_folder_vlab_did_not_write_nor_a_parent_of_the_current_one(tmp_path, monkeypatch):
+    """--overwrite replaced any folder, a parent of the current one included (review: a run with --out set to
+    the parent deleted the user's files there and the current folder itself)."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "precious.txt").write_text("keep")
+    with pytest.raises(OutputError, match="not a vlab output folder"):
+        with atomic_dir(mine, overwrite=True):
+            pass
+    assert (mine / "precious.txt").read_text() == "keep"
+    here = tmp_path / "a" / "b"
+    here.mkdir(parents=True)
+    (tmp_path / "a" / "results.json").write_text("{}")
+    monkeypatch.chdir(here)
+    for target in (tmp_path / "a", Path("..")):
+        with pytest.raises(OutputError, match="parents"):
+            with atomic_dir(target, overwrite=True):
+                pass
+    assert here.is_dir() and (tmp_path / "a" / "results.json").exists()

@@ -97,9 +97,9 @@ def _exit_code(exc: BaseException, command: str | None) -> int:
         return 2  # the recording given is the input
     if isinstance(exc, VlabError):
         return 1
-    if isinstance(exc, (ValueError, TypeError)):  # UnicodeDecodeError included: a file that is not text
+    if isinstance(exc, UnicodeDecodeError):  # a file given that is not text
         return 2
-    return 1
+    return 1  # an internal error (a plain ValueError or TypeError from deep in a run included)
 
 
 def _untyped_help_option(option):
@@ -142,7 +142,7 @@ class _VlabGroup(TyperGroup):
             if _STATE["sigint"]:  # a library turned the KeyboardInterrupt into its own error (pyuff does)
                 _interrupted()
             command = ctx.invoked_subcommand
-            if isinstance(exc, VlabError) or isinstance(exc, (ValueError, OSError)):
+            if isinstance(exc, (VlabError, OSError, UnicodeDecodeError)):
                 text = str(exc) or type(exc).__name__
                 if isinstance(exc, OSError) and not isinstance(exc, VlabError):
                     text = f"{str(exc.filename) + ': ' if exc.filename else ''}{exc.strerror or exc}"

@@ -43,8 +43,18 @@ def _nonempty(path: str | Path | None, option: str) -> Path:
     return Path(path)
 
 
+#: Files by which a folder is known as a vlab output folder (experiment, reproduce, diagnose); only such a
+#: folder (or an empty one) is replaced with ``--overwrite``: a folder of the user's own is never deleted.
+OUTPUT_MARKERS = ("results.json", "reproduce.json", "diagnosis.json")
+
+
+def _absolute(path: Path) -> Path:
+    """``path`` made absolute with ``..`` and symlinks resolved (``Path.absolute`` keeps ``..``)."""
+    return Path(os.path.realpath(path))
+
+
 def _check_parent(path: Path, option: str, create_parent: bool) -> None:
-    parent = path.absolute().parent
+    parent = _absolute(path).parent
     if not parent.exists():
         if create_parent:  # created by atomic_dir when writing starts; its nearest existing ancestor must be writable
             while not parent.exists():
@@ -85,17 +95,27 @@ def check_output_dir(path: str | Path | None, *, overwrite: bool = False, option
     OutputError
         Empty path; the parent folder is missing, not a folder or not
         writable; ``path`` is a regular file (or other non-folder); ``path``
-        is a non-empty folder and ``overwrite`` is False.
+        is the current folder, one of its parents, the home folder or the
+        root; ``path`` is a non-empty folder and ``overwrite`` is False, or
+        it holds none of :data:`OUTPUT_MARKERS` (not a vlab output folder,
+        never deleted).
     """
     p = _nonempty(path, option)
     if p.is_symlink() or (p.exists() and not p.is_dir()):
         raise OutputError(f"{option} {p}: is a file, not a folder; give a folder name")
     if p.is_dir():
-        if any(p.iterdir()) and not overwrite:
-            raise OutputError(f"{option} {p}: the folder exists and is not empty; use --overwrite to replace it "
-                              "or choose another folder")
-        if p.resolve() == Path.cwd().resolve() or p.resolve() == Path(p.resolve().anchor):
-            raise OutputError(f"{option} {p}: is the current folder or the root; give a folder of its own")
+        full, cwd = _absolute(p), _absolute(Path.cwd())
+        if full == cwd or full in cwd.parents or full == _absolute(Path.home()) or full == Path(full.anchor):
+            raise OutputError(f"{option} {p}: is the current folder, one of its parents, the home folder or the "
+                              "root; give a folder of its own")
+        if any(p.iterdir()):
+            if not overwrite:
+                raise OutputError(f"{option} {p}: the folder exists and is not empty; use --overwrite to replace "
+                                  "it or choose another folder")
+            if not any((p / m).is_file() for m in OUTPUT_MARKERS):
+                raise OutputError(f"{option} {p}: the folder is not a vlab output folder (it holds none of "
+                                  f"{', '.join(OUTPUT_MARKERS)}); --overwrite replaces only those: choose another "
+                                  "folder")
     _check_parent(p, option, create_parent)
     return p
 
@@ -195,8 +215,8 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
         As :func:`check_output_dir`, checked again when committing (the
         target appeared meanwhile).
     """
-    target = Path(target)
     check_output_dir(target, overwrite=overwrite, create_parent=create_parent)
+    target = _absolute(Path(target))
     if create_parent:
         try:
             target.absolute().parent.mkdir(parents=True, exist_ok=True)
@@ -242,8 +262,8 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
     OutputError
         As :func:`check_output_file`, checked again when committing.
     """
-    target = Path(target)
     check_output_file(target, overwrite=overwrite, option="output")
+    target = _absolute(Path(target))
     fd, name = tempfile.mkstemp(prefix=f"{TMP_PREFIX}{target.name}-", suffix=target.suffix,
                                 dir=target.absolute().parent)
     os.close(fd)

@@ -127,7 +127,7 @@ def _limit_cycle_figure(lc: LimitCycleResult, path: Path) -> Path:
 
 def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear", lab: str | None = None,
               groups: Sequence[str] | None = None, progress=None, console=None, seed: int = 0,
-              overwrite: bool = True) -> ReproduceResult:
+              overwrite: bool = False) -> ReproduceResult:
     """Regenerate the dissertation's tables, figures and the Sec. 6.1 limit-cycle study.
 
     The output folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
@@ -158,7 +158,9 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
     seed : int
         Seed of the optimisers' multi-start and of the excitation.
     overwrite : bool
-        Replace an existing non-empty ``out_dir`` whole (after the new one is complete).
+        Replace an existing non-empty ``out_dir`` whole (after the new one is
+        complete); only a vlab output folder is ever replaced
+        (:data:`vlab.io.atomic.OUTPUT_MARKERS`). Default False.
 
     Returns
     -------
