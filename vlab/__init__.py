@@ -11,10 +11,13 @@ tutorial): :func:`load_spec`, :func:`modes`, :func:`design`,
 :func:`run_experiment`, :func:`diagnose`, :func:`export_mjcf`. They are
 imported lazily, so ``import vlab`` stays fast.
 
-``vlab.design`` and ``vlab.diagnose`` are also the names of subpackages; the
-modules are callable and calling them calls the entry points below
-(``vlab.design("bcc")``, ``vlab.diagnose("bcc", "recording.uff")``), while
-``vlab.design.design_controller`` and ``vlab.diagnose.report`` stay reachable.
+``vlab.design`` and ``vlab.diagnose`` are also the names of subpackages.
+``vlab.design("bcc")`` and ``vlab.diagnose("bcc", "recording.uff")`` always
+call the entry points below. Until the subpackage has been imported
+(``import vlab.design``, or by vlab itself), ``vlab.design`` is the entry-point
+function and has no attribute ``design_controller``: reach the subpackage's
+names with ``from vlab.design import design_controller``. Once it is imported,
+``vlab.design`` is the module, made callable.
 """
 
 from __future__ import annotations

@@ -953,15 +953,20 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
 
 
 
-def _period_s(period_ms: float | None) -> float | None:
-    """``--period-ms`` in seconds (None stays None); a non-positive or non-finite value is an error."""
-    from .errors import ModelError
+#: Range of ``--period-ms`` [ms]: from 10x the PC-1000's fastest rate (2 kHz, Sec. 5.3) to a Nyquist
+#: frequency of 10 Hz, the top of the grid's test band (the BCC's, 25 Hz, needs <= 20 ms).
+PERIOD_MS_RANGE = (0.05, 50.0)
 
+
+def _period_s(period_ms: float | None) -> float | None:
+    """``--period-ms`` in seconds (None stays None); raises OptionError outside :data:`PERIOD_MS_RANGE`."""
     if period_ms is None:
         return None
-    if not np.isfinite(period_ms) or period_ms <= 0:
-        raise ModelError(f"--period-ms must be a positive number of milliseconds, got {period_ms!r}")
-    return period_ms * 1e-3
+    if not (math.isfinite(period_ms) and period_ms > 0):
+        raise OptionError(f"--period-ms must be a positive number of milliseconds, got {period_ms!r}")
+    v = _number("--period-ms", period_ms, low=PERIOD_MS_RANGE[0], high=PERIOD_MS_RANGE[1],
+                what="controller sampling period [ms]")
+    return v * 1e-3
 
 
 def _measured_modes(fe, modes_file: str | None):

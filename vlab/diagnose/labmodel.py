@@ -37,7 +37,7 @@ from ..analysis import sampled_data_controller_frf
 from ..calibration import open_loop_ratios
 from ..errors import ModelError
 from ..fe import FEModel, Modes, build_fe_model, modal_analysis
-from ..lab.loop import HardwareChain
+from ..lab.loop import HardwareChain, check_design_period
 from ..spec import StructureSpec
 
 
@@ -121,8 +121,6 @@ class LabState:
     point_modes: PointModes | None = None
 
     def __post_init__(self) -> None:
-        from ..lab.experiment import check_design_period
-
         check_design_period(self.design, self.chain)  # Eq. (5.1)'s coefficients hold at one period only
 
     @property

@@ -288,6 +288,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         src = ("the recording's sample interval" if what == "recording" else
                f"the thesis's period for {controller} (Sec. 5.3): FRF files do not say at which period the "
                "controller ran")
+        if what == "recording" and abs(period_box["s"] - thesis_period_s(controller)) > 1e-9 * period_box["s"]:
+            src += (f"; the thesis ran {controller} at {thesis_period_s(controller) * 1e3:g} ms: a recording "
+                    "sampled by an acquisition system faster than the controller gives the wrong period here")
         notes.append(f"the {controller} controller is realised at a {period_box['s'] * 1e3:g} ms sampling period "
                      f"({src})")
     # a MuJoCo validation rerun will follow: the effect is refitted on its plant, and the model compared with

@@ -31,7 +31,7 @@ from ..measure.frf import FRF, h1
 from .engine import ControllerEngine
 from .excitation import periodic_chirp, pseudo_random, pulse_train
 from .linear_plant import LinearPlant
-from .loop import HardwareChain, LoopResult, run_loop
+from .loop import HardwareChain, LoopResult, check_design_period, run_loop
 
 EXCITATIONS = ("random", "sweep", "impulse")
 
@@ -193,31 +193,6 @@ def period_source(controller: str, period_s: float) -> str:
     if abs(period_s - ref) <= 1e-12 * ref:
         return f"thesis value for {controller} (Sec. 5.3)"
     return f"set by the user (thesis value for {controller}: {ref * 1e3:g} ms)"
-
-
-def check_design_period(design, chain: HardwareChain) -> None:
-    """Raise unless ``design`` was realised at the chain's sampling period (Eqs. 5.2-5.5 depend on it).
-
-    Parameters
-    ----------
-    design : ControllerDesign or None
-        The controller run (its ``period_s`` [s]); None (open loop) passes.
-    chain : HardwareChain
-        The loop's chain (its ``period_s`` [s]).
-
-    Raises
-    ------
-    ModelError
-        The two periods differ.
-    """
-    if design is None:
-        return
-    p = getattr(design, "period_s", chain.period_s)
-    if abs(p - chain.period_s) > 1e-12 * chain.period_s:
-        raise ModelError(
-            f"the {design.controller} design was realised at a {p * 1e3:g} ms period but the loop runs at "
-            f"{chain.period_s * 1e3:g} ms: design it with period_s={chain.period_s!r}"
-        )
 
 
 @dataclass(frozen=True)

@@ -189,6 +189,31 @@ class LoopResult:
     shape_points: tuple[int, ...]
 
 
+def check_design_period(design, chain: HardwareChain) -> None:
+    """Raise unless ``design`` was realised at the chain's sampling period (Eqs. 5.2-5.5 depend on it).
+
+    Parameters
+    ----------
+    design : ControllerDesign or None
+        The controller run (its ``period_s`` [s]); None (open loop) passes.
+    chain : HardwareChain
+        The loop's chain (its ``period_s`` [s]).
+
+    Raises
+    ------
+    ModelError
+        The two periods differ.
+    """
+    if design is None:
+        return
+    p = getattr(design, "period_s", chain.period_s)
+    if abs(p - chain.period_s) > 1e-12 * chain.period_s:
+        raise ModelError(
+            f"the {design.controller} design was realised at a {p * 1e3:g} ms period but the loop runs at "
+            f"{chain.period_s * 1e3:g} ms: design it with period_s={chain.period_s!r}"
+        )
+
+
 def run_loop(
     plant: Plant,
     engine: ControllerEngine | None,
