@@ -29,7 +29,7 @@ from controllers.performance import feedback_performance, modes as cl_modes
 from controllers.statespace import modal_initial_states, state_space
 
 from .calibration import modal_damping_matrix, open_loop_ratios
-from .errors import ModelError, ReductionError
+from .errors import ModelError, ReductionError, SpecError
 from .fe import FEModel
 from .models import master_indices, reduce_model
 from .units import CS_S, INCH_M, LBF_N
@@ -124,6 +124,47 @@ THESIS_SETTINGS = {
     "bcc": ThesisSettings(0.03, 6, 6, 1.0, 0.22, 1e-6, 5e-4, 0.2, "exact"),
     "grid": ThesisSettings(0.03, 5, 5, 0.01, 0.84, 1e-10, 0.5, 0.05, "exact", r_corrected=1.387),
 }
+
+#: Settings of a structure whose file has no ``[design]`` value for them: the BCC's (Sec. 6.1: zeta_L = 0.03
+#: on 6 modes, Q = I, R = 0.22 I, V1 = 1e-6 I, V2 = 5e-4 I, alpha = 0.2 1/cs), meaningful for a metre-sized
+#: laboratory beam in the thesis units (in, lbf, cs); the design model is the full FE model unless the file has
+#: ``[reduction]`` masters (then the exact reduction).
+DEFAULT_SETTINGS = THESIS_SETTINGS["bcc"]
+
+
+def design_settings(spec) -> ThesisSettings:
+    """Controller-design settings of a structure: its ``[design]`` table over the defaults.
+
+    A structure file's ``[design]`` values (``zeta_min``, ``n_modes``, ``n_f``,
+    ``q_scale``, ``r``, ``v1``, ``v2``, ``alpha``, ``default_model``,
+    ``r_corrected``; :data:`vlab.spec.DESIGN_FIELDS`) override, per field, the
+    thesis's settings of a shipped structure of that name (Secs. 6.1, 6.2:
+    :data:`THESIS_SETTINGS`), else :data:`DEFAULT_SETTINGS` with the full FE
+    model as design model where the file gives no ``[reduction]`` masters.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The structure (``spec.design_settings``, ``spec.name``, ``spec.master_dofs``).
+
+    Returns
+    -------
+    ThesisSettings
+        Weights in the thesis unit system (in, lbf, cs).
+
+    Raises
+    ------
+    SpecError
+        The structure has no ``[instrumentation]`` (no actuators to design for).
+    """
+    import dataclasses
+
+    if spec.instrumentation is None:
+        raise SpecError(f"{spec._file()}: no [instrumentation] table: a controller needs actuators and sensors")
+    base = THESIS_SETTINGS.get(spec.name)
+    if base is None:
+        base = dataclasses.replace(DEFAULT_SETTINGS, default_model="exact" if spec.master_dofs.get("exact") else "full")
+    return dataclasses.replace(base, **spec.design_settings)
 
 
 @dataclass(frozen=True)
@@ -373,7 +414,8 @@ def design_controller(
     Parameters
     ----------
     fe : FEModel
-        The nominal FE model of a shipped structure ("bcc" or "grid").
+        The nominal FE model: a shipped structure ("bcc", "grid") or any
+        structure file (settings: :func:`design_settings`).
     controller : {"lqr", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
     model : str, optional
         Design model (full, exact, guyan, corrected-guyan); default: DRF on
@@ -399,8 +441,9 @@ def design_controller(
     Raises
     ------
     ModelError
-        Unknown controller or structure without thesis settings, or a
-        ``period_s`` that is not a positive finite number.
+        Unknown controller, or a ``period_s`` that is not a positive finite number.
+    SpecError
+        A structure without ``[instrumentation]`` (:func:`design_settings`).
     ReductionError
         Unknown design model.
     controllers.errors.ControllerError
@@ -409,15 +452,14 @@ def design_controller(
     if controller not in CONTROLLERS:
         raise ModelError(f"unknown controller {controller!r}; use one of {CONTROLLERS}")
     name = fe.spec.name
-    if name not in THESIS_SETTINGS:
-        raise ModelError(f"no thesis design settings for structure {name!r}")
-    st = THESIS_SETTINGS[name]
+    st = design_settings(fe.spec)
     period = thesis_period_s(controller) if period_s is None else period_s
     if not (isinstance(period, (int, float, np.floating)) and np.isfinite(period) and period > 0):
         raise ModelError(f"period_s must be a positive number of seconds, got {period_s!r}")
     period = float(period)
     if model is None:
-        model = "full" if (name == "bcc" and controller in ("mfdrf", "lqdrf", "lqdrf-diag", "lqr")) else st.default_model
+        thesis_bcc = name == "bcc" and "default_model" not in fe.spec.design_settings
+        model = "full" if (thesis_bcc and controller in ("mfdrf", "lqdrf", "lqdrf-diag", "lqr")) else st.default_model
     dm = design_model(fe, model, measured_modes=measured_modes)
     m, c, k = (to_thesis_units(a, dm.labels) for a in (dm.m, dm.c, dm.k))
     n = m.shape[0]

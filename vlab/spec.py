@@ -362,6 +362,60 @@ class Damping:
     source: str
 
 
+#: Response quantities a test can compare (Sec. 5.4.2: BCC displacement, Fig. 22; grid velocity, Figs. 23-31).
+RESPONSE_QUANTITIES = ("displacement", "velocity")
+
+#: Highest test-band edge allowed [Hz]: below the Nyquist frequency of the 2 kHz laboratory loop (Sec. 5.3)
+#: by a factor four, so that the digital controller, hold and RC filter act as modelled.
+MAX_TEST_BAND_HZ = 250.0
+
+#: Fields of a ``[design]`` table and their types: the controller-design settings of
+#: :class:`vlab.design.ThesisSettings` (weights in the thesis unit system: in, lbf, cs, Sec. 3).
+DESIGN_FIELDS: dict[str, type | tuple[type, ...]] = {
+    "zeta_min": (int, float), "n_modes": int, "n_f": int, "q_scale": (int, float), "r": (int, float),
+    "v1": (int, float), "v2": (int, float), "alpha": (int, float), "default_model": str,
+    "r_corrected": (int, float),
+}
+
+
+@dataclass(frozen=True)
+class StructureTest:
+    """How a structure is tested (Sec. 5.4): band, resolution, levels, points.
+
+    The shipped structures' tests are :data:`vlab.lab.experiment.TESTS`; any
+    structure file may carry its own in a ``[test]`` table
+    (:func:`vlab.lab.experiment.test_definition` picks one).
+
+    Attributes
+    ----------
+    band_hz : (float, float)
+        Excitation and comparison band (low, high) [Hz].
+    resolution_hz : float
+        Default FRF frequency resolution [Hz]; one record lasts ``1 / resolution_hz`` [s].
+    rms_n : float
+        RMS of the random excitation force [N] (the sweep amplitude is
+        ``sqrt(2) * rms_n``, the impulse peak ``20 * rms_n``).
+    n_modes : int
+        Number of closed-loop modes in the band compared with the analysis
+        (rows of Tables 10 and 19-21).
+    response_point : int
+        Point id whose FRF is compared (BCC: point 6; grid: joint 4; Sec. 5.4.2).
+    measured_points : tuple of int
+        Point ids whose velocities are recorded (with the actuator points added).
+    response_quantity : str
+        FRF quantity compared: ``"displacement"`` [m/N] (BCC, Fig. 22) or
+        ``"velocity"`` [(m/s)/N] (grid, Figs. 23-31).
+    """
+
+    band_hz: tuple[float, float]
+    resolution_hz: float
+    rms_n: float
+    n_modes: int
+    response_point: int
+    measured_points: tuple[int, ...]
+    response_quantity: str  # FRF compared: "displacement" (BCC, Fig. 22) or "velocity" (grid, Figs. 23-31)
+
+
 @dataclass(frozen=True)
 class StructureSpec:
     """The whole definition of one structure, SI. Immutable; use :meth:`replace`.
@@ -408,6 +462,14 @@ class StructureSpec:
     mujoco : dict[str, Any]
         The ``[mujoco]`` table as read: options of the MuJoCo plant builder
         (segments, timestep, ...; see :class:`vlab.sim.builder.SimOptions`).
+    test : StructureTest or None
+        The ``[test]`` table (band, resolution, points of the modal test,
+        Sec. 5.4); None = the shipped test of a structure of that name, if any
+        (:func:`vlab.lab.experiment.test_definition`).
+    design_settings : dict[str, Any]
+        The ``[design]`` table: controller-design settings (keys of
+        :data:`DESIGN_FIELDS`), checked for type and range;
+        :func:`vlab.design.design_settings` fills the rest with defaults.
     raw : dict[str, Any]
         The parsed TOML document (not compared, not shown in ``repr``).
     """
@@ -430,6 +492,8 @@ class StructureSpec:
     reference: dict[str, str] = field(default_factory=dict)
     master_dofs: dict[str, tuple[tuple[int, str], ...]] = field(default_factory=dict)
     mujoco: dict[str, Any] = field(default_factory=dict)
+    test: StructureTest | None = None
+    design_settings: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def replace(self, **changes: Any) -> "StructureSpec":
@@ -642,7 +706,8 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
         path = STRUCTURES_DIR / f"{name_or_path}.toml"
         if not path.exists():
             known = sorted(p.stem for p in STRUCTURES_DIR.glob("*.toml"))
-            raise SpecError(f"unknown structure {str(name_or_path)!r}; known: {known}")
+            raise SpecError(f"unknown structure {str(name_or_path)!r}: not one of {known} nor a path to a "
+                            ".toml file (`vlab init KIND PATH` writes one)")
     if not path.exists():
         raise SpecError(f"{path}: file not found")
     try:
@@ -888,6 +953,8 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         rr.done()
     mj = dict(top.raw("mujoco", {}, types=(dict,)))
     top.raw("calibration", {}, types=(dict,))
+    test = _test_table(top.sub("test", None), instr, points)
+    design = _design_table(top.sub("design", None))
     top.done()
 
     ids = [m.id for m in members]
@@ -912,8 +979,97 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         reference=reference,
         master_dofs=masters,
         mujoco=mj,
+        test=test,
+        design_settings=design,
         raw=doc,
     )
+
+
+def _number(r: _Reader, key: str, default: Any = ..., *, low: float = 0.0, low_open: bool = True,
+            high: float = math.inf, high_open: bool = False) -> float:
+    """A finite real number of table ``r`` within (low, high), as a float; SpecError naming the field."""
+    v = r.raw(key, default, types=(int, float))
+    if isinstance(v, bool) or not math.isfinite(v):
+        r.fail(key, f"expected a finite number, got {v!r}")
+    if v < low or (low_open and v == low) or v > high or (high_open and v == high):
+        r.fail(key, f"must lie in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}, got {v!r}")
+    return float(v)
+
+
+def _points_list(r: _Reader, key: str, points: dict, default: Any = ...) -> tuple[int, ...]:
+    """A list of known, distinct point ids (SpecError naming the field and the bad id)."""
+    ids = r.raw(key, default, types=(list, tuple))
+    for pid in ids:
+        if not isinstance(pid, int) or isinstance(pid, bool) or pid not in points:
+            r.fail(key, f"unknown point id {pid!r}; points are {sorted(points)}")
+    if len(set(ids)) != len(ids):
+        r.fail(key, f"repeated point ids in {list(ids)}")
+    return tuple(ids)
+
+
+def _test_table(r: _Reader | None, instr: Instrumentation | None, points: dict) -> StructureTest | None:
+    """The ``[test]`` table (Sec. 5.4): band and resolution [Hz], force RMS [N], modes, points, quantity.
+
+    ``response_point`` defaults to the instrumentation's response point and
+    ``measured_points`` to its sensors; the table needs ``[instrumentation]``
+    (the excitation point and the actuators come from there).
+    """
+    if r is None:
+        return None
+    r.str("source")
+    if instr is None:
+        r.fail("", "a [test] table needs an [instrumentation] table (actuators, sensors, excitation point)")
+    band = r.raw("band_hz", types=(list,))
+    if (len(band) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                                  for x in band) or not 0 <= band[0] < band[1] <= MAX_TEST_BAND_HZ):
+        r.fail("band_hz", f"expected [low, high] with 0 <= low < high <= {MAX_TEST_BAND_HZ:g} Hz, got {band!r}")
+    res = _number(r, "resolution_hz")
+    if res > (band[1] - band[0]) / 4:
+        r.fail("resolution_hz", f"{res:g} Hz leaves fewer than 4 lines in the band {band!r} Hz")
+    rms = _number(r, "rms_n", high=1e4)
+    n_modes = r.int("n_modes")
+    if n_modes < 1:
+        r.fail("n_modes", f"must be >= 1, got {n_modes}")
+    resp = r.int("response_point", instr.response)
+    if resp not in points:
+        r.fail("response_point", f"unknown point id {resp}; points are {sorted(points)}")
+    measured = _points_list(r, "measured_points", points, instr.sensors)
+    if resp not in set(measured) | set(instr.actuators):
+        r.fail("response_point", f"point {resp} is neither measured {list(measured)} nor an actuator "
+                                 f"{list(instr.actuators)}: its FRF would not be recorded")
+    quantity = r.str("response_quantity", "velocity")
+    if quantity not in RESPONSE_QUANTITIES:
+        r.fail("response_quantity", f"{quantity!r} is not one of {RESPONSE_QUANTITIES}")
+    r.done()
+    return StructureTest((float(band[0]), float(band[1])), res, rms, n_modes, resp, measured, quantity)
+
+
+def _design_table(r: _Reader | None) -> dict[str, Any]:
+    """The ``[design]`` table: the keys of :data:`DESIGN_FIELDS`, type- and range-checked (all optional)."""
+    if r is None:
+        return {}
+    r.str("source")
+    out: dict[str, Any] = {}
+    for key, types in DESIGN_FIELDS.items():
+        if not r.has(key):
+            continue
+        if types is int:
+            v = r.int(key)
+            if v < 1:
+                r.fail(key, f"must be >= 1, got {v}")
+        elif types is str:
+            v = r.str(key)
+            if v not in ("full", "exact", "guyan"):
+                r.fail(key, f"{v!r} is not one of full, exact, guyan")
+        elif key == "zeta_min":
+            v = _number(r, key, high=1.0, high_open=True)
+        elif key == "alpha":
+            v = _number(r, key, low_open=False)
+        else:
+            v = _number(r, key)
+        out[key] = v
+    r.done()
+    return out
 
 
 def _mass_per_length(r: _Reader) -> Quantity:

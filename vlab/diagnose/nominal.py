@@ -20,7 +20,7 @@ from ..analysis import closed_loop_modes
 from ..calibration import modal_damping_matrix, open_loop_ratios
 from ..errors import DataFileError, ModelError
 from ..fe import FEModel
-from ..lab.experiment import TESTS
+from ..lab.experiment import test_definition
 from ..spec import StructureSpec
 from .data import FrfData, frfs_from_recording, frfs_from_uff
 from .hypotheses import Context
@@ -199,7 +199,7 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, c
         if meta.get("controller") not in (None, controller):
             notes.append(f"the recording's metadata says controller {meta['controller']!r}; diagnosed with "
                          f"{controller!r} as asked")
-        res = float(resolution_hz or meta.get("resolution_hz") or TESTS[spec.name].resolution_hz)
+        res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
         return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
                                    settle_s=settle_of())
     return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)

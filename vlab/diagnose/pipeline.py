@@ -68,7 +68,7 @@ import numpy as np
 
 from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
-from ..lab.experiment import TESTS
+from ..lab.experiment import test_definition
 from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
 from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
@@ -243,10 +243,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     timing: dict = {}
     say = progress or (lambda s: None)
     spec = load_spec(structure) if isinstance(structure, str) else structure
-    if spec.name not in TESTS:
-        raise ModelError(f"no test definition (band, resolution) for structure {spec.name!r}")
     fe = build_fe_model(spec)
-    test = TESTS[spec.name]
+    test = test_definition(spec)
     band = test.band_hz
     path = Path(recording_path)
     notes: list = []

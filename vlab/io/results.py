@@ -226,12 +226,6 @@ def report_markdown(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _response_point(result) -> int:
-    from ..lab.experiment import TESTS
-
-    return TESTS[result.config.structure].response_point
-
-
 def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite: bool = True) -> dict[str, Path]:
     """Write the output folder of an experiment.
 
@@ -306,9 +300,10 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
         "rerun": out / "run.rrd",
     }
     write_recording(files["recording"], result.loop.recording, overwrite=overwrite)
-    from ..lab.experiment import TESTS
+    from ..lab.experiment import test_definition
 
-    band = TESTS[result.config.structure].band_hz
+    test = test_definition(spec)
+    band = test.band_hz
     write_frfs(files["frf"], result.frfs, overwrite=overwrite, band_hz=band)
     summary = experiment_summary(result)
     summary["files"] = {k: p.name for k, p in files.items()}
@@ -316,8 +311,8 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
     files["report"].write_text(report_markdown(summary))
     cfg = result.config
     # frf.png: the response point's velocity FRF of frf.uff [(m/s)/N], analysis in the same unit
-    resp = result.frfs[f"vel{_response_point(result)}"]
-    to_vel = 2j * np.pi * result.freq_hz if TESTS[cfg.structure].response_quantity == "displacement" else 1.0
+    resp = result.frfs[f"vel{test.response_point}"]
+    to_vel = 2j * np.pi * result.freq_hz if test.response_quantity == "displacement" else 1.0
     frf_panels_figure(
         resp.freq_hz,
         {"experiment (H1)": resp.h, "analysis (sampled-data)": result.analysis_sampled * to_vel,

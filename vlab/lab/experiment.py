@@ -25,49 +25,17 @@ from ..analysis import (
 )
 from ..calibration import modal_damping_matrix, open_loop_ratios
 from ..errors import MeasurementError, ModelError
+from ..errors import SpecError
 from ..fe import FEModel
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import FRF, h1
+from ..spec import StructureSpec, StructureTest, load_spec
 from .engine import ControllerEngine
 from .excitation import periodic_chirp, pseudo_random, pulse_train
 from .linear_plant import LinearPlant
 from .loop import HardwareChain, LoopResult, check_design_period, run_loop
 
 EXCITATIONS = ("random", "sweep", "impulse")
-
-
-@dataclass(frozen=True)
-class StructureTest:
-    """How a structure is tested (Sec. 5.4): band, resolution, levels, points.
-
-    Attributes
-    ----------
-    band_hz : (float, float)
-        Excitation and comparison band (low, high) [Hz].
-    resolution_hz : float
-        Default FRF frequency resolution [Hz]; one record lasts ``1 / resolution_hz`` [s].
-    rms_n : float
-        RMS of the random excitation force [N] (the sweep amplitude is
-        ``sqrt(2) * rms_n``, the impulse peak ``20 * rms_n``).
-    n_modes : int
-        Number of closed-loop modes in the band compared with the analysis
-        (rows of Tables 10 and 19-21).
-    response_point : int
-        Point id whose FRF is compared (BCC: point 6; grid: joint 4; Sec. 5.4.2).
-    measured_points : tuple of int
-        Point ids whose velocities are recorded (with the actuator points added).
-    response_quantity : str
-        FRF quantity compared: ``"displacement"`` [m/N] (BCC, Fig. 22) or
-        ``"velocity"`` [(m/s)/N] (grid, Figs. 23-31).
-    """
-
-    band_hz: tuple[float, float]
-    resolution_hz: float
-    rms_n: float
-    n_modes: int
-    response_point: int
-    measured_points: tuple[int, ...]
-    response_quantity: str  # FRF compared: "displacement" (BCC, Fig. 22) or "velocity" (grid, Figs. 23-31)
 
 
 TESTS = {
@@ -78,6 +46,45 @@ TESTS = {
 }
 
 
+def test_definition(spec: StructureSpec | str) -> StructureTest:
+    """The modal test of a structure (Sec. 5.4): its own ``[test]`` table, else the shipped one.
+
+    A structure file's ``[test]`` table (band, resolution, force level,
+    points, response quantity; read by :func:`vlab.spec.load_spec`) wins;
+    without one, a structure named like a shipped one (``"bcc"``, ``"grid"``)
+    gets its entry of :data:`TESTS` (Sec. 5.4.2, Tables 10 and 19-21).
+
+    Parameters
+    ----------
+    spec : StructureSpec or str
+        The structure, or a name or TOML path for :func:`vlab.spec.load_spec`.
+
+    Returns
+    -------
+    StructureTest
+
+    Raises
+    ------
+    SpecError
+        The structure has no ``[test]`` table and no shipped test (the
+        message names its file and the fields to add); as :func:`load_spec`
+        for a name or path.
+    """
+    if isinstance(spec, (str, Path)):
+        spec = load_spec(spec)
+    if spec.test is not None:
+        return spec.test
+    if spec.name in TESTS:
+        return TESTS[spec.name]
+    raise SpecError(f"{spec._file()}: structure {spec.name!r} has no [test] table (band_hz, resolution_hz, rms_n, "
+                    f"n_modes, response_point, measured_points, response_quantity) and no shipped test "
+                    f"(shipped: {', '.join(TESTS)}); add one (`vlab init beam PATH` writes an example)")
+
+
+test_definition.__test__ = False  # not a pytest test, although its name starts with "test_"
+
+
+
 @dataclass(frozen=True)
 class ExperimentConfig:
     """Settings of one experiment (the options of ``vlab experiment``).
@@ -85,7 +92,8 @@ class ExperimentConfig:
     Attributes
     ----------
     structure : str
-        Structure name, a key of :data:`TESTS` (``"bcc"`` or ``"grid"``).
+        Structure name (``"bcc"``, ``"grid"`` or the ``name`` of a structure file); the
+        test itself comes from the FE model's spec (:func:`test_definition`).
     controller : str
         ``"none"`` (open loop), ``"lqg"``, ``"mfdrf"``, ``"lqdrf"`` or
         ``"lqdrf-diag"`` (:data:`vlab.design.CONTROLLERS`; ``"lqr"`` is refused:
@@ -348,9 +356,8 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
     if cfg.plant == "mujoco":
         from ..sim import load_plant_for_experiment
 
-        test = TESTS.get(cfg.structure)
         return load_plant_for_experiment(fe.spec, mjcf=cfg.mjcf, actuators=actuators,
-                                         sensors=test.measured_points if test is not None else ())
+                                         sensors=test_definition(fe.spec).measured_points)
     raise ModelError(f"unknown plant {cfg.plant!r}; use 'mujoco' or 'linear'")
 
 
@@ -392,10 +399,8 @@ class Measurement:
 
 
 def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
-    """The structure's test, its actuator points (channel order) and its excitation point; ModelError if none."""
-    if fe.spec.name not in TESTS:
-        raise ModelError(f"no test definition for structure {fe.spec.name!r}")
-    return TESTS[fe.spec.name], tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
+    """The structure's test, its actuator points (channel order) and its excitation point; SpecError if none."""
+    return test_definition(fe.spec), tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
 
 
 def _predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
@@ -414,7 +419,7 @@ def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
     The modes are those of the continuous closed loop on the FE model with
     the spec's open-loop modal damping (:func:`vlab.analysis.closed_loop_modes`;
     open loop when ``design`` is None), the first ``n_modes`` of the test in
-    its band (:data:`TESTS`). It sets how many records :func:`measure` lets
+    its band (:func:`test_definition`). It sets how many records :func:`measure` lets
     settle (:func:`settle_records`).
 
     Parameters
@@ -431,8 +436,8 @@ def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
 
     Raises
     ------
-    ModelError
-        Structure without a test definition.
+    SpecError
+        Structure without a test definition (:func:`test_definition`).
     """
     fm, zm = _predicted_modes(fe, design)
     sigma = 2 * np.pi * fm * zm
@@ -497,9 +502,10 @@ def measure(
 
     Raises
     ------
+    SpecError
+        Structure without a test definition (:func:`test_definition`).
     ModelError
-        Structure without a test definition, unknown excitation or plant, a
-        non-positive ``decay_rate_1_s``.
+        Unknown excitation or plant, a non-positive ``decay_rate_1_s``.
     MeasurementError
         Duration too short for the frequency resolution.
     SimulationError

@@ -36,7 +36,7 @@ from ..analysis import closed_loop_frf, closed_loop_modes, continuous_controller
 from ..design import ControllerDesign, DesignModel
 from ..errors import MeasurementError, ModelError
 from ..fe import FEModel
-from ..lab.experiment import TESTS, ExperimentConfig, check_design_period, make_plant, measure, slowest_decay_rate
+from ..lab.experiment import ExperimentConfig, check_design_period, make_plant, measure, slowest_decay_rate, test_definition
 from ..lab.linear_plant import LinearPlant
 from ..measure.compare import compare_modes
 from .closedloop import actuator_input
@@ -152,7 +152,7 @@ def run_virtual_experiment(spec: RunSpec, *, ctx: ReproContext | None = None, pl
     if spec.periods < 2:
         raise ModelError(f"{spec.key}: needs at least 2 periods (one to settle), got {spec.periods}")
     fe = ctx.fe(spec.structure)
-    resp = TESTS[spec.structure].response_point
+    resp = test_definition(spec.structure).response_point
     cfg = ExperimentConfig(structure=spec.structure, controller=spec.controller, excitation="random",
                            periods=spec.periods, seed=spec.seed, plant=plant, resolution_hz=spec.resolution_hz)
     design = None if spec.controller == "none" else ctx.design(spec.structure, spec.controller, spec.model)
@@ -189,7 +189,7 @@ def analysis_frf(dm: DesignModel, design: ControllerDesign | None, freq_hz: np.n
     ModelError
         If the response point is not a DOF of ``dm``.
     """
-    test = TESTS[structure]
+    test = test_definition(structure)
     u = actuator_input(dm)
     try:
         r_row = list(dm.labels).index((test.response_point, "w"))
@@ -226,7 +226,7 @@ def predicted_modes(m, c, k, u, design: ControllerDesign | None, structure: str)
     -------
     freq_hz, zeta : ndarray, shape (n_modes,)
     """
-    test = TESTS[structure]
+    test = test_definition(structure)
     f, z = closed_loop_modes(m, c, k, u, u.T, None if design is None else design.continuous)
     band = (f >= test.band_hz[0]) & (f <= test.band_hz[1])
     return f[band][: test.n_modes], z[band][: test.n_modes]
@@ -254,7 +254,7 @@ def peak_levels(freq_hz: np.ndarray, h: np.ndarray, modes_hz: np.ndarray, zeta: 
     -------
     ndarray, shape (n_modes,)
     """
-    test = TESTS[structure]
+    test = test_definition(structure)
     try:
         comps = compare_modes(freq_hz, h, h, modes_hz, zeta, response=test.response_quantity)
     except MeasurementError:
