@@ -205,7 +205,9 @@ def _install_sigint_flag():
     return lambda: signal.signal(signal.SIGINT, previous)
 
 
-STRUCTURE_HELP = "structure: bcc (Beam Cross-Cable) or grid (Hanging Grid)"
+STRUCTURE_HELP = ("structure: bcc (Beam Cross-Cable), grid (Hanging Grid) or the path of a .toml structure file "
+                  "(`vlab init` writes one)")
+STRUCTURE_METAVAR = "<bcc|grid|FILE.toml>"
 REDUCTION_HELP = ("design model: full FE model, exact reduction, Guyan reduction or Guyan corrected with measured "
                   "modes (default: the thesis's choice: DRF on the full model for the BCC, "
                   "everything else on the structure's default reduction)")
@@ -223,7 +225,50 @@ def _flag(*decls: str, help: str) -> Any:
 
 
 def _arg_structure() -> Any:
-    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False)
+    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False, metavar=STRUCTURE_METAVAR)
+
+
+def _format_opt() -> Any:
+    return _opt(OutputFormat.table, "--format",
+                help="output: a rich table (full width when piped), CSV (a header of column names with units, "
+                     "one line per row) or one JSON object (keys with units)")
+
+
+def _output_format(fmt: "OutputFormat", as_json: bool) -> str:
+    """The output format of ``--format`` and the older ``--json`` (= ``--format json``); OptionError if they clash."""
+    if as_json and fmt not in (OutputFormat.table, OutputFormat.json):
+        raise OptionError(f"--json contradicts --format {fmt.value}: give one of the two")
+    return "json" if as_json else fmt.value
+
+
+def _load_structure(value: str):
+    """The spec of a structure argument: a shipped name or a ``.toml`` path (SpecError naming the file: exit 2)."""
+    from .spec import load_spec
+
+    if str(value).strip() == "":
+        raise OptionError("structure: an empty name; give bcc, grid or the path of a .toml file")
+    return load_spec(value)
+
+
+def _fe_model_of(spec):
+    """The checked FE model of ``spec``: cached for a shipped structure file, built afresh for any other file."""
+    from .fe import build_fe_model
+    from .models import check_fe_model, nominal_fe_model
+    from .spec import STRUCTURES_DIR
+
+    if spec.path is not None and spec.path.resolve() == (STRUCTURES_DIR / f"{spec.name}.toml").resolve():
+        return nominal_fe_model(spec.name)
+    return check_fe_model(build_fe_model(spec))
+
+
+def _print_rows(fmt: str, rows: list[dict], columns, title: str | None = None) -> None:
+    """``rows`` as a rich table on stdout (``fmt == "table"``) or as CSV (``"csv"``)."""
+    from .io.tabular import rich_table, write_csv
+
+    if fmt == "csv":
+        write_csv(rows, columns, sys.stdout)
+    else:
+        console.print(rich_table(rows, columns, title=title))
 
 
 app = typer.Typer(
@@ -242,9 +287,10 @@ def _root(debug: bool = _flag("--debug", help="show the Python traceback of an e
     _STATE["debug"] = debug
 
 
-class Structure(str, Enum):
-    bcc = "bcc"
-    grid = "grid"
+class OutputFormat(str, Enum):
+    table = "table"
+    csv = "csv"
+    json = "json"
 
 
 class Reduction(str, Enum):
@@ -271,18 +317,22 @@ def _pad(values: np.ndarray, n: int) -> list[float | None]:
 
 @app.command(cls=_VlabCommand)
 def modes(
-    structure: Structure = _arg_structure(),
+    structure: str = _arg_structure(),
     reduction: Reduction = _opt(Reduction.full, "--reduction",
                                 help="model: the full FE model, its exact reduction or Guyan reduction"),
     n: int = _opt(12, "--n", min=1, help="number of modes listed, >= 1 (at most the model's degrees of freedom)"),
-    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
-    """Natural frequencies against the dissertation's Table 1 (BCC) or Table 3 (grid)."""
+    """Natural frequencies, against the dissertation's Table 1 (BCC) or Table 3 (grid) where the structure has one."""
     from .fe import modal_analysis
-    from .models import nominal_fe_model, reduce_model
+    from .io.tabular import Column
+    from .models import reduce_model
     from .reference import column
 
-    fe = nominal_fe_model(structure.value)
+    out = _output_format(fmt, as_json)
+    spec = _load_structure(structure)
+    fe = _fe_model_of(spec)
     if n > fe.m.shape[0]:
         raise OptionError(f"--n {n} exceeds the model's {fe.m.shape[0]} degrees of freedom")
     if reduction is Reduction.full:
@@ -290,14 +340,14 @@ def modes(
     else:
         red = reduce_model(fe, reduction.value)
         f = red.natural_frequencies_hz()[:n]
-    table = fe.spec.reference["frequencies"]
-    ref_a = column(table, "analytical_hz")
-    ref_e = column(table, "experimental_hz")
+    table = spec.reference.get("frequencies")
+    ref_a = column(table, "analytical_hz") if table else np.zeros(0)
+    ref_e = column(table, "experimental_hz") if table else np.zeros(0)
     n_shown = len(f)
-    if as_json:
+    if out == "json":
         _print_json(
             {
-                "structure": structure.value,
+                "structure": spec.name,
                 "reduction": reduction.value,
                 "frequencies_hz": f,
                 "reference_analytical_hz": _pad(ref_a, n_shown),
@@ -306,18 +356,22 @@ def modes(
             }
         )
         return
-    t = Table(title=f"{fe.spec.title}: natural frequencies ({reduction.value} model) vs {table}")
-    for col in ("mode", "vlab [Hz]", "thesis analytical [Hz]", "error", "thesis experimental [Hz]", "error"):
-        t.add_column(col, justify="right")
+    rows = []
     for i in range(n_shown):
-        row = [str(i + 1), f"{f[i]:.3f}"]
-        for ref in (ref_a, ref_e):
+        row = {"mode": i + 1, "frequency_hz": float(f[i])}
+        for key, ref in (("analytical", ref_a), ("experimental", ref_e)):
             if i < len(ref):
-                row += [f"{ref[i]:.3f}", f"{100 * (f[i] / ref[i] - 1):+.2f} %"]
-            else:
-                row += ["", ""]
-        t.add_row(*row)
-    console.print(t)
+                row[f"thesis_{key}_hz"] = float(ref[i])
+                row[f"error_{key}_pct"] = 100 * (f[i] / ref[i] - 1)
+        rows.append(row)
+    cols = [Column("mode", "mode"), Column("frequency_hz", "vlab [Hz]", ".3f")]
+    if table:
+        cols += [Column("thesis_analytical_hz", "thesis analytical [Hz]", ".3f"),
+                 Column("error_analytical_pct", "error [%]", "+.2f"),
+                 Column("thesis_experimental_hz", "thesis experimental [Hz]", ".3f"),
+                 Column("error_experimental_pct", "error [%]", "+.2f")]
+    title = f"{spec.title}: natural frequencies ({reduction.value} model)" + (f" vs {table}" if table else "")
+    _print_rows(out, rows, cols, title)
 
 
 class ControllerName(str, Enum):
@@ -337,7 +391,7 @@ class DesignReduction(str, Enum):
 
 @app.command(cls=_VlabCommand)
 def design(
-    structure: Structure = _arg_structure(),
+    structure: str = _arg_structure(),
     controller: ControllerName = _opt(ControllerName.mfdrf, "--controller",
                                       help="controller: LQR (full state), LQG, MFDRF, LQDRF or LQDRF with a "
                                            "diagonal gain"),
@@ -348,33 +402,46 @@ def design(
     period_ms: float = _opt(None, "--period-ms",
                             help="sampling period of the realization [ms], > 0 (default: the thesis's, "
                                  "Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
-    as_json: bool = _flag("--json", help="print one JSON object instead of the tables"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the tables (= --format json)"),
 ) -> None:
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from .design import design_controller
     from .io.results import design_summary
+    from .io.tabular import Column
     from .lab.experiment import period_source
-    from .models import nominal_fe_model
 
+    out = _output_format(fmt, as_json)
     period_s = _period_s(period_ms)
     _seed(seed)
     if modes_file is not None and reduction is not DesignReduction.corrected_guyan:
         raise OptionError("--modes is read only with --reduction corrected-guyan "
                           f"(got --reduction {reduction.value if reduction else 'default'})")
     _input_file("--modes", modes_file)
-    fe = nominal_fe_model(structure.value)
+    spec = _load_structure(structure)
+    fe = _fe_model_of(spec)
     measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console,
-                  transient=True, disable=as_json) as bar:
-        bar.add_task(f"designing {controller.value} for {structure.value}", total=None)
+                  transient=True, disable=out != "table") as bar:
+        bar.add_task(f"designing {controller.value} for {spec.name}", total=None)
         d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
                               measured_modes=measured, seed=seed, period_s=period_s)
-    if as_json:
+    if out == "json":
         _print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
         return
-    console.print(f"[bold]{structure.value} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
+    n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
+    rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
+             "performance_index_thesis_units": float(d.performance_index[i]) if i < len(d.performance_index) else None}
+            for i in range(n_rows)]
+    cols = [Column("mode", "mode"), Column("frequency_hz", "f [Hz]", ".3f"),
+            Column("damping_ratio", "zeta [-]", ".4f"),
+            Column("performance_index_thesis_units", "J (modal IC) [thesis units]", ".4g")]
+    if out == "csv":
+        _print_rows(out, rows, cols)
+        return
+    console.print(f"[bold]{escape(spec.name)} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
                   f"({escape(str(d.message))})")
     console.print(f"sampling period {d.period_s * 1e3:g} ms ({period_source(d.controller, d.period_s)})")
     if d.gamma is not None:
@@ -383,15 +450,7 @@ def design(
     if g is not None:
         console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
         console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
-    t = Table(title="closed loop on the design model")
-    for col in ("mode", "f [Hz]", "zeta", "J (modal IC)"):
-        t.add_column(col, justify="right")
-    for i in range(max(len(d.performance_index), 6)):
-        if i >= len(d.damping_ratios):
-            break
-        j = f"{d.performance_index[i]:.4g}" if i < len(d.performance_index) else ""
-        t.add_row(str(i + 1), f"{d.frequencies_hz[i]:.3f}", f"{d.damping_ratios[i]:.4f}", j)
-    console.print(t)
+    _print_rows(out, rows, cols, "closed loop on the design model")
 
 
 class ExpController(str, Enum):
@@ -420,7 +479,7 @@ EXPERIMENT_OUT = "out/experiment"
 
 @app.command(cls=_VlabCommand)
 def experiment(
-    structure: Structure = typer.Argument(Structure.bcc, help=STRUCTURE_HELP),
+    structure: str = typer.Argument("bcc", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
     controller: ExpController = _opt(ExpController.mfdrf, "--controller",
                                      help="controller in the loop: none (open loop), LQG, MFDRF, LQDRF or LQDRF "
                                           "with a diagonal gain (LQR needs the full state: run it as LQG)"),
@@ -447,7 +506,8 @@ def experiment(
     out: str = _opt(EXPERIMENT_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
     spawn: bool = _flag("--spawn", help="open the rerun viewer live (needs a display)"),
-    as_json: bool = _flag("--json", help="print results.json to stdout instead of the table"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print results.json to stdout instead of the table (= --format json)"),
     allow_unstable: bool = _flag("--allow-unstable",
                                  help="exit 0 even when a warning calls the comparison not meaningful"),
 ) -> None:
@@ -464,10 +524,12 @@ def experiment(
 
     from .io.atomic import atomic_dir
     from .io.results import experiment_summary, write_outputs
-    from .lab.experiment import TESTS, ExperimentConfig, default_chain, not_meaningful, run_experiment
-    from .models import nominal_fe_model
+    from .io.tabular import Column
+    from .lab.experiment import ExperimentConfig, default_chain, not_meaningful, run_experiment, test_definition
 
     # --- every option, before any work
+    out_fmt = _output_format(fmt, as_json)
+    spec = _load_structure(structure)
     out_path = _out_dir(out, EXPERIMENT_OUT, overwrite)
     _number("--noise", noise, low=0.0, what="sensor noise sigma [m/s]")
     _number("--delay-samples", delay_samples, low=0.0, what="computation delay [sampling periods]")
@@ -489,28 +551,28 @@ def experiment(
                               "and open run.rrd with `rerun` where there is a display")
     chain = default_chain(controller.value, delay_periods=delay_samples, noise_m_s=noise,
                           **({} if period_s is None else {"period_s": period_s}))
-    test = TESTS[structure.value]
+    test = test_definition(spec)
     if duration is not None and duration < 2.0 / test.resolution_hz - 1e-9:
         raise OptionError(f"--duration {duration:g} s is too short for the {test.resolution_hz:g} Hz resolution: "
                           f"one record of {1 / test.resolution_hz:g} s settles and at least one is measured "
                           f"(>= {2 / test.resolution_hz:g} s)")
     cfg = ExperimentConfig(
-        structure=structure.value, controller=controller.value,
+        structure=spec.name, controller=controller.value,
         reduction=reduction.value if reduction else None, excitation=excitation.value, duration_s=duration,
         chain=chain, seed=seed, plant=plant.value,
         mjcf=Path(mjcf) if mjcf else None,
     )
-    fe = nominal_fe_model(structure.value)
+    fe = _fe_model_of(spec)
     _guard_experiment(fe, plant=plant.value, period_s=chain.period_s, duration_s=duration,
-                      delay_periods=delay_samples, quiet=as_json)
+                      delay_periods=delay_samples, quiet=out_fmt != "table")
     _expect_output(out_path)
 
     # --- the run
     try:
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f} %"),
                       TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                      console=err_console, transient=True, disable=as_json) as bar:
-            task = bar.add_task(f"{structure.value} {controller.value}: simulating", total=1.0)
+                      console=err_console, transient=True, disable=out_fmt != "table") as bar:
+            task = bar.add_task(f"{spec.name} {controller.value}: simulating", total=1.0)
             result = run_experiment(cfg, fe, progress=lambda x: bar.update(task, completed=x))
     except VlabError as exc:
         partial = getattr(exc, "partial", None)
@@ -536,17 +598,27 @@ def experiment(
 
     for w in files["warnings"]:
         err_console.print(f"[bold yellow]warning:[/] {escape(w)}", soft_wrap=True, highlight=False)
-    if as_json:
+    if out_fmt == "json":
         _print_json(summary)
         _exit_if_not_meaningful()
         return
-    t = Table(title=f"{fe.spec.title}, {controller.value}: analysis vs experiment on the {summary['plant']}")
-    for col in ("mode", "f pred [Hz]", "f meas [Hz]", "zeta pred", "zeta meas", "peak ratio"):
-        t.add_column(col, justify="right")
-    for m in result.modes:
-        t.add_row(str(m.mode), f"{m.frequency_predicted_hz:.3f}", f"{m.frequency_measured_hz:.3f}",
-                  f"{m.damping_predicted:.4f}", f"{m.damping_measured:.4f}", f"{m.peak_level_ratio:.3f}")
-    console.print(t)
+    rows = [{"mode": m.mode, "frequency_predicted_hz": m.frequency_predicted_hz,
+             "frequency_measured_hz": m.frequency_measured_hz, "damping_ratio_predicted": m.damping_predicted,
+             "damping_ratio_measured": m.damping_measured, "peak_level_ratio": m.peak_level_ratio}
+            for m in result.modes]
+    cols = [Column("mode", "mode"), Column("frequency_predicted_hz", "f pred [Hz]", ".3f"),
+            Column("frequency_measured_hz", "f meas [Hz]", ".3f"),
+            Column("damping_ratio_predicted", "zeta pred [-]", ".4f"),
+            Column("damping_ratio_measured", "zeta meas [-]", ".4f"),
+            Column("peak_level_ratio", "peak ratio pred/meas [-]", ".3f")]
+    if out_fmt == "csv":
+        _print_rows(out_fmt, rows, cols)
+        for w in result.warnings:
+            err_console.print(f"[bold yellow]warning:[/] {escape(w)}", soft_wrap=True, highlight=False)
+        _exit_if_not_meaningful()
+        return
+    _print_rows(out_fmt, rows, cols,
+                f"{fe.spec.title}, {controller.value}: analysis vs experiment on the {summary['plant']}")
     console.print(f"analysis: the sampled-data loop (hold, delay, RC filter); sampling period "
                   f"{summary['period_s'] * 1e3:g} ms ({escape(summary['period_source'])})", highlight=False)
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: "
@@ -562,12 +634,14 @@ MAX_SEGMENTS = 64
 
 @app.command(cls=_VlabCommand)
 def crosscheck(
-    structure: Structure = _arg_structure(),
+    structure: str = _arg_structure(),
     segments: int = _opt(None, "--segments", min=1, max=MAX_SEGMENTS,
                          help=f"rigid bodies (hinges) per FE element segment of the MuJoCo plant, 1 to {MAX_SEGMENTS} "
                               "(default: chosen per member)"),
-    n: int = _opt(None, "--n", min=1, help="number of modes compared, >= 1 (default: 6 BCC, 12 grid)"),
-    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
+    n: int = _opt(None, "--n", min=1, help="number of modes compared, >= 1 (default: 12 for the grid, 6 "
+                                           "otherwise)"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
     """Cross-check the MuJoCo plant against the FE model: frequencies, MAC, free decay.
 
@@ -579,17 +653,18 @@ def crosscheck(
     from .sim import SimOptions, build_plant
     from .sim import crosscheck as run_crosscheck
     from .sim import free_decay
-    from .spec import load_spec
+    from .io.tabular import Column
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    n_modes = n or (6 if structure is Structure.bcc else 12)
-    spec = load_spec(structure.value)
+    out = _output_format(fmt, as_json)
+    spec = _load_structure(structure)
+    n_modes = n or (12 if spec.name == "grid" else 6)
     stages = ("building the MuJoCo plant", "pairing with the FE model (thesis mesh)",
               "pairing with the FE model (plant resolution)", "free decay of mode 1")
     with Progress(TextColumn("crosscheck {task.fields[stage]}"), BarColumn(), TimeElapsedColumn(),
                   TextColumn("ETA"), TimeRemainingColumn(), console=err_console, transient=True,
-                  disable=as_json) as bar:
+                  disable=out != "table") as bar:
         task = bar.add_task("crosscheck", total=len(stages), stage=stages[0])
 
         def step(i: int) -> None:
@@ -609,9 +684,9 @@ def crosscheck(
     def num(x: float) -> float | None:
         return None if x is None or not math.isfinite(x) else float(x)
 
-    if as_json:
+    if out == "json":
         _print_json({
-            "structure": structure.value,
+            "structure": spec.name,
             "frequencies_hz": {"fe": [p.fe_hz for p in cc.pairs], "mujoco": [num(p.sim_hz) for p in cc.pairs]},
             "relative_error": [num(p.error_pct / 100) for p in cc.pairs],
             "mac": [p.mac for p in cc.pairs],
@@ -634,18 +709,26 @@ def crosscheck(
         })
         return
     thesis, fine = refs["thesis_mesh"], refs["plant_resolution"]
-    t = Table(title=f"{spec.title}: MuJoCo plant vs FE model (timestep {plant.timestep_s * 1e3:g} ms), "
-                    "modes paired one-to-one by MAC")
-    for col in ("FE mode", "MuJoCo mode", "MuJoCo [Hz]", "FE [Hz] thesis mesh", "error", "MAC",
-                "FE [Hz] plant resolution", "error", "MAC"):
-        t.add_column(col, justify="right")
+    rows = []
     for a, b in zip(thesis.pairs, fine.pairs):
         sm = "-" if a.sim_mode is None else str(a.sim_mode)
         if b.sim_mode != a.sim_mode:
             sm += f" / {'-' if b.sim_mode is None else b.sim_mode}"
-        t.add_row(str(a.fe_mode), sm, f"{a.sim_hz:.4f}", f"{a.fe_hz:.4f}", f"{a.error_pct:+.2f} %", f"{a.mac:.4f}",
-                  f"{b.fe_hz:.4f}", f"{b.error_pct:+.2f} %", f"{b.mac:.4f}")
-    console.print(t)
+        rows.append({"fe_mode": a.fe_mode, "mujoco_mode": sm, "mujoco_hz": num(a.sim_hz),
+                     "fe_thesis_mesh_hz": a.fe_hz, "error_thesis_mesh_pct": num(a.error_pct),
+                     "mac_thesis_mesh": a.mac, "fe_plant_resolution_hz": b.fe_hz,
+                     "error_plant_resolution_pct": num(b.error_pct), "mac_plant_resolution": b.mac})
+    cols = [Column("fe_mode", "FE mode"), Column("mujoco_mode", "MuJoCo mode"),
+            Column("mujoco_hz", "MuJoCo [Hz]", ".4f"), Column("fe_thesis_mesh_hz", "FE [Hz] thesis mesh", ".4f"),
+            Column("error_thesis_mesh_pct", "error [%]", "+.2f"), Column("mac_thesis_mesh", "MAC [-]", ".4f"),
+            Column("fe_plant_resolution_hz", "FE [Hz] plant resolution", ".4f"),
+            Column("error_plant_resolution_pct", "error [%]", "+.2f"),
+            Column("mac_plant_resolution", "MAC [-]", ".4f")]
+    if out == "csv":
+        _print_rows(out, rows, cols)
+        return
+    _print_rows(out, rows, cols, f"{spec.title}: MuJoCo plant vs FE model (timestep {plant.timestep_s * 1e3:g} ms), "
+                                 "modes paired one-to-one by MAC")
     by_count: dict[int, list[str]] = {}
     for k, v in fine.fe_elements.items():
         by_count.setdefault(v, []).append(k)
@@ -665,7 +748,7 @@ def crosscheck(
 
 @app.command("export-mjcf", cls=_VlabCommand)
 def export_mjcf_cmd(
-    structure: Structure = _arg_structure(),
+    structure: str = _arg_structure(),
     output: str = _opt(None, "-o", "--output",
                        help="MJCF file to write, ending in .xml; its folder must exist (default: <structure>.xml)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing file"),
@@ -673,12 +756,35 @@ def export_mjcf_cmd(
     """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`."""
     from .io.atomic import check_output_file
     from .sim import build_plant, export_mjcf
-    from .spec import load_spec
 
-    path = check_output_file(f"{structure.value}.xml" if output is None else output, overwrite=overwrite,
+    spec = _load_structure(structure)
+    path = check_output_file(f"{spec.name}.xml" if output is None else output, overwrite=overwrite,
                              option="--output", suffix=".xml")
-    written = export_mjcf(build_plant(load_spec(structure.value)), path, overwrite=overwrite)
+    written = export_mjcf(build_plant(spec), path, overwrite=overwrite)
     console.print(f"wrote {escape(str(written))}", highlight=False)
+
+
+class TemplateKind(str, Enum):
+    beam = "beam"
+    frame = "frame"
+    bcc = "bcc"
+    grid = "grid"
+
+
+@app.command("init", cls=_VlabCommand)
+def init_cmd(
+    kind: TemplateKind = typer.Argument(..., help="template: beam (clamped-free beam, two coils), frame (planar "
+                                                  "portal frame, two coils), or a copy of bcc or grid",
+                                        show_default=False),
+    path: str = typer.Argument(..., help="structure file to write, ending in .toml; its folder must exist",
+                               show_default=False),
+    overwrite: bool = _flag("--overwrite", help="replace an existing file"),
+) -> None:
+    """Write a commented structure file (with its [test] and [design] tables) to edit and run like bcc or grid."""
+    from .templates import write_template
+
+    written = write_template(kind.value, path, overwrite=overwrite)
+    console.print(f"wrote {escape(str(written))}; try `vlab modes {escape(str(written))}`", highlight=False)
 
 
 REPRODUCE_OUT = "out/reproduce"
@@ -706,7 +812,7 @@ def reproduce(
 
 @app.command(cls=_VlabCommand)
 def diagnose(
-    structure: Structure = _opt(..., "--structure", help=STRUCTURE_HELP),
+    structure: str = _opt(..., "--structure", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
     recording: str = _opt(..., "--recording",
                           help="the recording: UFF 58 time histories (as `vlab experiment` writes) or FRFs, "
                                "or a CSV modal table"),
@@ -720,7 +826,8 @@ def diagnose(
     baseline: str = _opt(None, "--baseline",
                          help="recording of the same test before the change; removes the model's own offsets "
                               "against the plant (default: none)"),
-    as_json: bool = _flag("--json", help="print one JSON object instead of the table"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
     from pathlib import Path
@@ -730,6 +837,8 @@ def diagnose(
     from .diagnose import diagnose as run_diagnose
     from .io.atomic import atomic_dir
 
+    out_fmt = _output_format(fmt, as_json)
+    spec = _load_structure(structure)
     out_path = _out_dir(out, DIAGNOSE_OUT, overwrite)
     if plant not in DIAGNOSE_PLANTS:
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
@@ -737,18 +846,35 @@ def diagnose(
     _input_file("--baseline", baseline)
     _expect_output(out_path)
     with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=as_json) as bar:
+                  console=err_console, transient=True, disable=out_fmt != "table") as bar:
         task = bar.add_task("reading the recording", total=None)
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
-            res = run_diagnose(structure.value, Path(recording), controller=controller.value, out_dir=tmp,
+            res = run_diagnose(spec, Path(recording), controller=controller.value, out_dir=tmp,
                                plant=plant, baseline=baseline, overwrite=False,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
-    if as_json:
+    if out_fmt == "json":
         _print_json(res.as_dict())
         return
     d = res.as_dict()
+    if out_fmt == "csv":
+        _diagnosis_csv(d)
+        return
     _print_diagnosis(d, out_path)
+
+
+def _diagnosis_csv(d: dict[str, Any]) -> None:
+    """Every ranked hypothesis as one CSV line (the misfit's unit in its column name)."""
+    from .diagnose.report import hypothesis_rows, misfit_unit
+    from .io.tabular import Column
+
+    unit = misfit_unit(d).replace(".", "").replace(" ", "_")
+    rows = [{"rank": i, "effect": r["effect"], "location": r["location"], "parameters_si_ci95": r["parameters"],
+             "delta_bic": r["delta_bic"], f"misfit_after_{unit}": r["misfit_after"]}
+            for i, r in enumerate(hypothesis_rows(d, limit=None), start=1)]
+    _print_rows("csv", rows, [Column("rank", ""), Column("effect", ""), Column("location", ""),
+                              Column("parameters_si_ci95", ""), Column("delta_bic", ""),
+                              Column(f"misfit_after_{unit}", "")])
 
 
 def _print_diagnosis(d: dict[str, Any], out_path) -> None:
@@ -886,16 +1012,12 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
 
     Raises
     ------
-    ModelError
-        Structure without a test definition.
+    SpecError
+        Structure without a test definition (:func:`vlab.lab.experiment.test_definition`).
     """
-    from .lab.experiment import ExperimentConfig, TESTS, settle_records, slowest_decay_rate
+    from .lab.experiment import ExperimentConfig, settle_records, slowest_decay_rate, test_definition
 
-    test = TESTS[fe.spec.name] if fe.spec.name in TESTS else None
-    if test is None:
-        from .errors import ModelError
-
-        raise ModelError(f"structure {fe.spec.name!r} has no test definition")
+    test = test_definition(fe.spec)
     record_s = 1.0 / test.resolution_hz
     if duration_s is None:
         n_settle = settle_records(slowest_decay_rate(fe, None), record_s)
@@ -975,6 +1097,9 @@ def _measured_modes(fe, modes_file: str | None):
     from .models import master_indices
 
     if modes_file is None:
+        if "frequencies" not in fe.spec.reference:
+            raise OptionError(f"--reduction corrected-guyan: structure {fe.spec.name!r} has no published frequency "
+                              "table ([reference] frequencies) for a virtual modal test: give --modes FILE (UFF 55)")
         return _virtual_measured_modes(fe)
     from .io.uff import read_mode_shapes
 
