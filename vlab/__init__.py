@@ -60,11 +60,15 @@ def _fe_model(structure):
     from .models import nominal_fe_model
     from .spec import StructureSpec
 
+    if isinstance(structure, (str, Path)) and str(structure).endswith(".toml"):
+        structure = load_spec(structure)  # a user's file: read afresh (it may have been edited), not cached
     if isinstance(structure, StructureSpec):
         from .fe import build_fe_model
+        from .models import check_fe_model
 
-        return build_fe_model(structure)
+        return check_fe_model(build_fe_model(structure))
     return nominal_fe_model(str(structure))
+
 
 
 def modes(structure: Any = "bcc", n: int = 12, *, reduction: str = "full"):
@@ -157,7 +161,7 @@ def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str 
                              seed=seed, period_s=period_s)
 
 
-def run_experiment(structure: str = "bcc", controller: str = "mfdrf", *, plant: str = "mujoco",
+def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: str = "mujoco",
                    excitation: str = "random", reduction: str | None = None, duration_s: float | None = None,
                    delay_periods: float = 1.35, period_s: float | None = None, noise_m_s: float = 1e-6,
                    seed: int = 0, mjcf: str | Path | None = None, out_dir: str | Path | None = None,
@@ -169,8 +173,10 @@ def run_experiment(structure: str = "bcc", controller: str = "mfdrf", *, plant: 
 
     Parameters
     ----------
-    structure : {"bcc", "grid"}
-        A structure with a test definition (:data:`vlab.lab.experiment.TESTS`).
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"``, the path of a structure file or a spec from
+        :func:`load_spec`, with a test definition (its ``[test]`` table or a
+        shipped one: :func:`vlab.lab.experiment.test_definition`).
     controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
         Controller in the loop (``"none"``: open loop).
     plant : {"mujoco", "linear"}
@@ -212,20 +218,20 @@ def run_experiment(structure: str = "bcc", controller: str = "mfdrf", *, plant: 
     ------
     OptionError
         A value out of range (named), ``controller="lqr"`` (it needs every
-        state measured: use ``"lqg"``), or an unknown structure test.
+        state measured: use ``"lqg"``).
+    SpecError
+        Unknown structure, invalid file, or no test definition.
     ModelError, SimulationError, MeasurementError, OutputError
         As :func:`vlab.lab.experiment.run_experiment` and the output writer.
     """
     import math
 
     from .errors import OptionError
-    from .lab.experiment import TESTS, ExperimentConfig, default_chain
+    from .lab.experiment import ExperimentConfig, default_chain, test_definition
     from .lab.experiment import run_experiment as _run
 
     if controller == "lqr":
         raise OptionError("controller 'lqr' needs every state measured; the laboratory ran it as LQG (use 'lqg')")
-    if structure not in TESTS:
-        raise OptionError(f"structure {structure!r} has no test definition (one of {', '.join(TESTS)})")
     for name, v, low in (("delay_periods", delay_periods, 0.0), ("noise_m_s", noise_m_s, 0.0)):
         if not math.isfinite(float(v)) or float(v) < low:
             raise OptionError(f"{name} must be a finite number >= {low:g}, got {v!r}")
@@ -236,10 +242,11 @@ def run_experiment(structure: str = "bcc", controller: str = "mfdrf", *, plant: 
         raise OptionError(f"seed must be an integer in [0, 2**32), got {seed!r}")
     chain = default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s,
                           **({} if period_s is None else {"period_s": period_s}))
-    cfg = ExperimentConfig(structure=structure, controller=controller, reduction=reduction, excitation=excitation,
+    fe = _fe_model(structure)
+    test_definition(fe.spec)  # SpecError before any work when the structure has no test
+    cfg = ExperimentConfig(structure=fe.spec.name, controller=controller, reduction=reduction, excitation=excitation,
                            duration_s=duration_s, chain=chain, seed=seed, plant=plant,
                            mjcf=Path(mjcf) if mjcf is not None else None)
-    fe = _fe_model(structure)
     out_path = None
     if out_dir is not None:
         from .io.atomic import check_output_dir

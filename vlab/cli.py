@@ -863,18 +863,22 @@ def diagnose(
     _print_diagnosis(d, out_path)
 
 
-def _diagnosis_csv(d: dict[str, Any]) -> None:
-    """Every ranked hypothesis as one CSV line (the misfit's unit in its column name)."""
+def _diagnosis_csv(d: dict[str, Any], out=None) -> None:
+    """Every ranked hypothesis of ``d`` (:meth:`DiagnosisResult.as_dict`) as one CSV line on ``out`` (stdout).
+
+    Columns: rank, effect, location, parameters (SI, with 95 % intervals), BIC difference to the best, misfit
+    after the effect is modelled (its unit in the column name: decades for FRF data).
+    """
     from .diagnose.report import hypothesis_rows, misfit_unit
-    from .io.tabular import Column
+    from .io.tabular import Column, write_csv
 
     unit = misfit_unit(d).replace(".", "").replace(" ", "_")
     rows = [{"rank": i, "effect": r["effect"], "location": r["location"], "parameters_si_ci95": r["parameters"],
              "delta_bic": r["delta_bic"], f"misfit_after_{unit}": r["misfit_after"]}
             for i, r in enumerate(hypothesis_rows(d, limit=None), start=1)]
-    _print_rows("csv", rows, [Column("rank", ""), Column("effect", ""), Column("location", ""),
-                              Column("parameters_si_ci95", ""), Column("delta_bic", ""),
-                              Column(f"misfit_after_{unit}", "")])
+    write_csv(rows, [Column("rank", ""), Column("effect", ""), Column("location", ""),
+                     Column("parameters_si_ci95", ""), Column("delta_bic", ""), Column(f"misfit_after_{unit}", "")],
+              out or sys.stdout)
 
 
 def _print_diagnosis(d: dict[str, Any], out_path) -> None:
