@@ -77,7 +77,8 @@ def modes(structure: Any = "bcc", n: int = 12, *, reduction: str = "full"):
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
+        on every call) or a spec from :func:`load_spec`.
     n : int
         Number of modes, 1 to the model's degrees of freedom.
     reduction : {"full", "exact", "guyan"}
@@ -129,7 +130,8 @@ def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str 
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
+        on every call) or a spec from :func:`load_spec`.
     controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg", "lqr"}
         Controller type.
     reduction : {"full", "exact", "guyan", "corrected-guyan"}, optional
@@ -267,7 +269,8 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str = "none",
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
+        on every call) or a spec from :func:`load_spec`.
     recording : str or Path
         UFF 58 time histories (as :func:`run_experiment` writes them), UFF 58
         FRFs, or a CSV modal table.
@@ -310,7 +313,8 @@ def export_mjcf(structure: Any, path: str | Path, *, overwrite: bool = False) ->
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"`` or a spec from :func:`load_spec`.
+        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
+        on every call) or a spec from :func:`load_spec`.
     path : str or Path
         The ``.xml`` file to write; its folder must exist.
     overwrite : bool
