@@ -752,7 +752,10 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         :data:`MAX_COORDINATE_M`, two consecutive member points coincide,
         ``elements_per_segment`` exceeds :data:`MAX_ELEMENTS_PER_SEGMENT`, a
         point, section or DOF is unknown, a referenced data file is missing,
-        or member ids repeat; the message names the file and the dotted field.
+        member ids repeat, or a ``[test]`` / ``[design]`` value is out of range
+        (a band beyond :data:`MAX_TEST_BAND_HZ`, a resolution leaving fewer than
+        4 lines, a response point not recorded, ...); the message names the
+        file and the dotted field.
     """
     file = str(path) if path else "<dict>"
     top = _Reader(file, doc, "")
@@ -901,14 +904,8 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     instr = None
     ir = top.sub("instrumentation", None)
     if ir is not None:
-        acts = tuple(ir.raw("actuators", types=(list,)))
-        sens = tuple(ir.raw("sensors", types=(list,)))
-        for key, ids in (("actuators", acts), ("sensors", sens)):
-            for pid in ids:
-                if not isinstance(pid, int) or isinstance(pid, bool) or pid not in points:
-                    ir.fail(key, f"unknown point id {pid!r}; points are {sorted(points)}")
-            if len(set(ids)) != len(ids):
-                ir.fail(key, f"repeated point ids in {list(ids)}")
+        acts = _points_list(ir, "actuators", points)
+        sens = _points_list(ir, "sensors", points)
         exc = point_of(ir, "excitation")
         if exc not in acts:
             ir.fail("excitation", f"excitation point {exc} must be one of the actuators {list(acts)}")
@@ -999,6 +996,8 @@ def _number(r: _Reader, key: str, default: Any = ..., *, low: float = 0.0, low_o
 def _points_list(r: _Reader, key: str, points: dict, default: Any = ...) -> tuple[int, ...]:
     """A list of known, distinct point ids (SpecError naming the field and the bad id)."""
     ids = r.raw(key, default, types=(list, tuple))
+    if ids is default:
+        return tuple(ids)  # the caller's default (already checked)
     for pid in ids:
         if not isinstance(pid, int) or isinstance(pid, bool) or pid not in points:
             r.fail(key, f"unknown point id {pid!r}; points are {sorted(points)}")
