@@ -207,7 +207,7 @@ def _install_sigint_flag():
 
 STRUCTURE_HELP = ("structure: bcc (Beam Cross-Cable), grid (Hanging Grid) or the path of a .toml structure file "
                   "(`vlab init` writes one)")
-STRUCTURE_METAVAR = "<bcc|grid|FILE.toml>"
+STRUCTURE_METAVAR = "<bcc|grid|FILE.toml>"  # the type shown for --structure (diagnose)
 REDUCTION_HELP = ("design model: full FE model, exact reduction, Guyan reduction or Guyan corrected with measured "
                   "modes (default: the thesis's choice: DRF on the full model for the BCC, "
                   "everything else on the structure's default reduction)")
@@ -225,7 +225,7 @@ def _flag(*decls: str, help: str) -> Any:
 
 
 def _arg_structure() -> Any:
-    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False, metavar=STRUCTURE_METAVAR)
+    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False)
 
 
 def _format_opt() -> Any:
@@ -479,7 +479,7 @@ EXPERIMENT_OUT = "out/experiment"
 
 @app.command(cls=_VlabCommand)
 def experiment(
-    structure: str = typer.Argument("bcc", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
+    structure: str = typer.Argument("bcc", help=STRUCTURE_HELP),
     controller: ExpController = _opt(ExpController.mfdrf, "--controller",
                                      help="controller in the loop: none (open loop), LQG, MFDRF, LQDRF or LQDRF "
                                           "with a diagonal gain (LQR needs the full state: run it as LQG)"),
@@ -780,7 +780,7 @@ def init_cmd(
                                show_default=False),
     overwrite: bool = _flag("--overwrite", help="replace an existing file"),
 ) -> None:
-    """Write a commented structure file (with its [test] and [design] tables) to edit and run like bcc or grid."""
+    """Write a commented structure file (with its test and design tables) to edit and run like bcc or grid."""
     from .templates import write_template
 
     written = write_template(kind.value, path, overwrite=overwrite)
