@@ -48,7 +48,7 @@ def _record(state: LabState, path, *, noise: float = 0.01, seed: int = 1, steady
         sig[f"vel{p}"] = v + noise * np.std(v) * rng.standard_normal(v.size)
     ctrl = "none" if state.design is None else state.design.controller
     out = Recording.from_signals(rec.dt_s, sig, metadata={"structure": spec.name, "controller": ctrl, "seed": 0,
-                                                          "resolution_hz": RES_HZ})
+                                                          "resolution_hz": RES_HZ, "plant": "linear FE model"})
     write_recording(path, out, overwrite=True)
     return str(path)
 

@@ -816,16 +816,19 @@ def diagnose(
     recording: str = _opt(..., "--recording",
                           help="the recording: UFF 58 time histories (as `vlab experiment` writes) or FRFs, "
                                "or a CSV modal table"),
-    controller: ExpController = _opt(ExpController.none, "--controller",
-                                     help="controller that was running during the recording (none = open loop)"),
+    controller: ExpController = _opt(None, "--controller",
+                                     help="controller that was running during the recording (none = open loop; "
+                                          "default: the recording's metadata, else none)"),
+    force: bool = _flag("--force", help="use --controller/--plant even where the recording's metadata says "
+                                        "otherwise"),
     out: str = _opt(DIAGNOSE_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
     plant: str = _opt("auto", "--plant", metavar="<auto|linear|mujoco>",
-                      help="plant of the validation rerun: auto (MuJoCo where the effect can be modelled "
-                           "there, else linear), linear or mujoco"),
+                      help="plant of the replay and the validation rerun: auto (the plant the recording's "
+                           "metadata names, else MuJoCo), linear or mujoco"),
     baseline: str = _opt(None, "--baseline",
-                         help="recording of the same test before the change; removes the model's own offsets "
-                              "against the plant (default: none)"),
+                         help="a measured reference: recording of the same test on the structure before the "
+                              "change (default: the recorded force replayed on the nominal plant)"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -849,8 +852,9 @@ def diagnose(
                   console=err_console, transient=True, disable=out_fmt != "table") as bar:
         task = bar.add_task("reading the recording", total=None)
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
-            res = run_diagnose(spec, Path(recording), controller=controller.value, out_dir=tmp,
-                               plant=plant, baseline=baseline, overwrite=False,
+            res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline,
+                               controller=None if controller is None else controller.value, force=force,
+                               overwrite=False,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":

@@ -1,8 +1,9 @@
 """The base class of the physics hypotheses and the combination of two.
 
 Estimator habits after scikit-learn (DESIGN.md): a keyword-only constructor
-that fixes *where* the effect is, :meth:`Hypothesis.fit` that estimates *how
-large* it is and returns ``self``, fitted values ending in ``_`` and
+that fixes *where* the effect is, :func:`vlab.diagnose.fit.fit_hypothesis` that
+estimates *how large* it is (the fit lives there, after the hypotheses, so
+that the data flow runs one way), fitted values ending in ``_`` and
 :meth:`Hypothesis.score` returning one comparable number (the BIC, lower is
 better). Subclasses implement ``_space``, ``_apply`` and optionally
 ``_null`` and ``_applies`` (:mod:`vlab.diagnose.structural`,
@@ -45,8 +46,8 @@ class Hypothesis:
         one parameter is scanned densely before the local fit
         (:func:`vlab.diagnose.fit.trials_for`).
 
-    Fitted attributes (after :meth:`fit`)
-    --------------------------------------
+    Fitted attributes (after :func:`vlab.diagnose.fit.fit_hypothesis`)
+    ------------------------------------------------------------------
     params_ : ndarray, shape (k,)
         Parameter values [SI].
     ci95_ : ndarray, shape (k, 2)
@@ -175,24 +176,6 @@ class Hypothesis:
         return True
 
     # -- estimator interface
-    def fit(self, problem, *, starts: np.ndarray | None = None) -> "Hypothesis":
-        """Fit the parameters to the data; returns self.
-
-        Bounded nonlinear least squares on the weighted residuals, started
-        from the best trial value (:func:`vlab.diagnose.fit.fit_hypothesis`).
-
-        Parameters
-        ----------
-        problem : vlab.diagnose.problem.Problem
-            Data, nominal lab and weights.
-        starts : ndarray, shape (n, k), optional
-            Starting values [SI] instead of the trial values.
-        """
-        from .fit import fit_hypothesis
-
-        fit_hypothesis(self, problem, starts=starts)
-        return self
-
     def score(self, problem=None) -> float:
         """The Bayesian information criterion of the fit (lower is better).
 
@@ -207,7 +190,7 @@ class Hypothesis:
             If the hypothesis has not been fitted.
         """
         if not hasattr(self, "bic_"):
-            raise ModelError(f"{self.label}: call fit() before score()")
+            raise ModelError(f"{self.label}: fit it (vlab.diagnose.fit.fit_hypothesis) before score()")
         if problem is None:
             return float(self.bic_)
         chi2 = problem.chi2(problem.state_for(self, self.params_))

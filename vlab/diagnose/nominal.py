@@ -77,8 +77,12 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
         for m in spec.members))
 
 
-def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | None = None):
+def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | None = None,
+                   reduction: str | None = None):
     """The thesis controller ``controller`` designed on ``fe`` with multi-start ``seed`` (None for "none").
+
+    ``reduction`` is the design model (:func:`vlab.design.design_controller`'s
+    ``model``; None: the design module's default for the structure).
 
     Realised (Eqs. 5.2-5.5) at ``period_s`` [s]; None = the thesis's period
     for the controller (:func:`vlab.design.thesis_period_s`, Sec. 5.3: LQG
@@ -93,7 +97,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | No
     """
     if controller == "none":
         return None
-    key = (fe.spec.name, id(fe), controller, seed, period_s)
+    key = (fe.spec.name, id(fe), controller, seed, period_s, reduction)
     hit = _DESIGNS.get(key)
     if hit is not None and hit[0] is fe:
         return hit[1]
@@ -101,7 +105,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | No
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
     from ..design import design_controller
 
-    d = design_controller(fe, controller, seed=seed, period_s=period_s)
+    d = design_controller(fe, controller, model=reduction, seed=seed, period_s=period_s)
     _DESIGNS[key] = (fe, d)
     return d
 
@@ -160,8 +164,8 @@ def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
     return Context(band_hz, False, total, float(f[keep][0]), kp, mp, cp)
 
 
-def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, controller: str,
-              resolution_hz: float | None, band_hz, settle_of, notes: list):
+def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
+              resolution_hz: float | None, band_hz, settle_of):
     """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data`).
 
     Parameters
@@ -174,16 +178,12 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, c
         Kind of ``obj``.
     obj : ModalData, Recording or list of FRF
         What was read.
-    controller : str
-        Controller the diagnosis assumes (compared with the recording's metadata).
     resolution_hz : float or None
         Resolution asked for [Hz]; else the metadata's, else the structure's test resolution.
     band_hz : (float, float)
         Band analysed [Hz].
     settle_of : callable
         Returns the settling time [s] of the nominal lab (called for recordings only).
-    notes : list of str
-        Receives remarks (e.g. a controller differing from the metadata).
 
     Raises
     ------
@@ -196,9 +196,6 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *, c
         meta = dict(obj.metadata)
         if meta.get("structure") not in (None, spec.name):
             raise DataFileError(f"{path}: recorded on structure {meta['structure']!r}, diagnosed as {spec.name!r}")
-        if meta.get("controller") not in (None, controller):
-            notes.append(f"the recording's metadata says controller {meta['controller']!r}; diagnosed with "
-                         f"{controller!r} as asked")
         res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
         return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
                                    settle_s=settle_of())

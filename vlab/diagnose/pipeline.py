@@ -69,7 +69,6 @@ import numpy as np
 from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
-from ..lab.loop import HardwareChain
 from ..spec import StructureSpec, load_spec
 from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
 from .fit import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
@@ -82,10 +81,12 @@ from .plantchoice import choose_on_plant, reduce_pair_on_plant
 from .plantfit import PlantModel
 from .plantpair import second_effect_on_plant
 from .problem import Problem, changed_beyond_noise, without_floor
+from .reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference
+from .report import ratio_text
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                         rerun_key, tie_break_by_rerun)
-from .validate import start_background_rerun, stop_background, validate
+from .validate import start_background_rerun, stop_background, validate, worsens
 
 __all__ = ["diagnose", "DiagnosisResult"]
 
@@ -173,11 +174,12 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     return chosen
 
 
-def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str = "none",
+def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str | None = None,
              out_dir: str | Path | None = None, plant: str = "auto", resolution_hz: float | None = None,
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
-             progress=None, baseline: str | Path | None = None) -> DiagnosisResult:
+             progress=None, baseline: str | Path | None = None, replay: bool = True,
+             force: bool = False) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -187,20 +189,24 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     recording_path : str or Path
         UFF 58 time histories (force + velocities, as ``vlab experiment``
         writes them), UFF 58 FRFs, or a CSV modal table (``.csv``).
-    controller : {"none", "mfdrf", "lqdrf", "lqdrf-diag", "lqg"}
-        The nominal controller that was running.
+    controller : {"none", "mfdrf", "lqdrf", "lqdrf-diag", "lqg"}, optional
+        The nominal controller that was running; default: the recording's
+        metadata, else "none" (:func:`vlab.diagnose.reference.recorded_setup`).
     out_dir : str or Path, optional
         Folder for ``diagnosis.md``, ``diagnosis.json`` and figures.
     plant : {"auto", "linear", "mujoco"}
-        Plant of the validation rerun; ``"auto"`` uses MuJoCo for effects a
-        spec can carry and falls back to the linear plant (saying so).
+        Plant of the replay and the validation rerun; ``"auto"``: the plant
+        the recording's metadata names, else MuJoCo (for effects a spec can
+        carry, falling back to the linear plant, saying so). An explicit
+        plant that contradicts the metadata needs ``force``.
     resolution_hz : float, optional
         Frequency resolution = 1 / excitation period [Hz]; default: the
         recording's metadata, else the structure's test resolution
         (:data:`vlab.lab.experiment.TESTS`).
     seed : int, optional
-        Seed of the controller design's multi-start and of the validation
-        reruns' sensor noise; default the recording's metadata seed, else 0.
+        Seed of the controller design's multi-start; default the recording's
+        metadata seed, else 0. Replays and reruns carry no sensor noise
+        (nothing of the recording's noise realisation is reused).
     effects : tuple of str, optional
         Restrict the library to these effect names.
     floor : float
@@ -220,7 +226,16 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         structure before the change: the data are referred to the model
         through it (:func:`vlab.diagnose.data.refer_to_model`), so that the
         model's own offsets against this plant, present in both, are not
-        diagnosed as an effect.
+        diagnosed as an effect. Without it, a time-history recording is
+        referred to the model through the *replay* of its recorded force on
+        the nominal plant (``replay``).
+    replay : bool
+        Compare a time-history recording with the nominal plant's replay of
+        its force (:func:`vlab.diagnose.reference.replay_reference`) when no
+        baseline is given (issue 28, item 1). False: with the FE model alone.
+    force : bool
+        Use ``controller``, ``seed`` and ``plant`` even where the recording's
+        metadata says otherwise.
 
     Returns
     -------
@@ -236,6 +251,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         NaN, clipped or dead channels; a record too short for the resolution.
     ModelError
         Unknown controller or effect name.
+    OptionError
+        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``).
     SpecError
         Unknown structure.
     """
@@ -250,13 +267,27 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     notes: list = []
     if plant not in ("auto", "linear", "mujoco"):
         raise ModelError(f"unknown plant {plant!r}; use 'auto', 'linear' or 'mujoco'")
-    if detect_kind(path) == "modal" and controller != "none":
+    if detect_kind(path) == "modal" and controller not in (None, "none"):
         notes.append(f"a modal table holds open-loop modes: compared with the open-loop model (controller "
                      f"{controller!r} ignored)")
         controller = "none"
-    # seed of the design: from the recording if it says
-    design_seed = 0 if seed is None else seed
     from ..design import thesis_period_s
+
+    say("reading data")
+    if detect_kind(path) == "modal":
+        what, obj = "modal", read_modal_csv(path, spec)
+    else:
+        what, obj = read_uff_any(path)
+    meta = dict(obj.metadata) if what == "recording" else {}
+    setup = recorded_setup(meta, str(path), controller=controller, seed=seed,
+                           plant=None if plant == "auto" else plant, force=force)
+    notes.extend(setup.notes)
+    controller, design_seed = setup.controller, setup.seed
+    has_mujoco = importlib.util.find_spec("mujoco") is not None
+    # the plant that made the recording: replayed as the reference and rerun for validation
+    replay_plant = setup.plant or ("mujoco" if has_mujoco else "linear")
+    if plant == "auto" and setup.plant == "linear":
+        plant = "linear"  # a recording of the linear FE plant is rerun there
 
     # the controller's sampling period: a recording's own sample interval (it was sampled at the controller
     # rate), else the thesis's period for the controller (Sec. 5.3)
@@ -265,23 +296,16 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
 
     def nominal_state() -> LabState:
         if "s" not in state_box:  # the controller that ran: designed on the spec's own mesh, at its period
-            chain = HardwareChain(period_s=period_box["s"])
-            design = nominal_design(fe, controller, design_seed, period_s=chain.period_s)
+            chain = recorded_chain(setup, period_box["s"])
+            design = nominal_design(fe, controller, design_seed, period_s=chain.period_s, reduction=setup.reduction)
             state_box["s"] = LabState(model_spec, fe_model, chain, design)
         return state_box["s"]
 
     def settle() -> float:
         return settling_time(nominal_state(), band)
 
-    say("reading data")
-    if detect_kind(path) == "modal":
-        what, obj = "modal", read_modal_csv(path, spec)
-    else:
-        what, obj = read_uff_any(path)
-        if seed is None and what == "recording" and isinstance(obj.metadata.get("seed"), int):
-            design_seed = int(obj.metadata["seed"])
-        if what == "recording":
-            period_box["s"] = float(obj.dt_s)
+    if what == "recording":
+        period_box["s"] = float(obj.dt_s)
     if controller != "none":
         src = ("the recording's sample interval" if what == "recording" else
                f"the thesis's period for {controller} (Sec. 5.3): FRF files do not say at which period the "
@@ -293,8 +317,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                      f"({src})")
     # a MuJoCo validation rerun will follow: the effect is refitted on its plant, and the model compared with
     # the data is meshed as that plant resolves the structure
-    on_plant = validate_run and what == "recording" and plant != "linear" \
-        and importlib.util.find_spec("mujoco") is not None
+    replaying = replay and baseline is None and what == "recording"
+    on_plant = (validate_run or replaying) and what == "recording" and plant != "linear" and has_mujoco \
+        and replay_plant == "mujoco"
     model_spec = plant_resolution(spec) if on_plant else spec
     fe_model = fe if model_spec is spec else build_fe_model(model_spec)
     if model_spec is not spec:
@@ -302,23 +327,43 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                      f"({PLANT_RESOLUTION_ELEMENTS} elements per segment of a shear-flexible member, "
                      f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
                      "mesh")
-    data = read_data(spec, fe, path, what, obj, controller=controller, resolution_hz=resolution_hz, band_hz=band,
-                 settle_of=settle, notes=notes)
+    data = read_data(spec, fe, path, what, obj, resolution_hz=resolution_hz, band_hz=band, settle_of=settle)
     nominal = nominal_state()
+    replayed = None  # the nominal plant's replay of the recorded force (the reference by default)
     if baseline is not None:
         if not isinstance(data, FrfData):
             raise DataFileError(f"{path}: a baseline needs FRF data (time histories or FRFs), not a modal table")
         bwhat, bobj = read_uff_any(Path(baseline))
-        base = read_data(spec, fe, Path(baseline), bwhat, bobj, controller=controller, resolution_hz=resolution_hz,
-                         band_hz=band, settle_of=settle, notes=[])
+        base = read_data(spec, fe, Path(baseline), bwhat, bobj, resolution_hz=resolution_hz, band_hz=band,
+                         settle_of=settle)
         h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
                             output_points=data.output_points)
         data = refer_to_model(data, base, h_nom)
+        reference = f"the measured baseline {baseline}"
+    elif replaying and isinstance(data, FrfData) and data.recording is not None:
+        say(f"replaying the recorded force on the nominal {replay_plant} plant")
+        t = time.perf_counter()
+        try:
+            base, replayed, kind = replay_reference(data, nominal, replay_plant)
+        except (VlabError, ImportError) as exc:
+            notes.append(f"the recorded force could not be replayed on the nominal {replay_plant} plant ({exc}): "
+                         "the recording is compared with the FE model alone")
+            reference = "the FE model (the replay failed)"
+        else:
+            h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                output_points=data.output_points)
+            data = refer_to_model(data, base, h_nom)
+            reference = f"the nominal {kind}'s replay of the recorded force"
+        timing["replay"] = time.perf_counter() - t
+    else:
+        reference = "the FE model"
     notes = list(getattr(data, "notes", [])) + notes
     timing["read"] = time.perf_counter() - t_start
 
     ctx = context_for(nominal, band, data)
     problem = Problem(data, nominal, ctx, floor=floor)
+    if replayed is not None:  # the validation's nominal rerun is the replay
+        problem.__dict__.setdefault("_reruns", {})[("nominal", replay_plant, RERUN_SEED)] = replayed
     chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
     limit, peak_limit = problem.noise_chi2(), problem.peak_limit()
     misfit_0 = problem.misfit(nominal)
@@ -330,23 +375,23 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         timing["locate"] = time.perf_counter() - t
         mismatch = chi2_0 > limit or peak_0 > peak_limit
         noise_only = None
-        if not mismatch and baseline is not None:  # within the model floor; is it within the noise?
+        if not mismatch and (baseline is not None or replayed is not None):  # within the floor; within the noise?
             mismatch, stats = changed_beyond_noise(problem, nominal)
             if mismatch:
                 noise_only = stats
-                notes.append(f"the recording differs from its baseline beyond the noise of the two (chi-square "
+                notes.append(f"the recording differs from its reference beyond the noise (chi-square "
                              f"{stats['chi2']:.4g}, limit {stats['chi2_limit']:.4g}; largest line {stats['peak']:.3g}, "
                              f"limit {stats['peak_limit']:.3g}), though within the model-error floor of "
                              f"{100 * problem.floor:g} % a line: a small change")
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
                               None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
-                              peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only)
+                              peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference)
         if not mismatch:
             res.location.points, res.location.members = [], []
             notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
         else:
-            if on_plant:
-                start_background_rerun(problem, nominal, "nominal", "mujoco", seed=design_seed)  # on the other core
+            if on_plant and replayed is None:
+                start_background_rerun(problem, nominal, "nominal", "mujoco", seed=RERUN_SEED)  # on the other core
             say("screening hypotheses")
             t = time.perf_counter()
             hyps = prune(library(nominal, ctx, effects=effects), location.sensitivity)
@@ -395,7 +440,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 say("separating look-alikes by rerun")
                 t = time.perf_counter()
                 chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes,
-                                                  plant="mujoco" if on_plant else "linear", seed=design_seed)
+                                                  plant="mujoco" if on_plant else "linear", seed=RERUN_SEED)
                 timing["tie_break"] = time.perf_counter() - t
             res.alternatives = alts
             if chosen is not None and on_plant and chosen.spec_level:
@@ -425,20 +470,35 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             t = time.perf_counter()
             try:
                 res.validation = validate(problem, nominal, modified, plant=plant,
-                                          spec_level=res.selected.spec_level, seed=design_seed, key=key)
+                                          spec_level=res.selected.spec_level, seed=RERUN_SEED, key=key)
                 if res.plant_refit is not None and not res.validation.plant.startswith("MuJoCo"):
                     # the plant's value belongs to the plant: a linear rerun takes the FE value
                     res.plant_refit = None
                     res.validation = validate(problem, nominal, res.selected_state(), plant="linear",
-                                              spec_level=False, seed=design_seed, key=rerun_key(res.selected))
+                                              spec_level=False, seed=RERUN_SEED, key=rerun_key(res.selected))
             except (VlabError, ImportError) as exc:
                 notes.append(f"validation rerun not possible: {exc}")
             timing["validate"] = time.perf_counter() - t
+        if res.selected is not None and res.validation is not None and worsens(res.validation):
+            v, h = res.validation, res.selected
+            res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": v.misfit_before,
+                                 "misfit_after": v.misfit_after, "time_error_before": v.time_error_before,
+                                 "time_error_after": v.time_error_after})
+            notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
+                         f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
+                         f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
+                         f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}); "
+                         "nothing is selected")
+            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+            res.misfit_selected = misfit_0
+            res.location.points, res.location.members = located_from_fits(res, chi2_0)
         if res.selected is not None and not explains(res, chi2_0):
             h = res.selected
             notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_0)[0]:.0f} % "
                          "of the weighted misfit" + ("" if res.validation is None else
-                                              f" and the rerun lowers the FRF misfit only {res.validation.misfit_before / res.validation.misfit_after:.2g}x")
+                                                     " and its rerun changes the FRF misfit only "
+                                                     + ratio_text(res.validation.misfit_before,
+                                                                  res.validation.misfit_after))
                          + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0

@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from .hypothesis import Combination, Hypothesis
+from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
 
 
@@ -73,7 +74,6 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     note : str or None
         What was decided and why, when the pair was reduced.
     """
-    from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence
 
     # each part alone keeps its value in the pair; the part that explains more alone (its own FE fit, where
     # ``ranked`` has one) is the one refitted in the pair, the other held at its FE value
@@ -101,8 +101,6 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
         return pair, r_pair, None
     h1 = own[i1]
     if h1 is None:  # no FE fit of its own among the ranked: fit it now (the answer's parameters are FE fits)
-        from .fit import fit_hypothesis
-
         h1 = fit_hypothesis(copy.copy(pair.parts[i1]), model.fe_problem)
     if r1 is not None:  # refit again from its own FE value, which the report quotes as the start
         r1 = model.refit(h1, h1.params_)
@@ -187,8 +185,6 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     note : str or None
         The plant chi-squares, when look-alikes were compared.
     """
-    from .fit import STRONG_EVIDENCE
-
     if refit_index(chosen) is None:
         return chosen, model.refit(chosen, chosen.params_), alternatives, None
     known = {chosen.label: model.chi2(chosen, chosen.params_)}  # at the FE values: one linearisation each

@@ -146,7 +146,7 @@ def markdown(res: dict) -> str:
                   + ".", ""]
     before, after = v['misfit_before'], v['misfit_after']
     lines.append(f"- {what}: {_fmt(before)} -> {_fmt(after)}"
-                 + (f" ({before / after:.3g}x lower)" if _ok(before, after) else ""))
+                 + (f" ({ratio_text(before, after)})" if ratio_text(before, after) else ""))
     if v.get("noise_misfit") is not None:
         lines.append(f"- the same misfit of an exact model, from the measured noise alone: {_fmt(v['noise_misfit'])}")
     if v.get("modes"):
@@ -453,7 +453,9 @@ def hypothesis_rows(res: dict, limit: int | None = 8) -> list[dict]:
     return rows
 
 
-def _ratio_text(before, after) -> str:
+def ratio_text(before, after) -> str:
+    """``before -> after`` as "N x lower" or "N x higher" (issue 28: never a fraction); "" when either is
+    not a positive finite number."""
     if not _ok(before, after) or before <= 0:
         return ""
     r = before / after
@@ -507,7 +509,7 @@ def verdict(res: dict) -> str:
     if alts:
         text += f" Not separable by these data (BIC within 10): {', '.join(alts)}."
     v = res.get("validated") or {}
-    ratio = _ratio_text(v.get("misfit_before"), v.get("misfit_after"))
+    ratio = ratio_text(v.get("misfit_before"), v.get("misfit_after"))
     if ratio:
         text += (f" Validation ({v.get('plant', 'model')}): misfit {_fmt(v['misfit_before'], 3)} -> "
                  f"{_fmt(v['misfit_after'], 3)} {misfit_unit(res)}, {ratio}")

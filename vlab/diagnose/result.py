@@ -59,6 +59,13 @@ class DiagnosisResult:
     plant_refit : PlantRefit or None
         The selected effect's mode-moving parameter refitted on the MuJoCo
         plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.plantfit`).
+    rejected : list of dict
+        Candidates the validation rerun rejected (they made the FRF misfit or the time-domain error
+        worse): ``effect``, ``label``, ``misfit_before``, ``misfit_after`` [decades], ``time_error_before``,
+        ``time_error_after`` [1].
+    reference : str
+        What the recording was compared with: the nominal simulation's replay, a measured baseline, or the
+        FE model alone.
     """
 
     structure: str
@@ -85,6 +92,8 @@ class DiagnosisResult:
     peak_nominal: float = float("nan")
     peak_limit: float = float("nan")
     noise_only: dict | None = None
+    rejected: list = field(default_factory=list)
+    reference: str = "the FE model"
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -184,6 +193,8 @@ class DiagnosisResult:
             "ranked": [self._entry(h) for h in self.ranked],
             "selected": self._selected_entries(),
             "alternatives": alternatives,
+            "rejected": list(self.rejected),
+            "reference": self.reference,
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),

@@ -162,11 +162,11 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     seed : int
         Seed of the controller's sensor noise (the chain's ``noise_m_s``).
     start : int
-        Tick to start at (0: from rest at the first tick). A later start
-        begins in the lab's periodic steady state there
-        (:func:`vlab.diagnose.warmstart.warm_start`) and needs ``period``.
+        Tick to start at.
     period : int
-        Ticks per excitation period (for a warm start).
+        Ticks per excitation period: given (> 0), the rerun begins in the
+        lab's periodic steady state at ``start``
+        (:func:`vlab.diagnose.warmstart.warm_start`); 0: from rest.
     stop : int, optional
         Tick to stop before (default: the end of ``force``).
 
@@ -195,7 +195,7 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     if d is not None:
         engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
     force = np.asarray(force, dtype=float)[:stop]
-    if start:
+    if period:
         warm_start(state, p, engine, force, excitation_point=excitation_point, start=start, n_per=period)
     n = len(force) - start
     loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
@@ -291,6 +291,23 @@ class Validation:
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
                 "noise_misfit": self.noise_misfit}
+
+
+def worsens(v: Validation) -> bool:
+    """Whether a validation rerun makes the fit worse: the modified lab's FRF misfit or its time-domain error
+    is higher than the nominal lab's (issue 28, item 2: such an effect is never selected).
+
+    Parameters
+    ----------
+    v : Validation
+
+    Returns
+    -------
+    bool
+        True when ``misfit_after > misfit_before`` or ``time_error_after > time_error_before``
+        (a NaN error, e.g. no overlap, is not counted).
+    """
+    return bool(v.misfit_after > v.misfit_before or v.time_error_after > v.time_error_before)
 
 
 def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,

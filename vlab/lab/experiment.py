@@ -545,8 +545,11 @@ def measure(
         excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
         seed=cfg.seed, progress=progress, shape_points=shape_points,
         metadata=metadata if metadata is not None else {
-            "structure": fe.spec.name, "controller": cfg.controller, "excitation": cfg.excitation,
-            "seed": cfg.seed, "plant": info.get("kind", "")},
+            "structure": fe.spec.name, "controller": cfg.controller, "reduction": cfg.reduction,
+            "excitation": cfg.excitation, "seed": cfg.seed, "plant": info.get("kind", ""),
+            "chain": {"delay_periods": cfg.chain.delay_periods, "filter_hz": cfg.chain.filter_hz,
+                      "amplifier_gain": cfg.chain.amplifier_gain,
+                      "amplifier_limit_n": cfg.chain.amplifier_limit_n}},
     )
     rec = loop.recording
     skip = int(round(n_settle * record_s / rec.dt_s))

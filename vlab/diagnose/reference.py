@@ -1,0 +1,209 @@
+"""The reference a recording is compared with: the recording's own settings, and its replay on the nominal plant.
+
+Issue 28, item 1: for a time-history recording the reference is, by default,
+the *simulation*: the recorded force is played back through vlab's own
+nominal plant (the plant the recording names, MuJoCo by default) with the
+controller and the hardware chain of the recording, and the recording is
+referred to the FE model through that replay
+(:func:`vlab.diagnose.data.refer_to_model`, ``H = H_rec * H_model / H_replay``).
+The FE model stays the fast surrogate the effects are fitted on; the
+MuJoCo/FE model-form difference is the ratio ``H_model / H_replay``, measured
+on the nominal replay, not absorbed by an effect. A *measured* baseline
+(``--baseline``) replaces the replay.
+
+The replay is made without sensor noise: the only noise in the comparison
+is the recording's own (nothing of the recording's noise realisation is
+borrowed, issue 28 item 5).
+
+The recording's metadata (the sidecar ``recording.uff.json`` that ``vlab
+experiment`` writes: structure, controller, reduction, seed, plant, hardware
+chain) supplies what the options leave unsaid; an option that contradicts it
+is refused unless ``force``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import DataFileError, OptionError
+from ..lab.loop import HardwareChain
+from .data import FrfData
+from .labmodel import LabState
+
+#: The ``plant`` metadata of ``vlab experiment`` -> the replay's plant kind.
+RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "linear FE model": "linear"}
+
+#: Seed of every replay and validation rerun. Their chains carry no sensor noise, so it draws nothing;
+#: it is fixed, not the recording's seed, so that nothing of the recording's realisation is reused.
+RERUN_SEED = 0
+
+#: Hardware-chain fields a recording's metadata may carry (``chain`` in the sidecar), with their types.
+CHAIN_FIELDS = ("delay_periods", "filter_hz", "amplifier_gain", "amplifier_limit_n")
+
+
+@dataclass(frozen=True)
+class RecordedSetup:
+    """What ran during a recording: options and metadata reconciled (:func:`recorded_setup`).
+
+    Attributes
+    ----------
+    controller : str
+        ``"none"`` (open loop) or a thesis controller name.
+    reduction : str or None
+        Design model of the controller (None: the design module's default for the structure).
+    seed : int
+        Seed of the controller design's multi-start.
+    plant : {"mujoco", "linear"} or None
+        Plant that made the recording (None: not said).
+    chain : dict
+        Hardware-chain settings recorded (:data:`CHAIN_FIELDS`; SI, periods for the delay).
+    notes : tuple of str
+        Where each value came from, when not from an option.
+    """
+
+    controller: str
+    reduction: str | None
+    seed: int
+    plant: str | None
+    chain: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+
+def recorded_setup(meta: dict, source: str, *, controller: str | None, seed: int | None,
+                   plant: str | None, force: bool = False) -> RecordedSetup:
+    """Reconcile the diagnosis options with a recording's metadata.
+
+    Parameters
+    ----------
+    meta : dict
+        The recording's metadata (may be empty: a file from another tool).
+    source : str
+        The recording's file name (for messages).
+    controller : str or None
+        ``--controller`` (None: not given).
+    seed : int or None
+        ``--seed`` (None: not given).
+    plant : {"linear", "mujoco"} or None
+        ``--plant`` when given explicitly (None: ``auto``).
+    force : bool
+        Use the options where they contradict the metadata (said in a note).
+
+    Returns
+    -------
+    RecordedSetup
+
+    Raises
+    ------
+    OptionError
+        An option contradicts the metadata and ``force`` is False: names the
+        option, both values and the file.
+    DataFileError
+        A metadata field of the wrong type (names the file and field).
+    """
+    notes: list[str] = []
+
+    def pick(option: str, given, key: str, recorded):
+        if recorded is None:
+            return given
+        if given is None:
+            notes.append(f"{key} {recorded!r} from the recording's metadata")
+            return recorded
+        if given != recorded:
+            if not force:
+                raise OptionError(f"{option} {given!r} contradicts {source}: its metadata says {key} {recorded!r} "
+                                  f"(omit {option} to use the recording's, or add --force to diagnose with "
+                                  f"{given!r})")
+            notes.append(f"{key} {given!r} as forced, although the recording's metadata says {recorded!r}")
+        return given
+
+    rec_controller = meta.get("controller")
+    if rec_controller is not None and not isinstance(rec_controller, str):
+        raise DataFileError(f"{source}: metadata field 'controller': expected a name, got {rec_controller!r}")
+    rec_seed = meta.get("seed")
+    if rec_seed is not None and (isinstance(rec_seed, bool) or not isinstance(rec_seed, int)):
+        raise DataFileError(f"{source}: metadata field 'seed': expected an integer, got {rec_seed!r}")
+    rec_plant = meta.get("plant")
+    rec_plant = RECORDED_PLANTS.get(rec_plant) if isinstance(rec_plant, str) else None
+    chosen_controller = pick("--controller", controller, "controller", rec_controller) or "none"
+    chosen_seed = pick("--seed", seed, "seed", rec_seed)
+    chosen_plant = pick("--plant", plant, "plant", rec_plant)
+    reduction = meta.get("reduction")
+    if reduction is not None and not isinstance(reduction, str):
+        raise DataFileError(f"{source}: metadata field 'reduction': expected a name, got {reduction!r}")
+    if chosen_controller != rec_controller:
+        reduction = None  # the recorded reduction belongs to the recorded controller
+    chain = {}
+    raw = meta.get("chain") or {}
+    if not isinstance(raw, dict):
+        raise DataFileError(f"{source}: metadata field 'chain': expected a table, got {raw!r}")
+    for k in CHAIN_FIELDS:
+        v = raw.get(k)
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
+            raise DataFileError(f"{source}: metadata field 'chain.{k}': expected a non-negative number, got {v!r}")
+        chain[k] = float(v)
+    return RecordedSetup(chosen_controller, reduction, 0 if chosen_seed is None else int(chosen_seed),
+                         chosen_plant, chain, tuple(notes))
+
+
+def recorded_chain(setup: RecordedSetup, period_s: float) -> HardwareChain:
+    """The nominal hardware chain of a recording: the Sec. 5.3 chain at ``period_s`` [s], with the settings
+    its metadata records (:data:`CHAIN_FIELDS`); without sensor noise (a model's chain)."""
+    return replace(HardwareChain(period_s=period_s), **setup.chain)
+
+
+def replay_reference(data: FrfData, nominal: LabState, plant: str) -> tuple[FrfData, object, str]:
+    """Play the recorded force back through the nominal plant: the reference a recording is referred through.
+
+    The replay starts warm one guard period before the analysed part (as
+    the validation reruns, :func:`vlab.diagnose.warmstart.rerun_window`), or
+    warm at the first tick where fewer periods were dropped (a replay from
+    rest would carry the transient of a lightly damped open loop into its
+    reference), and runs without sensor noise; its FRFs on the data's lines are those of
+    :func:`vlab.diagnose.validate.frf_of`.
+
+    Parameters
+    ----------
+    data : FrfData
+        From a recording (``data.recording`` set; its force channel is played back).
+    nominal : LabState
+        The nominal lab: structure, controller and chain of the recording.
+    plant : {"mujoco", "linear"}
+
+    Returns
+    -------
+    reference : FrfData
+        The replay's FRFs on the data's lines, shape (n_f, n_o), zero variance
+        (a noise-free simulation).
+    rec : Recording
+        The replay (to be reused as the validation's nominal rerun).
+    kind : str
+        The plant, in words.
+
+    Raises
+    ------
+    ModelError
+        The plant cannot be built.
+    SimulationError
+        The replay diverged.
+    """
+    from .validate import frf_of, rerun
+    from .warmstart import RERUN_PERIODS, period_ticks, rerun_window
+
+    rec = data.recording
+    force = np.asarray(rec[f"force{data.excitation_point}"])
+    start, period, stop = rerun_window(data, rec.dt_s)
+    if data.periodic and not period:  # too few dropped periods for a guard: a warm start at the first tick
+        period = period_ticks(data, rec.dt_s)
+        stop = int(round(data.analysed_from_s / rec.dt_s)) + RERUN_PERIODS * period
+    run, kind = rerun(nominal, force, excitation_point=data.excitation_point,
+                      measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
+                      period=period, stop=stop)
+    h = frf_of(run, data)
+    ref = replace(data, source=f"the nominal {kind}'s replay of the recorded force", h=h, var=np.zeros(h.shape),
+                  recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None)
+    return ref, run, kind
+
