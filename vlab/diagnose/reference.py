@@ -150,8 +150,20 @@ def recorded_setup(meta: dict, source: str, *, controller: str | None, seed: int
 
 
 def recorded_chain(setup: RecordedSetup, period_s: float) -> HardwareChain:
-    """The nominal hardware chain of a recording: the Sec. 5.3 chain at ``period_s`` [s], with the settings
-    its metadata records (:data:`CHAIN_FIELDS`); without sensor noise (a model's chain)."""
+    """The nominal hardware chain of a recording: the Sec. 5.3 chain with the settings its metadata records.
+
+    Parameters
+    ----------
+    setup : RecordedSetup
+        Its ``chain`` (:data:`CHAIN_FIELDS`) overrides the Sec. 5.3 defaults.
+    period_s : float
+        Controller sampling period [s] (the recording's sample interval).
+
+    Returns
+    -------
+    HardwareChain
+        Without sensor noise (a model's chain).
+    """
     return replace(HardwareChain(period_s=period_s), **setup.chain)
 
 
