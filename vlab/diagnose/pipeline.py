@@ -86,6 +86,7 @@ from .report import ratio_text
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                         rerun_key, tie_break_by_rerun)
+from .warmstart import GUARD_DECAY
 from .validate import start_background_rerun, stop_background, validate, worsens
 
 __all__ = ["diagnose", "DiagnosisResult"]
@@ -330,6 +331,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     data = read_data(spec, fe, path, what, obj, resolution_hz=resolution_hz, band_hz=band, settle_of=settle)
     nominal = nominal_state()
     replayed = None  # the nominal plant's replay of the recorded force (the reference by default)
+    # reruns start warm, this long before the analysed part: the slowest mode's decay by GUARD_DECAY
+    guard_s = settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None
     if baseline is not None:
         if not isinstance(data, FrfData):
             raise DataFileError(f"{path}: a baseline needs FRF data (time histories or FRFs), not a modal table")
@@ -344,7 +347,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         say(f"replaying the recorded force on the nominal {replay_plant} plant")
         t = time.perf_counter()
         try:
-            base, replayed, kind = replay_reference(data, nominal, replay_plant)
+            base, replayed, kind = replay_reference(data, nominal, replay_plant, guard_s=guard_s)
         except (VlabError, ImportError) as exc:
             notes.append(f"the recorded force could not be replayed on the nominal {replay_plant} plant ({exc}): "
                          "the recording is compared with the FE model alone")
@@ -362,6 +365,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
 
     ctx = context_for(nominal, band, data)
     problem = Problem(data, nominal, ctx, floor=floor)
+    problem.guard_s = guard_s
     if replayed is not None:  # the validation's nominal rerun is the replay
         problem.__dict__.setdefault("_reruns", {})[("nominal", replay_plant, RERUN_SEED)] = replayed
     chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)

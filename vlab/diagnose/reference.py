@@ -167,7 +167,8 @@ def recorded_chain(setup: RecordedSetup, period_s: float) -> HardwareChain:
     return replace(HardwareChain(period_s=period_s), **setup.chain)
 
 
-def replay_reference(data: FrfData, nominal: LabState, plant: str) -> tuple[FrfData, object, str]:
+def replay_reference(data: FrfData, nominal: LabState, plant: str,
+                     guard_s: float | None = None) -> tuple[FrfData, object, str]:
     """Play the recorded force back through the nominal plant: the reference a recording is referred through.
 
     The replay starts warm one guard period before the analysed part (as
@@ -184,6 +185,9 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str) -> tuple[FrfD
     nominal : LabState
         The nominal lab: structure, controller and chain of the recording.
     plant : {"mujoco", "linear"}
+    guard_s : float, optional
+        Time [s] simulated after the warm start before the analysed part, when shorter than a period
+        (:func:`vlab.diagnose.warmstart.guard_ticks`).
 
     Returns
     -------
@@ -207,8 +211,8 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str) -> tuple[FrfD
 
     rec = data.recording
     force = np.asarray(rec[f"force{data.excitation_point}"])
-    start, period, stop = rerun_window(data, rec.dt_s)
-    if data.periodic and not period:  # too few dropped periods for a guard: a warm start at the first tick
+    start, period, stop = rerun_window(data, rec.dt_s, guard_s=guard_s)
+    if data.periodic and not period:  # too few dropped samples for a guard: a warm start at the first tick
         period = period_ticks(data, rec.dt_s)
         stop = int(round(data.analysed_from_s / rec.dt_s)) + RERUN_PERIODS * period
     run, kind = rerun(nominal, force, excitation_point=data.excitation_point,

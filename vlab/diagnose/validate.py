@@ -365,7 +365,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s)
+    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
     try:
         recv, send = multiprocessing.Pipe(duplex=False)
         proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
@@ -433,7 +433,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s)
+    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
     pts = tuple(data.output_points)
     cache = problem.__dict__.setdefault("_reruns", {})
     pending = problem.__dict__.get("_background", {})

@@ -44,6 +44,12 @@ from .labmodel import LabState, PointModes, predict_frf, sensor_path
 #: ``e^-2.8 = 6 %`` of an already small start error. A chosen margin.
 GUARD_PERIODS = 1
 
+#: Decay of the start error a shorter guard must reach: given the lab's slowest decay time, the guard is
+#: ``ln(1 / GUARD_DECAY) * tau`` (:func:`guard_ticks`), at most :data:`GUARD_PERIODS` periods. Measured on
+#: the default BCC MFDRF recording replayed on the MuJoCo plant: a guard of half a period (10 s, 9 tau)
+#: gives the FRF of a one-period guard to 1.6e-6 (relative, largest line), a quarter period to 5e-4.
+GUARD_DECAY = 1e-3
+
 #: Analysed periods a rerun simulates (after the guard period). A rerun's only noise is the controller's
 #: sensor noise (1e-6 m/s), so one period gives its FRF and its time history to far better than the
 #: recording's noise; the recording keeps all its analysed periods. A chosen length.
@@ -67,10 +73,28 @@ def period_ticks(data: FrfData, dt_s: float) -> int:
     return int(round(1.0 / (df * dt_s)))
 
 
-def start_tick(data: FrfData, dt_s: float) -> int:
-    """Tick at which a warm-started rerun of ``data`` begins: :data:`GUARD_PERIODS` whole periods before
-    the analysed part, 0 (a rerun from rest) for data not estimated period by period or without enough
-    dropped periods.
+def guard_ticks(data: FrfData, dt_s: float, guard_s: float | None = None) -> int:
+    """Ticks simulated after a warm start before the analysed part: :data:`GUARD_PERIODS` periods, or
+    ``guard_s`` [s] where that is shorter (the lab's own decay, :data:`GUARD_DECAY`).
+
+    Parameters
+    ----------
+    data : FrfData
+    dt_s : float
+        Controller period [s].
+    guard_s : float, optional
+        Time [s] for the slowest mode of the lab to decay by :data:`GUARD_DECAY`.
+    """
+    full = GUARD_PERIODS * period_ticks(data, dt_s)
+    if guard_s is None or not np.isfinite(guard_s):
+        return full
+    return min(full, max(1, int(np.ceil(guard_s / dt_s))))
+
+
+def start_tick(data: FrfData, dt_s: float, guard_s: float | None = None) -> int:
+    """Tick at which a warm-started rerun of ``data`` begins: :func:`guard_ticks` before the analysed part
+    (the excitation is periodic, so the steady state is known at any tick), 0 (a rerun from rest) for data
+    not estimated period by period or without enough dropped samples.
 
     Parameters
     ----------
@@ -78,16 +102,18 @@ def start_tick(data: FrfData, dt_s: float) -> int:
         With a recording.
     dt_s : float
         Controller period [s].
+    guard_s : float, optional
+        As :func:`guard_ticks`.
     """
     if not data.periodic or data.recording is None:
         return 0
-    n_per = period_ticks(data, dt_s)
     first = int(round(data.analysed_from_s / dt_s))
-    k0 = first - GUARD_PERIODS * n_per
-    return k0 if k0 > 0 and k0 % n_per == 0 else 0
+    k0 = first - guard_ticks(data, dt_s, guard_s)
+    return k0 if k0 > 0 else 0
 
 
-def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS) -> tuple[int, int, int | None]:
+def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS,
+                 guard_s: float | None = None) -> tuple[int, int, int | None]:
     """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
     the analysed part where the test is periodic (:func:`start_tick`; else from
     rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None: the whole record).
@@ -100,8 +126,10 @@ def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS
         Controller period [s].
     periods : int or None
         Analysed periods to rerun (default :data:`RERUN_PERIODS`; None: to the end of the record).
+    guard_s : float, optional
+        As :func:`guard_ticks`.
     """
-    k0 = start_tick(data, dt_s)
+    k0 = start_tick(data, dt_s, guard_s)
     n_per = period_ticks(data, dt_s) if data.periodic else 0
     stop = None
     if periods is not None and n_per:
