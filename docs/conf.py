@@ -45,6 +45,7 @@ root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
 
 myst_enable_extensions = ["colon_fence", "dollarmath"]
+myst_heading_anchors = 3  # links such as experiments.md#the-lqg-controller
 
 # API reference: autodoc reads the docstrings, numpydoc renders their sections.
 autodoc_default_options = {"members": True, "member-order": "bysource", "show-inheritance": True}
