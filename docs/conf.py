@@ -40,6 +40,7 @@ extensions = [
     "sphinxcontrib.typer",
 ]
 
+highlight_language = "text"  # untagged code blocks are terminal output, not Python
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
