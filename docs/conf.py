@@ -73,7 +73,9 @@ def _entry_point_signature(app, what, name, obj, options, signature, return_anno
     """The entry point's signature for ``vlab.design``/``vlab.diagnose`` (the first result wins)."""
     wrapped = getattr(obj, "__wrapped__", None)
     if what == "function" and isinstance(obj, types.ModuleType) and wrapped is not None:
-        return str(inspect.signature(wrapped)), None
+        sig = inspect.signature(wrapped)  # shown without annotations, as autodoc_typehints = "none"
+        plain = [p.replace(annotation=inspect.Parameter.empty) for p in sig.parameters.values()]
+        return str(sig.replace(parameters=plain, return_annotation=inspect.Signature.empty)), None
     return None
 
 
