@@ -34,7 +34,6 @@ version = release
 extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
-    "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "numpydoc",
     "sphinxcontrib.typer",
@@ -45,7 +44,7 @@ source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
 
-myst_enable_extensions = ["colon_fence", "dollarmath"]
+myst_enable_extensions = ["colon_fence"]  # ::: admonitions
 myst_heading_anchors = 3  # links such as experiments.md#the-lqg-controller
 
 # API reference: autodoc reads the docstrings, numpydoc renders their sections.
