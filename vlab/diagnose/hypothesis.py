@@ -25,11 +25,12 @@ from .labmodel import LabState
 class Hypothesis:
     """Base class: one physics effect at one location.
 
-    Subclasses set the class attributes and implement :meth:`space` and
-    :meth:`apply`.
+    Subclasses set the class attributes (``effect`` to ``moves_modes``) and
+    implement :meth:`space` and :meth:`apply`; the fitted attributes (ending
+    in ``_``) are set by :func:`vlab.diagnose.fit.fit_hypothesis`.
 
-    Class attributes
-    ----------------
+    Attributes
+    ----------
     effect : str
         Name in the output.
     param_names : tuple of str
@@ -45,9 +46,6 @@ class Hypothesis:
         True when the effect shifts natural frequencies (mass, stiffness): its
         one parameter is scanned densely before the local fit
         (:func:`vlab.diagnose.fit.trials_for`).
-
-    Fitted attributes (after :func:`vlab.diagnose.fit.fit_hypothesis`)
-    ------------------------------------------------------------------
     params_ : ndarray, shape (k,)
         Parameter values [SI].
     ci95_ : ndarray, shape (k, 2)

@@ -29,7 +29,7 @@ class Modes:
     omega: np.ndarray
 
     def unit_max(self, rows: list[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Shapes scaled to a maximum |deflection| of 1 over ``rows`` and their modal masses.
+        """Shapes scaled to a maximum ``|deflection|`` of 1 over ``rows`` and their modal masses.
 
         Sec. 4.1.1 and 5.4.1 normalise each mode to a unit maximum deflection.
 

@@ -11,7 +11,7 @@
 - ``modes``: list of {mode, frequency_predicted_hz, frequency_measured_hz,
   damping_predicted, damping_measured, peak_predicted_m_per_n and peak_measured_m_per_n (BCC,
   displacement FRF; ``_m_s_per_n`` for the grid's velocity FRF), peak_level_ratio, response}
-- ``avg_peak_error``: mean |1 - ratio| (Tables 10, 19-21)
+- ``avg_peak_error``: mean ``|1 - ratio|`` (Tables 10, 19-21)
 - ``files``: names of the other outputs
 """
 
@@ -235,12 +235,6 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     analysis dashed over it as Figs. 22-31, phase, coherence) and ``run.rrd``
     (rerun). ``frf.uff`` holds only the excited band's lines.
 
-    Parameters
-    ----------
-    result : ExperimentResult
-        The experiment (:func:`vlab.lab.experiment.run_experiment`).
-    spec : StructureSpec
-        The structure, for the geometry drawn in the rerun recording.
     The folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
     every file goes into a temporary folder beside ``out_dir`` that is
     renamed into place only when complete, so that an interrupted or failed
@@ -248,6 +242,10 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
 
     Parameters
     ----------
+    result : ExperimentResult
+        The experiment (:func:`vlab.lab.experiment.run_experiment`).
+    spec : StructureSpec
+        The structure, for the geometry drawn in the rerun recording.
     out_dir : Path
         Output folder; its parent must exist (it is not created).
     spawn : bool

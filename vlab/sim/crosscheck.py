@@ -319,7 +319,7 @@ class CrossCheck:
     band_hz: float = math.nan
 
     def max_error_pct(self) -> float:
-        """Largest |frequency error| [%] over the pairs (inf if any FE mode is unpaired)."""
+        """Largest ``|frequency error|`` [%] over the pairs (inf if any FE mode is unpaired)."""
         return max((abs(p.error_pct) if p.sim_mode is not None else math.inf) for p in self.pairs)
 
     def min_mac(self) -> float:
@@ -332,7 +332,7 @@ class CrossCheck:
         Parameters
         ----------
         tol_pct : float
-            Largest allowed |frequency error| [%].
+            Largest allowed ``|frequency error|`` [%].
         min_mac : float
             Smallest allowed MAC [-].
         """
@@ -644,7 +644,7 @@ class StudyRow:
 
     @property
     def max_error_pct(self) -> float:
-        """Largest |error| [%]."""
+        """Largest ``|error|`` [%]."""
         return max(abs(e) for e in self.errors_pct)
 
     @property

@@ -74,7 +74,7 @@ class SimModes:
         Point ids of the rows of ``shapes``.
     shapes : ndarray, shape (n_points, n_modes)
         Real out-of-plane displacement shapes ``w`` at the ``p<ID>`` sites,
-        scaled to unit maximum |w|, largest entry positive.
+        scaled to unit maximum ``|w|``, largest entry positive.
     joint_shapes : ndarray, shape (nv, n_modes)
         Real shapes in joint coordinates, mass-normalised (``phi^T M phi = 1``).
     mass_matrix : ndarray, shape (nv, nv)
@@ -129,7 +129,7 @@ def settle(model: mujoco.MjModel, data: mujoco.MjData | None = None, *, max_iter
     max_iterations : int
         Newton iterations before giving up.
     tol_qacc : float
-        Rest criterion: max |qacc| [m/s^2 or rad/s^2].
+        Rest criterion: ``max |qacc|`` [m/s^2 or rad/s^2].
     eps : float
         Finite-difference step of the Jacobian [m or rad].
 
@@ -335,7 +335,7 @@ def modes(model: mujoco.MjModel, points: list[int] | tuple[int, ...], n_modes: i
     Raises
     ------
     SimulationError
-        If the plant does not settle or has an unstable (|lambda| > 1) mode
+        If the plant does not settle or has an unstable (``|lambda| > 1``) mode
         -- a timestep too large for the hinge chain or a structure beyond buckling.
     """
     if data is None:

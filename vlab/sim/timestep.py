@@ -116,8 +116,8 @@ def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterati
     SimulationError
         If the target is not reached.
 
-    Source: selective mass scaling (e.g. Olovsson, Simonsson & Unosson, IJNME 63
-    (2005) 1436): added inertia only on the stiff, short hinges, which barely
+    Source: selective mass scaling (e.g. Olovsson, Simonsson & Unosson,
+    IJNME 63 (2005) 1436): added inertia only on the stiff, short hinges, which barely
     move in the low modes.
     """
     import copy
