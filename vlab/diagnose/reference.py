@@ -33,7 +33,7 @@ from .data import FrfData
 from .labmodel import LabState
 
 #: The ``plant`` metadata of ``vlab experiment`` -> the replay's plant kind.
-RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "linear FE model": "linear"}
+RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "MuJoCo plant (MJCF)": "mujoco", "linear FE model": "linear"}
 
 #: Seed of every replay and validation rerun. Their chains carry no sensor noise, so it draws nothing;
 #: it is fixed, not the recording's seed, so that nothing of the recording's realisation is reused.
