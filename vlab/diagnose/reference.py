@@ -206,7 +206,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     SimulationError
         The replay diverged.
     """
-    from .validate import frf_of, rerun
+    from .validate import frf_of, rerun, rerun_split
     from .warmstart import RERUN_PERIODS, period_ticks, rerun_window
 
     rec = data.recording
@@ -215,9 +215,16 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     if data.periodic and not period:  # too few dropped samples for a guard: a warm start at the first tick
         period = period_ticks(data, rec.dt_s)
         stop = int(round(data.analysed_from_s / rec.dt_s)) + RERUN_PERIODS * period
-    run, kind = rerun(nominal, force, excitation_point=data.excitation_point,
-                      measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
-                      period=period, stop=stop)
+    first = int(round(data.analysed_from_s / rec.dt_s))
+    if plant == "mujoco" and period and start < first:  # over both cores
+        run = rerun_split(nominal, force, excitation_point=data.excitation_point,
+                          measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
+                          first=first, period=period, stop=stop)
+        kind = "MuJoCo plant"
+    else:
+        run, kind = rerun(nominal, force, excitation_point=data.excitation_point,
+                          measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
+                          period=period, stop=stop)
     h = frf_of(run, data)
     ref = replace(data, source=f"the nominal {kind}'s replay of the recorded force", h=h, var=np.zeros(h.shape),
                   recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None)

@@ -194,9 +194,10 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     engine = None
     if d is not None:
         engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
-    force = np.asarray(force, dtype=float)[:stop]
-    if period:
+    force = np.asarray(force, dtype=float)
+    if period:  # from the whole record: the period after ``start`` may reach past ``stop``
         warm_start(state, p, engine, force, excitation_point=excitation_point, start=start, n_per=period)
+    force = force[:stop]
     n = len(force) - start
     loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
                     excitation_point=excitation_point, excitation=force[start:],
@@ -317,6 +318,79 @@ def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points
     rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed,
                    start=window[0], period=window[1], stop=window[2])
     return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}, dict(rec.metadata)
+
+
+def rerun_split(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
+                plant: str, seed: int, start: int, first: int, period: int, stop: int | None,
+                workers: int = 2) -> Recording:
+    """A warm-started rerun made as ``workers`` shorter reruns in parallel processes.
+
+    The analysed ticks ``[first, stop)`` are cut into ``workers`` consecutive pieces; each is rerun from
+    its own warm start (:func:`vlab.diagnose.warmstart.warm_start`: the excitation is periodic, so the
+    lab's steady state is known at any tick) the same guard ``first - start`` before it, and the pieces
+    are joined. Each piece's start error decays over its guard as the single rerun's does, so the join is
+    the single rerun's analysed part to that accuracy, in about ``(guard + analysed / workers) /
+    (guard + analysed)`` of its time on ``workers`` cores. One rerun where no process pool can start.
+
+    Parameters
+    ----------
+    state : LabState
+    force : ndarray, shape (n_ticks,)
+        Excitation command [N], periodic with ``period`` ticks (continued periodically past its end
+        where a piece's warm start needs it).
+    excitation_point : int
+    measured_points : tuple of int
+    plant : {"linear", "mujoco"}
+    seed : int
+        As :func:`rerun`.
+    start, first : int
+        Tick of the warm start and first analysed tick (``start <= first``).
+    period : int
+        Ticks per excitation period (> 0).
+    stop : int or None
+        Tick to stop before (None: the end of ``force``).
+    workers : int
+        Processes (pieces).
+
+    Returns
+    -------
+    Recording
+        From tick ``first`` (its metadata ``start_s``) to ``stop``.
+
+    Raises
+    ------
+    ModelError, SimulationError
+        As :func:`rerun`.
+    """
+    force = np.asarray(force, dtype=float)
+    stop = force.size if stop is None else int(stop)
+    guard = first - start
+    n = stop - first
+    bounds = [first + (n * j) // workers for j in range(workers + 1)]
+    ext = force
+    need = bounds[-2] - guard + period  # the last piece's warm start reads one period from its start
+    if need > force.size:
+        k = np.arange(force.size, need)
+        ext = np.concatenate([force, force[k - period * ((k - force.size) // period + 1)]])
+    jobs = [(a - guard, b) for a, b in zip(bounds[:-1], bounds[1:])]
+    pieces = None
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            with ProcessPoolExecutor(workers) as ex:
+                futs = [ex.submit(_rerun_job, state, ext, excitation_point, tuple(measured_points), plant, seed,
+                                  (a, period, b)) for a, b in jobs]
+                pieces = [_recording(f.result()) for f in futs]
+        except (OSError, BrokenProcessPool):
+            pieces = None
+    if pieces is None:
+        pieces = [rerun(state, ext, excitation_point=excitation_point, measured_points=measured_points,
+                        plant=plant, seed=seed, start=a, period=period, stop=b)[0] for a, b in jobs]
+    joined = {c.name: np.concatenate([np.asarray(r[c.name])[guard:] for r in pieces]) for c in pieces[0].channels}
+    dt = pieces[0].dt_s
+    return Recording.from_signals(dt, joined, metadata={**pieces[0].metadata, "start_s": first * dt})
 
 
 def _recording(payload: tuple[float, dict, dict]) -> Recording:
@@ -459,16 +533,22 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
                         out[i] = exc
         except (OSError, BrokenProcessPool):
             out = {}  # no process pool here: sequential
-    def here(st: LabState):
+    first = int(round(data.analysed_from_s / data.recording.dt_s))
+
+    def here(st: LabState, cores: int = 1):
         try:
+            if cores > 1 and window[1] and plant == "mujoco" and window[0] < first:
+                return rerun_split(st, force, excitation_point=data.excitation_point, measured_points=pts,
+                                   plant=plant, seed=seed, start=window[0], first=first, period=window[1],
+                                   stop=window[2], workers=cores)
             return rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
                          seed=seed, start=window[0], period=window[1], stop=window[2])[0]
         except VlabError as exc:
             return exc
 
-    for i, st in todo:
+    for i, st in todo:  # a lone rerun with the cores free is split over them (rerun_split)
         if i not in out:
-            out[i] = here(st)
+            out[i] = here(st, workers if len(todo) == 1 and not waiting else 1)
     _collect_background(problem, waiting)
     for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
         if k is not None and (k, plant, seed) in waiting and (k, plant, seed) not in cache:
