@@ -131,3 +131,27 @@ def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_
     meta = json.loads((exp / "recording.uff.json").read_text())
     assert meta["chain"]["delay_periods"] == pytest.approx(1.35)
     assert np.isfinite(d["statistics"]["chi2_nominal"])
+
+
+def test_a_baseline_excited_by_another_record_does_not_make_an_unchanged_structure_a_mismatch(tmp_path):
+    """Issue 28 item 5: the nominal lab recorded twice with two records of the same spectrum (other phases,
+    other noise); one is the other's baseline. The decision is "no mismatch"; the record is told apart."""
+    from vlab.diagnose.data import read_uff_any
+    from vlab.diagnose.labmodel import LabState
+    from vlab.diagnose.nominal import nominal_design
+    from vlab.diagnose.reference import shares_excitation_record
+    from vlab.lab.loop import HardwareChain
+    from vlab.models import nominal_fe_model
+
+    fe = nominal_fe_model("bcc")
+    nominal = LabState(fe.spec, fe, HardwareChain(noise_m_s=1e-6), nominal_design(fe, "mfdrf", 0))
+    a = _record(nominal, tmp_path / "a.uff", seed=1)
+    b = _record(nominal, tmp_path / "b.uff", seed=2)
+    r = diagnose("bcc", a, baseline=b, validate_run=False)
+    assert not r.mismatch, r.notes
+    assert any("not excited by the recording's own force record" in n for n in r.notes)
+    rec_a, rec_b = read_uff_any(a)[1], read_uff_any(b)[1]
+    data = r.data
+    assert not shares_excitation_record(data, rec_b)
+    assert shares_excitation_record(data, rec_a)
+    assert not shares_excitation_record(data, None)

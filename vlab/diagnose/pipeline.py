@@ -81,7 +81,7 @@ from .plantchoice import choose_on_plant, reduce_pair_on_plant
 from .plantfit import PlantModel
 from .plantpair import second_effect_on_plant
 from .problem import Problem, changed_beyond_noise, without_floor
-from .reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference
+from .reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
 from .report import ratio_text
 from .result import DiagnosisResult
 from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
@@ -331,6 +331,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     data = read_data(spec, fe, path, what, obj, resolution_hz=resolution_hz, band_hz=band, settle_of=settle)
     nominal = nominal_state()
     replayed = None  # the nominal plant's replay of the recorded force (the reference by default)
+    same_record = False  # whether the reference was excited by the recording's own force record
     # reruns start warm, this long before the analysed part: the slowest mode's decay by GUARD_DECAY
     guard_s = settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None
     if baseline is not None:
@@ -343,6 +344,12 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                             output_points=data.output_points)
         data = refer_to_model(data, base, h_nom)
         reference = f"the measured baseline {baseline}"
+        same_record = shares_excitation_record(data, bobj if bwhat == "recording" else None)
+        if not same_record:
+            notes.append(f"the baseline {baseline} was not excited by the recording's own force record: the two "
+                         "are compared within the model-error floor only (differences that depend on the "
+                         "excitation's realisation, such as nonlinear distortion, are not in the period-to-period "
+                         "noise)")
     elif replaying and isinstance(data, FrfData) and data.recording is not None:
         say(f"replaying the recorded force on the nominal {replay_plant} plant")
         t = time.perf_counter()
@@ -357,6 +364,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                                 output_points=data.output_points)
             data = refer_to_model(data, base, h_nom)
             reference = f"the nominal {kind}'s replay of the recorded force"
+            same_record = True
         timing["replay"] = time.perf_counter() - t
     else:
         reference = "the FE model"
@@ -379,7 +387,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         timing["locate"] = time.perf_counter() - t
         mismatch = chi2_0 > limit or peak_0 > peak_limit
         noise_only = None
-        if not mismatch and (baseline is not None or replayed is not None):  # within the floor; within the noise?
+        if not mismatch and same_record:  # within the floor; within the noise?
             mismatch, stats = changed_beyond_noise(problem, nominal)
             if mismatch:
                 noise_only = stats

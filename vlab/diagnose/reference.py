@@ -230,3 +230,40 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
                   recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None)
     return ref, run, kind
 
+
+
+def shares_excitation_record(data: FrfData, baseline) -> bool:
+    """Whether a baseline recording was excited by the recording's own force record (the same samples).
+
+    Only then does the comparison without the model-error floor hold
+    (:func:`vlab.diagnose.problem.changed_beyond_noise`): its noise is the
+    period-to-period scatter, which leaves out what differs from one
+    realisation of a random-phase multisine to another at the same spectrum
+    -- the stochastic nonlinear distortions of a weakly nonlinear plant (Pintelon
+    and Schoukens, *System Identification: A Frequency Domain Approach*, 2nd ed.,
+    Wiley 2012, Sec. 3.4) -- so a reference excited by another record is compared
+    within the floor only. The replay shares the record by construction.
+
+    Parameters
+    ----------
+    data : FrfData
+        From a recording (``data.recording`` holds the force channel).
+    baseline : Recording or None
+        The baseline's time histories (None: FRFs only, the record unknown).
+
+    Returns
+    -------
+    bool
+        True when both force channels of the excitation point hold the same samples
+        (relative tolerance 1e-9 of the force's RMS).
+    """
+    if baseline is None or data.recording is None:
+        return False
+    name = f"force{data.excitation_point}"
+    if name not in baseline:
+        return False
+    a, b = np.asarray(data.recording[name]), np.asarray(baseline[name])
+    if a.shape != b.shape:
+        return False
+    scale = float(np.sqrt(np.mean(a ** 2))) or 1.0
+    return bool(np.max(np.abs(a - b)) <= 1e-9 * scale)
