@@ -388,7 +388,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         mismatch = chi2_0 > limit or peak_0 > peak_limit
         noise_only = None
         if not mismatch and same_record:  # within the floor; within the noise?
-            mismatch, stats = changed_beyond_noise(problem, nominal)
+            mismatch, stats = changed_beyond_noise(problem, nominal, noise_free_reference=replayed is not None)
             if mismatch:
                 noise_only = stats
                 notes.append(f"the recording differs from its reference beyond the noise (chi-square "
@@ -460,6 +460,14 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 t = time.perf_counter()
                 chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
                 timing["plant_refit"] = time.perf_counter() - t
+            if chosen is not None and noise_only is not None:
+                # beyond the noise, within the model's accuracy: located, not named (issue 28)
+                res.too_small, res.too_small_candidates = True, [chosen] + list(alts)
+                cands = [h.label for h in [chosen] + list(alts)][:4]
+                notes.append("the change is beyond the noise but within the model-error floor of "
+                             f"{100 * problem.floor:g} % a line: too small to name (the FE surrogate's own errors "
+                             "of that size could mimic any of the candidates); best candidates: " + ", ".join(cands))
+                chosen = None
             if chosen is not None:
                 res.selected = chosen
                 res.misfit_selected = float(chosen.misfit_)
@@ -470,7 +478,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                     res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in parts) else "both"
             else:
                 res.loop = "open" if not ctx.closed_loop else "both"
-                notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
+                if not res.too_small:
+                    notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
         if mismatch:
             res.location.points, res.location.members = located_from_fits(res, chi2_0)
         # validation

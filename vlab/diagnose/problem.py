@@ -389,7 +389,7 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
                    shape_sigma=problem.shape_sigma)
 
 
-def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
+def changed_beyond_noise(problem: Problem, nominal: LabState, *, noise_free_reference: bool = False) -> tuple[bool, dict]:
     """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
     of the two recordings, with no model-error floor.
 
@@ -412,6 +412,10 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
         With FRF data referred through a baseline (``h_recorded`` set).
     nominal : LabState
         The nominal lab the data were referred to.
+    noise_free_reference : bool
+        The reference is a noise-free simulation (the replay of the recorded force,
+        :mod:`vlab.diagnose.reference`): its zero variance is known, not missing, and
+        the recording's noise alone weighs the residual.
 
     Returns
     -------
@@ -434,7 +438,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
         raise ModelError(f"{getattr(data, 'source', 'data')}: only data referred through a baseline can be tested "
                          "for a change without the model-error floor")
     m = problem.mask
-    noise = (data.var_recorded, data.var_baseline)
+    noise = (data.var_recorded,) if noise_free_reference else (data.var_recorded, data.var_baseline)
     if any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, {}
     raw = without_floor(problem, nominal)

@@ -483,9 +483,23 @@ def verdict(res: dict) -> str:
     if not res["mismatch"]:
         return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
                 f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
-    text = (f"Mismatch: the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals exceeds the "
-            f"noise limit {_fmt(s['chi2_limit'])}.")
+    no = s.get("noise_only")
+    if no:
+        text = (f"Mismatch: without the model-error floor the nominal model's chi2 = {_fmt(no['chi2'])} over N = {n} "
+                f"residuals exceeds the noise limit {_fmt(no['chi2_limit'])} (with the floor it is within).")
+    elif s['chi2_nominal'] <= s['chi2_limit'] and s.get('peak_nominal') is not None:
+        text = (f"Mismatch: one line stands out of the noise (largest squared residual {_fmt(s['peak_nominal'])}, "
+                f"limit {_fmt(s['peak_limit'])}; the total chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals is "
+                f"within its limit {_fmt(s['chi2_limit'])}).")
+    else:
+        text = (f"Mismatch: the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals exceeds the "
+                f"noise limit {_fmt(s['chi2_limit'])}.")
     sel = res.get("selected") or []
+    if not sel and res.get("too_small_to_name"):
+        pts = (res.get("located") or {}).get("points") or []
+        where = f" at point{'s' if len(pts) > 1 else ''} {', '.join(str(p) for p in pts)}" if pts else ""
+        return text + (f" A change{where}, beyond the noise but within the model's accuracy "
+                       f"({100 * s.get('floor', 0.005):g} % a line): too small to name.")
     if not sel:
         return text + (" No hypothesis of the library (alone or in pairs) improves the BIC by 10 or more and "
                        "explains it: the cause is not identified.")

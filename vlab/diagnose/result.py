@@ -63,6 +63,10 @@ class DiagnosisResult:
         Candidates the validation rerun rejected (they made the FRF misfit or the time-domain error
         worse): ``effect``, ``label``, ``misfit_before``, ``misfit_after`` [decades], ``time_error_before``,
         ``time_error_after`` [1].
+    too_small : bool
+        The mismatch was found only without the model-error floor and a candidate explained it: a change
+        located but too small to name (issue 28); ``too_small_candidates`` are the hypotheses within 10 of
+        the best BIC, whose places are reported.
     reference : str
         What the recording was compared with: the nominal simulation's replay, a measured baseline, or the
         FE model alone.
@@ -93,6 +97,8 @@ class DiagnosisResult:
     peak_limit: float = float("nan")
     noise_only: dict | None = None
     rejected: list = field(default_factory=list)
+    too_small: bool = False
+    too_small_candidates: list = field(default_factory=list)
     reference: str = "the FE model"
 
     @property
@@ -194,6 +200,7 @@ class DiagnosisResult:
             "selected": self._selected_entries(),
             "alternatives": alternatives,
             "rejected": list(self.rejected),
+            "too_small_to_name": bool(self.too_small),
             "reference": self.reference,
             "validated": validated,
             "notes": list(self.notes),

@@ -267,6 +267,12 @@ def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, 
             if chi2_0 - h.chi2_ >= share * gain and h.effect in {p.effect for p in sel_local}:
                 add(h)
     if res.selected is None and res.mismatch:
+        if getattr(res, "too_small", False) and res.too_small_candidates:
+            # a change too small to name: the places of the candidates the data cannot tell apart
+            for h in res.too_small_candidates:
+                for part in (h.parts if isinstance(h, Combination) else [h]):
+                    add(part)
+            return pts, mems
         return located_places(res.location.sensitivity)
     return pts, mems
 
