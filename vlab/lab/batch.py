@@ -37,6 +37,8 @@ from .recording import Recording
 
 #: Noise is drawn per simulation in blocks of this many ticks (same stream as one draw per tick).
 _NOISE_BLOCK = 512
+#: Every this many ticks the simulations' clocks are checked (MuJoCo restarts a diverged one).
+_TIME_CHECK = 50
 
 
 @dataclass(frozen=True)
@@ -234,62 +236,82 @@ def run_batch(
     disp = np.zeros((n, n_ticks, len(shape)))
     cmds = np.zeros((n, n_ticks, n_act))
     hist = np.zeros((hw.history, n, n_act))          # hist[i] = u[k - i]
+    uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
+    m0 = int(hw.delay_int.flat[0])
     sim_i = np.arange(n)[:, None]
     ch_i = np.arange(n_act)[None, :]
     i_new, i_old = hw.delay_int, hw.delay_int + 1
+    dynamic = ctl is not None and ctl.f22.shape[1] > 0
     x = np.zeros((n, ctl.f22.shape[1])) if ctl is not None else None
     rc_y = np.zeros((n, n_act))
     lag_act = np.zeros((n, n_act))
     lag_sen = np.zeros((n, n_fb))
     e_mat = np.zeros((n, n_act))
     lim = hw.amp_limit_n
+    clip = bool(np.any(np.isfinite(lim)))
+    amp = hw.amp_gain if np.any(hw.amp_gain != 1.0) else None      # x 1.0 is exact: skipped
+    act_gain = hw.actuator_gain if np.any(hw.actuator_gain != 1.0) else None
+    sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
     use_lag_a = bool(np.any(hw.actuator_lag > 0))
     use_lag_s = bool(np.any(hw.sensor_lag > 0))
     noise = None
     done = np.full(n, n_ticks, dtype=int)
     failures: dict[int, str] = {}
-    h = plant.timestep_s
+    any_stopped = False
     for k in range(n_ticks):
         if noisy and k % _NOISE_BLOCK == 0:
             nb = min(_NOISE_BLOCK, n_ticks - k)
             noise = np.stack([r.standard_normal((nb, n_sens)) for r in rngs], axis=1) * hw.noise_m_s
         v = plant.velocities(sensors) if n_sens else np.zeros((n, 0))
-        t_sim = plant.time_s()
-        bad = ~(np.abs(v).max(axis=1, initial=0.0) <= 1e3) | (np.abs(t_sim - k * period) > 0.5 * h)
-        bad &= plant.alive
-        if bad.any():
-            for i in np.flatnonzero(bad):
-                done[i] = k
-                failures[int(i)] = (f"simulation {i} diverged at t = {k * period:.4f} s (velocity "
-                                    f"{np.max(np.abs(v[i])):.3g} m/s at points {sensors}): controller unstable "
-                                    "on this plant or timestep too large")
-            plant.stop(np.flatnonzero(bad))
-            if not plant.alive.any():
-                break
+        check_time = k % _TIME_CHECK == 0
+        if not np.abs(v).max(initial=0.0) <= 1e3 or check_time:  # also catches NaN
+            bad = ~(np.abs(v).max(axis=1, initial=0.0) <= 1e3)
+            if check_time:  # MuJoCo resets a simulation after a bad acceleration: its clock restarts
+                bad |= np.abs(plant.time_s() - k * period) > 0.25 * period
+            bad &= plant.alive
+            if bad.any():
+                t_now = plant.time_s()
+                for i in np.flatnonzero(bad):
+                    reset = abs(t_now[i] - k * period) > 0.25 * period
+                    done[i] = k - int(round(t_now[i] / period)) if reset else k
+                    failures[int(i)] = (
+                        f"simulation {i} diverged at t = {done[i] * period:.4f} s ("
+                        + ("MuJoCo reset it after a bad acceleration" if reset else
+                           f"velocity {np.max(np.abs(v[i])):.3g} m/s at points {sensors}")
+                        + "): controller unstable on this plant or timestep too large")
+                plant.stop(np.flatnonzero(bad))
+                any_stopped = True
+                if not plant.alive.any():
+                    break
         y = v.copy()
-        if n_fb:
-            y_fb = v[:, :n_fb] * hw.sensor_gain
+        if n_fb and (sen_gain is not None or use_lag_s):
+            y_fb = v[:, :n_fb] * sen_gain if sen_gain is not None else v[:, :n_fb]
             if use_lag_s:
                 lag_sen = hw.sensor_lag * lag_sen + (1 - hw.sensor_lag) * y_fb
                 y_fb = lag_sen
             y[:, :n_fb] = y_fb
         if noisy:
-            y = y + noise[k % _NOISE_BLOCK]
+            y += noise[k % _NOISE_BLOCK]
         vel[:, k] = y[:, meas_idx]
         if shape:
             disp[:, k] = plant.displacements(shape)
         if ctl is not None:
             yf = y[:, :n_fb]
-            u = _matvec(ctl.f11, yf) + _matvec(ctl.f12, x)
-            x = _matvec(ctl.f21, yf) + _matvec(ctl.f22, x)
+            u = _matvec(ctl.f11, yf)
+            if dynamic:
+                u += _matvec(ctl.f12, x)
+                x = _matvec(ctl.f21, yf) + _matvec(ctl.f22, x)
         else:
             u = np.zeros((n, n_act))
-        u[~plant.alive] = 0.0
+        if any_stopped:
+            u[~plant.alive] = 0.0
         cmds[:, k] = u
         hist[1:] = hist[:-1]
         hist[0] = u
-        u_new = hist[i_new, sim_i, ch_i]
-        u_old = hist[i_old, sim_i, ch_i]
+        if uniform:
+            u_new, u_old = hist[m0], hist[m0 + 1]
+        else:
+            u_new, u_old = hist[i_new, sim_i, ch_i], hist[i_old, sim_i, ch_i]
         e_mat[:, exc_ch] = exc[:, k]
         du = u_old - u_new
         for s in range(hw.n_sub):
@@ -299,8 +321,15 @@ def run_batch(
             y1 = u_old + dy0 * hw.e_old[s]
             dy1 = y1 - u_new
             rc_y = u_new + dy1 * hw.e_new[s]
-            dac = u_new + (du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
-            f = np.clip(hw.amp_gain * (dac + e_mat), -lim, lim) * hw.actuator_gain
+            f = u_new + (du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
+            f += e_mat
+            if amp is not None:
+                f *= amp
+            if clip:
+                np.minimum(f, lim, out=f)
+                np.maximum(f, -lim, out=f)
+            if act_gain is not None:
+                f *= act_gain
             if use_lag_a:
                 lag_act = hw.actuator_lag * lag_act + (1 - hw.actuator_lag) * f
                 f = lag_act

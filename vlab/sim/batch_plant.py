@@ -179,8 +179,10 @@ class MujocoBatchPlant:
         self._time = b.bind("time")
         self._sensordata = b.bind("sensordata")
         self._rows = sensor_rows(m)
+        self._row_cache: dict = {}
         coils = _numbered(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "coil")
         self._act_ids = np.array([coils[p] for p in self.actuator_points], dtype=int)
+        self._ctrl_shape = (n, self._act_ids.size)
         self._sites = _numbered(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite, "p")
         self._site_xpos = b.bind("site_xpos") if sample_sites else None
         self.alive = np.ones(n, dtype=bool)
@@ -221,7 +223,7 @@ class MujocoBatchPlant:
             Wrong shape.
         """
         f = np.asarray(forces, dtype=float)
-        if f.shape != (self.n_sim, self._act_ids.size):
+        if f.shape != self._ctrl_shape:
             raise SimulationError(f"set_forces: expected shape ({self.n_sim}, {self._act_ids.size}), got {f.shape}")
         self._ctrl[:, self._act_ids] = f
 
@@ -250,10 +252,15 @@ class MujocoBatchPlant:
         SimulationError
             A point without a ``vel<ID>`` sensor.
         """
-        try:
-            rows = [self._rows[p] for p in points]
-        except KeyError as exc:
-            raise SimulationError(f"no velocity sensor vel{exc.args[0]}; sensors are at {sorted(self._rows)}") from None
+        key = tuple(points)
+        rows = self._row_cache.get(key)
+        if rows is None:
+            try:
+                rows = np.array([self._rows[p] for p in key], dtype=int)
+            except KeyError as exc:
+                raise SimulationError(f"no velocity sensor vel{exc.args[0]}; sensors are at "
+                                      f"{sorted(self._rows)}") from None
+            self._row_cache[key] = rows
         return self._sensordata[:, rows]
 
     def displacements(self, points) -> np.ndarray:
