@@ -95,7 +95,7 @@ def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path
             data.append(v[np.isfinite(v)])
         ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
         ax.axhline(0.0, color="grey", lw=0.5)
-        ax.set_title(f"mode {r + 1}: analysis/experiment peak [dB]", fontsize=9)
+        ax.set_title(f"mode {r + 1}: peak ratio [dB]", fontsize=9)
         ax.set_xticks(range(1, len(ctl) + 1), labels, rotation=45, fontsize=7)
     axes[0, 0].legend(fontsize=7)
     ax = axes[2, 0]
@@ -112,7 +112,8 @@ def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path
     ax.tick_params(axis="x", rotation=45, labelsize=7)
     for a in axes[2, 2:]:
         a.axis("off")
-    fig.suptitle(f"{cfg.structure}: {cfg.n_samples} samples, seed {cfg.seed}, controllers designed on the nominal model")
+    fig.suptitle(f"{cfg.structure}: {cfg.n_samples} samples, seed {cfg.seed}, controllers designed on the nominal "
+                 "model; peak ratio = analysis/experiment (Table 10)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -312,9 +312,35 @@ def mode_damping(loop: SampledLoop, plant: Plant, design, n_modes: int, *, actua
     return zeta, freq
 
 
+def peak_windows(centre_hz, half_width: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Search band of each mode's peak: ``centre (1 +- half_width)``, cut halfway to a closer neighbour.
+
+    Parameters
+    ----------
+    centre_hz : array_like, shape (n_modes,)
+        Frequencies of the modes [Hz] (any order).
+    half_width : float
+        Relative half-width [-].
+
+    Returns
+    -------
+    low_hz, high_hz : ndarray, shape (n_modes,)
+    """
+    c = np.asarray(centre_hz, dtype=float)
+    lo, hi = c * (1 - half_width), c * (1 + half_width)
+    for r in range(c.size):
+        others = np.delete(c, r)
+        below, above = others[others < c[r]], others[others >= c[r]]
+        if below.size:
+            lo[r] = max(lo[r], 0.5 * (c[r] + below.max()))
+        if above.size:
+            hi[r] = min(hi[r], 0.5 * (c[r] + above.min()))
+    return lo, hi
+
+
 def peak_levels(loop: SampledLoop, centre_hz: np.ndarray, *, half_width: float = 0.1, n_points: int = 400,
                 displacement: bool = True) -> np.ndarray:
-    """Peak |H| near each mode: max over ``centre (1 +- half_width)``, shape (n_modes,) [m/N or (m/s)/N].
+    """Peak |H| near each mode, in :func:`peak_windows`, shape (n_modes,) [m/N or (m/s)/N].
 
     ``displacement`` divides the velocity FRF by ``j w`` (the BCC's compared
     quantity, Fig. 22). NaN for an unstable loop. Source: peak levels as
@@ -322,9 +348,10 @@ def peak_levels(loop: SampledLoop, centre_hz: np.ndarray, *, half_width: float =
     """
     if loop.spectral_radius >= 1.0:
         return np.full(len(centre_hz), np.nan)
+    lo, hi = peak_windows(centre_hz, half_width)
     out = np.empty(len(centre_hz))
-    for r, fc in enumerate(centre_hz):
-        f = np.linspace(fc * (1 - half_width), fc * (1 + half_width), n_points)
+    for r in range(len(centre_hz)):
+        f = np.linspace(lo[r], hi[r], n_points)
         h = loop.frf(f)
         if displacement:
             h = h / (2j * np.pi * f)

@@ -34,7 +34,7 @@ from ..measure.frf import h1
 from ..models import nominal_fe_model
 from ..sim import MujocoPlant, SimOptions, build_plant
 from ..sim.batch_plant import MujocoBatchPlant
-from .sampled_loop import modal_plant, sampled_loop
+from .sampled_loop import modal_plant, peak_windows, sampled_loop
 from .study import PEAK_HALF_WIDTH, Nominal, StudyConfig
 from .uncertainty import apply_sample, draw_sample
 
@@ -143,8 +143,8 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
         frf = h1(exc[skip:], out.velocities[row, skip:, j], dt_s=chain0.period_s,
                  resolution_hz=CHECK_RESOLUTION_HZ, window="boxcar", f_max_hz=test.band_hz[1]).band(*test.band_hz)
         lin = loop.frf(frf.freq_hz)
-        for r, fc in enumerate(nominal.freq_hz[controller]):
-            w = np.abs(frf.freq_hz - fc) <= PEAK_HALF_WIDTH * fc
+        for r, (a, b) in enumerate(zip(*peak_windows(nominal.freq_hz[controller], PEAK_HALF_WIDTH))):
+            w = (frf.freq_hz >= a) & (frf.freq_hz <= b)
             if w.any():
                 ratios[row, r] = np.max(np.abs(frf.h[w])) / np.max(np.abs(lin[w]))
     return SimCheck(controller, np.asarray(indices, dtype=int), unstable, out.done < t.size, ratios, out)
