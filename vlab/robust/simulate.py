@@ -84,8 +84,13 @@ def worst_samples(res: dict, nominal: Nominal, controller: str, k: int) -> np.nd
 
 
 def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indices, *, seed: int = 0,
-                     nthread: int = 0) -> SimCheck:
+                     nthread: int = 0, resolution_hz: float = CHECK_RESOLUTION_HZ,
+                     records: int = CHECK_RECORDS) -> SimCheck:
     """Run samples ``indices`` of ``controller`` on the batched MuJoCo lab and compare with the linear loop.
+
+    The excitation is the test's pseudo-random force (band and RMS of
+    Sec. 5.4.2) with period ``1 / resolution_hz``; ``records`` periods run,
+    the first settles, H1 is taken over the rest.
 
     Raises
     ------
@@ -117,10 +122,10 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
                             noise_m_s=CHECK_NOISE_M_S,
                             actuator_gain={p: float(g) for p, g in zip(acts, s.actuator_gain)},
                             sensor_gain={p: float(g) for p, g in zip(acts, s.sensor_gain)}) for s in samples]
-    record_s = 1.0 / CHECK_RESOLUTION_HZ
-    dur = CHECK_RECORDS * record_s
+    record_s = 1.0 / resolution_hz
+    dur = records * record_s
     t = np.arange(int(round(dur / chain0.period_s))) * chain0.period_s
-    exc = pseudo_random(t, band_hz=test.band_hz, resolution_hz=CHECK_RESOLUTION_HZ, rms_n=test.rms_n, seed=seed)
+    exc = pseudo_random(t, band_hz=test.band_hz, resolution_hz=resolution_hz, rms_n=test.rms_n, seed=seed)
     eng = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=chain0.period_s)
     resp = test.response_point
     meas = tuple(dict.fromkeys(acts + (resp,)))
@@ -141,7 +146,7 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
             continue
         j = meas.index(resp)
         frf = h1(exc[skip:], out.velocities[row, skip:, j], dt_s=chain0.period_s,
-                 resolution_hz=CHECK_RESOLUTION_HZ, window="boxcar", f_max_hz=test.band_hz[1]).band(*test.band_hz)
+                 resolution_hz=resolution_hz, window="boxcar", f_max_hz=test.band_hz[1]).band(*test.band_hz)
         lin = loop.frf(frf.freq_hz)
         for r, (a, b) in enumerate(zip(*peak_windows(nominal.freq_hz[controller], PEAK_HALF_WIDTH))):
             w = (frf.freq_hz >= a) & (frf.freq_hz <= b)
