@@ -178,7 +178,7 @@ def test_uncertainty_toml(tmp_path):
 
 @pytest.fixture(scope="module")
 def small_study():
-    cfg = StudyConfig(n_samples=6, chunk_size=2, controllers=("lqdrf-diag", "lqg"), seed=3)
+    cfg = StudyConfig(n_samples=4, chunk_size=2, controllers=("lqdrf-diag", "lqg"), seed=3)
     nominal = nominal_analysis(cfg)
     return cfg, nominal
 
@@ -223,12 +223,16 @@ def test_command_writes_the_outputs(tmp_path):
     out = tmp_path / "rob"
     md = tmp_path / "rob.md"
     res = CliRunner().invoke(app, ["robustness", "bcc", "--samples", "2", "--chunk-size", "1", "--scheduler",
-                                   "none", "--simulate", "0", "--out", str(out), "--markdown", str(md)])
+                                   "none", "--simulate", "0", "--controllers", "lqdrf-diag,lqg", "--out", str(out),
+                                   "--markdown", str(md)])
     assert res.exit_code == 0, res.output
     data = json.loads((out / "robustness.json").read_text())
-    assert data["samples"] == 2 and set(data["per_controller"]) == {"mfdrf", "lqdrf", "lqdrf-diag", "lqg"}
+    assert data["samples"] == 2 and set(data["per_controller"]) == {"lqdrf-diag", "lqg"}
+    assert data["thesis_conclusion_sec7"]["probability_unstable"] == "undecided (all equal)"
     assert (out / "robustness.png").stat().st_size > 0 and md.read_text().startswith("# Robustness")
     assert set(np.load(out / "samples.npz").files) >= {"lqg/damping_ratio", "lqg/peak_level_m_per_n"}
     res = CliRunner().invoke(app, ["robustness", "bcc", "--samples", "2", "--scheduler", "ftp://x",
                                    "--out", str(tmp_path / "x")])
     assert res.exit_code == 2 and "--scheduler" in res.output
+    res = CliRunner().invoke(app, ["robustness", "bcc", "--controllers", "pid", "--out", str(tmp_path / "y")])
+    assert res.exit_code == 2 and "--controllers pid" in res.output

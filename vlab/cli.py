@@ -768,6 +768,8 @@ def robustness(
                                "(this process) or tcp://HOST:PORT (an existing Dask scheduler)"),
     workers: int = _opt(None, "--workers", help="processes of the local cluster (default: one per CPU)"),
     chunk_size: int = _opt(25, "--chunk-size", help="samples per independent chunk, >= 1"),
+    controllers: str = _opt("mfdrf,lqdrf,lqdrf-diag,lqg", "--controllers",
+                            help="comma-separated subset of mfdrf, lqdrf, lqdrf-diag, lqg"),
     simulate: int = _opt(None, "--simulate",
                          help="worst samples per controller also run in time on the batched MuJoCo lab "
                               "(default: 4 for bcc, 0 for grid, whose plant is slow)"),
@@ -790,6 +792,7 @@ def robustness(
     from .io.atomic import atomic_dir
     from .robust.report import results_dict, write_outputs
     from .robust.simulate import simulate_samples, worst_samples
+    from .robust.study import CONTROLLERS as CONTROLLER_ORDER
     from .robust.study import StudyConfig, default_workers, nominal_analysis, run_study, summarize
     from .robust.uncertainty import DEFAULTS, load_uncertainties
 
@@ -805,7 +808,7 @@ def robustness(
     n_sim = simulate if simulate is not None else (4 if structure.value == "bcc" else 0)
     uncs = load_uncertainties(uncertainty) if uncertainty else DEFAULTS
     cfg = StudyConfig(structure=structure.value, n_samples=samples, seed=seed, uncertainties=uncs,
-                      chunk_size=chunk_size)
+                      chunk_size=chunk_size, controllers=tuple(c.strip() for c in controllers.split(",") if c.strip()))
     _expect_output(out_path)
     t0 = time.perf_counter()
     nominal = nominal_analysis(cfg)
@@ -822,7 +825,8 @@ def robustness(
              else f"the Dask scheduler {scheduler}")
     timings = {"designs": t1 - t0, "study": t2 - t1, "time_simulation": t3 - t2, "total": t3 - t0, "where": where}
     command = f"vlab robustness {structure.value} --samples {samples} --seed {seed}" + (
-        f" --uncertainty {uncertainty}" if uncertainty else "")
+        f" --uncertainty {uncertainty}" if uncertainty else "") + (
+        f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "")
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
         files = write_outputs(tmp, cfg, nominal, res, summary, checks, timings, command)
     if markdown_copy:

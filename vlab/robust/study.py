@@ -83,7 +83,7 @@ class StudyConfig:
             raise OptionError(f"--chunk-size must be a positive integer, got {self.chunk_size!r}")
         bad = [c for c in self.controllers if c not in CONTROLLERS]
         if bad or not self.controllers:
-            raise OptionError(f"controllers {bad or '(none)'}: use some of {', '.join(CONTROLLERS)}")
+            raise OptionError(f"--controllers {', '.join(bad) or '(none)'}: use some of {', '.join(CONTROLLERS)}")
 
 
 @dataclass(frozen=True)
