@@ -80,6 +80,13 @@ class BatchResult:
     def result(self, sim: int, metadata: dict | None = None) -> LoopResult:
         """Simulation ``sim``'s run as a :class:`LoopResult` (truncated where it diverged).
 
+        Parameters
+        ----------
+        sim : int
+            Simulation index, 0..N-1.
+        metadata : dict, optional
+            Stored in the recording.
+
         Raises
         ------
         ModelError
@@ -109,10 +116,17 @@ def _stack(matrices, n_sim: int, shape: tuple[int, int], name: str) -> np.ndarra
 
 @dataclass(frozen=True)
 class BatchController:
-    """Eq. (5.1) for N simulations: ``F11`` (N, n_u, n_y), ``F12`` (N, n_u, n_x), ``F21`` (N, n_x, n_y), ``F22`` (N, n_x, n_x).
+    """Eq. (5.1) for N simulations, made with :meth:`of`: ``u = F11 y + F12 x``, ``x <- F21 y + F22 x``.
 
-    Made with :meth:`of`; ``u = F11 y + F12 x``, ``x <- F21 y + F22 x``
-    (y [m/s], u [N]). Source: Eq. (5.1), Sec. 5.3.
+    Attributes
+    ----------
+    f11 : ndarray, shape (N, n_u, n_y)
+        Direct feedthrough [N/(m/s)].
+    f12 : ndarray, shape (N, n_u, n_x)
+    f21 : ndarray, shape (N, n_x, n_y)
+    f22 : ndarray, shape (N, n_x, n_x)
+
+    Source: Eq. (5.1), Sec. 5.3 (y [m/s], u [N]).
     """
 
     f11: np.ndarray
@@ -123,6 +137,12 @@ class BatchController:
     @classmethod
     def of(cls, engines, n_sim: int) -> BatchController:
         """Stack one :class:`vlab.lab.engine.ControllerEngine` per simulation (or one for all).
+
+        Parameters
+        ----------
+        engines : ControllerEngine or list of N of them
+        n_sim : int
+            N.
 
         Raises
         ------

@@ -30,7 +30,18 @@ def _peak_unit(nominal: Nominal) -> str:
 
 
 def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timings: dict) -> dict:
-    """The JSON object of ``robustness.json`` (every number's unit in its key)."""
+    """The JSON object of ``robustness.json`` (every number's unit in its key).
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    summary : Summary
+    checks : list of SimCheck
+        Time-simulated samples (may be empty).
+    timings : dict
+        Seconds per stage (``"total"``, ``"study"``, ...) and ``"where"``.
+    """
     out = {
         "structure": cfg.structure,
         "samples": cfg.n_samples,
@@ -59,7 +70,16 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
 
 
 def write_samples(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> None:
-    """``samples.npz``: per-sample arrays, keys with units."""
+    """``samples.npz``: per-sample arrays, keys with units.
+
+    Parameters
+    ----------
+    path : Path
+    cfg : StudyConfig
+    nominal : Nominal
+    res : dict
+        Per-sample arrays of :func:`vlab.robust.study.run_study`.
+    """
     pu = _peak_unit(nominal)
     arrays = {"sample_index": res["index"], "delay_periods": res["delay_periods"]}
     for c in cfg.controllers:
@@ -72,7 +92,16 @@ def write_samples(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> 
 
 
 def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path:
-    """``robustness.png``: the distributions as box plots (matplotlib, Agg)."""
+    """``robustness.png``: the distributions as box plots (matplotlib, Agg).
+
+    Parameters
+    ----------
+    path : Path
+    cfg : StudyConfig
+    nominal : Nominal
+    res : dict
+        Per-sample arrays of :func:`vlab.robust.study.run_study`.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,7 +150,20 @@ def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path
 
 
 def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timings: dict, command: str) -> str:
-    """``robustness.md``: settings, the table of metrics, the verdict on Sec. 7 with the numbers."""
+    """``robustness.md``: settings, the table of metrics, the verdict on Sec. 7 with the numbers.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    summary : Summary
+    checks : list of SimCheck
+        Time-simulated samples (may be empty).
+    timings : dict
+        Seconds per stage (``"total"``, ``"study"``, ...) and ``"where"``.
+    command : str
+        The command line that measured it (named in the text).
+    """
     pc = summary.per_controller
     lines = [
         f"# Robustness of the controllers to modelling errors: {cfg.structure.upper()}",
@@ -199,6 +241,19 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
 def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, summary: Summary, checks,
                   timings: dict, command: str) -> dict:
     """Write every output into ``folder`` (exists); return name -> path.
+
+    ``res`` holds the per-sample arrays of :func:`vlab.robust.study.run_study`,
+    ``command`` the command line named in the Markdown.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    summary : Summary
+    checks : list of SimCheck
+        Time-simulated samples (may be empty).
+    timings : dict
+        Seconds per stage (``"total"``, ``"study"``, ...) and ``"where"``.
 
     Raises
     ------

@@ -156,6 +156,11 @@ class SampledLoop:
     def frf(self, freq_hz: np.ndarray) -> np.ndarray:
         """Sampled velocity FRF ``C_o (z I - A_cl)^-1 B_e`` at ``z = exp(j 2 pi f T)``, shape (n_f,) [(m/s)/N].
 
+        Parameters
+        ----------
+        freq_hz : array_like, shape (n_f,)
+            Frequencies [Hz].
+
         Raises
         ------
         ModelError
@@ -174,7 +179,7 @@ class SampledLoop:
         return lam, self.c_o @ v, np.linalg.solve(v, self.b_e)
 
     def energy_index(self, n_modes: int) -> float:
-        """``J`` [J*s]: summed structural energy over time, unit modal velocity of each of the first modes.
+        """``J`` [J*s]: summed structural energy over time, unit modal velocity of each of the first ``n_modes``.
 
         ``inf`` for an unstable loop. Source: discrete Lyapunov equation
         (``scipy.linalg.solve_discrete_lyapunov``); the state weighting is the
@@ -293,7 +298,21 @@ def mode_damping(loop: SampledLoop, plant: Plant, design, n_modes: int, *, actua
 
     Each mode is the sampled-loop eigenvalue nearest in the s-plane to that
     mode of the continuous closed loop (:func:`vlab.analysis.closed_loop_modes`
-    on the same plant and gains). Shapes (n_modes,).
+    on the same plant and gains).
+
+    Parameters
+    ----------
+    loop : SampledLoop
+    plant : Plant
+    design : ControllerDesign or None
+        Its ``continuous`` controller is used for the pairing (None: open loop).
+    n_modes : int
+    actuator_gain, sensor_gain : array_like, shape (n_act,)
+        As given to :func:`sampled_loop`.
+
+    Returns
+    -------
+    zeta, freq_hz : ndarray, shape (n_modes,)
     """
     u = plant.u * np.asarray(actuator_gain)
     y = (plant.u * np.asarray(sensor_gain)).T
@@ -341,6 +360,9 @@ def peak_windows(centre_hz, half_width: float = 0.1) -> tuple[np.ndarray, np.nda
 def peak_levels(loop: SampledLoop, centre_hz: np.ndarray, *, half_width: float = 0.1, n_points: int = 400,
                 displacement: bool = True) -> np.ndarray:
     """Peak |H| near each mode, in :func:`peak_windows`, shape (n_modes,) [m/N or (m/s)/N].
+
+    ``centre_hz`` (n_modes,) [Hz] and ``half_width`` [-] give the windows
+    (:func:`peak_windows`), searched on ``n_points`` frequencies each.
 
     ``displacement`` divides the velocity FRF by ``j w`` (the BCC's compared
     quantity, Fig. 22). NaN for an unstable loop. Source: peak levels as

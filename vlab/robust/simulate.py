@@ -74,7 +74,18 @@ class SimCheck:
 def worst_samples(res: dict, nominal: Nominal, controller: str, k: int) -> np.ndarray:
     """The ``k`` samples furthest from the analysis: unstable ones first, then by mean |dB| peak-ratio error.
 
-    Returns sample indices, shape (min(k, n),).
+    Parameters
+    ----------
+    res : dict
+        Per-sample arrays of :func:`vlab.robust.study.run_study`.
+    nominal : Nominal
+    controller : str
+    k : int
+
+    Returns
+    -------
+    ndarray of int, shape (min(k, n),)
+        Sample indices.
     """
     peaks = res[f"{controller}/peaks"]
     err = np.abs(20 * np.log10(nominal.peaks[controller][None, :] / peaks)).mean(axis=1)
@@ -89,8 +100,26 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     """Run samples ``indices`` of ``controller`` on the batched MuJoCo lab and compare with the linear loop.
 
     The excitation is the test's pseudo-random force (band and RMS of
-    Sec. 5.4.2) with period ``1 / resolution_hz``; ``records`` periods run,
-    the first settles, H1 is taken over the rest.
+    Sec. 5.4.2) with period ``1 / resolution_hz`` [Hz]; ``records`` periods
+    run, the first settles, H1 is taken over the rest.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    controller : str
+    indices : sequence of int
+        Samples to run (one simulation each).
+    seed : int
+        Seed of the excitation (sample i's noise: ``seed + 1 + i``).
+    nthread : int
+        Threads of the batch (0: all CPUs).
+    resolution_hz : float
+    records : int
+
+    Returns
+    -------
+    SimCheck
 
     Raises
     ------

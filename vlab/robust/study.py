@@ -138,6 +138,15 @@ def _evaluate(fe, design, chain, nominal: Nominal, *, delay_periods, actuator_ga
 def nominal_analysis(cfg: StudyConfig) -> Nominal:
     """Design the controllers on the nominal model and analyse their nominal sampled loops.
 
+    Parameters
+    ----------
+    cfg : StudyConfig
+        Its structure, controllers and seed (of the DRF multi-start).
+
+    Returns
+    -------
+    Nominal
+
     Raises
     ------
     ModelError, controllers.errors.ControllerError
@@ -167,6 +176,14 @@ def nominal_analysis(cfg: StudyConfig) -> Nominal:
 
 def run_chunk(cfg: StudyConfig, nominal: Nominal, indices) -> dict:
     """Evaluate samples ``indices`` for every controller; a pure function of its arguments.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+        From :func:`nominal_analysis`.
+    indices : iterable of int
+        Sample numbers.
 
     Returns
     -------
@@ -289,7 +306,20 @@ METRICS = {
 
 
 def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
-    """Distributions per controller and whether the Sec. 7 ordering holds (LQG worst, LQDRF-diag best)."""
+    """Distributions per controller and whether the Sec. 7 ordering holds (LQG worst, LQDRF-diag best).
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    res : dict
+        Per-sample arrays of :func:`run_study`.
+
+    Returns
+    -------
+    Summary
+        Metrics of :data:`METRICS`, lower = more robust.
+    """
     per, score = {}, {m: {} for m in METRICS}
     for c in cfg.controllers:
         stable = res[f"{c}/spectral_radius"] < 1.0

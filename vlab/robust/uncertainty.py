@@ -74,7 +74,13 @@ class Uncertainty:
     source: str
 
     def draw(self, rng: np.random.Generator, size: int) -> np.ndarray:
-        """``size`` deviations ``x`` (relative or absolute, see :attr:`spread`), shape (size,)."""
+        """``size`` deviations ``x`` (relative or absolute, see :attr:`spread`), shape (size,).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        size : int
+        """
         if self.kind == "uniform":
             return rng.uniform(-self.spread, self.spread, size)
         return rng.normal(0.0, self.spread, size)
@@ -97,6 +103,16 @@ GROUPS = tuple(u.group for u in DEFAULTS)
 
 def load_uncertainties(path: str | Path) -> tuple[Uncertainty, ...]:
     """The defaults with the groups of a TOML file replaced (module notes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    tuple of Uncertainty
+        One per group of :data:`GROUPS`.
 
     Raises
     ------
@@ -170,6 +186,23 @@ class Sample:
 def draw_sample(spec: StructureSpec, uncertainties, *, seed: int, index: int, n_act: int,
                 nominal_delay_periods: float) -> Sample:
     """Sample ``index`` of a study (``default_rng([seed, index])``; groups in :data:`GROUPS` order).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        The nominal structure (its sections, strings, masses, crosspieces, springs are drawn).
+    uncertainties : sequence of Uncertainty
+        Distributions; a group left out is not perturbed.
+    seed, index : int
+        Study seed and sample number.
+    n_act : int
+        Number of actuator/sensor channels (gains drawn per channel).
+    nominal_delay_periods : float
+        Delay the ``delay_samples`` deviation is added to [periods].
+
+    Returns
+    -------
+    Sample
 
     Raises
     ------
