@@ -775,8 +775,8 @@ def robustness(
                               "(default: 4 for bcc, 0 for grid, whose plant is slow)"),
     out: str = _opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
-    markdown_copy: str = _opt(None, "--markdown", help="also write robustness.md to this file (e.g. "
-                                                        "docs/robustness.md; replaced if it exists)"),
+    markdown_copy: str = _opt(None, "--markdown", help="also write robustness.md to this file, e.g. "
+                                                        "docs/robustness.md; replaced if it exists (default: none)"),
     as_json: bool = _flag("--json", help="print robustness.json to stdout instead of the table"),
 ) -> None:
     """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (issue 29, Sec. 7).
