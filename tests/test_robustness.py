@@ -228,7 +228,7 @@ def test_command_writes_the_outputs(tmp_path):
     assert res.exit_code == 0, res.output
     data = json.loads((out / "robustness.json").read_text())
     assert data["samples"] == 2 and set(data["per_controller"]) == {"lqdrf-diag", "lqg"}
-    assert data["thesis_conclusion_sec7"]["probability_unstable"] == "undecided (all equal)"
+    assert data["thesis_conclusion_sec7"]["probability_unstable"]["verdict"] == "undecided (all equal)"
     assert (out / "robustness.png").stat().st_size > 0 and md.read_text().startswith("# Robustness")
     assert set(np.load(out / "samples.npz").files) >= {"lqg/damping_ratio", "lqg/peak_level_m_per_n"}
     res = CliRunner().invoke(app, ["robustness", "bcc", "--samples", "2", "--scheduler", "ftp://x",
@@ -236,3 +236,34 @@ def test_command_writes_the_outputs(tmp_path):
     assert res.exit_code == 2 and "--scheduler" in res.output
     res = CliRunner().invoke(app, ["robustness", "bcc", "--controllers", "pid", "--out", str(tmp_path / "y")])
     assert res.exit_code == 2 and "--controllers pid" in res.output
+
+
+def test_verdict_on_sec7_from_known_orderings():
+    """Synthetic samples with a known ordering of errors give the expected verdicts."""
+    from vlab.robust.study import Nominal
+
+    ctl = ("mfdrf", "lqdrf", "lqdrf-diag", "lqg")
+    cfg = StudyConfig(n_samples=50, controllers=ctl)
+    n = 50
+    ones = np.ones(2)
+    nominal = Nominal({}, {}, {c: ones * 0.1 for c in ctl}, {c: ones for c in ctl}, {c: ones for c in ctl},
+                      {c: 1.0 for c in ctl}, 2, ACTS, 2, 6, True)
+
+    def res_for(db_error):
+        rng = np.random.default_rng(0)
+        out = {"index": np.arange(n)}
+        for c in ctl:
+            out[f"{c}/peaks"] = 10 ** (-(db_error[c] + 0.01 * rng.random((n, 2))) / 20)
+            out[f"{c}/zeta"] = np.full((n, 2), 0.1)
+            out[f"{c}/spectral_radius"] = np.full(n, 0.99)
+            out[f"{c}/energy_j_s"] = np.ones(n)
+        return out
+
+    s = summarize(cfg, nominal, res_for({"mfdrf": 0.5, "lqdrf": 0.4, "lqdrf-diag": 0.2, "lqg": 1.0}))
+    assert s.thesis_conclusion["peak_ratio_error_db"]["verdict"] == "holds"
+    assert s.ranking["peak_ratio_error_db"] == ["lqdrf-diag", "lqdrf", "mfdrf", "lqg"]
+    assert s.thesis_conclusion["damping_change"]["verdict"] == "undecided (all equal)"
+    s = summarize(cfg, nominal, res_for({"mfdrf": 0.5, "lqdrf": 0.1, "lqdrf-diag": 0.2, "lqg": 1.0}))
+    assert s.thesis_conclusion["peak_ratio_error_db"]["verdict"].startswith("partly: LQG is the least robust")
+    lo, hi = s.per_controller["lqg"]["peak_ratio_error_db_median_ci95"]
+    assert lo <= s.per_controller["lqg"]["peak_ratio_error_db_median"] <= hi

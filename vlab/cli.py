@@ -843,7 +843,7 @@ def robustness(
                   f"{100 * v['damping_change_relative_median']:.2f} %", "n/a" if e is None else f"{e:.3f}")
     console.print(t)
     for m, verdict in summary.thesis_conclusion.items():
-        console.print(f"Sec. 7 (LQG worst, LQDRF-diag best) by {m}: {verdict}", highlight=False)
+        console.print(f"Sec. 7 (LQG worst, LQDRF-diag best) by {m}: {verdict['verdict']}", highlight=False)
     console.print(f"outputs: {escape(str(out_path))}/ ({len(files)} files) in {t3 - t0:.0f} s", highlight=False)
 
 

@@ -219,8 +219,16 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
               "The dissertation: the more complex the control law, the more vulnerable to modelling errors -- "
               "LQG the worst, the diagonal LQDRF the best. Per metric (most to least robust):", ""]
     for m, order in summary.ranking.items():
-        verdict = summary.thesis_conclusion.get(m, "n/a")
+        verdict = summary.thesis_conclusion.get(m, {}).get("verdict", "n/a")
         lines.append(f"- **{m}** ({METRICS[m]}): " + " < ".join(_LABELS[c] for c in order) + f" -- **{verdict}**")
+    lines += ["", "95 % bootstrap intervals of the medians (a difference inside them is not resolved by "
+              f"{cfg.n_samples} samples):", "",
+              "| controller | peak-ratio error [dB] | relative damping change |", "|---|---|---|"]
+    for c in cfg.controllers:
+        a, b = pc[c]["peak_ratio_error_db_median_ci95"], pc[c]["damping_change_relative_median_ci95"]
+        fa = "n/a" if a[0] is None else f"{a[0]:.3f} .. {a[1]:.3f}"
+        fb = "n/a" if b[0] is None else f"{100 * b[0]:.2f} .. {100 * b[1]:.2f} %"
+        lines.append(f"| {_LABELS[c]} | {fa} | {fb} |")
     if checks:
         lines += ["", "## Time simulation of the worst samples (batched MuJoCo lab)", "",
                   "The worst samples of each controller (unstable first, then by peak-ratio error) were run on "

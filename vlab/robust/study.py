@@ -280,13 +280,29 @@ class Summary:
     ranking : dict
         Metric -> controllers from most to least robust.
     thesis_conclusion : dict
-        Metric -> ``"holds"`` (LQG strictly the most and LQDRF-diag strictly the
-        least vulnerable), ``"does not hold"`` or ``"undecided (all equal)"``.
+        Metric -> ``{"lqg_least_robust": bool, "lqdrf_diag_most_robust": bool,
+        "verdict": str}``: ``"holds"`` (LQG strictly the most and LQDRF-diag
+        strictly the least vulnerable), ``"partly: ..."``, ``"does not hold"``
+        or ``"undecided (all equal)"`` (then the booleans are None).
     """
 
     per_controller: dict = field(default_factory=dict)
     ranking: dict = field(default_factory=dict)
     thesis_conclusion: dict = field(default_factory=dict)
+
+
+#: Bootstrap resamples of the confidence interval of a median.
+N_BOOTSTRAP = 400
+
+
+def _median_ci(x: np.ndarray, seed: int) -> list:
+    """95 % bootstrap interval [low, high] of the median of ``x`` (seeded; [None, None] if empty)."""
+    if x.size == 0:
+        return [None, None]
+    rng = np.random.default_rng([int(seed), 29])
+    med = np.median(x[rng.integers(0, x.size, (N_BOOTSTRAP, x.size))], axis=1)
+    lo, hi = np.percentile(med, [2.5, 97.5])
+    return [float(lo), float(hi)]
 
 
 def _q(x: np.ndarray) -> dict:
@@ -331,7 +347,8 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
         per_sample_db = np.where(stable, db.mean(axis=1), np.nan)
         score["probability_unstable"][c] = p_unst
         score["peak_ratio_error_db"][c] = float(np.nanmedian(per_sample_db)) if stable.any() else math.inf
-        score["damping_change"][c] = float(np.median(dz[stable].mean(axis=1))) if stable.any() else math.inf
+        per_sample_dz = dz[stable].mean(axis=1)
+        score["damping_change"][c] = float(np.median(per_sample_dz)) if stable.any() else math.inf
         per[c] = {
             "samples": int(stable.size),
             "probability_unstable": p_unst,
@@ -341,7 +358,9 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
             "damping_ratio_by_mode": [_q(res[f"{c}/zeta"][:, r]) for r in range(nominal.n_modes)],
             "peak_ratio_analysis_over_experiment_by_mode": [_q(ratio[stable, r]) for r in range(nominal.n_modes)],
             "peak_ratio_error_db_median": score["peak_ratio_error_db"][c],
+            "peak_ratio_error_db_median_ci95": _median_ci(per_sample_db[np.isfinite(per_sample_db)], cfg.seed),
             "damping_change_relative_median": score["damping_change"][c],
+            "damping_change_relative_median_ci95": _median_ci(per_sample_dz, cfg.seed),
             "energy_index_ratio_to_nominal": _q(e_ratio[stable]),
             "spectral_radius_max": float(np.max(res[f"{c}/spectral_radius"])),
         }
@@ -349,9 +368,15 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
     holds = {}
     if "lqg" in cfg.controllers and "lqdrf-diag" in cfg.controllers:
         for m, s in score.items():
-            others = [s[c] for c in cfg.controllers if c not in ("lqg", "lqdrf-diag")]
-            worst = all(s["lqg"] > v for v in others + [s["lqdrf-diag"]])
-            best = all(s["lqdrf-diag"] < v for v in others + [s["lqg"]])
-            tie = len(set(s.values())) == 1
-            holds[m] = "undecided (all equal)" if tie else ("holds" if worst and best else "does not hold")
+            if len(set(s.values())) == 1:
+                holds[m] = {"lqg_least_robust": None, "lqdrf_diag_most_robust": None,
+                            "verdict": "undecided (all equal)"}
+                continue
+            worst = all(s["lqg"] > s[c] for c in cfg.controllers if c != "lqg")
+            best = all(s["lqdrf-diag"] < s[c] for c in cfg.controllers if c != "lqdrf-diag")
+            verdict = ("holds" if worst and best else
+                       f"partly: LQG is the least robust but {ranking[m][0]} (not LQDRF-diag) the most" if worst else
+                       f"partly: LQDRF-diag is the most robust but {ranking[m][-1]} (not LQG) the least" if best else
+                       "does not hold")
+            holds[m] = {"lqg_least_robust": worst, "lqdrf_diag_most_robust": best, "verdict": verdict}
     return Summary(per, ranking, holds)
