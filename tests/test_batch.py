@@ -206,3 +206,22 @@ def test_bad_inputs(bcc):
         MujocoBatchPlant(sim, 2, fields={"body_mass": np.zeros((3, 3))})
     with pytest.raises(ModelError, match="n_sim must be a positive integer"):
         MujocoBatchPlant(sim, 0)
+
+
+def test_displacements_sampled_as_run_loop(bcc):
+    """``shape_points`` on a plant made with ``sample_sites``: the deformed shape equals run_loop's, bit for bit."""
+    fe, plant, _ = bcc
+    sim = MujocoPlant(plant)
+    eng = ControllerEngine.from_gain(bcc_gain("mfdrf"), period_s=PERIOD)
+    chain = HardwareChain(delay_periods=1.0, filter_hz=None)
+    dur = 0.05
+    exc = _excitations(1, int(round(dur / PERIOD)))[0]
+    pts = (1, 3, 6, 8)
+    rb = run_batch(MujocoBatchPlant(sim, 1, nthread=1, sample_sites=True), eng, feedback_points=ACTS,
+                   measured_points=MEAS, excitation_point=9, excitation=exc, duration_s=dur, chain=chain,
+                   shape_points=pts)
+    sim.reset()
+    ref = run_loop(sim, eng, feedback_points=ACTS, measured_points=MEAS, excitation_point=9, excitation=exc,
+                   duration_s=dur, chain=chain, shape_points=pts)
+    assert np.array_equal(rb.result(0).displacements, ref.displacements)
+    assert np.abs(ref.displacements).max() > 0
