@@ -156,7 +156,8 @@ class BatchController:
         e0 = engines[0]
         sizes = {(e.n_outputs, e.n_inputs, e.n_states) for e in engines}
         if len(sizes) != 1:
-            raise ModelError(f"engines: all simulations need controllers of one size (n_u, n_y, n_x); got {sorted(sizes)}")
+            raise ModelError(f"engines: all simulations need controllers of one size (n_u, n_y, n_x); "
+                             f"got {sorted(sizes)}")
         n_u, n_y, n_x = e0.n_outputs, e0.n_inputs, e0.n_states
         return cls(_stack([e.F11 for e in engines], n_sim, (n_u, n_y), "F11"),
                    _stack([e.F12 for e in engines], n_sim, (n_u, n_x), "F12"),

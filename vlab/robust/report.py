@@ -196,8 +196,8 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
     for c in cfg.controllers:
         v = pc[c]
         e = v["energy_index_ratio_to_nominal"]["median"]
-        lines.append(f"| {_LABELS[c]} | {100 * v['probability_unstable']:.1f} % | {v['peak_ratio_error_db_median']:.3f} "
-                     f"| {100 * v['damping_change_relative_median']:.2f} % | "
+        lines.append(f"| {_LABELS[c]} | {100 * v['probability_unstable']:.1f} % | "
+                     f"{v['peak_ratio_error_db_median']:.3f} | {100 * v['damping_change_relative_median']:.2f} % | "
                      f"{'n/a' if e is None else f'{e:.3f}'} | {v['spectral_radius_max']:.5f} |")
     lines += ["", "Damping ratio per mode (median [5 %, 95 %]; nominal):", ""]
     lines.append("| controller | " + " | ".join(f"mode {r + 1}" for r in range(nominal.n_modes)) + " |")
@@ -235,7 +235,8 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
                   "MuJoCo plants built from their perturbed specs, together on one `mujoco.batch.Batch`, with "
                   "their delay, channel gains and sensor noise; H1 at the response point over records of "
                   "4 s compared line by line with the linear prediction for the same sample:", "",
-                  "| controller | samples | predicted unstable | diverged | measured/linear peak (min..max over modes) |",
+                  "| controller | samples | predicted unstable | diverged "
+                  "| measured/linear peak (min..max over modes) |",
                   "|---|---|---|---|---|"]
         for ch in checks:
             r = ch.peak_sim_over_linear[np.isfinite(ch.peak_sim_over_linear)]
