@@ -43,6 +43,8 @@ from .uncertainty import DEFAULTS, apply_sample, draw_sample
 
 #: The controllers compared (Sec. 7), in the order of the report.
 CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag", "lqg")
+#: Names of the controllers as the dissertation writes them.
+LABELS = {"mfdrf": "MFDRF", "lqdrf": "LQDRF", "lqdrf-diag": "LQDRF-diag", "lqg": "LQG"}
 #: Half-width of the window searched for each mode's peak, relative to its nominal closed-loop frequency.
 PEAK_HALF_WIDTH = 0.1
 
@@ -283,7 +285,9 @@ class Summary:
         Metric -> ``{"lqg_least_robust": bool, "lqdrf_diag_most_robust": bool,
         "verdict": str}``: ``"holds"`` (LQG strictly the most and LQDRF-diag
         strictly the least vulnerable), ``"partly: ..."``, ``"does not hold"``
-        or ``"undecided (all equal)"`` (then the booleans are None).
+        or ``"undecided (all equal)"`` (then the booleans are None); for the
+        metrics with bootstrap intervals also whether the first and the last
+        place are resolved (their 95 % intervals do not overlap the next one's).
     """
 
     per_controller: dict = field(default_factory=dict)
@@ -374,9 +378,19 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
                 continue
             worst = all(s["lqg"] > s[c] for c in cfg.controllers if c != "lqg")
             best = all(s["lqdrf-diag"] < s[c] for c in cfg.controllers if c != "lqdrf-diag")
+            first, last = LABELS[ranking[m][0]], LABELS[ranking[m][-1]]
             verdict = ("holds" if worst and best else
-                       f"partly: LQG is the least robust but {ranking[m][0]} (not LQDRF-diag) the most" if worst else
-                       f"partly: LQDRF-diag is the most robust but {ranking[m][-1]} (not LQG) the least" if best else
+                       f"partly: LQG is the least robust but {first} (not LQDRF-diag) the most" if worst else
+                       f"partly: LQDRF-diag is the most robust but {last} (not LQG) the least" if best else
                        "does not hold")
             holds[m] = {"lqg_least_robust": worst, "lqdrf_diag_most_robust": best, "verdict": verdict}
+            ci_key = {"peak_ratio_error_db": "peak_ratio_error_db_median_ci95",
+                      "damping_change": "damping_change_relative_median_ci95"}.get(m)
+            if ci_key and len(ranking[m]) > 2:
+                ci = {c: per[c][ci_key] for c in cfg.controllers}
+                if all(v[0] is not None for v in ci.values()):
+                    a, b = ranking[m][0], ranking[m][1]
+                    y, z = ranking[m][-2], ranking[m][-1]
+                    holds[m]["most_robust_resolved_ci95"] = bool(ci[a][1] < ci[b][0])
+                    holds[m]["least_robust_resolved_ci95"] = bool(ci[z][0] > ci[y][1])
     return Summary(per, ranking, holds)
