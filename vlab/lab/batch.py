@@ -31,12 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from .batch_chain import BatchChain, for_each
+from .batch_chain import BatchChain, ChainRun, for_each
 from .loop import HardwareChain, LoopResult
 from .recording import Recording
 
-#: Noise is drawn per simulation in blocks of this many ticks (same stream as one draw per tick).
-_NOISE_BLOCK = 512
 #: Every this many ticks the simulations' clocks are checked (MuJoCo restarts a diverged one).
 _TIME_CHECK = 50
 
@@ -165,6 +163,31 @@ class BatchController:
                    _stack([e.F22 for e in engines], n_sim, (n_x, n_x), "F22"))
 
 
+def _stop_diverged(plant, v, k, period, check_time, sensors, done, failures) -> bool:
+    """Stop the live simulations that diverged at tick ``k`` (record when and why); True if any stopped.
+
+    Diverged: a velocity above 1e3 m/s or not finite, or (checked every
+    :data:`_TIME_CHECK` ticks) a clock that restarted -- MuJoCo resets a
+    simulation after a bad acceleration.
+    """
+    bad = ~(np.abs(v).max(axis=1, initial=0.0) <= 1e3)
+    t_now = plant.time_s()
+    if check_time:
+        bad |= np.abs(t_now - k * period) > 0.25 * period
+    bad &= plant.alive
+    if not bad.any():
+        return False
+    for i in np.flatnonzero(bad):
+        reset = abs(t_now[i] - k * period) > 0.25 * period
+        done[i] = k - int(round(t_now[i] / period)) if reset else k
+        failures[int(i)] = (f"simulation {i} diverged at t = {done[i] * period:.4f} s ("
+                            + ("MuJoCo reset it after a bad acceleration" if reset else
+                               f"velocity {np.max(np.abs(v[i])):.3g} m/s at points {sensors}")
+                            + "): controller unstable on this plant or timestep too large")
+    plant.stop(np.flatnonzero(bad))
+    return True
+
+
 def _matvec(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Stacked ``a[i] @ x[i]``: (N, r, c) x (N, c) -> (N, r)."""
     return np.matmul(a, x[:, :, None])[:, :, 0]
@@ -249,70 +272,26 @@ def run_batch(
     seeds = [seeds] * n if isinstance(seeds, (int, np.integer)) else list(seeds)
     if len(seeds) != n:
         raise ModelError(f"seeds: expected {n} seeds (one per simulation), got {len(seeds)}")
-    noisy = bool(np.any(hw.noise_m_s > 0)) and n_sens > 0
-    rngs = [np.random.default_rng(int(s)) for s in seeds] if noisy else []
+    chain_run = ChainRun(hw, n_fb=n_fb, seeds=seeds, n_ticks=n_ticks)
     meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
-
     vel = np.zeros((n, n_ticks, len(meas)))
     disp = np.zeros((n, n_ticks, len(shape)))
     cmds = np.zeros((n, n_ticks, n_act))
-    hist = np.zeros((hw.history, n, n_act))          # hist[i] = u[k - i]
-    uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
-    m0 = int(hw.delay_int.flat[0])
-    sim_i = np.arange(n)[:, None]
-    ch_i = np.arange(n_act)[None, :]
-    i_new, i_old = hw.delay_int, hw.delay_int + 1
-    dynamic = ctl is not None and ctl.f22.shape[1] > 0
     x = np.zeros((n, ctl.f22.shape[1])) if ctl is not None else None
-    rc_y = np.zeros((n, n_act))
-    lag_act = np.zeros((n, n_act))
-    lag_sen = np.zeros((n, n_fb))
+    dynamic = ctl is not None and ctl.f22.shape[1] > 0
     e_mat = np.zeros((n, n_act))
-    lim = hw.amp_limit_n
-    clip = bool(np.any(np.isfinite(lim)))
-    amp = hw.amp_gain if np.any(hw.amp_gain != 1.0) else None      # x 1.0 is exact: skipped
-    act_gain = hw.actuator_gain if np.any(hw.actuator_gain != 1.0) else None
-    sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
-    use_lag_a = bool(np.any(hw.actuator_lag > 0))
-    use_lag_s = bool(np.any(hw.sensor_lag > 0))
-    noise = None
     done = np.full(n, n_ticks, dtype=int)
     failures: dict[int, str] = {}
     any_stopped = False
     for k in range(n_ticks):
-        if noisy and k % _NOISE_BLOCK == 0:
-            nb = min(_NOISE_BLOCK, n_ticks - k)
-            noise = np.stack([r.standard_normal((nb, n_sens)) for r in rngs], axis=1) * hw.noise_m_s
         v = plant.velocities(sensors) if n_sens else np.zeros((n, 0))
         check_time = k % _TIME_CHECK == 0
         if not np.abs(v).max(initial=0.0) <= 1e3 or check_time:  # also catches NaN
-            bad = ~(np.abs(v).max(axis=1, initial=0.0) <= 1e3)
-            if check_time:  # MuJoCo resets a simulation after a bad acceleration: its clock restarts
-                bad |= np.abs(plant.time_s() - k * period) > 0.25 * period
-            bad &= plant.alive
-            if bad.any():
-                t_now = plant.time_s()
-                for i in np.flatnonzero(bad):
-                    reset = abs(t_now[i] - k * period) > 0.25 * period
-                    done[i] = k - int(round(t_now[i] / period)) if reset else k
-                    failures[int(i)] = (
-                        f"simulation {i} diverged at t = {done[i] * period:.4f} s ("
-                        + ("MuJoCo reset it after a bad acceleration" if reset else
-                           f"velocity {np.max(np.abs(v[i])):.3g} m/s at points {sensors}")
-                        + "): controller unstable on this plant or timestep too large")
-                plant.stop(np.flatnonzero(bad))
+            if _stop_diverged(plant, v, k, period, check_time, sensors, done, failures):
                 any_stopped = True
                 if not plant.alive.any():
                     break
-        y = v.copy()
-        if n_fb and (sen_gain is not None or use_lag_s):
-            y_fb = v[:, :n_fb] * sen_gain if sen_gain is not None else v[:, :n_fb]
-            if use_lag_s:
-                lag_sen = hw.sensor_lag * lag_sen + (1 - hw.sensor_lag) * y_fb
-                y_fb = lag_sen
-            y[:, :n_fb] = y_fb
-        if noisy:
-            y += noise[k % _NOISE_BLOCK]
+        y = chain_run.sense(v, k)
         vel[:, k] = y[:, meas_idx]
         if shape:
             disp[:, k] = plant.displacements(shape)
@@ -327,34 +306,10 @@ def run_batch(
         if any_stopped:
             u[~plant.alive] = 0.0
         cmds[:, k] = u
-        hist[1:] = hist[:-1]
-        hist[0] = u
-        if uniform:
-            u_new, u_old = hist[m0], hist[m0 + 1]
-        else:
-            u_new, u_old = hist[i_new, sim_i, ch_i], hist[i_old, sim_i, ch_i]
+        chain_run.push(u)
         e_mat[:, exc_ch] = exc[:, k]
-        du = u_old - u_new
         for s in range(hw.n_sub):
-            # step average u_new + (u_old - u_new) d_old/h + the RC's decay terms: exactly u_new when
-            # the step holds one sample and there is no filter, as SampleDelay.mean_over gives it
-            dy0 = rc_y - u_old
-            y1 = u_old + dy0 * hw.e_old[s]
-            dy1 = y1 - u_new
-            rc_y = u_new + dy1 * hw.e_new[s]
-            f = u_new + (du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
-            f += e_mat
-            if amp is not None:
-                f *= amp
-            if clip:
-                np.minimum(f, lim, out=f)
-                np.maximum(f, -lim, out=f)
-            if act_gain is not None:
-                f *= act_gain
-            if use_lag_a:
-                lag_act = hw.actuator_lag * lag_act + (1 - hw.actuator_lag) * f
-                f = lag_act
-            plant.set_forces(f)
+            plant.set_forces(chain_run.force(s, e_mat))
             plant.step(sample=s == hw.n_sub - 1)
     return BatchResult(period, excitation_point, np.array(exc), vel, cmds, disp, meas, shape, done, failures)
 

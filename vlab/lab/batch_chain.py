@@ -225,3 +225,118 @@ def for_each(chain: HardwareChain | list, n_sim: int) -> list:
     if len(chains) != n_sim:
         raise ModelError(f"chains: expected {n_sim} hardware chains (one per simulation), got {len(chains)}")
     return chains
+
+
+#: Sensor noise is drawn per simulation in blocks of this many ticks (the same stream as one draw per tick).
+NOISE_BLOCK = 512
+
+
+class ChainRun:
+    """The running chain of N simulations: sensor stage and DAC/RC/amplifier stage, with their state.
+
+    Per tick: :meth:`sense` (sensor gain, lag, noise: one array operation
+    each for all N), :meth:`push` (the controller output into the DAC
+    buffer), then :meth:`force` once per physics step. A block whose
+    setting is neutral everywhere (gain 1, no limit, no lag) is skipped: its
+    operation would be exact (``x * 1.0 = x``), so skipping it changes no bit.
+
+    Parameters
+    ----------
+    hw : BatchChain
+        Settings of the N simulations.
+    n_fb : int
+        Feedback sensors (the first ``n_fb`` of the sensors read).
+    seeds : sequence of int, length N
+        Noise seed of each simulation (``numpy.random.default_rng(seed)``,
+        ``standard_normal`` per sensor per tick, as :class:`vlab.lab.blocks.SensorNoise`).
+    n_ticks : int
+        Ticks of the run (noise drawn up to it).
+
+    Notes
+    -----
+    Source: Fig. 21 and Sec. 5.3; the update equations in the module notes.
+    """
+
+    def __init__(self, hw: BatchChain, *, n_fb: int, seeds, n_ticks: int) -> None:
+        self.hw = hw
+        n, n_act = hw.amp_gain.shape
+        n_sens = hw.noise_m_s.shape[1]
+        self._n_fb, self._n_ticks = n_fb, n_ticks
+        self._rngs = ([np.random.default_rng(int(s)) for s in seeds]
+                      if n_sens and np.any(hw.noise_m_s > 0) else None)
+        self._noise = None
+        self._hist = np.zeros((hw.history, n, n_act))          # _hist[i] = u[k - i]
+        self._uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
+        self._m0 = int(hw.delay_int.flat[0])
+        self._gather = (np.arange(n)[:, None], np.arange(n_act)[None, :])
+        self._rc = np.zeros((n, n_act))
+        self._lag_act = np.zeros((n, n_act))
+        self._lag_sen = np.zeros((n, n_fb))
+        self._clip = bool(np.any(np.isfinite(hw.amp_limit_n)))
+        self._amp = hw.amp_gain if np.any(hw.amp_gain != 1.0) else None
+        self._act_gain = hw.actuator_gain if np.any(hw.actuator_gain != 1.0) else None
+        self._sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
+        self._use_lag_a = bool(np.any(hw.actuator_lag > 0))
+        self._use_lag_s = bool(np.any(hw.sensor_lag > 0))
+        self._u_new = self._u_old = self._du = None
+
+    def sense(self, v: np.ndarray, k: int) -> np.ndarray:
+        """Measured signals of tick ``k`` from the velocities ``v`` (N, n_sensors) [m/s]; same shape.
+
+        ``y = sensor gain x v`` (lagged) on the feedback sensors, ``+ sigma w`` on every sensor.
+        """
+        hw, n_fb = self.hw, self._n_fb
+        y = v.copy()
+        if n_fb and (self._sen_gain is not None or self._use_lag_s):
+            y_fb = v[:, :n_fb] * self._sen_gain if self._sen_gain is not None else v[:, :n_fb]
+            if self._use_lag_s:
+                self._lag_sen = hw.sensor_lag * self._lag_sen + (1 - hw.sensor_lag) * y_fb
+                y_fb = self._lag_sen
+            y[:, :n_fb] = y_fb
+        if self._rngs is not None:
+            if k % NOISE_BLOCK == 0:
+                nb = min(NOISE_BLOCK, self._n_ticks - k)
+                self._noise = np.stack([r.standard_normal((nb, v.shape[1])) for r in self._rngs],
+                                       axis=1) * hw.noise_m_s
+            y += self._noise[k % NOISE_BLOCK]
+        return y
+
+    def push(self, u: np.ndarray) -> None:
+        """Latch the controller outputs ``u`` (N, n_act) [N] of this tick into the DAC buffer."""
+        h = self._hist
+        h[1:] = h[:-1]
+        h[0] = u
+        if self._uniform:
+            self._u_new, self._u_old = h[self._m0], h[self._m0 + 1]
+        else:
+            m = self.hw.delay_int
+            self._u_new, self._u_old = h[(m, *self._gather)], h[(m + 1, *self._gather)]
+        self._du = self._u_old - self._u_new
+
+    def force(self, s: int, excitation: np.ndarray) -> np.ndarray:
+        """Coil forces [N], shape (N, n_act), held over physics step ``s`` of the tick.
+
+        ``excitation`` (N, n_act) [N] is added before the amplifier (Fig. 21).
+        The DAC/RC step average is ``u_new + (u_old - u_new) d_old/h`` plus
+        the RC's decay terms: exactly ``u_new`` when the step holds one sample
+        and there is no filter, as ``SampleDelay.mean_over`` gives it.
+        """
+        hw = self.hw
+        u_new, u_old = self._u_new, self._u_old
+        dy0 = self._rc - u_old
+        y1 = u_old + dy0 * hw.e_old[s]
+        dy1 = y1 - u_new
+        self._rc = u_new + dy1 * hw.e_new[s]
+        f = u_new + (self._du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
+        f += excitation
+        if self._amp is not None:
+            f *= self._amp
+        if self._clip:
+            np.minimum(f, hw.amp_limit_n, out=f)
+            np.maximum(f, -hw.amp_limit_n, out=f)
+        if self._act_gain is not None:
+            f *= self._act_gain
+        if self._use_lag_a:
+            self._lag_act = hw.actuator_lag * self._lag_act + (1 - hw.actuator_lag) * f
+            f = self._lag_act
+        return f
