@@ -184,7 +184,7 @@ def small_study():
 
 
 def test_dask_local_cluster_gives_the_in_process_results(small_study, monkeypatch):
-    """Chunks on a 2-process LocalCluster: every array identical to the in-process run."""
+    """Chunks on a 2-process LocalCluster, and on an existing scheduler by its tcp:// address: identical arrays."""
     cfg, nominal = small_study
     root = str(Path(vlab.__file__).resolve().parent.parent)
     monkeypatch.setenv("PYTHONPATH", root + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -193,6 +193,11 @@ def test_dask_local_cluster_gives_the_in_process_results(small_study, monkeypatc
     assert local.keys() == dask.keys()
     for k in local:
         assert np.array_equal(local[k], dask[k]), k
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, processes=False, protocol="tcp://", dashboard_address=None) as cluster:
+        _, remote = run_study(cfg, nominal=nominal, scheduler=cluster.scheduler_address)
+    assert all(np.array_equal(local[k], remote[k]) for k in local)
     with pytest.raises(OptionError, match="--scheduler 'udp://x'"):
         run_study(cfg, nominal=nominal, scheduler="udp://x")
 
