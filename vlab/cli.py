@@ -885,6 +885,102 @@ def _diagnosis_csv(d: dict[str, Any], out=None) -> None:
               out or sys.stdout)
 
 
+ROBUSTNESS_OUT = "out/robustness"
+
+
+@app.command(cls=_VlabCommand)
+def robustness(
+    structure: Structure = _arg_structure(),
+    samples: int = _opt(1000, "--samples", help="Monte Carlo samples, >= 1"),
+    seed: int = _opt(0, "--seed", help="seed of the draws (sample i draws from default_rng([seed, i])) and of the "
+                                       "designs' multi-start, an integer in [0, 2**32)"),
+    uncertainty: str = _opt(None, "--uncertainty",
+                            help="TOML of distributions ([parameters.<group>] kind, spread, source) replacing the "
+                                 "defaults (see vlab.robust.uncertainty; default: the built-in ones)"),
+    scheduler: str = _opt("local", "--scheduler",
+                          help="where the chunks run: local (a Dask LocalCluster, one process per CPU), none "
+                               "(this process) or tcp://HOST:PORT (an existing Dask scheduler)"),
+    workers: int = _opt(None, "--workers", help="processes of the local cluster (default: one per CPU)"),
+    chunk_size: int = _opt(25, "--chunk-size", help="samples per independent chunk, >= 1"),
+    controllers: str = _opt("mfdrf,lqdrf,lqdrf-diag,lqg", "--controllers",
+                            help="comma-separated subset of mfdrf, lqdrf, lqdrf-diag, lqg"),
+    simulate: int = _opt(None, "--simulate",
+                         help="worst samples per controller also run in time on the batched MuJoCo lab "
+                              "(default: 4 for bcc, 0 for grid, whose plant is slow)"),
+    out: str = _opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    markdown_copy: str = _opt(None, "--markdown", help="also write robustness.md to this file, e.g. "
+                                                        "docs/robustness.md; replaced if it exists (default: none)"),
+    as_json: bool = _flag("--json", help="print robustness.json to stdout instead of the table"),
+) -> None:
+    """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (issue 29, Sec. 7).
+
+    Damping per mode, probability of instability, analysis/experiment peak-level ratios (Table 10) and an
+    energy performance index, from the exact sampled-data loop of every sample; the worst samples also run in
+    time on the batched MuJoCo lab. Outputs: robustness.json, samples.npz, robustness.png, robustness.md,
+    worst.rrd.
+    """
+    import time
+    from pathlib import Path
+
+    from .io.atomic import atomic_dir
+    from .robust.report import results_dict, write_outputs
+    from .robust.simulate import simulate_samples, worst_samples
+    from .robust.study import CONTROLLERS as CONTROLLER_ORDER
+    from .robust.study import StudyConfig, default_workers, nominal_analysis, run_study, summarize
+    from .robust.uncertainty import DEFAULTS, load_uncertainties
+
+    _seed(seed)
+    out_path = _out_dir(out, ROBUSTNESS_OUT, overwrite)
+    _input_file("--uncertainty", uncertainty)
+    if workers is not None and workers < 1:
+        raise OptionError(f"--workers must be >= 1, got {workers!r}")
+    if simulate is not None and simulate < 0:
+        raise OptionError(f"--simulate must be >= 0, got {simulate!r}")
+    if scheduler != "none" and scheduler != "local" and not scheduler.startswith("tcp://"):
+        raise OptionError(f"--scheduler {scheduler!r}: use local, none or tcp://HOST:PORT")
+    n_sim = simulate if simulate is not None else (4 if structure.value == "bcc" else 0)
+    uncs = load_uncertainties(uncertainty) if uncertainty else DEFAULTS
+    cfg = StudyConfig(structure=structure.value, n_samples=samples, seed=seed, uncertainties=uncs,
+                      chunk_size=chunk_size, controllers=tuple(c.strip() for c in controllers.split(",") if c.strip()))
+    _expect_output(out_path)
+    t0 = time.perf_counter()
+    nominal = nominal_analysis(cfg)
+    t1 = time.perf_counter()
+    nominal, res = run_study(cfg, scheduler=None if scheduler == "none" else scheduler, nominal=nominal,
+                             n_workers=workers)
+    t2 = time.perf_counter()
+    checks = [simulate_samples(cfg, nominal, c, worst_samples(res, nominal, c, n_sim), seed=seed)
+              for c in cfg.controllers] if n_sim else []
+    t3 = time.perf_counter()
+    summary = summarize(cfg, nominal, res)
+    where = ("this process" if scheduler == "none" else
+             f"a Dask LocalCluster of {workers or default_workers()} processes" if scheduler == "local"
+             else f"the Dask scheduler {scheduler}")
+    timings = {"designs": t1 - t0, "study": t2 - t1, "time_simulation": t3 - t2, "total": t3 - t0, "where": where}
+    command = f"vlab robustness {structure.value} --samples {samples} --seed {seed}" + (
+        f" --uncertainty {uncertainty}" if uncertainty else "") + (
+        f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "")
+    with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
+        files = write_outputs(tmp, cfg, nominal, res, summary, checks, timings, command)
+    if markdown_copy:
+        Path(markdown_copy).write_text((out_path / "robustness.md").read_text())
+    if as_json:
+        _print_json(json.loads((out_path / "robustness.json").read_text()))
+        return
+    t = Table(title=f"{structure.value}: {samples} samples, controllers designed on the nominal model")
+    for col in ("controller", "P(unstable)", "peak-ratio error [dB]", "damping change", "energy index/nominal"):
+        t.add_column(col, justify="right")
+    for c, v in summary.per_controller.items():
+        e = v["energy_index_ratio_to_nominal"]["median"]
+        t.add_row(c, f"{100 * v['probability_unstable']:.1f} %", f"{v['peak_ratio_error_db_median']:.3f}",
+                  f"{100 * v['damping_change_relative_median']:.2f} %", "n/a" if e is None else f"{e:.3f}")
+    console.print(t)
+    for m, verdict in summary.thesis_conclusion.items():
+        console.print(f"Sec. 7 (LQG worst, LQDRF-diag best) by {m}: {verdict['verdict']}", highlight=False)
+    console.print(f"outputs: {escape(str(out_path))}/ ({len(files)} files) in {t3 - t0:.0f} s", highlight=False)
+
+
 def _print_diagnosis(d: dict[str, Any], out_path) -> None:
     """The ranked hypotheses as a table (units in the headers and cells) and the one-paragraph verdict."""
     from .diagnose.report import hypothesis_rows, misfit_unit, verdict

@@ -43,9 +43,9 @@ def _nonempty(path: str | Path | None, option: str) -> Path:
     return Path(path)
 
 
-#: Files by which a folder is known as a vlab output folder (experiment, reproduce, diagnose); only such a
+#: Files by which a folder is known as a vlab output folder (experiment, reproduce, diagnose, robustness); only such a
 #: folder (or an empty one) is replaced with ``--overwrite``: a folder of the user's own is never deleted.
-OUTPUT_MARKERS = ("results.json", "reproduce.json", "diagnosis.json")
+OUTPUT_MARKERS = ("results.json", "reproduce.json", "diagnosis.json", "robustness.json")
 
 
 def _absolute(path: Path) -> Path:

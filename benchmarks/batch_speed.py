@@ -1,0 +1,153 @@
+"""Speed of the batched lab against MuJoCo's own C loop and vlab's single closed loop, side by side.
+
+All on the BCC plant (default options), measured in one run so that the
+machine's speed (and its load) cancels in the ratios:
+
+* ``C loop mj_step``     -- ``mujoco.mj_step(m, d, nstep=n)``, one thread: the ceiling of one simulation;
+* ``C rollout N=16``     -- ``mujoco.rollout.rollout`` of 16 open-loop copies on ``--threads`` threads
+  (aggregate): the ceiling of the machine;
+* ``vlab run_loop``      -- the single 2 kHz closed loop (:func:`vlab.lab.loop.run_loop` on
+  :class:`vlab.sim.MujocoPlant`);
+* ``vlab batch N=...``   -- :func:`vlab.lab.batch.run_batch` on :class:`vlab.sim.batch_plant.MujocoBatchPlant`
+  with ``--threads`` threads, aggregate over the N simulations (and N = 16 on one thread, to show
+  what the second thread adds on a loaded machine).
+
+The closed loops run MFDRF (Table 7 gains) with the full PC-1000 chain of
+Sec. 5.3 (1.35-period delay, 677 Hz RC filter, amplifier, 1e-6 m/s sensor
+noise on every sensor) and a random excitation at point 9; each batch
+simulation has its own excitation record and noise seed. Printed: real-time
+factor (simulated seconds per wall second, aggregate for N > 1), its ratio to
+the single C loop and to ``run_loop``, and the memory per simulation (growth
+of the resident set when the N = 64 batch is made and run, recordings
+included, divided by 64). Each timing is the best of ``--repeats``.
+
+Usage::
+
+    python benchmarks/batch_speed.py [--seconds 1.0] [--threads 2] [--repeats 2] [--out docs/batch_speed.txt]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import time
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+
+from vlab.lab.batch import run_batch
+from vlab.lab.engine import ControllerEngine
+from vlab.lab.loop import HardwareChain, run_loop
+from vlab.reference import bcc_gain
+from vlab.sim import MujocoPlant, build_plant
+from vlab.sim.batch_plant import MujocoBatchPlant
+from vlab.spec import load_spec
+
+ACTS = (5, 7, 9)
+MEAS = (5, 7, 9, 6)
+PERIOD_S = 0.5e-3
+BATCH_SIZES = (1, 4, 16, 64)
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _best(fn, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=1.0, help="simulated seconds per simulation [s]")
+    ap.add_argument("--threads", type=int, default=2, help="threads of the batch and the rollout")
+    ap.add_argument("--repeats", type=int, default=2, help="timings per case (best kept)")
+    ap.add_argument("--out", default=None, help="also write the table to this file")
+    a = ap.parse_args(argv)
+
+    plant = build_plant(load_spec("bcc"))
+    m = plant.model
+    h = plant.timestep_s
+    sim = MujocoPlant(plant)
+    chain = HardwareChain(noise_m_s=1e-6)
+    eng = ControllerEngine.from_gain(bcc_gain("mfdrf"), period_s=PERIOD_S)
+    n_ticks = int(round(a.seconds / PERIOD_S))
+    rng = np.random.default_rng(0)
+    kw = dict(feedback_points=ACTS, measured_points=MEAS, excitation_point=9, duration_s=a.seconds, chain=chain)
+    rows = []
+
+    n_steps = int(round(a.seconds / h))
+    d = mujoco.MjData(m)
+    d.qpos[:] = sim.data.qpos
+    mujoco.mj_forward(m, d)
+    t = _best(lambda: mujoco.mj_step(m, d, nstep=n_steps), a.repeats)
+    rt_c = n_steps * h / t
+    rows.append(("C loop mj_step (1 thread)", rt_c))
+
+    n_roll = 16
+    state0 = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    datas = [mujoco.MjData(m) for _ in range(a.threads)]
+    ctrl = rng.standard_normal((n_roll, n_steps, m.nu)) * 0.1
+    t = _best(lambda: mujoco.rollout.rollout(m, datas, np.tile(state0, (n_roll, 1)), ctrl), a.repeats)
+    rows.append((f"C rollout N={n_roll} ({a.threads} threads), aggregate", n_roll * n_steps * h / t))
+
+    exc = rng.standard_normal((max(BATCH_SIZES), n_ticks))
+
+    def single():
+        sim.reset()
+        run_loop(sim, eng, excitation=exc[0], seed=1, **kw)
+
+    t = _best(single, a.repeats)
+    rt_loop = a.seconds / t
+    rows.append(("vlab run_loop (single closed loop)", rt_loop))
+
+    rss_per_sim = None
+    cases = [(n, a.threads) for n in BATCH_SIZES] + [(16, 1)]
+    for n, threads in cases:
+        rss0 = _rss_bytes()
+        bp = MujocoBatchPlant(sim, n, nthread=threads)
+
+        def batch():
+            bp.reset()
+            return run_batch(bp, eng, excitation=exc[:n], seeds=list(range(n)), **kw)
+
+        t = _best(batch, a.repeats)
+        if n == max(BATCH_SIZES):
+            rss_per_sim = (_rss_bytes() - rss0) / n
+        rows.append((f"vlab batch N={n} ({threads} thread{'s' if threads > 1 else ''}), aggregate",
+                     n * a.seconds / t))
+        del bp
+
+    lines = [
+        f"batch_speed.py  {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC  "
+        f"{platform.node()}  {os.cpu_count()} CPUs  load average {os.getloadavg()[0]:.2f}  mujoco {mujoco.__version__}",
+        f"BCC plant: nv = {m.nv}, physics step {h * 1e3:g} ms, controller period {PERIOD_S * 1e3:g} ms; "
+        f"{a.seconds:g} s simulated per simulation; MFDRF with the full PC-1000 chain + noise; best of {a.repeats}",
+        "",
+        f"{'case':<46} {'real-time x':>12} {'/ C loop':>10} {'/ run_loop':>11}",
+    ]
+    for name, rt in rows:
+        lines.append(f"{name:<46} {rt:>12.2f} {rt / rt_c:>10.3f} {rt / rt_loop:>11.2f}")
+    lines.append("")
+    lines.append(f"memory per simulation (N = {max(BATCH_SIZES)} batch, recordings of {a.seconds:g} s included): "
+                 f"{rss_per_sim / 1e6:.2f} MB")
+    text = "\n".join(lines)
+    print(text)
+    if a.out:
+        with open(a.out, "w") as f:
+            f.write(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

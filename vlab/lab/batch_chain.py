@@ -1,0 +1,342 @@
+"""The hardware chain of Fig. 21 vectorised over N simulations and their channels.
+
+Every setting is an array of shape (N, n_channels) -- per simulation, per
+actuator (or sensor) channel -- filled from one :class:`vlab.lab.loop.HardwareChain`
+per simulation, so that per-channel settings slot in without changing the
+arithmetic. One tick advances all N simulations with one array operation per
+block (:func:`vlab.lab.batch.run_batch`):
+
+* computation delay ``D = m + f`` periods (Sec. 5.3: 1.35) with the zero-order
+  hold: within physics step ``s`` of a period the DAC holds ``u[k-m-1]`` for
+  ``d_old`` seconds then ``u[k-m]`` for ``d_new`` (``d_old + d_new = h``),
+  the same pieces as :meth:`vlab.lab.blocks.SampleDelay.segments_over`;
+* RC low-pass (677 Hz), exact over the two pieces and averaged over the step
+  (:meth:`vlab.lab.blocks.RCLowPass.update_segments`)::
+
+      y1   = u_old + (y0 - u_old) e_old,       e = exp(-d / tau)
+      y    = u_new + (y1 - u_new) e_new
+      ybar = [u_old d_old + (y0 - u_old) tau (1 - e_old)
+              + u_new d_new + (y1 - u_new) tau (1 - e_new)] / h
+           = u_new + (u_old - u_new) d_old / h + [(y0 - u_old) tau (1 - e_old) + (y1 - u_new) tau (1 - e_new)] / h
+
+  a channel without filter has ``tau = 0`` (``e = 0``), which reduces this to
+  the hold's step average ``(u_old d_old + u_new d_new) / h``;
+* amplifier ``clip(gain * u, -limit, limit)`` (no limit: infinite), then the
+  actuator gain; optional first-order lags on coil forces and sensors
+  (``a = exp(-2 pi f_c dt)``, ``a = 0`` when off, which passes the signal).
+
+The durations and exponentials depend only on the delay fraction, so they are
+computed once per run (the single loop recomputes them every step from
+absolute times; the two agree to rounding, ~1e-16 relative).
+
+Source: Sec. 5.3 and Fig. 21 (PC-1000 delay 1.35 periods, 677 Hz RC filter,
+controlled-current amplifier); the blocks of :mod:`vlab.lab.blocks`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from .loop import HardwareChain
+
+
+def _per_channel(chains, points, read, what: str) -> np.ndarray:
+    """(N, len(points)) array of ``read(chain, point)``; finite values only."""
+    arr = np.array([[float(read(c, p)) for p in points] for c in chains], dtype=float).reshape(len(chains), len(points))
+    if np.any(np.isnan(arr)):
+        raise ModelError(f"hardware chain: {what} is NaN")
+    return arr
+
+
+def _value(setting, point):
+    """A chain setting for one channel: a dict keyed by point id (missing: None) or one value for all."""
+    if isinstance(setting, dict):
+        return setting.get(point)
+    return setting
+
+
+@dataclass(frozen=True)
+class BatchChain:
+    """Per-simulation, per-channel hardware settings and the step coefficients derived from them.
+
+    Attributes
+    ----------
+    period_s : float
+        Controller period T [s], common to all simulations.
+    n_sub : int
+        Physics steps per period.
+    delay_int : ndarray of int, shape (N, n_act)
+        ``m = floor(D)`` of each channel's delay.
+    d_old_s, d_new_s : ndarray, shape (n_sub, N, n_act)
+        Durations [s] of the older and newer held sample within each physics step.
+    e_old, e_new : ndarray, shape (n_sub, N, n_act)
+        RC decay ``exp(-d / tau)`` over them (0 without filter).
+    w_old : ndarray, shape (n_sub, N, n_act)
+        ``d_old / h``: share of the step holding the older sample.
+    j_old, j_new : ndarray, shape (n_sub, N, n_act)
+        ``tau (1 - e) / h``: the RC's decay weights in the step average.
+    amp_gain : ndarray, shape (N, n_act)
+        Amplifier gain [N/N].
+    amp_limit_n : ndarray, shape (N, n_act)
+        Saturation [N] (inf: linear).
+    actuator_gain : ndarray, shape (N, n_act)
+        Coil force gain [-].
+    actuator_lag : ndarray, shape (N, n_act)
+        ``a`` of the coil-force lag per physics step (0: off).
+    sensor_gain : ndarray, shape (N, n_fb)
+        Feedback sensor sensitivity [-].
+    sensor_lag : ndarray, shape (N, n_fb)
+        ``a`` of the sensor lag per period (0: off).
+    noise_m_s : ndarray, shape (N, n_sensors)
+        Sensor noise standard deviation [m/s].
+    """
+
+    period_s: float
+    n_sub: int
+    delay_int: np.ndarray
+    d_old_s: np.ndarray
+    d_new_s: np.ndarray
+    e_old: np.ndarray
+    e_new: np.ndarray
+    w_old: np.ndarray
+    j_old: np.ndarray
+    j_new: np.ndarray
+    amp_gain: np.ndarray
+    amp_limit_n: np.ndarray
+    actuator_gain: np.ndarray
+    actuator_lag: np.ndarray
+    sensor_gain: np.ndarray
+    sensor_lag: np.ndarray
+    noise_m_s: np.ndarray
+
+    @property
+    def history(self) -> int:
+        """Depth of the DAC buffer: ``max(m) + 2`` samples."""
+        return int(self.delay_int.max(initial=0)) + 2
+
+    @classmethod
+    def from_chains(cls, chains, *, timestep_s: float, actuators, feedback, n_sensors: int) -> BatchChain:
+        """Vectorise one :class:`HardwareChain` per simulation.
+
+        A chain setting may be one value for every channel (the current
+        :class:`HardwareChain`) or a dict keyed by actuator / sensor point id
+        (as ``actuator_gain`` and ``sensor_gain``; a missing point takes the
+        neutral value: gain 1, no lag, no limit, and for delay and filter the
+        chain's ``delay_periods`` / ``filter_hz`` defaults of Sec. 5.3).
+
+        Parameters
+        ----------
+        chains : sequence of HardwareChain, length N
+            All with the same ``period_s``.
+        timestep_s : float
+            Physics step h [s]; must divide the period.
+        actuators : tuple of int
+            Coil points (n_act).
+        feedback : tuple of int
+            Feedback sensor points (n_fb).
+        n_sensors : int
+            Number of sensors read per tick (feedback first), for the noise.
+
+        Returns
+        -------
+        BatchChain
+
+        Raises
+        ------
+        ModelError
+            Different periods, a step that does not divide the period, a
+            negative delay, a non-positive corner frequency or limit.
+        """
+        chains = list(chains)
+        if not chains:
+            raise ModelError("hardware chain: at least one simulation is needed")
+        period = chains[0].period_s
+        if any(abs(c.period_s - period) > 1e-12 * period for c in chains):
+            raise ModelError(f"hardware chain: all simulations must share one period_s; got "
+                             f"{sorted({c.period_s for c in chains})}")
+        h = float(timestep_s)
+        n_sub = int(round(period / h))
+        if n_sub < 1 or abs(n_sub * h - period) > 1e-9 * period:
+            raise ModelError(f"physics step {h:g} s must divide the controller period {period:g} s")
+        acts, fb = tuple(actuators), tuple(feedback)
+
+        def pick(name, default):
+            return lambda c, p: (lambda v: default if v is None else v)(_value(getattr(c, name), p))
+
+        delay = _per_channel(chains, acts, pick("delay_periods", 0.0), "delay_periods")
+        if np.any(delay < 0) or not np.all(np.isfinite(delay)):
+            raise ModelError(f"hardware chain: delay_periods must be finite and >= 0, got {delay.ravel().tolist()}")
+        delay = np.where(np.abs(delay - np.round(delay)) < 1e-9, np.round(delay), delay)
+        m = np.floor(delay).astype(int)
+        frac = delay - m
+        corner = _per_channel(chains, acts, pick("filter_hz", math.inf), "filter_hz")
+        if np.any(corner <= 0):
+            raise ModelError(f"hardware chain: filter_hz must be > 0, got {corner.ravel().tolist()}")
+        tau = np.where(np.isfinite(corner), 1.0 / (2.0 * math.pi * np.where(np.isfinite(corner), corner, 1.0)), 0.0)
+        d_old = np.empty((n_sub, *delay.shape))
+        for s in range(n_sub):
+            a, b = s / n_sub, (s + 1) / n_sub
+            d_old[s] = np.clip(frac - a, 0.0, b - a) * period
+        d_new = h - d_old
+
+        def decay(d):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                e = np.where(tau > 0, np.exp(-d / np.where(tau > 0, tau, 1.0)), 0.0)
+            return np.where(d == 0, 1.0, e)
+
+        e_old, e_new = decay(d_old), decay(d_new)
+        limit = _per_channel(chains, acts, pick("amplifier_limit_n", math.inf), "amplifier_limit_n")
+        if np.any(limit <= 0):
+            raise ModelError(f"hardware chain: amplifier_limit_n must be > 0, got {limit.ravel().tolist()}")
+        lag_a = _per_channel(chains, acts, pick("actuator_lag_hz", 0.0), "actuator_lag_hz")
+        lag_s = _per_channel(chains, fb, pick("sensor_lag_hz", 0.0), "sensor_lag_hz")
+        noise = np.array([[c.noise_m_s] * n_sensors for c in chains], dtype=float).reshape(len(chains), n_sensors)
+        if np.any(noise < 0):
+            raise ModelError(f"hardware chain: noise_m_s must be >= 0, got {noise[:, 0].tolist()}")
+        return cls(
+            period_s=float(period), n_sub=n_sub, delay_int=m, d_old_s=d_old, d_new_s=d_new,
+            e_old=e_old, e_new=e_new, w_old=d_old / h,
+            j_old=tau * (1.0 - e_old) / h, j_new=tau * (1.0 - e_new) / h,
+            amp_gain=_per_channel(chains, acts, pick("amplifier_gain", 1.0), "amplifier_gain"),
+            amp_limit_n=limit,
+            actuator_gain=_per_channel(chains, acts, lambda c, p: c.actuator_gain.get(p, 1.0), "actuator_gain"),
+            actuator_lag=np.where(lag_a > 0, np.exp(-2 * math.pi * lag_a * h), 0.0),
+            sensor_gain=_per_channel(chains, fb, lambda c, p: c.sensor_gain.get(p, 1.0), "sensor_gain"),
+            sensor_lag=np.where(lag_s > 0, np.exp(-2 * math.pi * lag_s * period), 0.0),
+            noise_m_s=noise,
+        )
+
+
+def for_each(chain: HardwareChain | list, n_sim: int) -> list:
+    """One chain per simulation: ``chain`` repeated, or the given list (length checked).
+
+    Raises
+    ------
+    ModelError
+        A list whose length is not ``n_sim``.
+    """
+    if isinstance(chain, HardwareChain):
+        return [chain] * n_sim
+    chains = list(chain)
+    if len(chains) != n_sim:
+        raise ModelError(f"chains: expected {n_sim} hardware chains (one per simulation), got {len(chains)}")
+    return chains
+
+
+#: Sensor noise is drawn per simulation in blocks of this many ticks (the same stream as one draw per tick).
+NOISE_BLOCK = 512
+
+
+class ChainRun:
+    """The running chain of N simulations: sensor stage and DAC/RC/amplifier stage, with their state.
+
+    Per tick: :meth:`sense` (sensor gain, lag, noise: one array operation
+    each for all N), :meth:`push` (the controller output into the DAC
+    buffer), then :meth:`force` once per physics step. A block whose
+    setting is neutral everywhere (gain 1, no limit, no lag) is skipped: its
+    operation would be exact (``x * 1.0 = x``), so skipping it changes no bit.
+
+    Parameters
+    ----------
+    hw : BatchChain
+        Settings of the N simulations.
+    n_fb : int
+        Feedback sensors (the first ``n_fb`` of the sensors read).
+    seeds : sequence of int, length N
+        Noise seed of each simulation (``numpy.random.default_rng(seed)``,
+        ``standard_normal`` per sensor per tick, as :class:`vlab.lab.blocks.SensorNoise`).
+    n_ticks : int
+        Ticks of the run (noise drawn up to it).
+
+    Notes
+    -----
+    Source: Fig. 21 and Sec. 5.3; the update equations in the module notes.
+    """
+
+    def __init__(self, hw: BatchChain, *, n_fb: int, seeds, n_ticks: int) -> None:
+        self.hw = hw
+        n, n_act = hw.amp_gain.shape
+        n_sens = hw.noise_m_s.shape[1]
+        self._n_fb, self._n_ticks = n_fb, n_ticks
+        self._rngs = ([np.random.default_rng(int(s)) for s in seeds]
+                      if n_sens and np.any(hw.noise_m_s > 0) else None)
+        self._noise = None
+        self._hist = np.zeros((hw.history, n, n_act))          # _hist[i] = u[k - i]
+        self._uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
+        self._m0 = int(hw.delay_int.flat[0])
+        self._gather = (np.arange(n)[:, None], np.arange(n_act)[None, :])
+        self._rc = np.zeros((n, n_act))
+        self._lag_act = np.zeros((n, n_act))
+        self._lag_sen = np.zeros((n, n_fb))
+        self._clip = bool(np.any(np.isfinite(hw.amp_limit_n)))
+        self._amp = hw.amp_gain if np.any(hw.amp_gain != 1.0) else None
+        self._act_gain = hw.actuator_gain if np.any(hw.actuator_gain != 1.0) else None
+        self._sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
+        self._use_lag_a = bool(np.any(hw.actuator_lag > 0))
+        self._use_lag_s = bool(np.any(hw.sensor_lag > 0))
+        self._u_new = self._u_old = self._du = None
+
+    def sense(self, v: np.ndarray, k: int) -> np.ndarray:
+        """Measured signals of tick ``k`` from the velocities ``v`` (N, n_sensors) [m/s]; same shape.
+
+        ``y = sensor gain x v`` (lagged) on the feedback sensors, ``+ sigma w`` on every sensor.
+        """
+        hw, n_fb = self.hw, self._n_fb
+        y = v.copy()
+        if n_fb and (self._sen_gain is not None or self._use_lag_s):
+            y_fb = v[:, :n_fb] * self._sen_gain if self._sen_gain is not None else v[:, :n_fb]
+            if self._use_lag_s:
+                self._lag_sen = hw.sensor_lag * self._lag_sen + (1 - hw.sensor_lag) * y_fb
+                y_fb = self._lag_sen
+            y[:, :n_fb] = y_fb
+        if self._rngs is not None:
+            if k % NOISE_BLOCK == 0:
+                nb = min(NOISE_BLOCK, self._n_ticks - k)
+                self._noise = np.stack([r.standard_normal((nb, v.shape[1])) for r in self._rngs],
+                                       axis=1) * hw.noise_m_s
+            y += self._noise[k % NOISE_BLOCK]
+        return y
+
+    def push(self, u: np.ndarray) -> None:
+        """Latch the controller outputs ``u`` (N, n_act) [N] of this tick into the DAC buffer."""
+        h = self._hist
+        h[1:] = h[:-1]
+        h[0] = u
+        if self._uniform:
+            self._u_new, self._u_old = h[self._m0], h[self._m0 + 1]
+        else:
+            m = self.hw.delay_int
+            self._u_new, self._u_old = h[(m, *self._gather)], h[(m + 1, *self._gather)]
+        self._du = self._u_old - self._u_new
+
+    def force(self, s: int, excitation: np.ndarray) -> np.ndarray:
+        """Coil forces [N], shape (N, n_act), held over physics step ``s`` of the tick.
+
+        ``excitation`` (N, n_act) [N] is added before the amplifier (Fig. 21).
+        The DAC/RC step average is ``u_new + (u_old - u_new) d_old/h`` plus
+        the RC's decay terms: exactly ``u_new`` when the step holds one sample
+        and there is no filter, as ``SampleDelay.mean_over`` gives it.
+        """
+        hw = self.hw
+        u_new, u_old = self._u_new, self._u_old
+        dy0 = self._rc - u_old
+        y1 = u_old + dy0 * hw.e_old[s]
+        dy1 = y1 - u_new
+        self._rc = u_new + dy1 * hw.e_new[s]
+        f = u_new + (self._du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
+        f += excitation
+        if self._amp is not None:
+            f *= self._amp
+        if self._clip:
+            np.minimum(f, hw.amp_limit_n, out=f)
+            np.maximum(f, -hw.amp_limit_n, out=f)
+        if self._act_gain is not None:
+            f *= self._act_gain
+        if self._use_lag_a:
+            self._lag_act = hw.actuator_lag * self._lag_act + (1 - hw.actuator_lag) * f
+            f = self._lag_act
+        return f

@@ -1,0 +1,289 @@
+"""N MuJoCo plants stepped together on one ``mujoco.batch.Batch``: the plant side of the batched lab.
+
+:class:`BatchPlant` is the small interface the batched loop
+(:func:`vlab.lab.batch.run_batch`) drives -- step all N simulations, write
+their coil forces, read their sensors at the sampling instant, per-simulation
+parameters -- so that another backend (e.g. ``mujoco-warp`` on a GPU) can be
+put behind it without touching the controller or measurement code.
+:class:`MujocoBatchPlant` implements it on ``mujoco.batch.Batch`` (mujoco
+4.0: simulations on a thread pool, bit-identical to a loop over single
+``MjData``; its module docstring).
+
+Each simulation does what :class:`vlab.sim.runtime.MujocoPlant` does for one:
+it starts at rest in its settled state, sets the applied modal damping
+``qfrc_applied = -A diag(c) A^T qvel`` (:mod:`vlab.sim.damping`) before every
+physics step, and reads its ``vel<ID>`` sensors from ``sensordata`` computed
+at the sampling instant (the step that ends a controller period computes the
+position and velocity stages at the new state, ``stage=mjSTAGE_VEL``, as
+``MujocoPlant`` does with ``mj_fwdPosition``/``mj_fwdVelocity``/``mj_sensorVel``).
+
+Per-simulation parameters come two ways:
+
+* ``fields``: MjModel fields given per simulation with ``Batch.expand``
+  (e.g. ``body_mass`` (N, nbody) [kg], ``jnt_stiffness`` (N, njnt) [N*m/rad],
+  ``actuator_gainprm`` (N, nu, 10)); ``mj_setConst`` follows
+  (``Batch.set_const``) and each simulation is settled again. The modal
+  damping matrix stays the nominal model's (a physical damping matrix, not
+  re-fitted to the changed modes).
+* ``models``: one compiled plant per simulation (``Batch.set_models``), e.g.
+  built from perturbed specs; each carries its own modal damping.
+
+Source: mujoco 4.0 ``mujoco.batch`` docstrings; the sampling instant and the
+modal damping as in :mod:`vlab.sim.runtime` and :mod:`vlab.sim.damping`.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import mujoco
+import mujoco.batch
+import numpy as np
+
+from ..errors import ModelError, SimulationError
+from .damping import load_modal_damping
+from .linearize import settle
+from .runtime import MujocoPlant, _numbered, sensor_rows
+
+#: Fields whose change needs ``mj_setConst`` (masses and inertias feed the derived constants).
+_SETCONST_FIELDS = frozenset(getattr(mujoco.MjModel, "_setconst_inputs", ()))
+
+
+class BatchPlant(Protocol):
+    """What the batched loop needs from N plants.
+
+    Attributes
+    ----------
+    n_sim : int
+        Number of simulations N.
+    timestep_s : float
+        Physics step h [s], common to all simulations.
+    actuator_points : tuple of int, length n_act
+        Coil points, column order of :meth:`set_forces`.
+    alive : ndarray of bool, shape (N,)
+        Simulations still stepping (a diverged one is stopped by :meth:`stop`).
+
+    Notes
+    -----
+    A structural type (``typing.Protocol``), never instantiated; its
+    placeholder constructor takes ``*args, **kwargs`` that mean nothing.
+    """
+
+    n_sim: int
+    timestep_s: float
+    actuator_points: tuple[int, ...]
+    alive: np.ndarray
+
+    def set_forces(self, forces: np.ndarray) -> None:
+        """Coil forces [N], shape (N, n_act), held over the following physics steps."""
+        ...
+
+    def step(self, *, sample: bool) -> None:
+        """One physics step of every live simulation; ``sample`` makes the sensors current at the new state."""
+        ...
+
+    def velocities(self, points: tuple[int, ...]) -> np.ndarray:
+        """Out-of-plane velocities [m/s], shape (N, len(points)), at the last sampling instant."""
+        ...
+
+    def displacements(self, points: tuple[int, ...]) -> np.ndarray:
+        """Out-of-plane displacements from each settled state [m], shape (N, len(points))."""
+        ...
+
+    def time_s(self) -> np.ndarray:
+        """Simulated time of each simulation [s], shape (N,)."""
+        ...
+
+    def stop(self, sims: np.ndarray) -> None:
+        """Stop stepping the simulations ``sims`` (indices): they diverged."""
+        ...
+
+
+class MujocoBatchPlant:
+    """N vlab MuJoCo plants on one ``mujoco.batch.Batch`` (implements :class:`BatchPlant`).
+
+    Parameters
+    ----------
+    plant : MujocoPlant
+        The nominal plant (its model, actuators, sensors, settled state and
+        modal damping).
+    n_sim : int
+        Number of simulations N >= 1.
+    nthread : int
+        Threads of the batch (0: all CPUs).
+    fields : dict of str to array_like, optional
+        Per-simulation MjModel fields, each of shape (N, ...) as
+        ``Batch.expand(name)`` returns (see the module notes).
+    models : sequence of mujoco.MjModel, optional
+        One model per simulation, compiled from the same spec (same sizes);
+        exclusive with ``fields``.
+    sample_sites : bool
+        Whether :meth:`displacements` will be used (binds ``site_xpos``, which
+        the batch then copies out after every call).
+
+    Raises
+    ------
+    ModelError
+        ``n_sim`` < 1, an unknown field, a field of the wrong shape or with
+        non-finite values, ``models`` of the wrong count, or both ``fields``
+        and ``models``.
+    SimulationError
+        A simulation that does not settle.
+    """
+
+    def __init__(self, plant: MujocoPlant, n_sim: int, *, nthread: int = 0, fields: dict | None = None,
+                 models=None, sample_sites: bool = False) -> None:
+        if isinstance(n_sim, bool) or int(n_sim) != n_sim or n_sim < 1:
+            raise ModelError(f"n_sim must be a positive integer, got {n_sim!r}")
+        if fields and models is not None:
+            raise ModelError("give per-simulation parameters as fields or as models, not both")
+        n = int(n_sim)
+        m = plant.model
+        self.n_sim = n
+        self.model = m
+        self.timestep_s = plant.timestep_s
+        self.actuator_points = tuple(plant.actuator_points)
+        self.batch = mujoco.batch.Batch(m, n, nthread=nthread, persistent=True)
+        b = self.batch
+        refs = None
+        dampings = [plant.modal_damping] * n
+        if models is not None:
+            models = list(models)
+            if len(models) != n:
+                raise ModelError(f"models: expected {n} models (one per simulation), got {len(models)}")
+            b.set_models(models)
+            refs = [settle(mi).qpos.copy() for mi in models]
+            dampings = [load_modal_damping(mi) for mi in models]
+        elif fields:
+            setconst = False
+            for name, value in fields.items():
+                if name not in mujoco.batch.MODEL_FIELDS:
+                    raise ModelError(f"fields: unknown MjModel field {name!r}")
+                arr = b.expand(name)
+                val = np.asarray(value, dtype=float)
+                if val.shape != arr.shape:
+                    raise ModelError(f"fields[{name!r}]: expected shape {arr.shape}, found {val.shape}")
+                if not np.all(np.isfinite(val)):
+                    raise ModelError(f"fields[{name!r}]: non-finite values")
+                arr[...] = val
+                setconst |= name in _SETCONST_FIELDS
+            if setconst:
+                b.set_const()
+            refs = [settle(b.get_model(i)).qpos.copy() for i in range(n)]
+        self._qpos_ref = (np.tile(plant._ref.qpos, (n, 1)) if refs is None else np.array(refs))
+        self._damping = self._stack_damping(dampings)
+        self._qpos = b.bind("qpos")
+        self._qvel = b.bind("qvel")
+        self._ctrl = b.bind("ctrl")
+        self._qfrc = b.bind("qfrc_applied")
+        self._time = b.bind("time")
+        self._sensordata = b.bind("sensordata")
+        self._rows = sensor_rows(m)
+        self._row_cache: dict = {}
+        coils = _numbered(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "coil")
+        self._act_ids = np.array([coils[p] for p in self.actuator_points], dtype=int)
+        self._ctrl_shape = (n, self._act_ids.size)
+        self._sites = _numbered(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite, "p")
+        self._site_xpos = b.bind("site_xpos") if sample_sites else None
+        self.alive = np.ones(n, dtype=bool)
+        self._ids = None
+        self.reset()
+
+    def _stack_damping(self, dampings):
+        if all(d is None for d in dampings):
+            return None
+        if any(d is None for d in dampings):
+            raise ModelError("models: some simulations carry applied modal damping and some do not")
+        if all(d is dampings[0] for d in dampings):
+            a, c = dampings[0].A[None], dampings[0].c[None]  # broadcast over the simulations
+        else:
+            a, c = np.array([d.A for d in dampings]), np.array([d.c for d in dampings])
+        return a, a.transpose(0, 2, 1), c[:, :, None]
+
+    def reset(self) -> None:
+        """Every simulation back to its settled state at rest, time 0, forces 0 (and all alive)."""
+        b = self.batch
+        b.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
+        self._qpos[:] = self._qpos_ref
+        self._qvel[:] = 0.0
+        self._ctrl[:] = 0.0
+        self._qfrc[:] = 0.0
+        b.forward()
+        z0 = b.bind("site_xpos")[:, :, 2].copy() if self._site_xpos is None else self._site_xpos[:, :, 2].copy()
+        self._z0 = z0
+        self.alive[:] = True
+        self._ids = None
+
+    def set_forces(self, forces: np.ndarray) -> None:
+        """Coil forces [N] along world +z, shape (N, n_act), order :attr:`actuator_points`.
+
+        Raises
+        ------
+        SimulationError
+            Wrong shape.
+        """
+        f = np.asarray(forces, dtype=float)
+        if f.shape != self._ctrl_shape:
+            raise SimulationError(f"set_forces: expected shape ({self.n_sim}, {self._act_ids.size}), got {f.shape}")
+        self._ctrl[:, self._act_ids] = f
+
+    def step(self, *, sample: bool) -> None:
+        """One physics step of every live simulation, with the applied modal damping set first.
+
+        Parameters
+        ----------
+        sample : bool
+            Compute the position and velocity stages (and sensors) at the new
+            state: the step ends a controller period.
+        """
+        if self._damping is not None:
+            a, at, c = self._damping
+            # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (c * (a.T @ qvel))
+            mv = np.matmul(at, self._qvel[:, :, None])
+            np.negative(np.matmul(a, c * mv)[:, :, 0], out=self._qfrc)
+        stage = int(mujoco.mjtStage.mjSTAGE_VEL) if sample else int(mujoco.mjtStage.mjSTAGE_NONE)
+        self.batch.step(ids=self._ids, stage=stage)
+
+    def velocities(self, points) -> np.ndarray:
+        """Out-of-plane velocities [m/s] from the ``vel<ID>`` sensors, shape (N, len(points)).
+
+        Raises
+        ------
+        SimulationError
+            A point without a ``vel<ID>`` sensor.
+        """
+        key = tuple(points)
+        rows = self._row_cache.get(key)
+        if rows is None:
+            try:
+                rows = np.array([self._rows[p] for p in key], dtype=int)
+            except KeyError as exc:
+                raise SimulationError(f"no velocity sensor vel{exc.args[0]}; sensors are at "
+                                      f"{sorted(self._rows)}") from None
+            self._row_cache[key] = rows
+        return self._sensordata[:, rows]
+
+    def displacements(self, points) -> np.ndarray:
+        """Out-of-plane displacements [m] from each settled state, shape (N, len(points)).
+
+        Raises
+        ------
+        SimulationError
+            An unknown point, or a plant made without ``sample_sites``.
+        """
+        if self._site_xpos is None:
+            raise SimulationError("displacements need a MujocoBatchPlant made with sample_sites=True")
+        try:
+            ids = [self._sites[p] for p in points]
+        except KeyError as exc:
+            raise SimulationError(f"unknown point {exc.args[0]}; points are {sorted(self._sites)}") from None
+        return self._site_xpos[:, ids, 2] - self._z0[:, ids]
+
+    def time_s(self) -> np.ndarray:
+        """Simulated time of each simulation [s], shape (N,) (a copy)."""
+        return self._time.copy()
+
+    def stop(self, sims) -> None:
+        """Stop stepping the simulations ``sims`` (indices into 0..N-1)."""
+        self.alive[np.asarray(sims, dtype=int)] = False
+        self._ids = np.flatnonzero(self.alive).astype(np.int32)
