@@ -890,7 +890,8 @@ ROBUSTNESS_OUT = "out/robustness"
 
 @app.command(cls=_VlabCommand)
 def robustness(
-    structure: Structure = _arg_structure(),
+    structure: str = typer.Argument(..., help="structure: bcc (Beam Cross-Cable) or grid (Hanging Grid)",
+                                    show_default=False),
     samples: int = _opt(1000, "--samples", help="Monte Carlo samples, >= 1"),
     seed: int = _opt(0, "--seed", help="seed of the draws (sample i draws from default_rng([seed, i])) and of the "
                                        "designs' multi-start, an integer in [0, 2**32)"),
@@ -931,6 +932,9 @@ def robustness(
     from .robust.uncertainty import DEFAULTS, load_uncertainties
 
     _seed(seed)
+    if structure not in ("bcc", "grid"):
+        raise OptionError(f"robustness: structure {structure!r} is not one of bcc, grid (the study's "
+                          "uncertainties are stated for the dissertation's structures)")
     out_path = _out_dir(out, ROBUSTNESS_OUT, overwrite)
     _input_file("--uncertainty", uncertainty)
     if workers is not None and workers < 1:
@@ -939,9 +943,9 @@ def robustness(
         raise OptionError(f"--simulate must be >= 0, got {simulate!r}")
     if scheduler != "none" and scheduler != "local" and not scheduler.startswith("tcp://"):
         raise OptionError(f"--scheduler {scheduler!r}: use local, none or tcp://HOST:PORT")
-    n_sim = simulate if simulate is not None else (4 if structure.value == "bcc" else 0)
+    n_sim = simulate if simulate is not None else (4 if structure == "bcc" else 0)
     uncs = load_uncertainties(uncertainty) if uncertainty else DEFAULTS
-    cfg = StudyConfig(structure=structure.value, n_samples=samples, seed=seed, uncertainties=uncs,
+    cfg = StudyConfig(structure=structure, n_samples=samples, seed=seed, uncertainties=uncs,
                       chunk_size=chunk_size, controllers=tuple(c.strip() for c in controllers.split(",") if c.strip()))
     _expect_output(out_path)
     t0 = time.perf_counter()
@@ -958,7 +962,7 @@ def robustness(
              f"a Dask LocalCluster of {workers or default_workers()} processes" if scheduler == "local"
              else f"the Dask scheduler {scheduler}")
     timings = {"designs": t1 - t0, "study": t2 - t1, "time_simulation": t3 - t2, "total": t3 - t0, "where": where}
-    command = f"vlab robustness {structure.value} --samples {samples} --seed {seed}" + (
+    command = f"vlab robustness {structure} --samples {samples} --seed {seed}" + (
         f" --uncertainty {uncertainty}" if uncertainty else "") + (
         f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "")
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
@@ -968,7 +972,7 @@ def robustness(
     if as_json:
         _print_json(json.loads((out_path / "robustness.json").read_text()))
         return
-    t = Table(title=f"{structure.value}: {samples} samples, controllers designed on the nominal model")
+    t = Table(title=f"{structure}: {samples} samples, controllers designed on the nominal model")
     for col in ("controller", "P(unstable)", "peak-ratio error [dB]", "damping change", "energy index/nominal"):
         t.add_column(col, justify="right")
     for c, v in summary.per_controller.items():
