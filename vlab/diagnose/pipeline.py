@@ -388,7 +388,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         mismatch = chi2_0 > limit or peak_0 > peak_limit
         noise_only = None
         if not mismatch and same_record:  # within the floor; within the noise?
-            mismatch, stats = changed_beyond_noise(problem, nominal, noise_free_reference=replayed is not None)
+            mismatch, stats = changed_beyond_noise(problem, nominal)
             if mismatch:
                 noise_only = stats
                 notes.append(f"the recording differs from its reference beyond the noise (chi-square "
