@@ -112,3 +112,42 @@ def test_extra_delay_on_one_coil_channel_is_named_loop_delay_there(delayed_run):
     assert r.selected.params_[0] == pytest.approx(truth.chain.delay_of(ch) * truth.chain.period_s, rel=0.05)
     d = r.as_dict()
     assert d["selected"][0]["location"] == {"channel": ch}
+
+
+@pytest.fixture(scope="module")
+def damping_and_delay(lab):
+    """Exact closed-loop FRFs (1 % noise variance) of the BCC with mode 2's damping tripled and 2 extra samples
+    of delay on channel 7: a pair of a damping effect and a per-channel controller-path effect."""
+    from vlab.diagnose import specedit
+    from vlab.diagnose.data import FrfData
+    from vlab.diagnose.labmodel import natural_frequencies
+    from vlab.diagnose.problem import Problem
+
+    st, _ = lab
+    _, zeta, _ = natural_frequencies(st)
+    z2 = 3.0 * float(zeta[1])
+    delay_s = (st.chain.delay_periods + 2.0) * st.chain.period_s
+    truth = replace(st.with_spec(specedit.set_modal_damping(st.spec, 2, z2)),
+                    chain=replace(st.chain, channel_delay_periods={7: delay_s / st.chain.period_s}))
+    freq = np.arange(10, 500) * 0.05
+    exc, outs = st.spec.instrumentation.excitation, tuple(TESTS["bcc"].measured_points)
+    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
+    data = FrfData("bcc.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
+    problem = Problem(data, st, context_for(st, TESTS["bcc"].band_hz, data))
+    return problem, {"damping(mode=2)": z2, "loop_delay(channel=7)": delay_s}
+
+
+@pytest.mark.parametrize("first", ("damping", "loop_delay"))
+def test_forward_pair_step_finds_a_per_channel_delay_next_to_a_damping_effect_and_back(damping_and_delay, first):
+    """Held at its single fit, either part of the pair finds the other among the whole library (every family
+    is screened as the second effect: vlab.diagnose.fit.fit_pairs); the joint fit sizes both."""
+    from vlab.diagnose.fit import fit_hypothesis, fit_pairs
+
+    problem, truth = damping_and_delay
+    pool = H.library(problem.base, problem.ctx)
+    one = fit_hypothesis(H.ModalDamping(mode=2) if first == "damping" else H.LoopDelay(channel=7), problem)
+    best = min(fit_pairs([one], problem, pool, rounds=0), key=lambda c: c.bic_)
+    found = {h.label: x for h, x in zip(best.parts, (best.params_[:1], best.params_[1:]))}
+    assert set(found) == set(truth)
+    for label, value in truth.items():
+        assert found[label][0] == pytest.approx(value, rel=1e-3), label
