@@ -5,7 +5,7 @@ controllers; 1 ms for LQG)::
 
     y_k  = sensor gain x velocity (x lag) + noise         (sampled at t_k; also recorded)
     u_k  = engine.step(y_k)                               (Eq. 5.1)
-    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay)
+    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay; a channel may have its own delay)
     for each physics step h in the tick:
         RC  : filtered DAC voltage, averaged over the step (677 Hz, exact)
         f   = amplifier(RC output + excitation on one channel)
@@ -195,12 +195,6 @@ class HardwareChain:
                 if not ok:
                     raise ModelError(f"HardwareChain.{name}[{p}] = {v!r}: must be a finite number "
                                      + (f">= {low:g}" if low is not None else "> 0") + (" or None" if allow_none else ""))
-
-    @property
-    def per_channel(self) -> bool:
-        """True when any per-channel delay, lag corner or force limit is set (the nominal chain has none)."""
-        return bool(self.channel_delay_periods or self.channel_actuator_lag_hz or self.channel_sensor_lag_hz
-                    or self.channel_limit_n)
 
     def delay_of(self, point: int) -> float:
         """Delay [periods] of the actuator channel at ``point``: its entry in ``channel_delay_periods``, else the global one."""
