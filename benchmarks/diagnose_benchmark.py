@@ -19,7 +19,8 @@ Each case draws (reproducibly from ``--seed``):
   (a controller-path delay, lag or force limit closed loop on all channels
   or, one case in two, on one coil channel: an extra delay of 1-3 samples,
   a corner 1.5-6 times the top of the band, a limit 1-1.8 times that
-  channel's RMS command)
+  channel's RMS command, on a channel other than the one of the largest
+  command, where it would be a limit on all channels)
   (sizes are drawn relative to the structure's own scales so that each is
   visible above the noise: added masses of 3-25 % of the modal mass at the
   point, springs of 5-100 % of the point stiffness, ...);
@@ -233,8 +234,11 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
     if family == "saturation":
         s2 = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=1e30)), ctx.freq_hz,
                               ctx.force_amplitude, excitation_point=ctx.excitation_point, iterations=1)
-        ch = _channel(rng, acts, ctx)
-        rms = max(s2.rms_force_n.values()) if ch == "all" else s2.rms_force_n[ch]
+        # a limit on the channel of the largest command clips that channel only, as a limit on all channels
+        # does: the data cannot tell the two apart, so a one-channel limit is drawn on another channel
+        top = max(s2.rms_force_n, key=s2.rms_force_n.get)
+        ch = _channel(rng, [p for p in acts if p != top], ctx)
+        rms = s2.rms_force_n[top] if ch == "all" else s2.rms_force_n[ch]
         lim = rms * rng.uniform(1.0, 1.8)
         chain = (replace(st.chain, amplifier_limit_n=lim) if ch == "all"
                  else replace(st.chain, channel_limit_n={**st.chain.channel_limit_n, ch: lim}))
