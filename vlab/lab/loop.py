@@ -194,10 +194,11 @@ class HardwareChain:
                     and math.isfinite(v) and (v >= low if low is not None else v > 0)
                 if not ok:
                     raise ModelError(f"HardwareChain.{name}[{p}] = {v!r}: must be a finite number "
-                                     + (f">= {low:g}" if low is not None else "> 0") + (" or None" if allow_none else ""))
+                                     + (f">= {low:g}" if low is not None else "> 0")
+                                     + (" or None" if allow_none else ""))
 
     def delay_of(self, point: int) -> float:
-        """Delay [periods] of the actuator channel at ``point``: its entry in ``channel_delay_periods``, else the global one."""
+        """Delay [periods] of the actuator channel at ``point``: its ``channel_delay_periods`` entry, else the global."""
         return float(self.channel_delay_periods.get(point, self.delay_periods))
 
     def actuator_lag_of(self, point: int) -> float | None:
@@ -209,7 +210,7 @@ class HardwareChain:
         return self.channel_sensor_lag_hz.get(point, self.sensor_lag_hz)
 
     def limit_of(self, point: int) -> float | None:
-        """Force limit [N] (None: linear) of the amplifier of the coil at ``point``: its entry, else ``amplifier_limit_n``."""
+        """Force limit [N] (None: linear) of the coil at ``point``: its entry, else ``amplifier_limit_n``."""
         return self.channel_limit_n.get(point, self.amplifier_limit_n)
 
     @property
@@ -277,8 +278,9 @@ def check_design_period(design, chain: HardwareChain) -> None:
 def _check_channels(chain: HardwareChain, acts: tuple[int, ...], fb: tuple[int, ...]) -> None:
     """Raise ModelError for a per-channel entry of ``chain`` keyed by a point that is not an actuator
     (delay, actuator lag, limit) or a feedback sensor (sensor lag) of the loop."""
-    for name, points, what in (("channel_delay_periods", acts, "actuator"), ("channel_actuator_lag_hz", acts, "actuator"),
-                               ("channel_limit_n", acts, "actuator"), ("channel_sensor_lag_hz", fb, "feedback sensor")):
+    for name, points, what in (("channel_delay_periods", acts, "actuator"),
+                               ("channel_actuator_lag_hz", acts, "actuator"), ("channel_limit_n", acts, "actuator"),
+                               ("channel_sensor_lag_hz", fb, "feedback sensor")):
         bad = sorted(set(getattr(chain, name)) - set(points))
         if bad:
             raise ModelError(f"HardwareChain.{name} names point(s) {bad}, which are not {what} points {tuple(points)}")
