@@ -16,6 +16,11 @@ Each case draws (reproducibly from ``--seed``):
   next to the second (:func:`conceal`);
 - nothing (one case in four: the false-alarm check), one effect, or (one
   case in six) two effects of the library, at random locations and sizes
+  (a controller-path delay, lag or force limit closed loop on all channels
+  or, one case in two, on one coil channel: an extra delay of 1-3 samples,
+  a corner 1.5-6 times the top of the band, a limit 1-1.8 times that
+  channel's RMS command, on a channel other than the one of the largest
+  command, where it would be a limit on all channels)
   (sizes are drawn relative to the structure's own scales so that each is
   visible above the noise: added masses of 3-25 % of the modal mass at the
   point, springs of 5-100 % of the point stiffness, ...);
@@ -126,6 +131,14 @@ def _two_sided(rng, lo, hi):
     return f if rng.random() < 0.5 else 1.0 / f
 
 
+def _channel(rng, acts: list, ctx: Context):
+    """Where a controller-path effect is drawn: all channels or (closed loop, one case in two) one actuator
+    channel, uniformly. Open loop only the excited coil carries force: all channels."""
+    if not ctx.closed_loop or not acts or rng.random() < 0.5:
+        return "all"
+    return int(rng.choice(acts))
+
+
 def nominal_state(structure: str, controller: str) -> LabState:
     spec = load_spec(structure)
     fe = build_fe_model(spec)
@@ -192,15 +205,28 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
         return (replace(st, frictions=st.frictions + ((p, force, c_eq),)),
                 {"effect": "friction", "location": {"point": p}, "parameters": {"friction_force_n": force}})
     if family == "loop_delay":
-        # extra phase lag of 0.15-0.5 rad at the top of the band
-        d = st.chain.delay_periods * st.chain.period_s + rng.uniform(0.15, 0.5) / (2 * math.pi * ctx.band_hz[1])
-        return (replace(st, chain=replace(st.chain, delay_periods=d / st.chain.period_s)),
-                {"effect": "loop_delay", "location": {}, "parameters": {"delay_s": d}})
+        ch = _channel(rng, acts, ctx)
+        t = st.chain.period_s
+        if ch == "all":
+            # extra phase lag of 0.15-0.5 rad at the top of the band
+            d = st.chain.delay_periods * t + rng.uniform(0.15, 0.5) / (2 * math.pi * ctx.band_hz[1])
+            chain = replace(st.chain, delay_periods=d / t)
+        else:
+            # one coil's DAC output 1-3 samples later than the others'
+            d = (st.chain.delay_of(ch) + rng.uniform(1.0, 3.0)) * t
+            chain = replace(st.chain, channel_delay_periods={**st.chain.channel_delay_periods, ch: d / t})
+        return (replace(st, chain=chain),
+                {"effect": "loop_delay", "location": {"channel": ch}, "parameters": {"delay_s": d}})
     if family in ("actuator_lag", "sensor_lag"):
         fc = ctx.band_hz[1] * _logu(rng, 1.5, 6.0)
+        ch = _channel(rng, acts, ctx)
         attr = "actuator_lag_hz" if family == "actuator_lag" else "sensor_lag_hz"
-        return (replace(st, chain=replace(st.chain, **{attr: fc})),
-                {"effect": family, "location": {"channel": "all"}, "parameters": {"corner_hz": fc}})
+        if ch == "all":
+            chain = replace(st.chain, **{attr: fc})
+        else:
+            chain = replace(st.chain, **{"channel_" + attr: {**getattr(st.chain, "channel_" + attr), ch: fc}})
+        return (replace(st, chain=chain),
+                {"effect": family, "location": {"channel": ch}, "parameters": {"corner_hz": fc}})
     if family in ("actuator_gain", "sensor_gain"):
         ch = int(rng.choice(acts)) if (ctx.closed_loop or family == "sensor_gain") else ctx.excitation_point
         g = _two_sided(rng, 1.3, 1.8)
@@ -212,11 +238,18 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
     if family == "saturation":
         s2 = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=1e30)), ctx.freq_hz,
                               ctx.force_amplitude, excitation_point=ctx.excitation_point, iterations=1)
-        lim = max(s2.rms_force_n.values()) * rng.uniform(1.0, 1.8)
-        st = with_command_rms(replace(st, chain=replace(st.chain, amplifier_limit_n=lim)), ctx.freq_hz,
-                              ctx.force_amplitude, excitation_point=ctx.excitation_point)
+        # a limit on the channel of the largest command clips that channel only, as a limit on all channels
+        # does: the data cannot tell the two apart, so a one-channel limit is drawn on another channel
+        top = max(s2.rms_force_n, key=s2.rms_force_n.get)
+        ch = _channel(rng, [p for p in acts if p != top], ctx)
+        rms = s2.rms_force_n[top] if ch == "all" else s2.rms_force_n[ch]
+        lim = rms * rng.uniform(1.0, 1.8)
+        chain = (replace(st.chain, amplifier_limit_n=lim) if ch == "all"
+                 else replace(st.chain, channel_limit_n={**st.chain.channel_limit_n, ch: lim}))
+        st = with_command_rms(replace(st, chain=chain), ctx.freq_hz, ctx.force_amplitude,
+                              excitation_point=ctx.excitation_point)
         return (st,
-                {"effect": "saturation", "location": {"channel": "all"}, "parameters": {"limit_n": lim}})
+                {"effect": "saturation", "location": {"channel": ch}, "parameters": {"limit_n": lim}})
     if family == "gravity_prestress":
         g = G_SI * _two_sided(rng, 1.3, 1.6)
         k0 = build_fe_model(specedit.without_gravity(spec)).k

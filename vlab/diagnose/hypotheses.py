@@ -60,9 +60,11 @@ def library(state: LabState, ctx: Context, *, effects: tuple[str, ...] | None = 
     or spring at each: attachments every coil has, such as its wires), every
     DOF fixed by a support (released to a spring), points where two or more member segments meet (joint
     flexibility), every member and every segment of a multi-segment member
-    (stiffness), every mode in the band (modal damping), every actuator
-    channel (gains), and the chain as a whole (delay, lags, saturation,
-    gravity pre-stress).
+    (stiffness), every mode in the band (modal damping), the controller
+    path on every actuator/sensor channel and on all channels together
+    (delay, actuator and sensor lags, gains, saturation; the per-channel
+    ones on closed-loop data only, since open loop only the excited coil
+    carries force), and gravity pre-stress.
 
     Parameters
     ----------
@@ -97,12 +99,13 @@ def library(state: LabState, ctx: Context, *, effects: tuple[str, ...] | None = 
     lo, hi = ctx.band_hz
     out += [ModalDamping(mode=i + 1) for i in range(len(f)) if lo <= f[i] <= hi]
     out += [PointDamping(point=p) for p in free]
-    out += [LoopDelay(), ActuatorLag(), SensorLag()]
-    out += [ActuatorGain(channel=p) for p in state.actuators]
-    out += [SensorGain(channel=p) for p in state.actuators]
+    chans = ("all",) + tuple(state.actuators)
+    out += [cls(channel=c) for cls in (LoopDelay, ActuatorLag, SensorLag) for c in chans]
+    out += [ActuatorGain(channel=c) for c in chans]
+    out += [SensorGain(channel=c) for c in chans]
     out += [GravityPrestress()]
     out += [Friction(point=p) for p in free]
-    out += [Saturation()]
+    out += [Saturation(channel=c) for c in chans]
     out = [h for h in out if h.applies_to(ctx)]
     if effects is not None:
         unknown = set(effects) - set(EFFECTS)

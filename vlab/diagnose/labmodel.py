@@ -7,9 +7,10 @@ gains and lags, sensor gains and lags, saturation). :func:`predict_frf`
 turns a state into the FRFs an experiment measures, in the frequency domain::
 
     plant      G(w)   = j w Phi diag(1 / (w_r^2 - w^2 + 2 j zeta_r w_r w)) Phi^T    (+ dashpots, Woodbury)
-    actuators  A(w)   = diag(g_amp g_a,i L_a(w) n_i)      L_a = (1 - c) / (1 - c e^{-jwh}), c = e^{-2 pi f_a h}
-    sensors    S(w)   = diag(g_s,i L_s(w))                L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
-    controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis)
+    actuators  A(w)   = diag(g_amp g_a,i L_a,i(w) n_i)    L_a = (1 - c) / (1 - c e^{-jwh}), c = e^{-2 pi f_a h}
+    sensors    S(w)   = diag(g_s,i L_s,i(w))              L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
+    controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis);
+                        a per-channel delay d_i multiplies row i (output channel i) by e^{-j w d_i T}
     force      f      = (I + A K S G_fb)^-1 A e_exc ZOH(w) x
     measured   v      = S_out G_out f                   S_out: S(w) at a sensor (actuator) point, 1 elsewhere
 
@@ -250,7 +251,9 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
 
     Returns
     -------
-    ndarray, complex, shape (n_f, n_act, n_act), or None in open loop.
+    ndarray, complex, shape (n_f, n_act, n_act), or None in open loop. A per-channel delay
+    (``chain.channel_delay_periods``) multiplies the row of its output channel by ``e^{-j w d_i T}``
+    in place of the global delay.
 
     Source: :func:`vlab.analysis.sampled_data_controller_frf` (Eq. 5.1, Sec. 5.3).
     """
@@ -261,6 +264,12 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     f = np.asarray(freq_hz, dtype=float)
     core = _controller_core(d, ch.period_s, f)
     w = 2 * np.pi * f
+    if ch.channel_delay_periods:  # a delay per output channel: the rows of K
+        d = np.array([ch.delay_of(p) for p in state.actuators])
+        factor = np.exp(-1j * w[:, None] * d[None, :] * ch.period_s)
+        if ch.filter_hz is not None:
+            factor = factor / (1 + 1j * f / ch.filter_hz)[:, None]
+        return core * factor[:, :, None]
     factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
     if ch.filter_hz is not None:
         # the loop applies the filter's exact average over each physics step (no lead)
@@ -285,11 +294,24 @@ def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
     g = np.array([ch.amplifier_gain * ch.actuator_gain.get(p, 1.0) * _saturation_gain(state, p)
                   for p in state.actuators], dtype=complex)
     a = np.broadcast_to(g, (len(f), len(g))).copy()
+    if ch.channel_actuator_lag_hz:
+        return a * _lags([ch.actuator_lag_of(p) for p in state.actuators], f, state.h_s)
     if ch.actuator_lag_hz:
         h = state.h_s
         c = math.exp(-2 * math.pi * ch.actuator_lag_hz * h)
         a = a * ((1 - c) / (1 - c * np.exp(-2j * np.pi * f * h)))[:, None]
     return a
+
+
+def _lags(corners_hz, f: np.ndarray, step_s: float) -> np.ndarray:
+    """Discrete first-order lags ``(1 - c) / (1 - c e^{-jw step})``, ``c = e^{-2 pi f_c step}``, one column per
+    channel (corner None: 1), shape (n_f, n_channels)."""
+    out = np.ones((len(f), len(corners_hz)), dtype=complex)
+    for i, fc in enumerate(corners_hz):
+        if fc:
+            c = math.exp(-2 * math.pi * fc * step_s)
+            out[:, i] = (1 - c) / (1 - c * np.exp(-2j * np.pi * f * step_s))
+    return out
 
 
 def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
@@ -299,6 +321,8 @@ def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
     f = np.asarray(freq_hz, dtype=float)
     g = np.array([ch.sensor_gain.get(p, 1.0) for p in state.actuators], dtype=complex)
     s = np.broadcast_to(g, (len(f), len(g))).copy()
+    if ch.channel_sensor_lag_hz:
+        return s * _lags([ch.sensor_lag_of(p) for p in state.actuators], f, ch.period_s)
     if ch.sensor_lag_hz:
         a = math.exp(-2 * math.pi * ch.sensor_lag_hz * ch.period_s)
         s = s * ((1 - a) / (1 - a * np.exp(-2j * np.pi * f * ch.period_s)))[:, None]
@@ -306,7 +330,7 @@ def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
 
 
 def _saturation_gain(state: LabState, point: int) -> float:
-    lim = state.chain.amplifier_limit_n
+    lim = state.chain.limit_of(point)
     sigma = state.rms_force_n.get(point)
     if lim is None or not sigma:
         return 1.0
@@ -385,7 +409,8 @@ def with_command_rms(state: LabState, freq_hz: np.ndarray, force_amplitude: np.n
     Parameters
     ----------
     state : LabState
-        Lab whose chain has ``amplifier_limit_n`` set (else returned unchanged).
+        Lab whose chain has a force limit, ``amplifier_limit_n`` or per channel
+        ``channel_limit_n`` (else returned unchanged).
     freq_hz : ndarray, shape (n_f,)
         Excited lines [Hz].
     force_amplitude : ndarray, shape (n_f,)
@@ -401,7 +426,7 @@ def with_command_rms(state: LabState, freq_hz: np.ndarray, force_amplitude: np.n
         A copy whose ``rms_force_n`` holds the RMS of excitation plus control
         command on each channel, iterated with the equivalent gains.
     """
-    if state.chain.amplifier_limit_n is None:
+    if not state.chain.saturates:
         return state
     st = replace(state, rms_force_n={})
     outs = state.actuators

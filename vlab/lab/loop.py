@@ -5,7 +5,7 @@ controllers; 1 ms for LQG)::
 
     y_k  = sensor gain x velocity (x lag) + noise         (sampled at t_k; also recorded)
     u_k  = engine.step(y_k)                               (Eq. 5.1)
-    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay)
+    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay; a channel may have its own delay)
     for each physics step h in the tick:
         RC  : filtered DAC voltage, averaged over the step (677 Hz, exact)
         f   = amplifier(RC output + excitation on one channel)
@@ -144,6 +144,27 @@ class HardwareChain:
         sensor's velocity, applied once per controller period before the noise
         (None = off); the recorded channel of that point carries it too. A
         diagnosis hypothesis, not part of the Sec. 5.3 chain.
+    channel_delay_periods : dict[int, float]
+        Per-channel delay from sample to DAC output [periods], keyed by
+        actuator point id (>= 0; missing points: ``delay_periods``): e.g. one
+        coil's DAC output later than the others. A diagnosis hypothesis.
+    channel_actuator_lag_hz : dict[int, float or None]
+        Per-channel actuator-lag corner [Hz] keyed by actuator point id
+        (None: no lag on that coil; missing points: ``actuator_lag_hz``).
+    channel_sensor_lag_hz : dict[int, float or None]
+        Per-channel sensor-lag corner [Hz] keyed by feedback sensor point id
+        (None: no lag on that sensor; missing points: ``sensor_lag_hz``).
+    channel_limit_n : dict[int, float or None]
+        Per-channel force limit [N] of the amplifier keyed by actuator point
+        id (None: linear; missing points: ``amplifier_limit_n``).
+
+    Raises
+    ------
+    ModelError
+        A per-channel entry whose key is not an int or whose value is not a
+        finite number in range (delay >= 0, corner or limit > 0), naming the
+        field, key and value. The nominal chain has no per-channel entries;
+        with none set, the loop runs the original (global) path.
     """
 
     period_s: float = PC1000_PERIOD_S
@@ -156,6 +177,46 @@ class HardwareChain:
     sensor_gain: dict[int, float] = field(default_factory=dict)
     actuator_lag_hz: float | None = None
     sensor_lag_hz: float | None = None
+    channel_delay_periods: dict[int, float] = field(default_factory=dict)
+    channel_actuator_lag_hz: dict[int, float | None] = field(default_factory=dict)
+    channel_sensor_lag_hz: dict[int, float | None] = field(default_factory=dict)
+    channel_limit_n: dict[int, float | None] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name, low, allow_none in (("channel_delay_periods", 0.0, False), ("channel_actuator_lag_hz", None, True),
+                                      ("channel_sensor_lag_hz", None, True), ("channel_limit_n", None, True)):
+            for p, v in getattr(self, name).items():
+                if isinstance(p, bool) or not isinstance(p, (int, np.integer)):
+                    raise ModelError(f"HardwareChain.{name}: key {p!r} must be a point id (int)")
+                if v is None and allow_none:
+                    continue
+                ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) \
+                    and math.isfinite(v) and (v >= low if low is not None else v > 0)
+                if not ok:
+                    raise ModelError(f"HardwareChain.{name}[{p}] = {v!r}: must be a finite number "
+                                     + (f">= {low:g}" if low is not None else "> 0")
+                                     + (" or None" if allow_none else ""))
+
+    def delay_of(self, point: int) -> float:
+        """Delay [periods] of the actuator channel at ``point``: its ``channel_delay_periods`` entry, else the global."""
+        return float(self.channel_delay_periods.get(point, self.delay_periods))
+
+    def actuator_lag_of(self, point: int) -> float | None:
+        """Actuator-lag corner [Hz] (None: off) of the coil at ``point``: its entry, else ``actuator_lag_hz``."""
+        return self.channel_actuator_lag_hz.get(point, self.actuator_lag_hz)
+
+    def sensor_lag_of(self, point: int) -> float | None:
+        """Sensor-lag corner [Hz] (None: off) of the feedback sensor at ``point``: its entry, else ``sensor_lag_hz``."""
+        return self.channel_sensor_lag_hz.get(point, self.sensor_lag_hz)
+
+    def limit_of(self, point: int) -> float | None:
+        """Force limit [N] (None: linear) of the coil at ``point``: its entry, else ``amplifier_limit_n``."""
+        return self.channel_limit_n.get(point, self.amplifier_limit_n)
+
+    @property
+    def saturates(self) -> bool:
+        """True when some channel has a force limit (global or per channel)."""
+        return self.amplifier_limit_n is not None or any(v is not None for v in self.channel_limit_n.values())
 
 
 @dataclass(frozen=True)
@@ -212,6 +273,42 @@ def check_design_period(design, chain: HardwareChain) -> None:
             f"the {design.controller} design was realised at a {p * 1e3:g} ms period but the loop runs at "
             f"{chain.period_s * 1e3:g} ms: design it with period_s={chain.period_s!r}"
         )
+
+
+def _check_channels(chain: HardwareChain, acts: tuple[int, ...], fb: tuple[int, ...]) -> None:
+    """Raise ModelError for a per-channel entry of ``chain`` keyed by a point that is not an actuator
+    (delay, actuator lag, limit) or a feedback sensor (sensor lag) of the loop."""
+    for name, points, what in (("channel_delay_periods", acts, "actuator"),
+                               ("channel_actuator_lag_hz", acts, "actuator"), ("channel_limit_n", acts, "actuator"),
+                               ("channel_sensor_lag_hz", fb, "feedback sensor")):
+        bad = sorted(set(getattr(chain, name)) - set(points))
+        if bad:
+            raise ModelError(f"HardwareChain.{name} names point(s) {bad}, which are not {what} points {tuple(points)}")
+
+
+def _lag_pole(global_hz: float | None, by_channel: dict, points: tuple[int, ...], step_s: float):
+    """Pole ``exp(-2 pi f_c step)`` of the first-order lag of each channel at ``points``: a scalar when all
+    channels share the global corner (the original path), a vector (0 = no lag) with per-channel corners,
+    None when no channel has a lag."""
+    if not by_channel:
+        return math.exp(-2 * math.pi * global_hz * step_s) if global_hz else None
+    corners = [by_channel.get(p, global_hz) for p in points]
+    if not any(corners):
+        return None
+    return np.array([math.exp(-2 * math.pi * f * step_s) if f else 0.0 for f in corners])
+
+
+def _dac_channels(dacs, t0: float, t1: float, n_act: int) -> np.ndarray:
+    """DAC (and RC) output averaged over ``[t0, t1]`` [s], shape (n_act,), assembled from the delay lines of
+    channels with different delays (each ``(channel indices, SampleDelay, RCLowPass or None)``)."""
+    out = np.empty(n_act)
+    for idx, dl, rcx in dacs:
+        if rcx is not None:
+            rcx.update_segments(dl.segments_over(t0, t1))
+            out[idx] = rcx.mean()
+        else:
+            out[idx] = dl.mean_over(t0, t1)
+    return out
 
 
 def run_loop(
@@ -273,7 +370,8 @@ def run_loop(
     ------
     ModelError
         If the physics step does not divide the period, the excitation point is
-        not an actuator, the run is shorter than two periods, the excitation
+        not an actuator, a per-channel chain entry names a point that is not
+        an actuator (feedback sensor for the sensor lag), the run is shorter than two periods, the excitation
         has not one value per tick, or the engine's inputs/outputs do not match
         the feedback points/actuators.
     SimulationError
@@ -304,9 +402,22 @@ def run_loop(
             f"controller engine has {engine.n_inputs} inputs/{engine.n_outputs} outputs; "
             f"loop has {len(fb)} feedback sensors and {n_act} actuators"
         )
-    delay = SampleDelay(period_s=period, delay_periods=chain.delay_periods, size=n_act, name="DAC")
-    rc = RCLowPass(step_s=h, corner_hz=chain.filter_hz, size=n_act, name="RC") if chain.filter_hz else None
-    amp = CurrentAmplifier(gain=chain.amplifier_gain, limit=chain.amplifier_limit_n, size=n_act)
+    _check_channels(chain, acts, fb)
+    # one DAC delay line (and RC filter) per distinct channel delay; the nominal chain has one for all channels
+    groups: dict[float, list[int]] = {}
+    for i, p in enumerate(acts):
+        groups.setdefault(chain.delay_of(p), []).append(i)
+    dacs = [(np.array(idx), SampleDelay(period_s=period, delay_periods=d, size=len(idx), name="DAC"),
+             RCLowPass(step_s=h, corner_hz=chain.filter_hz, size=len(idx), name="RC") if chain.filter_hz else None)
+            for d, idx in groups.items()]
+    if len(dacs) > 1:
+        delay = rc = None
+    else:
+        _, delay, rc = dacs[0]
+    limits = [chain.limit_of(p) for p in acts]
+    limit = (None if all(v is None for v in limits) else chain.amplifier_limit_n if not chain.channel_limit_n
+             else np.array([np.finfo(float).max if v is None else v for v in limits]))
+    amp = CurrentAmplifier(gain=chain.amplifier_gain, limit=limit, size=n_act)
     meas = tuple(measured_points)
     # the sensors: feedback points, then the other measured points; one signal each
     sensors = fb + tuple(dict.fromkeys(p for p in meas if p not in fb))
@@ -316,8 +427,8 @@ def run_loop(
              if chain.noise_m_s > 0 and sensors else None)
     act_gain = np.array([chain.actuator_gain.get(p, 1.0) for p in acts])
     sen_gain = np.array([chain.sensor_gain.get(p, 1.0) for p in fb])
-    a_act = math.exp(-2 * math.pi * chain.actuator_lag_hz * h) if chain.actuator_lag_hz else None
-    a_sen = math.exp(-2 * math.pi * chain.sensor_lag_hz * period) if chain.sensor_lag_hz else None
+    a_act = _lag_pole(chain.actuator_lag_hz, chain.channel_actuator_lag_hz, acts, h)
+    a_sen = _lag_pole(chain.sensor_lag_hz, chain.channel_sensor_lag_hz, fb, period)
     lag_act = np.zeros(n_act)
     lag_sen = np.zeros(n_fb)
 
@@ -356,12 +467,18 @@ def run_loop(
         else:
             u = np.zeros(n_act)
         cmds[k] = u
-        delay.update(u)
+        if delay is not None:
+            delay.update(u)
+        else:
+            for idx, dl, _ in dacs:
+                dl.update(u[idx])
         e_vec[:] = 0.0
         e_vec[exc_ch] = exc[k]
         for s in range(n_sub):
             t = t_k + s * h
-            if rc is not None:
+            if delay is None:
+                dac = _dac_channels(dacs, t, t + h, n_act)
+            elif rc is not None:
                 # the force is held over the physics step: the RC's exact average over it
                 rc.update_segments(delay.segments_over(t, t + h))
                 dac = rc.mean()
