@@ -225,3 +225,21 @@ def test_displacements_sampled_as_run_loop(bcc):
                    duration_s=dur, chain=chain, shape_points=pts)
     assert np.array_equal(rb.result(0).displacements, ref.displacements)
     assert np.abs(ref.displacements).max() > 0
+
+
+def test_per_channel_hardware_chain_matches_run_loop(bcc):
+    """HardwareChain's per-channel entries (issue 28: a delay, a lag, a force limit on one coil channel, a lag on
+    one sensor) are read by the batch as run_loop applies them: the same signals to 1e-9 of the signal (the
+    single loop's per-channel filter lines recompute their piece durations each tick, as above)."""
+    fe, plant, lqg = bcc
+    sim = MujocoPlant(plant)
+    chain = HardwareChain(channel_delay_periods={7: 2.85}, channel_actuator_lag_hz={5: 300.0},
+                          channel_limit_n={9: 0.05}, channel_sensor_lag_hz={7: 400.0})
+    dur = 0.1
+    exc = 3.0 * _excitations(1, int(round(dur / PERIOD)))
+    rb = run_batch(MujocoBatchPlant(sim, 1, nthread=1), [_lqg(lqg)], feedback_points=ACTS, measured_points=MEAS,
+                   excitation_point=9, excitation=exc, duration_s=dur, chain=chain, seeds=[0])
+    ref = _signals(_single(sim, _lqg(lqg), exc[0], 0, chain, dur))
+    nominal = _signals(_single(sim, _lqg(lqg), exc[0], 0, HardwareChain(), dur))
+    assert np.max(np.abs(ref - nominal)) > 1e-3 * np.max(np.abs(ref))  # the entries change the run
+    assert np.max(np.abs(_signals(rb.result(0)) - ref)) <= 1e-9 * np.max(np.abs(ref))

@@ -126,7 +126,10 @@ class BatchChain:
         :class:`HardwareChain`) or a dict keyed by actuator / sensor point id
         (as ``actuator_gain`` and ``sensor_gain``; a missing point takes the
         neutral value: gain 1, no lag, no limit, and for delay and filter the
-        chain's ``delay_periods`` / ``filter_hz`` defaults of Sec. 5.3).
+        chain's ``delay_periods`` / ``filter_hz`` defaults of Sec. 5.3). The
+        chain's per-channel dicts (``channel_delay_periods``, ``channel_limit_n``,
+        ``channel_actuator_lag_hz``, ``channel_sensor_lag_hz``) override the
+        chain-wide value at their points, as in :func:`vlab.lab.loop.run_loop`.
 
         Parameters
         ----------
@@ -164,10 +167,16 @@ class BatchChain:
             raise ModelError(f"physics step {h:g} s must divide the controller period {period:g} s")
         acts, fb = tuple(actuators), tuple(feedback)
 
-        def pick(name, default):
-            return lambda c, p: (lambda v: default if v is None else v)(_value(getattr(c, name), p))
+        def pick(name, default, channel_field=None):
+            # HardwareChain's per-channel dict (``channel_*``, keyed by point id; None there switches a lag or
+            # limit off) wins over the chain-wide setting for its points
+            def read(c, p):
+                ch = getattr(c, channel_field, None) or {} if channel_field else {}
+                v = ch[p] if p in ch else _value(getattr(c, name), p)
+                return default if v is None else v
+            return read
 
-        delay = _per_channel(chains, acts, pick("delay_periods", 0.0), "delay_periods")
+        delay = _per_channel(chains, acts, pick("delay_periods", 0.0, "channel_delay_periods"), "delay_periods")
         if np.any(delay < 0) or not np.all(np.isfinite(delay)):
             raise ModelError(f"hardware chain: delay_periods must be finite and >= 0, got {delay.ravel().tolist()}")
         delay = np.where(np.abs(delay - np.round(delay)) < 1e-9, np.round(delay), delay)
@@ -189,11 +198,11 @@ class BatchChain:
             return np.where(d == 0, 1.0, e)
 
         e_old, e_new = decay(d_old), decay(d_new)
-        limit = _per_channel(chains, acts, pick("amplifier_limit_n", math.inf), "amplifier_limit_n")
+        limit = _per_channel(chains, acts, pick("amplifier_limit_n", math.inf, "channel_limit_n"), "amplifier_limit_n")
         if np.any(limit <= 0):
             raise ModelError(f"hardware chain: amplifier_limit_n must be > 0, got {limit.ravel().tolist()}")
-        lag_a = _per_channel(chains, acts, pick("actuator_lag_hz", 0.0), "actuator_lag_hz")
-        lag_s = _per_channel(chains, fb, pick("sensor_lag_hz", 0.0), "sensor_lag_hz")
+        lag_a = _per_channel(chains, acts, pick("actuator_lag_hz", 0.0, "channel_actuator_lag_hz"), "actuator_lag_hz")
+        lag_s = _per_channel(chains, fb, pick("sensor_lag_hz", 0.0, "channel_sensor_lag_hz"), "sensor_lag_hz")
         noise = np.array([[c.noise_m_s] * n_sensors for c in chains], dtype=float).reshape(len(chains), n_sensors)
         if np.any(noise < 0):
             raise ModelError(f"hardware chain: noise_m_s must be >= 0, got {noise[:, 0].tolist()}")
