@@ -60,13 +60,10 @@ from scipy.optimize import minimize
 from .errors import (
     InfeasibleDampingError,
     MatrixPropertyError,
-    check_matrix,
-    check_positive_definite,
     check_positive_scalar,
-    check_positive_semidefinite,
     readonly,
 )
-from .lq import lqr
+from .lq import _initial_states, _riccati_weights, lqr
 from .performance import (
     _check_plant,
     _damping_and_gradient,
@@ -721,10 +718,8 @@ def _optional_perf(A, B, Q, R, X0):
     if Q is None or R is None or X0 is None:
         raise MatrixPropertyError("give all of Q, R and initial_states, or none of them")
     n, nc = B.shape
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_definite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
-    X0 = check_matrix("initial_states", X0, (n, None), ("2n", "n_f"))
-    return Q, R, X0
+    Q, R = _riccati_weights(Q, R, n, nc)
+    return Q, R, _initial_states(X0, n)
 
 
 def _safe_perf(A, B, C, D, Q, R, X0):
