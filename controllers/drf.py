@@ -60,13 +60,10 @@ from scipy.optimize import minimize
 from .errors import (
     InfeasibleDampingError,
     MatrixPropertyError,
-    check_matrix,
-    check_positive_definite,
     check_positive_scalar,
-    check_positive_semidefinite,
     readonly,
 )
-from .lq import lqr
+from .lq import _initial_states, _riccati_weights, lqr
 from .performance import (
     _check_plant,
     _damping_and_gradient,
@@ -478,6 +475,46 @@ def _solve(x0s, fun, cons, bounds, maxiter, ftol):
     return records
 
 
+def _bound_objective(i_bound: int, n_var: int):
+    """SLSQP objective of the bound form (MFDRF's ``gamma``, LQDRF's ``beta``): ``x[i_bound]`` and its gradient."""
+    def fun(x):
+        g = np.zeros(n_var); g[i_bound] = 1.0
+        return float(x[i_bound]), g
+
+    return fun
+
+
+def _damping_constraint(prob: _Problem, scale: float, n_var: int) -> dict:
+    """SLSQP constraint ``(zeta_j - zeta_L) / zeta_L >= 0`` on the constrained modes, gain ``d = scale * x[:p]``."""
+    p, zl = prob.p, prob.zl
+
+    def zfun(x):
+        return (prob.evaluate(scale * x[:p])["zeta"] - zl) / zl
+
+    def zjac(x):
+        ev = prob.evaluate(scale * x[:p])
+        out = np.zeros((ev["zeta"].size, n_var))
+        out[:, :p] = ev["dzeta"] * scale / zl
+        return out
+
+    return {"type": "ineq", "fun": zfun, "jac": zjac}
+
+
+def _definiteness_constraint(prob: _Problem, scale: float, min_eig: float, n_var: int) -> dict:
+    """SLSQP constraint ``(mu_k(D) - min_eig) / scale >= 0`` on every eigenvalue ``mu_k`` of ``D`` (``D > 0``)."""
+    p = prob.p
+
+    def mfun(x):
+        return (prob.evaluate(scale * x[:p])["mu"] - min_eig) / scale
+
+    def mjac(x):
+        out = np.zeros((prob.nc, n_var))
+        out[:, :p] = prob.evaluate(scale * x[:p])["dmu"]
+        return out
+
+    return {"type": "ineq", "fun": mfun, "jac": mjac}
+
+
 def _violations(prob: _Problem, D: np.ndarray, min_eig: float, scale: float) -> tuple[list[str], float]:
     """Independent check of a gain: (descriptions of violated constraints, scaled total violation)."""
     out = []
@@ -656,31 +693,11 @@ def mfdrf(
                 r[p + k] = -1.0
         lin_rows.append(r)
     G = np.array(lin_rows)
-
-    def fun(x):
-        g = np.zeros(n_var); g[ig] = 1.0
-        return float(x[ig]), g
-
-    def zfun(x):
-        return (prob.evaluate(c * x[:p])["zeta"] - zl) / zl
-
-    def zjac(x):
-        out = np.zeros((prob.evaluate(c * x[:p])["zeta"].size, n_var))
-        out[:, :p] = prob.evaluate(c * x[:p])["dzeta"] * c / zl
-        return out
-
-    def mfun(x):
-        return (prob.evaluate(c * x[:p])["mu"] - eps) / c
-
-    def mjac(x):
-        out = np.zeros((nc, n_var))
-        out[:, :p] = prob.evaluate(c * x[:p])["dmu"]
-        return out
-
+    fun = _bound_objective(ig, n_var)
     cons = [
         {"type": "ineq", "fun": lambda x: G @ x, "jac": lambda x: G},
-        {"type": "ineq", "fun": zfun, "jac": zjac},
-        {"type": "ineq", "fun": mfun, "jac": mjac},
+        _damping_constraint(prob, c, n_var),
+        _definiteness_constraint(prob, c, eps, n_var),
     ]
     bounds = [(None, None)] * p + [(0.0, None)] * n_off + [(0.0, None)]
     def active(D):
@@ -721,10 +738,8 @@ def _optional_perf(A, B, Q, R, X0):
     if Q is None or R is None or X0 is None:
         raise MatrixPropertyError("give all of Q, R and initial_states, or none of them")
     n, nc = B.shape
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_definite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
-    X0 = check_matrix("initial_states", X0, (n, None), ("2n", "n_f"))
-    return Q, R, X0
+    Q, R = _riccati_weights(Q, R, n, nc)
+    return Q, R, _initial_states(X0, n)
 
 
 def _safe_perf(A, B, C, D, Q, R, X0):
@@ -808,16 +823,13 @@ def lqdrf(
     prob = _Problem(A, B, C, zeta_min=zl, n_modes=nm, diagonal=diagonal, Q=Q, R=R, X0=X0)
     rng = np.random.default_rng(seed)
     c, eps, d_base, note = _base_start(prob, sens, diagonal, min_eig, maxiter, t, rng, n_starts)
-    p, nc = prob.p, prob.nc
+    p = prob.p
     if not lqr_normalised:
         j0 = prob.perf(d_base)["J"]
         ref = np.full(X0.shape[1], float(np.max(j0)) if np.all(np.isfinite(j0)) else 1.0)
     n_var = p + 1
     ib = p
-
-    def fun(x):
-        g = np.zeros(n_var); g[ib] = 1.0
-        return float(x[ib]), g
+    fun = _bound_objective(ib, n_var)
 
     def jfun(x):
         return x[ib] - prob.perf(c * x[:p])["J"] / ref
@@ -829,33 +841,15 @@ def lqdrf(
         out[:, ib] = 1.0
         return out
 
-    def zfun(x):
-        return (prob.evaluate(c * x[:p])["zeta"] - zl) / zl
-
-    def zjac(x):
-        ev = prob.evaluate(c * x[:p])
-        out = np.zeros((ev["zeta"].size, n_var))
-        out[:, :p] = ev["dzeta"] * c / zl
-        return out
-
     cons = [
         {"type": "ineq", "fun": jfun, "jac": jjac},
-        {"type": "ineq", "fun": zfun, "jac": zjac},
+        _damping_constraint(prob, c, n_var),
     ]
     if diagonal:
         bounds = [(eps / c, None)] * p + [(None, None)]
     else:
         bounds = None
-
-        def mfun(x):
-            return (prob.evaluate(c * x[:p])["mu"] - eps) / c
-
-        def mjac(x):
-            out = np.zeros((nc, n_var))
-            out[:, :p] = prob.evaluate(c * x[:p])["dmu"]
-            return out
-
-        cons.append({"type": "ineq", "fun": mfun, "jac": mjac})
+        cons.append(_definiteness_constraint(prob, c, eps, n_var))
     def objective_of(D):
         J = _safe_perf(A, B, C, D, Q, R, X0)
         return float(np.max(J / ref)) * (1.0 if lqr_normalised else float(ref[0]))

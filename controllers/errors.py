@@ -166,6 +166,12 @@ def check_symmetric(name: str, a: np.ndarray, *, rtol: float = 1e-10) -> np.ndar
     return 0.5 * (a + a.T)
 
 
+def _symmetric_spectrum(name: str, a: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``a`` checked symmetric and symmetrised, with its eigenvalues in ascending order (None if ``a`` is empty)."""
+    a = check_symmetric(name, a)
+    return a, (np.linalg.eigvalsh(a) if a.size else None)
+
+
 def check_positive_definite(name: str, a: np.ndarray, *, rtol: float = 1e-12) -> np.ndarray:
     """Check that symmetric ``a`` is positive definite; return it symmetrised.
 
@@ -182,11 +188,8 @@ def check_positive_definite(name: str, a: np.ndarray, *, rtol: float = 1e-12) ->
     MatrixPropertyError
         If not symmetric, or if ``min eig(a) <= rtol * max |eig(a)|``.
     """
-    a = check_symmetric(name, a)
-    if a.size == 0:
-        return a
-    ev = np.linalg.eigvalsh(a)
-    if ev[0] <= rtol * max(abs(ev[-1]), np.finfo(float).tiny):
+    a, ev = _symmetric_spectrum(name, a)
+    if ev is not None and ev[0] <= rtol * max(abs(ev[-1]), np.finfo(float).tiny):
         raise MatrixPropertyError(
             f"{name}: expected a positive definite matrix, smallest eigenvalue is {ev[0]:.3e} "
             f"(largest {ev[-1]:.3e})"
@@ -210,11 +213,8 @@ def check_positive_semidefinite(name: str, a: np.ndarray, *, rtol: float = 1e-10
     MatrixPropertyError
         If not symmetric, or if ``min eig(a) < -rtol * max |eig(a)|``.
     """
-    a = check_symmetric(name, a)
-    if a.size == 0:
-        return a
-    ev = np.linalg.eigvalsh(a)
-    if ev[0] < -rtol * max(abs(ev[-1]), np.finfo(float).tiny):
+    a, ev = _symmetric_spectrum(name, a)
+    if ev is not None and ev[0] < -rtol * max(abs(ev[-1]), np.finfo(float).tiny):
         raise MatrixPropertyError(
             f"{name}: expected a positive semi-definite matrix, smallest eigenvalue is {ev[0]:.3e}"
         )

@@ -29,7 +29,6 @@ from scipy.optimize import brentq
 from .errors import (
     MatrixPropertyError,
     RiccatiError,
-    ShapeError,
     StabilizabilityError,
     check_matrix,
     check_positive_definite,
@@ -37,7 +36,7 @@ from .errors import (
     check_positive_semidefinite,
     readonly,
 )
-from .performance import SpilloverReport, modes, performance_index, spillover
+from .performance import SpilloverReport, _square, modes, performance_index, spillover
 from .realization import DiscreteRealization, estimator_realization, state_feedback_realization
 
 __all__ = [
@@ -57,11 +56,24 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- checks
-def _square(name: str, a, symbol: str = "2n") -> np.ndarray:
-    a = check_matrix(name, a, (None, None), (symbol, symbol))
-    if a.shape[0] != a.shape[1]:
-        raise ShapeError(f"{name}: expected shape ({symbol}, {symbol}) (square), found {a.shape}")
-    return a
+def _riccati_weights(W1, W2, n: int, m: int, names: tuple[str, str] = ("Q", "R"),
+                     m_symbol: str = "n_c") -> tuple[np.ndarray, np.ndarray]:
+    """The two weights of a Riccati design, checked and symmetrised.
+
+    ``W1`` (2n, 2n) symmetric positive semi-definite, ``W2`` (m, m) symmetric
+    positive definite: ``Q`` and ``R`` of the LQR (``m = n_c``), or their duals
+    ``V1`` and ``V2`` of the Kalman filter (``m = n_s``); ``names`` name them
+    in the messages.
+    """
+    n1, n2 = names
+    W1 = check_positive_semidefinite(n1, check_matrix(n1, W1, (n, n), ("2n", "2n")))
+    W2 = check_positive_definite(n2, check_matrix(n2, W2, (m, m), (m_symbol, m_symbol)))
+    return W1, W2
+
+
+def _initial_states(initial_states, n_states: int) -> np.ndarray:
+    """The initial states ``x0_i`` of the performance indices as columns: shape (2n, n_f), ``2n = n_states``."""
+    return check_matrix("initial_states", initial_states, (n_states, None), ("2n", "n_f"))
 
 
 def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> None:
@@ -195,8 +207,7 @@ class LqrDesign:
         ------
         ShapeError
         """
-        n = self.riccati.shape[0]
-        X0 = check_matrix("initial_states", initial_states, (n, None), ("2n", "n_f"))
+        X0 = _initial_states(initial_states, self.riccati.shape[0])
         return np.einsum("ij,ik,kj->j", X0, self.riccati, X0)
 
     def realize(self, dt_s: float) -> DiscreteRealization:
@@ -260,12 +271,10 @@ def lqr(A, B, Q, R, *, time_unit_s: float = 1.0) -> LqrDesign:
     -----
     Source: Eqs. (4.4)-(4.7); solved by :func:`scipy.linalg.solve_continuous_are`.
     """
-    A = _square("A", A)
+    A = _square("A", A, "2n")
     n = A.shape[0]
     B = check_matrix("B", B, (n, None), ("2n", "n_c"))
-    nc = B.shape[1]
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_definite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
+    Q, R = _riccati_weights(Q, R, n, B.shape[1])
     t = check_positive_scalar("time_unit_s", time_unit_s)
     check_stabilizable(A, B, what="(A, B)")
     S = _care(A, B, Q, R, "LQR")
@@ -365,7 +374,7 @@ def lqr_weight_for_damping(
     r_lo, r_hi = (check_positive_scalar("r_bounds", v) for v in r_bounds)
     if r_lo >= r_hi:
         raise MatrixPropertyError(f"r_bounds: expected r_lo < r_hi, found {r_bounds}")
-    A = _square("A", A)
+    A = _square("A", A, "2n")
     B = check_matrix("B", B, (A.shape[0], None), ("2n", "n_c"))
     eye = np.eye(B.shape[1])
     count = [0]
@@ -477,12 +486,10 @@ def kalman_filter(A, C, V1, V2, *, alpha: float = 0.0, time_unit_s: float = 1.0)
     -----
     Source: Eqs. (4.8)-(4.10), Refs. 57-58 of the dissertation (alpha shift).
     """
-    A = _square("A", A)
+    A = _square("A", A, "2n")
     n = A.shape[0]
     C = check_matrix("C", C, (None, n), ("n_s", "2n"))
-    ns = C.shape[0]
-    V1 = check_positive_semidefinite("V1", check_matrix("V1", V1, (n, n), ("2n", "2n")))
-    V2 = check_positive_definite("V2", check_matrix("V2", V2, (ns, ns), ("n_s", "n_s")))
+    V1, V2 = _riccati_weights(V1, V2, n, C.shape[0], ("V1", "V2"), "n_s")
     a = check_positive_scalar("alpha", alpha, allow_zero=True)
     t = check_positive_scalar("time_unit_s", time_unit_s)
     check_detectable(A, C, shift=a, what="(A + alpha I, C)")
@@ -549,8 +556,7 @@ class LqgDesign:
         ------
         ShapeError
         """
-        n = self.A.shape[0]
-        X0 = check_matrix("initial_states", initial_states, (n, None), ("2n", "n_f"))
+        X0 = _initial_states(initial_states, self.A.shape[0])
         return performance_index(self.closed_loop_matrix, self.closed_loop_weight,
                                  np.vstack([X0, X0]))
 
@@ -677,7 +683,7 @@ class ReducedOnFull:
         """
         nE = self.closed_loop_matrix.shape[0]
         nR = self.controller.A.shape[0]
-        X0 = check_matrix("initial_states", initial_states, (nE - nR, None), ("2n", "n_f"))
+        X0 = _initial_states(initial_states, nE - nR)
         XE = np.vstack([X0, np.zeros((nR, X0.shape[1]))])
         return performance_index(self.closed_loop_matrix, self.closed_loop_weight, XE)
 
@@ -739,7 +745,7 @@ def reduced_on_full(A, B, C, Q, controller: LqgDesign) -> ReducedOnFull:
     -----
     Source: Eqs. (4.23)-(4.29); spillover as in Sec. 6.2.1.
     """
-    A = _square("A", A)
+    A = _square("A", A, "2n")
     n = A.shape[0]
     nc = controller.B.shape[1]
     ns = controller.C.shape[0]

@@ -793,6 +793,11 @@ def _freqs(name: str, freq_hz: Any, n: int) -> np.ndarray:
     return f
 
 
+def _phi_diag_phi_inv(phi: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``Phi diag(d) Phi^{-1}`` (Eqs. 3.6, 3.7): modal values ``d`` back at the reduced DOFs, by a solve."""
+    return sla.solve(phi.T, (phi * d[None, :]).T).T
+
+
 def modal_damping(phi: Any, freq_hz: Any, zeta: Any) -> np.ndarray:
     r"""``m^{-1} c`` for modal damping in a square modal matrix (Eqs. 3.6 and 3.20).
 
@@ -823,7 +828,7 @@ def modal_damping(phi: Any, freq_hz: Any, zeta: Any) -> np.ndarray:
     n = phi.shape[0]
     w = 2.0 * np.pi * _freqs("freq_hz", freq_hz, n)
     z = _damping_ratios(zeta, n)
-    return sla.solve(phi.T, (phi * (2.0 * z * w)[None, :]).T).T
+    return _phi_diag_phi_inv(phi, 2.0 * z * w)
 
 
 class ExactForm(NamedTuple):
@@ -883,7 +888,7 @@ def exact_reduction_form(phi_r: Any, freq_hz: Any, modal_mass: Any, zeta: Any = 
     _check_shape("modal_mass", mi, (n,))
     if np.any(mi <= 0.0):
         raise ModelError(f"modal masses must be > 0, got {mi.tolist()}")
-    minv_k = sla.solve(phi.T, (phi * (w**2)[None, :]).T).T
+    minv_k = _phi_diag_phi_inv(phi, w**2)
     minv = (phi / mi[None, :]) @ phi.T
     minv_c = None if zeta is None else modal_damping(phi, freq_hz, zeta)
     return ExactForm(minv_k=minv_k, minv=0.5 * (minv + minv.T), minv_c=minv_c)

@@ -70,6 +70,12 @@ def _time(t_s, *, uniform: bool = False) -> tuple[np.ndarray, float | None]:
     return t, (dt if is_uniform else None)
 
 
+def _below_nyquist(f_top_hz: float, dt: float) -> None:
+    """Refuse a band whose upper edge ``f_top_hz`` [Hz] reaches the Nyquist frequency ``0.5 / dt``."""
+    if f_top_hz >= 0.5 / dt:
+        raise ModelError(f"band_hz upper edge {f_top_hz} Hz reaches the Nyquist frequency {0.5 / dt} Hz")
+
+
 def _band(band_hz, what: str = "band_hz") -> tuple[float, float]:
     try:
         lo, hi = (float(b) for b in band_hz)
@@ -178,10 +184,8 @@ def pseudo_random(t_s, *, band_hz: tuple[float, float], resolution_hz: float, rm
     else:
         raise ModelError(f"phases must be 'random' or 'schroeder', got {phases!r}")
     amp = rms * math.sqrt(2.0 / K)
-    if dt is not None and lines[-1] >= 0.5 / dt:
-        raise ModelError(f"band_hz upper edge {lines[-1]} Hz reaches the Nyquist frequency {0.5 / dt} Hz")
-
     if dt is not None:
+        _below_nyquist(lines[-1], dt)
         n_per = round(1.0 / (df * dt))
         n0 = t[0] / dt
         if (abs(n_per * df * dt - 1.0) < _UNIFORM_RTOL and abs(n0 - round(n0)) < 1e-6):
@@ -238,9 +242,8 @@ def filtered_random(t_s, *, band_hz: tuple[float, float], rms_n: float, seed,
     rms = _positive(rms_n, "rms_n")
     if isinstance(order, bool) or int(order) != order or order < 1:
         raise ModelError(f"order must be a positive integer, got {order!r}")
+    _below_nyquist(hi, dt)
     fs = 1.0 / dt
-    if hi >= fs / 2:
-        raise ModelError(f"band_hz upper edge {hi} Hz reaches the Nyquist frequency {fs / 2} Hz")
     if lo == 0:
         sos = signal.butter(int(order), hi, btype="lowpass", fs=fs, output="sos")
     else:
@@ -349,6 +352,19 @@ def stepped_sine(t_s, *, freqs_hz: Sequence[float], dwell_s: float, amplitude_n:
     return np.where(active, amp * np.sin(phase), 0.0)
 
 
+def _finite_peak(peak_n: float, start_s: float) -> float:
+    """``peak_n`` as a float, after checking it and the pulse start ``start_s`` are finite."""
+    p = float(peak_n)
+    if not math.isfinite(p) or not math.isfinite(float(start_s)):
+        raise ModelError(f"peak_n and start_s must be finite, got {peak_n!r}, {start_s!r}")
+    return p
+
+
+def _half_sine(tau: np.ndarray, inside: np.ndarray, peak_n: float, duration_s: float) -> np.ndarray:
+    """``peak_n * sin(pi tau / duration_s)`` where ``inside``, 0 elsewhere (``tau`` [s] from the pulse's start)."""
+    return np.where(inside, peak_n * np.sin(np.pi * np.clip(tau, 0, duration_s) / duration_s), 0.0)
+
+
 def half_sine_pulse(t_s, *, peak_n: float, duration_s: float, start_s: float = 0.0) -> np.ndarray:
     """Half-sine force pulse (an idealised impact).
 
@@ -388,12 +404,9 @@ def half_sine_pulse(t_s, *, peak_n: float, duration_s: float, start_s: float = 0
     """
     t, _ = _time(t_s)
     dur = _positive(duration_s, "duration_s")
-    p = float(peak_n)
-    if not math.isfinite(p) or not math.isfinite(float(start_s)):
-        raise ModelError(f"peak_n and start_s must be finite, got {peak_n!r}, {start_s!r}")
+    p = _finite_peak(peak_n, start_s)
     tau = t - float(start_s)
-    inside = (tau >= 0) & (tau <= dur)
-    return np.where(inside, p * np.sin(np.pi * np.clip(tau, 0, dur) / dur), 0.0)
+    return _half_sine(tau, (tau >= 0) & (tau <= dur), p, dur)
 
 
 def periodic_chirp(t_s, *, band_hz: tuple[float, float], period_s: float, amplitude_n: float) -> np.ndarray:
@@ -495,9 +508,6 @@ def pulse_train(t_s, *, peak_n: float, duration_s: float, period_s: float, start
     period = _positive(period_s, "period_s")
     if period < dur:
         raise ModelError(f"period_s={period_s} is shorter than the pulse duration_s={duration_s}")
-    p = float(peak_n)
-    if not math.isfinite(p) or not math.isfinite(float(start_s)):
-        raise ModelError(f"peak_n and start_s must be finite, got {peak_n!r}, {start_s!r}")
+    p = _finite_peak(peak_n, start_s)
     tau = np.mod(t - float(start_s), period)
-    inside = (t >= float(start_s)) & (tau <= dur)
-    return np.where(inside, p * np.sin(np.pi * np.clip(tau, 0, dur) / dur), 0.0)
+    return _half_sine(tau, (t >= float(start_s)) & (tau <= dur), p, dur)

@@ -56,6 +56,25 @@ def _gain_rows(filename: str, controller: str, sensors: tuple[int, ...]) -> np.n
     return np.array([[t[f"sensor_{s}"][i] for s in sensors] for i in rows])
 
 
+def _gain_table_rows(ctx: ReproContext, structure: str, filename: str, controllers: tuple[str, ...],
+                     model: str | None, flag: str) -> list[Row]:
+    """Published DRF gains of Tables 7, 11, 15 against vlab's designs on ``model`` (lb-s/in), row by row.
+
+    One row per (actuator a, "<controller> sensor s"); a diagonal LQDRF has its diagonal terms only.
+    """
+    acts = tuple(ctx.fe(structure).spec.instrumentation.actuators)
+    rows = []
+    for c in controllers:
+        pub = _gain_rows(filename, c, acts)
+        ours = np.asarray(ctx.design(structure, CONTROLLER_OF[c], model).extra["gain_thesis_lb_s_per_in"])
+        for i, a in enumerate(acts):
+            for j, s in enumerate(acts):
+                if c == "lqdrf_diag" and i != j:
+                    continue
+                rows.append(Row(f"actuator {a}", f"{LABEL[c]} sensor {s}", pub[i, j], ours[i, j], flag))
+    return rows
+
+
 # --------------------------------------------------------------------------- Tables 1, 3
 def frequency_tables(ctx: ReproContext) -> list[TableResult]:
     """Tables 1 and 3: natural frequencies of the FE models against analysis and experiment.
@@ -264,13 +283,7 @@ def bcc_design_tables(ctx: ReproContext) -> list[TableResult]:
     out = []
     # Table 7
     fn7 = "table7_bcc_gains.csv"
-    rows = []
-    for c in ("mfdrf", "lqdrf"):
-        pub = _gain_rows(fn7, c, acts)
-        ours = np.asarray(ctx.design("bcc", c).extra["gain_thesis_lb_s_per_in"])
-        for i, a in enumerate(acts):
-            for j, s in enumerate(acts):
-                rows.append(Row(f"actuator {a}", f"{LABEL[c]} sensor {s}", pub[i, j], ours[i, j], CAL))
+    rows = _gain_table_rows(ctx, "bcc", fn7, ("mfdrf", "lqdrf"), None, CAL)
     # the objectives of the published gains on vlab's model, against vlab's optimum
     d7 = _gain_rows(fn7, "lqdrf", acts) / CS_S
     beta7 = float(np.max(performance_indices(plant, {"d": d7}, q, r, 6)))
@@ -342,16 +355,7 @@ def bcc_design_tables(ctx: ReproContext) -> list[TableResult]:
 
 # --------------------------------------------------------------------------- Tables 11-14 (grid, exact)
 def _grid_gain_table(ctx: ReproContext, name: str, fn: str, model: str, flag: str, notes) -> TableResult:
-    rows = []
-    acts = tuple(ctx.fe("grid").spec.instrumentation.actuators)
-    for c in ("mfdrf", "lqdrf", "lqdrf_diag"):
-        pub = _gain_rows(fn, c, acts)
-        ours = np.asarray(ctx.design("grid", CONTROLLER_OF[c], model).extra["gain_thesis_lb_s_per_in"])
-        for i, a in enumerate(acts):
-            for j, s in enumerate(acts):
-                if c == "lqdrf_diag" and i != j:
-                    continue
-                rows.append(Row(f"actuator {a}", f"{LABEL[c]} sensor {s}", pub[i, j], ours[i, j], flag))
+    rows = _gain_table_rows(ctx, "grid", fn, ("mfdrf", "lqdrf", "lqdrf_diag"), model, flag)
     return TableResult(name, t_title(fn), tuple(rows), tuple(notes), 0.002, "absolute", fn)
 
 

@@ -90,6 +90,23 @@ def write_samples(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> 
     np.savez_compressed(path, **arrays)
 
 
+def _finite(v: np.ndarray) -> np.ndarray:
+    """The finite values of ``v`` (a box plot leaves out the samples whose value is inf or NaN)."""
+    return v[np.isfinite(v)]
+
+
+def _box_panel(ax, data: list, title: str, labels: list[str], *, nominal_values: list | None = None,
+               zero_line: bool = False) -> None:
+    """A panel of ``robustness.png``: a box per controller (``labels``), the nominal values (red x) or a zero line."""
+    ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+    if nominal_values is not None:
+        ax.plot(range(1, len(labels) + 1), nominal_values, "rx", label="nominal")
+    if zero_line:
+        ax.axhline(0.0, color="grey", lw=0.5)
+    ax.set_title(title, fontsize=9)
+    ax.set_xticks(range(1, len(labels) + 1), labels, rotation=45, fontsize=7)
+
+
 def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path:
     """``robustness.png``: the distributions as box plots (matplotlib, Agg).
 
@@ -111,29 +128,13 @@ def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path
     nm = nominal.n_modes
     fig, axes = plt.subplots(3, nm, figsize=(2.6 * nm, 8.5), squeeze=False)
     for r in range(nm):
-        ax = axes[0, r]
-        ax.boxplot([res[f"{c}/zeta"][:, r] for c in ctl], showfliers=True, flierprops={"markersize": 2})
-        ax.plot(range(1, len(ctl) + 1), [nominal.zeta[c][r] for c in ctl], "rx", label="nominal")
-        ax.set_title(f"mode {r + 1}: damping ratio", fontsize=9)
-        ax.set_xticks(range(1, len(ctl) + 1), labels, rotation=45, fontsize=7)
-        ax = axes[1, r]
-        data = []
-        for c in ctl:
-            v = 20 * np.log10(nominal.peaks[c][r] / res[f"{c}/peaks"][:, r])
-            data.append(v[np.isfinite(v)])
-        ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
-        ax.axhline(0.0, color="grey", lw=0.5)
-        ax.set_title(f"mode {r + 1}: peak ratio [dB]", fontsize=9)
-        ax.set_xticks(range(1, len(ctl) + 1), labels, rotation=45, fontsize=7)
+        _box_panel(axes[0, r], [res[f"{c}/zeta"][:, r] for c in ctl], f"mode {r + 1}: damping ratio", labels,
+                   nominal_values=[nominal.zeta[c][r] for c in ctl])
+        _box_panel(axes[1, r], [_finite(20 * np.log10(nominal.peaks[c][r] / res[f"{c}/peaks"][:, r])) for c in ctl],
+                   f"mode {r + 1}: peak ratio [dB]", labels, zero_line=True)
     axes[0, 0].legend(fontsize=7)
-    ax = axes[2, 0]
-    data = []
-    for c in ctl:
-        v = res[f"{c}/energy_j_s"] / nominal.energy_j_s[c]
-        data.append(v[np.isfinite(v)])
-    ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
-    ax.set_title("energy index / nominal", fontsize=9)
-    ax.set_xticks(range(1, len(ctl) + 1), labels, rotation=45, fontsize=7)
+    _box_panel(axes[2, 0], [_finite(res[f"{c}/energy_j_s"] / nominal.energy_j_s[c]) for c in ctl],
+               "energy index / nominal", labels)
     ax = axes[2, 1] if nm > 1 else axes[2, 0]
     ax.bar(labels, [100 * float(np.mean(res[f"{c}/spectral_radius"] >= 1.0)) for c in ctl])
     ax.set_title("probability of instability [%]", fontsize=9)
@@ -146,6 +147,15 @@ def box_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict) -> Path
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _per_mode_table(caption: str, n_modes: int, rows: list[tuple[str, list[str]]]) -> list[str]:
+    """Markdown lines (after a blank line and ``caption``) of a table: a row per controller, a column per mode."""
+    lines = ["", caption, ""]
+    lines.append("| controller | " + " | ".join(f"mode {r + 1}" for r in range(n_modes)) + " |")
+    lines.append("|---|" + "---|" * n_modes)
+    lines += [f"| {_LABELS[c]} | " + " | ".join(cells) + " |" for c, cells in rows]
+    return lines
 
 
 def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timings: dict, command: str) -> str:
@@ -198,22 +208,13 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
         lines.append(f"| {_LABELS[c]} | {100 * v['probability_unstable']:.1f} % | "
                      f"{v['peak_ratio_error_db_median']:.3f} | {100 * v['damping_change_relative_median']:.2f} % | "
                      f"{'n/a' if e is None else f'{e:.3f}'} | {v['spectral_radius_max']:.5f} |")
-    lines += ["", "Damping ratio per mode (median [5 %, 95 %]; nominal):", ""]
-    lines.append("| controller | " + " | ".join(f"mode {r + 1}" for r in range(nominal.n_modes)) + " |")
-    lines.append("|---|" + "---|" * nominal.n_modes)
-    for c in cfg.controllers:
-        cells = []
-        for r, q in enumerate(pc[c]["damping_ratio_by_mode"]):
-            cells.append(f"{q['median']:.4f} [{q['p5']:.4f}, {q['p95']:.4f}]; {pc[c]['nominal_damping_ratio'][r]:.4f}")
-        lines.append(f"| {_LABELS[c]} | " + " | ".join(cells) + " |")
-    lines += ["", "Peak level ratio analysis/experiment per mode (median [5 %, 95 %], as Table 10):", ""]
-    lines.append("| controller | " + " | ".join(f"mode {r + 1}" for r in range(nominal.n_modes)) + " |")
-    lines.append("|---|" + "---|" * nominal.n_modes)
-    for c in cfg.controllers:
-        cells = []
-        for q in pc[c]["peak_ratio_analysis_over_experiment_by_mode"]:
-            cells.append("n/a" if q["median"] is None else f"{q['median']:.3f} [{q['p5']:.3f}, {q['p95']:.3f}]")
-        lines.append(f"| {_LABELS[c]} | " + " | ".join(cells) + " |")
+    damping = [(c, [f"{q['median']:.4f} [{q['p5']:.4f}, {q['p95']:.4f}]; {pc[c]['nominal_damping_ratio'][r]:.4f}"
+                    for r, q in enumerate(pc[c]["damping_ratio_by_mode"])]) for c in cfg.controllers]
+    peaks = [(c, ["n/a" if q["median"] is None else f"{q['median']:.3f} [{q['p5']:.3f}, {q['p95']:.3f}]"
+                  for q in pc[c]["peak_ratio_analysis_over_experiment_by_mode"]]) for c in cfg.controllers]
+    lines += _per_mode_table("Damping ratio per mode (median [5 %, 95 %]; nominal):", nominal.n_modes, damping)
+    lines += _per_mode_table("Peak level ratio analysis/experiment per mode (median [5 %, 95 %], as Table 10):",
+                             nominal.n_modes, peaks)
     lines += ["", "## Does the conclusion of Sec. 7 hold?", "",
               "The dissertation: the more complex the control law, the more vulnerable to modelling errors -- "
               "LQG the worst, the diagonal LQDRF the best. Per metric (most to least robust):", ""]

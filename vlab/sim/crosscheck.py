@@ -172,6 +172,15 @@ class BandPairing:
     fe_band_hz: float
 
 
+def _fe_band(fe_hz: np.ndarray, n_modes: int, margin: float) -> tuple[float, int]:
+    """The FE band of :func:`pair_band`: its upper edge ``(1 + margin)^2 f_n`` [Hz] and the FE modes in it.
+
+    ``f_n`` is the ``n_modes``-th of the ascending FE frequencies ``fe_hz`` [Hz]; the count is at least ``n_modes``.
+    """
+    fe_band = (1.0 + margin) ** 2 * float(fe_hz[n_modes - 1])
+    return fe_band, max(n_modes, int(np.count_nonzero(fe_hz <= fe_band)))
+
+
 def pair_band(fe_hz: np.ndarray, fe_shapes: np.ndarray, sim_hz: np.ndarray, sim_shapes: np.ndarray,
               n_modes: int, *, min_mac: float = 0.5, margin: float = BAND_MARGIN) -> BandPairing:
     """One-to-one MAC pairing of FE and plant modes over a common frequency band.
@@ -226,10 +235,8 @@ def pair_band(fe_hz: np.ndarray, fe_shapes: np.ndarray, sim_hz: np.ndarray, sim_
         raise SimulationError(f"pair_band: n_modes = {n_modes} not in 1..{fe_hz.size} (FE modes given)")
     if not margin >= 0.0:
         raise SimulationError(f"pair_band: margin = {margin!r} must be >= 0")
-    f_n = float(fe_hz[n_modes - 1])
-    band = (1.0 + margin) * f_n
-    fe_band = (1.0 + margin) ** 2 * f_n
-    n_fe = max(n_modes, int(np.count_nonzero(fe_hz <= fe_band)))
+    band = (1.0 + margin) * float(fe_hz[n_modes - 1])
+    fe_band, n_fe = _fe_band(fe_hz, n_modes, margin)
     n_sim = int(np.count_nonzero(sim_hz <= band))
     # plant modes above the band stay candidates of the FE modes above it (n_sim_c >= n_sim)
     n_sim_c = max(n_sim, int(np.count_nonzero(sim_hz <= fe_band)))
@@ -451,8 +458,7 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
     if not 1 <= n_modes <= fe_all.frequencies_hz.size:
         raise SimulationError(f"crosscheck: n_modes = {n_modes} not in 1..{fe_all.frequencies_hz.size} "
                               f"(modes of the FE model of {spec.name!r})")
-    fe_band = (1.0 + margin) ** 2 * float(fe_all.frequencies_hz[n_modes - 1])
-    n_fe = max(n_modes, int(np.count_nonzero(fe_all.frequencies_hz <= fe_band)))
+    fe_band, n_fe = _fe_band(fe_all.frequencies_hz, n_modes, margin)
     f_fe = fe_all.frequencies_hz[:n_fe]
     phi_fe = fe_all.shapes[rows, :n_fe]
     cap = 2 * plant.model.nv

@@ -91,6 +91,17 @@ def _is_analysis(label: str) -> bool:
     return any(w in ANALYSIS_WORDS for w in words)
 
 
+def _curve_styles(labels: Sequence[str], dashed: set[str]) -> dict[str, dict[str, Any]]:
+    """Line style of each FRF curve, in drawing order: measured (solid) first, analysis (dashed, wider) over them.
+
+    Colours ``C0``, ``C1``, ... follow the order of ``labels``, not the drawing order.
+    """
+    color_of = {lb: f"C{i % 10}" for i, lb in enumerate(labels)}
+    order = [lb for lb in labels if lb not in dashed] + [lb for lb in labels if lb in dashed]
+    return {lb: dict(color=color_of[lb], lw=1.6 if lb in dashed else 1.2, ls="--" if lb in dashed else "-",
+                     zorder=2 + z) for z, lb in enumerate(order)}
+
+
 def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel: str = "|H|",
                path: str | Path = "frf.png", *, dashed: Sequence[str] | None = None,
                peaks_hz: Mapping[str, Sequence[float]] | None = None,
@@ -154,19 +165,16 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
             raise MeasurementError(f"frf_figure: label {lb!r} is not a curve; curves: {list(data)}")
 
     fig, (ax,) = _new_figure(figsize, dpi)
-    colors = [f"C{i % 10}" for i in range(len(data))]
-    order = [lb for lb in data if lb not in dashed_set] + [lb for lb in data if lb in dashed_set]
-    color_of = dict(zip(data, colors))
-    for z, lb in enumerate(order):
+    styles = _curve_styles(list(data), dashed_set)
+    for lb, style in styles.items():
         f, mag = data[lb]
-        ax.semilogy(f, mag, color=color_of[lb], lw=1.6 if lb in dashed_set else 1.2,
-                    ls="--" if lb in dashed_set else "-", label=lb, zorder=2 + z)
+        ax.semilogy(f, mag, label=lb, **style)
     for lb, fp in (peaks_hz or {}).items():
         f, mag = data[lb]
         fp = np.asarray(fp, dtype=float)
         with np.errstate(invalid="ignore"):
             m = 10.0 ** np.interp(fp, f, np.log10(mag))
-        ax.plot(fp, m, ls="none", marker="v", ms=6, color=color_of[lb], zorder=10 + len(order))
+        ax.plot(fp, m, ls="none", marker="v", ms=6, color=styles[lb]["color"], zorder=10 + len(styles))
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     if title:
@@ -244,15 +252,10 @@ def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *
     if not np.all(np.isfinite(coh)) or np.any(coh < -1e-12) or np.any(coh > 1 + 1e-9):
         raise MeasurementError("coherence: values must be finite and within [0, 1]")
     fig, (ax_m, ax_p, ax_c) = _new_figure(figsize, dpi, nrows=3, sharex=True)
-    dashed_set = {lb for lb in data if _is_analysis(lb)}
-    order = [lb for lb in data if lb not in dashed_set] + [lb for lb in data if lb in dashed_set]
-    color_of = {lb: f"C{i % 10}" for i, lb in enumerate(data)}
-    for z, lb in enumerate(order):
+    for lb, style in _curve_styles(list(data), {lb for lb in data if _is_analysis(lb)}).items():
         h = data[lb]
         mag = np.abs(h)
         mag[mag == 0] = np.nan
-        style = dict(color=color_of[lb], lw=1.6 if lb in dashed_set else 1.2,
-                     ls="--" if lb in dashed_set else "-", zorder=2 + z)
         ax_m.semilogy(f, mag, label=lb, **style)
         ax_p.plot(f, np.degrees(np.angle(h)), **style)
     ax_c.plot(f, coh, color="C0", lw=1.2)

@@ -631,8 +631,12 @@ def log_structure(rec, structure_points: Mapping[int, Sequence[float]], members:
 
 def _radius(xy: np.ndarray) -> float:
     """Line radius [m]: 0.4 % of the structure's size (at least 1 mm)."""
-    size = float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] > 1 else 1.0
-    return max(0.004 * size, 1e-3)
+    return max(0.004 * _structure_size(xy), 1e-3)
+
+
+def _structure_size(xy: np.ndarray) -> float:
+    """Size [m] of the structure: the largest extent of its points ``xy`` (n_points, 2); 1.0 for one point."""
+    return float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] > 1 else 1.0
 
 
 def frame_indices(n_frames: int, dt_s: float, fps: float) -> np.ndarray:
@@ -681,7 +685,7 @@ def auto_scale(structure_xy: Any, displacement: Any, *, fraction: float = 0.1) -
     """
     xy = np.asarray(structure_xy, dtype=float)
     w_max = float(np.max(np.abs(displacement))) if np.size(displacement) else 0.0
-    size = float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] > 1 else 1.0
+    size = _structure_size(xy)
     if w_max == 0.0 or size == 0.0:
         return 1.0
     return fraction * size / w_max
