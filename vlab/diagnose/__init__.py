@@ -28,7 +28,7 @@ pipeline
     :func:`diagnose`.
 """
 
-from .hypotheses import EFFECTS, Hypothesis, library
+from .effects.hypotheses import EFFECTS, Hypothesis, library
 from .pipeline import DiagnosisResult, diagnose
 
 __all__ = ["EFFECTS", "DiagnosisResult", "Hypothesis", "diagnose", "library"]

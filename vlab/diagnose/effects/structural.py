@@ -1,7 +1,7 @@
 """Hypotheses in the structure: mass, supports, joints, members, damping, friction, gravity pre-stress.
 
 Structural effects build a modified :class:`~vlab.spec.StructureSpec`
-(:mod:`vlab.diagnose.specedit`), from which both the FE model and the MuJoCo
+(:mod:`vlab.diagnose.effects.specedit`), from which both the FE model and the MuJoCo
 plant are built (a spring on a free DOF and a damping ratio also edit the
 FE model or keep it, exactly as rebuilding would). ``gravity_prestress``
 rescales the geometric stiffness of the FE model (``k = k_0 + (g / g_0)
@@ -17,12 +17,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError, SpecError
-from ..fe import build_fe_model
-from ..units import G_SI
+from ...errors import ModelError, SpecError
+from ...fe import build_fe_model
+from ...units import G_SI
+from ..model.labmodel import natural_frequencies
 from . import specedit
 from .hypothesis import Hypothesis, _log_trials
-from .labmodel import natural_frequencies
 
 
 class _PointSet(Hypothesis):
@@ -46,7 +46,7 @@ class AddedMass(_PointSet):
     Parameters: ``mass_kg`` [kg] >= 0 (per point). Applied with :func:`specedit.add_mass`.
     Trials: 0.5-60 % of the smallest modal mass seen at the point in the band
     (:class:`Context`), capped at the structure's mass; a trial the structure
-    cannot carry (buckling) scores infinity (:func:`vlab.diagnose.fit.screen`).
+    cannot carry (buckling) scores infinity (:func:`vlab.diagnose.fit.estimate.screen`).
     """
 
     effect = "added_mass"
@@ -313,7 +313,7 @@ class Friction(Hypothesis):
     (``c_eq`` and ``sigma_v`` iterated to a fixed point, as statistical
     linearisation does). At one excitation level it fits exactly like
     ``damping`` at the point; a rerun with the friction force itself
-    separates them (:func:`vlab.diagnose.selection.tie_break_by_rerun`).
+    separates them (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
     """
 
     effect = "friction"

@@ -37,11 +37,11 @@ import numpy as np
 import scipy.ndimage
 import scipy.stats
 
-from ..errors import DataFileError, MeasurementError, VlabError
-from ..fe import FEModel
-from ..lab.recording import CLIP_RUN, Recording, find_clipping
-from ..measure.frf import h1
-from ..spec import StructureSpec
+from ...errors import DataFileError, MeasurementError, VlabError
+from ...fe import FEModel
+from ...lab.recording import CLIP_RUN, Recording, find_clipping
+from ...measure.frf import h1
+from ...spec import StructureSpec
 
 #: Sampling rates of the PC-1000 digital controller, 2 to 2000 samples per second (Sec. 5.3):
 #: a recording at another rate is not a recording of the lab's loop.
@@ -628,7 +628,7 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
         Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`),
         or one holding neither kind. Names the file and channel.
     """
-    from ..io.uff import read_frfs, read_recording
+    from ...io.uff import read_frfs, read_recording
 
     try:
         return "recording", read_recording(path)

@@ -16,14 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis import closed_loop_modes
-from ..calibration import modal_damping_matrix, open_loop_ratios
-from ..errors import DataFileError, ModelError
-from ..fe import FEModel
-from ..lab.experiment import test_definition
-from ..spec import StructureSpec
-from .data import FrfData, frfs_from_recording, frfs_from_uff
-from .hypotheses import Context
+from ...analysis import closed_loop_modes
+from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...errors import DataFileError, ModelError
+from ...fe import FEModel
+from ...lab.experiment import test_definition
+from ...spec import StructureSpec
+from ..data.measured import FrfData, frfs_from_recording, frfs_from_uff
+from ..effects.hypotheses import Context
 from .labmodel import LabState, natural_frequencies
 
 _DESIGNS: dict = {}
@@ -103,7 +103,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | No
         return hit[1]
     if controller == "lqr":
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
-    from ..design import design_controller
+    from ...design import design_controller
 
     d = design_controller(fe, controller, model=reduction, seed=seed, period_s=period_s)
     _DESIGNS[key] = (fe, d)
@@ -166,7 +166,7 @@ def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
 
 def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
               resolution_hz: float | None, band_hz, settle_of):
-    """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data`).
+    """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data.measured`).
 
     Parameters
     ----------
@@ -188,7 +188,7 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
     Raises
     ------
     DataFileError, MeasurementError
-        From :mod:`vlab.diagnose.data`; a recording of another structure.
+        From :mod:`vlab.diagnose.data.measured`; a recording of another structure.
     """
     if what == "modal":
         return obj

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .labmodel import LabState, predict_frf
+from ..model.labmodel import LabState, predict_frf
 
 
 @dataclass

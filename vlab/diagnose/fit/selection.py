@@ -1,6 +1,6 @@
 """Choosing among fitted hypotheses: pruning by localisation, look-alikes separated by rerun, located places.
 
-Complements :mod:`vlab.diagnose.fit` (information criteria) with the
+Complements :mod:`vlab.diagnose.fit.estimate` (information criteria) with the
 decisions that need the whole diagnosis: which local hypotheses are worth
 fitting (the sensitivity-based localisation points at them), which of two
 look-alike effects a rerun of the experiment prefers, and where the
@@ -14,13 +14,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError, VlabError
-from .data import FrfData
-from .fit import NONLINEAR
-from .hypotheses import Combination, Friction, Hypothesis, PointDamping
+from ...errors import ModelError, VlabError
+from ..data.measured import FrfData
+from ..data.replay import reruns, time_error
+from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
+from ..problem.residuals import Problem
+from .estimate import NONLINEAR
 from .locate import located_places
-from .problem import Problem
-from .validate import reruns, time_error
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
@@ -32,7 +32,7 @@ def rerun_key(h: Hypothesis) -> str:
 
 
 def _rerun_jobs(problem: Problem, hyps) -> list:
-    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for :func:`vlab.diagnose.validate.reruns`."""
+    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for :func:`vlab.diagnose.data.replay.reruns`."""
     return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
 
 
@@ -149,7 +149,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     saturation, 0.275 against 0.328 on the linear plant).
 
     The reruns (the recorded force played back,
-    :func:`vlab.diagnose.validate.reruns`: the linear plant, and the MuJoCo
+    :func:`vlab.diagnose.data.replay.reruns`: the linear plant, and the MuJoCo
     plant for the parsimony check with ``plant="mujoco"``) run in parallel
     processes. A MuJoCo rerun that fails leaves the check to the linear
     reruns, and the note says why.
@@ -172,7 +172,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     plant : {"linear", "mujoco"}
         Plant of the parsimony check's reruns (the look-alikes are always compared on the linear plant).
     seed : int
-        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.validate.reruns`).
+        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.data.replay.reruns`).
 
     Returns
     -------
@@ -233,7 +233,7 @@ def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, 
     """Points and members where the mismatch is, from the fitted local hypotheses of ``res`` (nonlinear best
     subset; ``chi2_0`` is the nominal chi-square).
 
-    The first-order sensitivity ranking (:func:`vlab.diagnose.locate.sensitivity_localisation`)
+    The first-order sensitivity ranking (:func:`vlab.diagnose.fit.locate.sensitivity_localisation`)
     chose which local hypotheses were fitted; here each fitted local effect
     counts by the share of the nominal chi-square it removes: the selected
     effect's places, and every local effect removing at least ``share`` of

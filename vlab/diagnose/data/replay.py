@@ -8,13 +8,13 @@ expressed in a spec and MuJoCo is available, else the exact linear plant
 (:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
 runs (nominal and with the effect) start one period before the analysed
 ones, in the lab's periodic steady state, and simulate one analysed period
-(:mod:`vlab.diagnose.warmstart`); otherwise they start from rest, as the
+(:mod:`vlab.diagnose.data.warmstart`); otherwise they start from rest, as the
 recording did.
 
 Misfits (before = nominal, after = with the effect):
 
 - FRF: weighted RMS of ``log10|H_rerun / H_recorded|`` over the lines of the
-  diagnosis [decades] (:meth:`vlab.diagnose.problem.Problem.misfit` weights);
+  diagnosis [decades] (:meth:`vlab.diagnose.problem.residuals.Problem.misfit` weights);
 - time domain: ``||v_rerun - v_recorded|| / ||v_recorded||`` over all
   velocity channels after the dropped transient [1].
 
@@ -29,16 +29,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calibration import modal_damping_matrix, open_loop_ratios
-from ..errors import ModelError, VlabError
-from ..lab.engine import ControllerEngine
-from ..lab.linear_plant import LinearPlant
-from ..lab.loop import run_loop
-from ..lab.recording import Recording
-from ..measure.frf import h1
-from .data import FrfData
-from .labmodel import LabState
-from .problem import log_misfit, noise_misfit
+from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...errors import ModelError, VlabError
+from ...lab.engine import ControllerEngine
+from ...lab.linear_plant import LinearPlant
+from ...lab.loop import run_loop
+from ...lab.recording import Recording
+from ...measure.frf import h1
+from ..model.labmodel import LabState
+from ..problem.residuals import log_misfit, noise_misfit
+from .measured import FrfData
 from .warmstart import rerun_window, warm_start
 
 
@@ -75,7 +75,7 @@ class FrictionPlant:
         """The inner plant's periodic steady state of the coil forces ``forces`` (n_f, n_act) at
         ``freq_hz`` [Hz], with each friction force replaced by its equivalent dashpot (the describing
         function the frequency-domain model uses; what it misses decays in the guard period of
-        :mod:`vlab.diagnose.warmstart`)."""
+        :mod:`vlab.diagnose.data.warmstart`)."""
         F = np.asarray(forces, dtype=complex)
         self.inner.set_periodic_state(freq_hz, np.hstack([F, np.zeros((F.shape[0], len(self._fp)))]),
                                       extra_damping=dict(zip(self._fp, self._c_eq)))
@@ -135,8 +135,8 @@ def mujoco_plant(state: LabState):
     if state.dashpots or state.frictions:
         raise ModelError("point dashpots and friction cannot be expressed in the spec the MuJoCo plant is built from")
     try:
-        from ..fe import build_fe_model
-        from ..sim import MujocoPlant, build_plant
+        from ...fe import build_fe_model
+        from ...sim import MujocoPlant, build_plant
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
     rebuilt = build_fe_model(state.spec)
@@ -166,7 +166,7 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     period : int
         Ticks per excitation period: given (> 0), the rerun begins in the
         lab's periodic steady state at ``start``
-        (:func:`vlab.diagnose.warmstart.warm_start`); 0: from rest.
+        (:func:`vlab.diagnose.data.warmstart.warm_start`); 0: from rest.
     stop : int, optional
         Tick to stop before (default: the end of ``force``).
 
@@ -268,7 +268,7 @@ class Validation:
         Relative time-domain error [1].
     noise_misfit : float
         Expected FRF misfit [decades] of an exact model, from the measured
-        noise of the compared FRFs alone (:func:`vlab.diagnose.problem.noise_misfit`).
+        noise of the compared FRFs alone (:func:`vlab.diagnose.problem.residuals.noise_misfit`).
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
         FRFs of the reruns on the data's lines.
     v_before, v_after : dict
@@ -326,7 +326,7 @@ def rerun_split(state: LabState, force: np.ndarray, *, excitation_point: int, me
     """A warm-started rerun made as ``workers`` shorter reruns in parallel processes.
 
     The analysed ticks ``[first, stop)`` are cut into ``workers`` consecutive pieces; each is rerun from
-    its own warm start (:func:`vlab.diagnose.warmstart.warm_start`: the excitation is periodic, so the
+    its own warm start (:func:`vlab.diagnose.data.warmstart.warm_start`: the excitation is periodic, so the
     lab's steady state is known at any tick) the same guard ``first - start`` before it, and the pieces
     are joined. Each piece's start error decays over its guard as the single rerun's does, so the join is
     the single rerun's analysed part to that accuracy, in about ``(guard + analysed / workers) /

@@ -1,13 +1,13 @@
 """Fitting hypotheses, confidence intervals, and model selection by information criteria.
 
 Each hypothesis is fitted by bounded nonlinear least squares on the weighted
-residuals of :class:`~vlab.diagnose.problem.Problem`
+residuals of :class:`~vlab.diagnose.problem.residuals.Problem`
 (:func:`scipy.optimize.least_squares`, trust-region reflective, finite
 difference Jacobian), started from the best of a few trial values (the
 residual of a lightly damped structure is not convex in a frequency shift).
 A one-parameter effect that moves the modes is scanned first at
 :data:`COARSE_POINTS` values spanning its trial range; the value with the least
-*smoothed* error (:meth:`~vlab.diagnose.problem.Problem.scores`: the broad
+*smoothed* error (:meth:`~vlab.diagnose.problem.residuals.Problem.scores`: the broad
 basin around the narrow chi-square well) is then refined by a finer scan of
 the chi-square around it (:data:`LOCAL_POINTS` values within
 :data:`LOCAL_SPAN`), and the best of all is a start of the local fit.
@@ -37,9 +37,9 @@ import math
 import numpy as np
 import scipy.optimize
 
-from ..errors import ModelError, VlabError
-from .hypotheses import Combination, Hypothesis
-from .problem import PENALTY, Problem
+from ...errors import ModelError, VlabError
+from ..effects.hypotheses import Combination, Hypothesis
+from ..problem.residuals import PENALTY, Problem
 
 #: BIC difference that counts as strong evidence.
 STRONG_EVIDENCE = 10.0

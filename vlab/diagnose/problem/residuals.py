@@ -4,7 +4,7 @@ FRF data (recordings or UFF FRFs): for every usable line and channel the
 complex log ratio ``e = ln(H_model / H_measured)`` (real part: log magnitude,
 imaginary part: phase, wrapped), each part divided by its standard deviation
 ``sqrt((sigma_rel^2 + floor^2) / 2)``. ``sigma_rel`` is the measured relative
-noise of the line (:mod:`vlab.diagnose.data`), ``floor`` a relative model
+noise of the line (:mod:`vlab.diagnose.data.measured`), ``floor`` a relative model
 error the linear model is allowed (the lab's time stepping and the
 frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
 report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used.
@@ -17,7 +17,7 @@ compared with the mode that is nominal mode ``n``.
 
 The sum of squares is a chi-square statistic when the weights are the noise:
 it drives the least-squares fits, the information criteria
-(:mod:`vlab.diagnose.fit`) and, with its largest single term (:meth:`Problem.peak`, which
+(:mod:`vlab.diagnose.fit.estimate`) and, with its largest single term (:meth:`Problem.peak`, which
 catches a mismatch local to one resonance), the decision whether there is a mismatch at all.
 
 A lightly damped structure makes that chi-square a rugged function of a
@@ -38,11 +38,11 @@ import math
 import numpy as np
 import scipy.stats
 
-from ..errors import ModelError, SpecError
-from ..measure.mac import mac, pair_modes
-from .data import MAX_RELATIVE_NOISE, FrfData, ModalData
-from .hypotheses import Context, Hypothesis
-from .labmodel import LabState, natural_frequencies, predict_frf
+from ...errors import ModelError, SpecError
+from ...measure.mac import mac, pair_modes
+from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
+from ..effects.hypotheses import Context, Hypothesis
+from ..model.labmodel import LabState, natural_frequencies, predict_frf
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
 PENALTY = 1e3
@@ -154,7 +154,7 @@ class Problem:
             self.n_obs = n + int(nz.sum()) + (n if data.shapes is not None else 0)
 
     def __getstate__(self) -> dict:
-        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.validate`
+        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.data.replay`
         (background processes and the rerun cache), which stays with the process that made it."""
         return {k: v for k, v in self.__dict__.items() if k not in ("_background", "_reruns")}
 
@@ -393,7 +393,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
     of the two recordings, with no model-error floor.
 
-    On referred data (:func:`vlab.diagnose.data.refer_to_model`) the nominal
+    On referred data (:func:`vlab.diagnose.data.measured.refer_to_model`) the nominal
     model's residual is ``ln(H_baseline / H_recorded)`` whatever the model:
     the floor, an allowance for what the model cannot represent, has nothing
     to allow for in the question whether anything changed. With it, a change
@@ -404,7 +404,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     (total chi-square and largest line), on weights ``1 / sigma_rel^2``: the
     two recordings' relative noise variances plus the referral's own
     second-order term (model-form error x change), which
-    :func:`~vlab.diagnose.data.refer_to_model` adds to ``var``.
+    :func:`~vlab.diagnose.data.measured.refer_to_model` adds to ``var``.
 
     Parameters
     ----------
