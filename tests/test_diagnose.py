@@ -89,7 +89,7 @@ def test_validation_rerun_lowers_both_misfits(mass_run):
 def test_mujoco_validation_of_a_dashpot_raises_a_model_error(mass_run):
     """A point dashpot cannot be expressed in the spec the MuJoCo plant is built from: a clear ModelError
     (the pipeline turns it into a note), not a failure of the rerun cache."""
-    from vlab.diagnose.data.replay import validate
+    from vlab.diagnose.validate import validate
     from vlab.errors import ModelError
 
     modified = replace(mass_run.nominal, dashpots=((6, 1.0),))

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from vlab.diagnose.data.measured import FrfData
-from vlab.diagnose.data.replay import _on_recording_axis, frf_of, rerun, time_error
+from vlab.diagnose.data.replay import frf_of, rerun, time_error
 from vlab.diagnose.data.warmstart import GUARD_PERIODS, RERUN_PERIODS, excitation_lines, rerun_window, start_tick
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
+from vlab.diagnose.validate import _on_recording_axis
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
 from vlab.lab.experiment import TESTS, default_chain

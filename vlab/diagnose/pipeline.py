@@ -37,7 +37,7 @@ Pipeline (issue 6):
    pair with a nonlinear part is kept only if its rerun beats that part's
    alone (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`; on the MuJoCo
    plant when the recording is diagnosed against it).
-5. **Validate** (:mod:`vlab.diagnose.data.replay`): the recorded force is played
+5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
    back through the 2 kHz loop on the nominal and on the modified plant (the
    nominal MuJoCo rerun starts in a background process as soon as a
    mismatch is found, while the hypotheses are fitted); before a MuJoCo
@@ -72,7 +72,7 @@ from ..lab.experiment import test_definition
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
 from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
-from .data.replay import start_background_rerun, stop_background, validate, worsens
+from .data.replay import start_background_rerun, stop_background
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
@@ -88,6 +88,7 @@ from .model.nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_desi
 from .problem.residuals import Problem, changed_beyond_noise, without_floor
 from .report.markdown import ratio_text
 from .report.result import DiagnosisResult
+from .validate import validate, worsens
 
 __all__ = ["diagnose", "DiagnosisResult"]
 

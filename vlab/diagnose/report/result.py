@@ -8,12 +8,12 @@ import numpy as np
 
 from ...io.results import jsonable
 from ..data.measured import FrfData, ModalData
-from ..data.replay import Validation
 from ..effects.hypotheses import Combination, Hypothesis
 from ..fit.locate import FLAG, Location
 from ..fit.plantfit import PlantRefit
 from ..model.labmodel import LabState
 from ..problem.residuals import Problem
+from ..validate import Validation
 
 
 @dataclass

@@ -1,0 +1,184 @@
+"""Validation: rerun the experiment with the selected effect modelled and compare misfits.
+
+The recorded excitation force is played back through the 2 kHz loop of
+:func:`vlab.lab.loop.run_loop` (same controller, hardware chain and
+sampling; :mod:`vlab.diagnose.data.replay`) on a plant built from the lab state -- the MuJoCo plant of
+:mod:`vlab.sim` built from the (modified) spec when the effect can be
+expressed in a spec and MuJoCo is available, else the exact linear plant
+(:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
+runs (nominal and with the effect) start one period before the analysed
+ones, in the lab's periodic steady state, and simulate one analysed period
+(:mod:`vlab.diagnose.data.warmstart`); otherwise they start from rest, as the
+recording did.
+
+Misfits (before = nominal, after = with the effect):
+
+- FRF: weighted RMS of ``log10|H_rerun / H_recorded|`` over the lines of the
+  diagnosis [decades] (:meth:`vlab.diagnose.problem.residuals.Problem.misfit` weights);
+- time domain: ``||v_rerun - v_recorded|| / ||v_recorded||`` over all
+  velocity channels after the dropped transient [1].
+
+The FRF misfit a perfect model would still show, from the measured noise
+alone, is reported with them (``noise_misfit``): a small effect's misfit
+cannot fall further than that, whatever the model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError, VlabError
+from ..lab.recording import Recording
+from .data.measured import FrfData
+from .data.replay import frf_of, reruns, time_error
+from .model.labmodel import LabState
+from .problem.residuals import log_misfit, noise_misfit
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Result of a validation rerun.
+
+    Attributes
+    ----------
+    plant : str
+        Plant used (and why, if not the one asked for).
+    misfit_before, misfit_after : float
+        FRF misfit [decades] of the nominal and of the modified lab.
+    time_error_before, time_error_after : float
+        Relative time-domain error [1].
+    noise_misfit : float
+        Expected FRF misfit [decades] of an exact model, from the measured
+        noise of the compared FRFs alone (:func:`vlab.diagnose.problem.residuals.noise_misfit`).
+    h_before, h_after : ndarray, complex, shape (n_f, n_o)
+        FRFs of the reruns on the data's lines.
+    v_before, v_after : dict
+        Point -> rerun velocity [m/s] on the recording's time axis, shape (n_samples,)
+        (NaN before a warm-started rerun begins).
+    """
+
+    plant: str
+    misfit_before: float
+    misfit_after: float
+    time_error_before: float
+    time_error_after: float
+    noise_misfit: float
+    h_before: np.ndarray
+    h_after: np.ndarray
+    v_before: dict
+    v_after: dict
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary."""
+        return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
+                "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
+                "noise_misfit": self.noise_misfit}
+
+
+def worsens(v: Validation) -> bool:
+    """Whether a validation rerun makes the fit worse: the modified lab's FRF misfit or its time-domain error
+    is higher than the nominal lab's (issue 28, item 2: such an effect is never selected).
+
+    Parameters
+    ----------
+    v : Validation
+
+    Returns
+    -------
+    bool
+        True when ``misfit_after > misfit_before`` or ``time_error_after > time_error_before``
+        (a NaN error, e.g. no overlap, is not counted).
+    """
+    return bool(v.misfit_after > v.misfit_before or v.time_error_after > v.time_error_before)
+
+
+def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
+             seed: int = 0, key: str | None = None, workers: int = 2) -> Validation:
+    """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording.
+    nominal, modified : LabState
+    plant : {"auto", "linear", "mujoco"}
+        ``"auto"``: MuJoCo when the effect is spec-level and MuJoCo builds the
+        plant, else linear (the reason is put into ``Validation.plant``).
+    spec_level : bool
+        Whether the effect can be carried by the MuJoCo plant.
+    seed : int
+    key : str, optional
+        Name under which the rerun of ``modified`` is cached on ``problem``
+        (the nominal rerun is always cached).
+    workers : int
+        Run the two reruns in parallel processes when > 1 and both are needed.
+
+    Returns
+    -------
+    Validation
+
+    Raises
+    ------
+    ModelError
+        Data without time histories, or a recording not sampled at the controller period.
+    SimulationError
+        A rerun diverged.
+    """
+    data: FrfData = problem.data
+    if data.recording is None:
+        raise ModelError("validation by rerun needs time histories")
+    rec = data.recording
+    if abs(rec.dt_s - nominal.chain.period_s) > 1e-9 * nominal.chain.period_s:
+        raise ModelError(f"{data.source}: sampled every {rec.dt_s:g} s, the controller period is "
+                         f"{nominal.chain.period_s:g} s: the recorded force cannot be played back")
+    pts = tuple(data.output_points)
+    kind = plant
+    note = ""
+    if plant == "auto":
+        kind = "mujoco" if spec_level else "linear"
+        if not spec_level:
+            note = " (the effect is not expressible in a spec: linear plant)"
+
+    def both(k: str) -> list[Recording]:
+        runs = reruns(problem, [(nominal, "nominal"), (modified, key)], k, seed=seed, workers=workers)
+        for r in runs:
+            if isinstance(r, VlabError):
+                raise r
+        return runs
+
+    try:
+        runs = both(kind)
+    except (VlabError, ImportError) as exc:
+        if plant != "auto" or kind == "linear":
+            raise
+        note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
+        kind = "linear"
+        runs = both(kind)
+    desc = ("MuJoCo plant" if kind == "mujoco" else "linear FE plant") + note
+    hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
+    mask = problem.mask
+    w = problem.weight_mag[mask]
+
+    # a MuJoCo rerun is compared with what was recorded; a linear rerun with the data
+    # referred to the model when a baseline was given (the model-form error removed)
+    recorded = kind == "mujoco" and data.h_recorded is not None
+    target = data.h_recorded if recorded else data.h
+    target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
+
+    return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
+                      time_error(runs[0], data), time_error(runs[1], data),
+                      noise_misfit(target[mask], target_var[mask], w), hb, ha,
+                      {p: _on_recording_axis(runs[0], p, rec) for p in pts},
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts})
+
+
+def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:
+    """Velocity ``vel<p>`` of a rerun on the recording's time axis, shape (rec.n_samples,): NaN before a
+    warm-started rerun begins (its metadata ``start_s``)."""
+    out = np.full(rec.n_samples, np.nan)
+    k0 = int(round(float(run.metadata.get("start_s", 0.0)) / rec.dt_s))
+    v = np.asarray(run[f"vel{p}"])[: max(rec.n_samples - k0, 0)]
+    out[k0:k0 + v.size] = v
+    return out
