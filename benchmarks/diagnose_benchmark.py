@@ -100,9 +100,9 @@ import numpy as np  # noqa: E402
 from vlab.diagnose import diagnose  # noqa: E402
 from vlab.diagnose.data.replay import rerun  # noqa: E402
 from vlab.diagnose.effects import specedit  # noqa: E402
-from vlab.diagnose.effects.hypotheses import Context  # noqa: E402
 from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_frf, with_command_rms  # noqa: E402
-from vlab.diagnose.model.nominal import context_for, nominal_design, settling_time  # noqa: E402
+from vlab.diagnose.model.nominal import nominal_design, settling_time  # noqa: E402
+from vlab.diagnose.problem.context import Context, context_for  # noqa: E402
 from vlab.errors import ModelError  # noqa: E402
 from vlab.fe import build_fe_model  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402

@@ -19,7 +19,8 @@ import pytest
 from vlab.diagnose import diagnose
 from vlab.diagnose.effects import hypotheses as H
 from vlab.diagnose.model.labmodel import LabState, predict_frf
-from vlab.diagnose.model.nominal import context_for, nominal_design
+from vlab.diagnose.model.nominal import nominal_design
+from vlab.diagnose.problem.context import context_for
 from vlab.errors import ModelError
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain

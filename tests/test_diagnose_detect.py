@@ -8,7 +8,7 @@ import pytest
 from vlab.diagnose.data.measured import FrfData, refer_to_model
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.model.labmodel import LabState, predict_frf
-from vlab.diagnose.model.nominal import context_for
+from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem, changed_beyond_noise
 from vlab.errors import ModelError
 from vlab.lab.experiment import TESTS

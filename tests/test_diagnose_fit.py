@@ -12,7 +12,7 @@ from vlab.diagnose.effects import specedit
 from vlab.diagnose.effects.hypotheses import AddedMass, JointFlexibility, library
 from vlab.diagnose.fit.estimate import fit_hypothesis, fit_pairs
 from vlab.diagnose.model.labmodel import LabState
-from vlab.diagnose.model.nominal import context_for
+from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
 from vlab.fe import build_fe_model, modal_analysis
 from vlab.lab.experiment import TESTS

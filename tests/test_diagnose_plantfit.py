@@ -15,7 +15,7 @@ from vlab.diagnose.effects.hypothesis import Combination
 from vlab.diagnose.fit.estimate import fit_hypothesis
 from vlab.diagnose.fit.plantfit import map_on_plant, plant_modes, refit_index, refit_on_plant
 from vlab.diagnose.model.labmodel import LabState, PointModes, natural_frequencies, plant_frf, predict_frf
-from vlab.diagnose.model.nominal import context_for
+from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
 from vlab.errors import ModelError
 from vlab.fe import build_fe_model, modal_analysis

@@ -70,7 +70,7 @@ from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
 from ..spec import StructureSpec, load_spec
-from .data.measured import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
+from .data.measured import FrfData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
 from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
 from .data.replay import start_background_rerun, stop_background
 from .data.warmstart import GUARD_DECAY
@@ -83,8 +83,8 @@ from .fit.plantpair import second_effect_on_plant
 from .fit.selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
                             rerun_key, tie_break_by_rerun)
 from .model.labmodel import LabState, predict_frf
-from .model.nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, plant_resolution, read_data,
-                            settling_time)
+from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
+from .problem.context import context_for
 from .problem.residuals import Problem, changed_beyond_noise, without_floor
 from .report.markdown import ratio_text
 from .report.result import DiagnosisResult

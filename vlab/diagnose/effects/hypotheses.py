@@ -36,10 +36,10 @@ from ...units import G_SI
 from ..model.labmodel import LabState, natural_frequencies
 from ..problem.context import Context
 from . import specedit
+from .beyond_spec import Friction, GravityPrestress, PointDamping
 from .chain import ActuatorGain, ActuatorLag, LoopDelay, Saturation, SensorGain, SensorLag
 from .hypothesis import Combination, Hypothesis
-from .structural import (AddedMass, Friction, GravityPrestress, JointFlexibility, MemberStiffness, ModalDamping,
-                         PointDamping, SupportStiffness)
+from .structural import AddedMass, JointFlexibility, MemberStiffness, ModalDamping, SupportStiffness
 
 __all__ = ["EFFECTS", "Context", "Hypothesis", "Combination", "library", "AddedMass", "SupportStiffness",
            "JointFlexibility", "MemberStiffness", "ModalDamping", "PointDamping", "Friction", "GravityPrestress",

@@ -7,7 +7,7 @@ that the data flow runs one way), fitted values ending in ``_`` and
 :meth:`Hypothesis.score` returning one comparable number (the BIC, lower is
 better). Subclasses implement ``_space``, ``_apply`` and optionally
 ``_null`` and ``_applies`` (:mod:`vlab.diagnose.effects.structural`,
-:mod:`vlab.diagnose.effects.chain`).
+:mod:`vlab.diagnose.effects.beyond_spec`, :mod:`vlab.diagnose.effects.chain`).
 """
 
 from __future__ import annotations

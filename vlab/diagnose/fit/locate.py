@@ -36,8 +36,8 @@ from ...measure.mac import comac, mac, pair_modes
 from ...measure.modal import find_peaks, fit_modes, peak_levels
 from ..data.measured import FrfData
 from ..effects import specedit
-from ..effects.hypotheses import Context
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
+from ..problem.context import Context
 from ..problem.residuals import Problem, log_misfit
 
 #: Mean chi-square per real residual above which lines, modes or channels count as mismatched.

@@ -41,8 +41,8 @@ import scipy.stats
 from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
-from ..effects.hypotheses import Context, Hypothesis
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
+from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
 PENALTY = 1e3
@@ -214,8 +214,12 @@ class Problem:
         return fo, zo, so
 
     # ------------------------------------------------------------------ core
-    def state_for(self, hyp: Hypothesis | None, x) -> LabState:
-        """The lab with hypothesis ``hyp`` of size ``x`` [SI] (the nominal lab for None)."""
+    def state_for(self, hyp, x) -> LabState:
+        """The lab with hypothesis ``hyp`` of size ``x`` [SI] (the nominal lab for None).
+
+        ``hyp`` is a :class:`~vlab.diagnose.effects.hypothesis.Hypothesis` or None; only its
+        ``apply(state, x, ctx)`` is used, so the problem layer does not import the library above it.
+        """
         if hyp is None:
             return self.base
         return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
