@@ -11,7 +11,7 @@ Each case draws (reproducibly from ``--seed``):
   on the plant's noise-free FRFs, not on the recording, and does not make
   every effect stand out of the diagnosis's 0.5 % model floor: grid
   seed-1 case 2 is found only by the test on the recordings' noise alone,
-  :func:`vlab.diagnose.problem.residuals.changed_beyond_noise`); a pair
+  :func:`vlab.diagnose.fit.rules.changed_beyond_noise`); a pair
   is redrawn until its first effect is also visible in the final plant,
   next to the second (:func:`conceal`);
 - nothing (one case in four: the false-alarm check), one effect, or (one

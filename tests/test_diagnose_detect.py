@@ -1,4 +1,4 @@
-"""vlab.diagnose.problem.residuals.changed_beyond_noise: with a baseline, a change is judged against the noise alone."""
+"""vlab.diagnose.fit.rules.changed_beyond_noise: with a baseline, a change is judged against the noise alone."""
 
 from __future__ import annotations
 
@@ -7,9 +7,10 @@ import pytest
 
 from vlab.diagnose.data.measured import FrfData, refer_to_model
 from vlab.diagnose.effects import specedit
+from vlab.diagnose.fit.rules import changed_beyond_noise
 from vlab.diagnose.model.labmodel import LabState, predict_frf
 from vlab.diagnose.problem.context import context_for
-from vlab.diagnose.problem.residuals import Problem, changed_beyond_noise
+from vlab.diagnose.problem.residuals import Problem
 from vlab.errors import ModelError
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain

@@ -16,7 +16,7 @@ Pipeline (issue 6):
    stand out of the noise (:meth:`Problem.peak_limit`: a local mismatch,
    such as one shifted resonance of a top-beam segment, that adds little
    to the total). With a baseline, data within those limits are tested once
-   more without the model-error floor (:func:`vlab.diagnose.problem.residuals.changed_beyond_noise`:
+   more without the model-error floor (:func:`vlab.diagnose.fit.rules.changed_beyond_noise`:
    the nominal model's residual is then the recorded change itself, which
    only the two recordings' noise can hide). Otherwise the answer is "no
    significant mismatch" and no effect is proposed.
@@ -31,7 +31,8 @@ Pipeline (issue 6):
    the best single one (forward selection), then each part of the best pair
    re-chosen with the other held (sequential replacement). An
    effect is selected only if it lowers the BIC by 10 or more (strong
-   evidence), a pair only if it beats the best single effect by 10.
+   evidence), a pair only if it beats the best single effect by 10
+   (every rule of the selection, in order: :mod:`vlab.diagnose.fit.rules`).
    Look-alikes only a rerun separates (a saturation and a gain, friction
    and a dashpot) are compared by the time-domain error of reruns, and a
    pair with a nonlinear part is kept only if its rerun beats that part's
@@ -75,74 +76,23 @@ from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_r
 from .data.replay import start_background_rerun, stop_background
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import Combination, Hypothesis, library
-from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
+from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
 from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
-                            rerun_key, tie_break_by_rerun)
+from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, needs_pairs, needs_rerun_check,
+                        prune, select, shortlisted, too_small_to_name, worsens)
+from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
-from .problem.residuals import Problem, changed_beyond_noise, without_floor
+from .problem.residuals import Problem
 from .report.markdown import ratio_text
 from .report.result import DiagnosisResult
-from .validate import validate, worsens
+from .validate import validate
 
 __all__ = ["diagnose", "DiagnosisResult"]
-
-
-def explained_share(res: DiagnosisResult, chi2_0: float) -> tuple[float, bool]:
-    """What the selected effect of ``res`` explains on the linear model (the test of :func:`explains`).
-
-    A mismatch found only without the model-error floor (``res.noise_only``,
-    :func:`changed_beyond_noise`) is judged without it too
-    (:func:`vlab.diagnose.problem.residuals.without_floor`): with the floor the nominal
-    model is already within the noise, and any effect would pass.
-
-    Parameters
-    ----------
-    res : DiagnosisResult
-        With a selected effect (``res.selected`` fitted; ``res.selected_state()`` its lab).
-    chi2_0 : float
-        The nominal model's chi-square with the floor (used when ``res.noise_only`` is None).
-
-    Returns
-    -------
-    share : float
-        ``1 - chi2 / chi2_nominal`` (dimensionless; negative when the effect fits worse than nothing),
-        without the floor against ``res.noise_only["chi2"]`` when the mismatch was found only there.
-    within : bool
-        Whether the effect leaves the data within the noise (:meth:`Problem.within_noise`: total
-        chi-square and largest line), on the same weights.
-
-    Raises
-    ------
-    ModelError, SpecError
-        The selected effect's lab cannot be built (as :meth:`Problem.chi2`).
-    """
-    state = res.selected_state()
-    if res.noise_only:
-        raw = without_floor(res.problem)
-        return 1.0 - raw.chi2(state) / res.noise_only["chi2"], raw.within_noise(state)
-    return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
-
-
-def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool:
-    """Whether the selected effect of ``res`` explains the mismatch: it removes at least ``share`` of the
-    nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
-    (:meth:`Problem.within_noise`: a local mismatch removed), both without the model-error floor when the
-    mismatch was found only without it (:func:`explained_share`), or its validation rerun lowers the FRF
-    misfit by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function:
-    friction, saturation)."""
-    if res.selected is None:
-        return False
-    removed, within = explained_share(res, chi2_0)
-    if removed >= share or within:
-        return True
-    v = res.validation
-    return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
 
 
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
@@ -386,7 +336,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         t = time.perf_counter()
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
-        mismatch = chi2_0 > limit or peak_0 > peak_limit
+        mismatch = beyond_noise(chi2_0, limit, peak_0, peak_limit)
         noise_only = None
         if not mismatch and same_record:  # within the floor; within the noise?
             mismatch, stats = changed_beyond_noise(problem, nominal)
@@ -419,15 +369,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 except (VlabError, ValueError, np.linalg.LinAlgError):
                     continue
             scored.sort(key=lambda s: s[0])
-            keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
-            # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
-            broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
-            keep += [h for h in broad[:shortlist // 2] if h not in keep]
-            seen = {h.effect for h in keep}
-            for _, h in scored:
-                if h.effect not in seen:
-                    keep.append(h)
-                    seen.add(h.effect)
+            keep = shortlisted(scored, shortlist)
             timing["screen"] = time.perf_counter() - t
             say("fitting")
             t = time.perf_counter()
@@ -440,7 +382,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             ranked = rank(fitted)
             timing["fit"] = time.perf_counter() - t
             best = ranked[0] if ranked else None
-            if pairs and best is not None and not problem.within_noise(problem.state_for(best, best.params_)):
+            if pairs and needs_pairs(best, problem):
                 say("fitting pairs")
                 t = time.perf_counter()
                 ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
@@ -461,7 +403,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 t = time.perf_counter()
                 chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
                 timing["plant_refit"] = time.perf_counter() - t
-            if chosen is not None and noise_only is not None:
+            if too_small_to_name(chosen, noise_only):
                 # beyond the noise, within the model's accuracy: located, not named (issue 28)
                 res.too_small, res.too_small_candidates = True, [chosen] + list(alts)
                 cands = [h.label for h in [chosen] + list(alts)][:4]

@@ -77,23 +77,6 @@ class Validation:
                 "noise_misfit": self.noise_misfit}
 
 
-def worsens(v: Validation) -> bool:
-    """Whether a validation rerun makes the fit worse: the modified lab's FRF misfit or its time-domain error
-    is higher than the nominal lab's (issue 28, item 2: such an effect is never selected).
-
-    Parameters
-    ----------
-    v : Validation
-
-    Returns
-    -------
-    bool
-        True when ``misfit_after > misfit_before`` or ``time_error_after > time_error_before``
-        (a NaN error, e.g. no overlap, is not counted).
-    """
-    return bool(v.misfit_after > v.misfit_before or v.time_error_after > v.time_error_before)
-
-
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
              seed: int = 0, key: str | None = None, workers: int = 2) -> Validation:
     """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.

@@ -243,7 +243,7 @@ def shares_excitation_record(data: FrfData, baseline) -> bool:
     """Whether a baseline recording was excited by the recording's own force record (the same samples).
 
     Only then does the comparison without the model-error floor hold
-    (:func:`vlab.diagnose.problem.residuals.changed_beyond_noise`): its noise is the
+    (:func:`vlab.diagnose.fit.rules.changed_beyond_noise`): its noise is the
     period-to-period scatter, which leaves out what differs from one
     realisation of a random-phase multisine to another at the same spectrum
     -- the stochastic nonlinear distortions of a weakly nonlinear plant (Pintelon

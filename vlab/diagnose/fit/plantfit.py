@@ -337,7 +337,7 @@ def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> 
 
 @dataclass(frozen=True)
 class PlantScore:
-    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.estimate.evidence` reads).
+    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.rules.evidence` reads).
 
     Attributes
     ----------

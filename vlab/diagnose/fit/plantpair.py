@@ -48,8 +48,9 @@ import numpy as np
 from ...errors import ModelError, SpecError, VlabError
 from ..effects.hypothesis import Combination, Hypothesis
 from ..problem.residuals import Problem
-from .estimate import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_pairs, rank
+from .estimate import fit_pairs, rank
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
+from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
 
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
 REFERRED_FIT = "fit on the data referred through the first effect"
@@ -149,13 +150,13 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     (:func:`refit_pair`; in parallel processes,
     :func:`vlab.diagnose.fit.plantfit.map_on_plant`), so that they are compared
     at the same level of refit; the best of them replaces ``chosen`` only if it beats it there by
-    :data:`vlab.diagnose.fit.estimate.STRONG_EVIDENCE` in quasi-BIC and either leaves
+    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and either leaves
     the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
-    or lowers the misfit :data:`vlab.diagnose.fit.estimate.PAIR_MISFIT_GAIN` times
-    (the pair rule of :func:`vlab.diagnose.fit.estimate.select`).
+    or lowers the misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
+    (the pair rule of :func:`vlab.diagnose.fit.rules.select`).
 
-    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.estimate.NONLINEAR`: saturation,
+    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
     friction) is left alone: its linear model is a describing function, so
     what its linearisation leaves on the plant is mostly the nonlinearity's
     own distortion, which no linear second effect explains and which
@@ -253,7 +254,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     pair_state = model.state(best, r.params)
     inside = plant.within_noise(pair_state)
     gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
-    if ev >= STRONG_EVIDENCE and (inside or gain >= PAIR_MISFIT_GAIN):
+    if passes_pair_rule(ev, gain, inside):
         looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < STRONG_EVIDENCE]
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "

@@ -386,66 +386,8 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
     -------
     Problem
         Residuals weighted by the data's own variance alone (``1 / sigma_rel^2``
-        per line of FRF data), the weights of :func:`changed_beyond_noise`.
+        per line of FRF data), the weights of :func:`vlab.diagnose.fit.rules.changed_beyond_noise`.
     """
     return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
                    use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
                    shape_sigma=problem.shape_sigma)
-
-
-def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
-    """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
-    of the two recordings, with no model-error floor.
-
-    On referred data (:func:`vlab.diagnose.data.measured.refer_to_model`) the nominal
-    model's residual is ``ln(H_baseline / H_recorded)`` whatever the model:
-    the floor, an allowance for what the model cannot represent, has nothing
-    to allow for in the question whether anything changed. With it, a change
-    of 1.3 % at one line, 65 standard deviations of the two recordings' noise
-    out, passed as model error (MuJoCo grid benchmark, seed 1, case 2: 1.05 kg
-    at point 20 under LQG; nominal chi-square 1161 with the 0.5 % floor,
-    16 873 without, limit 3099). The same tests as :meth:`Problem.within_noise`
-    (total chi-square and largest line), on weights ``1 / sigma_rel^2``: the
-    two recordings' relative noise variances plus the referral's own
-    second-order term (model-form error x change), which
-    :func:`~vlab.diagnose.data.measured.refer_to_model` adds to ``var``.
-
-    Parameters
-    ----------
-    problem : Problem
-        With FRF data referred through a baseline (``h_recorded`` set).
-    nominal : LabState
-        The nominal lab the data were referred to.
-
-    Returns
-    -------
-    (bool, dict)
-        Whether the data changed beyond the noise, and the statistics of the
-        test without the floor: ``chi2``, ``chi2_limit``, ``peak``,
-        ``peak_limit`` (empty when it cannot be made). False when a used line
-        of the recording or of the baseline has no noise estimate (FRF files
-        without coherence): the floor then stays the only weight, since the
-        referral's term alone would weigh a change of any size as about
-        ``1 / |ln(H_model / H_baseline)|``. False too against the nominal plant's
-        noise-free replay (its variance is zero): the recording's noise alone,
-        estimated from two or three periods, made a clean linear recording's
-        band-edge line stand out (squared residual 70, limit 53), so the replay
-        is compared within the model-error floor only.
-
-    Raises
-    ------
-    ModelError
-        Data not referred through a baseline (modal data, or FRFs without ``h_recorded``).
-    """
-    data = problem.data
-    if not isinstance(data, FrfData) or data.h_recorded is None:
-        raise ModelError(f"{getattr(data, 'source', 'data')}: only data referred through a baseline can be tested "
-                         "for a change without the model-error floor")
-    m = problem.mask
-    noise = (data.var_recorded, data.var_baseline)
-    if any(v is None or not np.all(v[m] > 0) for v in noise):
-        return False, {}
-    raw = without_floor(problem, nominal)
-    stats = {"chi2": raw.chi2(nominal), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal),
-             "peak_limit": raw.peak_limit()}
-    return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats

@@ -34,7 +34,7 @@ class DiagnosisResult:
         (:meth:`Problem.peak`, :meth:`Problem.peak_limit`).
     noise_only : dict or None
         When the mismatch was found only by the test without the model-error floor (a baseline given,
-        :func:`vlab.diagnose.problem.residuals.changed_beyond_noise`): its ``chi2``, ``chi2_limit``, ``peak``,
+        :func:`vlab.diagnose.fit.rules.changed_beyond_noise`): its ``chi2``, ``chi2_limit``, ``peak``,
         ``peak_limit``; else None.
     location : Location
     loop : str or None
@@ -55,7 +55,7 @@ class DiagnosisResult:
     alternatives : list of Hypothesis
         Hypotheses the data cannot tell apart from the selected one.
     overdispersion : float
-        ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.estimate.evidence`).
+        ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.rules.evidence`).
     plant_refit : PlantRefit or None
         The selected effect's mode-moving parameter refitted on the MuJoCo
         plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.fit.plantfit`).
