@@ -1,15 +1,11 @@
 """Validation: rerun the experiment with the selected effect modelled and compare misfits.
 
-The recorded excitation force is played back through the 2 kHz loop of
-:func:`vlab.lab.loop.run_loop` (same controller, hardware chain and
-sampling; :mod:`vlab.diagnose.data.replay`) on a plant built from the lab state -- the MuJoCo plant of
-:mod:`vlab.sim` built from the (modified) spec when the effect can be
-expressed in a spec and MuJoCo is available, else the exact linear plant
-(:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
-runs (nominal and with the effect) start one period before the analysed
-ones, in the lab's periodic steady state, and simulate one analysed period
-(:mod:`vlab.diagnose.data.warmstart`); otherwise they start from rest, as the
-recording did.
+The recorded excitation force is played back through the lab loop on the
+nominal and on the modified lab (:mod:`vlab.diagnose.data.replay`: on the
+MuJoCo plant built from the modified spec when the effect can be expressed
+in a spec and MuJoCo is available, else on the exact linear plant; with
+periodic excitation from the lab's periodic steady state one period before
+the analysed ones, :mod:`vlab.diagnose.data.warmstart`).
 
 Misfits (before = nominal, after = with the effect):
 

@@ -43,7 +43,6 @@ from ...errors import ModelError, VlabError
 from ..effects.hypotheses import Combination, Hypothesis
 from ..problem.residuals import PENALTY, Problem
 
-
 #: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).
 COARSE_POINTS = 12
 #: Values of the chi-square scan around the coarse scan's best and their span: a factor

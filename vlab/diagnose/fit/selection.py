@@ -33,7 +33,8 @@ def rerun_key(h: Hypothesis) -> str:
 
 
 def _rerun_jobs(problem: Problem, hyps) -> list:
-    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for :func:`vlab.diagnose.data.replay.reruns`."""
+    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for
+    :func:`vlab.diagnose.data.replay.reruns`."""
     return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
 
 
