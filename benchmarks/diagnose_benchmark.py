@@ -11,7 +11,7 @@ Each case draws (reproducibly from ``--seed``):
   on the plant's noise-free FRFs, not on the recording, and does not make
   every effect stand out of the diagnosis's 0.5 % model floor: grid
   seed-1 case 2 is found only by the test on the recordings' noise alone,
-  :func:`vlab.diagnose.problem.changed_beyond_noise`); a pair
+  :func:`vlab.diagnose.fit.rules.changed_beyond_noise`); a pair
   is redrawn until its first effect is also visible in the final plant,
   next to the second (:func:`conceal`);
 - nothing (one case in four: the false-alarm check), one effect, or (one
@@ -58,7 +58,7 @@ MuJoCo grid's forced response is not yet linear enough to diagnose: README).
 
 Without ``--baseline`` (the headline mode) the diagnosis compares each
 recording with the nominal plant's replay of its recorded force (the
-recording's metadata names the plant; :mod:`vlab.diagnose.reference`). With
+recording's metadata names the plant; :mod:`vlab.diagnose.data.reference`). With
 ``--baseline`` each case also records the unmodified plant excited by another
 record of the same spectrum (other phases, other noise) and the diagnosis gets
 it as its measured baseline (``vlab diagnose --baseline``) instead.
@@ -97,11 +97,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from vlab.diagnose import diagnose, specedit  # noqa: E402
-from vlab.diagnose.hypotheses import Context  # noqa: E402
-from vlab.diagnose.labmodel import LabState, natural_frequencies, predict_frf, with_command_rms  # noqa: E402
-from vlab.diagnose.nominal import context_for, nominal_design, settling_time  # noqa: E402
-from vlab.diagnose.validate import rerun  # noqa: E402
+from vlab.diagnose import diagnose  # noqa: E402
+from vlab.diagnose.data.replay import rerun  # noqa: E402
+from vlab.diagnose.effects import specedit  # noqa: E402
+from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_frf, with_command_rms  # noqa: E402
+from vlab.diagnose.model.nominal import nominal_design, settling_time  # noqa: E402
+from vlab.diagnose.problem.context import Context, context_for  # noqa: E402
 from vlab.errors import ModelError  # noqa: E402
 from vlab.fe import build_fe_model  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
@@ -276,14 +277,14 @@ def _on_plant(st: LabState, plant: str, points: tuple) -> LabState:
     """``st`` with the structure's modes of the plant that records the case (the FE model's for the linear plant)."""
     if plant != "mujoco":
         return st
-    from vlab.diagnose.plantfit import plant_modes
+    from vlab.diagnose.fit.plantfit import plant_modes
 
     return replace(st, point_modes=plant_modes(st.spec, points))
 
 
 def _visible(a: LabState, b: LabState, freq_hz, exc: int, meas: tuple, plant: str = "linear") -> bool:
     """Does ``b`` change the predicted FRF of some line of ``a`` by ``VISIBLE`` (log magnitude), on the plant
-    that records the case (for the MuJoCo plant: its linearisation, :func:`vlab.diagnose.plantfit.plant_modes`)?"""
+    that records the case (for the MuJoCo plant: its linearisation, :func:`vlab.diagnose.fit.plantfit.plant_modes`)?"""
     pts = tuple(dict.fromkeys(tuple(meas) + a.actuators))
     h0 = predict_frf(_on_plant(a, plant, pts), freq_hz, excitation_point=exc, output_points=meas)
     h1 = predict_frf(_on_plant(b, plant, pts), freq_hz, excitation_point=exc, output_points=meas)

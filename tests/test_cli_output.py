@@ -124,7 +124,7 @@ def test_diagnose_prints_a_table_with_units_and_a_verdict(tmp_path, monkeypatch)
 
 
 def test_verdict_without_a_mismatch_and_a_higher_misfit():
-    from vlab.diagnose.report import format_location, format_parameter, verdict
+    from vlab.diagnose.report.markdown import format_location, format_parameter, verdict
 
     d = _fake_result().as_dict()
     assert "No significant mismatch" in verdict(dict(d, mismatch=False))

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from vlab.diagnose import EFFECTS, diagnose
-from vlab.diagnose import specedit
-from vlab.diagnose.labmodel import LabState
-from vlab.diagnose.nominal import nominal_design
-from vlab.diagnose.validate import rerun
+from vlab.diagnose.data.replay import rerun
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.model.labmodel import LabState
+from vlab.diagnose.model.nominal import nominal_design
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
 from vlab.lab.experiment import TESTS, default_chain
@@ -127,7 +127,7 @@ def test_concealed_loop_delay_is_found(nominal, tmp_path):
 
 def test_concealed_saturation_is_found(nominal, tmp_path):
     """A clipping amplifier: its describing function looks like a lower gain; the selection (and, when a gain
-    is within reach, the look-alike rerun of vlab.diagnose.selection) must name the saturation."""
+    is within reach, the look-alike rerun of vlab.diagnose.fit.selection) must name the saturation."""
     truth = replace(nominal, chain=replace(nominal.chain, amplifier_limit_n=0.75))
     path = _record(truth, tmp_path / "rec.uff")
     r = diagnose("bcc", path, controller="mfdrf", plant="linear")
@@ -172,7 +172,7 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     step, so the lab model and the analysis have the same chain (an independent composition of it)."""
     from vlab.analysis import closed_loop_frf, sampled_data_controller_frf, velocity_frf
     from vlab.calibration import modal_damping_matrix, open_loop_ratios
-    from vlab.diagnose.labmodel import predict_frf, zoh
+    from vlab.diagnose.model.labmodel import predict_frf, zoh
 
     fe = nominal_fe_model("bcc")
     chain = default_chain(controller)  # the thesis period of the controller (LQG 1 ms)
@@ -214,7 +214,7 @@ def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
 def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
     """The nominal rerun started in a background process (while the hypotheses are fitted) is picked up by
     the validation (no rerun in this process) and equals the rerun made here, sample for sample."""
-    from vlab.diagnose import validate as vmod
+    from vlab.diagnose.data import replay as vmod
 
     p = mass_run.problem
     assert vmod.start_background_rerun(p, mass_run.nominal, "background", "linear")
@@ -229,7 +229,7 @@ def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
 
 def test_reruns_are_cached_per_seed(mass_run, monkeypatch):
     """A rerun is cached under its key, plant and sensor-noise seed: another seed is rerun, not looked up."""
-    from vlab.diagnose import validate as vmod
+    from vlab.diagnose.data import replay as vmod
 
     calls = []
 

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 from vlab.diagnose import diagnose
-from vlab.diagnose import hypotheses as H
-from vlab.diagnose.labmodel import LabState, predict_frf
-from vlab.diagnose.nominal import context_for, nominal_design
+from vlab.diagnose.effects import hypotheses as H
+from vlab.diagnose.model.labmodel import LabState, predict_frf
+from vlab.diagnose.model.nominal import nominal_design
+from vlab.diagnose.problem.context import context_for
 from vlab.errors import ModelError
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain
@@ -118,10 +119,10 @@ def test_extra_delay_on_one_coil_channel_is_named_loop_delay_there(delayed_run):
 def damping_and_delay(lab):
     """Exact closed-loop FRFs (1 % noise variance) of the BCC with mode 2's damping tripled and 2 extra samples
     of delay on channel 7: a pair of a damping effect and a per-channel controller-path effect."""
-    from vlab.diagnose import specedit
-    from vlab.diagnose.data import FrfData
-    from vlab.diagnose.labmodel import natural_frequencies
-    from vlab.diagnose.problem import Problem
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.effects import specedit
+    from vlab.diagnose.model.labmodel import natural_frequencies
+    from vlab.diagnose.problem.residuals import Problem
 
     st, _ = lab
     _, zeta, _ = natural_frequencies(st)
@@ -140,8 +141,8 @@ def damping_and_delay(lab):
 @pytest.mark.parametrize("first", ("damping", "loop_delay"))
 def test_forward_pair_step_finds_a_per_channel_delay_next_to_a_damping_effect_and_back(damping_and_delay, first):
     """Held at its single fit, either part of the pair finds the other among the whole library (every family
-    is screened as the second effect: vlab.diagnose.fit.fit_pairs); the joint fit sizes both."""
-    from vlab.diagnose.fit import fit_hypothesis, fit_pairs
+    is screened as the second effect: vlab.diagnose.fit.estimate.fit_pairs); the joint fit sizes both."""
+    from vlab.diagnose.fit.estimate import fit_hypothesis, fit_pairs
 
     problem, truth = damping_and_delay
     pool = H.library(problem.base, problem.ctx)

@@ -1,15 +1,16 @@
-"""vlab.diagnose.problem.changed_beyond_noise: with a baseline, a change is judged against the noise alone."""
+"""vlab.diagnose.fit.rules.changed_beyond_noise: with a baseline, a change is judged against the noise alone."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from vlab.diagnose import specedit
-from vlab.diagnose.data import FrfData, refer_to_model
-from vlab.diagnose.labmodel import LabState, predict_frf
-from vlab.diagnose.nominal import context_for
-from vlab.diagnose.problem import Problem, changed_beyond_noise
+from vlab.diagnose.data.measured import FrfData, refer_to_model
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.fit.rules import changed_beyond_noise
+from vlab.diagnose.model.labmodel import LabState, predict_frf
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
 from vlab.errors import ModelError
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain

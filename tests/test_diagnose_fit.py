@@ -1,4 +1,4 @@
-"""Pairs of effects in vlab.diagnose.fit: forward selection alone keeps a wrong first effect; sequential
+"""Pairs of effects in vlab.diagnose.fit.estimate: forward selection alone keeps a wrong first effect; sequential
 replacement (Miller 2002, Sec. 3.3) corrects it. Modal data of the linear BCC model, exact (no noise)."""
 
 from __future__ import annotations
@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from vlab.calibration import open_loop_ratios
-from vlab.diagnose import specedit
-from vlab.diagnose.data import read_modal_csv
-from vlab.diagnose.fit import fit_hypothesis, fit_pairs
-from vlab.diagnose.hypotheses import AddedMass, JointFlexibility, library
-from vlab.diagnose.labmodel import LabState
-from vlab.diagnose.nominal import context_for
-from vlab.diagnose.problem import Problem
+from vlab.diagnose.data.measured import read_modal_csv
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.effects.hypotheses import AddedMass, JointFlexibility, library
+from vlab.diagnose.fit.estimate import fit_hypothesis, fit_pairs
+from vlab.diagnose.model.labmodel import LabState
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
 from vlab.fe import build_fe_model, modal_analysis
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain
@@ -69,8 +69,8 @@ def softened_grid_joint():
     two top-beam modes fall into the band, between the hypothesis's own trial values (0.3, 1, 3, ... x k_ref)."""
     import numpy as np
 
-    from vlab.diagnose.data import FrfData
-    from vlab.diagnose.labmodel import predict_frf
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.model.labmodel import predict_frf
 
     fe = nominal_fe_model("grid")
     nominal = LabState(fe.spec, fe, HardwareChain(), None)
@@ -103,8 +103,8 @@ def grid_frf_problem():
     """Exact FRFs of the nominal linear grid with 1 % noise variance: a problem builder for edited data."""
     import numpy as np
 
-    from vlab.diagnose.data import FrfData
-    from vlab.diagnose.labmodel import predict_frf
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.model.labmodel import predict_frf
 
     fe = nominal_fe_model("grid")
     nominal = LabState(fe.spec, fe, HardwareChain(), None)
@@ -144,7 +144,7 @@ def test_added_mass_near_a_support_is_screened_at_attachable_sizes(grid_frf_prob
 
     import numpy as np
 
-    from vlab.diagnose.fit import screen, trials_for
+    from vlab.diagnose.fit.estimate import screen, trials_for
     from vlab.errors import ModelError
 
     nominal, h, problem = grid_frf_problem
@@ -161,8 +161,8 @@ def test_added_mass_near_a_support_is_screened_at_attachable_sizes(grid_frf_prob
 
 def test_a_friction_saturation_pair_is_checked_against_either_part_alone():
     """Both parts of a friction + saturation pair are nonlinear: the parsimony check reruns each alone."""
-    from vlab.diagnose.hypotheses import Combination, Friction, Saturation
-    from vlab.diagnose.selection import _nonlinear_alone
+    from vlab.diagnose.effects.hypotheses import Combination, Friction, Saturation
+    from vlab.diagnose.fit.selection import _nonlinear_alone
 
     fric, sat = Friction(point=7), Saturation()
     pair = Combination(first=Friction(point=7), second=Saturation())
@@ -192,7 +192,7 @@ def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
     """Run the parsimony check (seed 7) with rerun time errors ``errors[(plant, label)]`` (``errors[(plant,
     "fail")]``: every rerun on that plant fails with it); returns the winner, the plants the reruns were asked
     of, in order, the notes and the set of seeds asked for."""
-    from vlab.diagnose import selection
+    from vlab.diagnose.fit import selection
 
     asked = []
 
@@ -214,7 +214,7 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     """MuJoCo grid benchmark seed 1 case 4 (a lag next to a saturation): on the linear plant the pair's time error
     was 0.84x the saturation's alone (0.275 against 0.328, the FE/MuJoCo model-form error in both), and the pair
     was dropped; on the MuJoCo plant the two are 0.041 and 0.162."""
-    from vlab.diagnose.hypotheses import ActuatorLag, Combination, Saturation
+    from vlab.diagnose.effects.hypotheses import ActuatorLag, Combination, Saturation
     from vlab.errors import ModelError, SimulationError
 
     lag, sat = ActuatorLag(), Saturation()
@@ -237,7 +237,7 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
 
 def test_a_friction_pair_stays_on_the_linear_plant(monkeypatch):
     """Friction cannot be carried by the MuJoCo plant: its pair is judged on the linear reruns alone."""
-    from vlab.diagnose.hypotheses import ActuatorLag, Combination, Friction
+    from vlab.diagnose.effects.hypotheses import ActuatorLag, Combination, Friction
 
     fric = Friction(point=7)
     pair = Combination(first=ActuatorLag(), second=Friction(point=7))

@@ -7,10 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vlab.diagnose import EFFECTS, specedit
-from vlab.diagnose import hypotheses as H
-from vlab.diagnose.labmodel import LabState, natural_frequencies, predict_frf
-from vlab.diagnose.nominal import context_for, nominal_design
+from vlab.diagnose import EFFECTS
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.effects import hypotheses as H
+from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_frf
+from vlab.diagnose.model.nominal import nominal_design
+from vlab.diagnose.problem.context import context_for
 from vlab.errors import ModelError, SpecError
 from vlab.fe import build_fe_model
 from vlab.lab.experiment import TESTS

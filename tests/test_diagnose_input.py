@@ -170,7 +170,7 @@ def test_malformed_modal_csv(tmp_path, text, match):
 
 
 def _frf_data(h, var, freq=None, outputs=(5, 6), source="x.uff"):
-    from vlab.diagnose.data import FrfData
+    from vlab.diagnose.data.measured import FrfData
 
     freq = np.linspace(1.0, 2.0, h.shape[0]) if freq is None else freq
     return FrfData(source, "frf", freq, h, var, 9, tuple(outputs))
@@ -178,7 +178,7 @@ def _frf_data(h, var, freq=None, outputs=(5, 6), source="x.uff"):
 
 def test_baseline_referral_removes_the_shared_model_form_error():
     """H_rec * H_model / H_base: a plant offset present in both recordings cancels, a change is kept."""
-    from vlab.diagnose.data import refer_to_model
+    from vlab.diagnose.data.measured import refer_to_model
 
     rng = np.random.default_rng(0)
     h_model = rng.standard_normal((50, 2)) + 1j * rng.standard_normal((50, 2))
@@ -202,7 +202,7 @@ def test_baseline_referral_removes_the_shared_model_form_error():
 
 
 def test_baseline_of_another_test_is_refused():
-    from vlab.diagnose.data import refer_to_model
+    from vlab.diagnose.data.measured import refer_to_model
 
     h = np.ones((10, 2), dtype=complex)
     var = np.full((10, 2), 1e-6)
@@ -213,7 +213,7 @@ def test_baseline_of_another_test_is_refused():
 
 
 def test_modal_csv_uncertainty_columns_follow_the_frequency_order(tmp_path):
-    from vlab.diagnose.data import read_modal_csv
+    from vlab.diagnose.data.measured import read_modal_csv
     from vlab.spec import load_spec
 
     p = tmp_path / "modes.csv"

@@ -1,4 +1,4 @@
-"""The diagnosis's FRF misfit and its noise floor (vlab.diagnose.problem): checked against closed forms and a
+"""The diagnosis's FRF misfit and its noise floor (vlab.diagnose.problem.residuals): checked against closed forms and a
 Monte Carlo simulation of circular complex noise."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pickle
 import numpy as np
 import pytest
 
-from vlab.diagnose.problem import log_misfit, noise_misfit
+from vlab.diagnose.problem.residuals import log_misfit, noise_misfit
 
 
 def test_log_misfit_of_a_uniform_gain_is_its_log():
@@ -35,8 +35,8 @@ def test_noise_misfit_matches_a_monte_carlo_of_circular_noise():
 
 
 def _problem(n_lines: int, var_dof):
-    from vlab.diagnose.data import FrfData
-    from vlab.diagnose.problem import Problem
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.problem.residuals import Problem
 
     f = np.arange(1, n_lines + 1) * 0.05
     ones = np.ones((n_lines, 1))
@@ -48,7 +48,7 @@ def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
     """Residuals scaled by a noise variance estimated with nu degrees of freedom (each line its own estimate,
     the worst case) exceed the F-based peak limit in about 1 - quantile of noise-only records; the
     chi-square limit, which takes the variance as known, is exceeded far more often."""
-    from vlab.diagnose.data import pooled_dof
+    from vlab.diagnose.data.measured import pooled_dof
 
     n, nu, trials = 1000, pooled_dof(2), 2000
     rng = np.random.default_rng(7)

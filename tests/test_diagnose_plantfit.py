@@ -1,4 +1,4 @@
-"""vlab.diagnose.plantfit: a parameter refitted on another model's modes (the MuJoCo plant's linearisation)."""
+"""vlab.diagnose.fit.plantfit: a parameter refitted on another model's modes (the MuJoCo plant's linearisation)."""
 
 from __future__ import annotations
 
@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 
 from vlab.calibration import open_loop_ratios
+from vlab.diagnose.data.measured import FrfData, refer_to_model
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.effects.hypotheses import JointFlexibility, library
+from vlab.diagnose.effects.hypothesis import Combination
+from vlab.diagnose.fit.estimate import fit_hypothesis
+from vlab.diagnose.fit.plantfit import map_on_plant, plant_modes, refit_index, refit_on_plant
+from vlab.diagnose.model.labmodel import LabState, PointModes, natural_frequencies, plant_frf, predict_frf
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
 from vlab.errors import ModelError
-from vlab.diagnose import specedit
-from vlab.diagnose.data import FrfData, refer_to_model
-from vlab.diagnose.fit import fit_hypothesis
-from vlab.diagnose.hypotheses import JointFlexibility, library
-from vlab.diagnose.hypothesis import Combination
-from vlab.diagnose.labmodel import LabState, PointModes, natural_frequencies, plant_frf, predict_frf
-from vlab.diagnose.nominal import context_for
-from vlab.diagnose.plantfit import map_on_plant, plant_modes, refit_index, refit_on_plant
-from vlab.diagnose.problem import Problem
 from vlab.fe import build_fe_model, modal_analysis
 from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain
@@ -120,7 +120,7 @@ def test_mujoco_plant_modes_give_the_fe_receptance_between_resonances():
 
 def _pair_and_singles(problem, second):
     """The joint alone, ``second`` alone and the pair, fitted on the FE model (the pair from the joint's value)."""
-    from vlab.diagnose.plantfit import PlantModel
+    from vlab.diagnose.fit.plantfit import PlantModel
 
     joint = fit_hypothesis(JointFlexibility(point=18), problem)
     other = fit_hypothesis(second, problem)
@@ -132,8 +132,8 @@ def _pair_and_singles(problem, second):
 def test_a_second_effect_that_only_absorbs_the_model_difference_is_dropped_on_the_plant(joint_on_other_model):
     """On the FE model an added mass at 18 lowers the chi-square next to the biased joint (it absorbs part of
     the other model's offset); on the other model's modes the joint alone fits, and the pair is reduced to it."""
-    from vlab.diagnose.hypotheses import AddedMass
-    from vlab.diagnose.plantchoice import reduce_pair_on_plant
+    from vlab.diagnose.effects.hypotheses import AddedMass
+    from vlab.diagnose.fit.plantchoice import reduce_pair_on_plant
 
     problem = joint_on_other_model
     model, pair, ranked = _pair_and_singles(problem, AddedMass(point=18))
@@ -145,8 +145,8 @@ def test_a_second_effect_that_only_absorbs_the_model_difference_is_dropped_on_th
 
 def test_a_real_second_effect_keeps_the_pair_on_the_plant():
     """Joint 18 and a real 0.5 kg mass at point 3, both in the other model's data: the pair stays."""
-    from vlab.diagnose.hypotheses import AddedMass
-    from vlab.diagnose.plantchoice import reduce_pair_on_plant
+    from vlab.diagnose.effects.hypotheses import AddedMass
+    from vlab.diagnose.fit.plantchoice import reduce_pair_on_plant
 
     problem = _referred_problem(lambda spec: specedit.add_mass(specedit.soften_joint(spec, 18, 6000.0), 3, 0.5),
                                 "grid-joint18-mass3-other.uff")
@@ -161,8 +161,8 @@ def test_a_real_second_effect_keeps_the_pair_on_the_plant():
 def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_model):
     """A selected joint 19 with joint 18 as its look-alike: on the other model's modes joint 18 (the drawn one)
     fits far better, is chosen and refitted; joint 19, no longer a look-alike there, leaves the alternatives."""
-    from vlab.diagnose.plantchoice import choose_on_plant
-    from vlab.diagnose.plantfit import PlantModel
+    from vlab.diagnose.fit.plantchoice import choose_on_plant
+    from vlab.diagnose.fit.plantfit import PlantModel
 
     problem = joint_on_other_model
     wrong = fit_hypothesis(JointFlexibility(point=19), problem)
@@ -176,7 +176,7 @@ def test_a_look_alike_that_fits_better_on_the_plant_is_chosen(joint_on_other_mod
 
 
 def _mass(point: int, kg: float, chi2: float):
-    from vlab.diagnose.hypotheses import AddedMass
+    from vlab.diagnose.effects.hypotheses import AddedMass
 
     h = AddedMass(point=point)
     h.params_, h.chi2_ = np.array([kg]), chi2
@@ -189,7 +189,7 @@ def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
     chi-square moves by 114 from the FE model to the plant, so 20 is compared there, where it fits better
     (603 refitted, against 641) and is chosen. A fit further than that difference (point 16, 1166) is not
     compared, however well it would fit on the plant; with a small FE/plant difference 20 is not either."""
-    from vlab.diagnose.plantchoice import choose_on_plant
+    from vlab.diagnose.fit.plantchoice import choose_on_plant
 
     class _TablePlant:  # defined here: not picklable, so map_on_plant runs it in this process
         """A stand-in for :class:`PlantModel`: plant chi-squares from tables (at the FE value; refitted)."""
@@ -201,7 +201,7 @@ def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
             return self.at_fe[h.label]
 
         def refit(self, h, x0):
-            from vlab.diagnose.plantfit import PlantRefit
+            from vlab.diagnose.fit.plantfit import PlantRefit
 
             x = np.asarray(x0, dtype=float)
             return PlantRefit("mass_kg", float(x[0]), float(x[0]), x, None, self.at_fe[h.label],
@@ -221,12 +221,12 @@ def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
 
 def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
     """The thesis mesh's grid mode 7 (top-beam bending) lies > 1 % above the MuJoCo plant's; two elements per
-    top-beam segment (:func:`vlab.diagnose.nominal.plant_resolution`) bring it within 0.5 % (measured 0.41 %
+    top-beam segment (:func:`vlab.diagnose.model.nominal.plant_resolution`) bring it within 0.5 % (measured 0.41 %
     against the plant with two or more links per 0.37-0.75 m top-beam segment, 0.19 % against the former
     one-link plant).
     The BCC (no shear-flexible section) is returned as it is."""
     pytest.importorskip("mujoco")
-    from vlab.diagnose.nominal import plant_resolution
+    from vlab.diagnose.model.nominal import plant_resolution
     from vlab.spec import load_spec
 
     bcc = load_spec("bcc")

@@ -1,4 +1,4 @@
-"""vlab.diagnose.plantpair: a second effect searched on the data referred through the first one's plant refit."""
+"""vlab.diagnose.fit.plantpair: a second effect searched on the data referred through the first one's plant refit."""
 
 from __future__ import annotations
 
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from test_diagnose_plantfit import _referred_problem, other_model_modes
-from vlab.diagnose import specedit
-from vlab.diagnose.chain import Saturation
-from vlab.diagnose.fit import fit_hypothesis
-from vlab.diagnose.hypotheses import JointFlexibility, library
-from vlab.diagnose.hypothesis import Combination
-from vlab.diagnose.plantfit import PlantModel
-from vlab.diagnose.plantpair import REFERRED_FIT, referred_through, second_effect_on_plant
+from vlab.diagnose.effects import specedit
+from vlab.diagnose.effects.chain import Saturation
+from vlab.diagnose.effects.hypotheses import JointFlexibility, library
+from vlab.diagnose.effects.hypothesis import Combination
+from vlab.diagnose.fit.estimate import fit_hypothesis
+from vlab.diagnose.fit.plantfit import PlantModel
+from vlab.diagnose.fit.plantpair import REFERRED_FIT, referred_through, second_effect_on_plant
 
 #: Candidates for the second effect in these tests (the drawn one and neighbours), to keep them fast.
 POOL = ("added_mass(point=3)", "added_mass(point=4)", "added_mass(point=7)", "support_stiffness(point=3, dof=w)",

@@ -13,9 +13,10 @@ import pytest
 from typer.testing import CliRunner
 
 from vlab.cli import app
-from vlab.diagnose import diagnose, specedit
+from vlab.diagnose import diagnose
 from vlab.diagnose import pipeline as pipeline_module
-from vlab.diagnose.reference import recorded_chain, recorded_setup
+from vlab.diagnose.data.reference import recorded_chain, recorded_setup
+from vlab.diagnose.effects import specedit
 from vlab.errors import DataFileError, OptionError
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -66,8 +67,8 @@ def test_bad_metadata_names_the_file_and_field(meta, field):
 def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monkeypatch):
     """A stand-in validation that makes the FRF misfit 10x worse: the pipeline must reject the candidate (shown
     with both numbers), select nothing, and say so; the real validation of the same case selects the mass."""
-    from vlab.diagnose.labmodel import LabState
-    from vlab.diagnose.nominal import nominal_design
+    from vlab.diagnose.model.labmodel import LabState
+    from vlab.diagnose.model.nominal import nominal_design
     from vlab.lab.loop import HardwareChain
     from vlab.models import nominal_fe_model
 
@@ -100,8 +101,8 @@ def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monk
 def test_a_linear_recording_is_referred_through_its_replay(tmp_path):
     """A clean recording of the linear plant (metadata says so): replayed on the linear plant, no mismatch,
     and the report names the reference."""
-    from vlab.diagnose.labmodel import LabState
-    from vlab.diagnose.nominal import nominal_design
+    from vlab.diagnose.model.labmodel import LabState
+    from vlab.diagnose.model.nominal import nominal_design
     from vlab.lab.loop import HardwareChain
     from vlab.models import nominal_fe_model
 
@@ -136,10 +137,10 @@ def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_
 def test_a_baseline_excited_by_another_record_does_not_make_an_unchanged_structure_a_mismatch(tmp_path):
     """Issue 28 item 5: the nominal lab recorded twice with two records of the same spectrum (other phases,
     other noise); one is the other's baseline. The decision is "no mismatch"; the record is told apart."""
-    from vlab.diagnose.data import read_uff_any
-    from vlab.diagnose.labmodel import LabState
-    from vlab.diagnose.nominal import nominal_design
-    from vlab.diagnose.reference import shares_excitation_record
+    from vlab.diagnose.data.measured import read_uff_any
+    from vlab.diagnose.data.reference import shares_excitation_record
+    from vlab.diagnose.model.labmodel import LabState
+    from vlab.diagnose.model.nominal import nominal_design
     from vlab.lab.loop import HardwareChain
     from vlab.models import nominal_fe_model
 

@@ -1,4 +1,4 @@
-"""Warm-started reruns (vlab.diagnose.warmstart): the periodic steady state replaces the settling periods.
+"""Warm-started reruns (vlab.diagnose.data.warmstart): the periodic steady state replaces the settling periods.
 
 Each check compares a rerun started in the steady state with the same rerun
 started from rest and run through the settling periods (the reference, made
@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vlab.diagnose.labmodel import LabState
-from vlab.diagnose.nominal import nominal_design
-from vlab.diagnose.validate import _on_recording_axis, frf_of, rerun, time_error
-from vlab.diagnose.warmstart import GUARD_PERIODS, RERUN_PERIODS, excitation_lines, rerun_window, start_tick
-from vlab.diagnose.data import FrfData
+from vlab.diagnose.data.measured import FrfData
+from vlab.diagnose.data.replay import frf_of, rerun, time_error
+from vlab.diagnose.data.warmstart import GUARD_PERIODS, RERUN_PERIODS, excitation_lines, rerun_window, start_tick
+from vlab.diagnose.model.labmodel import LabState
+from vlab.diagnose.model.nominal import nominal_design
+from vlab.diagnose.validate import _on_recording_axis
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
 from vlab.lab.experiment import TESTS, default_chain
@@ -146,7 +147,7 @@ def test_warm_start_with_friction_starts_from_its_describing_function():
     0.028, friction left out of the start, to 0.014; 0.015 from rest)."""
     from dataclasses import replace
 
-    from vlab.diagnose import validate as vmod
+    from vlab.diagnose.data import replay as vmod
 
     lab = _lab("bcc", "none")
     c_eq = 0.4
@@ -166,7 +167,7 @@ def test_warm_start_with_friction_starts_from_its_describing_function():
 def test_extra_damping_at_an_unknown_point_or_negative_is_refused():
     from dataclasses import replace
 
-    from vlab.diagnose import validate as vmod
+    from vlab.diagnose.data import replay as vmod
 
     lab = _lab("bcc", "none")
     plant = vmod.linear_plant(replace(lab, dashpots=((6, 0.4),)))

@@ -203,7 +203,7 @@ def test_gravity_memo_follows_every_in_plane_input():
     an in-plane rigidity gives a new solution (the same as a cold solve)."""
     import dataclasses
 
-    from vlab.diagnose import specedit
+    from vlab.diagnose.effects import specedit
     from vlab.fe import statics
     from vlab.fe.mesh import build_mesh
     from vlab.spec import load_spec

@@ -14,7 +14,7 @@ are independent of the loop's code:
   ``h`` (images fold onto ``w`` at that step, so they all see the same factor);
 - the force limit: a clipped channel never exceeds it, the other channel is
   unchanged;
-- the frequency-domain model (:func:`vlab.diagnose.labmodel.predict_frf`)
+- the frequency-domain model (:func:`vlab.diagnose.model.labmodel.predict_frf`)
   against FRFs measured on the 2 kHz loop (BCC, MFDRF, linear plant) with a
   per-channel delay of 1.5 samples and a per-channel lag.
 """
@@ -144,7 +144,7 @@ def test_per_channel_entry_at_a_point_without_actuator_is_refused():
 
 def _measured_frf(state, lines_hz, f0, exc, outs):
     """FRF (v / x) of the 2 kHz loop on the linear plant, from a periodic multisine (period 1 / f0)."""
-    from vlab.diagnose.validate import rerun
+    from vlab.diagnose.data.replay import rerun
 
     n_per = int(round(1 / (f0 * T)))
     n_periods = 4
@@ -159,8 +159,8 @@ def _measured_frf(state, lines_hz, f0, exc, outs):
 
 @pytest.fixture(scope="module")
 def bcc_lab():
-    from vlab.diagnose.labmodel import LabState
-    from vlab.diagnose.nominal import nominal_design
+    from vlab.diagnose.model.labmodel import LabState
+    from vlab.diagnose.model.nominal import nominal_design
     from vlab.lab.experiment import default_chain
     from vlab.models import nominal_fe_model
 
@@ -169,7 +169,7 @@ def bcc_lab():
 
 
 def test_model_matches_the_loop_with_a_per_channel_delay_and_lag(bcc_lab):
-    from vlab.diagnose.labmodel import natural_frequencies, predict_frf
+    from vlab.diagnose.model.labmodel import natural_frequencies, predict_frf
 
     st0 = bcc_lab
     acts = st0.actuators

@@ -129,7 +129,7 @@ def test_open_loop_linear_plant_recording_minus_noise_free_run_has_sigma():
 
 def test_lab_model_predicts_the_sensor_gain_and_lag_on_recorded_sensor_channels():
     """The diagnosis's FRF model records a sensor point through the sensor, as the loop now does (open loop)."""
-    from vlab.diagnose.labmodel import LabState, predict_frf
+    from vlab.diagnose.model.labmodel import LabState, predict_frf
 
     fe = nominal_fe_model("bcc")
     f = np.array([2.0, 7.5, 30.0])

@@ -292,7 +292,7 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str = "none",
     -------
     DiagnosisResult
         ``.mismatch``, ``.selected``, ``.ranked``; ``.as_dict()`` is the
-        ``vlab diagnose --json`` object (:class:`vlab.diagnose.result.DiagnosisResult`).
+        ``vlab diagnose --json`` object (:class:`vlab.diagnose.report.result.DiagnosisResult`).
 
     Raises
     ------

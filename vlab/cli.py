@@ -873,7 +873,7 @@ def _diagnosis_csv(d: dict[str, Any], out=None) -> None:
     Columns: rank, effect, location, parameters (SI, with 95 % intervals), BIC difference to the best, misfit
     after the effect is modelled (its unit in the column name: decades for FRF data).
     """
-    from .diagnose.report import hypothesis_rows, misfit_unit
+    from .diagnose.report.markdown import hypothesis_rows, misfit_unit
     from .io.tabular import Column, write_csv
 
     unit = misfit_unit(d).replace(".", "").replace(" ", "_")
@@ -987,7 +987,7 @@ def robustness(
 
 def _print_diagnosis(d: dict[str, Any], out_path) -> None:
     """The ranked hypotheses as a table (units in the headers and cells) and the one-paragraph verdict."""
-    from .diagnose.report import hypothesis_rows, misfit_unit, verdict
+    from .diagnose.report.markdown import hypothesis_rows, misfit_unit, verdict
 
     rows = hypothesis_rows(d, limit=8)
     unit = misfit_unit(d)

@@ -6,9 +6,9 @@ Pipeline (issue 6):
    spec's FE model with its open-loop damping, the thesis controller
    (:func:`vlab.design.design_controller`, same seed as the experiment) and
    the nominal hardware chain, in the frequency domain
-   (:func:`vlab.diagnose.labmodel.predict_frf`). A recording diagnosed
+   (:func:`vlab.diagnose.model.labmodel.predict_frf`). A recording diagnosed
    against the MuJoCo plant is compared with the FE model meshed as that
-   plant resolves the structure (:func:`vlab.diagnose.nominal.plant_resolution`),
+   plant resolves the structure (:func:`vlab.diagnose.model.nominal.plant_resolution`),
    the controller staying the one designed on the spec's own mesh.
 2. **Decide** whether there is a mismatch: the weighted chi-square of the
    nominal model against the data must exceed what the measured noise
@@ -16,46 +16,47 @@ Pipeline (issue 6):
    stand out of the noise (:meth:`Problem.peak_limit`: a local mismatch,
    such as one shifted resonance of a top-beam segment, that adds little
    to the total). With a baseline, data within those limits are tested once
-   more without the model-error floor (:func:`vlab.diagnose.problem.changed_beyond_noise`:
+   more without the model-error floor (:func:`vlab.diagnose.fit.rules.changed_beyond_noise`:
    the nominal model's residual is then the recorded change itself, which
    only the two recordings' noise can hide). Otherwise the answer is "no
    significant mismatch" and no effect is proposed.
-3. **Locate** (:mod:`vlab.diagnose.locate`): modes, sensors, band, loop and,
+3. **Locate** (:mod:`vlab.diagnose.fit.locate`): modes, sensors, band, loop and,
    by sensitivity-based localisation, points and members.
 4. **Explain**: every hypothesis of the library that can show in these data
    is screened at a few sizes (a mode-moving one at a dozen, which also
-   gives its smoothed error, :func:`vlab.diagnose.fit.trials_for`); the best
+   gives its smoothed error, :func:`vlab.diagnose.fit.estimate.trials_for`); the best
    by chi-square and the best mode-moving ones by smoothed error are fitted by least squares
-   (:mod:`vlab.diagnose.fit`) and ranked by BIC; when the best single effect
+   (:mod:`vlab.diagnose.fit.estimate`) and ranked by BIC; when the best single effect
    leaves more than noise, pairs are fitted too: a second effect on top of
    the best single one (forward selection), then each part of the best pair
    re-chosen with the other held (sequential replacement). An
    effect is selected only if it lowers the BIC by 10 or more (strong
-   evidence), a pair only if it beats the best single effect by 10.
+   evidence), a pair only if it beats the best single effect by 10
+   (every rule of the selection, in order: :mod:`vlab.diagnose.fit.rules`).
    Look-alikes only a rerun separates (a saturation and a gain, friction
    and a dashpot) are compared by the time-domain error of reruns, and a
    pair with a nonlinear part is kept only if its rerun beats that part's
-   alone (:func:`vlab.diagnose.selection.tie_break_by_rerun`; on the MuJoCo
+   alone (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`; on the MuJoCo
    plant when the recording is diagnosed against it).
 5. **Validate** (:mod:`vlab.diagnose.validate`): the recorded force is played
    back through the 2 kHz loop on the nominal and on the modified plant (the
    nominal MuJoCo rerun starts in a background process as soon as a
    mismatch is found, while the hypotheses are fitted); before a MuJoCo
    rerun, the parameter of a mode-moving effect is refitted on the plant's
-   own linearisation (:mod:`vlab.diagnose.plantfit`), since the FE fit
+   own linearisation (:mod:`vlab.diagnose.fit.plantfit`), since the FE fit
    absorbs the FE/MuJoCo frequency offsets (look-alikes the FE fit cannot
    tell apart, and fits it orders by less than the FE/plant difference
    measured on the chosen effect, are scored there too, and the best on the
    plant is chosen;
    a single effect that still leaves more than noise there gets a second
-   effect searched on the data referred through it, :mod:`vlab.diagnose.plantpair`);
+   effect searched on the data referred through it, :mod:`vlab.diagnose.fit.plantpair`);
    FRF and time-domain misfits before and after. An effect that removes
    less than half of the weighted misfit, whose rerun does not halve
    the FRF misfit either, and that does not bring the data within the
    noise (both tests of step 2; all without the model-error floor when the
    mismatch was found only without it), is not selected (the mismatch is reported
    as not explained by the library).
-6. **Report** (:mod:`vlab.diagnose.report`).
+6. **Report** (:mod:`vlab.diagnose.report.markdown`).
 """
 
 from __future__ import annotations
@@ -70,87 +71,37 @@ from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
 from ..spec import StructureSpec, load_spec
-from .data import FrfData, detect_kind, read_modal_csv, read_uff_any, refer_to_model
-from .fit import fit_hypothesis, fit_pairs, rank, screen, select, trials_for
-from .hypotheses import Combination, Hypothesis, library
-from .labmodel import LabState, predict_frf
-from .locate import locate
-from .nominal import (PLANT_RESOLUTION_ELEMENTS, context_for, nominal_design, plant_resolution, read_data,
-                      settling_time)
-from .plantchoice import choose_on_plant, reduce_pair_on_plant
-from .plantfit import PlantModel
-from .plantpair import second_effect_on_plant
-from .problem import Problem, changed_beyond_noise, without_floor
-from .reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
-from .report import ratio_text
-from .result import DiagnosisResult
-from .selection import (CONTROLLER_PATH, data_has_signals, located_from_fits, needs_rerun_check, prune,
-                        rerun_key, tie_break_by_rerun)
-from .warmstart import GUARD_DECAY
-from .validate import start_background_rerun, stop_background, validate, worsens
+from .data.measured import FrfData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
+from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
+from .data.replay import start_background_rerun, stop_background
+from .data.warmstart import GUARD_DECAY
+from .effects.hypotheses import Combination, Hypothesis, library
+from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
+from .fit.locate import locate
+from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
+from .fit.plantfit import PlantModel
+from .fit.plantpair import second_effect_on_plant
+from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, needs_pairs, needs_rerun_check,
+                        prune, select, shortlisted, too_small_to_name, worsens)
+from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
+from .model.labmodel import LabState, predict_frf
+from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
+from .problem.context import context_for
+from .problem.residuals import Problem
+from .report.markdown import ratio_text
+from .report.result import DiagnosisResult
+from .validate import validate
 
 __all__ = ["diagnose", "DiagnosisResult"]
 
 
-def explained_share(res: DiagnosisResult, chi2_0: float) -> tuple[float, bool]:
-    """What the selected effect of ``res`` explains on the linear model (the test of :func:`explains`).
-
-    A mismatch found only without the model-error floor (``res.noise_only``,
-    :func:`changed_beyond_noise`) is judged without it too
-    (:func:`vlab.diagnose.problem.without_floor`): with the floor the nominal
-    model is already within the noise, and any effect would pass.
-
-    Parameters
-    ----------
-    res : DiagnosisResult
-        With a selected effect (``res.selected`` fitted; ``res.selected_state()`` its lab).
-    chi2_0 : float
-        The nominal model's chi-square with the floor (used when ``res.noise_only`` is None).
-
-    Returns
-    -------
-    share : float
-        ``1 - chi2 / chi2_nominal`` (dimensionless; negative when the effect fits worse than nothing),
-        without the floor against ``res.noise_only["chi2"]`` when the mismatch was found only there.
-    within : bool
-        Whether the effect leaves the data within the noise (:meth:`Problem.within_noise`: total
-        chi-square and largest line), on the same weights.
-
-    Raises
-    ------
-    ModelError, SpecError
-        The selected effect's lab cannot be built (as :meth:`Problem.chi2`).
-    """
-    state = res.selected_state()
-    if res.noise_only:
-        raw = without_floor(res.problem)
-        return 1.0 - raw.chi2(state) / res.noise_only["chi2"], raw.within_noise(state)
-    return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
-
-
-def explains(res: DiagnosisResult, chi2_0: float, *, share: float = 0.5) -> bool:
-    """Whether the selected effect of ``res`` explains the mismatch: it removes at least ``share`` of the
-    nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
-    (:meth:`Problem.within_noise`: a local mismatch removed), both without the model-error floor when the
-    mismatch was found only without it (:func:`explained_share`), or its validation rerun lowers the FRF
-    misfit by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function:
-    friction, saturation)."""
-    if res.selected is None:
-        return False
-    removed, within = explained_share(res, chi2_0)
-    if removed >= share or within:
-        return True
-    v = res.validation
-    return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
-
-
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
                     pool: list[Hypothesis]) -> Hypothesis:
-    """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.plantfit`); a pair
+    """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`); a pair
     is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
     look-alikes and the fits of ``res.ranked`` the FE model orders by less than its difference from the plant
     (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
-    ``pool`` is searched next to it (:func:`vlab.diagnose.plantpair.second_effect_on_plant`). Sets
+    ``pool`` is searched next to it (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`). Sets
     ``res.plant_refit`` (and ``res.alternatives``); returns the choice."""
     try:
         model = PlantModel(problem)
@@ -192,7 +143,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         writes them), UFF 58 FRFs, or a CSV modal table (``.csv``).
     controller : {"none", "mfdrf", "lqdrf", "lqdrf-diag", "lqg"}, optional
         The nominal controller that was running; default: the recording's
-        metadata, else "none" (:func:`vlab.diagnose.reference.recorded_setup`).
+        metadata, else "none" (:func:`vlab.diagnose.data.reference.recorded_setup`).
     out_dir : str or Path, optional
         Folder for ``diagnosis.md``, ``diagnosis.json`` and figures.
     plant : {"auto", "linear", "mujoco"}
@@ -225,14 +176,14 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     baseline : str or Path, optional
         A recording (UFF 58 time histories or FRFs) of the same test on the
         structure before the change: the data are referred to the model
-        through it (:func:`vlab.diagnose.data.refer_to_model`), so that the
+        through it (:func:`vlab.diagnose.data.measured.refer_to_model`), so that the
         model's own offsets against this plant, present in both, are not
         diagnosed as an effect. Without it, a time-history recording is
         referred to the model through the *replay* of its recorded force on
         the nominal plant (``replay``).
     replay : bool
         Compare a time-history recording with the nominal plant's replay of
-        its force (:func:`vlab.diagnose.reference.replay_reference`) when no
+        its force (:func:`vlab.diagnose.data.reference.replay_reference`) when no
         baseline is given (issue 28, item 1). False: with the FE model alone.
     force : bool
         Use ``controller``, ``seed`` and ``plant`` even where the recording's
@@ -385,7 +336,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         t = time.perf_counter()
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
-        mismatch = chi2_0 > limit or peak_0 > peak_limit
+        mismatch = beyond_noise(chi2_0, limit, peak_0, peak_limit)
         noise_only = None
         if not mismatch and same_record:  # within the floor; within the noise?
             mismatch, stats = changed_beyond_noise(problem, nominal)
@@ -418,15 +369,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 except (VlabError, ValueError, np.linalg.LinAlgError):
                     continue
             scored.sort(key=lambda s: s[0])
-            keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
-            # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
-            broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
-            keep += [h for h in broad[:shortlist // 2] if h not in keep]
-            seen = {h.effect for h in keep}
-            for _, h in scored:
-                if h.effect not in seen:
-                    keep.append(h)
-                    seen.add(h.effect)
+            keep = shortlisted(scored, shortlist)
             timing["screen"] = time.perf_counter() - t
             say("fitting")
             t = time.perf_counter()
@@ -439,7 +382,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             ranked = rank(fitted)
             timing["fit"] = time.perf_counter() - t
             best = ranked[0] if ranked else None
-            if pairs and best is not None and not problem.within_noise(problem.state_for(best, best.params_)):
+            if pairs and needs_pairs(best, problem):
                 say("fitting pairs")
                 t = time.perf_counter()
                 ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
@@ -460,7 +403,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 t = time.perf_counter()
                 chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
                 timing["plant_refit"] = time.perf_counter() - t
-            if chosen is not None and noise_only is not None:
+            if too_small_to_name(chosen, noise_only):
                 # beyond the noise, within the model's accuracy: located, not named (issue 28)
                 res.too_small, res.too_small_candidates = True, [chosen] + list(alts)
                 cands = [h.label for h in [chosen] + list(alts)][:4]
@@ -529,8 +472,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     timing["total"] = time.perf_counter() - t_start
     res.timing_s = timing
     if out_dir is not None:
-        from .figures import figures_for
-        from .report import write_report
+        from .report.figures import figures_for
+        from .report.markdown import write_report
 
         say("writing the report")
         res.files = write_report(out_dir, res.as_dict(), figures_for(res), overwrite=overwrite)

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..errors import SpecError
-from ..spec import Damping, LumpedMass, Member, Quantity, Spring, StructureSpec, Support
+from ...errors import SpecError
+from ...spec import Damping, LumpedMass, Member, Quantity, Spring, StructureSpec, Support
 
 _SOURCE = "diagnosis: {}"
 

@@ -1,13 +1,13 @@
 """The base class of the physics hypotheses and the combination of two.
 
 Estimator habits after scikit-learn (DESIGN.md): a keyword-only constructor
-that fixes *where* the effect is, :func:`vlab.diagnose.fit.fit_hypothesis` that
+that fixes *where* the effect is, :func:`vlab.diagnose.fit.estimate.fit_hypothesis` that
 estimates *how large* it is (the fit lives there, after the hypotheses, so
 that the data flow runs one way), fitted values ending in ``_`` and
 :meth:`Hypothesis.score` returning one comparable number (the BIC, lower is
 better). Subclasses implement ``_space``, ``_apply`` and optionally
-``_null`` and ``_applies`` (:mod:`vlab.diagnose.structural`,
-:mod:`vlab.diagnose.chain`).
+``_null`` and ``_applies`` (:mod:`vlab.diagnose.effects.structural`,
+:mod:`vlab.diagnose.effects.beyond_spec`, :mod:`vlab.diagnose.effects.chain`).
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import ModelError
-from .context import Context
-from .labmodel import LabState
+from ...errors import ModelError
+from ..model.labmodel import LabState
+from ..problem.context import Context
 
 
 class Hypothesis:
@@ -27,7 +27,7 @@ class Hypothesis:
 
     Subclasses set the class attributes (``effect`` to ``moves_modes``) and
     implement :meth:`space` and :meth:`apply`; the fitted attributes (ending
-    in ``_``) are set by :func:`vlab.diagnose.fit.fit_hypothesis`.
+    in ``_``) are set by :func:`vlab.diagnose.fit.estimate.fit_hypothesis`.
 
     Attributes
     ----------
@@ -45,7 +45,7 @@ class Hypothesis:
     moves_modes : bool
         True when the effect shifts natural frequencies (mass, stiffness): its
         one parameter is scanned densely before the local fit
-        (:func:`vlab.diagnose.fit.trials_for`).
+        (:func:`vlab.diagnose.fit.estimate.trials_for`).
     params_ : ndarray, shape (k,)
         Parameter values [SI].
     ci95_ : ndarray, shape (k, 2)
@@ -60,7 +60,7 @@ class Hypothesis:
     n_evaluations_ : int
     success_ : bool
     coarse_ : ndarray, shape (k,)
-        Set by :func:`vlab.diagnose.fit.screen`: the screened value with the
+        Set by :func:`vlab.diagnose.fit.estimate.screen`: the screened value with the
         least smoothed error; ``coarse_error_`` that error.
     """
 
@@ -179,7 +179,7 @@ class Hypothesis:
 
         Parameters
         ----------
-        problem : vlab.diagnose.problem.Problem, optional
+        problem : vlab.diagnose.problem.residuals.Problem, optional
             Score the fitted parameters on this problem instead of the one fitted.
 
         Raises
@@ -188,7 +188,7 @@ class Hypothesis:
             If the hypothesis has not been fitted.
         """
         if not hasattr(self, "bic_"):
-            raise ModelError(f"{self.label}: fit it (vlab.diagnose.fit.fit_hypothesis) before score()")
+            raise ModelError(f"{self.label}: fit it (vlab.diagnose.fit.estimate.fit_hypothesis) before score()")
         if problem is None:
             return float(self.bic_)
         chi2 = problem.chi2(problem.state_for(self, self.params_))

@@ -2,12 +2,12 @@
 
 A test with periodic excitation is recorded from rest; its first periods
 are dropped (the transient of the lightly damped structure) and the rest
-analysed (:mod:`vlab.diagnose.data`). A validation rerun only needs the
+analysed (:mod:`vlab.diagnose.data.measured`). A validation rerun only needs the
 analysed periods. So the rerun starts :data:`GUARD_PERIODS` period(s) before
 them, from the steady state the lab would have reached there: the
 excitation's lines over one period (its discrete Fourier transform), the
 coil forces and sensed velocities per line from the frequency-domain model
-of the whole loop (:func:`vlab.diagnose.labmodel.predict_frf`, with the
+of the whole loop (:func:`vlab.diagnose.model.labmodel.predict_frf`, with the
 MuJoCo plant's own modes for a MuJoCo plant), the plant set to their
 steady state (``set_periodic_state`` of :class:`vlab.lab.linear_plant.LinearPlant`
 and :class:`vlab.sim.runtime.MujocoPlant`) and the controller's state to
@@ -33,9 +33,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError
-from .data import FrfData
-from .labmodel import LabState, PointModes, predict_frf, sensor_path
+from ...errors import ModelError
+from ..model.labmodel import LabState, PointModes, predict_frf, sensor_path
+from .measured import FrfData
 
 #: Periods simulated before the analysed ones after a warm start. The start is
 #: exact only for the linear model of the loop; what it misses decays as

@@ -5,7 +5,7 @@ the *simulation*: the recorded force is played back through vlab's own
 nominal plant (the plant the recording names, MuJoCo by default) with the
 controller and the hardware chain of the recording, and the recording is
 referred to the FE model through that replay
-(:func:`vlab.diagnose.data.refer_to_model`, ``H = H_rec * H_model / H_replay``).
+(:func:`vlab.diagnose.data.measured.refer_to_model`, ``H = H_rec * H_model / H_replay``).
 The FE model stays the fast surrogate the effects are fitted on; the
 MuJoCo/FE model-form difference is the ratio ``H_model / H_replay``, measured
 on the nominal replay, not absorbed by an effect. A *measured* baseline
@@ -27,10 +27,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import DataFileError, OptionError
-from ..lab.loop import HardwareChain
-from .data import FrfData
-from .labmodel import LabState
+from ...errors import DataFileError, OptionError
+from ...lab.loop import HardwareChain
+from ..model.labmodel import LabState
+from .measured import FrfData
 
 #: The ``plant`` metadata of ``vlab experiment`` -> the replay's plant kind.
 RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "MuJoCo plant (MJCF)": "mujoco", "linear FE model": "linear"}
@@ -173,12 +173,12 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
 
     The replay starts warm the lab's settling time (``guard_s``) before the
     analysed part, as the validation reruns do
-    (:func:`vlab.diagnose.warmstart.rerun_window`). Where the recording dropped
+    (:func:`vlab.diagnose.data.warmstart.rerun_window`). Where the recording dropped
     less than that, the replay starts as the recording did
     (:func:`starts_at_rest`): at rest, through all the analysed periods (their
     transient is then in both and cancels), or warm at the first tick. It runs
     without sensor noise; its FRFs on the data's lines are those of
-    :func:`vlab.diagnose.validate.frf_of`.
+    :func:`vlab.diagnose.data.replay.frf_of`.
 
     Parameters
     ----------
@@ -189,7 +189,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     plant : {"mujoco", "linear"}
     guard_s : float, optional
         Time [s] simulated after the warm start before the analysed part, when shorter than a period
-        (:func:`vlab.diagnose.warmstart.guard_ticks`).
+        (:func:`vlab.diagnose.data.warmstart.guard_ticks`).
 
     Returns
     -------
@@ -208,7 +208,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     SimulationError
         The replay diverged.
     """
-    from .validate import frf_of, rerun, rerun_split
+    from .replay import frf_of, rerun, rerun_split
     from .warmstart import RERUN_PERIODS, period_ticks, rerun_window
 
     rec = data.recording
@@ -243,7 +243,7 @@ def shares_excitation_record(data: FrfData, baseline) -> bool:
     """Whether a baseline recording was excited by the recording's own force record (the same samples).
 
     Only then does the comparison without the model-error floor hold
-    (:func:`vlab.diagnose.problem.changed_beyond_noise`): its noise is the
+    (:func:`vlab.diagnose.fit.rules.changed_beyond_noise`): its noise is the
     period-to-period scatter, which leaves out what differs from one
     realisation of a random-phase multisine to another at the same spectrum
     -- the stochastic nonlinear distortions of a weakly nonlinear plant (Pintelon

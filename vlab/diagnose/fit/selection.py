@@ -1,10 +1,11 @@
-"""Choosing among fitted hypotheses: pruning by localisation, look-alikes separated by rerun, located places.
+"""Choosing among fitted hypotheses: look-alikes separated by rerun, located places.
 
-Complements :mod:`vlab.diagnose.fit` (information criteria) with the
-decisions that need the whole diagnosis: which local hypotheses are worth
-fitting (the sensitivity-based localisation points at them), which of two
-look-alike effects a rerun of the experiment prefers, and where the
-mismatch is once effects are fitted.
+Complements :mod:`vlab.diagnose.fit.estimate` (information criteria) with the
+decisions that need the whole diagnosis: which of two look-alike effects a
+rerun of the experiment prefers, and where the mismatch is once effects are
+fitted. Which local hypotheses are worth fitting (those the sensitivity-based
+localisation points at), when a rerun is needed and how much a pair's rerun
+must gain are rules of :mod:`vlab.diagnose.fit.rules`.
 """
 
 from __future__ import annotations
@@ -14,13 +15,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError, VlabError
-from .data import FrfData
-from .fit import NONLINEAR
-from .hypotheses import Combination, Friction, Hypothesis, PointDamping
+from ...errors import ModelError, VlabError
+from ..data.measured import FrfData
+from ..data.replay import reruns, time_error
+from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
+from ..problem.residuals import Problem
 from .locate import located_places
-from .problem import Problem
-from .validate import reruns, time_error
+from .rules import NONLINEAR, PARSIMONY
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
@@ -32,7 +33,8 @@ def rerun_key(h: Hypothesis) -> str:
 
 
 def _rerun_jobs(problem: Problem, hyps) -> list:
-    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for :func:`vlab.diagnose.validate.reruns`."""
+    """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for
+    :func:`vlab.diagnose.data.replay.reruns`."""
     return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
 
 
@@ -101,13 +103,6 @@ def lookalikes(h: Hypothesis, problem: Problem) -> list[Hypothesis]:
     return out
 
 
-def needs_rerun_check(h: Hypothesis) -> bool:
-    """True when ``h`` (or a part of it) has look-alikes only a rerun separates (saturation, friction,
-    damping at a point)."""
-    parts = h.parts if isinstance(h, Combination) else (h,)
-    return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
-
-
 def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypothesis]:
     """The fitted single effects that are the nonlinear parts of the pair ``h`` (friction fitted as a dashpot
     swapped back), for the parsimony check of :func:`tie_break_by_rerun`; empty if ``h`` has no such part
@@ -128,7 +123,7 @@ def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypo
 
 
 def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
-                       notes: list, *, max_candidates: int = 4, parsimony: float = 0.8, plant: str = "linear",
+                       notes: list, *, max_candidates: int = 4, parsimony: float = PARSIMONY, plant: str = "linear",
                        seed: int = 0) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
 
@@ -149,7 +144,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     saturation, 0.275 against 0.328 on the linear plant).
 
     The reruns (the recorded force played back,
-    :func:`vlab.diagnose.validate.reruns`: the linear plant, and the MuJoCo
+    :func:`vlab.diagnose.data.replay.reruns`: the linear plant, and the MuJoCo
     plant for the parsimony check with ``plant="mujoco"``) run in parallel
     processes. A MuJoCo rerun that fails leaves the check to the linear
     reruns, and the note says why.
@@ -172,7 +167,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     plant : {"linear", "mujoco"}
         Plant of the parsimony check's reruns (the look-alikes are always compared on the linear plant).
     seed : int
-        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.validate.reruns`).
+        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.data.replay.reruns`).
 
     Returns
     -------
@@ -226,14 +221,11 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     return best, [h for h in [chosen] + alts if h is not best]
 
 
-STRUCTURAL = ("added_mass", "support_stiffness", "joint_flexibility", "member_stiffness")
-
-
 def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, list]:
     """Points and members where the mismatch is, from the fitted local hypotheses of ``res`` (nonlinear best
     subset; ``chi2_0`` is the nominal chi-square).
 
-    The first-order sensitivity ranking (:func:`vlab.diagnose.locate.sensitivity_localisation`)
+    The first-order sensitivity ranking (:func:`vlab.diagnose.fit.locate.sensitivity_localisation`)
     chose which local hypotheses were fitted; here each fitted local effect
     counts by the share of the nominal chi-square it removes: the selected
     effect's places, and every local effect removing at least ``share`` of
@@ -275,41 +267,3 @@ def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, 
             return pts, mems
         return located_places(res.location.sensitivity)
     return pts, mems
-
-
-def prune(hyps: list[Hypothesis], sensitivity: list[dict], *, share: float = 0.25, per_family: int = 6,
-          min_explained: float = 0.5) -> list[Hypothesis]:
-    """Keep, of ``hyps``, the local structural hypotheses the ``sensitivity`` ranking points at.
-
-    When the best single local parameter explains at least ``min_explained`` of
-    the frequency errors, a local structural hypothesis (added mass, spring at a
-    free DOF, joint flexibility, member rigidity) is kept if its sensitivity
-    candidate explains at least ``share`` of the best one or is among the
-    ``per_family`` best of its effect; its first-order size becomes an extra
-    trial value (``estimate_``). Other hypotheses are all kept.
-    """
-    if not sensitivity or sensitivity[0]["explained"] < min_explained:
-        return hyps
-    best = sensitivity[0]["explained"]
-    by_key = {}
-    rank_in_family: dict = {}
-    for d in sensitivity:
-        key = (d["effect"], tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
-                                         for k, v in d["location"].items())))
-        rank_in_family[d["effect"]] = rank_in_family.get(d["effect"], 0) + 1
-        by_key[key] = (d, rank_in_family[d["effect"]])
-    out = []
-    for h in hyps:
-        if h.effect not in STRUCTURAL:
-            out.append(h)
-            continue
-        key = (h.effect, tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in h.location.items())))
-        hit = by_key.get(key)
-        if hit is None:
-            out.append(h)  # not a local frequency parameter (e.g. a released support): keep
-            continue
-        d, r = hit
-        if d["explained"] >= share * best or r <= per_family:
-            h.estimate_ = d["estimate"]
-            out.append(h)
-    return out

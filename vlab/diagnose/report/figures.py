@@ -1,7 +1,7 @@
 """Figures of a diagnosis: FRF overlays before/after, per-mode errors, time histories.
 
 Each entry of :func:`figures_for` is a callable drawing one PNG at a given
-path with :mod:`vlab.viz.figures` (or :func:`vlab.diagnose.report.time_figure`),
+path with :mod:`vlab.viz.figures` (or :func:`vlab.diagnose.report.markdown.time_figure`),
 so the report writer controls where and when files appear.
 """
 
@@ -11,9 +11,9 @@ from functools import partial
 
 import numpy as np
 
-from ..viz.figures import comparison_bar, misfit_overlay
-from .data import FrfData
-from .locate import frf_modes
+from ...viz.figures import comparison_bar, misfit_overlay
+from ..data.measured import FrfData
+from ..fit.locate import frf_modes
 
 
 def _worst_channel(res) -> int:
@@ -61,7 +61,7 @@ def figures_for(res) -> dict:
                                         title="natural frequency: model / measured - 1",
                                         ylabel="frequency error [%]", names=("nominal", "with the effect"))
         if res.validation is not None and data.recording is not None:
-            from .report import time_figure
+            from .markdown import time_figure
 
             p = data.output_points[chans[0]]
             rec = data.recording

@@ -37,11 +37,12 @@ import numpy as np
 import scipy.ndimage
 import scipy.stats
 
-from ..errors import DataFileError, MeasurementError, VlabError
-from ..fe import FEModel
-from ..lab.recording import CLIP_RUN, Recording, find_clipping
-from ..measure.frf import h1
-from ..spec import StructureSpec
+from ...errors import DataFileError, MeasurementError, VlabError
+from ...fe import FEModel
+from ...lab.experiment import test_definition
+from ...lab.recording import CLIP_RUN, Recording, find_clipping
+from ...measure.frf import h1
+from ...spec import StructureSpec
 
 #: Sampling rates of the PC-1000 digital controller, 2 to 2000 samples per second (Sec. 5.3):
 #: a recording at another rate is not a recording of the lab's loop.
@@ -628,7 +629,7 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
         Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`),
         or one holding neither kind. Names the file and channel.
     """
-    from ..io.uff import read_frfs, read_recording
+    from ...io.uff import read_frfs, read_recording
 
     try:
         return "recording", read_recording(path)
@@ -644,6 +645,44 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
         raise
     except VlabError:
         raise
+
+
+def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
+              resolution_hz: float | None, band_hz, settle_of):
+    """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data.measured`).
+
+    Parameters
+    ----------
+    spec, fe : StructureSpec, FEModel
+        The nominal structure.
+    path : Path
+        The file (for messages).
+    what : {"modal", "recording", "frf"}
+        Kind of ``obj``.
+    obj : ModalData, Recording or list of FRF
+        What was read.
+    resolution_hz : float or None
+        Resolution asked for [Hz]; else the metadata's, else the structure's test resolution.
+    band_hz : (float, float)
+        Band analysed [Hz].
+    settle_of : callable
+        Returns the settling time [s] of the nominal lab (called for recordings only).
+
+    Raises
+    ------
+    DataFileError, MeasurementError
+        From :mod:`vlab.diagnose.data.measured`; a recording of another structure.
+    """
+    if what == "modal":
+        return obj
+    if what == "recording":
+        meta = dict(obj.metadata)
+        if meta.get("structure") not in (None, spec.name):
+            raise DataFileError(f"{path}: recorded on structure {meta['structure']!r}, diagnosed as {spec.name!r}")
+        res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
+        return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
+                                   settle_s=settle_of())
+    return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)
 
 
 def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> FrfData:

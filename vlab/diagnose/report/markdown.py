@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError, VlabError
-from ..io.results import jsonable
+from ...errors import DataFileError, VlabError
+from ...io.results import jsonable
 
 
 def _fmt(v, nd: int = 4) -> str:

@@ -1,6 +1,6 @@
 """A second effect searched next to the selected one once the FE/plant model-form error of the first is removed.
 
-The pair search of :mod:`vlab.diagnose.fit` runs on the FE model. When the
+The pair search of :mod:`vlab.diagnose.fit.estimate` runs on the FE model. When the
 selected effect moves modes far (the grid's joint 8 softened almost to a
 hinge moves six modes by 1-7 %), the FE model and the MuJoCo plant move them
 differently, and what that difference leaves in the residual hides a
@@ -11,18 +11,18 @@ on the plant's linearisation the joint alone leaves one line 2.5x over the
 noise limit (peak 145, limit 58) and the true pair does not (17).
 
 So, when the selected single effect, refitted on the plant's linearisation
-(:mod:`vlab.diagnose.plantfit`), still leaves the data out of the noise
-there (:meth:`~vlab.diagnose.problem.Problem.within_noise`), the data are
+(:mod:`vlab.diagnose.fit.plantfit`), still leaves the data out of the noise
+there (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`), the data are
 referred back to the FE model through that effect: with ``h`` the selected
 effect at its FE value ``x_FE`` and at its plant value ``x_P``,
 
     d' = d * H_FE(h, x_FE) / H_plant(h, x_P),   var' = var * |H_FE / H_plant|^2
 
-(the reference-state referral of :func:`vlab.diagnose.data.refer_to_model`,
+(the reference-state referral of :func:`vlab.diagnose.data.measured.refer_to_model`,
 with the modified model as the reference), so that on ``d'`` the FE model
 with ``h`` at ``x_FE`` leaves exactly the residual the plant leaves on
 ``d``. A second effect is then searched on ``d'`` by the forward step of
-:func:`vlab.diagnose.fit.fit_pairs` (``h`` held while screening), and the
+:func:`vlab.diagnose.fit.estimate.fit_pairs` (``h`` held while screening), and the
 best pairs are refitted on the plant's linearisation and judged there by
 the selection's own pair rule against the single effect (quasi-BIC evidence
 of 10, and a misfit gain of 1.5 or a residual brought into the noise). Only
@@ -45,11 +45,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError, SpecError, VlabError
-from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_pairs, rank
-from .hypothesis import Combination, Hypothesis
+from ...errors import ModelError, SpecError, VlabError
+from ..effects.hypothesis import Combination, Hypothesis
+from ..problem.residuals import Problem
+from .estimate import fit_pairs, rank
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
-from .problem import Problem
+from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
 
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
 REFERRED_FIT = "fit on the data referred through the first effect"
@@ -103,7 +104,7 @@ SECOND_POINTS = 7
 def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> PlantRefit | None:
     """Refit a pair found on the referred data on the plant: its second effect's mode-moving parameter
     (``+-SECOND_HALF_WIDTH`` around ``x``), then the first effect's with the second in the model and,
-    where that lowered the chi-square, the second's once more (:func:`vlab.diagnose.plantfit.refit_parts`).
+    where that lowered the chi-square, the second's once more (:func:`vlab.diagnose.fit.plantfit.refit_parts`).
 
     Parameters
     ----------
@@ -143,28 +144,28 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     hypothesis of ``pool`` that the plant can carry is screened as the
     second effect with ``chosen`` held at its FE value, and the ``n_fit``
     best pairs are fitted jointly (the forward step of
-    :func:`vlab.diagnose.fit.fit_pairs`). Each is scored on the plant's
+    :func:`vlab.diagnose.fit.estimate.fit_pairs`). Each is scored on the plant's
     linearisation with ``chosen`` at its plant value and the second effect at
     its referred fit; the ``refit_best`` best are refitted there in full
     (:func:`refit_pair`; in parallel processes,
-    :func:`vlab.diagnose.plantfit.map_on_plant`), so that they are compared
+    :func:`vlab.diagnose.fit.plantfit.map_on_plant`), so that they are compared
     at the same level of refit; the best of them replaces ``chosen`` only if it beats it there by
-    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and either leaves
-    the data within the noise (:meth:`~vlab.diagnose.problem.Problem.within_noise`:
+    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and either leaves
+    the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
-    or lowers the misfit :data:`vlab.diagnose.fit.PAIR_MISFIT_GAIN` times
-    (the pair rule of :func:`vlab.diagnose.fit.select`).
+    or lowers the misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
+    (the pair rule of :func:`vlab.diagnose.fit.rules.select`).
 
-    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.NONLINEAR`: saturation,
+    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
     friction) is left alone: its linear model is a describing function, so
     what its linearisation leaves on the plant is mostly the nonlinearity's
     own distortion, which no linear second effect explains and which
-    :meth:`~vlab.diagnose.problem.Problem.within_noise` cannot judge (MuJoCo
+    :meth:`~vlab.diagnose.problem.residuals.Problem.within_noise` cannot judge (MuJoCo
     grid benchmark, seed 0, case 12, a saturation: chi-square 5.5e5 against a
     noise limit of 3.1e3, and the best pair's quasi-BIC evidence 1.7; the
     search failed on every benchmark case with a nonlinear single effect, at
     20-35 s each). Pairs with a nonlinear part are judged by rerun instead
-    (:func:`vlab.diagnose.selection.tie_break_by_rerun`).
+    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 
     Parameters
     ----------
@@ -203,7 +204,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     ------
     Exception
         Only errors that are not a model, spec or fit failure (those end the search and keep
-        ``chosen``), e.g. a bug in a worker process of :func:`~vlab.diagnose.plantfit.map_on_plant`.
+        ``chosen``), e.g. a bug in a worker process of :func:`~vlab.diagnose.fit.plantfit.map_on_plant`.
     """
     if isinstance(chosen, Combination) or not chosen.spec_level:
         return chosen, refit, [], None
@@ -253,7 +254,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     pair_state = model.state(best, r.params)
     inside = plant.within_noise(pair_state)
     gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
-    if ev >= STRONG_EVIDENCE and (inside or gain >= PAIR_MISFIT_GAIN):
+    if passes_pair_rule(ev, gain, inside):
         looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < STRONG_EVIDENCE]
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "

@@ -1,13 +1,13 @@
-"""Fitting hypotheses, confidence intervals, and model selection by information criteria.
+"""Fitting hypotheses, confidence intervals, and ranking by information criteria.
 
 Each hypothesis is fitted by bounded nonlinear least squares on the weighted
-residuals of :class:`~vlab.diagnose.problem.Problem`
+residuals of :class:`~vlab.diagnose.problem.residuals.Problem`
 (:func:`scipy.optimize.least_squares`, trust-region reflective, finite
 difference Jacobian), started from the best of a few trial values (the
 residual of a lightly damped structure is not convex in a frequency shift).
 A one-parameter effect that moves the modes is scanned first at
 :data:`COARSE_POINTS` values spanning its trial range; the value with the least
-*smoothed* error (:meth:`~vlab.diagnose.problem.Problem.scores`: the broad
+*smoothed* error (:meth:`~vlab.diagnose.problem.residuals.Problem.scores`: the broad
 basin around the narrow chi-square well) is then refined by a finer scan of
 the chi-square around it (:data:`LOCAL_POINTS` values within
 :data:`LOCAL_SPAN`), and the best of all is a start of the local fit.
@@ -24,6 +24,8 @@ Ranking: Akaike's ``AIC = chi2 + 2k`` and Schwarz's ``BIC = chi2 + k ln N``
 (N residuals, k parameters); BIC is the score (lower is better) because it
 penalises extra parameters more and is consistent. A difference of 10 is
 "very strong" evidence (Kass & Raftery, J. Am. Stat. Assoc. 90 (1995) 773-795).
+The selection among the ranked fits (:func:`vlab.diagnose.fit.rules.select`) and
+its thresholds are in :mod:`vlab.diagnose.fit.rules`.
 
 Sources: Akaike, IEEE Trans. Autom. Control 19 (1974) 716-723; Schwarz,
 Ann. Statist. 6 (1978) 461-464; Seber & Wild, *Nonlinear Regression*, 1989,
@@ -37,23 +39,9 @@ import math
 import numpy as np
 import scipy.optimize
 
-from ..errors import ModelError, VlabError
-from .hypotheses import Combination, Hypothesis
-from .problem import PENALTY, Problem
-
-#: BIC difference that counts as strong evidence.
-STRONG_EVIDENCE = 10.0
-
-#: A pair is chosen over the best single effect only if it also lowers that
-#: effect's FRF misfit by this factor (practical, not only statistical,
-#: significance). **Calibrated** on the benchmark runs of seed 0
-#: (docs/diagnose_benchmark_*.txt): true pairs lowered it 1.9-24x, pairs that
-#: only absorbed the MuJoCo plant's model-form error 1.06-1.4x.
-PAIR_MISFIT_GAIN = 1.5
-
-#: Effects whose frequency-domain model is a describing function: their FRF
-#: misfit understates what they explain, so pairs with them skip the gain test.
-NONLINEAR = ("saturation", "friction")
+from ...errors import ModelError, VlabError
+from ..effects.hypotheses import Combination, Hypothesis
+from ..problem.residuals import PENALTY, Problem
 
 #: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).
 COARSE_POINTS = 12
@@ -362,62 +350,3 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
             break
         best = better
     return out
-
-
-def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,
-             c_hat: float = 1.0) -> float:
-    """Quasi-BIC evidence for ``better`` over ``worse`` (None = the nominal model, chi2 ``chi2_0``, k = 0),
-    with ``n_obs`` residuals and overdispersion ``c_hat``.
-
-    ``(chi2_w - chi2_b) / c_hat - (k_b - k_w) ln N``: the BIC difference with
-    the chi-squares divided by the overdispersion ``c_hat`` (the reduced
-    chi-square of the best fit when it exceeds 1: misfit the model cannot
-    explain, e.g. nonlinear distortion, must not make small improvements
-    look significant; QAIC/QBIC of Burnham & Anderson, *Model Selection and
-    Multimodel Inference*, 2nd ed., 2002, Sec. 6.2).
-    """
-    cb, kb = (chi2_0, 0) if better is None else (better.chi2_, better.n_params)
-    cw, kw = (chi2_0, 0) if worse is None else (worse.chi2_, worse.n_params)
-    return (cw - cb) / c_hat - (kb - kw) * math.log(n_obs)
-
-
-def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothesis | None, float, list]:
-    """Choose the explaining effect among the fitted hypotheses ``ranked``.
-
-    ``chi2_0`` is the nominal model's chi-square, ``n_obs`` the number of residuals.
-
-    The best single effect (lowest BIC) is chosen unless a pair beats it by
-    :data:`STRONG_EVIDENCE` in quasi-BIC (overdispersion from the best single
-    fit) and lowers its misfit by :data:`PAIR_MISFIT_GAIN` (not asked of
-    pairs with a :data:`NONLINEAR` effect); the choice must
-    beat the nominal model by :data:`STRONG_EVIDENCE` too, else nothing is
-    selected.
-
-    Returns
-    -------
-    selected : Hypothesis or None
-    c_hat : float
-        Overdispersion ``max(1, chi2 / (N - k))`` of the selected (or best) fit.
-    alternatives : list of Hypothesis
-        Other hypotheses within :data:`STRONG_EVIDENCE` of the selected one.
-    """
-    singles = [h for h in ranked if not isinstance(h, Combination)]
-    combos = [h for h in ranked if isinstance(h, Combination)]
-    if not singles:
-        return None, 1.0, []
-    best = min(singles, key=lambda h: (h.bic_, h.n_params, h.order))
-    c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
-    if combos:
-        pair = min(combos, key=lambda h: h.bic_)
-        gain = getattr(best, "misfit_", np.nan) / getattr(pair, "misfit_", np.nan)
-        if any(h.effect in NONLINEAR for h in pair.parts):
-            gain = np.nan
-        if (evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE
-                and not gain < PAIR_MISFIT_GAIN):  # a NaN gain leaves the decision to the evidence
-            best = pair
-            c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
-    if evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE:
-        return None, c_hat, []
-    alts = [h for h in ranked if h is not best and h.n_params <= best.n_params
-            and evidence(best, h, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE]
-    return best, c_hat, alts

@@ -34,12 +34,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.special
 
-from ..analysis import sampled_data_controller_frf
-from ..calibration import open_loop_ratios
-from ..errors import ModelError
-from ..fe import FEModel, Modes, build_fe_model, modal_analysis
-from ..lab.loop import HardwareChain, check_design_period
-from ..spec import StructureSpec
+from ...analysis import sampled_data_controller_frf
+from ...calibration import open_loop_ratios
+from ...errors import ModelError
+from ...fe import FEModel, Modes, build_fe_model, modal_analysis
+from ...lab.loop import HardwareChain, check_design_period
+from ...spec import StructureSpec
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ class LabState:
         (filled in by :func:`with_command_rms`).
     point_modes : PointModes or None
         Modes of the structure to use instead of the FE model's (the MuJoCo
-        plant's own linearisation, :mod:`vlab.diagnose.plantfit`); dropped by
+        plant's own linearisation, :mod:`vlab.diagnose.fit.plantfit`); dropped by
         :meth:`with_spec`, since they belong to one spec.
     """
 

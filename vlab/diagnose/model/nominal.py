@@ -1,4 +1,4 @@
-"""The nominal laboratory a diagnosis compares with: controller design, settling time, scales, data.
+"""The nominal laboratory a diagnosis compares with: controller design, mesh, settling time.
 
 The nominal lab is the spec's FE model with its open-loop damping, the
 thesis controller designed on it (:func:`vlab.design.design_controller`,
@@ -6,24 +6,24 @@ cached per model, controller and seed) and the nominal hardware chain.
 Against the MuJoCo plant the FE model is meshed as finely as that plant
 resolves the structure (:func:`plant_resolution`); the controller stays the
 one designed on the spec's own mesh, the one that ran.
+
+(The nominal lab's scales for the hypotheses are
+:func:`vlab.diagnose.problem.context.context_for`; the data are read by
+:func:`vlab.diagnose.data.measured.read_data`.)
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 
-from ..analysis import closed_loop_modes
-from ..calibration import modal_damping_matrix, open_loop_ratios
-from ..errors import DataFileError, ModelError
-from ..fe import FEModel
-from ..lab.experiment import test_definition
-from ..spec import StructureSpec
-from .data import FrfData, frfs_from_recording, frfs_from_uff
-from .hypotheses import Context
+from ...analysis import closed_loop_modes
+from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...errors import ModelError
+from ...fe import FEModel
+from ...spec import StructureSpec
 from .labmodel import LabState, natural_frequencies
 
 _DESIGNS: dict = {}
@@ -103,7 +103,7 @@ def nominal_design(fe: FEModel, controller: str, seed: int, period_s: float | No
         return hit[1]
     if controller == "lqr":
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
-    from ..design import design_controller
+    from ...design import design_controller
 
     d = design_controller(fe, controller, model=reduction, seed=seed, period_s=period_s)
     _DESIGNS[key] = (fe, d)
@@ -130,73 +130,3 @@ def settling_time(state: LabState, band_hz: tuple[float, float], *, decay: float
         return 0.0
     sigma = np.min(2 * np.pi * fm[sel] * zm[sel])
     return float(math.log(1.0 / decay) / sigma)
-
-
-def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
-    """Scales of the lab ``state`` in ``band_hz`` and signals of ``data`` (FrfData or other) for the hypotheses."""
-    fe = state.fe
-    w_rows = [i for i, (_n, dof) in enumerate(fe.dofs.labels) if dof == "w"]
-    u = np.zeros(fe.n)
-    u[w_rows] = 1.0
-    total = float(u @ fe.m @ u)
-    f, zeta, phi = natural_frequencies(state)
-    om = 2 * np.pi * f
-    keep = om > 1e-6
-    inband = keep & (f >= band_hz[0]) & (f <= band_hz[1])
-    if not inband.any():
-        inband = keep
-    kp, mp, cp = {}, {}, {}
-    for p in state.spec.points:
-        if (p, "w") in fe.dofs:
-            i = fe.dofs.index(p, "w")
-            flex = float(np.sum(phi[i, keep] ** 2 / om[keep] ** 2))
-            if flex > 0:
-                kp[p] = 1.0 / flex
-            ph2 = phi[i, inband] ** 2
-            if ph2.max() > 0:
-                mp[p] = float(1.0 / ph2.max())
-                with np.errstate(divide="ignore"):
-                    cp[p] = float(np.min(2 * np.maximum(zeta[inband], 1e-4) * om[inband] / np.maximum(ph2, 1e-300)))
-    closed = state.design is not None
-    if isinstance(data, FrfData):
-        return Context(band_hz, closed, total, float(f[keep][0]), kp, mp, cp, data.freq_hz, data.force_amplitude,
-                       dict(data.velocity_rms), data.excitation_point)
-    return Context(band_hz, False, total, float(f[keep][0]), kp, mp, cp)
-
-
-def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
-              resolution_hz: float | None, band_hz, settle_of):
-    """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data`).
-
-    Parameters
-    ----------
-    spec, fe : StructureSpec, FEModel
-        The nominal structure.
-    path : Path
-        The file (for messages).
-    what : {"modal", "recording", "frf"}
-        Kind of ``obj``.
-    obj : ModalData, Recording or list of FRF
-        What was read.
-    resolution_hz : float or None
-        Resolution asked for [Hz]; else the metadata's, else the structure's test resolution.
-    band_hz : (float, float)
-        Band analysed [Hz].
-    settle_of : callable
-        Returns the settling time [s] of the nominal lab (called for recordings only).
-
-    Raises
-    ------
-    DataFileError, MeasurementError
-        From :mod:`vlab.diagnose.data`; a recording of another structure.
-    """
-    if what == "modal":
-        return obj
-    if what == "recording":
-        meta = dict(obj.metadata)
-        if meta.get("structure") not in (None, spec.name):
-            raise DataFileError(f"{path}: recorded on structure {meta['structure']!r}, diagnosed as {spec.name!r}")
-        res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
-        return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
-                                   settle_s=settle_of())
-    return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)

@@ -1,14 +1,14 @@
 """Decisions made on the MuJoCo plant's linearisation: a selected pair against its parts, a selected single
 effect against its look-alikes.
 
-The FE fit selects (:func:`vlab.diagnose.fit.select`); the refit on the
-plant's linearisation (:mod:`vlab.diagnose.plantfit`) is the model that is
+The FE fit selects (:func:`vlab.diagnose.fit.rules.select`); the refit on the
+plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`) is the model that is
 rerun, and the FE/plant model-form difference can change the decision.
 
 A selected *pair* is first checked on the plant's linearisation
 (:func:`reduce_pair_on_plant`): the selection's pair rule is applied again
 there (the main part's mode-moving parameter refitted; in a kept pair the
-other part's too, :func:`vlab.diagnose.plantfit.refit_parts`), since a second
+other part's too, :func:`vlab.diagnose.fit.plantfit.refit_parts`), since a second
 effect can pass it on the FE model only by absorbing the same model-form
 difference. A selected *single* effect is compared there with its
 look-alikes (:func:`choose_on_plant`: effects the FE fit cannot tell from
@@ -31,9 +31,10 @@ import math
 
 import numpy as np
 
-from .hypothesis import Combination, Hypothesis
-from .fit import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, fit_hypothesis
+from ..effects.hypothesis import Combination, Hypothesis
+from .estimate import fit_hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
+from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
 
 
 def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> tuple[Hypothesis, PlantRefit | None,
@@ -41,9 +42,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     """Apply the pair rule of the selection again on the plant's linearisation.
 
     The FE fit selects a pair only if it beats the best single effect by
-    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in quasi-BIC and lowers the
-    misfit :data:`vlab.diagnose.fit.PAIR_MISFIT_GAIN` times
-    (:func:`vlab.diagnose.fit.select`). A second effect can pass that rule by
+    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and lowers the
+    misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
+    (:func:`vlab.diagnose.fit.rules.select`). A second effect can pass that rule by
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
     and each of its parts alone (at its value in the pair) are scored on the
@@ -94,7 +95,7 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     ev = evidence(s_pair, s1, chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
     gain = m1 / m_pair if m_pair > 0 else math.inf
     nonlinear = any(p.effect in NONLINEAR for p in pair.parts)
-    if ev >= STRONG_EVIDENCE and (nonlinear or gain >= PAIR_MISFIT_GAIN):
+    if passes_pair_rule(ev, gain, nonlinear):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])
@@ -139,7 +140,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
 
     The FE model cannot tell apart effects the data cannot (within
-    :data:`vlab.diagnose.fit.STRONG_EVIDENCE` in BIC): the stiffness of one
+    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in BIC): the stiffness of one
     end segment of the grid's top beam or of its mirror. The FE/plant
     model-form difference can also order them wrongly, and the plant is the
     model that is rerun. Here the selected effect and up to
@@ -169,7 +170,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     chosen : Hypothesis
         The selected single effect (fitted).
     alternatives : list of Hypothesis
-        Its look-alikes on the FE model (:func:`vlab.diagnose.fit.select`).
+        Its look-alikes on the FE model (:func:`vlab.diagnose.fit.rules.select`).
     ranked : list of Hypothesis, optional
         All fitted hypotheses (FE fits); those within ``delta`` are compared too.
     max_lookalikes, refit_best : int

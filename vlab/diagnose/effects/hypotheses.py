@@ -10,7 +10,7 @@ returning one comparable number (the BIC, lower is better).
 A hypothesis changes the laboratory only through public functions:
 
 - structural effects build a modified :class:`~vlab.spec.StructureSpec`
-  (:mod:`vlab.diagnose.specedit`), from which both the FE model and the
+  (:mod:`vlab.diagnose.effects.specedit`), from which both the FE model and the
   MuJoCo plant are built;
 - chain effects build a modified :class:`~vlab.lab.loop.HardwareChain`;
 - ``gravity_prestress`` rescales the geometric stiffness of the FE model
@@ -31,15 +31,15 @@ damping coefficient, corner frequency, gain, force) are fitted as
 
 from __future__ import annotations
 
-from ..errors import ModelError
-from ..units import G_SI
+from ...errors import ModelError
+from ...units import G_SI
+from ..model.labmodel import LabState, natural_frequencies
+from ..problem.context import Context
 from . import specedit
+from .beyond_spec import Friction, GravityPrestress, PointDamping
 from .chain import ActuatorGain, ActuatorLag, LoopDelay, Saturation, SensorGain, SensorLag
-from .context import Context
 from .hypothesis import Combination, Hypothesis
-from .labmodel import LabState, natural_frequencies
-from .structural import (AddedMass, Friction, GravityPrestress, JointFlexibility, MemberStiffness, ModalDamping,
-                         PointDamping, SupportStiffness)
+from .structural import AddedMass, JointFlexibility, MemberStiffness, ModalDamping, SupportStiffness
 
 __all__ = ["EFFECTS", "Context", "Hypothesis", "Combination", "library", "AddedMass", "SupportStiffness",
            "JointFlexibility", "MemberStiffness", "ModalDamping", "PointDamping", "Friction", "GravityPrestress",

@@ -4,7 +4,7 @@ FRF data (recordings or UFF FRFs): for every usable line and channel the
 complex log ratio ``e = ln(H_model / H_measured)`` (real part: log magnitude,
 imaginary part: phase, wrapped), each part divided by its standard deviation
 ``sqrt((sigma_rel^2 + floor^2) / 2)``. ``sigma_rel`` is the measured relative
-noise of the line (:mod:`vlab.diagnose.data`), ``floor`` a relative model
+noise of the line (:mod:`vlab.diagnose.data.measured`), ``floor`` a relative model
 error the linear model is allowed (the lab's time stepping and the
 frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
 report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used.
@@ -17,7 +17,7 @@ compared with the mode that is nominal mode ``n``.
 
 The sum of squares is a chi-square statistic when the weights are the noise:
 it drives the least-squares fits, the information criteria
-(:mod:`vlab.diagnose.fit`) and, with its largest single term (:meth:`Problem.peak`, which
+(:mod:`vlab.diagnose.fit.estimate`) and, with its largest single term (:meth:`Problem.peak`, which
 catches a mismatch local to one resonance), the decision whether there is a mismatch at all.
 
 A lightly damped structure makes that chi-square a rugged function of a
@@ -38,11 +38,11 @@ import math
 import numpy as np
 import scipy.stats
 
-from ..errors import ModelError, SpecError
-from ..measure.mac import mac, pair_modes
-from .data import MAX_RELATIVE_NOISE, FrfData, ModalData
-from .hypotheses import Context, Hypothesis
-from .labmodel import LabState, natural_frequencies, predict_frf
+from ...errors import ModelError, SpecError
+from ...measure.mac import mac, pair_modes
+from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
+from ..model.labmodel import LabState, natural_frequencies, predict_frf
+from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
 PENALTY = 1e3
@@ -154,7 +154,7 @@ class Problem:
             self.n_obs = n + int(nz.sum()) + (n if data.shapes is not None else 0)
 
     def __getstate__(self) -> dict:
-        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.validate`
+        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.data.replay`
         (background processes and the rerun cache), which stays with the process that made it."""
         return {k: v for k, v in self.__dict__.items() if k not in ("_background", "_reruns")}
 
@@ -214,8 +214,12 @@ class Problem:
         return fo, zo, so
 
     # ------------------------------------------------------------------ core
-    def state_for(self, hyp: Hypothesis | None, x) -> LabState:
-        """The lab with hypothesis ``hyp`` of size ``x`` [SI] (the nominal lab for None)."""
+    def state_for(self, hyp, x) -> LabState:
+        """The lab with hypothesis ``hyp`` of size ``x`` [SI] (the nominal lab for None).
+
+        ``hyp`` is a :class:`~vlab.diagnose.effects.hypothesis.Hypothesis` or None; only its
+        ``apply(state, x, ctx)`` is used, so the problem layer does not import the library above it.
+        """
         if hyp is None:
             return self.base
         return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
@@ -382,66 +386,8 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
     -------
     Problem
         Residuals weighted by the data's own variance alone (``1 / sigma_rel^2``
-        per line of FRF data), the weights of :func:`changed_beyond_noise`.
+        per line of FRF data), the weights of :func:`vlab.diagnose.fit.rules.changed_beyond_noise`.
     """
     return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
                    use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
                    shape_sigma=problem.shape_sigma)
-
-
-def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dict]:
-    """Whether FRF data referred to the model through a baseline changed since that baseline beyond the noise
-    of the two recordings, with no model-error floor.
-
-    On referred data (:func:`vlab.diagnose.data.refer_to_model`) the nominal
-    model's residual is ``ln(H_baseline / H_recorded)`` whatever the model:
-    the floor, an allowance for what the model cannot represent, has nothing
-    to allow for in the question whether anything changed. With it, a change
-    of 1.3 % at one line, 65 standard deviations of the two recordings' noise
-    out, passed as model error (MuJoCo grid benchmark, seed 1, case 2: 1.05 kg
-    at point 20 under LQG; nominal chi-square 1161 with the 0.5 % floor,
-    16 873 without, limit 3099). The same tests as :meth:`Problem.within_noise`
-    (total chi-square and largest line), on weights ``1 / sigma_rel^2``: the
-    two recordings' relative noise variances plus the referral's own
-    second-order term (model-form error x change), which
-    :func:`~vlab.diagnose.data.refer_to_model` adds to ``var``.
-
-    Parameters
-    ----------
-    problem : Problem
-        With FRF data referred through a baseline (``h_recorded`` set).
-    nominal : LabState
-        The nominal lab the data were referred to.
-
-    Returns
-    -------
-    (bool, dict)
-        Whether the data changed beyond the noise, and the statistics of the
-        test without the floor: ``chi2``, ``chi2_limit``, ``peak``,
-        ``peak_limit`` (empty when it cannot be made). False when a used line
-        of the recording or of the baseline has no noise estimate (FRF files
-        without coherence): the floor then stays the only weight, since the
-        referral's term alone would weigh a change of any size as about
-        ``1 / |ln(H_model / H_baseline)|``. False too against the nominal plant's
-        noise-free replay (its variance is zero): the recording's noise alone,
-        estimated from two or three periods, made a clean linear recording's
-        band-edge line stand out (squared residual 70, limit 53), so the replay
-        is compared within the model-error floor only.
-
-    Raises
-    ------
-    ModelError
-        Data not referred through a baseline (modal data, or FRFs without ``h_recorded``).
-    """
-    data = problem.data
-    if not isinstance(data, FrfData) or data.h_recorded is None:
-        raise ModelError(f"{getattr(data, 'source', 'data')}: only data referred through a baseline can be tested "
-                         "for a change without the model-error floor")
-    m = problem.mask
-    noise = (data.var_recorded, data.var_baseline)
-    if any(v is None or not np.all(v[m] > 0) for v in noise):
-        return False, {}
-    raw = without_floor(problem, nominal)
-    stats = {"chi2": raw.chi2(nominal), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal),
-             "peak_limit": raw.peak_limit()}
-    return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats

@@ -1,4 +1,7 @@
-"""What a hypothesis needs to know besides the lab state: scales of the structure and signals of the data."""
+"""What a hypothesis needs to know besides the lab state: scales of the structure and signals of the data.
+
+:func:`context_for` makes the :class:`Context` of the nominal lab and the data.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .labmodel import LabState, predict_frf
+from ..data.measured import FrfData
+from ..model.labmodel import LabState, natural_frequencies, predict_frf
 
 
 @dataclass
@@ -84,3 +88,35 @@ class Context:
         if point not in self._predicted:
             self._predicted[point] = self.velocity_rms_of(state, point)
         return self._predicted[point]
+
+
+def context_for(state: LabState, band_hz: tuple[float, float], data) -> Context:
+    """Scales of the lab ``state`` in ``band_hz`` and signals of ``data`` (FrfData or other) for the hypotheses."""
+    fe = state.fe
+    w_rows = [i for i, (_n, dof) in enumerate(fe.dofs.labels) if dof == "w"]
+    u = np.zeros(fe.n)
+    u[w_rows] = 1.0
+    total = float(u @ fe.m @ u)
+    f, zeta, phi = natural_frequencies(state)
+    om = 2 * np.pi * f
+    keep = om > 1e-6
+    inband = keep & (f >= band_hz[0]) & (f <= band_hz[1])
+    if not inband.any():
+        inband = keep
+    kp, mp, cp = {}, {}, {}
+    for p in state.spec.points:
+        if (p, "w") in fe.dofs:
+            i = fe.dofs.index(p, "w")
+            flex = float(np.sum(phi[i, keep] ** 2 / om[keep] ** 2))
+            if flex > 0:
+                kp[p] = 1.0 / flex
+            ph2 = phi[i, inband] ** 2
+            if ph2.max() > 0:
+                mp[p] = float(1.0 / ph2.max())
+                with np.errstate(divide="ignore"):
+                    cp[p] = float(np.min(2 * np.maximum(zeta[inband], 1e-4) * om[inband] / np.maximum(ph2, 1e-300)))
+    closed = state.design is not None
+    if isinstance(data, FrfData):
+        return Context(band_hz, closed, total, float(f[keep][0]), kp, mp, cp, data.freq_hz, data.force_amplitude,
+                       dict(data.velocity_rms), data.excitation_point)
+    return Context(band_hz, False, total, float(f[keep][0]), kp, mp, cp)

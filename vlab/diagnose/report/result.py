@@ -6,14 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.results import jsonable
-from .data import FrfData, ModalData
-from .hypotheses import Combination, Hypothesis
-from .labmodel import LabState
-from .locate import FLAG, Location
-from .plantfit import PlantRefit
-from .problem import Problem
-from .validate import Validation
+from ...io.results import jsonable
+from ..data.measured import FrfData, ModalData
+from ..effects.hypotheses import Combination, Hypothesis
+from ..fit.locate import FLAG, Location
+from ..fit.plantfit import PlantRefit
+from ..model.labmodel import LabState
+from ..problem.residuals import Problem
+from ..validate import Validation
 
 
 @dataclass
@@ -34,7 +34,7 @@ class DiagnosisResult:
         (:meth:`Problem.peak`, :meth:`Problem.peak_limit`).
     noise_only : dict or None
         When the mismatch was found only by the test without the model-error floor (a baseline given,
-        :func:`vlab.diagnose.problem.changed_beyond_noise`): its ``chi2``, ``chi2_limit``, ``peak``,
+        :func:`vlab.diagnose.fit.rules.changed_beyond_noise`): its ``chi2``, ``chi2_limit``, ``peak``,
         ``peak_limit``; else None.
     location : Location
     loop : str or None
@@ -55,10 +55,10 @@ class DiagnosisResult:
     alternatives : list of Hypothesis
         Hypotheses the data cannot tell apart from the selected one.
     overdispersion : float
-        ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.evidence`).
+        ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.rules.evidence`).
     plant_refit : PlantRefit or None
         The selected effect's mode-moving parameter refitted on the MuJoCo
-        plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.plantfit`).
+        plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.fit.plantfit`).
     rejected : list of dict
         Candidates the validation rerun rejected (they made the FRF misfit or the time-domain error
         worse): ``effect``, ``label``, ``misfit_before``, ``misfit_after`` [decades], ``time_error_before``,

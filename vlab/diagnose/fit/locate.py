@@ -31,14 +31,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import MeasurementError, ModelError, SpecError
-from ..measure.mac import comac, mac, pair_modes
-from ..measure.modal import find_peaks, fit_modes, peak_levels
-from . import specedit
-from .data import FrfData
-from .hypotheses import Context
-from .labmodel import LabState, natural_frequencies, predict_frf
-from .problem import Problem, log_misfit
+from ...errors import MeasurementError, ModelError, SpecError
+from ...measure.mac import comac, mac, pair_modes
+from ...measure.modal import find_peaks, fit_modes, peak_levels
+from ..data.measured import FrfData
+from ..effects import specedit
+from ..model.labmodel import LabState, natural_frequencies, predict_frf
+from ..problem.context import Context
+from ..problem.residuals import Problem, log_misfit
 
 #: Mean chi-square per real residual above which lines, modes or channels count as mismatched.
 FLAG = 4.0

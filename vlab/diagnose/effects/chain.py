@@ -1,7 +1,7 @@
 """Hypotheses in the hardware chain of Fig. 21: delay, lags, channel gains, saturation.
 
 Each builds a modified :class:`~vlab.lab.loop.HardwareChain` (Sec. 5.3),
-which the frequency-domain model (:mod:`vlab.diagnose.labmodel`) and the
+which the frequency-domain model (:mod:`vlab.diagnose.model.labmodel`) and the
 2 kHz loop of a rerun both use. Each is located on one channel
 (``{"channel": <point id>}``: that channel's entry of the chain) or on all
 (``{"channel": "all"}``: the global setting).
@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError
+from ...errors import ModelError
 from .hypothesis import Hypothesis, _log_trials
 
 
@@ -189,7 +189,7 @@ class Saturation(_Channel):
     (all channels) or ``channel_limit_n[channel]``. Fitted with the
     Gaussian-input describing function: channel ``i`` passes
     ``erf(L / (sqrt(2) sigma_i))`` of its command, ``sigma_i`` the RMS of
-    excitation plus control on it (:func:`vlab.diagnose.labmodel.with_command_rms`).
+    excitation plus control on it (:func:`vlab.diagnose.model.labmodel.with_command_rms`).
     """
 
     effect = "saturation"
@@ -201,7 +201,7 @@ class Saturation(_Channel):
     def _ref(self, state, ctx) -> float:
         """RMS command [N] of the channel (of the largest channel for "all") on the unlimited lab."""
         if not ctx.command_rms:
-            from .labmodel import with_command_rms
+            from ..model.labmodel import with_command_rms
 
             st = with_command_rms(replace(state, chain=replace(state.chain, amplifier_limit_n=1e30)), ctx.freq_hz,
                                   ctx.force_amplitude, excitation_point=ctx.excitation_point, iterations=1)
@@ -215,7 +215,7 @@ class Saturation(_Channel):
         return _log_trials(r, (0.5, 1.0, 2.0, 4.0)), np.array([0.02 * r]), np.array([100.0 * r])
 
     def _apply(self, state, x, ctx):
-        from .labmodel import with_command_rms
+        from ..model.labmodel import with_command_rms
 
         st = self._set(state, "amplifier_limit_n", "channel_limit_n", float(x[0]))
         return with_command_rms(st, ctx.freq_hz, ctx.force_amplitude, excitation_point=ctx.excitation_point)

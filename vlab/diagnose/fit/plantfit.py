@@ -1,10 +1,10 @@
 """Refit a mode-moving parameter on the validation plant's own linearisation before the MuJoCo rerun.
 
-The hypotheses are fitted on the FE model (:mod:`vlab.diagnose.fit`), which
+The hypotheses are fitted on the FE model (:mod:`vlab.diagnose.fit.estimate`), which
 is fast. The MuJoCo plant built from the same spec is another
 discretisation: its natural frequencies differ from the FE model's by up to
 about 1-2 % in some modes (``vlab crosscheck grid``). A baseline recording
-removes that offset where the modes are (:func:`vlab.diagnose.data.refer_to_model`),
+removes that offset where the modes are (:func:`vlab.diagnose.data.measured.refer_to_model`),
 but a mode that an effect moves far (a softened joint moves two top-beam
 modes of the grid by 20 %) leaves its offset behind, and the FE fit absorbs
 the offset into the parameter: on the grid's joint 18 the FE fit found
@@ -13,7 +13,7 @@ MuJoCo rerun with that value put two resonances about 2 % off and lowered the mi
 only 2x.
 
 So, before a MuJoCo rerun, the one parameter of a spec-level, mode-moving
-effect (:attr:`vlab.diagnose.hypothesis.Hypothesis.moves_modes`; in a pair,
+effect (:attr:`vlab.diagnose.effects.hypothesis.Hypothesis.moves_modes`; in a pair,
 the one such part, the other held) is fitted again to the same data with
 the structure's FRFs taken from the *plant's* linearisation
 (:func:`plant_modes`: MuJoCo's modes at the settled state, mass-normalised,
@@ -30,8 +30,8 @@ refitted value is reported with the validation (``validated.parameters``)
 as the value the rerun used.
 
 What is decided on the plant with these refits is in
-:mod:`vlab.diagnose.plantchoice` (a selected pair or single effect against
-its parts or look-alikes) and :mod:`vlab.diagnose.plantpair` (a second
+:mod:`vlab.diagnose.fit.plantchoice` (a selected pair or single effect against
+its parts or look-alikes) and :mod:`vlab.diagnose.fit.plantpair` (a second
 effect found there). The refits of several candidates run in two processes
 (:func:`map_on_plant`).
 
@@ -50,19 +50,19 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.optimize
 
-from ..errors import ModelError, SimulationError, SpecError
-from ..spec import StructureSpec
-from .data import FrfData
-from .hypothesis import Combination, Hypothesis
-from .labmodel import LabState, PointModes
-from .problem import Problem
+from ...errors import ModelError, SimulationError, SpecError
+from ...spec import StructureSpec
+from ..data.measured import FrfData
+from ..effects.hypothesis import Combination, Hypothesis
+from ..model.labmodel import LabState, PointModes
+from ..problem.residuals import Problem
 
 #: Half-width of the scan in ``ln p`` around the FE-fitted value (+-12 %: the FE/MuJoCo
 #: frequency offsets moved the grid's joint stiffness by 7 %). A chosen range, not fitted.
 SCAN_HALF_WIDTH = 0.12
 
 #: Scan values (odd: the FE value is the middle one); the spacing (6 %) is half the
-#: width of a chi-square well in a joint stiffness of the grid (:mod:`vlab.diagnose.problem`).
+#: width of a chi-square well in a joint stiffness of the grid (:mod:`vlab.diagnose.problem.residuals`).
 SCAN_POINTS = 5
 
 #: Tolerance of the Brent search in ``ln p`` (0.4 %).
@@ -92,8 +92,8 @@ def plant_modes(spec: StructureSpec, points) -> PointModes:
         MuJoCo is not installed, or the plant cannot be built or linearised.
     """
     try:
-        from ..sim import build_plant, linearize, modes, settle
-        from ..sim.linearize import site_jacobian_w
+        from ...sim import build_plant, linearize, modes, settle
+        from ...sim.linearize import site_jacobian_w
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
     pts = list(points)
@@ -148,7 +148,7 @@ class PlantRefit:
         Wall time.
     start : str
         Where ``fe_value`` came from: ``"FE fit"``, or for a second effect found on the plant
-        (:mod:`vlab.diagnose.plantpair`) the fit on the data referred through the first.
+        (:mod:`vlab.diagnose.fit.plantpair`) the fit on the data referred through the first.
     """
 
     name: str
@@ -337,7 +337,7 @@ def refit_on_plant(problem: Problem, h: Hypothesis, *, modes_of=plant_modes) -> 
 
 @dataclass(frozen=True)
 class PlantScore:
-    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.evidence` reads).
+    """Chi-square and parameter count of a fit on the plant (what :func:`vlab.diagnose.fit.rules.evidence` reads).
 
     Attributes
     ----------
@@ -370,7 +370,7 @@ def map_on_plant(fn, model: PlantModel, jobs: list, *, workers: int = 2) -> list
     model : PlantModel
     jobs : list of tuple
     workers : int
-        Processes (a background rerun of the nominal lab, :func:`vlab.diagnose.validate.start_background_rerun`,
+        Processes (a background rerun of the nominal lab, :func:`vlab.diagnose.data.replay.start_background_rerun`,
         may still hold a core for their first seconds); one process where a pool cannot start or the
         model cannot be sent to one (a test's own ``modes_of``).
 

@@ -1,0 +1,499 @@
+"""Replays of a recorded test: its excitation force played back through the lab loop on a plant of a lab state.
+
+The recorded excitation force is played back through the 2 kHz loop of
+:func:`vlab.lab.loop.run_loop` (same controller, hardware chain and
+sampling) on a plant built from the lab state -- the MuJoCo plant of
+:mod:`vlab.sim` built from the (modified) spec when the effect can be
+expressed in a spec and MuJoCo is available, else the exact linear plant
+(:class:`vlab.lab.linear_plant.LinearPlant`). With periodic excitation both
+runs (nominal and with the effect) start one period before the analysed
+ones, in the lab's periodic steady state, and simulate one analysed period
+(:mod:`vlab.diagnose.data.warmstart`); otherwise they start from rest, as the
+recording did.
+
+The same replay gives the reference of a recording (the nominal plant's
+replay, :mod:`vlab.diagnose.data.reference`), the look-alike reruns of the
+selection (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`) and the
+validation (:mod:`vlab.diagnose.validate`): reruns are made in parallel
+processes or in the background, and cached on the problem they belong to
+(:func:`reruns`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...errors import ModelError, VlabError
+from ...lab.engine import ControllerEngine
+from ...lab.linear_plant import LinearPlant
+from ...lab.loop import run_loop
+from ...lab.recording import Recording
+from ...measure.frf import h1
+from ..model.labmodel import LabState
+from .measured import FrfData
+from .warmstart import rerun_window, warm_start
+
+
+class FrictionPlant:
+    """A linear plant with Coulomb friction at some points (the loop's Plant protocol).
+
+    The friction force ``-F tanh(v / v_s)`` at each point is computed from the
+    velocity at the start of every physics step and held over it (explicit;
+    ``v_s`` is a small regularising velocity, 1e-6 m/s, so that the force does
+    not chatter around ``v = 0``).
+
+    Parameters
+    ----------
+    inner : LinearPlant
+        With the friction points appended to its actuator points.
+    actuator_points : tuple of int
+        The coil points (the first inputs of ``inner``).
+    frictions : sequence of (int, float) or (int, float, float)
+        ``(point, F [N])``, optionally with the equivalent dashpot ``c_eq`` [N*s/m]
+        (for the warm start, :meth:`set_periodic_state`; 0 without).
+    """
+
+    def __init__(self, inner: LinearPlant, actuator_points: tuple[int, ...], frictions, *, v_s: float = 1e-6):
+        self.inner = inner
+        self.actuator_points = tuple(actuator_points)
+        self.timestep_s = inner.timestep_s
+        self._fp = tuple(fr[0] for fr in frictions)
+        self._ff = np.array([fr[1] for fr in frictions], dtype=float)
+        self._c_eq = np.array([fr[2] if len(fr) > 2 else 0.0 for fr in frictions], dtype=float)
+        self._v_s = v_s
+        self._f = np.zeros(len(self.actuator_points))
+
+    def set_periodic_state(self, freq_hz, forces) -> None:
+        """The inner plant's periodic steady state of the coil forces ``forces`` (n_f, n_act) at
+        ``freq_hz`` [Hz], with each friction force replaced by its equivalent dashpot (the describing
+        function the frequency-domain model uses; what it misses decays in the guard period of
+        :mod:`vlab.diagnose.data.warmstart`)."""
+        F = np.asarray(forces, dtype=complex)
+        self.inner.set_periodic_state(freq_hz, np.hstack([F, np.zeros((F.shape[0], len(self._fp)))]),
+                                      extra_damping=dict(zip(self._fp, self._c_eq)))
+
+    def set_forces(self, forces) -> None:
+        """Coil forces [N], shape (n_act,)."""
+        self._f = np.asarray(forces, dtype=float)
+
+    def step(self) -> None:
+        """One physics step with the friction force of the current velocity."""
+        v = self.inner.velocities(self._fp)
+        self.inner.set_forces(np.concatenate([self._f, -self._ff * np.tanh(v / self._v_s)]))
+        self.inner.step()
+
+    def velocities(self, points) -> np.ndarray:
+        """Velocities [m/s] at ``points``."""
+        return self.inner.velocities(points)
+
+    def displacements(self, points) -> np.ndarray:
+        """Displacements [m] at ``points``."""
+        return self.inner.displacements(points)
+
+
+def linear_plant(state: LabState):
+    """The exact linear plant of a lab state: proportional modal damping of the spec, point dashpots,
+    and Coulomb friction (:class:`FrictionPlant`) where the state has it.
+
+    Raises
+    ------
+    ModelError
+        A dashpot or friction at a point without a free out-of-plane DOF.
+    """
+    fe = state.fe
+    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(state.spec, fe.n))
+    for p, cp in state.dashpots:
+        i = fe.dofs.index(p, "w")
+        c[i, i] += cp
+    pidx = {p: fe.dofs.index(p, "w") for p in state.spec.points if (p, "w") in fe.dofs}
+    if not state.frictions:
+        return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=state.actuators, timestep_s=state.h_s)
+    for p, _f, _c in state.frictions:
+        fe.dofs.index(p, "w")
+    inputs = state.actuators + tuple(p for p, _f, _c in state.frictions)
+    inner = LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=inputs, timestep_s=state.h_s)
+    return FrictionPlant(inner, state.actuators, state.frictions)
+
+
+def mujoco_plant(state: LabState):
+    """The MuJoCo plant built from the state's spec (:func:`vlab.sim.build_plant`).
+
+    Raises
+    ------
+    ModelError
+        When the state carries changes a spec cannot express (dashpots, an
+        edited FE stiffness) or the simulation package cannot build it.
+    """
+    if state.dashpots or state.frictions:
+        raise ModelError("point dashpots and friction cannot be expressed in the spec the MuJoCo plant is built from")
+    try:
+        from ...fe import build_fe_model
+        from ...sim import MujocoPlant, build_plant
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
+    rebuilt = build_fe_model(state.spec)
+    if not np.array_equal(rebuilt.k, state.fe.k):
+        raise ModelError("the state's FE stiffness is edited beyond its spec (gravity pre-stress)")
+    return MujocoPlant(build_plant(state.spec))
+
+
+def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
+          plant: str = "linear", seed: int = 0, start: int = 0, period: int = 0,
+          stop: int | None = None) -> tuple[Recording, str]:
+    """Play the recorded excitation back through the lab loop, from rest or from a warm start.
+
+    Parameters
+    ----------
+    state : LabState
+    force : ndarray, shape (n_ticks,)
+        Excitation command, one value per controller period [N].
+    excitation_point : int
+    measured_points : tuple of int
+        Velocity channels to record.
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise (the chain's ``noise_m_s``).
+    start : int
+        Tick to start at.
+    period : int
+        Ticks per excitation period: given (> 0), the rerun begins in the
+        lab's periodic steady state at ``start``
+        (:func:`vlab.diagnose.data.warmstart.warm_start`); 0: from rest.
+    stop : int, optional
+        Tick to stop before (default: the end of ``force``).
+
+    Returns
+    -------
+    (Recording, str)
+        The rerun from tick ``start`` on (its metadata ``start_s`` says where
+        it begins on the recording's time axis [s]) and a description of the
+        plant used.
+
+    Raises
+    ------
+    ModelError
+        Unknown plant kind or a state the plant cannot carry.
+    SimulationError
+        The plant diverged.
+    """
+    if plant == "linear":
+        p, kind = linear_plant(state), "linear FE plant"
+    elif plant == "mujoco":
+        p, kind = mujoco_plant(state), "MuJoCo plant"
+    else:
+        raise ModelError(f"unknown plant {plant!r}; use 'linear' or 'mujoco'")
+    d = state.design
+    engine = None
+    if d is not None:
+        engine = ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
+    force = np.asarray(force, dtype=float)
+    if period:  # from the whole record: the period after ``start`` may reach past ``stop``
+        warm_start(state, p, engine, force, excitation_point=excitation_point, start=start, n_per=period)
+    force = force[:stop]
+    n = len(force) - start
+    loop = run_loop(p, engine, feedback_points=state.actuators, measured_points=tuple(measured_points),
+                    excitation_point=excitation_point, excitation=force[start:],
+                    duration_s=n * state.chain.period_s, chain=state.chain, seed=seed,
+                    shape_points=(), metadata={"start_s": start * state.chain.period_s})
+    return loop.recording, kind
+
+
+def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
+    """First analysed sample of ``data``'s recording and of the rerun ``rec`` (which may begin later,
+    at its metadata ``start_s``)."""
+    first = int(round(data.analysed_from_s / rec.dt_s))
+    return first, first - int(round(float(rec.metadata.get("start_s", 0.0)) / rec.dt_s))
+
+
+def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
+    """FRFs of the rerun ``rec`` on the lines of ``data``, the same periods analysed, shape (n_f, n_o)."""
+    dt = rec.dt_s
+    f0 = data.freq_hz
+    df = float(np.min(np.diff(f0)))  # the lines are multiples of the resolution
+    if not data.periodic:
+        x = np.asarray(rec[f"force{data.excitation_point}"])
+        out = np.empty((f0.size, len(data.output_points)), dtype=complex)
+        for j, p in enumerate(data.output_points):
+            frf = h1(x, np.asarray(rec[f"vel{p}"]), dt_s=dt, resolution_hz=df, window="hann")
+            out[:, j] = np.interp(f0, frf.freq_hz, frf.h.real) + 1j * np.interp(f0, frf.freq_hz, frf.h.imag)
+        return out
+    n_per = int(round(1.0 / (df * dt)))
+    start = _offset(rec, data)[1]
+    x = np.asarray(rec[f"force{data.excitation_point}"])[start:]
+    m = x.size // n_per
+    x = x[: m * n_per].reshape(m, n_per)
+    k = np.rint(f0 / df).astype(int)
+    X = np.fft.rfft(x, axis=1)[:, k]
+    out = np.empty((f0.size, len(data.output_points)), dtype=complex)
+    for j, p in enumerate(data.output_points):
+        y = np.asarray(rec[f"vel{p}"])[start:start + m * n_per].reshape(m, n_per)
+        out[:, j] = np.mean(np.fft.rfft(y, axis=1)[:, k] / X, axis=0)
+    return out
+
+
+def time_error(rec: Recording, data: FrfData) -> float:
+    """``||v_rerun - v_recorded|| / ||v_recorded||`` of the rerun ``rec`` against the recording of ``data``,
+    over the velocity channels after the transient (a warm-started rerun aligned by its ``start_s``)."""
+    first, own = _offset(rec, data)
+    num = den = 0.0
+    for p in data.output_points:
+        a = np.asarray(data.recording[f"vel{p}"])[first:]
+        b = np.asarray(rec[f"vel{p}"])[own:]
+        n = min(a.size, b.size)
+        a, b = a[:n], b[:n]
+        num += float(np.sum((b - a) ** 2))
+        den += float(np.sum(a**2))
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
+def _rerun_job(state: LabState, force: np.ndarray, excitation_point: int, points: tuple[int, ...], plant: str,
+               seed: int, window: tuple = (0, 0, None)) -> tuple[float, dict, dict]:
+    """Worker of a parallel rerun over the ticks ``window`` (start, period, stop; :func:`rerun_window`):
+    returns ``(dt_s, {channel: samples}, metadata)`` (picklable)."""
+    rec, _ = rerun(state, force, excitation_point=excitation_point, measured_points=points, plant=plant, seed=seed,
+                   start=window[0], period=window[1], stop=window[2])
+    return rec.dt_s, {c.name: np.asarray(c.samples) for c in rec.channels}, dict(rec.metadata)
+
+
+def rerun_split(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
+                plant: str, seed: int, start: int, first: int, period: int, stop: int | None,
+                workers: int = 2) -> Recording:
+    """A warm-started rerun made as ``workers`` shorter reruns in parallel processes.
+
+    The analysed ticks ``[first, stop)`` are cut into ``workers`` consecutive pieces; each is rerun from
+    its own warm start (:func:`vlab.diagnose.data.warmstart.warm_start`: the excitation is periodic, so the
+    lab's steady state is known at any tick) the same guard ``first - start`` before it, and the pieces
+    are joined. Each piece's start error decays over its guard as the single rerun's does, so the join is
+    the single rerun's analysed part to that accuracy, in about ``(guard + analysed / workers) /
+    (guard + analysed)`` of its time on ``workers`` cores. One rerun where no process pool can start.
+
+    Parameters
+    ----------
+    state : LabState
+    force : ndarray, shape (n_ticks,)
+        Excitation command [N], periodic with ``period`` ticks (continued periodically past its end
+        where a piece's warm start needs it).
+    excitation_point : int
+    measured_points : tuple of int
+    plant : {"linear", "mujoco"}
+    seed : int
+        As :func:`rerun`.
+    start, first : int
+        Tick of the warm start and first analysed tick (``start <= first``).
+    period : int
+        Ticks per excitation period (> 0).
+    stop : int or None
+        Tick to stop before (None: the end of ``force``).
+    workers : int
+        Processes (pieces).
+
+    Returns
+    -------
+    Recording
+        From tick ``first`` (its metadata ``start_s``) to ``stop``.
+
+    Raises
+    ------
+    ModelError, SimulationError
+        As :func:`rerun`.
+    """
+    force = np.asarray(force, dtype=float)
+    stop = force.size if stop is None else int(stop)
+    guard = first - start
+    n = stop - first
+    bounds = [first + (n * j) // workers for j in range(workers + 1)]
+    ext = force
+    need = bounds[-2] - guard + period  # the last piece's warm start reads one period from its start
+    if need > force.size:
+        k = np.arange(force.size, need)
+        ext = np.concatenate([force, force[k - period * ((k - force.size) // period + 1)]])
+    jobs = [(a - guard, b) for a, b in zip(bounds[:-1], bounds[1:])]
+    pieces = None
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            with ProcessPoolExecutor(workers) as ex:
+                futs = [ex.submit(_rerun_job, state, ext, excitation_point, tuple(measured_points), plant, seed,
+                                  (a, period, b)) for a, b in jobs]
+                pieces = [_recording(f.result()) for f in futs]
+        except (OSError, BrokenProcessPool):
+            pieces = None
+    if pieces is None:
+        pieces = [rerun(state, ext, excitation_point=excitation_point, measured_points=measured_points,
+                        plant=plant, seed=seed, start=a, period=period, stop=b)[0] for a, b in jobs]
+    joined = {c.name: np.concatenate([np.asarray(r[c.name])[guard:] for r in pieces]) for c in pieces[0].channels}
+    dt = pieces[0].dt_s
+    return Recording.from_signals(dt, joined, metadata={**pieces[0].metadata, "start_s": first * dt})
+
+
+def _recording(payload: tuple[float, dict, dict]) -> Recording:
+    """The :class:`Recording` of a :func:`_rerun_job` result."""
+    dt, signals, meta = payload
+    return Recording.from_signals(dt, signals, metadata=meta)
+
+
+def _background_job(conn, *args) -> None:
+    """Body of a background rerun process: sends ``("ok", (dt_s, signals))`` or ``("error", message)``."""
+    try:
+        conn.send(("ok", _rerun_job(*args)))
+    except VlabError as exc:
+        conn.send(("error", str(exc)))
+    finally:
+        conn.close()
+
+
+def start_background_rerun(problem, state: LabState, key: str, plant: str, *, seed: int = 0) -> bool:
+    """Start the rerun of ``state`` in a background process, to be picked up by :func:`reruns` under
+    ``(key, plant, seed)`` (the nominal lab's MuJoCo rerun, while the hypotheses are fitted).
+
+    The process is a daemon: it ends with the diagnosis, and :func:`stop_background` ends it early.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording (its force is played back).
+    state : LabState
+        The lab to rerun.
+    key : str
+        Cache key of the rerun (``"nominal"``).
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise (as :func:`reruns`).
+
+    Returns
+    -------
+    bool
+        Whether it was started (False where no process can be started; the
+        rerun is then made when asked for).
+    """
+    import multiprocessing
+
+    data: FrfData = problem.data
+    if data.recording is None:
+        return False
+    force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
+    try:
+        recv, send = multiprocessing.Pipe(duplex=False)
+        proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
+            send, state, force, data.excitation_point, tuple(data.output_points), plant, seed, window))
+        proc.start()
+        send.close()
+    except (OSError, AssertionError, ValueError):  # AssertionError: a daemon process may not start children
+        return False
+    problem.__dict__.setdefault("_background", {})[(key, plant, seed)] = (proc, recv)
+    return True
+
+
+def _collect_background(problem, keys: list) -> None:
+    """Move the background reruns of ``keys`` into the rerun cache, waiting for them; a failed one is
+    dropped, to be rerun in the foreground (where its error is reported)."""
+    pending = problem.__dict__.get("_background", {})
+    cache = problem.__dict__.setdefault("_reruns", {})
+    for key in keys:
+        if key not in pending:
+            continue
+        proc, recv = pending.pop(key)
+        try:
+            status, payload = recv.recv()
+            if status == "ok":
+                cache[key] = _recording(payload)
+        except (EOFError, OSError):
+            pass
+        finally:
+            recv.close()
+            proc.join()
+
+
+def stop_background(problem) -> None:
+    """End the background reruns of ``problem`` that were never asked for."""
+    for proc, recv in problem.__dict__.pop("_background", {}).values():
+        proc.terminate()
+        proc.join()
+        recv.close()
+
+
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
+    """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording (its force is played back).
+    jobs : list of (LabState, str or None)
+        States and their cache keys (None: not cached).
+    plant : {"linear", "mujoco"}
+    seed : int
+        Seed of the controller's sensor noise.
+    workers : int
+        Parallel processes when more than one rerun is needed (falls back to
+        one process where a pool cannot start); each rerun still running in
+        the background (:func:`start_background_rerun`) holds one of them, and
+        one of ``jobs`` is made while it finishes (background reruns already
+        finished are collected first and hold none).
+
+    Returns
+    -------
+    list of Recording or VlabError
+        One per job, in order: the rerun, or the error that stopped it
+        (a plant that cannot be built, a diverged run).
+    """
+    data: FrfData = problem.data
+    force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
+    pts = tuple(data.output_points)
+    cache = problem.__dict__.setdefault("_reruns", {})
+    pending = problem.__dict__.get("_background", {})
+    _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core
+    waiting = [(k, plant, seed) for _st, k in jobs if k is not None and (k, plant, seed) in pending]
+    out: dict = {}
+    # the reruns still to make run while the background ones finish (they hold a core each)
+    todo = [(i, st) for i, (st, k) in enumerate(jobs)
+            if k is None or ((k, plant, seed) not in cache and (k, plant, seed) not in pending)]
+    workers = max(1, workers - len(pending))  # a background rerun holds a core
+    if workers > 1 and len(todo) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            with ProcessPoolExecutor(min(workers, len(todo))) as ex:
+                futs = [(i, ex.submit(_rerun_job, st, force, data.excitation_point, pts, plant, seed, window))
+                        for i, st in todo]
+                for i, fu in futs:
+                    try:
+                        out[i] = _recording(fu.result())
+                    except VlabError as exc:
+                        out[i] = exc
+        except (OSError, BrokenProcessPool):
+            out = {}  # no process pool here: sequential
+    first = int(round(data.analysed_from_s / data.recording.dt_s))
+
+    def here(st: LabState, cores: int = 1):
+        try:
+            if cores > 1 and window[1] and plant == "mujoco" and window[0] < first:
+                return rerun_split(st, force, excitation_point=data.excitation_point, measured_points=pts,
+                                   plant=plant, seed=seed, start=window[0], first=first, period=window[1],
+                                   stop=window[2], workers=cores)
+            return rerun(st, force, excitation_point=data.excitation_point, measured_points=pts, plant=plant,
+                         seed=seed, start=window[0], period=window[1], stop=window[2])[0]
+        except VlabError as exc:
+            return exc
+
+    for i, st in todo:  # a lone rerun with the cores free is split over them (rerun_split)
+        if i not in out:
+            out[i] = here(st, workers if len(todo) == 1 and not waiting else 1)
+    _collect_background(problem, waiting)
+    for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
+        if k is not None and (k, plant, seed) in waiting and (k, plant, seed) not in cache:
+            out[i] = here(st)
+    for i, (_st, k) in enumerate(jobs):
+        if k is None:
+            continue
+        if i not in out:
+            out[i] = cache[(k, plant, seed)]
+        elif not isinstance(out[i], VlabError):
+            cache[(k, plant, seed)] = out[i]
+    return [out[i] for i in range(len(jobs))]
