@@ -262,7 +262,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     return result
 
 
-def diagnose(structure: Any, recording: str | Path, *, controller: str = "none", out_dir: str | Path | None = None,
+def diagnose(structure: Any, recording: str | Path, *, controller: str | None = None, out_dir: str | Path | None = None,
              plant: str = "auto", baseline: str | Path | None = None, seed: int | None = None, **options: Any):
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics (``vlab diagnose``).
 
@@ -274,16 +274,20 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str = "none",
     recording : str or Path
         UFF 58 time histories (as :func:`run_experiment` writes them), UFF 58
         FRFs, or a CSV modal table.
-    controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
-        Controller that was running during the recording.
+    controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}, optional
+        Controller that was running during the recording; default: the
+        recording's metadata, else "none". One that contradicts the metadata
+        raises OptionError unless ``force=True``.
     out_dir : str or Path, optional
         Folder for ``diagnosis.md``, ``diagnosis.json`` and the figures.
     plant : {"auto", "linear", "mujoco"}
-        Plant of the validation rerun.
+        Plant of the replay and the validation rerun (``"auto"``: the one the
+        recording's metadata names, else MuJoCo).
     baseline : str or Path, optional
-        Recording of the same test before the change.
+        Recording of the same test before the change (default: the recording
+        is compared with the nominal plant's replay of its force).
     seed : int, optional
-        Seed of the validation rerun (default: the recording's).
+        Seed of the controller design (default: the recording's metadata, else 0).
     **options
         Further keywords of :func:`vlab.diagnose.pipeline.diagnose`
         (``resolution_hz``, ``effects``, ``floor``, ``pairs``, ...).
@@ -300,6 +304,8 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str = "none",
         A recording that cannot be read or analysed.
     SpecError, ModelError
         As :func:`load_spec`.
+    OptionError
+        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force=True``).
     """
     from .diagnose.pipeline import diagnose as _diagnose
 

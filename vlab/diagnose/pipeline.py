@@ -70,6 +70,8 @@ import numpy as np
 from ..errors import DataFileError, ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
+from ..lab.recording import Recording
+from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
 from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_reference, shares_excitation_record
@@ -82,7 +84,7 @@ from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
 from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, needs_pairs, needs_rerun_check,
-                        prune, select, shortlisted, too_small_to_name, worsens)
+                        prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
@@ -124,6 +126,42 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     if chosen is not single:
         res.alternatives = looks  # the pair's look-alikes on the plant, not those of the single effect
     return chosen
+
+
+def _instability(check, replayed, loops) -> dict | None:
+    """The recording's instability check for the result (issue 24 item 4): its dict, whether the nominal
+    plant's replay of the recorded force oscillates too (None without a replay; a nominal lab that is itself
+    unstable with this controller is not a mismatch of the structure), and a one-sentence summary."""
+    if check is None:
+        return None
+    out = check.as_dict()
+    out["in_replay"] = None
+    text = check.summary()
+    if check.unstable and replayed is not None:
+        again = find_instability(replayed, feedback_points=loops)
+        f0 = check.frequency_hz
+        out["in_replay"] = bool(again.unstable and any(abs(o.frequency_hz - f0) <= max(0.02 * f0, 2 * again.resolution_hz)
+                                                      for o in again.oscillations))
+        text += ("; the nominal plant's replay of the recorded force oscillates there too: the nominal lab is "
+                 "unstable with this controller and chain" if out["in_replay"] else
+                 "; the nominal plant's replay does not: the instability is part of the mismatch")
+    out["summary"] = text
+    return out
+
+
+def _rerun_instability(res: DiagnosisResult, loops):
+    """:func:`find_instability` of the selected effect's validation rerun (its analysed window), or None
+    without a rerun."""
+    v, data = res.validation, res.data
+    if v is None or not v.v_after or data.recording is None:
+        return None
+    force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    ran = np.all([np.isfinite(np.asarray(x)) for x in v.v_after.values()], axis=0)
+    if ran.sum() < 256:
+        return None
+    signals = {f"force{data.excitation_point}": force[ran]}
+    signals.update({f"vel{p}": np.asarray(x)[ran] for p, x in v.v_after.items()})
+    return find_instability(Recording.from_signals(data.recording.dt_s, signals), feedback_points=loops)
 
 
 def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str | None = None,
@@ -280,6 +318,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                      f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
                      "mesh")
     data = read_data(spec, fe, path, what, obj, resolution_hz=resolution_hz, band_hz=band, settle_of=settle)
+    loops = tuple(spec.instrumentation.actuators) if controller != "none" else ()
+    unstable = find_instability(obj, feedback_points=loops) if what == "recording" else None
+    if unstable is not None and unstable.unstable:
+        say("the recording shows a self-excited oscillation")
     nominal = nominal_state()
     replayed = None  # the nominal plant's replay of the recorded force (the reference by default)
     same_record = False  # whether the reference was excited by the recording's own force record
@@ -348,7 +390,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                              f"{100 * problem.floor:g} % a line: a small change")
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
                               None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
-                              peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference)
+                              peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference,
+                              instability=_instability(unstable, replayed, loops))
         if not mismatch:
             res.location.points, res.location.members = [], []
             notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
@@ -453,6 +496,20 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
                          f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}); "
                          "nothing is selected")
+            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+            res.misfit_selected = misfit_0
+            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+        osc = res.instability or {}
+        if res.selected is not None and osc.get("unstable") and osc.get("in_replay") is False and \
+                not reproduces_oscillation(osc["frequency_hz"], _rerun_instability(res, loops)):
+            h = res.selected
+            res.rejected.append({"effect": h.effect, "label": h.label, "reason": "does not reproduce the "
+                                 f"self-excited oscillation at {osc['frequency_hz']:.2f} Hz"})
+            notes.append(f"the best candidate, {h.label}, is rejected: "
+                         + ("its validation rerun does not oscillate at " if res.validation is not None else
+                            "without a validation rerun it cannot be shown to cause the oscillation at ")
+                         + f"{osc['frequency_hz']:.2f} Hz (a fit to the FRFs of a self-excited recording can look "
+                         "good without the cause); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
             res.location.points, res.location.members = located_from_fits(res, chi2_0)

@@ -216,20 +216,34 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
     return h
 
 
+#: A log-scaled parameter whose linearised 95 % half-width exceeds this many decades is not bounded by the data:
+#: its interval is reported as undetermined (NaN) rather than as, say, [1e-145, 1e+135].
+UNBOUNDED_DECADES = 2.0
+
+
 def _ci95(jac: np.ndarray, z: np.ndarray, chi2: float, n: int, log: tuple[bool, ...]) -> np.ndarray:
-    """95 % intervals [SI] from the Jacobian of the residuals w.r.t. z (log10 or linear parameters)."""
+    """95 % intervals [SI] from the Jacobian of the residuals w.r.t. z (log10 or linear parameters); NaN ends for
+    a log parameter the data do not bound (half-width above :data:`UNBOUNDED_DECADES` decades)."""
     k = z.size
     s2 = max(1.0, chi2 / max(n - k, 1))
     jtj = jac.T @ jac
     try:
-        cov = s2 * np.linalg.pinv(jtj)
+        # the covariance on the directions the data determine; a parameter with a share in a direction they do
+        # not (an eigenvalue below 1e-12 of the largest) has no finite interval -- a pseudo-inverse would give
+        # it a falsely narrow one
+        w, v = np.linalg.eigh(jtj)
+        kept = w > 1e-12 * max(w.max(initial=0.0), 0.0)
+        cov = s2 * (v[:, kept] / w[kept]) @ v[:, kept].T
         sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        sd = np.where(np.any(np.abs(v[:, ~kept]) > 1e-6, axis=1), np.inf, sd)
     except np.linalg.LinAlgError:
         sd = np.full(k, np.inf)
     sd = np.where(np.diag(jtj) > 0, sd, np.inf)
     lo_z, hi_z = z - 1.96 * sd, z + 1.96 * sd
     lo = np.array([10.0 ** min(a, 300.0) if lg else a for a, lg in zip(lo_z, log)])
     hi = np.array([10.0 ** min(b, 300.0) if lg else b for b, lg in zip(hi_z, log)])
+    unbounded = np.array(log, dtype=bool) & ~(1.96 * sd <= UNBOUNDED_DECADES)
+    lo[unbounded], hi[unbounded] = np.nan, np.nan
     return np.column_stack([lo, hi])
 
 

@@ -54,6 +54,13 @@ tests they make are here, and :func:`vlab.diagnose.pipeline.diagnose` applies th
    whose rerun does not halve the FRF misfit either is not selected (judged
    without the floor when the mismatch was found only without it,
    :func:`explained_share`).
+9. **The oscillation reproduced** (:func:`reproduces_oscillation`): when
+   the recording holds a self-excited oscillation that the nominal replay
+   does not (:mod:`vlab.measure.instability`), its H1 FRFs hold the
+   oscillation's leakage and a fit to them can look good without the cause;
+   a choice is selected only if its validation rerun oscillates at the same
+   frequency (within :data:`OSCILLATION_TOLERANCE`), else it is shown as
+   rejected.
 
 Where the mismatch is reported once effects are fitted is
 :func:`vlab.diagnose.fit.selection.located_from_fits`; which parameter of a
@@ -98,6 +105,8 @@ STRUCTURAL = ("added_mass", "support_stiffness", "joint_flexibility", "member_st
 #: Factor a pair's rerun error must beat its nonlinear part's alone by to be kept (rule 4,
 #: :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 PARSIMONY = 0.8
+#: Relative frequency tolerance within which a rerun's self-excited line is the recording's (rule 9).
+OSCILLATION_TOLERANCE = 0.02
 
 
 def beyond_noise(chi2: float, chi2_limit: float, peak: float, peak_limit: float) -> bool:
@@ -387,3 +396,27 @@ def explains(res, chi2_0: float, *, share: float = 0.5) -> bool:
         return True
     v = res.validation
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
+
+
+def reproduces_oscillation(frequency_hz: float, rerun_check) -> bool:
+    """Rule 9: whether a rerun oscillates by itself at the recording's self-excited frequency.
+
+    Parameters
+    ----------
+    frequency_hz : float
+        The recording's self-excited frequency [Hz].
+    rerun_check : InstabilityCheck or None
+        :func:`vlab.measure.instability.find_instability` of the candidate's
+        validation rerun (None: no rerun, which does not reproduce it).
+
+    Returns
+    -------
+    bool
+        True when the rerun holds a self-excited line within
+        :data:`OSCILLATION_TOLERANCE` of ``frequency_hz`` (or two of its
+        spectral lines, whichever is wider).
+    """
+    if rerun_check is None or not rerun_check.unstable:
+        return False
+    tol = max(OSCILLATION_TOLERANCE * frequency_hz, 2 * rerun_check.resolution_hz)
+    return any(abs(o.frequency_hz - frequency_hz) <= tol for o in rerun_check.oscillations)

@@ -68,6 +68,17 @@ def markdown(res: dict) -> str:
     for n in res.get("notes", []):
         lines.append(f"- {n}")
     lines += ["", "## Verdict", "", verdict(res), ""]
+    inst = res.get("instability") or {}
+    if inst.get("unstable"):
+        lines += ["## Instability", "", "Self-excited lines (`vlab.measure.instability`: not caused by the force, "
+                  "not periodic with it, a steady or growing envelope):", "",
+                  "| channel | f [Hz] | RMS [m/s] | above floor [dB] | coherence [-] | growth [1/s] | grown since start [x] |",
+                  "|---|---|---|---|---|---|---|"]
+        for o in inst["oscillations"]:
+            lines.append(f"| {o['channel']} | {o['frequency_hz']:.2f} | {o['amplitude_m_s']:.3g} | "
+                         f"{10 * math.log10(o['line_to_floor']):.0f} | {o['coherence']:.2f} | "
+                         f"{o['growth_rate_1_s']:.3g} | {o['rise']:.3g} |")
+        lines.append("")
     peak = _peak_text(s)
     if s.get("noise_only"):  # found by the test without the model-error floor (a baseline given)
         q = s["noise_only"]
@@ -318,8 +329,9 @@ def format_parameter(name: str, value, ci95=None) -> str:
     value : float or None
         Fitted value [SI unit of ``name``].
     ci95 : sequence of two floats, optional
-        Lower and upper end of the 95 % interval [same unit]; None or
-        non-finite ends are left out.
+        Lower and upper end of the 95 % interval [same unit]; None is left
+        out, an interval with no finite end (the data do not bound the
+        parameter, or its fit failed) is shown as "[not bounded by the data]".
 
     Returns
     -------
@@ -336,6 +348,8 @@ def format_parameter(name: str, value, ci95=None) -> str:
     text = _sig(float(value), digits) + (f" {unit}" if unit else "")
     if have_ci:
         text += f" [{_sig(float(lo), digits)}, {_sig(float(hi), digits)}]"
+    elif ci95 is not None and len(ci95) == 2 and not any(e is not None and np.isfinite(e) for e in ci95):
+        text += " [not bounded by the data]"
     return text
 
 
@@ -480,6 +494,13 @@ def verdict(res: dict) -> str:
     """
     s = res["statistics"]
     n = s.get("n_obs")
+    inst = res.get("instability") or {}
+    first = f"Instability: {inst['summary']}. " if inst.get("unstable") else ""
+    return first + _verdict_body(res, s, n)
+
+
+def _verdict_body(res: dict, s: dict, n) -> str:
+    """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
     if not res["mismatch"]:
         return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
                 f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")

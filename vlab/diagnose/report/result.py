@@ -70,6 +70,10 @@ class DiagnosisResult:
     reference : str
         What the recording was compared with: the nominal simulation's replay, a measured baseline, or the
         FE model alone.
+    instability : dict or None
+        For time histories, what :func:`vlab.measure.instability.find_instability` saw in the recording
+        (its ``as_dict()``, plus ``in_replay``: whether the nominal plant's replay oscillates too, None when
+        there was no replay, and ``summary``); None for FRFs and modal tables.
     """
 
     structure: str
@@ -100,6 +104,7 @@ class DiagnosisResult:
     too_small: bool = False
     too_small_candidates: list = field(default_factory=list)
     reference: str = "the FE model"
+    instability: dict | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -202,6 +207,7 @@ class DiagnosisResult:
             "rejected": list(self.rejected),
             "too_small_to_name": bool(self.too_small),
             "reference": self.reference,
+            "instability": self.instability,
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),

@@ -1,0 +1,68 @@
+"""A recording whose loop went unstable is reported as such first (issue 24 item 4).
+
+The recordings come from the linear FE plant in the 2 kHz loop with the MFDRF controller: one with
+the nominal hardware chain (stable), one with a computation delay of 30 periods, twice the amplifier
+gain and a 3 N force limit concealed in the chain (a limit cycle near 22.8 Hz: the delay turns the
+rate feedback's phase past 90 degrees at the sixth mode). Both recordings' metadata state the nominal
+chain, as a lab's would, so the nominal plant's replay is stable.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import vlab
+from vlab.io.uff import write_recording
+from vlab.lab.experiment import ExperimentConfig, measure
+from vlab.lab.loop import HardwareChain
+from vlab.models import nominal_fe_model
+
+NOMINAL_CHAIN = {"delay_periods": 1.35, "filter_hz": 677.0, "amplifier_gain": 1.0, "amplifier_limit_n": None}
+
+
+def _record(tmp_path, name, chain):
+    fe = nominal_fe_model("bcc")
+    design = vlab.design("bcc", "mfdrf")
+    cfg = ExperimentConfig(structure="bcc", controller="mfdrf", plant="linear", chain=chain)
+    meta = {"structure": "bcc", "controller": "mfdrf", "reduction": None, "excitation": "random", "seed": 0,
+            "plant": "linear FE model", "chain": NOMINAL_CHAIN}
+    rec = measure(cfg, fe, design, metadata=meta).loop.recording
+    path = tmp_path / f"{name}.uff"
+    write_recording(path, rec)
+    return path
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("instability")
+    stable = _record(tmp, "stable", HardwareChain(noise_m_s=1e-6))
+    unstable = _record(tmp, "unstable", HardwareChain(noise_m_s=1e-6, delay_periods=30.0, amplifier_gain=2.0,
+                                                      amplifier_limit_n=3.0))
+    return stable, unstable
+
+
+def test_unstable_recording_is_reported_first(recordings):
+    from vlab.diagnose.report.markdown import verdict
+
+    res = vlab.diagnose("bcc", recordings[1])
+    d = res.as_dict()
+    inst = d["instability"]
+    assert inst["unstable"] is True
+    assert abs(inst["frequency_hz"] - 22.75) < 0.3
+    assert inst["loop_point"] in (5, 6, 7, 9)
+    assert inst["in_replay"] is False  # the nominal chain's replay is stable: the instability is the mismatch
+    text = verdict(d)
+    assert text.startswith("Instability: the loop is unstable: a self-excited oscillation at")
+    assert "the instability is part of the mismatch" in text
+    assert d["mismatch"] is True
+    # three concealed changes, none of which alone reproduces the limit cycle: a fit to the FRFs is not the cause
+    assert d["selected"] == []
+    assert any("oscillation at 22." in r.get("reason", "") for r in d["rejected"])
+
+
+def test_stable_recording_says_nothing_of_instability(recordings):
+    from vlab.diagnose.report.markdown import verdict
+
+    d = vlab.diagnose("bcc", recordings[0], validate_run=False).as_dict()
+    assert d["instability"]["unstable"] is False and d["instability"]["in_replay"] is None
+    assert "Instability" not in verdict(d)
