@@ -829,6 +829,9 @@ def diagnose(
     baseline: str = _opt(None, "--baseline",
                          help="a measured reference: recording of the same test on the structure before the "
                               "change (default: the recorded force replayed on the nominal plant)"),
+    mjcf: str = _opt(None, "--mjcf", help="the nominal plant as an MJCF file (from `vlab export-mjcf`, edited): the "
+                                          "recorded force is replayed on it (default: the plant built from the "
+                                          "structure); needs a MuJoCo-plant recording"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -847,12 +850,13 @@ def diagnose(
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
     _input_file("--recording", recording)
     _input_file("--baseline", baseline)
+    _input_file("--mjcf", mjcf)
     _expect_output(out_path)
     with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
                   console=err_console, transient=True, disable=out_fmt != "table") as bar:
         task = bar.add_task("reading the recording", total=None)
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
-            res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline,
+            res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))

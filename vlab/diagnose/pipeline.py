@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError, ModelError, VlabError
+from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
 from ..lab.recording import Recording
@@ -169,7 +169,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
              progress=None, baseline: str | Path | None = None, replay: bool = True,
-             force: bool = False) -> DiagnosisResult:
+             force: bool = False, mjcf: str | Path | None = None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -226,6 +226,13 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     force : bool
         Use ``controller``, ``seed`` and ``plant`` even where the recording's
         metadata says otherwise.
+    mjcf : str or Path, optional
+        The nominal MuJoCo plant as an MJCF file (``vlab export-mjcf``,
+        edited; it must keep the naming contract): the recorded force is
+        replayed on it, and the validation reruns of effects it can carry
+        (controller-path effects) run on it; an effect that edits the
+        structure is validated on the plant built from the spec, its nominal
+        rerun too. Needs the MuJoCo plant (not ``plant="linear"``).
 
     Returns
     -------
@@ -242,7 +249,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     ModelError
         Unknown controller or effect name.
     OptionError
-        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``).
+        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``);
+        ``mjcf`` with the linear plant.
     SpecError
         Unknown structure.
     """
@@ -257,6 +265,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     notes: list = []
     if plant not in ("auto", "linear", "mujoco"):
         raise ModelError(f"unknown plant {plant!r}; use 'auto', 'linear' or 'mujoco'")
+    if mjcf is not None and plant == "linear":
+        raise OptionError(f"--mjcf {mjcf} names a MuJoCo plant: it cannot be used with --plant linear")
     if detect_kind(path) == "modal" and controller not in (None, "none"):
         notes.append(f"a modal table holds open-loop modes: compared with the open-loop model (controller "
                      f"{controller!r} ignored)")
@@ -288,7 +298,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         if "s" not in state_box:  # the controller that ran: designed on the spec's own mesh, at its period
             chain = recorded_chain(setup, period_box["s"])
             design = nominal_design(fe, controller, design_seed, period_s=chain.period_s, reduction=setup.reduction)
-            state_box["s"] = LabState(model_spec, fe_model, chain, design)
+            state_box["s"] = LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
         return state_box["s"]
 
     def settle() -> float:
@@ -318,6 +328,15 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                      f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
                      "mesh")
     data = read_data(spec, fe, path, what, obj, resolution_hz=resolution_hz, band_hz=band, settle_of=settle)
+    if mjcf is not None:
+        if what != "recording" or not has_mujoco or (setup.plant or "mujoco") != "mujoco":
+            raise OptionError(f"--mjcf {mjcf}: a nominal MJCF plant is replayed and rerun, which needs time "
+                              "histories of a MuJoCo-plant recording and the mujoco package")
+        from ..sim.runtime import load_plant_for_experiment
+
+        load_plant_for_experiment(spec, mjcf=mjcf, sensors=tuple(data.output_points))  # the contract, checked now
+        notes.append(f"the nominal plant is {mjcf}: the recorded force is replayed there; effects that edit the "
+                     "structure are validated on the plant built from the spec, and refitted on its linearisation")
     loops = tuple(spec.instrumentation.actuators) if controller != "none" else ()
     unstable = find_instability(obj, feedback_points=loops) if what == "recording" else None
     if unstable is not None and unstable.unstable:

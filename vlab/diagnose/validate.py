@@ -21,7 +21,7 @@ cannot fall further than that, whatever the model.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -120,8 +120,16 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         if not spec_level:
             note = " (the effect is not expressible in a spec: linear plant)"
 
+    base, base_key = nominal, "nominal"
+    if nominal.mjcf is not None and modified.mjcf is None and kind != "linear":
+        # an effect that edits the spec cannot be carried by the nominal MJCF file: both reruns on the plant
+        # built from the spec, so that before and after are the same plant but for the effect
+        base, base_key = replace(nominal, mjcf=None), "nominal@spec"
+        note = (f" built from the spec (the effect cannot be applied to {nominal.mjcf}: the nominal rerun is "
+                "made there too)")
+
     def both(k: str) -> list[Recording]:
-        runs = reruns(problem, [(nominal, "nominal"), (modified, key)], k, seed=seed, workers=workers)
+        runs = reruns(problem, [(base, base_key), (modified, key)], k, seed=seed, workers=workers)
         for r in runs:
             if isinstance(r, VlabError):
                 raise r
@@ -135,7 +143,8 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
         kind = "linear"
         runs = both(kind)
-    desc = ("MuJoCo plant" if kind == "mujoco" else "linear FE plant") + note
+    desc = ("linear FE plant" if kind == "linear" else "MuJoCo plant" if base.mjcf is None
+            else f"MuJoCo plant of {base.mjcf}") + note
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask
     w = problem.weight_mag[mask]

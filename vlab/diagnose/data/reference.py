@@ -227,7 +227,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
         run = rerun_split(nominal, force, excitation_point=data.excitation_point,
                           measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
                           first=first, period=period, stop=stop)
-        kind = "MuJoCo plant"
+        kind = "MuJoCo plant" if nominal.mjcf is None else f"MuJoCo plant of {nominal.mjcf}"
     else:
         run, kind = rerun(nominal, force, excitation_point=data.excitation_point,
                           measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,

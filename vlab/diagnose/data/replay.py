@@ -116,22 +116,34 @@ def linear_plant(state: LabState):
     return FrictionPlant(inner, state.actuators, state.frictions)
 
 
-def mujoco_plant(state: LabState):
-    """The MuJoCo plant built from the state's spec (:func:`vlab.sim.build_plant`).
+def mujoco_plant(state: LabState, sensors=()):
+    """The MuJoCo plant of ``state``: loaded from its ``mjcf`` file, else built from its spec (:func:`vlab.sim.build_plant`).
+
+    Parameters
+    ----------
+    state : LabState
+    sensors : sequence of int
+        Points whose velocity will be read (an MJCF must have ``vel<ID>`` sensors there).
 
     Raises
     ------
     ModelError
         When the state carries changes a spec cannot express (dashpots, an
-        edited FE stiffness) or the simulation package cannot build it.
+        edited FE stiffness), the simulation package cannot build it, or the
+        MJCF breaks the naming contract (:func:`vlab.sim.runtime.check_plant_contract`).
+    DataFileError
+        The MJCF cannot be loaded.
     """
     if state.dashpots or state.frictions:
         raise ModelError("point dashpots and friction cannot be expressed in the spec the MuJoCo plant is built from")
     try:
         from ...fe import build_fe_model
         from ...sim import MujocoPlant, build_plant
+        from ...sim.runtime import load_plant_for_experiment
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ModelError(f"MuJoCo plant unavailable: {exc}") from None
+    if state.mjcf is not None:
+        return load_plant_for_experiment(state.spec, mjcf=state.mjcf, sensors=tuple(sensors))[0]
     rebuilt = build_fe_model(state.spec)
     if not np.array_equal(rebuilt.k, state.fe.k):
         raise ModelError("the state's FE stiffness is edited beyond its spec (gravity pre-stress)")
@@ -180,7 +192,8 @@ def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured
     if plant == "linear":
         p, kind = linear_plant(state), "linear FE plant"
     elif plant == "mujoco":
-        p, kind = mujoco_plant(state), "MuJoCo plant"
+        p = mujoco_plant(state, sensors=measured_points)
+        kind = "MuJoCo plant" if state.mjcf is None else f"MuJoCo plant of {state.mjcf}"
     else:
         raise ModelError(f"unknown plant {plant!r}; use 'linear' or 'mujoco'")
     d = state.design

@@ -109,6 +109,11 @@ class LabState:
         Modes of the structure to use instead of the FE model's (the MuJoCo
         plant's own linearisation, :mod:`vlab.diagnose.fit.plantfit`); dropped by
         :meth:`with_spec`, since they belong to one spec.
+    mjcf : str or None
+        An MJCF file of the nominal MuJoCo plant (``vlab diagnose --mjcf``):
+        MuJoCo reruns load it instead of building the plant from ``spec``.
+        Dropped by :meth:`with_spec`: an effect that edits the spec cannot be
+        carried by the file.
     """
 
     spec: StructureSpec
@@ -120,6 +125,7 @@ class LabState:
     step_s: float | None = None
     rms_force_n: dict = field(default_factory=dict)
     point_modes: PointModes | None = None
+    mjcf: str | None = None
 
     def __post_init__(self) -> None:
         check_design_period(self.design, self.chain)  # Eq. (5.1)'s coefficients hold at one period only
@@ -136,7 +142,7 @@ class LabState:
 
     def with_spec(self, spec: StructureSpec) -> "LabState":
         """Copy with a new spec and its FE model (built here). Raises ModelError/SpecError."""
-        return replace(self, spec=spec, fe=build_fe_model(spec), point_modes=None)
+        return replace(self, spec=spec, fe=build_fe_model(spec), point_modes=None, mjcf=None)
 
 
 def _modal(state: LabState) -> tuple[Modes, np.ndarray]:
