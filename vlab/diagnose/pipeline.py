@@ -338,7 +338,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         notes.append(f"the nominal plant is {mjcf}: the recorded force is replayed there; effects that edit the "
                      "structure are validated on the plant built from the spec, and refitted on its linearisation")
     loops = tuple(spec.instrumentation.actuators) if controller != "none" else ()
-    unstable = find_instability(obj, feedback_points=loops) if what == "recording" else None
+    # only a loop can make the lab's structure oscillate by itself: an open-loop recording is not searched (its
+    # lightly damped modes, still settling after a period, would look like growing lines)
+    unstable = find_instability(obj, feedback_points=loops) if what == "recording" and loops else None
     if unstable is not None and unstable.unstable:
         say("the recording shows a self-excited oscillation")
     nominal = nominal_state()
@@ -386,6 +388,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     ctx = context_for(nominal, band, data)
     problem = Problem(data, nominal, ctx, floor=floor)
     problem.guard_s = guard_s
+    problem.replay_plant = replay_plant if replayed is not None else None  # the plant the reference was replayed on
     if replayed is not None:  # the validation's nominal rerun is the replay
         problem.__dict__.setdefault("_reruns", {})[("nominal", replay_plant, RERUN_SEED)] = replayed
     chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
@@ -509,7 +512,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             v, h = res.validation, res.selected
             res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": v.misfit_before,
                                  "misfit_after": v.misfit_after, "time_error_before": v.time_error_before,
-                                 "time_error_after": v.time_error_after})
+                                 "time_error_after": v.time_error_after, "noise_misfit": v.noise_misfit})
             notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
                          f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
                          f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "

@@ -149,9 +149,10 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     mask = problem.mask
     w = problem.weight_mag[mask]
 
-    # a MuJoCo rerun is compared with what was recorded; a linear rerun with the data
+    # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force was
+    # replayed on as the reference -- is compared with what was recorded; a linear rerun with the data
     # referred to the model when a baseline was given (the model-form error removed)
-    recorded = kind == "mujoco" and data.h_recorded is not None
+    recorded = data.h_recorded is not None and (kind == "mujoco" or kind == getattr(problem, "replay_plant", None))
     target = data.h_recorded if recorded else data.h
     target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 

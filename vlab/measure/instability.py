@@ -177,7 +177,7 @@ class InstabilityCheck:
         """One sentence for a report: frequency, growth, loop; or that none was found."""
         if not self.unstable:
             return "no self-excited oscillation or growth in the recording"
-        o = max((x for x in self.oscillations if x.point == self.loop_point) or self.oscillations,
+        o = max([x for x in self.oscillations if x.point == self.loop_point] or list(self.oscillations),
                 key=lambda x: x.amplitude_m_s)
         if o.growing:
             growth = f"still growing at the end ({o.growth_rate_1_s:.3g} 1/s)"

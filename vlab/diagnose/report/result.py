@@ -73,7 +73,8 @@ class DiagnosisResult:
     instability : dict or None
         For time histories, what :func:`vlab.measure.instability.find_instability` saw in the recording
         (its ``as_dict()``, plus ``in_replay``: whether the nominal plant's replay oscillates too, None when
-        there was no replay, and ``summary``); None for FRFs and modal tables.
+        there was no replay, and ``summary``); None for FRFs, modal tables and open-loop recordings (without
+        feedback the lab's structure cannot oscillate by itself).
     """
 
     structure: str

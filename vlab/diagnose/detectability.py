@@ -1,0 +1,305 @@
+"""Detectability: the smallest size of each effect of the library that the mismatch test detects.
+
+For one structure, controller and noise level, the lab's nominal test is recorded once on the linear FE
+plant (the 2 kHz loop with the hardware chain and its sensor noise) and read as the diagnosis reads a
+recording (:func:`vlab.diagnose.data.measured.read_data`: H1 FRFs on the excited lines, noise from the
+period-to-period scatter), referred to the model through its noise-free replay
+(:func:`vlab.diagnose.data.reference.replay_reference`), as the diagnosis refers a recording. Then, for every one-parameter hypothesis of the library at every location
+(:func:`vlab.diagnose.effects.hypotheses.library`), the effect is grown from its null value towards its
+bound and the test of the diagnosis's first rule (:func:`vlab.diagnose.fit.rules.beyond_noise`) is made
+on the data the effect would give::
+
+    expected chi2(x) = chi2_noise + lambda(x),   lambda(x) = chi2 of the nominal model against the
+                                                  noise-free FRFs of the lab with the effect of size x
+    detected: expected chi2(x) > chi2 limit      or  the largest noise-free line residual > peak limit
+
+with ``chi2_noise`` the nominal model's chi-square against the nominal recording itself (what the
+noise and the FE model's own small errors contribute) and the limits those of the diagnosis
+(:meth:`vlab.diagnose.problem.residuals.Problem.noise_chi2`, ``peak_limit``: the 0.999 quantile with a
+1.2 safety factor), the model-error floor included. The threshold is where the expected statistic
+reaches its limit, found on a grid of 24 sizes geometric in the distance from the null value (from
+1e-7 of the range to its bound) and refined by bisection: at the threshold a recording is called a mismatch about half the time; well below it, rarely;
+well above it, nearly always. It is a threshold of *detection*; naming the effect among its look-alikes
+needs more (the BIC rule, :func:`vlab.diagnose.fit.rules.select`), which is not computed here.
+
+Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
+pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.
+
+Source: the diagnosis's own test (issue 6, rule 1 of :mod:`vlab.diagnose.fit.rules`); the noncentral
+chi-square picture of detection, e.g. Kay, *Fundamentals of Statistical Signal Processing*, Vol. II,
+Sec. 7.3.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError, VlabError
+from ..fe import build_fe_model
+from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
+from ..spec import StructureSpec, load_spec
+from .data.measured import read_data, refer_to_model
+from .data.reference import replay_reference
+from .data.warmstart import GUARD_DECAY
+from .effects.hypotheses import library
+from .model.labmodel import LabState, predict_frf
+from .model.nominal import nominal_design, settling_time
+from .problem.context import context_for
+from .problem.residuals import Problem
+
+#: Sizes tried between an effect's null value and its bound before the bisection.
+N_GRID = 24
+#: Bisection steps after the grid (the threshold to about 2**-8 of a grid step).
+N_BISECT = 8
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """The detection threshold of one effect at one location, on one side of its null value.
+
+    Attributes
+    ----------
+    effect : str
+        Library name (``added_mass``, ``loop_delay``, ...).
+    location : dict
+        Where (``{"point": 6}``, ``{"channel": "all"}``, ...).
+    parameter : str
+        Parameter name with its SI unit suffix (``mass_kg``).
+    null : float or None
+        Value at which the effect vanishes [SI] (None: only as a limit, e.g. a rigid joint).
+    threshold : float or None
+        Smallest departure from ``null`` that the test detects [SI]; None when even the bound of the
+        parameter's range is not detected.
+    bound : float
+        The end of the range searched towards [SI].
+    by : str or None
+        Which test detects it first: ``"chi2"`` (the total) or ``"peak"`` (one line), None if undetected.
+    """
+
+    effect: str
+    location: dict
+    parameter: str
+    null: float | None
+    threshold: float | None
+    bound: float
+    by: str | None
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict (the parameter name carries the unit)."""
+        return {"effect": self.effect, "location": self.location, "parameter": self.parameter,
+                "null": self.null, "threshold": self.threshold, "bound": self.bound, "detected_by": self.by}
+
+
+@dataclass(frozen=True)
+class Detectability:
+    """Thresholds of every one-parameter effect of the library for one test.
+
+    Attributes
+    ----------
+    structure, controller : str
+    noise_m_s : float
+        Sensor noise standard deviation of the recording [m/s].
+    chi2_noise : float
+        The nominal model's chi-square against the nominal recording (noise and model error).
+    chi2_limit, peak_limit : float
+        The mismatch test's limits (:meth:`Problem.noise_chi2`, :meth:`Problem.peak_limit`).
+    n_obs : int
+        Residuals of the test.
+    thresholds : tuple of Threshold
+    skipped : tuple of str
+        Hypotheses left out (more than one parameter), by label.
+    """
+
+    structure: str
+    controller: str
+    noise_m_s: float
+    chi2_noise: float
+    chi2_limit: float
+    peak_limit: float
+    n_obs: int
+    thresholds: tuple[Threshold, ...]
+    skipped: tuple[str, ...]
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict (keys carry units)."""
+        return {"structure": self.structure, "controller": self.controller, "noise_m_s": self.noise_m_s,
+                "chi2_noise": self.chi2_noise, "chi2_limit": self.chi2_limit, "peak_limit": self.peak_limit,
+                "n_obs": self.n_obs, "thresholds": [t.as_dict() for t in self.thresholds],
+                "skipped": list(self.skipped)}
+
+    def of(self, effect: str, location: dict) -> list[Threshold]:
+        """The thresholds of ``effect`` at ``location`` (one per side of the null value)."""
+        return [t for t in self.thresholds if t.effect == effect and t.location == location]
+
+
+def _path(lo: float, hi: float, log: bool, n: int) -> np.ndarray:
+    """``n`` sizes from ``lo`` to ``hi`` (either order), log-spaced when ``log`` and both are positive."""
+    if log and lo > 0 and hi > 0:
+        return np.geomspace(lo, hi, n)
+    return np.linspace(lo, hi, n)
+
+
+class _Test:
+    """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab."""
+
+    def __init__(self, problem: Problem, nominal: LabState, ctx) -> None:
+        self.problem, self.nominal, self.ctx = problem, nominal, ctx
+        self.chi2_noise = problem.chi2(nominal)
+        self.limit, self.peak_limit = problem.noise_chi2(), problem.peak_limit()
+
+    def statistic(self, h, x: float) -> tuple[float, float] | None:
+        """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]
+        (None: the lab cannot be built at that size)."""
+        try:
+            state = h.apply(self.nominal, np.array([x]), self.ctx)
+            expected = replace(self.problem.data, h=self.problem.predict(state))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            return None
+        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor)
+        return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
+
+    def detected(self, h, x: float) -> str | None:
+        """``"chi2"``, ``"peak"`` or None for hypothesis ``h`` at size ``x`` [SI]."""
+        st = self.statistic(h, x)
+        if st is None:
+            return None
+        return "chi2" if st[0] > self.limit else "peak" if st[1] > self.peak_limit else None
+
+
+#: The search starts this fraction of the way from the null value to the bound (geometric in the distance).
+SMALLEST = 1e-7
+
+
+def _first_detected(test: _Test, h, xs) -> tuple[int, str | None]:
+    """Index of the first size of ``xs`` the test detects (and by which test), or ``(-1, None)``."""
+    for i, x in enumerate(xs):
+        by = test.detected(h, float(x))
+        if by is not None:
+            return i, by
+    return -1, None
+
+
+def _side(test: _Test, h, null: float | None, start: float, end: float, log: bool) -> tuple[float | None, str | None]:
+    """Threshold between the null end ``start`` and ``end`` [SI]: a grid geometric in the distance from the
+    null value (from :data:`SMALLEST` of the range; geometric in the size itself when the null is a limit of
+    a log-scaled parameter), then bisection."""
+    if null is None:
+        xs = _path(start, end, log, N_GRID)
+        to_x = None
+    else:
+        dist = abs(end - null)
+        sign = 1.0 if end >= null else -1.0
+        ds = np.geomspace(SMALLEST * dist, dist, N_GRID)
+        xs = null + sign * ds
+
+        def to_x(d):
+            return null + sign * d
+    i, by = _first_detected(test, h, xs)
+    if i < 0:
+        return None, None
+    if i == 0:  # detected at the smallest size tried
+        return float(xs[0]), by
+    if to_x is None:
+        a, b = float(xs[i - 1]), float(xs[i])
+        geo = log and a > 0 and b > 0
+    else:
+        a, b = float(ds[i - 1]), float(ds[i])
+        geo = True
+    for _ in range(N_BISECT):
+        mid = math.sqrt(a * b) if geo else 0.5 * (a + b)
+        m_by = test.detected(h, mid if to_x is None else to_x(mid))
+        if m_by is None:
+            a = mid
+        else:
+            b, by = mid, m_by
+    return (b if to_x is None else float(to_x(b))), by
+
+
+def detectability(structure: str | StructureSpec = "bcc", controller: str = "none", *,
+                  effects: tuple[str, ...] | None = None, noise_m_s: float = 1e-6, seed: int = 0,
+                  floor: float = 0.005, progress=None) -> Detectability:
+    """Detection thresholds of the library's one-parameter effects for the lab's test of ``structure``.
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        ``"bcc"``, ``"grid"``, a TOML path or a spec (:func:`vlab.load_spec`).
+    controller : {"none", "mfdrf", "lqdrf", "lqdrf-diag", "lqg"}
+        Controller running during the test.
+    effects : tuple of str, optional
+        Restrict to these effect names.
+    noise_m_s : float
+        Velocity-sensor noise standard deviation [m/s] of the recording (the lab's default 1e-6).
+    seed : int
+        Seed of the excitation, the noise and the design's multi-start.
+    floor : float
+        The diagnosis's relative model-error floor (0.5 %).
+    progress : callable, optional
+        Called with a short string per stage.
+
+    Returns
+    -------
+    Detectability
+
+    Raises
+    ------
+    ModelError
+        Unknown controller or effect name; a structure without a test definition.
+    SpecError
+        Unknown structure.
+
+    Notes
+    -----
+    The method is in the module notes. The recording is made on the linear FE plant, so the thresholds
+    hold for the FE model's own test; a MuJoCo-plant recording diagnosed through its replay has the same
+    noise and floor, and so nearly the same thresholds.
+    """
+    say = progress or (lambda s: None)
+    spec = load_spec(structure) if isinstance(structure, str) else structure
+    fe = build_fe_model(spec)
+    test = test_definition(spec)
+    chain = default_chain(controller, noise_m_s=float(noise_m_s))
+    design = nominal_design(fe, controller, seed, period_s=chain.period_s)
+    say("recording the nominal test on the linear plant")
+    cfg = ExperimentConfig(structure=spec.name, controller=controller, plant="linear", chain=chain, seed=seed)
+    rec = measure(cfg, fe, design).loop.recording
+    nominal = LabState(spec, fe, replace(chain, noise_m_s=0.0), design)
+    data = read_data(spec, fe, Path(f"<the nominal {spec.name} test>"), "recording",
+                     rec.with_metadata(structure=spec.name), resolution_hz=None, band_hz=test.band_hz,
+                     settle_of=lambda: settling_time(nominal, test.band_hz))
+    # referred to the model through its noise-free replay on the same plant, as the diagnosis does: what is
+    # left is the recording's noise (the loop's own sampled-data and start-up effects cancel)
+    base, _run, _kind = replay_reference(data, nominal, "linear",
+                                         guard_s=settling_time(nominal, test.band_hz, decay=GUARD_DECAY))
+    data = refer_to_model(data, base, predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                                  output_points=data.output_points))
+    ctx = context_for(nominal, test.band_hz, data)
+    tester = _Test(Problem(data, nominal, ctx, floor=floor), nominal, ctx)
+    out, skipped = [], []
+    hyps = library(nominal, ctx, effects=effects)
+    say(f"thresholds of {len(hyps)} hypotheses")
+    for h in hyps:
+        if h.n_params != 1:
+            skipped.append(h.label)
+            continue
+        _trials, lower, upper = h.space(nominal, ctx)
+        lo, hi, log = float(lower[0]), float(upper[0]), bool(h.log_scale[0])
+        null = h.null(nominal, ctx)
+        x0 = None if null is None else float(np.asarray(null)[0])
+        if x0 is None:  # the effect vanishes only in a limit: start at the end where it is least visible
+            st = {v: tester.statistic(h, v) for v in (lo, hi)}
+            start = min((lo, hi), key=lambda v: math.inf if st[v] is None else st[v][0])
+            sides = [(start, hi if start == lo else lo)]
+        elif lo < x0 < hi:
+            sides = [(x0, lo), (x0, hi)]
+        else:
+            sides = [(x0, hi if abs(hi - x0) >= abs(lo - x0) else lo)]
+        for start, end in sides:
+            thr, by = _side(tester, h, x0, start, end, log)
+            out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
+    return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
+                         float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped))
