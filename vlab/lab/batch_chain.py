@@ -156,7 +156,7 @@ class BatchChain:
         ------
         ModelError
             Different periods, a step that does not divide the period, a
-            negative delay, a non-positive corner frequency or limit, a
+            negative delay or filter corner (0: no filter), a limit <= 0, a
             negative noise level, a non-finite gain.
         """
         chains = list(chains)
@@ -189,7 +189,7 @@ class BatchChain:
         frac = delay - m
         corner = _per_channel(chains, acts, pick("filter_hz", math.inf), "filter_hz")
         if np.any(corner < 0):
-            raise ModelError(f"hardware chain: filter_hz must be > 0 (0 or None: no filter), got "
+            raise ModelError(f"hardware chain: filter_hz must be >= 0 (0 or None: no filter), got "
                              f"{corner.ravel().tolist()}")
         corner[corner == 0] = math.inf  # 0: no filter, as None
         tau = np.where(np.isfinite(corner), 1.0 / (2.0 * math.pi * np.where(np.isfinite(corner), corner, 1.0)), 0.0)
