@@ -1,7 +1,13 @@
 """The batched lab (vlab.lab.batch on mujoco.batch) against the single loop (run_loop on MujocoPlant).
 
-The reference is the independent one-experiment path: :func:`vlab.lab.loop.run_loop`
-with the block objects of :mod:`vlab.lab.blocks` and one ``MjData`` per run.
+The reference is the one-experiment path: :func:`vlab.lab.loop.run_loop` with
+one ``MjData`` per run. Both loops run the chain of Fig. 21 with the same code
+(:class:`vlab.lab.batch_chain.ChainRun`; the single loop with N = 1), so they
+agree bit for bit: what is tested here is the vectorisation over N
+simulations (per-simulation gains, chains, seeds, excitations and plant
+parameters) and the batch plant (``mujoco.batch`` against ``MjData``). The
+chain's arithmetic itself is checked against the block objects of
+:mod:`vlab.lab.blocks` in tests/test_loop_reference.py.
 """
 
 from __future__ import annotations
@@ -62,8 +68,8 @@ def test_bit_identical_to_run_loop_without_rc_filter(bcc):
     possible in one batch (one controller size), so two batches: LQG with
     different seeds/excitations per simulation, and DRF gains that differ per
     simulation. Chain: integer delay (1 period), no RC filter, sensor noise
-    and a sensor gain -- every vectorised block but the RC filter (see the
-    next test for why that one is compared to 1e-12).
+    and a sensor gain -- every vectorised block but the RC filter (the next
+    test has it).
     """
     fe, plant, lqg = bcc
     sim = MujocoPlant(plant)
@@ -90,18 +96,12 @@ def test_bit_identical_to_run_loop_without_rc_filter(bcc):
         assert np.array_equal(_signals(ref), _signals(rb.result(i)))
 
 
-def test_pc1000_chain_matches_run_loop_to_rounding(bcc):
-    """The PC-1000 chain (1.35-period delay, 677 Hz RC filter) agrees to 1e-12 of the signal, not bit for bit.
+def test_pc1000_chain_matches_run_loop_bit_for_bit(bcc):
+    """The PC-1000 chain (1.35-period delay, 677 Hz RC filter): bit for bit, two simulations with their own seeds.
 
-    Why not bit for bit: the single loop's RC filter recomputes each held
-    piece's duration from absolute times (``(k + 0.35) T - k T``, whose
-    rounding changes with the tick k) and its exponential with ``math.exp``
-    every step; the batch computes the two durations and exponentials once
-    per run (they depend only on the delay fraction). The inputs differ in
-    the last bit, ~1e-16 relative, and the lightly damped structure carries
-    that rounding along; over 0.1 s it stays far below 1e-12 of the signal.
-    A wrong piece duration or exponent (e.g. 0.35 and 0.65 swapped, or the
-    filter's end value instead of its step average) differs by > 1e-3.
+    (Until run_loop ran the shared chain, its RC filter recomputed the held
+    pieces from absolute times and the two agreed to 1e-12 only; the blocks'
+    version is now the reference of tests/test_loop_reference.py.)
     """
     fe, plant, lqg = bcc
     sim = MujocoPlant(plant)
@@ -114,11 +114,11 @@ def test_pc1000_chain_matches_run_loop_to_rounding(bcc):
     for i in range(2):
         ref = _signals(_single(sim, _lqg(lqg), exc[i], i + 1, chain, dur))
         got = _signals(rb.result(i))
-        assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+        assert np.array_equal(got, ref)
 
 
 def test_substeps_and_fractional_delay_match_run_loop():
-    """Two physics steps per period (0.25 ms): the switch 0.35 T falls inside the first step; 1e-12 as above."""
+    """Two physics steps per period (0.25 ms): the switch 0.35 T falls inside the first step; bit for bit."""
     fe = nominal_fe_model("bcc")
     plant = build_plant(fe.spec, SimOptions(timestep_s=0.25e-3))
     sim = MujocoPlant(plant)
@@ -129,7 +129,7 @@ def test_substeps_and_fractional_delay_match_run_loop():
     rb = run_batch(MujocoBatchPlant(sim, 1, nthread=1), eng, feedback_points=ACTS, measured_points=MEAS,
                    excitation_point=9, excitation=exc, duration_s=dur, chain=chain)
     ref = _signals(_single(sim, eng, exc[0], 0, chain, dur))
-    assert np.max(np.abs(_signals(rb.result(0)) - ref)) <= 1e-12 * np.max(np.abs(ref))
+    assert np.array_equal(_signals(rb.result(0)), ref)
 
 
 def test_per_simulation_mass_equals_a_plant_with_that_mass(bcc):
@@ -229,8 +229,7 @@ def test_displacements_sampled_as_run_loop(bcc):
 
 def test_per_channel_hardware_chain_matches_run_loop(bcc):
     """HardwareChain's per-channel entries (issue 28: a delay, a lag, a force limit on one coil channel, a lag on
-    one sensor) are read by the batch as run_loop applies them: the same signals to 1e-9 of the signal (the
-    single loop's per-channel filter lines recompute their piece durations each tick, as above)."""
+    one sensor) are read by the batch as run_loop applies them: the same signals, bit for bit."""
     fe, plant, lqg = bcc
     sim = MujocoPlant(plant)
     chain = HardwareChain(channel_delay_periods={7: 2.85}, channel_actuator_lag_hz={5: 300.0},
@@ -242,4 +241,4 @@ def test_per_channel_hardware_chain_matches_run_loop(bcc):
     ref = _signals(_single(sim, _lqg(lqg), exc[0], 0, chain, dur))
     nominal = _signals(_single(sim, _lqg(lqg), exc[0], 0, HardwareChain(), dur))
     assert np.max(np.abs(ref - nominal)) > 1e-3 * np.max(np.abs(ref))  # the entries change the run
-    assert np.max(np.abs(_signals(rb.result(0)) - ref)) <= 1e-9 * np.max(np.abs(ref))
+    assert np.array_equal(_signals(rb.result(0)), ref)

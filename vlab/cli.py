@@ -1097,8 +1097,8 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
     Memory: the loop's per-tick arrays (velocities of the measured points,
     displacements of the shape points, commands, excitation, time) with the
     copies the recording, H1 and the rerun log make (x3 for the signals), and
-    the computation-delay line of :class:`vlab.lab.blocks.SampleDelay`
-    (``floor(D) + 2`` samples per actuator, x3: buffer, shift copy, state).
+    the computation-delay line (the DAC buffer of :class:`vlab.lab.batch_chain.ChainRun`,
+    ``floor(D) + 2`` samples per actuator, x3: buffer, shift copy, state).
     Time: ticks / :data:`LOOP_TICKS_PER_S` plus the delay line's per-tick
     shift at :data:`SHIFT_BYTES_PER_S`.
 

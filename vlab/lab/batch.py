@@ -13,8 +13,9 @@ operation over the N simulations (and their channels) per tick::
 
 Each simulation has its own plant parameters (:class:`vlab.sim.batch_plant.MujocoBatchPlant`),
 controller gains, hardware chain, excitation record and noise seed. For the
-same seed a simulation's recording matches the single loop's to rounding
-(tests/test_batch.py says why not bit for bit).
+same seed a simulation's recording matches the single loop's bit for bit: both
+run the chain with :class:`vlab.lab.batch_chain.ChainRun` (the single loop with
+N = 1), and ``mujoco.batch`` steps as one ``MjData`` does (tests/test_batch.py).
 
 A simulation that diverges (non-finite or > 1e3 m/s velocity, or reset by
 MuJoCo after a bad acceleration) is stopped at that tick and the others go
@@ -31,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from .batch_chain import BatchChain, ChainRun, for_each
+from .batch_chain import BatchChain, ChainRun
 from .loop import HardwareChain, LoopResult
 from .recording import Recording
 
@@ -161,6 +162,22 @@ class BatchController:
                    _stack([e.F12 for e in engines], n_sim, (n_u, n_x), "F12"),
                    _stack([e.F21 for e in engines], n_sim, (n_x, n_y), "F21"),
                    _stack([e.F22 for e in engines], n_sim, (n_x, n_x), "F22"))
+
+
+def for_each(chain: HardwareChain | list, n_sim: int) -> list:
+    """One chain per simulation: ``chain`` repeated, or the given list (length checked).
+
+    Raises
+    ------
+    ModelError
+        A list whose length is not ``n_sim``.
+    """
+    if isinstance(chain, HardwareChain):
+        return [chain] * n_sim
+    chains = list(chain)
+    if len(chains) != n_sim:
+        raise ModelError(f"chains: expected {n_sim} hardware chains (one per simulation), got {len(chains)}")
+    return chains
 
 
 def _stop_diverged(plant, v, k, period, check_time, sensors, done, failures) -> bool:

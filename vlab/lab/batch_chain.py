@@ -26,8 +26,13 @@ block (:func:`vlab.lab.batch.run_batch`):
   (``a = exp(-2 pi f_c dt)``, ``a = 0`` when off, which passes the signal).
 
 The durations and exponentials depend only on the delay fraction, so they are
-computed once per run (the single loop recomputes them every step from
-absolute times; the two agree to rounding, ~1e-16 relative).
+computed once per run (the blocks of :mod:`vlab.lab.blocks` recompute them
+every step from absolute times; the two agree to rounding, ~1e-16 relative,
+tests/test_loop_reference.py).
+
+This is the one implementation of the chain's arithmetic: the batched loop
+runs it for N simulations and the single loop (:func:`vlab.lab.loop.run_loop`)
+with N = 1.
 
 Source: Sec. 5.3 and Fig. 21 (PC-1000 delay 1.35 periods, 677 Hz RC filter,
 controlled-current amplifier); the blocks of :mod:`vlab.lab.blocks`.
@@ -41,7 +46,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from .loop import HardwareChain
 
 
 def _per_channel(chains, points, read, what: str) -> np.ndarray:
@@ -120,7 +124,7 @@ class BatchChain:
 
     @classmethod
     def from_chains(cls, chains, *, timestep_s: float, actuators, feedback, n_sensors: int) -> BatchChain:
-        """Vectorise one :class:`HardwareChain` per simulation.
+        """Vectorise one :class:`vlab.lab.loop.HardwareChain` per simulation.
 
         A chain setting may be one value for every channel (the current
         :class:`HardwareChain`) or a dict keyed by actuator / sensor point id
@@ -152,7 +156,8 @@ class BatchChain:
         ------
         ModelError
             Different periods, a step that does not divide the period, a
-            negative delay, a non-positive corner frequency or limit.
+            negative delay or filter corner (0: no filter), a limit <= 0, a
+            negative noise level, a non-finite gain.
         """
         chains = list(chains)
         if not chains:
@@ -183,8 +188,10 @@ class BatchChain:
         m = np.floor(delay).astype(int)
         frac = delay - m
         corner = _per_channel(chains, acts, pick("filter_hz", math.inf), "filter_hz")
-        if np.any(corner <= 0):
-            raise ModelError(f"hardware chain: filter_hz must be > 0, got {corner.ravel().tolist()}")
+        if np.any(corner < 0):
+            raise ModelError(f"hardware chain: filter_hz must be >= 0 (0 or None: no filter), got "
+                             f"{corner.ravel().tolist()}")
+        corner[corner == 0] = math.inf  # 0: no filter, as None
         tau = np.where(np.isfinite(corner), 1.0 / (2.0 * math.pi * np.where(np.isfinite(corner), corner, 1.0)), 0.0)
         d_old = np.empty((n_sub, *delay.shape))
         for s in range(n_sub):
@@ -204,36 +211,25 @@ class BatchChain:
         lag_a = _per_channel(chains, acts, pick("actuator_lag_hz", 0.0, "channel_actuator_lag_hz"), "actuator_lag_hz")
         lag_s = _per_channel(chains, fb, pick("sensor_lag_hz", 0.0, "channel_sensor_lag_hz"), "sensor_lag_hz")
         noise = np.array([[c.noise_m_s] * n_sensors for c in chains], dtype=float).reshape(len(chains), n_sensors)
-        if np.any(noise < 0):
-            raise ModelError(f"hardware chain: noise_m_s must be >= 0, got {noise[:, 0].tolist()}")
+        if np.any(noise < 0) or not np.all(np.isfinite(noise)):
+            raise ModelError(f"hardware chain: noise_m_s must be finite and >= 0, got {noise[:, 0].tolist()}")
+        gains = {name: _per_channel(chains, points, read, name) for name, points, read in (
+            ("amplifier_gain", acts, pick("amplifier_gain", 1.0)),
+            ("actuator_gain", acts, lambda c, p: c.actuator_gain.get(p, 1.0)),
+            ("sensor_gain", fb, lambda c, p: c.sensor_gain.get(p, 1.0)))}
+        for name, g in gains.items():
+            if not np.all(np.isfinite(g)):
+                raise ModelError(f"hardware chain: {name} must be finite, got {g.ravel().tolist()}")
         return cls(
             period_s=float(period), n_sub=n_sub, delay_int=m, d_old_s=d_old, d_new_s=d_new,
             e_old=e_old, e_new=e_new, w_old=d_old / h,
             j_old=tau * (1.0 - e_old) / h, j_new=tau * (1.0 - e_new) / h,
-            amp_gain=_per_channel(chains, acts, pick("amplifier_gain", 1.0), "amplifier_gain"),
-            amp_limit_n=limit,
-            actuator_gain=_per_channel(chains, acts, lambda c, p: c.actuator_gain.get(p, 1.0), "actuator_gain"),
+            amp_gain=gains["amplifier_gain"], amp_limit_n=limit, actuator_gain=gains["actuator_gain"],
             actuator_lag=np.where(lag_a > 0, np.exp(-2 * math.pi * lag_a * h), 0.0),
-            sensor_gain=_per_channel(chains, fb, lambda c, p: c.sensor_gain.get(p, 1.0), "sensor_gain"),
+            sensor_gain=gains["sensor_gain"],
             sensor_lag=np.where(lag_s > 0, np.exp(-2 * math.pi * lag_s * period), 0.0),
             noise_m_s=noise,
         )
-
-
-def for_each(chain: HardwareChain | list, n_sim: int) -> list:
-    """One chain per simulation: ``chain`` repeated, or the given list (length checked).
-
-    Raises
-    ------
-    ModelError
-        A list whose length is not ``n_sim``.
-    """
-    if isinstance(chain, HardwareChain):
-        return [chain] * n_sim
-    chains = list(chain)
-    if len(chains) != n_sim:
-        raise ModelError(f"chains: expected {n_sim} hardware chains (one per simulation), got {len(chains)}")
-    return chains
 
 
 #: Sensor noise is drawn per simulation in blocks of this many ticks (the same stream as one draw per tick).
@@ -242,6 +238,10 @@ NOISE_BLOCK = 512
 
 class ChainRun:
     """The running chain of N simulations: sensor stage and DAC/RC/amplifier stage, with their state.
+
+    The one implementation of the chain's per-tick arithmetic: the batched
+    loop (:func:`vlab.lab.batch.run_batch`) runs it for N simulations and the
+    single loop (:func:`vlab.lab.loop.run_loop`) with N = 1.
 
     Per tick: :meth:`sense` (sensor gain, lag, noise: one array operation
     each for all N), :meth:`push` (the controller output into the DAC
@@ -257,9 +257,15 @@ class ChainRun:
         Feedback sensors (the first ``n_fb`` of the sensors read).
     seeds : sequence of int, length N
         Noise seed of each simulation (``numpy.random.default_rng(seed)``,
-        ``standard_normal`` per sensor per tick, as :class:`vlab.lab.blocks.SensorNoise`).
+        ``standard_normal`` per sensor per tick, as :class:`vlab.lab.blocks.SensorNoise`;
+        drawn :data:`NOISE_BLOCK` ticks at a time, the same stream).
     n_ticks : int
         Ticks of the run (noise drawn up to it).
+
+    Raises
+    ------
+    ModelError
+        A seed that is not an int (with noise on).
 
     Notes
     -----
@@ -271,8 +277,12 @@ class ChainRun:
         n, n_act = hw.amp_gain.shape
         n_sens = hw.noise_m_s.shape[1]
         self._n_fb, self._n_ticks = n_fb, n_ticks
-        self._rngs = ([np.random.default_rng(int(s)) for s in seeds]
-                      if n_sens and np.any(hw.noise_m_s > 0) else None)
+        self._rngs = None
+        if n_sens and np.any(hw.noise_m_s > 0):
+            bad = [s for s in seeds if isinstance(s, bool) or not isinstance(s, (int, np.integer))]
+            if bad:
+                raise ModelError(f"sensor noise: seed must be an int, got {bad[0]!r}")
+            self._rngs = [np.random.default_rng(int(s)) for s in seeds]
         self._noise = None
         self._hist = np.zeros((hw.history, n, n_act))          # _hist[i] = u[k - i]
         self._uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
@@ -287,6 +297,8 @@ class ChainRun:
         self._sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
         self._use_lag_a = bool(np.any(hw.actuator_lag > 0))
         self._use_lag_s = bool(np.any(hw.sensor_lag > 0))
+        # the step coefficients of each physics step s, looked up once
+        self._steps = [(hw.e_old[s], hw.e_new[s], hw.w_old[s], hw.j_old[s], hw.j_new[s]) for s in range(hw.n_sub)]
         self._u_new = self._u_old = self._du = None
 
     def sense(self, v: np.ndarray, k: int) -> np.ndarray:
@@ -303,11 +315,12 @@ class ChainRun:
                 y_fb = self._lag_sen
             y[:, :n_fb] = y_fb
         if self._rngs is not None:
-            if k % NOISE_BLOCK == 0:
+            i = k % NOISE_BLOCK
+            if i == 0:
                 nb = min(NOISE_BLOCK, self._n_ticks - k)
                 self._noise = np.stack([r.standard_normal((nb, v.shape[1])) for r in self._rngs],
                                        axis=1) * hw.noise_m_s
-            y += self._noise[k % NOISE_BLOCK]
+            y += self._noise[i]
         return y
 
     def push(self, u: np.ndarray) -> None:
@@ -331,12 +344,13 @@ class ChainRun:
         and there is no filter, as ``SampleDelay.mean_over`` gives it.
         """
         hw = self.hw
+        e_old, e_new, w_old, j_old, j_new = self._steps[s]
         u_new, u_old = self._u_new, self._u_old
         dy0 = self._rc - u_old
-        y1 = u_old + dy0 * hw.e_old[s]
+        y1 = u_old + dy0 * e_old
         dy1 = y1 - u_new
-        self._rc = u_new + dy1 * hw.e_new[s]
-        f = u_new + (self._du * hw.w_old[s] + (dy0 * hw.j_old[s] + dy1 * hw.j_new[s]))
+        self._rc = u_new + dy1 * e_new
+        f = u_new + (self._du * w_old + (dy0 * j_old + dy1 * j_new))
         f += excitation
         if self._amp is not None:
             f *= self._amp

@@ -34,6 +34,16 @@ A typical loop (controller period ``dt``, ``n_sub`` physics steps per period)::
                                                    # step average; the excitation joins
                                                    # before the amplifier (Fig. 21)
             plant.step(h, f)
+
+The lab's loops do not run these objects: :func:`vlab.lab.loop.run_loop` and
+:func:`vlab.lab.batch.run_batch` both run the chain with
+:class:`vlab.lab.batch_chain.ChainRun`, vectorised, its step coefficients
+computed once per run (the block objects, each checking its input on every
+call, took most of the single loop's time per tick). The blocks remain the
+reference implementation, with absolute switch times and the exact step
+average written out, that the shared chain is tested against
+(tests/test_loop_reference.py), and a documented model of each piece of the
+hardware.
 """
 
 from __future__ import annotations

@@ -191,9 +191,11 @@ class ControllerEngine:
 
     def _y(self, y) -> np.ndarray:
         arr = np.asarray(y, dtype=float)
-        if arr.shape != (self.n_inputs,):
+        if arr.shape != self.F21.shape[1:]:
             raise ModelError(f"y: expected shape ({self.n_inputs},), found {arr.shape}")
-        if not np.all(np.isfinite(arr)):
+        # one reduction per tick: a NaN or inf anywhere makes the sum non-finite (an overflowing sum of finite
+        # values is told apart by the full check)
+        if not math.isfinite(arr.sum()) and not np.all(np.isfinite(arr)):
             raise SimulationError(f"controller input y is non-finite at tick {self.n_ticks}: {arr}")
         return arr
 
@@ -209,9 +211,11 @@ class ControllerEngine:
     def step(self, y) -> np.ndarray:
         """One tick of Eq. (5.1): return ``u_k`` (shape (n_u,)) for sensors ``y`` (shape (n_y,)); update ``x``."""
         yk = self._y(y)
+        self.n_ticks += 1
+        if not self._x.size:  # a static gain (DRF): F12 x = 0 and no state to advance
+            return self.F11 @ yk
         u = self.F11 @ yk + self.F12 @ self._x
         self._x = self.F21 @ yk + self.F22 @ self._x
-        self.n_ticks += 1
         return u
 
     def simulate(self, Y) -> np.ndarray:

@@ -46,6 +46,7 @@ class LinearPlant:
                 raise ModelError(f"LinearPlant: actuator point {p} has no DOF (points: {sorted(point_index)})")
         self.timestep_s = float(timestep_s)
         self._pidx = dict(point_index)
+        self._index_cache: dict[tuple, np.ndarray] = {}
         u = np.zeros((n, len(self.actuator_points)))
         for j, p in enumerate(self.actuator_points):
             u[point_index[p], j] = 1.0
@@ -125,9 +126,29 @@ class LinearPlant:
         self.time_s += self.timestep_s
 
     def velocities(self, points) -> np.ndarray:
-        """Out-of-plane velocities [m/s] at ``points``, shape (len(points),)."""
-        return np.array([self.x[self._pidx[p]] for p in points])
+        """Out-of-plane velocities [m/s] at ``points``, shape (len(points),).
+
+        Raises
+        ------
+        KeyError
+            A point without a DOF.
+        """
+        return self.x[self._index(points)]
 
     def displacements(self, points) -> np.ndarray:
-        """Out-of-plane displacements [m] at ``points``, shape (len(points),)."""
-        return np.array([self.x[self._n + self._pidx[p]] for p in points])
+        """Out-of-plane displacements [m] at ``points``, shape (len(points),).
+
+        Raises
+        ------
+        KeyError
+            A point without a DOF.
+        """
+        return self.x[self._n + self._index(points)]
+
+    def _index(self, points) -> np.ndarray:
+        """Indices in ``q`` of the points' translations (made once per tuple of points: the loop asks every tick)."""
+        key = tuple(points)
+        idx = self._index_cache.get(key)
+        if idx is None:
+            idx = self._index_cache[key] = np.array([self._pidx[p] for p in key], dtype=int)
+        return idx

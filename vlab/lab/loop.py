@@ -5,17 +5,27 @@ controllers; 1 ms for LQG)::
 
     y_k  = sensor gain x velocity (x lag) + noise         (sampled at t_k; also recorded)
     u_k  = engine.step(y_k)                               (Eq. 5.1)
-    DAC  : u_k appears 1.35 periods after t_k, held       (SampleDelay; a channel may have its own delay)
+    DAC  : u_k appears 1.35 periods after t_k, held       (a channel may have its own delay)
     for each physics step h in the tick:
         RC  : filtered DAC voltage, averaged over the step (677 Hz, exact)
         f   = amplifier(RC output + excitation on one channel)
         plant.step(f)
 
+The chain (sensor stage, DAC, RC, amplifier, lags) runs as the batched loop
+runs it, with :class:`vlab.lab.batch_chain.ChainRun` for one simulation: one
+implementation of its arithmetic for both loops, its coefficients computed
+once per run. The blocks of :mod:`vlab.lab.blocks` (SampleDelay, RCLowPass,
+CurrentAmplifier, SensorNoise) are the reference it is tested against
+(tests/test_loop_reference.py).
+
 The plant is anything with the :class:`Plant` protocol: the MuJoCo plant of
-:mod:`vlab.sim` or the linear model of :mod:`vlab.lab.linear_plant`. A
-diverging plant stops the run with :class:`vlab.errors.SimulationError`
-saying when; the recording made so far is attached to the error
-(``exc.partial``).
+:mod:`vlab.sim` or the linear model of :mod:`vlab.lab.linear_plant`. Inputs
+are checked once, before the first tick; the loop then trusts what it
+produced itself. A plant may offer its own per-tick access, ``loop_io``
+(see :class:`Plant`); the MuJoCo plant's computes the state at the sampling
+instant once per tick (:class:`vlab.sim.runtime.LoopIO`). A diverging plant
+stops the run with :class:`vlab.errors.SimulationError` saying when; the
+recording made so far is attached to the error (``exc.partial``).
 """
 
 from __future__ import annotations
@@ -27,7 +37,8 @@ from typing import Callable, Protocol
 import numpy as np
 
 from ..errors import ModelError, SimulationError
-from .blocks import PC1000_DELAY_PERIODS, PC1000_PERIOD_S, RC_CORNER_HZ, CurrentAmplifier, RCLowPass, SampleDelay, SensorNoise
+from .batch_chain import BatchChain, ChainRun
+from .blocks import PC1000_DELAY_PERIODS, PC1000_PERIOD_S, RC_CORNER_HZ
 from .engine import ControllerEngine
 from .recording import Recording
 
@@ -54,6 +65,15 @@ class Plant(Protocol):
 
     Notes
     -----
+    Optional: a plant may also have a method ``loop_io(sensors,
+    shape_points)`` that returns None or an object with ``sample()`` (the
+    velocities at ``sensors`` [m/s], shape (n_sensors,)), ``displacements()``
+    (at ``shape_points`` [m], after ``sample``) and ``drive(forces)``
+    (``set_forces`` then ``step``): the same readings and steps without
+    the per-call checks, for the loop's fixed points and finite forces.
+    :class:`vlab.sim.runtime.MujocoPlant` has one; without it (or when it
+    returns None) the loop calls the methods above.
+
     This is a structural type (``typing.Protocol``): it is never
     instantiated, and its constructor is the placeholder
     ``__init__(self, *args, **kwargs)`` that ``typing.Protocol`` supplies;
@@ -115,7 +135,7 @@ class HardwareChain:
     delay_periods : float
         Computation delay from sample to DAC output, in periods (1.35; 0 = off).
     filter_hz : float or None
-        RC low-pass corner [Hz] (677; None = off).
+        RC low-pass corner [Hz] (677; None or 0 = off).
     amplifier_gain : float
         Controlled-current amplifier and coil: force per unit command [N/N].
     amplifier_limit_n : float or None
@@ -286,29 +306,30 @@ def _check_channels(chain: HardwareChain, acts: tuple[int, ...], fb: tuple[int, 
             raise ModelError(f"HardwareChain.{name} names point(s) {bad}, which are not {what} points {tuple(points)}")
 
 
-def _lag_pole(global_hz: float | None, by_channel: dict, points: tuple[int, ...], step_s: float):
-    """Pole ``exp(-2 pi f_c step)`` of the first-order lag of each channel at ``points``: a scalar when all
-    channels share the global corner (the original path), a vector (0 = no lag) with per-channel corners,
-    None when no channel has a lag."""
-    if not by_channel:
-        return math.exp(-2 * math.pi * global_hz * step_s) if global_hz else None
-    corners = [by_channel.get(p, global_hz) for p in points]
-    if not any(corners):
-        return None
-    return np.array([math.exp(-2 * math.pi * f * step_s) if f else 0.0 for f in corners])
+class _ProtocolIO:
+    """The loop's access to any :class:`Plant` through its protocol methods (what a plant's own
+    ``loop_io`` replaces, see :class:`Plant`): ``sample`` the sensor velocities, ``displacements`` at the
+    shape points, ``drive(forces)`` one physics step."""
+
+    def __init__(self, plant: Plant, sensors: tuple[int, ...], shape: tuple[int, ...]) -> None:
+        self._plant, self._sensors, self._shape = plant, sensors, shape
+
+    def sample(self) -> np.ndarray:
+        return np.asarray(self._plant.velocities(self._sensors), dtype=float) if self._sensors else np.zeros(0)
+
+    def displacements(self) -> np.ndarray:
+        return self._plant.displacements(self._shape)
+
+    def drive(self, forces: np.ndarray) -> None:
+        self._plant.set_forces(forces)
+        self._plant.step()
 
 
-def _dac_channels(dacs, t0: float, t1: float, n_act: int) -> np.ndarray:
-    """DAC (and RC) output averaged over ``[t0, t1]`` [s], shape (n_act,), assembled from the delay lines of
-    channels with different delays (each ``(channel indices, SampleDelay, RCLowPass or None)``)."""
-    out = np.empty(n_act)
-    for idx, dl, rcx in dacs:
-        if rcx is not None:
-            rcx.update_segments(dl.segments_over(t0, t1))
-            out[idx] = rcx.mean()
-        else:
-            out[idx] = dl.mean_over(t0, t1)
-    return out
+def _plant_io(plant: Plant, sensors: tuple[int, ...], shape: tuple[int, ...]):
+    """The plant's own per-tick access (``loop_io``) where it has one for these points, else the protocol's."""
+    own = getattr(plant, "loop_io", None)
+    io = own(sensors, shape) if own is not None else None
+    return io if io is not None else _ProtocolIO(plant, sensors, shape)
 
 
 def run_loop(
@@ -352,7 +373,9 @@ def run_loop(
     seed : int
         Seed of the sensor noise: each tick draws one value per sensor, the
         feedback points first, then the measured points that are not
-        feedback points, in the given orders (open loop too).
+        feedback points, in the given orders (open loop too); the draws of
+        ``numpy.random.default_rng(seed).standard_normal(n_sensors)`` once per
+        tick (:class:`vlab.lab.blocks.SensorNoise`), taken in blocks of ticks.
     progress : callable, optional
         Called with the fraction done, about every 1 % of the run.
     metadata : dict, optional
@@ -371,12 +394,27 @@ def run_loop(
     ModelError
         If the physics step does not divide the period, the excitation point is
         not an actuator, a per-channel chain entry names a point that is not
-        an actuator (feedback sensor for the sensor lag), the run is shorter than two periods, the excitation
-        has not one value per tick, or the engine's inputs/outputs do not match
-        the feedback points/actuators.
+        an actuator (feedback sensor for the sensor lag), a chain setting is
+        out of range (a negative delay, filter corner or noise level, a limit
+        <= 0, a non-finite gain: :meth:`vlab.lab.batch_chain.BatchChain.from_chains`), the run is
+        shorter than two periods, the excitation has not one finite value per
+        tick, the seed is not an int (noise on), or the engine's inputs/outputs
+        do not match the feedback points/actuators. All checked before the
+        first tick.
     SimulationError
         If the plant diverges (non-finite or huge velocity); ``exc.partial`` holds
-        the :class:`LoopResult` up to that tick.
+        the :class:`LoopResult` up to that tick. (A plant that detects its own
+        divergence, as the MuJoCo plant's bad-acceleration check, raises its
+        own SimulationError.)
+
+    Notes
+    -----
+    Source: Fig. 21, Sec. 5.3 (chain), Eq. (5.1) (engine). Per tick the loop
+    reads the sensors, runs :meth:`ChainRun.sense <vlab.lab.batch_chain.ChainRun.sense>`,
+    the engine's ``step``, :meth:`ChainRun.push <vlab.lab.batch_chain.ChainRun.push>`
+    and, per physics step, :meth:`ChainRun.force <vlab.lab.batch_chain.ChainRun.force>`
+    and the plant's step; the time per tick against MuJoCo's own loop is in
+    docs/batch_speed.txt (``benchmarks/batch_speed.py``).
     """
     period = chain.period_s
     h = plant.timestep_s
@@ -395,107 +433,64 @@ def run_loop(
     exc = np.asarray(excitation(t_ticks) if callable(excitation) else excitation, dtype=float)
     if exc.shape != (n_ticks,):
         raise ModelError(f"excitation must have one value per tick: expected ({n_ticks},), found {exc.shape}")
+    if not np.all(np.isfinite(exc)):
+        raise ModelError(f"excitation is not finite at tick {int(np.flatnonzero(~np.isfinite(exc))[0])}")
 
     fb = tuple(feedback_points)
-    if engine is not None and (engine.n_inputs != len(fb) or engine.n_outputs != n_act):
+    n_fb = len(fb)
+    if engine is not None and (engine.n_inputs != n_fb or engine.n_outputs != n_act):
         raise ModelError(
             f"controller engine has {engine.n_inputs} inputs/{engine.n_outputs} outputs; "
-            f"loop has {len(fb)} feedback sensors and {n_act} actuators"
+            f"loop has {n_fb} feedback sensors and {n_act} actuators"
         )
     _check_channels(chain, acts, fb)
-    # one DAC delay line (and RC filter) per distinct channel delay; the nominal chain has one for all channels
-    groups: dict[float, list[int]] = {}
-    for i, p in enumerate(acts):
-        groups.setdefault(chain.delay_of(p), []).append(i)
-    dacs = [(np.array(idx), SampleDelay(period_s=period, delay_periods=d, size=len(idx), name="DAC"),
-             RCLowPass(step_s=h, corner_hz=chain.filter_hz, size=len(idx), name="RC") if chain.filter_hz else None)
-            for d, idx in groups.items()]
-    if len(dacs) > 1:
-        delay = rc = None
-    else:
-        _, delay, rc = dacs[0]
-    limits = [chain.limit_of(p) for p in acts]
-    limit = (None if all(v is None for v in limits) else chain.amplifier_limit_n if not chain.channel_limit_n
-             else np.array([np.finfo(float).max if v is None else v for v in limits]))
-    amp = CurrentAmplifier(gain=chain.amplifier_gain, limit=limit, size=n_act)
     meas = tuple(measured_points)
     # the sensors: feedback points, then the other measured points; one signal each
     sensors = fb + tuple(dict.fromkeys(p for p in meas if p not in fb))
-    n_fb = len(fb)
     meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
-    noise = (SensorNoise(sigma_m_s=chain.noise_m_s, seed=seed, size=len(sensors), name="sensor noise")
-             if chain.noise_m_s > 0 and sensors else None)
-    act_gain = np.array([chain.actuator_gain.get(p, 1.0) for p in acts])
-    sen_gain = np.array([chain.sensor_gain.get(p, 1.0) for p in fb])
-    a_act = _lag_pole(chain.actuator_lag_hz, chain.channel_actuator_lag_hz, acts, h)
-    a_sen = _lag_pole(chain.sensor_lag_hz, chain.channel_sensor_lag_hz, fb, period)
-    lag_act = np.zeros(n_act)
-    lag_sen = np.zeros(n_fb)
-
-    vel = np.zeros((n_ticks, len(meas)))
     shape = tuple(shape_points) if shape_points is not None else meas
+    # the chain of Fig. 21 as the batch runs it, one simulation; coefficients made once for the run
+    hw = BatchChain.from_chains([chain], timestep_s=h, actuators=acts, feedback=fb, n_sensors=len(sensors))
+    run = ChainRun(hw, n_fb=n_fb, seeds=[seed], n_ticks=n_ticks)
+    io = _plant_io(plant, sensors, shape)
+
+    ys = np.zeros((n_ticks, len(sensors)))  # every sensor's signal; the measured points' columns are recorded
     disp = np.zeros((n_ticks, len(shape)))
     cmds = np.zeros((n_ticks, n_act))
-    e_vec = np.zeros(n_act)
+    u_open = np.zeros((1, n_act))
+    e_vec = np.zeros((1, n_act))
     report_every = max(1, n_ticks // 100)
     done = n_ticks
     failure: SimulationError | None = None
     for k in range(n_ticks):
-        t_k = k * period
-        v_sens = np.asarray(plant.velocities(sensors), dtype=float) if sensors else np.zeros(0)
-        if not np.abs(v_sens).max(initial=0.0) <= 1e3:  # also catches NaN
+        v = io.sample()
+        # diverged: a velocity above 1e3 m/s or NaN; |v|^2 <= 1e6 rules both out with one product
+        if not v @ v <= 1e6 and not np.abs(v).max(initial=0.0) <= 1e3:
             failure = SimulationError(
-                f"simulation diverged at t = {t_k:.4f} s (velocity {np.max(np.abs(v_sens)):.3g} m/s at "
+                f"simulation diverged at t = {k * period:.4f} s (velocity {np.max(np.abs(v)):.3g} m/s at "
                 f"points {sensors}): controller unstable on this plant or timestep too large"
             )
             done = k
             break
-        y_all = v_sens.copy()
-        if n_fb:
-            y_fb = v_sens[:n_fb] * sen_gain
-            if a_sen is not None:
-                lag_sen = a_sen * lag_sen + (1 - a_sen) * y_fb
-                y_fb = lag_sen
-            y_all[:n_fb] = y_fb
-        if noise is not None:
-            y_all = noise.output(y_all)
-        vel[k] = y_all[meas_idx]
+        y = run.sense(v[None], k)
+        ys[k] = y[0]
         if shape:
-            disp[k] = plant.displacements(shape)
+            disp[k] = io.displacements()
         if engine is not None:
-            u = engine.step(y_all[:n_fb])
+            u = engine.step(y[0, :n_fb])
+            cmds[k] = u
+            run.push(u[None])
         else:
-            u = np.zeros(n_act)
-        cmds[k] = u
-        if delay is not None:
-            delay.update(u)
-        else:
-            for idx, dl, _ in dacs:
-                dl.update(u[idx])
-        e_vec[:] = 0.0
-        e_vec[exc_ch] = exc[k]
+            run.push(u_open)
+        e_vec[0, exc_ch] = exc[k]
         for s in range(n_sub):
-            t = t_k + s * h
-            if delay is None:
-                dac = _dac_channels(dacs, t, t + h, n_act)
-            elif rc is not None:
-                # the force is held over the physics step: the RC's exact average over it
-                rc.update_segments(delay.segments_over(t, t + h))
-                dac = rc.mean()
-            else:
-                dac = delay.mean_over(t, t + h)
-            f = amp.output(dac + e_vec) * act_gain
-            if a_act is not None:
-                lag_act = a_act * lag_act + (1 - a_act) * f
-                f = lag_act
-            plant.set_forces(f)
-            plant.step()
+            io.drive(run.force(s, e_vec)[0])
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
 
     signals = {f"force{excitation_point}": exc[:done]}
     for j, p in enumerate(meas):
-        signals[f"vel{p}"] = vel[:done, j]
+        signals[f"vel{p}"] = ys[:done, meas_idx[j]]
     rec = Recording.from_signals(period, signals, metadata=dict(metadata or {}))
     result = LoopResult(rec, cmds[:done], disp[:done], shape)
     if failure is not None:

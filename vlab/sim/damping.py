@@ -152,15 +152,30 @@ class ModalDamping:
         base : ndarray, shape (nv,), optional
             Other applied generalized forces (zero by default).
         """
-        a, c = self.A, self.c
-        applied = data.qfrc_applied
         for _ in range(n):
-            f = a @ (c * (a.T @ data.qvel))
-            if base is None:
-                np.negative(f, out=applied)
-            else:
-                np.subtract(base, f, out=applied)
+            self.apply(data, base)
             mujoco.mj_step(model, data)
+
+    def apply(self, data: mujoco.MjData, base: np.ndarray | None = None) -> None:
+        """Set ``qfrc_applied = base - C_m qvel`` from the current ``qvel``, as :meth:`step` does before each step.
+
+        For a caller that splits the step (``mj_step1``, then forces, then
+        ``mj_step2``): ``qvel`` is unchanged by ``mj_step1``, so the force is
+        the one :meth:`step` would set.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            Its ``qfrc_applied`` (shape (nv,)) is written in place.
+        base : ndarray, shape (nv,), optional
+            Other applied generalized forces (zero by default).
+        """
+        a = self.A
+        f = a @ (self.c * (a.T @ data.qvel))
+        if base is None:
+            np.negative(f, out=data.qfrc_applied)
+        else:
+            np.subtract(base, f, out=data.qfrc_applied)
 
 
 def _elastic_stiffness(model: mujoco.MjModel) -> np.ndarray:

@@ -479,9 +479,13 @@ class MujocoPlant:
             mujoco.mj_step(self.model, d, nstep=n)
         else:
             self.modal_damping.step(self.model, d, n)
-        if self._warning.number or not math.isfinite(d.qvel[0] + d.qvel[-1]):
+        self._check_step(d.qvel)
+
+    def _check_step(self, qvel: np.ndarray) -> None:
+        """Raise SimulationError when MuJoCo flagged a bad acceleration or ``qvel`` (``data.qvel``) is non-finite."""
+        if self._warning.number or not math.isfinite(qvel[0] + qvel[-1]):
             raise SimulationError(
-                f"the MuJoCo plant diverged at t = {d.time:.4f} s (bad acceleration / non-finite state): "
+                f"the MuJoCo plant diverged at t = {self.data.time:.4f} s (bad acceleration / non-finite state): "
                 f"the timestep {self.timestep_s:.3g} s is likely too large for the hinge chain"
             )
 
@@ -516,6 +520,32 @@ class MujocoPlant:
         return np.array([self.data.sensordata[self._rows[p]] if p in self._rows else self._site_vel(p)
                          for p in key])
 
+    def loop_io(self, sensors, shape_points) -> LoopIO | None:
+        """The control loop's per-tick access to this plant for fixed points, checked once here.
+
+        Parameters
+        ----------
+        sensors : sequence of int
+            Points whose velocity :meth:`LoopIO.sample` returns, in order.
+        shape_points : sequence of int
+            Points whose displacement :meth:`LoopIO.displacements` returns.
+
+        Returns
+        -------
+        LoopIO or None
+            None when a sensor point has no ``vel<ID>`` sensor (the loop then
+            uses :meth:`velocities`, which reads the site or says why not).
+
+        Raises
+        ------
+        SimulationError
+            For an unknown shape point (as :meth:`displacements`).
+        """
+        if not all(p in self._rows for p in sensors):
+            return None
+        self.displacements(shape_points)  # the unknown-point check
+        return LoopIO(self, tuple(sensors), tuple(shape_points))
+
     def _site_vel(self, p: int) -> float:
         if not self.site_velocity_fallback:
             raise SimulationError(f"no velocity sensor vel{p} in the plant; its velocity sensors are at points "
@@ -547,6 +577,85 @@ class MujocoPlant:
         except KeyError as exc:
             raise SimulationError(f"unknown point {exc.args[0]}; points are {sorted(self._sites)}") from None
         return self.data.site_xpos[ids, 2] - self._z0[ids]
+
+
+class LoopIO:
+    """The closed loop's access to a :class:`MujocoPlant`, one physics step at a time, without per-call checks.
+
+    Made by :meth:`MujocoPlant.loop_io` for fixed sensor and shape points
+    (checked there, once). One controller tick of
+    :func:`vlab.lab.loop.run_loop`::
+
+        v = io.sample()          # mj_step1: positions, velocities and sensors at t_k; the sensors' rows
+        z = io.displacements()   # site z minus settled z at the shape points, at t_k
+        io.drive(f)              # coil forces, modal damping, mj_step2: the tick's first physics step
+        io.drive(f)              # any further step of the tick: modal damping + mj_step
+
+    ``mj_step1`` followed by ``mj_step2`` is ``mj_step`` split where a user
+    sets forces (MuJoCo documentation, ``mj_step1``/``mj_step2``), so the
+    state at the sampling instant is computed once per tick instead of twice
+    (after :meth:`MujocoPlant.step`, :meth:`MujocoPlant.velocities` brings the
+    stages up to date and the next ``mj_step`` computes them again). The
+    trajectory and the readings are those of the public methods, bit for bit
+    (tests/test_loop_reference.py). The plant's divergence check runs after every
+    step, as :meth:`MujocoPlant.step` does.
+
+    Parameters
+    ----------
+    plant : MujocoPlant
+    sensors : tuple of int
+        Points with a ``vel<ID>`` sensor, order of :meth:`sample`.
+    shape_points : tuple of int
+        Known site points, order of :meth:`displacements`.
+    """
+
+    def __init__(self, plant: MujocoPlant, sensors: tuple[int, ...], shape_points: tuple[int, ...]) -> None:
+        self._plant = plant
+        self._model, self._data = plant.model, plant.data
+        d = self._data
+        self._sensordata = d.sensordata
+        self._rows = np.array([plant._rows[p] for p in sensors], dtype=int)
+        self._site_z = d.site_xpos[:, 2]
+        sites = np.array([plant._sites[p] for p in shape_points], dtype=int)
+        self._sites, self._z0 = sites, plant._z0[sites]
+        self._ctrl, self._act_ids, self._qvel = d.ctrl, plant._act_ids, d.qvel
+        self._damping = plant.modal_damping
+        self._half = False  # mj_step1 done, mj_step2 pending
+
+    def sample(self) -> np.ndarray:
+        """Velocities [m/s] at the sensor points at the current time, shape (n_sensors,).
+
+        Runs ``mj_step1`` (position and velocity stages, their sensors) at
+        the current state; the next :meth:`drive` completes that step.
+        """
+        mujoco.mj_step1(self._model, self._data)
+        self._half = True
+        self._plant._fresh = True
+        return self._sensordata[self._rows]
+
+    def displacements(self) -> np.ndarray:
+        """Displacements [m] from the settled state at the shape points, shape (n_shape,), at the last sample."""
+        return self._site_z[self._sites] - self._z0
+
+    def drive(self, forces: np.ndarray) -> None:
+        """Hold the coil forces ``forces`` [N], shape (n_act,), finite, over one physics step and take it.
+
+        Raises
+        ------
+        SimulationError
+            The plant diverged (as :meth:`MujocoPlant.step`).
+        """
+        m, d = self._model, self._data
+        self._ctrl[self._act_ids] = forces
+        if self._damping is not None:
+            self._damping.apply(d)
+        if self._half:
+            mujoco.mj_step2(m, d)
+            self._half = False
+        else:
+            mujoco.mj_step(m, d)
+        self._plant._fresh = False
+        self._plant._check_step(self._qvel)
 
 
 def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = None, actuators=None,
