@@ -889,6 +889,69 @@ def _diagnosis_csv(d: dict[str, Any], out=None) -> None:
               out or sys.stdout)
 
 
+DETECT_OUT = "out/detectability"
+
+
+@app.command(cls=_VlabCommand)
+def detectability(
+    structure: str = _arg_structure(),
+    controller: ExpController = _opt(ExpController("none"), "--controller",
+                                     help="controller running during the test (none = open loop)"),
+    effect: list[str] = _opt(None, "--effect", help="only this effect of the library (repeatable; default: all "
+                                                    "one-parameter effects)"),
+    noise: float = _opt(1e-6, "--noise", help="velocity-sensor noise standard deviation [m/s], >= 0"),
+    seed: int = _opt(0, "--seed", help="seed of the excitation, the noise and the design's multi-start"),
+    out: str = _opt(None, "--out", help="also write detectability.json and a figure into this folder"),
+    overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    fmt: OutputFormat = _format_opt(),
+    as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
+) -> None:
+    """Smallest size of each effect of the library, at each location, that the diagnosis's mismatch test detects."""
+    import json
+    import math
+    from contextlib import nullcontext
+
+    from .diagnose.detectability import detectability as run, figure
+    from .diagnose.report.markdown import format_location, parameter_unit
+    from .io.atomic import atomic_dir
+    from .io.results import jsonable
+    from .io.tabular import Column
+
+    out_fmt = _output_format(fmt, as_json)
+    if not (math.isfinite(noise) and noise >= 0):
+        raise OptionError(f"--noise must be a finite number >= 0 [m/s], got {noise!r}")
+    spec = _load_structure(structure)
+    out_path = _out_dir(out, DETECT_OUT, overwrite) if out is not None else None
+    with err_console.status("detectability: recording the nominal test and searching the thresholds",
+                            spinner="dots") if out_fmt == "table" else nullcontext():
+        res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed)
+    d = res.as_dict()
+    if out_path is not None:
+        with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:
+            (tmp / "detectability.json").write_text(json.dumps(jsonable(d), indent=2))
+            figure(res, spec, tmp / "added_mass.png")
+    if out_fmt == "json":
+        _print_json(d)
+        return
+    rows = []
+    for t in res.thresholds:
+        q, unit = parameter_unit(t.parameter)
+        rel = (100 * (t.threshold / t.null - 1) if t.threshold is not None and t.null not in (None, 0.0) else None)
+        rows.append({"effect": t.effect, "location": format_location(t.location),
+                     "parameter": f"{q} [{unit}]" if unit else q,
+                     "null": "limit" if t.null is None else f"{t.null:.4g}",
+                     "threshold": "not detected in range" if t.threshold is None else f"{t.threshold:.3g}",
+                     "change_pct": rel, "test": t.by or ""})
+    cols = [Column("effect", "effect"), Column("location", "location"), Column("parameter", "parameter [unit]"),
+            Column("null", "null value"), Column("threshold", "threshold"),
+            Column("change_pct", "change [%]", "+.3g"), Column("test", "found by")]
+    _print_rows(out_fmt, rows, cols, f"{spec.title}, {controller.value}: smallest detectable size of each effect "
+                                       f"(noise {noise:g} m/s; chi2 limit {res.chi2_limit:.4g}, "
+                                       f"N = {res.n_obs})")
+    if out_fmt == "table" and res.skipped:
+        console.print(f"not computed (more than one parameter): {', '.join(res.skipped)}", highlight=False)
+
+
 ROBUSTNESS_OUT = "out/robustness"
 
 

@@ -88,6 +88,25 @@ class Threshold:
     bound: float
     by: str | None
 
+    def scaled(self, factor: float) -> float:
+        """The parameter value [SI] of ``factor`` times the threshold's effect.
+
+        With a null value, the departure from it is scaled (``null + factor (threshold - null)``); where the
+        effect vanishes only in a limit (a rigid joint or support, no lag, no force limit: an infinite
+        stiffness, corner or limit), the effect grows as the inverse of the parameter (a compliance, ``f /
+        f_c``, a clipped share) and the parameter is divided by ``factor``.
+
+        Raises
+        ------
+        ValueError
+            No threshold (the effect is not detected in its range).
+        """
+        if self.threshold is None:
+            raise ValueError(f"{self.effect} at {self.location}: no threshold to scale")
+        if self.null is not None:
+            return self.null + factor * (self.threshold - self.null)
+        return self.threshold / factor if self.bound < self.threshold else self.threshold * factor
+
     def as_dict(self) -> dict:
         """JSON-ready dict (the parameter name carries the unit)."""
         return {"effect": self.effect, "location": self.location, "parameter": self.parameter,
@@ -219,6 +238,52 @@ def _side(test: _Test, h, null: float | None, start: float, end: float, log: boo
     return (b if to_x is None else float(to_x(b))), by
 
 
+def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: float = 1e-6, seed: int = 0):
+    """The lab's nominal test recorded on the linear plant and read as the diagnosis reads it.
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+    controller : str
+    noise_m_s : float
+        Sensor noise [m/s].
+    seed : int
+
+    Returns
+    -------
+    spec : StructureSpec
+    nominal : LabState
+        The nominal lab (noise-free chain).
+    data : FrfData
+        The recording's FRFs referred to the model through its noise-free replay.
+    ctx : Context
+        Scales and signals for the library (:func:`vlab.diagnose.problem.context.context_for`).
+
+    Raises
+    ------
+    ModelError, SpecError
+        As :func:`detectability`.
+    """
+    spec = load_spec(structure) if isinstance(structure, str) else structure
+    fe = build_fe_model(spec)
+    test = test_definition(spec)
+    chain = default_chain(controller, noise_m_s=float(noise_m_s))
+    design = nominal_design(fe, controller, seed, period_s=chain.period_s)
+    cfg = ExperimentConfig(structure=spec.name, controller=controller, plant="linear", chain=chain, seed=seed)
+    rec = measure(cfg, fe, design).loop.recording
+    nominal = LabState(spec, fe, replace(chain, noise_m_s=0.0), design)
+    data = read_data(spec, fe, Path(f"<the nominal {spec.name} test>"), "recording",
+                     rec.with_metadata(structure=spec.name), resolution_hz=None, band_hz=test.band_hz,
+                     settle_of=lambda: settling_time(nominal, test.band_hz))
+    # referred to the model through its noise-free replay on the same plant, as the diagnosis does: what is
+    # left is the recording's noise (the loop's own sampled-data and start-up effects cancel)
+    base, _run, _kind = replay_reference(data, nominal, "linear",
+                                         guard_s=settling_time(nominal, test.band_hz, decay=GUARD_DECAY))
+    data = refer_to_model(data, base, predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                                  output_points=data.output_points))
+    return spec, nominal, data, context_for(nominal, test.band_hz, data)
+
+
 def detectability(structure: str | StructureSpec = "bcc", controller: str = "none", *,
                   effects: tuple[str, ...] | None = None, noise_m_s: float = 1e-6, seed: int = 0,
                   floor: float = 0.005, progress=None) -> Detectability:
@@ -259,25 +324,8 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     noise and floor, and so nearly the same thresholds.
     """
     say = progress or (lambda s: None)
-    spec = load_spec(structure) if isinstance(structure, str) else structure
-    fe = build_fe_model(spec)
-    test = test_definition(spec)
-    chain = default_chain(controller, noise_m_s=float(noise_m_s))
-    design = nominal_design(fe, controller, seed, period_s=chain.period_s)
     say("recording the nominal test on the linear plant")
-    cfg = ExperimentConfig(structure=spec.name, controller=controller, plant="linear", chain=chain, seed=seed)
-    rec = measure(cfg, fe, design).loop.recording
-    nominal = LabState(spec, fe, replace(chain, noise_m_s=0.0), design)
-    data = read_data(spec, fe, Path(f"<the nominal {spec.name} test>"), "recording",
-                     rec.with_metadata(structure=spec.name), resolution_hz=None, band_hz=test.band_hz,
-                     settle_of=lambda: settling_time(nominal, test.band_hz))
-    # referred to the model through its noise-free replay on the same plant, as the diagnosis does: what is
-    # left is the recording's noise (the loop's own sampled-data and start-up effects cancel)
-    base, _run, _kind = replay_reference(data, nominal, "linear",
-                                         guard_s=settling_time(nominal, test.band_hz, decay=GUARD_DECAY))
-    data = refer_to_model(data, base, predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                                  output_points=data.output_points))
-    ctx = context_for(nominal, test.band_hz, data)
+    spec, nominal, data, ctx = nominal_test(structure, controller, noise_m_s=noise_m_s, seed=seed)
     tester = _Test(Problem(data, nominal, ctx, floor=floor), nominal, ctx)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
@@ -303,3 +351,67 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
             out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
                          float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped))
+
+
+def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "added_mass"):
+    """Thresholds of a point effect drawn on the structure: members as lines, each point coloured by its
+    threshold (log scale) and labelled with it.
+
+    Parameters
+    ----------
+    result : Detectability
+    spec : StructureSpec
+        The structure (its ``points`` [m] and ``members``).
+    path : str or Path
+        PNG file to write.
+    effect : str
+        A point-located effect of ``result`` (``added_mass``, ``support_stiffness``, ``damping``, ``friction``,
+        ``joint_flexibility``).
+
+    Returns
+    -------
+    Path or None
+        The file, or None when ``result`` has no threshold of ``effect`` at a single point.
+
+    Raises
+    ------
+    OSError
+        The file cannot be written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [t for t in result.thresholds if t.effect == effect and set(t.location) <= {"point", "dof"}
+            and "point" in t.location and t.threshold is not None]
+    if not rows:
+        return None
+    best: dict[int, Threshold] = {}
+    for t in rows:  # the smaller departure where an effect has two sides
+        p = int(t.location["point"])
+        if p not in best or abs(t.threshold - (t.null or 0.0)) < abs(best[p].threshold - (best[p].null or 0.0)):
+            best[p] = t
+    fig, ax = plt.subplots(figsize=(7.0, 4.0), dpi=120)
+    for m in spec.members:
+        xy = np.array([spec.points[p] for p in m.points])
+        ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=2, zorder=1)
+    pts = sorted(best)
+    xy = np.array([spec.points[p] for p in pts])
+    vals = np.array([abs(best[p].threshold - (best[p].null or 0.0)) for p in pts])
+    sc = ax.scatter(xy[:, 0], xy[:, 1], c=np.log10(vals), cmap="viridis_r", s=90, zorder=2)
+    unit = rows[0].parameter.split("_", 1)[1] if "_" in rows[0].parameter else ""
+    for (x, y), p, v in zip(xy, pts, vals):
+        ax.annotate(f"{p}: {v:.2g}", (x, y), textcoords="offset points", xytext=(5, 6), fontsize=8)
+    fig.colorbar(sc, ax=ax, label=f"log10 threshold ({rows[0].parameter})")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"{result.structure}, {result.controller}: smallest detectable {effect} [{unit}]")
+    fig.tight_layout()
+    from pathlib import Path as _P
+
+    out = _P(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
