@@ -42,7 +42,7 @@ from ..errors import ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
 from ..spec import StructureSpec, load_spec
-from .data.measured import read_data, refer_to_model
+from .data.measured import FrfData, read_data, refer_to_model
 from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library
@@ -165,9 +165,11 @@ def _path(lo: float, hi: float, log: bool, n: int) -> np.ndarray:
 class _Test:
     """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab."""
 
-    def __init__(self, problem: Problem, nominal: LabState, ctx) -> None:
+    def __init__(self, problem: Problem, nominal: LabState, ctx, chi2_noise: float | None = None) -> None:
         self.problem, self.nominal, self.ctx = problem, nominal, ctx
-        self.chi2_noise = problem.chi2(nominal)
+        # what the noise (and the model's own small errors) contribute: the nominal lab against the nominal
+        # recording, or, on data with an effect, what the fitted effect leaves
+        self.chi2_noise = problem.chi2(nominal) if chi2_noise is None else float(chi2_noise)
         self.limit, self.peak_limit = problem.noise_chi2(), problem.peak_limit()
 
     def statistic(self, h, x: float) -> tuple[float, float] | None:
@@ -236,6 +238,55 @@ def _side(test: _Test, h, null: float | None, start: float, end: float, log: boo
         else:
             b, by = mid, m_by
     return (b if to_x is None else float(to_x(b))), by
+
+
+def _thresholds(tester: _Test, h) -> list[Threshold]:
+    """The thresholds of the one-parameter hypothesis ``h`` (one per side of its null value)."""
+    nominal, ctx = tester.nominal, tester.ctx
+    _trials, lower, upper = h.space(nominal, ctx)
+    lo, hi, log = float(lower[0]), float(upper[0]), bool(h.log_scale[0])
+    null = h.null(nominal, ctx)
+    x0 = None if null is None else float(np.asarray(null)[0])
+    if x0 is None:  # the effect vanishes only in a limit: start at the end where it is least visible
+        st = {v: tester.statistic(h, v) for v in (lo, hi)}
+        start = min((lo, hi), key=lambda v: math.inf if st[v] is None else st[v][0])
+        sides = [(start, hi if start == lo else lo)]
+    elif lo < x0 < hi:
+        sides = [(x0, lo), (x0, hi)]
+    else:
+        sides = [(x0, hi if abs(hi - x0) >= abs(lo - x0) else lo)]
+    out = []
+    for start, end in sides:
+        thr, by = _side(tester, h, x0, start, end, log)
+        out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
+    return out
+
+
+def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | None:
+    """The detection threshold of a found effect on the diagnosis's own data, on the side of its fitted value.
+
+    Parameters
+    ----------
+    problem : Problem
+        The diagnosis's problem (its data, noise and floor).
+    nominal : LabState
+    ctx : Context
+    h : Hypothesis
+        A fitted one-parameter hypothesis (``params_`` set); its residual chi-square ``chi2_`` stands for
+        what the noise contributes.
+
+    Returns
+    -------
+    Threshold or None
+        None for a hypothesis with more than one parameter (a pair, friction) or without a fitted value, and
+        for a modal table (the thresholds are those of FRF data).
+    """
+    if h.n_params != 1 or getattr(h, "params_", None) is None or not isinstance(problem.data, FrfData):
+        return None
+    x = float(np.asarray(h.params_)[0])
+    sides = _thresholds(_Test(problem, nominal, ctx, chi2_noise=getattr(h, "chi2_", None)), h)
+    on_side = [t for t in sides if t.null is None or (x - t.null) * (t.bound - t.null) > 0]
+    return (on_side or sides or [None])[0]
 
 
 def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: float = 1e-6, seed: int = 0):
@@ -334,21 +385,7 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         if h.n_params != 1:
             skipped.append(h.label)
             continue
-        _trials, lower, upper = h.space(nominal, ctx)
-        lo, hi, log = float(lower[0]), float(upper[0]), bool(h.log_scale[0])
-        null = h.null(nominal, ctx)
-        x0 = None if null is None else float(np.asarray(null)[0])
-        if x0 is None:  # the effect vanishes only in a limit: start at the end where it is least visible
-            st = {v: tester.statistic(h, v) for v in (lo, hi)}
-            start = min((lo, hi), key=lambda v: math.inf if st[v] is None else st[v][0])
-            sides = [(start, hi if start == lo else lo)]
-        elif lo < x0 < hi:
-            sides = [(x0, lo), (x0, hi)]
-        else:
-            sides = [(x0, hi if abs(hi - x0) >= abs(lo - x0) else lo)]
-        for start, end in sides:
-            thr, by = _side(tester, h, x0, start, end, log)
-            out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
+        out.extend(_thresholds(tester, h))
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
                          float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped))
 

@@ -78,6 +78,7 @@ from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_r
 from .data.replay import start_background_rerun, stop_background
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import Combination, Hypothesis, library
+from .detectability import threshold_of
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
 from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
@@ -479,6 +480,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             if chosen is not None:
                 res.selected = chosen
                 res.misfit_selected = float(chosen.misfit_)
+                thr = threshold_of(problem, nominal, ctx, chosen)
+                res.threshold = None if thr is None else thr.as_dict()
                 parts = res.selected_parts
                 if not ctx.closed_loop:
                     res.loop = "open"

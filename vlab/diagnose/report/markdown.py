@@ -551,4 +551,9 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         if v.get("noise_misfit") is not None:
             text += f"; the measured noise alone leaves {_fmt(v['noise_misfit'], 3)}"
         text += "."
+    thr = res.get("detection_threshold") or {}
+    if thr.get("threshold") is not None:
+        q, unit = parameter_unit(thr["parameter"])
+        text += (f" The smallest {thr['effect']} there that these data would show: {q} {_fmt(thr['threshold'], 3)}"
+                 + (f" {unit}" if unit else "") + " (vlab detectability).")
     return text

@@ -75,6 +75,10 @@ class DiagnosisResult:
         (its ``as_dict()``, plus ``in_replay``: whether the nominal plant's replay oscillates too, None when
         there was no replay, and ``summary``); None for FRFs, modal tables and open-loop recordings (without
         feedback the lab's structure cannot oscillate by itself).
+    threshold : dict or None
+        The detection threshold of the selected effect on these data, on the side of its fitted value
+        (:func:`vlab.diagnose.detectability.threshold_of`, ``Threshold.as_dict()``); None without a selected
+        one-parameter effect.
     """
 
     structure: str
@@ -106,6 +110,7 @@ class DiagnosisResult:
     too_small_candidates: list = field(default_factory=list)
     reference: str = "the FE model"
     instability: dict | None = None
+    threshold: dict | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -209,6 +214,7 @@ class DiagnosisResult:
             "too_small_to_name": bool(self.too_small),
             "reference": self.reference,
             "instability": self.instability,
+            "detection_threshold": self.threshold,
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),
