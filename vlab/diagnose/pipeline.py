@@ -84,7 +84,8 @@ from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, needs_pairs, needs_rerun_check,
+from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, explains_fully, needs_pairs,
+                        needs_rerun_check, NONLINEAR,
                         prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .model.labmodel import LabState, predict_frf
@@ -148,6 +149,15 @@ def _instability(check, replayed, loops) -> dict | None:
                  "; the nominal plant's replay does not: the instability is part of the mismatch")
     out["summary"] = text
     return out
+
+
+def _explains_fully(res: DiagnosisResult, problem: Problem, misfit_0: float) -> bool:
+    """Rule 10 (:func:`vlab.diagnose.fit.rules.explains_fully`) on the validation rerun, or on the linear model
+    without one (where data brought within the noise count as explained)."""
+    v = res.validation
+    if v is not None:
+        return explains_fully(v.misfit_before, v.misfit_after, v.noise_misfit)
+    return problem.within_noise(res.selected_state()) or explains_fully(misfit_0, res.misfit_selected, None)
 
 
 def _rerun_instability(res: DiagnosisResult, loops):
@@ -548,6 +558,22 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
+            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+        if res.selected is not None and not any(p.effect in NONLINEAR for p in res.selected_parts) and \
+                not _explains_fully(res, problem, misfit_0):
+            h, v = res.selected, res.validation
+            before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
+                                    else (misfit_0, res.misfit_selected, None))
+            res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
+                                 "noise_misfit": noise, "reason": "explains only part of the mismatch"})
+            notes.append(f"the best candidate, {h.label}, explains only part of the mismatch: "
+                         + (f"its validation rerun ({v.plant})" if v is not None else "on the linear model it")
+                         + f" lowers the misfit {ratio_text(before, after)} ({before:.3g} -> {after:.3g}"
+                         + (f"; the measured noise alone leaves {noise:.3g}" if noise is not None else "")
+                         + "), not 5 x nor to the noise: the mismatch lies outside the library; nothing is selected")
+            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+            res.misfit_selected = misfit_0
+            res.outside_library = True
             res.location.points, res.location.members = located_from_fits(res, chi2_0)
     finally:
         stop_background(problem)  # a background rerun never asked for

@@ -109,6 +109,8 @@ class Location:
     sensitivity : list of dict
         Candidates ranked by the share of the frequency errors they explain:
         ``{"parameter", "point"/"member"/"segment", "explained"}``.
+    extra : list of dict
+        Resonances of the data the nominal lab does not have (:func:`extra_resonances`).
     points, members : list
         Located points (ids) and members (``"member"`` or ``"member[a-b]"``).
     """
@@ -119,6 +121,7 @@ class Location:
     sensitivity: list = field(default_factory=list)
     points: list = field(default_factory=list)
     members: list = field(default_factory=list)
+    extra: list = field(default_factory=list)
 
 
 # ----------------------------------------------------------------------------- modes
@@ -401,4 +404,70 @@ def locate(problem: Problem, nominal: LabState) -> Location:
             loc.band_hz = [min(m.freq_measured_hz for m in bad), max(m.freq_measured_hz for m in bad)]
     loc.sensitivity = sensitivity_localisation(nominal, problem.ctx, loc.modes)
     loc.points, loc.members = located_places(loc.sensitivity)
+    if isinstance(problem.data, FrfData):
+        loc.extra = extra_resonances(problem, nominal)
     return loc
+
+
+#: A measured peak and a model peak farther apart than this (relative frequency) are not the same resonance.
+PEAK_MATCH = 0.10
+
+
+def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: float = 6.0) -> list[dict]:
+    """Resonances in the measured FRFs that the nominal lab does not have: a new or a split resonance.
+
+    On every channel, the peaks of the measured FRF (the recorded one where the data were referred
+    through a reference) and of the nominal lab's FRF on the same lines (:func:`vlab.measure.modal.find_peaks`,
+    at least ``prominence_db`` prominence) are paired one to one by least relative frequency distance
+    (Hungarian assignment; pairs farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left
+    without a partner on its channel is a resonance the model lacks. The same resonance on several channels
+    is reported once, at the channel where it is strongest, with its half-power damping ratio.
+
+    Parameters
+    ----------
+    problem : Problem
+        With FRF data.
+    nominal : LabState
+
+    Returns
+    -------
+    list of dict
+        ``frequency_hz``, ``damping_ratio`` [-] (NaN where the half-power points are not both in the band),
+        ``point`` (the channel), ``level`` (its peak magnitude [(m/s)/N]); sorted by frequency.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    from ...measure.modal import half_power_damping
+
+    d: FrfData = problem.data
+    meas = d.h_recorded if getattr(d, "h_recorded", None) is not None else d.h
+    model = predict_frf(nominal, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
+    found: list[dict] = []
+    for j, p in enumerate(d.output_points):
+        try:
+            pm = find_peaks(d.freq_hz, meas[:, j], prominence_db=prominence_db, name=f"vel{p}")
+            pn = find_peaks(d.freq_hz, model[:, j], prominence_db=prominence_db, name=f"vel{p}")
+        except MeasurementError:
+            continue
+        fm = np.array([x.freq_hz for x in pm])
+        fn = np.array([x.freq_hz for x in pn])
+        paired: set[int] = set()
+        if fm.size and fn.size:
+            cost = np.abs(np.log(fm[:, None] / fn[None, :]))
+            rows, cols = linear_sum_assignment(cost)
+            paired = {int(r) for r, c in zip(rows, cols) if cost[r, c] <= np.log1p(PEAK_MATCH)}
+        for i, pk in enumerate(pm):
+            if i in paired:
+                continue
+            try:
+                zeta = half_power_damping(d.freq_hz, meas[:, j], pk.freq_hz)
+            except MeasurementError:
+                zeta = float("nan")
+            level = float(np.abs(meas[np.argmin(np.abs(d.freq_hz - pk.freq_hz)), j]))
+            found.append({"frequency_hz": float(pk.freq_hz), "damping_ratio": float(zeta), "point": int(p),
+                          "level": level})
+    out: list[dict] = []
+    for r in sorted(found, key=lambda r: -r["level"]):  # one entry per resonance, at its strongest channel
+        if all(abs(r["frequency_hz"] / o["frequency_hz"] - 1) > 0.02 for o in out):
+            out.append(r)
+    return sorted(out, key=lambda r: r["frequency_hz"])

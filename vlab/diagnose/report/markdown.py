@@ -476,6 +476,22 @@ def ratio_text(before, after) -> str:
     return f"{r:.3g} x lower" if r >= 1 else f"{1 / r:.3g} x higher"
 
 
+def _where_text(res: dict) -> str:
+    """Where an unexplained mismatch is, in one sentence: points, modes, band (from ``located``)."""
+    loc = res.get("located") or {}
+    parts = []
+    if loc.get("points"):
+        parts.append(f"at point{'s' if len(loc['points']) > 1 else ''} {', '.join(str(p) for p in loc['points'])}")
+    if loc.get("modes"):
+        parts.append(f"in mode{'s' if len(loc['modes']) > 1 else ''} {', '.join(str(m) for m in loc['modes'])}")
+    extra = loc.get("extra_resonances") or []
+    if extra:
+        parts.append("with resonance" + ("s" if len(extra) > 1 else "") + " the model does not have at "
+                     + ", ".join(f"{r['frequency_hz']:.2f} Hz (zeta {r['damping_ratio']:.3g}, point {r['point']})"
+                                 for r in extra))
+    return f" Located {'; '.join(parts)}." if parts else ""
+
+
 def verdict(res: dict) -> str:
     """One paragraph: mismatch or not, what was selected and why, what the validation shows.
 
@@ -521,6 +537,13 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         where = f" at point{'s' if len(pts) > 1 else ''} {', '.join(str(p) for p in pts)}" if pts else ""
         return text + (f" A change{where}, beyond the noise but within the model's accuracy "
                        f"({100 * s.get('floor', 0.005):g} % a line): too small to name.")
+    if not sel and res.get("outside_library"):
+        part = [r for r in res.get("rejected") or [] if r.get("reason") == "explains only part of the mismatch"]
+        best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
+                f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x)") if part else ""
+        where = _where_text(res)
+        return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
+                       f"it{best}.{where}")
     if not sel:
         return text + (" No hypothesis of the library (alone or in pairs) improves the BIC by 10 or more and "
                        "explains it: the cause is not identified.")

@@ -75,6 +75,9 @@ class DiagnosisResult:
         (its ``as_dict()``, plus ``in_replay``: whether the nominal plant's replay oscillates too, None when
         there was no replay, and ``summary``); None for FRFs, modal tables and open-loop recordings (without
         feedback the lab's structure cannot oscillate by itself).
+    outside_library : bool
+        The best effect of the library explained only part of the mismatch (rule 10 of
+        :mod:`vlab.diagnose.fit.rules`) and was not selected.
     threshold : dict or None
         The detection threshold of the selected effect on these data, on the side of its fitted value
         (:func:`vlab.diagnose.detectability.threshold_of`, ``Threshold.as_dict()``); None without a selected
@@ -111,6 +114,7 @@ class DiagnosisResult:
     reference: str = "the FE model"
     instability: dict | None = None
     threshold: dict | None = None
+    outside_library: bool = False
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -164,6 +168,7 @@ class DiagnosisResult:
         sensors = [p for p, c in loc.channels.items()
                    if c["chi2_per_residual"] > FLAG or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
         located = {"modes": flagged, "points": loc.points, "members": loc.members, "band_hz": loc.band_hz,
+                   "extra_resonances": list(loc.extra),
                    "loop": self.loop, "sensors": sensors, "mode_errors": [m.as_dict() for m in loc.modes],
                    "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}
         if self.validation is not None:
@@ -215,6 +220,7 @@ class DiagnosisResult:
             "reference": self.reference,
             "instability": self.instability,
             "detection_threshold": self.threshold,
+            "outside_library": bool(self.outside_library),
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),
