@@ -100,6 +100,8 @@ def test_scaling_of_an_effect_that_vanishes_only_in_a_limit():
     assert gain.scaled(0.5) == pytest.approx(0.99)
 
 
-def test_cli_refuses_a_negative_noise():
+def test_cli_refuses_a_negative_noise_and_an_unknown_effect():
     res = runner.invoke(app, ["detectability", "bcc", "--noise", "-1"])
     assert res.exit_code == 2 and "--noise" in res.output
+    res = runner.invoke(app, ["detectability", "bcc", "--effect", "tuned_mass"])
+    assert res.exit_code == 2 and "--effect tuned_mass" in res.output and "added_mass" in res.output

@@ -897,8 +897,11 @@ def detectability(
     structure: str = _arg_structure(),
     controller: ExpController = _opt(ExpController("none"), "--controller",
                                      help="controller running during the test (none = open loop)"),
-    effect: list[str] = _opt(None, "--effect", help="only this effect of the library (repeatable; default: all "
-                                                    "one-parameter effects)"),
+    effect: list[str] = _opt(None, "--effect", metavar="<effect>",
+                             help="only this effect of the library (repeatable; default: all one-parameter "
+                                  "effects): added_mass, support_stiffness, joint_flexibility, member_stiffness, "
+                                  "damping, loop_delay, actuator_lag, sensor_lag, actuator_gain, sensor_gain, "
+                                  "gravity_prestress, saturation"),
     noise: float = _opt(1e-6, "--noise", help="velocity-sensor noise standard deviation [m/s], >= 0"),
     seed: int = _opt(0, "--seed", help="seed of the excitation, the noise and the design's multi-start"),
     out: str = _opt(None, "--out", help="also write detectability.json and a figure into this folder"),
@@ -917,9 +920,14 @@ def detectability(
     from .io.results import jsonable
     from .io.tabular import Column
 
+    from .diagnose.effects.hypotheses import EFFECTS
+
     out_fmt = _output_format(fmt, as_json)
     if not (math.isfinite(noise) and noise >= 0):
         raise OptionError(f"--noise must be a finite number >= 0 [m/s], got {noise!r}")
+    unknown = [e for e in effect or () if e not in EFFECTS]
+    if unknown:
+        raise OptionError(f"--effect {', '.join(unknown)}: not an effect of the library ({', '.join(EFFECTS)})")
     spec = _load_structure(structure)
     out_path = _out_dir(out, DETECT_OUT, overwrite) if out is not None else None
     with err_console.status("detectability: recording the nominal test and searching the thresholds",
