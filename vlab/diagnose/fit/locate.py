@@ -416,8 +416,9 @@ PEAK_MATCH = 0.10
 def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: float = 6.0) -> list[dict]:
     """Resonances in the measured FRFs that the nominal lab does not have: a new or a split resonance.
 
-    On every channel, the peaks of the measured FRF (the recorded one where the data were referred
-    through a reference) and of the nominal lab's FRF on the same lines (:func:`vlab.measure.modal.find_peaks`,
+    On every channel, the peaks of the measured FRF and of its reference on the same lines (the nominal
+    plant's replay or a baseline where the data were referred through one, so that resonances the plant has
+    and the FE model lacks are in both; else the nominal lab's FRF; :func:`vlab.measure.modal.find_peaks`,
     at least ``prominence_db`` prominence) are paired one to one by least relative frequency distance
     (Hungarian assignment; pairs farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left
     without a partner on its channel is a resonance the model lacks. The same resonance on several channels
@@ -440,8 +441,15 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
     from ...measure.modal import half_power_damping
 
     d: FrfData = problem.data
-    meas = d.h_recorded if getattr(d, "h_recorded", None) is not None else d.h
     model = predict_frf(nominal, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
+    meas = d.h
+    if getattr(d, "h_recorded", None) is not None:
+        # data referred through a reference (the replay or a baseline, H = H_rec H_model / H_ref): compare the
+        # recording with that reference, on the same plant, so that resonances the plant has and the FE model
+        # lacks (the MuJoCo BCC's crosspiece arms) are in both
+        meas = d.h_recorded
+        with np.errstate(divide="ignore", invalid="ignore"):
+            model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
     found: list[dict] = []
     for j, p in enumerate(d.output_points):
         try:
