@@ -171,8 +171,9 @@ class SimOptions:
         (default): ``"explicit"`` in the forest topology, ``"implicitfast"`` in
         the tree. The hinge damping ``beta k`` is light (``dt beta omega_max^2
         ~ 0.07`` on the grid), so its implicit treatment buys no stability;
-        explicit, the step skips the factorisation of ``M + dt D`` (6 % of the
-        grid's forest step) with the same modes and pulse response.
+        explicit, the step skips the factorisation of ``M + dt D`` (about 8 % of
+        the grid's forest step; ``benchmarks/grid_speed.py --steps``) with the
+        same modes and pulse response.
     hinge_layout : str
         ``"gauss"`` (default) or ``"uniform"``; see :func:`vlab.sim.planner.hinge_layout`.
     stiffness_damping_s : float, optional
