@@ -40,8 +40,11 @@ parallel-axis theorem into one explicit inertia per body.
 
 Topology
 --------
-The kinematic tree, its loop-closing welds, the in-plane releases and the
+The kinematic tree (or, for a structure with loops, the forest of chains and
+their linear closures), its loop-closing welds, the in-plane releases and the
 redundant in-plane forces are planned in :mod:`vlab.sim.planner` (see there).
+The forest's closures are emitted here (:func:`build_mjspec`), as they need the
+compiled model's first-order kinematics.
 
 Other elements
 --------------
@@ -115,10 +118,18 @@ from .timestep import (AUTO_LIMIT, LAB_PERIOD_S, MASS_SCALING_TOL, armature_effe
 #: Weld/connect constraint impedance that makes a weld behave as rigid (DESIGN.md).
 RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
+#: Newton solver tolerance of the forest topology (MuJoCo's default 1e-8). At rest, the forest's warm-started
+#: solver took no iteration for a coil force below about 1e-4 N (its cost change is below the line search's
+#: threshold): the force was lost, and so were the finite-difference linearisation's input and applied-damping
+#: columns (the grid's modal damping read 7-65 % of its target, the simulated free decay 100 %). At 1e-12
+#: forces down to 1e-9 N move the plant, at no measurable cost (one Newton iteration per step either way).
+FOREST_TOLERANCE = 1e-12
+
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "explicit": mujoco.mjtIntegrator.mjINT_EULER,  # with mjDSBL_EULERDAMP: every damping force explicit
     "rk4": mujoco.mjtIntegrator.mjINT_RK4,
 }
 
@@ -152,9 +163,17 @@ class SimOptions:
         largest ``LAB_PERIOD_S / k`` (k = 1, 2, ...) with ``omega_max * dt <=
         AUTO_LIMIT``, so that the lab's 2 kHz sample is a whole number of steps.
     integrator : str
-        ``"implicitfast"`` (default: joint and modal-tendon damping integrated
+        ``"implicitfast"`` (joint and modal-tendon damping integrated
         implicitly, see :mod:`vlab.sim.damping`), ``"implicit"``, ``"euler"``
-        (modal tendons then sized for explicit stability) or ``"rk4"``.
+        (MuJoCo's Euler: joint damping still implicit; modal tendons then sized
+        for explicit stability), ``"explicit"`` (semi-implicit Euler with every
+        damping force explicit, ``mjDSBL_EULERDAMP``), ``"rk4"`` or ``"auto"``
+        (default): ``"explicit"`` in the forest topology, ``"implicitfast"`` in
+        the tree. The hinge damping ``beta k`` is light (``dt beta omega_max^2
+        ~ 0.07`` on the grid), so its implicit treatment buys no stability;
+        explicit, the step skips the factorisation of ``M + dt D`` (about 8 % of
+        the grid's forest step; ``benchmarks/grid_speed.py --steps``) with the
+        same modes and pulse response.
     hinge_layout : str
         ``"gauss"`` (default) or ``"uniform"``; see :func:`vlab.sim.planner.hinge_layout`.
     stiffness_damping_s : float, optional
@@ -187,6 +206,27 @@ class SimOptions:
         a force pulse differ from those at 0.125 ms by 0.2 dB rms in 1-20 Hz,
         measured with ``benchmarks/sim_speed.py --accuracy``; at 0.25 ms the grid
         ran below real time, 0.67x).
+    topology : str
+        How the plant's bodies are joined (:mod:`vlab.sim.planner`, "Topology").
+        ``"tree"``: one kinematic tree grown breadth first from the root point;
+        a member segment that closes a loop is welded to its far junction
+        through an in-plane release. ``"forest"``: junctions hung from the
+        world by their own joints, members as chains between them, a member's
+        end that reaches a junction held there by linear equalities (fixed
+        tendons with the first-order kinematics at the flat state, held at
+        zero length), the in-plane FE statics' end forces of every such end as
+        ``prestress*`` loads. ``"auto"`` (default): ``"forest"`` for a
+        structure with loops, else ``"tree"``. On the grid the forest needs
+        one Newton factorisation of a sparse Hessian per step where the loop
+        welds coupled every joint around their loops (docs/plants.md, speed).
+    torsion_hinges : str
+        ``"middle"`` (default): a segment's torsion compliance ``L_f / GJ``
+        on one hinge, its middle one (exact for the end torques a segment
+        carries; its rotary inertia about the member axis, small in these
+        sections, is lumped in two halves); ``"all"``: a torsion hinge at
+        every Gauss point with the Gauss weight's share. On the grid
+        ``"middle"`` saves 50 of 215 DOFs and moves none of the 12
+        cross-check frequencies by more than 0.06 %.
     mass_scaling : bool
         When the stiffest hinges would need a smaller step than chosen
         (very short stiff segments), give those hinges an ``armature`` (added
@@ -201,7 +241,7 @@ class SimOptions:
     member_segments: dict[str, int] | None = None
     crosspiece_segments: int | None = None
     timestep_s: float | None = None
-    integrator: str = "implicitfast"
+    integrator: str = "auto"
     hinge_layout: str = "gauss"
     stiffness_damping_s: float | None = None
     modal_damping: bool = True
@@ -212,6 +252,8 @@ class SimOptions:
     check_timestep: bool = True
     max_substeps: int = 1
     mass_scaling: bool = True
+    topology: str = "auto"
+    torsion_hinges: str = "middle"
 
     def resolved(self, spec: StructureSpec) -> "SimOptions":
         """Options with every ``None`` replaced by the spec's [mujoco] value or the default.
@@ -219,8 +261,9 @@ class SimOptions:
         Raises
         ------
         SimulationError
-            A non-positive segment count or timestep, an unknown integrator, or a
-            [mujoco] value of the wrong type (the message names the key).
+            A non-positive segment count or timestep, an unknown integrator, damping
+            method, topology or torsion_hinges, or a [mujoco] value of the wrong
+            type (the message names the key).
         """
         mj = spec.mujoco
 
@@ -247,8 +290,13 @@ class SimOptions:
             )
         if out.timestep_s is not None and not (math.isfinite(out.timestep_s) and out.timestep_s > 0):
             raise SimulationError(f"timestep_s must be a positive time [s], got {out.timestep_s!r}")
-        if out.integrator not in _INTEGRATORS:
-            raise SimulationError(f"unknown integrator {out.integrator!r}; use one of {sorted(_INTEGRATORS)}")
+        if out.integrator not in _INTEGRATORS and out.integrator != "auto":
+            raise SimulationError(f"unknown integrator {out.integrator!r}; use one of {sorted(_INTEGRATORS)} "
+                                  "or 'auto'")
+        if out.torsion_hinges not in ("middle", "all"):
+            raise SimulationError(f"unknown torsion_hinges {out.torsion_hinges!r}; use 'middle' or 'all'")
+        if out.topology not in ("auto", "tree", "forest"):
+            raise SimulationError(f"unknown topology {out.topology!r}; use 'auto', 'tree' or 'forest'")
         if out.damping_method not in ("applied", "tendons"):
             raise SimulationError(f"unknown damping_method {out.damping_method!r}; use 'applied' or 'tendons'")
         if out.stiffness_damping_s is not None and not out.stiffness_damping_s >= 0:
@@ -266,7 +314,9 @@ class BuildInfo:
     Attributes
     ----------
     n_bodies, n_joints, n_loops : int
-        Moving bodies, joints (= DOFs), loop-closing welds.
+        Moving bodies, joints (= DOFs), independent loops of the structure
+        (member segments - points + 1; each closed by a weld in the tree
+        topology; the forest holds member ends by equalities instead).
     root : int
         Root point of the kinematic tree.
     segments_per_element, crosspiece_segments : int or None
@@ -286,6 +336,8 @@ class BuildInfo:
         Number of constant in-plane loads (redundant forces).
     armature : dict of str to float
         Joints given an armature by mass scaling -> its value [kg m^2 or kg].
+    topology : str
+        ``"tree"`` or ``"forest"`` (:attr:`SimOptions.topology` resolved).
     """
 
     n_bodies: int
@@ -301,6 +353,7 @@ class BuildInfo:
     string_tensions_n: dict[str, float]
     n_prestress: int
     armature: dict[str, float] = field(default_factory=dict)
+    topology: str = "tree"
 
 
 def _quat_z(angle: float) -> list[float]:
@@ -314,9 +367,14 @@ def _emit(spec: StructureSpec, plan: _Plan, opts: SimOptions, beta: float) -> mu
     ms.compiler.autolimits = True
     ms.option.timestep = opts.timestep_s
     ms.option.integrator = _INTEGRATORS[opts.integrator]
+    if opts.integrator == "explicit":
+        ms.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
     g = np.array([*spec.gravity_direction, 0.0]) * G_SI if opts.gravity else np.zeros(3)
     ms.option.gravity = g.tolist()
     ms.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    if plan.topology == "forest":
+        ms.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)  # one island: its bookkeeping ~6 % of a step
+        ms.option.tolerance = FOREST_TOLERANCE
     ms.comment = (
         f"vlab MuJoCo plant of '{spec.title}' ({spec.name}) built from "
         f"{Path(spec.path).name if spec.path else 'an in-memory spec'} by vlab.sim.builder "
@@ -416,18 +474,47 @@ def _emit(spec: StructureSpec, plan: _Plan, opts: SimOptions, beta: float) -> mu
     return ms
 
 
-def _fixed_spring_coefs(model: mujoco.MjModel, data: mujoco.MjData, site: str, dof: str) -> dict[str, float]:
-    """First-order coefficients d(dof at site)/dq of every joint (hinge/slide only)."""
+def _site_rows(model: mujoco.MjModel, data: mujoco.MjData, site: str, dofs: tuple[str, ...]) -> np.ndarray:
+    """First-order kinematics d(dof at site)/dq, one row per dof of ``"w"``, ``"rx"``, ``"ry"``, shape (len(dofs), nv)."""
     jacp = np.zeros((3, model.nv))
     jacr = np.zeros((3, model.nv))
     mujoco.mj_jacSite(model, data, jacp, jacr, model.site(site).id)
-    row = jacp[2] if dof == "w" else jacr[0 if dof == "rx" else 1]
+    return np.array([jacp[2] if d == "w" else jacr[0 if d == "rx" else 1] for d in dofs])
+
+
+def _joint_coefs(model: mujoco.MjModel, row: np.ndarray) -> dict[str, float]:
+    """Joint name -> coefficient of the nonzero entries of a row over the DOFs (hinge/slide joints only)."""
     out = {}
     for j in range(model.njnt):
         c = row[model.jnt_dofadr[j]]
         if abs(c) > 1e-12:
             out[model.joint(j).name] = float(c)
     return out
+
+
+def _add_linear_closures(ms: mujoco.MjSpec, model: mujoco.MjModel, data: mujoco.MjData, plan: _Plan,
+                         dt: float) -> None:
+    """Hold each closure's two sites together in w and the active rotations, to first order.
+
+    One fixed tendon per DOF with the coefficients of ``d(dof at site1 - dof at
+    site2)/dq`` at the flat state (``data``), held at zero length by a tendon
+    equality as rigid as the welds (``solref = (2 dt, 1)``, :data:`RIGID_SOLIMP`).
+    The equalities carry no force in the flat state (no out-of-plane load), so
+    their curvature adds no stiffness to the linearised plant; at second order
+    they leave the in-plane gap free, as the in-plane release does for a weld.
+    """
+    for name, s1, s2, dofs, info in plan.closures:
+        rows = _site_rows(model, data, s1, dofs) - _site_rows(model, data, s2, dofs)
+        for d, row in zip(dofs, rows):
+            t = ms.add_tendon(name=f"{name}.{d}")
+            for jn, c in _joint_coefs(model, row).items():
+                t.wrap_joint(jn, c)
+            t.info = f"{info}: {d} of {s1} minus {d} of {s2} (first order)"
+            eq = ms.add_equality(name=f"{name}.{d}", type=mujoco.mjtEq.mjEQ_TENDON,
+                                 objtype=mujoco.mjtObj.mjOBJ_TENDON, name1=t.name)
+            eq.solref = [2 * dt, 1.0]
+            eq.solimp = list(RIGID_SOLIMP)
+            eq.info = f"{info}: equal {d}"
 
 
 # --------------------------------------------------------------------- plant ---
@@ -547,27 +634,41 @@ def build_mjspec(spec: StructureSpec, options: SimOptions | None = None, *,
     -------
     mjspec : mujoco.MjSpec
     extra : dict
-        ``"plan"``, ``"options"`` (resolved), ``"root"``, ``"string_tensions"``.
+        ``"plan"``, ``"options"`` (resolved, with the topology and integrator
+        that ``"auto"`` chose), ``"root"``, ``"string_tensions"``.
 
     Raises
     ------
     SimulationError
         For a spec the plant cannot represent (see :func:`build_plant`).
+
+    Notes
+    -----
+    Grounded springs away from the root and the forest's closures need the
+    first-order kinematics of the flat state: the spec is compiled once, their
+    fixed tendons (and the closures' tendon equalities) are added, and the
+    returned spec holds them.
     """
     opts = (options or SimOptions()).resolved(spec)
     if opts.timestep_s is None:
         opts = dataclasses.replace(opts, timestep_s=LAB_PERIOD_S)
     plan, planner = plan_structure(spec, opts)
+    integrator = opts.integrator
+    if integrator == "auto":
+        integrator = "explicit" if plan.topology == "forest" else "implicitfast"
+    opts = dataclasses.replace(opts, topology=plan.topology, integrator=integrator)
     ms = _emit(spec, plan, opts, beta)
     for name, a in (armature or {}).items():
         ms.joint(name).armature = float(a)
-    if planner.pending_springs:
-        # grounded springs away from the root: fixed tendons with first-order coefficients
+    if planner.pending_springs or plan.closures:
+        # grounded springs away from the root and the forest's closures: fixed tendons with
+        # first-order coefficients
         model = _compile(ms, spec)
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
+        _add_linear_closures(ms, model, data, plan, opts.timestep_s)
         for sp in planner.pending_springs:
-            coefs = _fixed_spring_coefs(model, data, f"p{sp.point}", sp.dof)
+            coefs = _joint_coefs(model, _site_rows(model, data, f"p{sp.point}", (sp.dof,))[0])
             if not coefs:
                 raise SimulationError(f"{spec._file()}: spring {sp.id!r}: DOF {sp.dof} of point {sp.point} "
                                       "does not move in the plant")
@@ -637,6 +738,7 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
             dt = auto_timestep(omega)  # scaling would move the low modes: take the small step
     opts = dataclasses.replace(opts, timestep_s=dt)
     ms0, extra = build_mjspec(spec, opts, beta=0.0, armature=armature)
+    opts = dataclasses.replace(opts, topology=extra["options"].topology, integrator=extra["options"].integrator)
     model0 = _compile(ms0, spec)
     omega, _ = hinge_omega_max(model0)
     if opts.check_timestep:
@@ -678,6 +780,7 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
         string_tensions_n=extra["string_tensions"],
         n_prestress=len(extra["plan"].prestress),
         armature=armature,
+        topology=extra["plan"].topology,
     )
     return Plant(spec, dataclasses.replace(opts, stiffness_damping_s=beta), ms, model, acts, sens,
                  _sensor_rows(model, sens, acts), info, report, designed)

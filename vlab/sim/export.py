@@ -2,7 +2,8 @@
 
 The file is ``MjSpec.to_xml()`` of the plant's spec: bodies with explicit
 inertia, hinge/slide joints with stiffness and damping, string, spring and
-modal-damping tendons, loop welds, voice-coil and prestress actuators,
+modal-damping tendons, loop welds or the forest's closure tendons and their
+equalities, voice-coil and prestress actuators,
 velocity sensors and the ``p<ID>`` sites. It loads with
 :meth:`mujoco.MjModel.from_xml_path` alone and reproduces the plant's
 linearised frequencies (tested).

@@ -189,6 +189,10 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6,
               applied_damping: bool = True, centred: bool = False) -> LinearModel:
     """Linearise one step around ``data`` with :func:`mujoco.mjd_transitionFD`.
 
+    The differences are taken on a copy of the model whose constraint solver
+    runs to convergence (``opt.tolerance = 0``): a perturbation of ``eps`` must
+    not fall below the solver's stopping threshold.
+
     Parameters
     ----------
     model : mujoco.MjModel
@@ -216,6 +220,12 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6,
     SimulationError
         If the matrices are not finite.
     """
+    if model.opt.tolerance > 0.0:
+        # eps-sized perturbations change the constraint solver's cost by less than its tolerance: with
+        # MuJoCo's default (1e-8) the grid's forest plant took no solver iteration for them and lost whole
+        # columns (spurious unstable eigenvalues near 40-500 Hz, input and damping columns of zero)
+        model = copy.copy(model)
+        model.opt.tolerance = 0.0
     d = copy.copy(data)
     nx = 2 * model.nv + model.na
     A = np.zeros((nx, nx))
@@ -311,6 +321,9 @@ def modes(model: mujoco.MjModel, points: list[int] | tuple[int, ...], n_modes: i
           max_zeta: float = 0.5) -> SimModes:
     """Out-of-plane modes of a plant from its linearisation around the settled state.
 
+    Rigid-body motions are not modes: real eigenvalues, and complex pairs within
+    1e-6 rad per step of 1 (a rigid motion's double eigenvalue split by rounding).
+
     Parameters
     ----------
     model : mujoco.MjModel
@@ -352,7 +365,9 @@ def modes(model: mujoco.MjModel, points: list[int] | tuple[int, ...], n_modes: i
             f"f ~ {abs(np.angle(lam[i])) / (2 * math.pi * linear.dt):.4g} Hz): the timestep is too large for "
             "the hinge chain or the structure is beyond buckling"
         )
-    keep = lam.imag > 1e-12
+    # a pair within 1e-6 rad per step of 1 (below 0.3 mHz at 0.5 ms) is a rigid-body motion's double
+    # eigenvalue split by rounding (the grid's swing about its bearings without gravity: 2e-5 Hz), not a mode
+    keep = lam.imag > 1e-6
     lam, vec = lam[keep], vec[:, keep]
     omega, zeta = discrete_to_modal(lam, linear.dt)
     ok = (zeta < max_zeta) & (omega > 0)

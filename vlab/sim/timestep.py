@@ -32,6 +32,56 @@ MASS_SCALING_TOL = 5e-4
 STABILITY_LIMIT = 1.8
 
 
+def linear_constraint_basis(model: mujoco.MjModel) -> np.ndarray | None:
+    """Basis of the joint motions that keep the model's linear equality constraints, or None if it has none.
+
+    The linear constraints are the active tendon equalities that hold one fixed
+    tendon (a linear combination of joint coordinates, ``wrap_joint``) at its
+    reference length, as the forest topology's closures
+    (:attr:`vlab.sim.SimOptions.topology`). The analyses of this module then work
+    on the constrained system ``(N' K N, N' M N)``: the forest's junctions,
+    free without their closures, would have rigid-body modes and their chains
+    free ends. MuJoCo's solver holds the equalities at every step (impedance
+    0.9999), so the constrained system is what the integrator sees. Other
+    equalities (the tree's welds) are left out, as before.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+
+    Returns
+    -------
+    ndarray, shape (nv, nv - rank) or None
+        Orthonormal columns ``N`` with ``C N = 0`` for the constraint rows ``C``
+        (the tendons' coefficients [m or rad per joint unit]); None when the
+        model has no such constraint.
+
+    Source: MuJoCo ``doc/XMLreference.rst`` (equality/tendon, tendon/fixed);
+    the null space by SVD (``scipy.linalg.null_space``).
+    """
+    import scipy.linalg
+
+    rows = []
+    for e in range(model.neq):
+        if model.eq_type[e] != mujoco.mjtEq.mjEQ_TENDON or model.eq_obj2id[e] >= 0 or not model.eq_active0[e]:
+            continue
+        t = int(model.eq_obj1id[e])
+        adr, num = int(model.tendon_adr[t]), int(model.tendon_num[t])
+        if any(model.wrap_type[adr + i] != mujoco.mjtWrap.mjWRAP_JOINT for i in range(num)):
+            continue
+        row = np.zeros(model.nv)
+        for i in range(adr, adr + num):
+            row[model.jnt_dofadr[model.wrap_objid[i]]] += model.wrap_prm[i]
+        rows.append(row)
+    if not rows:
+        return None
+    return scipy.linalg.null_space(np.array(rows))
+
+
+def _reduced(mat: np.ndarray, basis: np.ndarray | None) -> np.ndarray:
+    return mat if basis is None else basis.T @ mat @ basis
+
+
 def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
     """Highest natural frequency of the joint springs with the full mass matrix, at qpos0.
 
@@ -44,7 +94,8 @@ def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
     omega_max : float
         Largest ``omega`` [rad/s] of ``K_hinge phi = omega^2 M phi`` (``K_hinge`` the
         diagonal of joint stiffnesses; geometric and cable stiffness, which are
-        far softer, are left out).
+        far softer, are left out), on the motions that keep the linear
+        equality constraints (:func:`linear_constraint_basis`).
     joint : str
         Name of the joint with the largest share of that mode.
 
@@ -62,7 +113,11 @@ def hinge_omega_max(model: mujoco.MjModel) -> tuple[float, str]:
         k[model.jnt_dofadr[j]] = model.jnt_stiffness[j]
     if not np.any(k > 0):
         return 0.0, ""
-    lam, vec = scipy.linalg.eigh(np.diag(k), m, subset_by_index=(model.nv - 1, model.nv - 1))
+    basis = linear_constraint_basis(model)
+    n = model.nv if basis is None else basis.shape[1]
+    lam, vec = scipy.linalg.eigh(_reduced(np.diag(k), basis), _reduced(m, basis), subset_by_index=(n - 1, n - 1))
+    if basis is not None:
+        vec = basis @ vec
     share = k * vec[:, 0] ** 2
     dof = int(np.argmax(share))
     return float(math.sqrt(max(lam[0], 0.0))), model.joint(int(model.dof_jntid[dof])).name
@@ -95,7 +150,10 @@ def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterati
     Each joint ``j`` whose local frequency ``sqrt(k_j (M^-1)_jj)`` exceeds
     ``0.9 omega_target`` gets ``a_j = k_j / (0.9 omega_target)^2 - 1/(M^-1)_jj``
     (with the armature already added); repeated until the largest generalized
-    eigenvalue of ``(K_joint, M + diag(a))`` is below ``omega_target^2``.
+    eigenvalue of ``(K_joint, M + diag(a))`` is below ``omega_target^2``. With
+    linear equality constraints (:func:`linear_constraint_basis`, basis ``N``)
+    ``M^-1`` is the constrained one, ``N (N' M N)^-1 N'``, and the eigenvalue
+    that of the constrained system.
 
     Parameters
     ----------
@@ -137,9 +195,17 @@ def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterati
         mujoco.mj_fullM(m, d, full)
         return full
 
+    basis = linear_constraint_basis(model)
+    kr = _reduced(np.diag(k), basis)
+
     def top(mm: np.ndarray) -> float:
-        return float(scipy.linalg.eigh(np.diag(k), mm, eigvals_only=True,
-                                       subset_by_index=(model.nv - 1, model.nv - 1))[0])
+        return float(scipy.linalg.eigh(kr, _reduced(mm, basis), eigvals_only=True,
+                                       subset_by_index=(kr.shape[0] - 1, kr.shape[0] - 1))[0])
+
+    def inverse_diagonal(mm: np.ndarray) -> np.ndarray:
+        if basis is None:
+            return np.diag(np.linalg.inv(mm))
+        return np.einsum("ir,rs,is->i", basis, np.linalg.inv(_reduced(mm, basis)), basis)
 
     done = top(mass()) <= omega_target**2
     for margin in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4):
@@ -147,7 +213,7 @@ def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterati
             break
         target2 = (margin * omega_target) ** 2
         for _ in range(iterations):  # local rule: each stiff joint's own frequency down to the margin
-            dinv = np.diag(np.linalg.inv(mass()))
+            dinv = inverse_diagonal(mass())
             need = k * dinv > target2 * (1 + 1e-9)
             if not np.any(need):
                 break
@@ -161,9 +227,10 @@ def mass_scaling_armature(model: mujoco.MjModel, omega_target: float, *, iterati
 def armature_effect(model: mujoco.MjModel, armature: dict[str, float], n_modes: int = 15) -> float:
     """Largest relative frequency drop of the first modes caused by ``armature`` (first-order estimate).
 
-    For mass-normalised modes ``phi_r`` of ``(K_joint, M)`` the added kinetic
-    energy share is ``s_r = sum_j a_j phi_jr^2`` and ``omega_r`` drops by
-    about ``s_r / 2``.
+    For mass-normalised modes ``phi_r`` of ``(K_joint, M)`` (on the motions
+    that keep the linear equality constraints, :func:`linear_constraint_basis`)
+    the added kinetic energy share is ``s_r = sum_j a_j phi_jr^2`` and
+    ``omega_r`` drops by about ``s_r / 2``.
 
     Parameters
     ----------
@@ -188,8 +255,11 @@ def armature_effect(model: mujoco.MjModel, armature: dict[str, float], n_modes: 
     m = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, d, m)
     k = np.array([model.jnt_stiffness[model.dof_jntid[i]] for i in range(model.nv)])
-    n = min(n_modes, model.nv)
-    _, phi = scipy.linalg.eigh(np.diag(k), m, subset_by_index=(0, n - 1))
+    basis = linear_constraint_basis(model)
+    n = min(n_modes, model.nv if basis is None else basis.shape[1])
+    _, phi = scipy.linalg.eigh(_reduced(np.diag(k), basis), _reduced(m, basis), subset_by_index=(0, n - 1))
+    if basis is not None:
+        phi = basis @ phi
     a = np.zeros(model.nv)
     for name, v in armature.items():
         a[model.jnt_dofadr[model.joint(name).id]] = v
