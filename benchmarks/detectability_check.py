@@ -7,6 +7,8 @@ scaled), each with its own seed of excitation and sensor noise (seeds not used b
 computation), and diagnosed blind (:func:`vlab.diagnose`). Printed: per effect and factor, how often the
 diagnosis says "no significant mismatch" (expected at 0.5x) and how often it names the effect at its
 location (expected at 3x). Issue 24's targets: >= 80 % "no mismatch" at 0.5x, >= 90 % named at 3x.
+The recordings come from the FE model's own linear plant in the time domain: the check tests the
+thresholds against the test they predict, not on another fidelity (the MuJoCo plant is not checked).
 
 Usage: python benchmarks/detectability_check.py [--seeds 2] [--controller none] [--out FILE]
 """

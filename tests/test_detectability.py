@@ -105,3 +105,17 @@ def test_cli_refuses_a_negative_noise_and_an_unknown_effect():
     assert res.exit_code == 2 and "--noise" in res.output
     res = runner.invoke(app, ["detectability", "bcc", "--effect", "tuned_mass"])
     assert res.exit_code == 2 and "--effect tuned_mass" in res.output and "added_mass" in res.output
+
+
+def test_the_threshold_map_is_drawn_and_bad_values_are_refused(tmp_path):
+    from vlab.errors import DataFileError
+    from vlab.viz.figures import point_value_map
+
+    spec = load_spec("bcc")
+    out = point_value_map(spec, {1: 1e-4, 6: 6e-4}, tmp_path / "map.png", label="mass [kg]")
+    assert out.stat().st_size > 1000 and out.read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(DataFileError, match="positive and finite"):
+        point_value_map(spec, {1: 0.0}, tmp_path / "bad.png", label="mass [kg]")
+    with pytest.raises(DataFileError, match="not points"):
+        point_value_map(spec, {99: 1.0}, tmp_path / "bad.png", label="mass [kg]")
+    assert not (tmp_path / "bad.png").exists()

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError, VlabError
+from ..errors import VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
 from ..spec import StructureSpec, load_spec
@@ -391,8 +391,7 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
 
 
 def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "added_mass"):
-    """Thresholds of a point effect drawn on the structure: members as lines, each point coloured by its
-    threshold (log scale) and labelled with it.
+    """Thresholds of a point effect drawn on the structure (:func:`vlab.viz.figures.point_value_map`).
 
     Parameters
     ----------
@@ -400,10 +399,11 @@ def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "a
     spec : StructureSpec
         The structure (its ``points`` [m] and ``members``).
     path : str or Path
-        PNG file to write.
+        Figure file to write (``.png``, ``.svg`` or ``.pdf``).
     effect : str
-        A point-located effect of ``result`` (``added_mass``, ``support_stiffness``, ``damping``, ``friction``,
-        ``joint_flexibility``).
+        A point-located effect of ``result`` (``added_mass``, ``support_stiffness``, ``damping``,
+        ``joint_flexibility``); where it has a threshold on each side of its null value, the smaller
+        departure is drawn.
 
     Returns
     -------
@@ -412,43 +412,18 @@ def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "a
 
     Raises
     ------
-    OSError
-        The file cannot be written.
+    DataFileError
+        An unsupported figure format.
     """
-    import matplotlib
+    from ..viz.figures import point_value_map
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    rows = [t for t in result.thresholds if t.effect == effect and set(t.location) <= {"point", "dof"}
-            and "point" in t.location and t.threshold is not None]
+    rows = [t for t in result.thresholds if t.effect == effect and "point" in t.location
+            and t.threshold is not None]
     if not rows:
         return None
-    best: dict[int, Threshold] = {}
-    for t in rows:  # the smaller departure where an effect has two sides
-        p = int(t.location["point"])
-        if p not in best or abs(t.threshold - (t.null or 0.0)) < abs(best[p].threshold - (best[p].null or 0.0)):
-            best[p] = t
-    fig, ax = plt.subplots(figsize=(7.0, 4.0), dpi=120)
-    for m in spec.members:
-        xy = np.array([spec.points[p] for p in m.points])
-        ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=2, zorder=1)
-    pts = sorted(best)
-    xy = np.array([spec.points[p] for p in pts])
-    vals = np.array([abs(best[p].threshold - (best[p].null or 0.0)) for p in pts])
-    sc = ax.scatter(xy[:, 0], xy[:, 1], c=np.log10(vals), cmap="viridis_r", s=90, zorder=2)
-    unit = rows[0].parameter.split("_", 1)[1] if "_" in rows[0].parameter else ""
-    for (x, y), p, v in zip(xy, pts, vals):
-        ax.annotate(f"{p}: {v:.2g}", (x, y), textcoords="offset points", xytext=(5, 6), fontsize=8)
-    fig.colorbar(sc, ax=ax, label=f"log10 threshold ({rows[0].parameter})")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_title(f"{result.structure}, {result.controller}: smallest detectable {effect} [{unit}]")
-    fig.tight_layout()
-    from pathlib import Path as _P
-
-    out = _P(path)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    best: dict[int, float] = {}
+    for t in rows:
+        p, v = int(t.location["point"]), abs(t.threshold - (t.null or 0.0))
+        best[p] = min(v, best.get(p, math.inf))
+    return point_value_map(spec, best, path, label=f"threshold ({rows[0].parameter})",
+                           title=f"{result.structure}, {result.controller}: smallest detectable {effect}")

@@ -84,8 +84,8 @@ from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import (beyond_noise, changed_beyond_noise, explained_share, explains, explains_fully, needs_pairs,
-                        needs_rerun_check, NONLINEAR,
+from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained_share, explains, explains_fully,
+                        needs_pairs, needs_rerun_check,
                         prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .model.labmodel import LabState, predict_frf

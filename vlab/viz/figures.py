@@ -431,3 +431,55 @@ def comparison_bar(labels: Sequence[str], before: Any, after: Any, *, title: str
     ax.grid(True, axis="y", alpha=0.4)
     ax.legend(loc="best", fontsize="small")
     return _save(fig, path, dpi)
+
+
+def point_value_map(spec, values: Mapping[int, float], path: str | Path, *, label: str, title: str = "",
+                    figsize: tuple[float, float] = (7.0, 4.0), dpi: float = 120) -> Path:
+    """A value per point drawn on the structure's plan: members as lines, points coloured on a log scale.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Its ``points`` (id -> (x, y) [m]) and ``members`` (each with ``points``).
+    values : mapping of int to float
+        Point id -> positive value (its unit in ``label``); each point is annotated with it.
+    path : str or Path
+        ``.png``, ``.svg`` or ``.pdf``.
+    label : str
+        Colour-bar label (``log10`` of it is coloured).
+    title : str
+    figsize : (float, float)
+        Inches.
+    dpi : float
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    DataFileError
+        An unknown point id, a value that is not positive and finite, or an unsupported format.
+    """
+    pts = sorted(values)
+    unknown = [p for p in pts if p not in spec.points]
+    if unknown:
+        raise DataFileError(f"{path}: points {unknown} are not points of {spec.name}")
+    vals = np.array([float(values[p]) for p in pts])
+    if vals.size == 0 or not np.all(np.isfinite(vals) & (vals > 0)):
+        raise DataFileError(f"{path}: values to draw must be positive and finite, got {vals.tolist()}")
+    fig, (ax,) = _new_figure(figsize, dpi)
+    for m in spec.members:
+        xy = np.array([spec.points[p] for p in m.points])
+        ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=2, zorder=1)
+    xy = np.array([spec.points[p] for p in pts])
+    sc = ax.scatter(xy[:, 0], xy[:, 1], c=np.log10(vals), cmap="viridis_r", s=90, zorder=2)
+    for (x, y), p, v in zip(xy, pts, vals):
+        ax.annotate(f"{p}: {v:.2g}", (x, y), textcoords="offset points", xytext=(5, 6), fontsize=8)
+    fig.colorbar(sc, ax=ax, label=f"log10 {label}")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if title:
+        ax.set_title(title)
+    return _save(fig, path, dpi)
