@@ -832,6 +832,10 @@ def diagnose(
     mjcf: str = _opt(None, "--mjcf", help="the nominal plant as an MJCF file (from `vlab export-mjcf`, edited): the "
                                           "recorded force is replayed on it (default: the plant built from the "
                                           "structure); needs a MuJoCo-plant recording"),
+    reference_column: str = _opt(None, "--reference-column",
+                                 help="modal tables: compare with this column's frequencies (e.g. analytical_hz, "
+                                      "a published analysis) instead of vlab's model; the model predicts what "
+                                      "an effect changes"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -858,7 +862,7 @@ def diagnose(
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
             res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
                                controller=None if controller is None else controller.value, force=force,
-                               overwrite=False,
+                               overwrite=False, reference_column=reference_column,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":

@@ -180,7 +180,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
              progress=None, baseline: str | Path | None = None, replay: bool = True,
-             force: bool = False, mjcf: str | Path | None = None) -> DiagnosisResult:
+             force: bool = False, mjcf: str | Path | None = None,
+             reference_column: str | None = None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -244,6 +245,11 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         (controller-path effects) run on it; an effect that edits the
         structure is validated on the plant built from the spec, its nominal
         rerun too. Needs the MuJoCo plant (not ``plant="linear"``).
+    reference_column : str, optional
+        Modal tables: a column of reference-model frequencies (e.g.
+        ``analytical_hz``, the published analysis): the table is compared with
+        it, vlab's model predicting what an effect changes (the reference's
+        own difference from vlab's model cancels, as through a baseline).
 
     Returns
     -------
@@ -278,6 +284,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         raise ModelError(f"unknown plant {plant!r}; use 'auto', 'linear' or 'mujoco'")
     if mjcf is not None and plant == "linear":
         raise OptionError(f"--mjcf {mjcf} names a MuJoCo plant: it cannot be used with --plant linear")
+    if reference_column is not None and detect_kind(path) != "modal":
+        raise OptionError(f"reference column {reference_column!r}: only a modal table (.csv) has columns; for a "
+                          "recording give a measured baseline")
     if detect_kind(path) == "modal" and controller not in (None, "none"):
         notes.append(f"a modal table holds open-loop modes: compared with the open-loop model (controller "
                      f"{controller!r} ignored)")
@@ -286,7 +295,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
 
     say("reading data")
     if detect_kind(path) == "modal":
-        what, obj = "modal", read_modal_csv(path, spec)
+        what, obj = "modal", read_modal_csv(path, spec, reference_column=reference_column)
     else:
         what, obj = read_uff_any(path)
     meta = dict(obj.metadata) if what == "recording" else {}
@@ -391,6 +400,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             reference = f"the nominal {kind}'s replay of the recorded force"
             same_record = True
         timing["replay"] = time.perf_counter() - t
+    elif what == "modal" and reference_column is not None:
+        reference = (f"the table's column {reference_column!r} (a reference model's frequencies; vlab's FE model "
+                     "predicts what an effect changes)")
     else:
         reference = "the FE model"
     notes = list(getattr(data, "notes", [])) + notes

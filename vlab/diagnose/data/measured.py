@@ -43,6 +43,7 @@ from ...lab.experiment import test_definition
 from ...lab.recording import CLIP_RUN, Recording, find_clipping
 from ...measure.frf import h1
 from ...spec import StructureSpec
+from ..model.modelform import printed_resolution
 
 #: Sampling rates of the PC-1000 digital controller, 2 to 2000 samples per second (Sec. 5.3):
 #: a recording at another rate is not a recording of the lab's loop.
@@ -141,6 +142,21 @@ class ModalData:
         Standard uncertainty of each frequency [Hz] (column ``frequency_sigma_hz``; NaN where blank).
     damping_sigma : ndarray, shape (n_m,) or None
         Standard uncertainty of each damping ratio [-] (column ``damping_sigma``; NaN where blank).
+    freq_resolution_hz : ndarray, shape (n_m,) or None
+        The resolution each frequency is printed to [Hz] (one unit in its last digit,
+        :func:`vlab.diagnose.model.modelform.printed_resolution`).
+    damping_resolution : ndarray, shape (n_m,) or None
+        The resolution each damping ratio is printed to [-] (NaN where not given).
+    reference_hz : ndarray, shape (n_m,) or None
+        A reference model's frequency of each mode [Hz] (the column named by
+        ``reference_column`` of :func:`read_modal_csv`, e.g. a published
+        analysis): the data are then compared with it, vlab's model predicting
+        only what a change does (:meth:`vlab.diagnose.problem.residuals.Problem`).
+    reference_resolution_hz : ndarray, shape (n_m,) or None
+        The resolution the reference frequencies are printed to [Hz].
+    reference_column : str or None
+        The column ``reference_hz`` came from (kept when the table has been referred, and
+        ``reference_hz`` set to None).
     """
 
     source: str
@@ -153,6 +169,11 @@ class ModalData:
     kind: str = "modal"
     freq_sigma_hz: np.ndarray | None = None
     damping_sigma: np.ndarray | None = None
+    freq_resolution_hz: np.ndarray | None = None
+    damping_resolution: np.ndarray | None = None
+    reference_hz: np.ndarray | None = None
+    reference_resolution_hz: np.ndarray | None = None
+    reference_column: str | None = None
 
 
 # ----------------------------------------------------------------------------- checks
@@ -451,7 +472,7 @@ _DAMP = ("damping_ratio", "damping_experimental", "zeta", "damping")
 MAX_MODAL_FREQUENCY_HZ = 1000.0
 
 
-def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
+def read_modal_csv(path: str | Path, spec: StructureSpec, *, reference_column: str | None = None) -> ModalData:
     """Read a modal table (CSV) and check it against the structure.
 
     Columns: ``mode`` (positive integers), a frequency column
@@ -469,6 +490,10 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
         The CSV file.
     spec : StructureSpec
         The structure (shape point ids are checked against it).
+    reference_column : str, optional
+        A column of reference-model frequencies [Hz] (e.g. ``analytical_hz``, the
+        published analysis the measurement was compared with): read into
+        ``reference_hz``; every row must have a positive value.
 
     Returns
     -------
@@ -539,9 +564,14 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
     sigma_cols = {c: col[c] for c in ("frequency_sigma_hz", "damping_sigma") if c in col}
     if "damping_sigma" in sigma_cols and dcol is None:
         raise DataFileError(f"{p}: column 'damping_sigma' without a damping column (one of {_DAMP})")
-    used = {"mode", fcol, dcol} | {header[i] for i in shape_cols.values()} | set(sigma_cols)
+    if reference_column is not None and reference_column not in col:
+        raise DataFileError(f"{p}: no column {reference_column!r} for the reference frequencies (columns: {header})")
+    if reference_column is not None and reference_column in (fcol, "mode", dcol):
+        raise DataFileError(f"{p}: the reference column {reference_column!r} is the table's own {reference_column} "
+                            "column: name the reference model's frequencies")
+    used = {"mode", fcol, dcol, reference_column} | {header[i] for i in shape_cols.values()} | set(sigma_cols)
     ignored = [h for h in header if h not in used]
-    modes, freq, damp, shapes, sigmas = [], [], [], [], []
+    modes, freq, damp, shapes, sigmas, res, refs = [], [], [], [], [], [], []
     for (lineno, _), row in zip(lines[1:], rows[1:]):
         if len(row) != len(header):
             raise DataFileError(f"{p}: line {lineno}: {len(row)} fields, the header has {len(header)}")
@@ -578,6 +608,14 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
                 raise DataFileError(f"{p}: line {lineno}, column {c!r}: an uncertainty must be >= 0, got {sv}")
             sig.append(sv)
         sigmas.append(sig)
+        if reference_column is not None:
+            rv = num(reference_column, col[reference_column])
+            if rv <= 0:
+                raise DataFileError(f"{p}: line {lineno}, column {reference_column!r}: a reference frequency must be "
+                                    f"> 0 Hz, got {rv}")
+            refs.append((rv, printed_resolution(row[col[reference_column]])))
+        res.append((printed_resolution(row[col[fcol]]),
+                    printed_resolution(row[col[dcol]]) if dcol and math.isfinite(dv) else float("nan")))
         modes.append(int(mv))
         freq.append(fv)
         damp.append(dv)
@@ -598,7 +636,12 @@ def read_modal_csv(path: str | Path, spec: StructureSpec) -> ModalData:
         raise DataFileError(f"{p}: a mode shape is zero at every point")
     return ModalData(str(p), np.array(modes)[order], np.array(freq)[order], np.array(damp)[order], sh,
                      tuple(shape_cols), notes, freq_sigma_hz=sig_of.get("frequency_sigma_hz"),
-                     damping_sigma=sig_of.get("damping_sigma"))
+                     damping_sigma=sig_of.get("damping_sigma"),
+                     freq_resolution_hz=np.array([r[0] for r in res])[order],
+                     damping_resolution=np.array([r[1] for r in res])[order],
+                     reference_hz=np.array([r[0] for r in refs])[order] if refs else None,
+                     reference_resolution_hz=np.array([r[1] for r in refs])[order] if refs else None,
+                     reference_column=reference_column)
 
 
 # ----------------------------------------------------------------------------- dispatch

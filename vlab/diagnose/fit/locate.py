@@ -198,11 +198,11 @@ def table_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
     fo, zo, _ = problem.model_modes(nominal)
     out = []
     for j in range(len(d.freq_hz)):
-        e = np.log(d.freq_hz[j] / fo[j]) / problem.freq_sigma if np.isfinite(fo[j]) else np.inf
+        e = np.log(d.freq_hz[j] / fo[j]) / problem.freq_sigma_total[j] if np.isfinite(fo[j]) else np.inf
         c2 = float(e**2)
         zd = d.damping[j]
-        if np.isfinite(zd) and zd > 0 and np.isfinite(zo[j]) and zo[j] > 0:
-            c2 = 0.5 * (c2 + (np.log(zd / zo[j]) / problem.damping_sigma) ** 2)
+        if problem.damping_compared[j] and np.isfinite(zo[j]) and zo[j] > 0:
+            c2 = 0.5 * (c2 + (np.log(zd / zo[j]) / problem.damping_sigma_total[j]) ** 2)
         out.append(ModeError(int(d.modes[j]), float(fo[j]), float(d.freq_hz[j]), float(zo[j]), float(zd),
                              chi2_per_residual=c2, flagged=c2 > FLAG))
     return out

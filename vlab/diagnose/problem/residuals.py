@@ -34,6 +34,7 @@ a coarse scan of it finds the well that the local fit then descends.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import scipy.stats
@@ -42,6 +43,7 @@ from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
+from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
@@ -117,10 +119,12 @@ class Problem:
         Relative model error allowed on FRFs [1] (0.005 = 0.5 %).
     use_phase : bool
         Include the phase of FRFs.
-    freq_sigma : float
-        Relative standard deviation of a measured natural frequency (modal data) [1].
-    damping_sigma : float
-        Relative standard deviation of a measured damping ratio (modal data) [1].
+    freq_sigma : float, optional
+        Relative standard deviation of a measured natural frequency (modal data) [1]; default: the
+        table's ``frequency_sigma_hz`` column, else the printed rounding of each frequency.
+    damping_sigma : float, optional
+        Relative standard deviation of a measured damping ratio (modal data) [1]; default: the
+        table's ``damping_sigma`` column, else the printed rounding of each ratio.
     shape_sigma : float
         Standard deviation of ``1 - MAC`` of a measured shape (modal data).
 
@@ -128,10 +132,23 @@ class Problem:
     ----------
     n_obs : int
         Number of real residuals N.
+    freq_sigma_meas, freq_sigma_model : ndarray, shape (n_m,)
+        Modal data: the measurement and model-form parts of each frequency's relative standard
+        uncertainty (:mod:`vlab.diagnose.model.modelform`); a residual is weighted by their root sum
+        of squares.
+    damping_sigma_meas, damping_sigma_model : ndarray, shape (n_m,)
+        The same for each damping ratio (the model part inf where the spec assumes the damping:
+        that residual is then not compared).
+    freq_sigma_total, damping_sigma_total : ndarray, shape (n_m,)
+        Their root sums of squares, the weights of the modal residuals.
+    damping_compared : ndarray of bool, shape (n_m,)
+        Modes whose damping enters the residual.
+    model_form : ModelFormUncertainty
+        Modal data: the model-form uncertainty of the nominal model's modes.
     """
 
     def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
-                 use_phase: bool = True, freq_sigma: float = 0.01, damping_sigma: float = 0.25,
+                 use_phase: bool = True, freq_sigma: float | None = None, damping_sigma: float | None = None,
                  shape_sigma: float = 0.05):
         self.data, self.base, self.ctx = data, base, ctx
         self.floor, self.use_phase = float(floor), bool(use_phase)
@@ -149,9 +166,11 @@ class Problem:
             self.n_obs = int(self.mask.sum()) * (2 if use_phase else 1)
         else:
             self._nominal_modes(base)
+            if data.reference_hz is not None:
+                self.data = data = self._referred(data)
+            self._modal_sigmas(base)
             n = len(data.freq_hz)
-            nz = np.isfinite(data.damping) & (data.damping > 0)
-            self.n_obs = n + int(nz.sum()) + (n if data.shapes is not None else 0)
+            self.n_obs = n + int(self.damping_compared.sum()) + (n if data.shapes is not None else 0)
 
     def __getstate__(self) -> dict:
         """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.data.replay`
@@ -177,6 +196,89 @@ class Problem:
             self._meas_to_nominal = {j: i for i, j, _ in pairs}
         else:
             self._meas_to_nominal = {j: int(data.modes[j]) - 1 for j in range(len(data.modes))}
+
+    def _referred(self, d: ModalData) -> ModalData:
+        """The table referred to the model through its reference column: ``f_meas * f_model / f_reference``.
+
+        The reference model's own difference from vlab's nominal model (its calibration residual) cancels,
+        as the nominal plant's does when a recording is referred through its replay; what remains to explain
+        is the measured change from the reference, and vlab's model predicts what an effect changes. The
+        relative uncertainties of the measured and the reference frequency add in quadrature (each from its
+        ``frequency_sigma_hz`` column or its printed rounding)."""
+        f_nom = np.array([self._nominal_f[self._meas_to_nominal[j]] if j in self._meas_to_nominal else np.nan
+                          for j in range(len(d.freq_hz))])
+        with np.errstate(invalid="ignore"):
+            rel_m = (d.freq_sigma_hz / d.freq_hz if d.freq_sigma_hz is not None else np.full(len(d.freq_hz), np.nan))
+        rel_m = np.where(np.isfinite(rel_m), rel_m, ROUNDING_SIGMA * d.freq_resolution_hz / d.freq_hz)
+        rel_r = ROUNDING_SIGMA * d.reference_resolution_hz / d.reference_hz
+        f = d.freq_hz * f_nom / d.reference_hz
+        if not np.all(np.isfinite(f)):
+            raise ModelError(f"{d.source}: a mode of the table could not be paired with the model's")
+        return replace(d, freq_hz=f, freq_sigma_hz=f * np.hypot(rel_m, rel_r), reference_hz=None,
+                       notes=list(d.notes) + [f"frequencies referred to the model through the column "
+                                              f"{d.reference_column!r}: f_measured * f_model / f_reference"])
+
+    def _modal_sigmas(self, base: LabState) -> None:
+        """Measurement and model-form standard uncertainties of every modal residual (relative)."""
+        d: ModalData = self.data
+        n = len(d.freq_hz)
+
+        def measured(override, sigma, resolution, value):
+            if override is not None:
+                return np.full(n, float(override))
+            out = np.full(n, np.nan)
+            if sigma is not None:
+                out = np.asarray(sigma, dtype=float) / value
+            if resolution is not None:
+                out = np.where(np.isfinite(out), out, ROUNDING_SIGMA * np.asarray(resolution, dtype=float) / value)
+            return np.where(np.isfinite(out), out, 0.0)
+
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.freq_sigma_meas = measured(self.freq_sigma, d.freq_sigma_hz, d.freq_resolution_hz, d.freq_hz)
+            self.damping_sigma_meas = measured(self.damping_sigma, d.damping_sigma, d.damping_resolution, d.damping)
+        self.model_form = model_form_uncertainty(base.spec, self._nominal_f)
+        if d.reference_column is not None:  # referred: the reference's calibration residual cancels
+            self.model_form = self.model_form.without("calibration", f"cancels: compared with the reference column "
+                                                                     f"{d.reference_column!r}")
+        idx = np.array([self._meas_to_nominal.get(j, -1) for j in range(n)])
+        ok = idx >= 0
+        self.freq_sigma_model = np.where(ok, self.model_form.frequency_rel[np.maximum(idx, 0)], 0.0)
+        self.damping_sigma_model = np.where(ok, self.model_form.damping_rel[np.maximum(idx, 0)], np.inf)
+        self.freq_sigma_total = np.hypot(self.freq_sigma_meas, self.freq_sigma_model)
+        if np.any(self.freq_sigma_total <= 0):
+            raise ModelError(f"{d.source}: a natural frequency with zero uncertainty (give frequency_sigma_hz)")
+        self.damping_sigma_total = np.hypot(self.damping_sigma_meas, self.damping_sigma_model)
+        # damping residuals: where the table gives a ratio and the model states one (not an assumed default)
+        self.damping_compared = np.isfinite(d.damping) & (d.damping > 0) & np.isfinite(self.damping_sigma_total) & (self.damping_sigma_total > 0)
+
+    def uncertainty(self) -> dict:
+        """What the residuals are weighted by, and which part dominates (issue 24, item 1).
+
+        Returns
+        -------
+        dict
+            Modal data: per measured mode ``frequency_sigma_measurement_rel``,
+            ``frequency_sigma_model_form_rel``, ``damping_sigma_measurement_rel``,
+            ``damping_sigma_model_form_rel`` (relative [1]; None where not
+            compared), the model-form ``sources`` and ``dominant``
+            (``"measurement"`` or ``"model form"``, by the summed variances of the
+            frequencies). FRF data: ``noise_sigma_median_rel`` (median relative
+            noise of the used lines), ``model_floor_rel`` (the relative model
+            error allowed a line) and ``dominant`` (``"noise"`` or ``"model form"``).
+        """
+        if isinstance(self.data, FrfData):
+            med = float(np.median(self.data.sigma_rel[self.mask]))
+            return {"noise_sigma_median_rel": med, "model_floor_rel": self.floor,
+                    "dominant": "model form" if self.floor > med else "noise"}
+        zc = self.damping_compared
+        return {"modes": [int(m) for m in self.data.modes],
+                "frequency_sigma_measurement_rel": self.freq_sigma_meas.tolist(),
+                "frequency_sigma_model_form_rel": self.freq_sigma_model.tolist(),
+                "damping_sigma_measurement_rel": [float(v) if c else None for v, c in zip(self.damping_sigma_meas, zc)],
+                "damping_sigma_model_form_rel": [float(v) if c else None for v, c in zip(self.damping_sigma_model, zc)],
+                "sources": dict(self.model_form.sources),
+                "dominant": ("model form" if np.sum(self.freq_sigma_model**2) > np.sum(self.freq_sigma_meas**2)
+                             else "measurement")}
 
     def model_modes(self, state: LabState) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Frequencies [Hz], damping ratios and shapes at the measured points of the modes of ``state``
@@ -250,10 +352,10 @@ class Problem:
     def _modal_residual(self, state: LabState) -> np.ndarray:
         d: ModalData = self.data
         fo, zo, so = self.model_modes(state)
-        parts = [np.log(fo / d.freq_hz) / self.freq_sigma]
-        nz = np.isfinite(d.damping) & (d.damping > 0)
+        parts = [np.log(fo / d.freq_hz) / self.freq_sigma_total]
+        nz = self.damping_compared  # a damping the model only assumes is not compared
         if nz.any():
-            parts.append(np.log(zo[nz] / d.damping[nz]) / self.damping_sigma)
+            parts.append(np.log(zo[nz] / d.damping[nz]) / self.damping_sigma_total[nz])
         if d.shapes is not None:
             macs = np.array([mac(so[:, j], d.shapes[:, j])[0, 0] if np.all(np.isfinite(so[:, j])) else 0.0
                              for j in range(len(d.freq_hz))])

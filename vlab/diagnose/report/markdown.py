@@ -85,7 +85,12 @@ def markdown(res: dict) -> str:
         peak += (f"; within the {100 * s['floor']:g} % model-error floor, but the recording differs from its "
                  f"baseline beyond the noise of the two: chi2 = {q['chi2']:.4g} (limit {q['chi2_limit']:.4g}), "
                  f"largest single-line residual {q['peak']:.3g} (limit {q['peak_limit']:.3g})")
-    if not res["mismatch"]:
+    if not res["mismatch"] and (res.get("uncertainty") or {}).get("dominant") == "model form":
+        lines += [f"**Within the model's accuracy.** The nominal model's weighted residual chi2 = "
+                  f"{s['chi2_nominal']:.4g} over N = {s['n_obs']} residuals is within the limit {s['chi2_limit']:.4g} "
+                  f"set by the measurement's and the model's uncertainty, the model's dominating{peak}; no effect "
+                  "is proposed.", ""]
+    elif not res["mismatch"]:
         lines += [f"**No significant mismatch.** The nominal model's weighted residual chi2 = {s['chi2_nominal']:.4g} "
                   f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}){peak}; no "
                   "effect is proposed.", ""]
@@ -109,7 +114,7 @@ def markdown(res: dict) -> str:
               f"- members: {loc['members'] or 'none'}",
               f"- sensors that disagree: {loc.get('sensors') or 'none'}", ""]
     if loc.get("mode_errors"):
-        lines += ["| mode | f predicted [Hz] | f measured [Hz] | error | zeta predicted | zeta measured | "
+        lines += ["| mode | f predicted [Hz] | f measured [Hz] | measured / predicted - 1 | zeta predicted | zeta measured | "
                   "peak ratio | mismatch |", "|---|---|---|---|---|---|---|---|"]
         for m in loc["mode_errors"]:
             fe = m["frequency_error"]
@@ -117,6 +122,7 @@ def markdown(res: dict) -> str:
                          f"{_pct(fe)} | {_fmt(m['damping_predicted'], 3)} | {_fmt(m['damping_measured'], 3)} | "
                          f"{_fmt(m['peak_ratio'], 3)} | {'yes' if m['mismatch'] else ''} |")
         lines.append("")
+    lines += _uncertainty_lines(res.get("uncertainty"))
     if loc.get("sensitivity"):
         lines += ["Sensitivity-based localisation (share of the frequency errors one local parameter explains):", ""]
         for d in loc["sensitivity"][:6]:
@@ -161,11 +167,21 @@ def markdown(res: dict) -> str:
     if v.get("noise_misfit") is not None:
         lines.append(f"- the same misfit of an exact model, from the measured noise alone: {_fmt(v['noise_misfit'])}")
     if v.get("modes"):
-        lines += ["", "| mode | measured [Hz] | nominal model [Hz] | error | with the selected effect [Hz] | error |",
-                  "|---|---|---|---|---|---|"]
+        base = "reference" if v.get("modes_compared_with") else "nominal model"
+        if v.get("modes_compared_with"):
+            lines += ["", f"Predictions: {v['modes_compared_with']}."]
+        best = v.get("best_candidate")
+        if best:
+            lines += ["", f"No effect selected; the last columns show the best fitted candidate, {best}, rejected."]
+        lines += ["", f"| mode | measured [Hz] | {base} [Hz] | {base} / measured - 1 | with the selected effect [Hz] | "
+                  "with the effect / measured - 1 |" + (" best candidate [Hz] | best candidate / measured - 1 |"
+                                                         if best else ""),
+                  "|---|---|---|---|---|---|" + ("---|---|" if best else "")]
         for m in v["modes"]:
             lines.append(f"| {m['mode']} | {_fmt(m['frequency_measured_hz'])} | {_fmt(m['frequency_before_hz'])} | "
-                         f"{_pct(m['error_before'])} | {_fmt(m['frequency_after_hz'])} | {_pct(m['error_after'])} |")
+                         f"{_pct(m['error_before'])} | {_fmt(m['frequency_after_hz'])} | {_pct(m['error_after'])} |"
+                         + (f" {_fmt(m['frequency_best_candidate_hz'])} | {_pct(m['error_best_candidate'])} |"
+                            if best else ""))
     if v.get("time_error_before") is not None:
         lines.append(f"- time-domain error ||v_model - v_recorded|| / ||v_recorded||: "
                      f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}")
@@ -178,12 +194,39 @@ def markdown(res: dict) -> str:
     return "\n".join(lines)
 
 
+def _uncertainty_lines(u: dict | None) -> list[str]:
+    """The 'Uncertainty' paragraph (and, for a modal table, a per-mode table) of the report."""
+    if not u:
+        return []
+    if "modes" not in u:
+        return ["## Uncertainty", "",
+                f"Each line is compared within its measured noise (median {_spct(u['noise_sigma_median_rel'])} of the "
+                f"FRF) and a {_spct(u['model_floor_rel'])} model-error floor: the {u['dominant']} dominates.", ""]
+    out = ["## Uncertainty", "",
+           f"Each residual is weighted by the root sum of squares of the measurement's and the model's standard "
+           f"uncertainty; the **{u['dominant']}** dominates. Model form: "
+           + "; ".join(f"{k}: {v}" for k, v in u["sources"].items()) + ".", "",
+           "| mode | frequency: measurement | frequency: model form | damping: measurement | damping: model form |",
+           "|---|---|---|---|---|"]
+    for i, m in enumerate(u["modes"]):
+        z = [u["damping_sigma_measurement_rel"][i], u["damping_sigma_model_form_rel"][i]]
+        out.append(f"| {m} | {_spct(u['frequency_sigma_measurement_rel'][i])} | "
+                   f"{_spct(u['frequency_sigma_model_form_rel'][i])} | "
+                   + " | ".join("not compared" if v is None else _spct(v) for v in z) + " |")
+    return out + [""]
+
+
 def _ok(a, b) -> bool:
     return a is not None and b is not None and np.isfinite(a) and np.isfinite(b) and b > 0
 
 
 def _pct(v) -> str:
     return f"{100 * v:+.2f} %" if v is not None and np.isfinite(v) else "n/a"
+
+
+def _spct(v) -> str:
+    """An uncertainty in percent, three significant digits, no sign."""
+    return f"{100 * v:.3g} %" if v is not None and np.isfinite(v) else "n/a"
 
 
 def _loc(loc: dict) -> str:
@@ -518,6 +561,11 @@ def verdict(res: dict) -> str:
 def _verdict_body(res: dict, s: dict, n) -> str:
     """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
     if not res["mismatch"]:
+        if (res.get("uncertainty") or {}).get("dominant") == "model form":
+            return (f"Within the model's accuracy: the nominal model's weighted residual chi2 = "
+                    f"{_fmt(s['chi2_nominal'])} over N = {n} residuals is within the limit {_fmt(s['chi2_limit'])} "
+                    "set by the measurement's and the model's own uncertainty, of which the model's dominates: "
+                    "no effect is proposed (see 'Uncertainty').")
         return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
                 f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
     no = s.get("noise_only")

@@ -191,10 +191,24 @@ class DiagnosisResult:
         if isinstance(self.data, ModalData):
             fb, _, _ = self.problem.model_modes(self.nominal)
             fa, _, _ = self.problem.model_modes(self.selected_state())
+            # a table referred through a reference column is compared as f_cmp = f_meas * f_model / f_ref: the
+            # prediction "before" is then the reference itself, "after" the reference with the effect's change
+            f_cmp = self.problem.data.freq_hz
+            fb, fa = self.data.freq_hz * fb / f_cmp, self.data.freq_hz * fa / f_cmp
             validated["modes"] = [
                 {"mode": int(m), "frequency_measured_hz": float(fm), "frequency_before_hz": float(b),
                  "frequency_after_hz": float(a), "error_before": float(b / fm - 1), "error_after": float(a / fm - 1)}
                 for m, fm, b, a in zip(self.data.modes, self.data.freq_hz, fb, fa)]
+            if self.selected is None and self.ranked:  # what the best fitted candidate would do, though not selected
+                top = self.ranked[0]
+                fc, _, _ = self.problem.model_modes(self.problem.state_for(top, top.params_))
+                fc = self.data.freq_hz * fc / f_cmp
+                validated["best_candidate"] = top.label
+                for e, c, fm in zip(validated["modes"], fc, self.data.freq_hz):
+                    e["frequency_best_candidate_hz"], e["error_best_candidate"] = float(c), float(c / fm - 1)
+            if self.problem.data.reference_column is not None:
+                validated["modes_compared_with"] = (f"the column {self.problem.data.reference_column!r}, changed by "
+                                                    "the effect as vlab's model predicts")
         alternatives = [h.label for h in self.alternatives]
         data = {"source": d.source, "kind": d.kind}
         if isinstance(d, FrfData):
@@ -218,6 +232,7 @@ class DiagnosisResult:
             "rejected": list(self.rejected),
             "too_small_to_name": bool(self.too_small),
             "reference": self.reference,
+            "uncertainty": self.problem.uncertainty(),
             "instability": self.instability,
             "detection_threshold": self.threshold,
             "outside_library": bool(self.outside_library),

@@ -1,0 +1,260 @@
+"""Model-form uncertainty of a structure's model: how far its natural frequencies and damping may lie
+from the real structure's when nothing is wrong with the structure.
+
+A diagnosis compares data with a model. The data carry measurement noise; the
+model carries its own error, which no measurement removes (issue 24, item 1).
+Both enter the decision "mismatch / no mismatch" and every interval:
+``sigma^2 = sigma_measurement^2 + sigma_model^2`` per observation.
+
+The model's part is derived from what is known about the model, never
+chosen:
+
+``calibration``
+    The residual standard error of the model against the published data it
+    was calibrated to -- the spec's ``[reference] frequencies`` table,
+    column ``analytical_hz`` (BCC: Table 1 analytical, :mod:`vlab.calibration`;
+    grid: Table 3 analytical, :mod:`vlab.grid_fit`):
+    ``s = sqrt(mean(ln(f_model / f_reference)^2))`` over the table's modes,
+    one value for every mode (pooled: one residual per mode is a single
+    draw, not a standard deviation). It is a lower bound: the calibrated
+    parameters were fitted to these residuals.
+``discretisation``
+    ``|ln(f / f_refined)|`` per mode, ``f_refined`` from the same spec with
+    every member cut into twice as many elements per segment (the FE
+    model's own discretisation error, of the order of the difference to a
+    finer mesh for a converging beam element).
+``damping``
+    The model's open-loop damping ratios are measured values written into
+    the spec (``[damping] modal_ratios``, Table 1 / Table 3 experimental):
+    their uncertainty is their printed rounding, ``resolution / sqrt(12)``
+    (uniform rounding error). A mode whose damping the spec only assumes
+    (``default_ratio``) has no model damping to compare: infinite sigma.
+
+Not included, and said so in the report: the difference between the
+published analysis and the real structure (the thesis's experimental vs
+analytical columns) -- that is the data a diagnosis of Table 1 or 3
+examines, so it cannot also set the tolerance it is judged against; the
+uncertainty of parameters the calibration did not fit (material constants,
+dimensions), which the spec does not state.
+
+Source: the decomposition of a model's error into parameter and model-form
+parts follows Kennedy & O'Hagan, "Bayesian calibration of computer models",
+J. R. Stat. Soc. B 63 (2001) 425-464; rounding as a uniform error: GUM
+(JCGM 100:2008) Sec. 4.3.7 and F.2.2.1.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import DataFileError
+from ...fe import build_fe_model, modal_analysis
+from ...spec import MAX_ELEMENTS_PER_SEGMENT, StructureSpec
+
+#: Standard deviation of a uniform rounding error, as a fraction of the printed resolution (GUM F.2.2.1).
+ROUNDING_SIGMA = 1.0 / math.sqrt(12.0)
+
+
+def printed_resolution(text: str) -> float:
+    """The resolution a number is printed to: one unit in its last written digit.
+
+    ``"1.899"`` -> 0.001, ``"0.04"`` -> 0.01, ``"1.5e-3"`` -> 1e-4,
+    ``"1200"`` -> 1 (trailing zeros of an integer are taken as written).
+
+    Parameters
+    ----------
+    text : str
+        A decimal number as written in a file.
+
+    Returns
+    -------
+    float
+        The resolution, in the number's own unit; NaN for text that is not a
+        decimal number.
+    """
+    s = text.strip().lower().lstrip("+-")
+    mant, _, exp = s.partition("e")
+    try:
+        e = int(exp) if exp else 0
+        float(mant)
+    except ValueError:
+        return float("nan")
+    decimals = len(mant.partition(".")[2])
+    return 10.0 ** (e - decimals)
+
+
+def _float_resolution(x: float) -> float:
+    """:func:`printed_resolution` of a float as Python writes it most briefly (a value read from TOML).
+
+    A TOML float keeps no trailing zeros ("0.010" is read as 0.01), so this is an upper bound of the
+    resolution it was written with."""
+    return printed_resolution(repr(float(x)))
+
+
+@dataclass(frozen=True)
+class ModelFormUncertainty:
+    """Model-form standard uncertainty of the first ``n`` modes of a structure's model.
+
+    Attributes
+    ----------
+    frequency_rel : ndarray, shape (n,)
+        Relative standard uncertainty of each natural frequency [1]
+        (``sqrt(calibration^2 + discretisation^2)``), modes in frequency order.
+    damping_rel : ndarray, shape (n,)
+        Relative standard uncertainty of each open-loop damping ratio [1]; inf
+        where the spec assumes the damping instead of stating a measured value.
+    components : dict of str -> ndarray, shape (n,)
+        ``"calibration"``, ``"discretisation"`` (relative, frequency) and
+        ``"damping"``.
+    sources : dict of str -> str
+        Where each component comes from, in words.
+    """
+
+    frequency_rel: np.ndarray
+    damping_rel: np.ndarray
+    components: dict
+    sources: dict
+
+    def without(self, component: str, why: str) -> "ModelFormUncertainty":
+        """A copy with the frequency component ``component`` removed (``why`` replaces its source)."""
+        comp = dict(self.components)
+        comp[component] = np.zeros_like(self.frequency_rel)
+        freq = np.sqrt(sum(v**2 for k, v in comp.items() if k != "damping"))
+        return ModelFormUncertainty(freq, self.damping_rel, comp, {**self.sources, component: why})
+
+    def describe(self) -> str:
+        """One sentence: the frequency uncertainty's range and its sources."""
+        f = self.frequency_rel
+        parts = "; ".join(f"{k}: {v}" for k, v in self.sources.items())
+        return (f"model-form uncertainty of the natural frequencies {100 * f.min():.3g}-{100 * f.max():.3g} % "
+                f"(1 sigma; {parts})")
+
+
+def calibration_residual(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[float, str] | None:
+    """Residual standard error of the model's frequencies against the spec's calibration reference.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Its ``reference["frequencies"]`` names a table in ``assets/data`` with
+        an ``analytical_hz`` column (the published analysis the model was
+        calibrated to); modes are paired by order.
+    freq_hz : ndarray, shape (n,)
+        The model's natural frequencies [Hz], in order (n at least the table's rows).
+
+    Returns
+    -------
+    (float, str) or None
+        ``sqrt(mean(ln(f / f_ref)^2))`` [1] and the source in words; None when
+        the spec names no such table or column.
+
+    Raises
+    ------
+    DataFileError
+        The named table exists but is malformed.
+    """
+    from ...reference import column, read_table
+
+    fn = spec.reference.get("frequencies") if spec.reference else None
+    if not fn:
+        return None
+    try:
+        ref = column(fn, "analytical_hz")
+    except DataFileError:
+        if "analytical_hz" not in read_table(fn):
+            return None
+        raise
+    n = min(len(ref), len(freq_hz))
+    if n == 0:
+        return None
+    r = np.log(np.asarray(freq_hz[:n]) / ref[:n])
+    return float(np.sqrt(np.mean(r**2))), f"calibration residual against {fn} (analytical_hz, {n} modes)"
+
+
+def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
+    """``|ln(f / f_refined)|`` of the first ``n`` modes, the refined mesh with twice the elements per segment.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    n : int
+        Number of modes.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Relative difference [1]; modes beyond the refined model's count get the largest value found.
+    """
+    fine = spec.replace(members=tuple(
+        dataclasses.replace(m, elements_per_segment=min(MAX_ELEMENTS_PER_SEGMENT, 2 * m.elements_per_segment))
+        for m in spec.members))
+    fe0, fe1 = build_fe_model(spec), build_fe_model(fine)
+    f0 = modal_analysis(fe0.m, fe0.k, n).frequencies_hz
+    f1 = modal_analysis(fe1.m, fe1.k, n).frequencies_hz
+    k = min(len(f0), len(f1))
+    out = np.full(n, 0.0)
+    out[:k] = np.abs(np.log(f0[:k] / f1[:k]))
+    out[k:] = out[:k].max(initial=0.0)
+    return out
+
+
+def damping_uncertainty(spec: StructureSpec, n: int) -> np.ndarray:
+    """Relative standard uncertainty of the spec's open-loop damping ratios of the first ``n`` modes.
+
+    Measured ratios (``[damping] modal_ratios``) carry their printed rounding
+    (``resolution / sqrt(12) / zeta``); assumed ones (``default_ratio``) inf.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    out = np.full(n, np.inf)
+    if spec.damping is None:
+        return out
+    for i, z in enumerate(list(spec.damping.modal_ratios)[:n]):
+        if z > 0:
+            out[i] = ROUNDING_SIGMA * _float_resolution(z) / z
+    return out
+
+
+_CACHE: dict = {}
+
+
+def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> ModelFormUncertainty:
+    """The model-form uncertainty of the model built from ``spec`` (see the module docstring).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    freq_hz : ndarray, shape (n,)
+        The model's first ``n`` natural frequencies [Hz] (as the diagnosis computed them).
+
+    Returns
+    -------
+    ModelFormUncertainty
+        Cached per spec object and ``n``.
+
+    Raises
+    ------
+    DataFileError
+        The spec's calibration reference table is malformed.
+    """
+    n = len(freq_hz)
+    hit = _CACHE.get((id(spec), n))
+    if hit is not None and hit[0] is spec:
+        return hit[1]
+    cal = calibration_residual(spec, np.asarray(freq_hz))
+    disc = discretisation_error(spec, n)
+    comp = {"calibration": np.full(n, cal[0] if cal else 0.0), "discretisation": disc,
+            "damping": damping_uncertainty(spec, n)}
+    sources = {"calibration": cal[1] if cal else "none: the spec names no calibration reference "
+               "([reference] frequencies with an analytical_hz column)",
+               "discretisation": "the FE model against one with twice the elements per segment",
+               "damping": "printed rounding of the spec's measured damping ratios; assumed ones not compared"}
+    out = ModelFormUncertainty(np.sqrt(comp["calibration"]**2 + disc**2), comp["damping"], comp, sources)
+    _CACHE[(id(spec), n)] = (spec, out)  # the spec is kept, so its id is not reused while cached
+    return out
