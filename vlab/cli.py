@@ -835,7 +835,7 @@ def diagnose(
     reference_column: str = _opt(None, "--reference-column",
                                  help="modal tables: compare with this column's frequencies (e.g. analytical_hz, "
                                       "a published analysis) instead of vlab's model; the model predicts what "
-                                      "an effect changes"),
+                                      "an effect changes (default: none, compared with vlab's model)"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:

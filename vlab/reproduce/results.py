@@ -217,6 +217,8 @@ class ReproduceResult:
         fast, plant, lab, resolutions, durations, seeds.
     runtime_s : float
         Wall-clock time of the run [s].
+    measured : tuple of MeasuredDiagnosis
+        The dissertation's measurements diagnosed as real data (:mod:`vlab.reproduce.measured`).
     """
 
     out_dir: Path
@@ -225,6 +227,7 @@ class ReproduceResult:
     figures: tuple[Path, ...] = ()
     settings: dict = field(default_factory=dict)
     runtime_s: float = 0.0
+    measured: tuple = ()
 
     def table(self, name: str) -> TableResult:
         """The table called ``name`` (e.g. ``"Table 8"``). Raises KeyError if absent."""

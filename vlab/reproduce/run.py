@@ -35,7 +35,7 @@ from .results import FLAG_TEXT, FLAGS, ReproduceResult, TableResult
 
 #: Table groups in run order (``groups`` argument of :func:`reproduce`).
 GROUPS = ("frequencies", "reduction", "bcc-designs", "grid-exact", "grid-corrected", "bcc-experiments",
-          "grid-experiments", "limit-cycle")
+          "grid-experiments", "limit-cycle", "measured-data")
 
 #: Experiment settings: (BCC resolution [Hz], grid resolution [Hz], periods, limit-cycle run lengths [s]).
 FULL = {"bcc_resolution_hz": 0.05, "grid_resolution_hz": 0.025, "periods": 2, "limit_cycle_s": 180.0,
@@ -213,6 +213,7 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
     figures: list[Path] = []
     runs: list[VirtualRun] = []
     lc: LimitCycleResult | None = None
+    measured: list = []
     n_bcc_runs = 4 if "bcc-experiments" in groups else 0
     n_grid_runs = 9 if "grid-experiments" in groups else 0
     total = len(groups) + n_bcc_runs + n_grid_runs
@@ -281,12 +282,18 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
                 done()
             figures.append(_limit_cycle_figure(lc, figdir / "limit_cycle.png"))
             bars.step("limit-cycle")
+        if "measured-data" in groups:
+            from .measured import diagnose_measurements  # the diagnosis, imported only when asked for
+
+            measured = diagnose_measurements()
+            bars.step("measured-data")
     settings = {"fast": fast, "plant": plant, "lab": lab, "lab_description": {s: ctx.lab(s).description
                                                                           for s in ("bcc", "grid")},
                 "groups": list(groups), "seed": seed, **cfg}
     if "grid-corrected" in groups or "grid-experiments" in groups or "reduction" in groups:
         settings["measured_modes"] = ctx.measured_modes().description
-    result = ReproduceResult(out, tuple(tables), lc, tuple(figures), settings, time.perf_counter() - t_start)
+    result = ReproduceResult(out, tuple(tables), lc, tuple(figures), settings, time.perf_counter() - t_start,
+                             tuple(measured))
     _write_json(result, runs, out / "reproduce.json")
     (out / "report.md").write_text(report_markdown(result, runs))
     return result
@@ -320,6 +327,8 @@ def _write_json(result: ReproduceResult, runs: Iterable[VirtualRun], path: Path)
         "summary": summary_rows(result),
         "tables": [t.as_dict() for t in result.tables],
         "limit_cycle": None if result.limit_cycle is None else result.limit_cycle.as_dict(),
+        "measured_data": [{"table": m.table, "compared_with": m.compared_with, "verdict": m.verdict,
+                           "diagnosis": m.result} for m in result.measured],
         "runs": [{"run": r.spec.key, "resolution_hz": r.spec.resolution_hz, "duration_s": r.duration_s,
                   "wall_s": r.wall_s, "plant": r.plant} for r in runs],
         "figures": [str(p.relative_to(result.out_dir)) for p in result.figures],
@@ -418,6 +427,10 @@ def report_markdown(result: ReproduceResult, runs: Sequence[VirtualRun] = ()) ->
             lines.append(f"| {r.label} | {r.duration_s:.0f} | {r.grows} | {r.settled} | {_fmt(r.growth_rate_per_s)} | "
                          f"{_fmt(r.predicted_rate_per_s)} | {r.dominant_hz:.1f} |")
         lines += ["", "![limit cycle](figures/limit_cycle.png)", ""]
+    if result.measured:
+        from .measured import markdown_section
+
+        lines += markdown_section(list(result.measured))
     if runs:
         lines += ["## Virtual experiments", "", "| run | resolution [Hz] | simulated [s] | wall [s] |", "|---|---|---|---|"]
         lines += [f"| {r.spec.key} | {r.spec.resolution_hz:g} | {r.duration_s:.0f} | {r.wall_s:.1f} |" for r in runs]
@@ -469,6 +482,8 @@ def print_summary(result: ReproduceResult, console=None) -> None:
             verdict = ("limit cycle" if r.settled else "grows") if r.grows else "no growth"
             console.print(f"Sec. 6.1 limit cycle — {r.label}: {verdict}"
                           + (f" at {r.dominant_hz:.1f} Hz" if r.grows else ""))
+    for m in result.measured:
+        console.print(f"{m.table} (measured) against {m.compared_with}: {m.verdict.split(':')[0]}")
     console.print(f"report: {result.out_dir / 'report.md'}")
 
 
