@@ -836,6 +836,11 @@ def diagnose(
                                  help="modal tables: compare with this column's frequencies (e.g. analytical_hz, "
                                       "a published analysis) instead of vlab's model; the model predicts what "
                                       "an effect changes (default: none, compared with vlab's model)"),
+    model_form: str = _opt("auto", "--model-form", metavar="<auto|derived|none>",
+                           help="the model's own uncertainty in the decision: derived (from its calibration and "
+                                "discretisation), none (the data come from this model itself), auto (none for a "
+                                "recording whose metadata names the vlab plant that made it or with --baseline, "
+                                "else derived)"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -862,7 +867,7 @@ def diagnose(
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
             res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
                                controller=None if controller is None else controller.value, force=force,
-                               overwrite=False, reference_column=reference_column,
+                               overwrite=False, reference_column=reference_column, model_form=model_form,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":

@@ -180,7 +180,7 @@ class _Test:
             expected = replace(self.problem.data, h=self.problem.predict(state))
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
-        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor)
+        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor, model_var=self.problem.model_var)
         return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
 
     def detected(self, h, x: float) -> str | None:

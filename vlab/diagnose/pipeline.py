@@ -88,7 +88,8 @@ from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained
                         needs_pairs, needs_rerun_check,
                         prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
-from .model.labmodel import LabState, predict_frf
+from .model.labmodel import LabState, natural_frequencies, predict_frf
+from .model.modelform import frf_variance, model_form_uncertainty
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -175,13 +176,23 @@ def _rerun_instability(res: DiagnosisResult, loops):
     return find_instability(Recording.from_signals(data.recording.dt_s, signals), feedback_points=loops)
 
 
+def _beyond_measurement(problem: Problem, nominal: LabState) -> bool:
+    """Whether the nominal model differs from the data beyond the measurement's uncertainty alone (no floor,
+    no model-form uncertainty): the data are then within the model's accuracy, not within the noise."""
+    if isinstance(problem.data, FrfData):
+        bare = Problem(problem.data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase)
+    else:
+        bare = Problem(problem.data, nominal, problem.ctx, modal_model_form=False)
+    return beyond_noise(bare.chi2(nominal), bare.noise_chi2(), bare.peak(nominal), bare.peak_limit())
+
+
 def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str | None = None,
              out_dir: str | Path | None = None, plant: str = "auto", resolution_hz: float | None = None,
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
-             reference_column: str | None = None) -> DiagnosisResult:
+             reference_column: str | None = None, model_form: str = "auto") -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -250,6 +261,13 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         ``analytical_hz``, the published analysis): the table is compared with
         it, vlab's model predicting what an effect changes (the reference's
         own difference from vlab's model cancels, as through a baseline).
+    model_form : {"auto", "derived", "none"}
+        The model's own uncertainty (:mod:`vlab.diagnose.model.modelform`) in the decision and the
+        intervals. "derived": from the structure's calibration residual and discretisation (a modal table
+        always; a recording compared through the replay or with the FE model). "none": the data are known
+        to come from the model itself. "auto": "none" for a recording whose metadata names the vlab plant
+        that made it (a simulation of this model), and for a measured baseline (the structure before the
+        change: its own model-form difference cancels); "derived" otherwise.
 
     Returns
     -------
@@ -284,6 +302,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         raise ModelError(f"unknown plant {plant!r}; use 'auto', 'linear' or 'mujoco'")
     if mjcf is not None and plant == "linear":
         raise OptionError(f"--mjcf {mjcf} names a MuJoCo plant: it cannot be used with --plant linear")
+    if model_form not in ("auto", "derived", "none"):
+        raise OptionError(f"model form {model_form!r}: use 'auto', 'derived' or 'none'")
     if reference_column is not None and detect_kind(path) != "modal":
         raise OptionError(f"reference column {reference_column!r}: only a modal table (.csv) has columns; for a "
                           "recording give a measured baseline")
@@ -409,7 +429,23 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     timing["read"] = time.perf_counter() - t_start
 
     ctx = context_for(nominal, band, data)
-    problem = Problem(data, nominal, ctx, floor=floor)
+    mf_mode = model_form
+    if model_form == "auto":
+        mf_mode = "none" if (setup.plant is not None or baseline is not None) else "derived"
+    mf, model_var = None, None
+    if isinstance(data, FrfData) and mf_mode == "derived":
+        f_nom, _, _ = natural_frequencies(nominal)
+        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if replayed is not None else "fe")
+        model_var = frf_variance(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                 output_points=data.output_points, uncertainty=mf)
+        notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
+    elif isinstance(data, FrfData):
+        why = ("the recording's metadata names the vlab plant that made it" if setup.plant is not None and
+               model_form == "auto" else "a measured baseline of the same structure" if model_form == "auto"
+               else "as asked")
+        notes.append(f"no model-form uncertainty ({why}): only the noise and the {100 * floor:g} % floor")
+    problem = Problem(data, nominal, ctx, floor=floor, model_var=model_var, modal_model_form=mf_mode != "none")
+    problem.model_form = problem.model_form if mf is None else mf
     problem.guard_s = guard_s
     problem.replay_plant = replay_plant if replayed is not None else None  # the plant the reference was replayed on
     if replayed is not None:  # the validation's nominal rerun is the replay
@@ -439,7 +475,11 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                               instability=_instability(unstable, replayed, loops))
         if not mismatch:
             res.location.points, res.location.members = [], []
-            notes.append("the nominal model agrees with the data within the measured noise: no effect is proposed")
+            res.within_model_accuracy = _beyond_measurement(problem, nominal)
+            notes.append("the nominal model agrees with the data within the model's own accuracy, though not "
+                         "within the measurement's noise alone: no effect is proposed" if res.within_model_accuracy
+                         else "the nominal model agrees with the data within the measured noise: no effect is "
+                              "proposed")
         else:
             if on_plant and replayed is None:
                 start_background_rerun(problem, nominal, "nominal", "mujoco", seed=RERUN_SEED)  # on the other core

@@ -207,7 +207,8 @@ class PlantModel:
         if data.h_recorded is not None:
             ratio = problem.predict(nominal) / problem.predict(self.base)
             data = replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2)
-        self.problem = Problem(data, nominal, self.ctx, floor=problem.floor, use_phase=problem.use_phase)
+        self.problem = Problem(data, nominal, self.ctx, floor=problem.floor, use_phase=problem.use_phase,
+                               model_var=problem.model_var)
         self.n_linearisations = 1
 
     def state(self, h: Hypothesis | None, x) -> LabState:

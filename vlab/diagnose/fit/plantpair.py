@@ -83,7 +83,7 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
         model.problem.predict(model.state(h, np.asarray(x_plant, dtype=float)))
     data = model.problem.data
     return Problem(replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2), fe.base, fe.ctx,
-                   floor=fe.floor, use_phase=fe.use_phase)
+                   floor=fe.floor, use_phase=fe.use_phase, model_var=fe.model_var)
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best

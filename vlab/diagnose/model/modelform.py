@@ -23,6 +23,13 @@ chosen:
     every member cut into twice as many elements per segment (the FE
     model's own discretisation error, of the order of the difference to a
     finer mesh for a converging beam element).
+``plant``
+    The MuJoCo plant's own discretisation (its default hinges and step against
+    a converged plant: finer hinges, 25 us step), per mode, from
+    ``assets/model_form/<structure>.json`` (written by
+    ``python benchmarks/plant_model_form.py``); used where a recording is
+    compared through the plant's replay (the FE model's discretisation then
+    cancels in the referral, the plant's does not).
 ``damping``
     The model's open-loop damping ratios are measured values written into
     the spec (``[damping] modal_ratios``, Table 1 / Table 3 experimental):
@@ -51,9 +58,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import DataFileError
+import json
+from dataclasses import replace as _replace
+
+from ...errors import DataFileError, ModelError
 from ...fe import build_fe_model, modal_analysis
-from ...spec import MAX_ELEMENTS_PER_SEGMENT, StructureSpec
+from ...spec import ASSETS_DIR, MAX_ELEMENTS_PER_SEGMENT, StructureSpec
+from .labmodel import LabState, PointModes, natural_frequencies, predict_frf
+
+#: Folder of the plants' measured discretisation (``python benchmarks/plant_model_form.py``).
+MODEL_FORM_DIR = ASSETS_DIR / "model_form"
+#: Relative step of the finite-difference sensitivities of an FRF to a mode's frequency and damping.
+SENSITIVITY_STEP = 1e-4
+#: Modes within this factor of the data's band enter the FRF model-form variance.
+BAND_MARGIN = 1.5
 
 #: Standard deviation of a uniform rounding error, as a fraction of the printed resolution (GUM F.2.2.1).
 ROUNDING_SIGMA = 1.0 / math.sqrt(12.0)
@@ -221,10 +239,58 @@ def damping_uncertainty(spec: StructureSpec, n: int) -> np.ndarray:
     return out
 
 
+def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.ndarray, str] | None:
+    """``|ln(f_default / f_converged)|`` of the MuJoCo plant per mode, from ``assets/model_form/<name>.json``.
+
+    Each model mode takes the entry whose default-plant frequency is nearest to its own (within 3 %);
+    modes without one get the largest value of the file.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    freq_hz : ndarray, shape (n,)
+        The model's natural frequencies [Hz].
+
+    Returns
+    -------
+    (ndarray, shape (n,), str) or None
+        The relative differences [1] and their source; None when the structure has no such file.
+
+    Raises
+    ------
+    DataFileError
+        The file exists but is malformed (names the file and field).
+    """
+    path = MODEL_FORM_DIR / f"{spec.name}.json"
+    if not path.is_file():
+        return None
+    try:
+        obj = json.loads(path.read_text())
+        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
+        rel = np.array([float(m["frequency_rel"]) for m in obj["modes"]])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DataFileError(f"{path}: malformed plant model-form file ({exc!r}): regenerate it with "
+                            f"python benchmarks/plant_model_form.py {spec.name}") from None
+    if f_d.size == 0:
+        return None
+    out = np.full(len(freq_hz), rel.max())
+    for i, f in enumerate(np.asarray(freq_hz)):
+        j = int(np.argmin(np.abs(np.log(f_d / f))))
+        if abs(math.log(f_d[j] / f)) < 0.03:
+            out[i] = rel[j]
+    return out, f"the default MuJoCo plant against a converged one ({path.name}, {f_d.size} modes)"
+
+
 _CACHE: dict = {}
 
+#: Frequency components combined for each kind of comparison: with the FE model itself (a modal table,
+#: a recording without a replay) or through the MuJoCo plant's replay, where the FE model's discretisation
+#: cancels and the plant's remains.
+COMPONENTS = {"fe": ("calibration", "discretisation"), "plant": ("calibration", "plant")}
 
-def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> ModelFormUncertainty:
+
+def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
+                           compared_with: str = "fe") -> ModelFormUncertainty:
     """The model-form uncertainty of the model built from ``spec`` (see the module docstring).
 
     Parameters
@@ -232,29 +298,94 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> ModelFor
     spec : StructureSpec
     freq_hz : ndarray, shape (n,)
         The model's first ``n`` natural frequencies [Hz] (as the diagnosis computed them).
+    compared_with : {"fe", "plant"}
+        What the data are compared with (:data:`COMPONENTS`).
 
     Returns
     -------
     ModelFormUncertainty
-        Cached per spec object and ``n``.
+        Cached per spec object, ``n`` and ``compared_with``.
 
     Raises
     ------
     DataFileError
-        The spec's calibration reference table is malformed.
+        The spec's calibration reference table or the plant's model-form file is malformed.
+    ModelError
+        Unknown ``compared_with``.
     """
+    if compared_with not in COMPONENTS:
+        raise ModelError(f"unknown comparison {compared_with!r}; use one of {sorted(COMPONENTS)}")
     n = len(freq_hz)
-    hit = _CACHE.get((id(spec), n))
+    hit = _CACHE.get((id(spec), n, compared_with))
     if hit is not None and hit[0] is spec:
         return hit[1]
     cal = calibration_residual(spec, np.asarray(freq_hz))
-    disc = discretisation_error(spec, n)
-    comp = {"calibration": np.full(n, cal[0] if cal else 0.0), "discretisation": disc,
-            "damping": damping_uncertainty(spec, n)}
+    comp = {"calibration": np.full(n, cal[0] if cal else 0.0), "damping": damping_uncertainty(spec, n)}
     sources = {"calibration": cal[1] if cal else "none: the spec names no calibration reference "
-               "([reference] frequencies with an analytical_hz column)",
-               "discretisation": "the FE model against one with twice the elements per segment",
-               "damping": "printed rounding of the spec's measured damping ratios; assumed ones not compared"}
-    out = ModelFormUncertainty(np.sqrt(comp["calibration"]**2 + disc**2), comp["damping"], comp, sources)
-    _CACHE[(id(spec), n)] = (spec, out)  # the spec is kept, so its id is not reused while cached
+               "([reference] frequencies with an analytical_hz column)"}
+    if compared_with == "fe":
+        comp["discretisation"] = discretisation_error(spec, n)
+        sources["discretisation"] = "the FE model against one with twice the elements per segment"
+    else:
+        pl = plant_discretisation(spec, np.asarray(freq_hz))
+        comp["plant"] = pl[0] if pl else np.zeros(n)
+        sources["plant"] = pl[1] if pl else ("none: no measured plant discretisation "
+                                             f"(python benchmarks/plant_model_form.py {spec.name})")
+    sources["damping"] = "printed rounding of the spec's measured damping ratios; assumed ones not compared"
+    freq = np.sqrt(sum(comp[k] ** 2 for k in COMPONENTS[compared_with]))
+    out = ModelFormUncertainty(freq, comp["damping"], comp, sources)
+    _CACHE[(id(spec), n, compared_with)] = (spec, out)  # the spec is kept, so its id is not reused while cached
     return out
+
+
+def frf_variance(state: LabState, freq_hz: np.ndarray, *, excitation_point: int, output_points,
+                 uncertainty: ModelFormUncertainty) -> np.ndarray:
+    """Variance of ``ln H`` of the lab ``state``'s FRFs from the model-form uncertainty of its modes.
+
+    First-order propagation: ``var = sum_r |d ln H / d ln f_r|^2 sigma_f,r^2 + |d ln H / d ln zeta_r|^2
+    sigma_zeta,r^2`` over the modes within :data:`BAND_MARGIN` of the lines, the derivatives by forward
+    differences (:data:`SENSITIVITY_STEP`) of the whole closed-loop prediction
+    (:func:`vlab.diagnose.model.labmodel.predict_frf`) with one mode's frequency or damping changed. A
+    mode whose damping the spec only assumes (infinite sigma) contributes its frequency only.
+
+    Parameters
+    ----------
+    state : LabState
+        The nominal lab (its FE modes are used).
+    freq_hz : ndarray, shape (n_f,)
+        The data's lines [Hz].
+    excitation_point : int
+    output_points : sequence of int, length n_o
+    uncertainty : ModelFormUncertainty
+        Per mode of the FE model, in frequency order.
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_o)
+        Variance [1] of the complex log FRF (its real and imaginary parts each carry about half).
+
+    Source: GUM (JCGM 100:2008) Eq. (10), law of propagation of uncertainty.
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    fr, zeta, phi = natural_frequencies(state)
+    pts = tuple(dict.fromkeys(tuple(output_points) + state.actuators))
+    shapes = phi[state.fe.dofs.indices(pts, "w"), :]
+    pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(), shapes, pts, "the nominal FE model")
+    kw = {"excitation_point": excitation_point, "output_points": output_points}
+    h0 = predict_frf(_replace(state, point_modes=pm0), f, **kw)
+    var = np.zeros(h0.shape)
+    lo, hi = f.min() / BAND_MARGIN, f.max() * BAND_MARGIN
+    n_u = len(uncertainty.frequency_rel)
+    for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
+        sf = uncertainty.frequency_rel[min(r, n_u - 1)]
+        sz = uncertainty.damping_rel[r] if r < n_u else np.inf
+        for which, sig in (("omega", sf), ("zeta", sz)):
+            if not np.isfinite(sig) or sig <= 0:
+                continue
+            om, ze = pm0.omega.copy(), pm0.zeta.copy()
+            (om if which == "omega" else ze)[r] *= 1.0 + SENSITIVITY_STEP
+            h = predict_frf(_replace(state, point_modes=_replace(pm0, omega=om, zeta=ze)), f, **kw)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = np.log(h / h0) / SENSITIVITY_STEP
+            var += np.where(np.isfinite(s), np.abs(s) ** 2, 0.0) * sig**2
+    return var

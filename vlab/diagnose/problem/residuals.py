@@ -127,6 +127,12 @@ class Problem:
         table's ``damping_sigma`` column, else the printed rounding of each ratio.
     shape_sigma : float
         Standard deviation of ``1 - MAC`` of a measured shape (modal data).
+    model_var : ndarray, shape (n_f, n_o), optional
+        FRF data: variance of ``ln H`` from the model-form uncertainty of the nominal model's modes
+        (:func:`vlab.diagnose.model.modelform.frf_variance`), added to each line's noise and floor
+        variance; None: none (the data are known to come from the model itself).
+    modal_model_form : bool
+        Modal data: weigh each residual by the model-form uncertainty too (False: measurement only).
 
     Attributes
     ----------
@@ -149,20 +155,24 @@ class Problem:
 
     def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
                  use_phase: bool = True, freq_sigma: float | None = None, damping_sigma: float | None = None,
-                 shape_sigma: float = 0.05):
+                 shape_sigma: float = 0.05, model_var: np.ndarray | None = None, modal_model_form: bool = True):
         self.data, self.base, self.ctx = data, base, ctx
         self.floor, self.use_phase = float(floor), bool(use_phase)
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
         self.n_evaluations = 0
+        self.modal_model_form = bool(modal_model_form)
+        self.model_form = None  # the ModelFormUncertainty behind model_var (set by whoever computed it)
         self._smooth = None  # kernel of the smoothed error, made on first use (:meth:`_smoother`)
         if isinstance(data, FrfData):
             srel = data.sigma_rel
             self.mask = (srel <= MAX_RELATIVE_NOISE) & (np.abs(data.h) > 0)
             if self.mask.sum() < 3:
                 raise ModelError(f"{data.source}: fewer than three lines with a signal-to-noise ratio above 2")
-            tot = np.sqrt((srel**2 + self.floor**2) / 2.0)
+            self.model_var = None if model_var is None else np.asarray(model_var, dtype=float)
+            mv = 0.0 if self.model_var is None else self.model_var
+            tot = np.sqrt((srel**2 + self.floor**2 + mv) / 2.0)
             self.part_sigma = tot[self.mask]
-            self.weight_mag = 1.0 / (srel**2 + self.floor**2)
+            self.weight_mag = 1.0 / (srel**2 + self.floor**2 + mv)
             self.n_obs = int(self.mask.sum()) * (2 if use_phase else 1)
         else:
             self._nominal_modes(base)
@@ -237,6 +247,9 @@ class Problem:
             self.freq_sigma_meas = measured(self.freq_sigma, d.freq_sigma_hz, d.freq_resolution_hz, d.freq_hz)
             self.damping_sigma_meas = measured(self.damping_sigma, d.damping_sigma, d.damping_resolution, d.damping)
         self.model_form = model_form_uncertainty(base.spec, self._nominal_f)
+        if not self.modal_model_form:
+            for k in ("calibration", "discretisation"):
+                self.model_form = self.model_form.without(k, "not used: the data are known to come from the model")
         if d.reference_column is not None:  # referred: the reference's calibration residual cancels
             self.model_form = self.model_form.without("calibration", f"cancels: compared with the reference column "
                                                                      f"{d.reference_column!r}")
@@ -268,8 +281,14 @@ class Problem:
         """
         if isinstance(self.data, FrfData):
             med = float(np.median(self.data.sigma_rel[self.mask]))
+            mf = 0.0 if self.model_var is None else float(np.median(np.sqrt(self.model_var[self.mask])))
+            mx = 0.0 if self.model_var is None else float(np.max(np.sqrt(self.model_var[self.mask])))
+            model = math.hypot(self.floor, mf)
             return {"noise_sigma_median_rel": med, "model_floor_rel": self.floor,
-                    "dominant": "model form" if self.floor > med else "noise"}
+                    "model_form_sigma_median_rel": mf, "model_form_sigma_max_rel": mx,
+                    "model_form": "none (data from the model itself)" if self.model_var is None else "derived",
+                    "sources": {} if self.model_form is None else dict(self.model_form.sources),
+                    "dominant": "model form" if model > med else "noise"}
         zc = self.damping_compared
         return {"modes": [int(m) for m in self.data.modes],
                 "frequency_sigma_measurement_rel": self.freq_sigma_meas.tolist(),
@@ -487,9 +506,12 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
     Returns
     -------
     Problem
-        Residuals weighted by the data's own variance alone (``1 / sigma_rel^2``
-        per line of FRF data), the weights of :func:`vlab.diagnose.fit.rules.changed_beyond_noise`.
+        Residuals weighted by the data's own variance and the model-form variance
+        (``1 / (sigma_rel^2 + model_var)`` per line of FRF data), without the numerical floor: the
+        weights of :func:`vlab.diagnose.fit.rules.changed_beyond_noise`.
     """
-    return Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
-                   use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
-                   shape_sigma=problem.shape_sigma)
+    p = Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
+                use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
+                shape_sigma=problem.shape_sigma, model_var=getattr(problem, "model_var", None))
+    p.model_form = problem.model_form
+    return p

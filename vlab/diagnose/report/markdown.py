@@ -85,11 +85,11 @@ def markdown(res: dict) -> str:
         peak += (f"; within the {100 * s['floor']:g} % model-error floor, but the recording differs from its "
                  f"baseline beyond the noise of the two: chi2 = {q['chi2']:.4g} (limit {q['chi2_limit']:.4g}), "
                  f"largest single-line residual {q['peak']:.3g} (limit {q['peak_limit']:.3g})")
-    if not res["mismatch"] and (res.get("uncertainty") or {}).get("dominant") == "model form":
+    if not res["mismatch"] and res.get("within_model_accuracy"):
         lines += [f"**Within the model's accuracy.** The nominal model's weighted residual chi2 = "
                   f"{s['chi2_nominal']:.4g} over N = {s['n_obs']} residuals is within the limit {s['chi2_limit']:.4g} "
-                  f"set by the measurement's and the model's uncertainty, the model's dominating{peak}; no effect "
-                  "is proposed.", ""]
+                  f"set by the measurement's and the model's uncertainty, though beyond the measurement's alone"
+                  f"{peak}; no effect is proposed.", ""]
     elif not res["mismatch"]:
         lines += [f"**No significant mismatch.** The nominal model's weighted residual chi2 = {s['chi2_nominal']:.4g} "
                   f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}){peak}; no "
@@ -561,11 +561,11 @@ def verdict(res: dict) -> str:
 def _verdict_body(res: dict, s: dict, n) -> str:
     """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
     if not res["mismatch"]:
-        if (res.get("uncertainty") or {}).get("dominant") == "model form":
+        if res.get("within_model_accuracy"):
             return (f"Within the model's accuracy: the nominal model's weighted residual chi2 = "
                     f"{_fmt(s['chi2_nominal'])} over N = {n} residuals is within the limit {_fmt(s['chi2_limit'])} "
-                    "set by the measurement's and the model's own uncertainty, of which the model's dominates: "
-                    "no effect is proposed (see 'Uncertainty').")
+                    "set by the measurement's and the model's own uncertainty, though beyond the measurement's "
+                    "alone: no effect is proposed (see 'Uncertainty').")
         return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
                 f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
     no = s.get("noise_only")

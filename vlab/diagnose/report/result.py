@@ -78,6 +78,9 @@ class DiagnosisResult:
     outside_library : bool
         The best effect of the library explained only part of the mismatch (rule 10 of
         :mod:`vlab.diagnose.fit.rules`) and was not selected.
+    within_model_accuracy : bool
+        No mismatch, but only because of the model's own uncertainty (floor and model form): the nominal
+        model differs from the data beyond the measurement's noise alone.
     threshold : dict or None
         The detection threshold of the selected effect on these data, on the side of its fitted value
         (:func:`vlab.diagnose.detectability.threshold_of`, ``Threshold.as_dict()``); None without a selected
@@ -115,6 +118,7 @@ class DiagnosisResult:
     instability: dict | None = None
     threshold: dict | None = None
     outside_library: bool = False
+    within_model_accuracy: bool = False
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -236,6 +240,7 @@ class DiagnosisResult:
             "instability": self.instability,
             "detection_threshold": self.threshold,
             "outside_library": bool(self.outside_library),
+            "within_model_accuracy": bool(self.within_model_accuracy),
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),
