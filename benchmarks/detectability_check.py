@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
     effects = tuple(sorted({e for e, _ in CASES}))
-    det = detectability("bcc", a.controller, effects=effects)
+    det = detectability("bcc", a.controller, effects=effects, model_form="none")  # recorded by the model itself
     spec, nominal, _data, ctx = nominal_test("bcc", a.controller)
     chain, design = nominal.chain, nominal.design
     hyps = library(nominal, ctx, effects=effects)

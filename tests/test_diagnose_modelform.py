@@ -136,3 +136,55 @@ def test_reference_column_errors(tmp_path):
     p.write_text("not read")
     with pytest.raises(OptionError, match="only a modal table"):
         diagnose("bcc", p, out_dir=None, reference_column="analytical_hz")
+
+
+# ----------------------------------------------------------------------------- FRF data
+def test_frf_variance_matches_the_modal_closed_form():
+    """Open loop, one mode uncertain: d ln H / d ln f_r of the modal sum, written out here."""
+    from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_frf
+    from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_variance
+    from vlab.lab.loop import HardwareChain
+    from vlab.models import nominal_fe_model
+
+    fe = nominal_fe_model("bcc")
+    st = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    f = np.linspace(1.0, 12.0, 400)
+    fr, zeta, phi = natural_frequencies(st)
+    n = len(fr)
+    r, sig = 2, 2e-3  # mode 3, 0.2 %
+    freq_rel = np.zeros(n)
+    freq_rel[r] = sig
+    unc = ModelFormUncertainty(freq_rel, np.full(n, np.inf), {}, {})
+    var = frf_variance(st, f, excitation_point=9, output_points=(6,), uncertainty=unc)[:, 0]
+    # closed form: H = jw sum_k a_k / D_k (times a chain that does not depend on f_r), D = wr^2 - w^2 + 2j z wr w
+    w, wr = 2 * np.pi * f, 2 * np.pi * fr
+    i6, i9 = fe.dofs.index(6, "w"), fe.dofs.index(9, "w")
+    a = phi[i6, :] * phi[i9, :]
+    d = wr[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * wr[None, :] * w[:, None]
+    g = (a[None, :] / d).sum(axis=1)
+    dg = -a[r] * (2 * wr[r] ** 2 + 2j * zeta[r] * wr[r] * w) / d[:, r] ** 2  # d g / d ln wr
+    expect = np.abs(dg / g) ** 2 * sig**2
+    np.testing.assert_allclose(var, expect, rtol=2e-3)
+    h = predict_frf(st, f, excitation_point=9, output_points=(6,))
+    assert np.all(np.isfinite(h))
+
+
+def test_a_recording_within_the_model_form_is_no_mismatch_only_with_it(tmp_path):
+    """The structure 0.1 % stiffer in frequency (its stiffness matrix 0.2 % up), as a real structure may
+    differ from its calibrated model: with the model-form uncertainty (BCC: 0.06-0.37 %)
+    no mismatch; without it, the same recording is a mismatch."""
+    from dataclasses import replace
+
+    from test_diagnose import _record  # the linear BCC lab recorder of the end-to-end diagnosis tests
+    from vlab.diagnose.model.labmodel import LabState
+    from vlab.lab.loop import HardwareChain
+    from vlab.models import nominal_fe_model
+
+    fe = nominal_fe_model("bcc")
+    stiff = LabState(fe.spec, replace(fe, k=fe.k * 1.002), HardwareChain(noise_m_s=1e-6), None)
+    path = _record(stiff, tmp_path / "stiff.uff", noise=0.002, steady=True)
+    with_mf = diagnose("bcc", path, out_dir=None, model_form="derived", pairs=False).as_dict()
+    without = diagnose("bcc", path, out_dir=None, model_form="none", pairs=False).as_dict()
+    assert without["mismatch"]
+    assert not with_mf["mismatch"] and with_mf["within_model_accuracy"]
+    assert with_mf["uncertainty"]["model_form"] == "derived"

@@ -915,6 +915,10 @@ def detectability(
     seed: int = _opt(0, "--seed", help="seed of the excitation, the noise and the design's multi-start"),
     out: str = _opt(None, "--out", help="also write detectability.json and a figure into this folder"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
+    model_form: str = _opt("derived", "--model-form", metavar="<derived|none>",
+                           help="derived: thresholds of a real measurement, within the model's own uncertainty "
+                                "(calibration residual, plant discretisation); none: of a recording made by the "
+                                "model itself"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -941,7 +945,8 @@ def detectability(
     out_path = _out_dir(out, DETECT_OUT, overwrite) if out is not None else None
     with err_console.status("detectability: recording the nominal test and searching the thresholds",
                             spinner="dots") if out_fmt == "table" else nullcontext():
-        res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed)
+        res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed,
+                  model_form=model_form)
     d = res.as_dict()
     if out_path is not None:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VlabError
+from ..errors import ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
 from ..spec import StructureSpec, load_spec
@@ -46,7 +46,8 @@ from .data.measured import FrfData, read_data, refer_to_model
 from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library
-from .model.labmodel import LabState, predict_frf
+from .model.labmodel import LabState, natural_frequencies, predict_frf
+from .model.modelform import frf_variance, model_form_uncertainty
 from .model.nominal import nominal_design, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -131,6 +132,8 @@ class Detectability:
     thresholds : tuple of Threshold
     skipped : tuple of str
         Hypotheses left out (more than one parameter), by label.
+    model_form : str
+        "derived" or "none" (:func:`detectability`).
     """
 
     structure: str
@@ -142,13 +145,14 @@ class Detectability:
     n_obs: int
     thresholds: tuple[Threshold, ...]
     skipped: tuple[str, ...]
+    model_form: str = "none"
 
     def as_dict(self) -> dict:
         """JSON-ready dict (keys carry units)."""
         return {"structure": self.structure, "controller": self.controller, "noise_m_s": self.noise_m_s,
                 "chi2_noise": self.chi2_noise, "chi2_limit": self.chi2_limit, "peak_limit": self.peak_limit,
                 "n_obs": self.n_obs, "thresholds": [t.as_dict() for t in self.thresholds],
-                "skipped": list(self.skipped)}
+                "skipped": list(self.skipped), "model_form": self.model_form}
 
     def of(self, effect: str, location: dict) -> list[Threshold]:
         """The thresholds of ``effect`` at ``location`` (one per side of the null value)."""
@@ -337,7 +341,7 @@ def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: 
 
 def detectability(structure: str | StructureSpec = "bcc", controller: str = "none", *,
                   effects: tuple[str, ...] | None = None, noise_m_s: float = 1e-6, seed: int = 0,
-                  floor: float = 0.005, progress=None) -> Detectability:
+                  floor: float = 0.005, model_form: str = "derived", progress=None) -> Detectability:
     """Detection thresholds of the library's one-parameter effects for the lab's test of ``structure``.
 
     Parameters
@@ -354,6 +358,10 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         Seed of the excitation, the noise and the design's multi-start.
     floor : float
         The diagnosis's relative model-error floor (0.5 %).
+    model_form : {"derived", "none"}
+        "derived" (default): the thresholds of a real measurement, compared through the plant's replay
+        within the model-form uncertainty of :mod:`vlab.diagnose.model.modelform` (calibration residual
+        and the plant's discretisation); "none": of a recording made by the model itself.
     progress : callable, optional
         Called with a short string per stage.
 
@@ -377,7 +385,15 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     say = progress or (lambda s: None)
     say("recording the nominal test on the linear plant")
     spec, nominal, data, ctx = nominal_test(structure, controller, noise_m_s=noise_m_s, seed=seed)
-    tester = _Test(Problem(data, nominal, ctx, floor=floor), nominal, ctx)
+    if model_form not in ("derived", "none"):
+        raise ModelError(f"model form {model_form!r}: use 'derived' or 'none'")
+    model_var = None
+    if model_form == "derived":
+        f_nom, _, _ = natural_frequencies(nominal)
+        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant")
+        model_var = frf_variance(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                 output_points=data.output_points, uncertainty=mf)
+    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_var=model_var), nominal, ctx)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
     say(f"thresholds of {len(hyps)} hypotheses")
@@ -387,7 +403,7 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
             continue
         out.extend(_thresholds(tester, h))
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
-                         float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped))
+                         float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped), model_form)
 
 
 def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "added_mass"):

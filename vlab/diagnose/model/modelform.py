@@ -69,7 +69,7 @@ from .labmodel import LabState, PointModes, natural_frequencies, predict_frf
 #: Folder of the plants' measured discretisation (``python benchmarks/plant_model_form.py``).
 MODEL_FORM_DIR = ASSETS_DIR / "model_form"
 #: Relative step of the finite-difference sensitivities of an FRF to a mode's frequency and damping.
-SENSITIVITY_STEP = 1e-4
+SENSITIVITY_STEP = 1e-6
 #: Modes within this factor of the data's band enter the FRF model-form variance.
 BAND_MARGIN = 1.5
 
