@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
              "published analysis-versus-experiment differences are not used to set it: they are the data "
              "diagnosed here. Compared with the published analysis (`--reference-column analytical_hz`), the "
              "calibration residual cancels.", ""]
-    lines += markdown_section(diagnose_measurements())[2:]
+    lines += [ln[1:] if ln.startswith("### ") else ln for ln in markdown_section(diagnose_measurements())[2:]]
     tmp = path.with_suffix(path.suffix + ".tmp")
     tmp.write_text("\n".join(lines))
     tmp.replace(path)
