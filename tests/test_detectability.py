@@ -33,7 +33,7 @@ runner = CliRunner()
 @pytest.fixture(scope="module")
 def mass_threshold():
     spec = load_spec("bcc")
-    det = detectability(spec, "none", effects=("added_mass",))
+    det = detectability(spec, "none", effects=("added_mass",), model_form="none")  # recordings by the model itself
     (t,) = det.of("added_mass", {"point": 6})
     return spec, det, t
 
@@ -119,3 +119,14 @@ def test_the_threshold_map_is_drawn_and_bad_values_are_refused(tmp_path):
     with pytest.raises(DataFileError, match="not points"):
         point_value_map(spec, {99: 1.0}, tmp_path / "bad.png", label="mass [kg]")
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_the_models_own_uncertainty_raises_the_thresholds():
+    """A real recording (model form derived) cannot show what a recording of the model itself shows."""
+    from vlab.diagnose.detectability import detectability
+
+    kw = {"effects": ("added_mass",)}
+    real = {repr(t.location): t.threshold for t in detectability("bcc", "none", model_form="derived", **kw).thresholds}
+    own = {repr(t.location): t.threshold for t in detectability("bcc", "none", model_form="none", **kw).thresholds}
+    both = [k for k in real if real[k] is not None and own.get(k) is not None]
+    assert both and all(real[k] > 3 * own[k] for k in both)

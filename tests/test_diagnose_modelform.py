@@ -188,3 +188,21 @@ def test_a_recording_within_the_model_form_is_no_mismatch_only_with_it(tmp_path)
     assert without["mismatch"]
     assert not with_mf["mismatch"] and with_mf["within_model_accuracy"]
     assert with_mf["uncertainty"]["model_form"] == "derived"
+
+
+def test_a_stated_model_form_replaces_the_derived_one(tmp_path):
+    from vlab.errors import SpecError
+
+    base = open("examples/cantilever_tip_mass.toml").read()
+    good = tmp_path / "stated.toml"
+    good.write_text(base + '\n[model_form]\nfrequency_rel = [0.02, 0.03]\nsource = "calibrated against my modal test"\n')
+    spec = load_spec(str(good))
+    fe = build_fe_model(spec)
+    f = modal_analysis(fe.m, fe.k, 4).frequencies_hz
+    u = model_form_uncertainty(spec, f)
+    np.testing.assert_allclose(u.components["calibration"], [0.02, 0.03, 0.03, 0.03])
+    assert "calibrated against my modal test" in u.sources["calibration"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text(base + '\n[model_form]\nfrequency_rel = 1.5\nsource = "x"\n')
+    with pytest.raises(SpecError, match="frequency_rel"):
+        load_spec(str(bad))

@@ -362,6 +362,24 @@ class Damping:
     source: str
 
 
+@dataclass(frozen=True)
+class ModelFormDeclared:
+    """A model-form uncertainty the structure's author states (``[model_form]``), instead of the one
+    derived from a calibration reference (:mod:`vlab.diagnose.model.modelform`).
+
+    Attributes
+    ----------
+    frequency_rel : tuple of float
+        Relative standard uncertainty [1] of the natural frequencies, per mode in frequency order (the last
+        value holds for every higher mode), each in [0, 1).
+    source : str
+        Where the values come from (a calibration against measurements, a published comparison).
+    """
+
+    frequency_rel: tuple[float, ...]
+    source: str
+
+
 #: Response quantities a test can compare (Sec. 5.4.2: BCC displacement, Fig. 22; grid velocity, Figs. 23-31).
 RESPONSE_QUANTITIES = ("displacement", "velocity")
 
@@ -453,6 +471,8 @@ class StructureSpec:
         Actuator, sensor, excitation and response points.
     damping : Damping or None
         Open-loop modal damping ratios.
+    model_form : ModelFormDeclared or None
+        The ``[model_form]`` table: a stated model-form uncertainty of the frequencies.
     reference : dict[str, str]
         Name -> file in ``assets/data`` of a published table (e.g.
         ``"frequencies": "table1_bcc_frequencies.csv"``).
@@ -489,6 +509,7 @@ class StructureSpec:
     supports: tuple[Support, ...] = ()
     instrumentation: Instrumentation | None = None
     damping: Damping | None = None
+    model_form: ModelFormDeclared | None = None
     reference: dict[str, str] = field(default_factory=dict)
     master_dofs: dict[str, tuple[tuple[int, str], ...]] = field(default_factory=dict)
     mujoco: dict[str, Any] = field(default_factory=dict)
@@ -925,6 +946,17 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         damping = Damping(tuple(float(z) for z in ratios), float(default), dr.str("source"))
         dr.done()
 
+    model_form = None
+    mr = top.sub("model_form", None)
+    if mr is not None:
+        fr = mr.raw("frequency_rel", types=(int, float, list))
+        vals = fr if isinstance(fr, list) else [fr]
+        if not vals or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0
+                           for v in vals):
+            mr.fail("frequency_rel", f"expected a relative uncertainty in [0, 1) or a list of them, got {fr!r}")
+        model_form = ModelFormDeclared(tuple(float(v) for v in vals), mr.str("source"))
+        mr.done()
+
     reference = dict(top.raw("reference", {}, types=(dict,)))
     for key, fname in reference.items():
         if not isinstance(fname, str):
@@ -973,6 +1005,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         supports=tuple(supports),
         instrumentation=instr,
         damping=damping,
+        model_form=model_form,
         reference=reference,
         master_dofs=masters,
         mujoco=mj,

@@ -10,7 +10,8 @@ The model's part is derived from what is known about the model, never
 chosen:
 
 ``calibration``
-    The residual standard error of the model against the published data it
+    Stated by the structure's author in the spec's ``[model_form]`` table
+    (``frequency_rel``, ``source``), else the residual standard error of the model against the published data it
     was calibrated to -- the spec's ``[reference] frequencies`` table,
     column ``analytical_hz`` (BCC: Table 1 analytical, :mod:`vlab.calibration`;
     grid: Table 3 analytical, :mod:`vlab.grid_fit`):
@@ -319,10 +320,16 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     hit = _CACHE.get((id(spec), n, compared_with))
     if hit is not None and hit[0] is spec:
         return hit[1]
-    cal = calibration_residual(spec, np.asarray(freq_hz))
-    comp = {"calibration": np.full(n, cal[0] if cal else 0.0), "damping": damping_uncertainty(spec, n)}
-    sources = {"calibration": cal[1] if cal else "none: the spec names no calibration reference "
-               "([reference] frequencies with an analytical_hz column)"}
+    if spec.model_form is not None:  # stated by the structure's author: replaces the calibration residual
+        vals = list(spec.model_form.frequency_rel)
+        comp = {"calibration": np.array((vals + [vals[-1]] * n)[:n])}
+        sources = {"calibration": f"stated in the spec's [model_form]: {spec.model_form.source}"}
+    else:
+        cal = calibration_residual(spec, np.asarray(freq_hz))
+        comp = {"calibration": np.full(n, cal[0] if cal else 0.0)}
+        sources = {"calibration": cal[1] if cal else "none: the spec names no calibration reference "
+                   "([reference] frequencies with an analytical_hz column) and states no [model_form]"}
+    comp["damping"] = damping_uncertainty(spec, n)
     if compared_with == "fe":
         comp["discretisation"] = discretisation_error(spec, n)
         sources["discretisation"] = "the FE model against one with twice the elements per segment"
