@@ -52,7 +52,10 @@ the JSON holds:
 ``mac``
     MAC of the pair at the compared sites [1].
 ``default_mode``, ``converged_mode``
-    Mode numbers (1-based) in each plant.
+    Mode numbers (1-based) in each plant. A converged mode without a default
+    partner (MAC below 0.5) is listed apart (``unpaired_converged_modes``), so
+    that every row of ``modes`` has all its numbers; so are default modes in
+    the band without a converged partner (``unpaired_default_modes``).
 ``fe_mode``
     The FE model's mode (spec mesh, 1-based) paired with the converged
     plant's mode by the plant cross-check (:func:`vlab.sim.crosscheck`, MAC at
@@ -263,7 +266,7 @@ def compare(structure: str) -> dict:
     n_fe = int(np.count_nonzero(modal_analysis(fe.m, fe.k).frequencies_hz <= band[1]))
     fe_of = {q.sim_mode: q.fe_mode for q in crosscheck(p1, n_fe).pairs if q.sim_mode is not None}
     bp = pair_band(m1["modal_hz"], m1["shapes"], m0["modal_hz"], m0["shapes"], n_band)
-    rows = []
+    rows, unpaired_conv = [], []
     for r in range(n_band):
         j = bp.fe_to_sim[r]
         row = {"mode": r + 1, "converged_mode": r + 1, "default_mode": None if j is None else j + 1,
@@ -271,18 +274,16 @@ def compare(structure: str) -> dict:
                "frequency_converged_hz": float(m1["sampled_hz"][r]), "damping_converged": float(m1["sampled_zeta"][r]),
                "frequency_modal_converged_hz": float(m1["modal_hz"][r]),
                "damping_modal_converged": float(m1["modal_zeta"][r]), "mac": float(bp.macs[r])}
-        if j is None:
-            row.update({"frequency_default_hz": None, "frequency_rel": None, "damping_default": None,
-                        "frequency_modal_default_hz": None, "frequency_rel_modal": None,
-                        "damping_modal_default": None})
-        else:
-            row.update({
-                "frequency_default_hz": float(m0["sampled_hz"][j]),
-                "frequency_rel": float(abs(math.log(m0["sampled_hz"][j] / m1["sampled_hz"][r]))),
-                "damping_default": float(m0["sampled_zeta"][j]),
-                "frequency_modal_default_hz": float(m0["modal_hz"][j]),
-                "frequency_rel_modal": float(abs(math.log(m0["modal_hz"][j] / m1["modal_hz"][r]))),
-                "damping_modal_default": float(m0["modal_zeta"][j])})
+        if j is None:  # listed apart: every row of "modes" has all its numbers
+            unpaired_conv.append({k: row[k] for k in ("converged_mode", "fe_mode", "frequency_converged_hz", "mac")})
+            continue
+        row.update({
+            "frequency_default_hz": float(m0["sampled_hz"][j]),
+            "frequency_rel": float(abs(math.log(m0["sampled_hz"][j] / m1["sampled_hz"][r]))),
+            "damping_default": float(m0["sampled_zeta"][j]),
+            "frequency_modal_default_hz": float(m0["modal_hz"][j]),
+            "frequency_rel_modal": float(abs(math.log(m0["modal_hz"][j] / m1["modal_hz"][r]))),
+            "damping_modal_default": float(m0["modal_zeta"][j])})
         rows.append(row)
     unpaired = [{"default_mode": u.sim_mode, "frequency_modal_default_hz": u.sim_hz, "reason": u.reason}
                 for u in bp.unpaired if u.sim_hz <= band[1]]
@@ -300,9 +301,9 @@ def compare(structure: str) -> dict:
         "converged_options": _plant_record(p1, kw),
         "modes": rows,
         "unpaired_default_modes": unpaired,
-        "frequency_rel_max": max((r["frequency_rel"] for r in rows if r["frequency_rel"] is not None), default=None),
-        "frequency_rel_modal_max": max((r["frequency_rel_modal"] for r in rows
-                                        if r["frequency_rel_modal"] is not None), default=None),
+        "unpaired_converged_modes": unpaired_conv,
+        "frequency_rel_max": max((r["frequency_rel"] for r in rows), default=None),
+        "frequency_rel_modal_max": max((r["frequency_rel_modal"] for r in rows), default=None),
     }
 
 
@@ -336,12 +337,12 @@ def table(rec: dict) -> str:
              f"{c['timestep_s'] * 1e6:g} us, {c['integrator']}, nv {c['nv']}); band {rec['band_hz']} Hz",
              " mode FE  conv [Hz]  default [Hz]  rel [%]  modal rel [%]  zeta conv  zeta def     MAC"]
     for r in rec["modes"]:
-        if r["default_mode"] is None:
-            lines.append(f"{r['mode']:5d} {_fe(r)} {r['frequency_converged_hz']:10.4f}   (unpaired)")
-            continue
         lines.append(f"{r['mode']:5d} {_fe(r)} {r['frequency_converged_hz']:10.4f} {r['frequency_default_hz']:13.4f} "
                      f"{100 * r['frequency_rel']:8.3f} {100 * r['frequency_rel_modal']:14.3f} "
                      f"{r['damping_converged']:10.5f} {r['damping_default']:9.5f} {r['mac']:7.4f}")
+    for u in rec["unpaired_converged_modes"]:
+        lines.append(f"  converged mode {u['converged_mode']} ({u['frequency_converged_hz']:.4f} Hz) unpaired "
+                     f"(best MAC {u['mac']:.3f})")
     for u in rec["unpaired_default_modes"]:
         lines.append(f"  default mode {u['default_mode']} ({u['frequency_modal_default_hz']:.4f} Hz) unpaired: "
                      f"{u['reason']}")
