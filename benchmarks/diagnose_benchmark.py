@@ -63,6 +63,65 @@ recording's metadata names the plant; :mod:`vlab.diagnose.data.reference`). With
 record of the same spectrum (other phases, other noise) and the diagnosis gets
 it as its measured baseline (``vlab diagnose --baseline``) instead.
 
+Tier 2 (``--tier 2``; issue 24 item 2: "a reality that is not the model").
+Tier 1 (the default, all of the above) records on the very plant the
+diagnosis replays. In tier 2 the recordings come from a plant the diagnosis
+does not use, and the diagnosis is unchanged (it replays the recorded force
+on the *default* MuJoCo plant of the nominal spec):
+
+- the plant that records is the *converged* MuJoCo plant (about twice the
+  links per segment, 25 us step; its options are read from
+  ``assets/model_form/<structure>.json``, written by
+  ``benchmarks/plant_model_form.py``, which also lists the default plant's
+  discretisation error mode by mode: BCC 0.03-0.37 %, grid 0.01-0.14 %);
+- built from the nominal spec *perturbed within its stated model-form
+  uncertainty*: every member's (and crosspiece's) bending rigidity ``EI`` and
+  every lumped mass (crosspiece tip and clamp masses included) is multiplied
+  by a factor ``p_i = exp(e_i)``, ``e_i ~ N(0, s^2)`` independent, drawn per
+  case; the factors and the frequency shifts they give are recorded in the
+  case (``perturbation``); the controller stays the one designed on the
+  nominal model, as in a real lab;
+- the effects are concealed on top of that perturbed spec, drawn as in tier
+  1 and redrawn until each is at least :data:`MIN_THRESHOLD_RATIO` (2) times
+  its detection threshold
+  (:func:`vlab.diagnose.detectability.detectability` on the nominal test,
+  with the sensor noise set to the recordings' noise: the loop's 1e-6 m/s and
+  ``--noise`` times the largest predicted channel RMS, combined); the ratio is
+  kept in each truth (``threshold_ratio``) and printed per case;
+- the excitation realisation, the loop's sensor noise and the measurement
+  noise come from the tier's own random stream (``tier_seed`` = [seed, i, 2]);
+  the seeds are kept in the case (``recording_seeds``) and nowhere else: the
+  recording's metadata holds structure, controller, the controller design's
+  seed 0 and the resolution, and -- unlike tier 1's -- names no plant (it is
+  a recording of a reality, not of a vlab plant), and the diagnosis is called
+  as for a recording of the real structure (``plant="auto"``): it replays on
+  the default MuJoCo plant of the nominal spec, knows neither the converged
+  plant's options nor any seed of the recording, and compares within the
+  model's own uncertainty (``model_form="auto"`` turns it off for a
+  recording that names the vlab plant which made it);
+- null cases (no effect: only the model-form difference) are every third
+  case by default (``--null-every 3``; at most 3 is accepted).
+
+The spread ``s`` is derived from the FE model's sensitivities (computed,
+not chosen): with ``S_ri = d ln f_r / d ln p_i`` (forward differences,
+step 1e-3, on the FE model of the spec, for the modes in the test band),
+to first order ``d ln f_r = sum_i S_ri e_i``, whose standard deviation is
+``s g_r`` with ``g_r = sqrt(sum_i S_ri^2)``. The stated model-form
+uncertainty of the frequencies is the ``calibration`` component ``c`` of
+:func:`vlab.diagnose.model.modelform.model_form_uncertainty` (the model's
+residual standard error against the published analysis it was calibrated
+to); ``s`` is set so that the RMS over the band's modes of ``s g_r`` equals
+the RMS of ``c``: ``s = c_rms / sqrt(mean_r g_r^2)``. The discretisation
+component is not added: the converged plant supplies the plant's own. BCC:
+``c`` = 0.051 %, ``s`` = 0.23 % per factor, per-mode frequency standard
+deviations 0.014-0.071 % (first order and FE agree to 1e-6). Grid: ``c`` =
+9.7 % and the grid's frequencies are mostly set by gravity and the strings,
+which are not perturbed: ``s`` = 0.60 (factors of 0.55-1.8 at one sigma),
+beyond the first-order range (the FE shifts differ from the linear
+prediction by several per cent) -- the grid's calibration residual is a
+model-form error of its own, which EI and mass factors reach only as such
+large scatter.
+
 What it does not measure: real hardware.
 
 Usage::
@@ -71,6 +130,7 @@ Usage::
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline --keep DIR
     python benchmarks/diagnose_benchmark.py --kept DIR [--only 2 5] [--json out.json]
+    python benchmarks/diagnose_benchmark.py --tier 2 --structures bcc --cases 12 --seed 7100
 
 ``--keep DIR`` only generates: the recordings (and baselines) and each case's
 truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``;
@@ -92,6 +152,7 @@ import sys
 import tempfile
 import time
 from dataclasses import replace
+from functools import lru_cache
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -104,12 +165,12 @@ from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_
 from vlab.diagnose.model.nominal import nominal_design, settling_time  # noqa: E402
 from vlab.diagnose.problem.context import Context, context_for  # noqa: E402
 from vlab.errors import ModelError  # noqa: E402
-from vlab.fe import build_fe_model  # noqa: E402
+from vlab.fe import build_fe_model, modal_analysis  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
 from vlab.lab.experiment import TESTS, default_chain  # noqa: E402
 from vlab.lab.recording import Recording  # noqa: E402
-from vlab.spec import load_spec  # noqa: E402
+from vlab.spec import ASSETS_DIR, Quantity, StructureSpec, load_spec  # noqa: E402
 from vlab.units import G_SI  # noqa: E402
 
 RES_HZ = 0.05
@@ -259,6 +320,212 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set) -> tupl
     raise ValueError(family)
 
 
+# ------------------------------------------------------------------ tier 2 ---
+
+#: Tier 2: effects are drawn at least this many times their detection threshold (issue 24 item 2).
+MIN_THRESHOLD_RATIO = 2.0
+#: Tier 2: every K-th case without any effect by default (at least a third of the cases).
+TIER2_NULL_EVERY = 3
+#: Relative step of the finite-difference sensitivities ``d ln f / d ln p`` of the perturbation.
+SENSITIVITY_STEP = 1e-3
+
+
+def converged_plant_options(structure: str) -> dict:
+    """Keywords of :class:`vlab.sim.SimOptions` of the converged plant of ``structure`` (tier 2's recordings).
+
+    Read from ``assets/model_form/<structure>.json`` (``converged_options.sim_options``), the data
+    ``python benchmarks/plant_model_form.py <structure>`` writes.
+
+    Raises
+    ------
+    ModelError
+        The file is missing or holds no options (names the file and the command that writes it).
+    """
+    path = ASSETS_DIR / "model_form" / f"{structure}.json"
+    try:
+        with open(path) as fh:
+            kw = json.load(fh)["converged_options"]["sim_options"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ModelError(f"{path}: no converged plant options ({exc}); write them with "
+                         f"`python benchmarks/plant_model_form.py {structure}`") from None
+    if not isinstance(kw, dict) or "timestep_s" not in kw:
+        raise ModelError(f"{path}: converged_options.sim_options must be a table with timestep_s, got {kw!r}")
+    return kw
+
+
+def perturbation_names(spec: StructureSpec) -> list[str]:
+    """The perturbed parameters of a spec: ``ei:<member or crosspiece id>`` (bending rigidity) and
+    ``mass:<mass id>``, ``mass:<crosspiece id>.tip``, ``mass:<crosspiece id>.clamp`` (lumped masses)."""
+    return ([f"ei:{m.id}" for m in spec.members] + [f"ei:{c.id}" for c in spec.crosspieces]
+            + [f"mass:{m.id}" for m in spec.masses]
+            + [f"mass:{c.id}.{part}" for c in spec.crosspieces for part in ("tip", "clamp")])
+
+
+def perturb(spec: StructureSpec, factors: dict) -> StructureSpec:
+    """``spec`` with bending rigidities and lumped masses multiplied by ``factors`` (name -> factor > 0).
+
+    Names as :func:`perturbation_names` (missing: 1). Each member and crosspiece gets its own copy of its
+    section (``<section>@tier2:<id>``) with ``EI`` scaled (``GJ``, the in-plane and axial rigidities and
+    the mass per length unchanged); member and crosspiece ids are kept, so effects drawn on the result
+    are located as on the nominal spec. A lumped mass's rotary inertias scale with it.
+
+    Raises
+    ------
+    ValueError
+        A non-positive factor or an unknown name.
+    """
+    unknown = set(factors) - set(perturbation_names(spec))
+    if unknown:
+        raise ValueError(f"perturb: unknown parameters {sorted(unknown)}")
+    if any(not f > 0 for f in factors.values()):
+        raise ValueError(f"perturb: factors must be > 0, got {factors}")
+    sections = dict(spec.sections)
+    src = "benchmark tier 2: model-form perturbation x{:.6g}"
+
+    def section(name: str, owner: str) -> str:
+        f = factors.get(f"ei:{owner}", 1.0)
+        if f == 1.0:
+            return name
+        sec = spec.sections[name]
+        new = f"{name}@tier2:{owner}"
+        sections[new] = replace(sec, name=new, ei=Quantity(sec.ei.si * f, src.format(f)))
+        return new
+
+    def q(x: Quantity | None, f: float) -> Quantity | None:
+        return x if x is None or f == 1.0 else Quantity(x.si * f, src.format(f))
+
+    members = tuple(replace(m, section=section(m.section, m.id)) for m in spec.members)
+    crosspieces = tuple(replace(c, section=section(c.section, c.id),
+                                tip_mass=q(c.tip_mass, factors.get(f"mass:{c.id}.tip", 1.0)),
+                                clamp_mass=q(c.clamp_mass, factors.get(f"mass:{c.id}.clamp", 1.0)))
+                        for c in spec.crosspieces)
+    masses = []
+    for lm in spec.masses:
+        f = factors.get(f"mass:{lm.id}", 1.0)
+        masses.append(replace(lm, mass=q(lm.mass, f), inertia_rx=q(lm.inertia_rx, f), inertia_ry=q(lm.inertia_ry, f)))
+    return spec.replace(sections=sections, members=members, crosspieces=crosspieces, masses=tuple(masses))
+
+
+def _band_frequencies(spec: StructureSpec, n: int) -> np.ndarray:
+    fe = build_fe_model(spec)
+    return modal_analysis(fe.m, fe.k, n).frequencies_hz
+
+
+@lru_cache(maxsize=None)
+def perturbation_scale(structure: str) -> dict:
+    """The spread of tier 2's perturbation factors, from the FE model's sensitivities (module notes, "Tier 2").
+
+    Returns
+    -------
+    dict
+        ``names`` (list of str, :func:`perturbation_names`), ``frequencies_hz`` (the FE modes in the test
+        band), ``sensitivity`` (n_modes x n_params, ``d ln f_r / d ln p_i``), ``calibration_rel`` (RMS over
+        those modes of :func:`vlab.diagnose.model.modelform.model_form_uncertainty`'s ``calibration``
+        component [1]), ``spread_ln`` (the standard deviation of every ``ln p_i`` [1]) and
+        ``frequency_sd_rel`` (the first-order standard deviation of each ``ln f_r`` it gives [1]).
+
+    Raises
+    ------
+    ModelError, SpecError
+        The FE model cannot be built.
+    """
+    from vlab.diagnose.model.modelform import model_form_uncertainty
+    from vlab.lab.experiment import test_definition
+
+    spec = load_spec(structure)
+    fe = build_fe_model(spec)
+    f_all = modal_analysis(fe.m, fe.k).frequencies_hz
+    n = int(np.count_nonzero(f_all <= test_definition(spec).band_hz[1]))
+    f0 = f_all[:n]
+    names = perturbation_names(spec)
+    sens = np.empty((n, len(names)))
+    for i, name in enumerate(names):
+        f1 = _band_frequencies(perturb(spec, {name: math.exp(SENSITIVITY_STEP)}), n)
+        sens[:, i] = np.log(f1 / f0) / SENSITIVITY_STEP
+    cal = np.asarray(model_form_uncertainty(spec, f0).components["calibration"], dtype=float)
+    c = float(np.sqrt(np.mean(cal**2)))
+    g = np.sqrt(np.sum(sens**2, axis=1))  # sqrt(sum_i S_ri^2): the sd of ln f_r per unit sd of ln p
+    s = c / float(np.sqrt(np.mean(g**2)))
+    return {"names": names, "frequencies_hz": f0, "sensitivity": sens, "calibration_rel": c, "spread_ln": s,
+            "frequency_sd_rel": s * g}
+
+
+def draw_perturbation(rng, structure: str) -> tuple[StructureSpec, dict]:
+    """The nominal spec of ``structure`` perturbed within its stated model-form uncertainty (tier 2).
+
+    Every ``ln p_i`` of :func:`perturbation_names` is drawn from ``N(0, spread_ln^2)``
+    (:func:`perturbation_scale`).
+
+    Returns
+    -------
+    (StructureSpec, dict)
+        The perturbed spec, and its record: ``factors`` (name -> factor), ``spread_ln``,
+        ``calibration_rel``, ``frequency_shift_first_order`` (``sum_i S_ri ln p_i`` per band mode),
+        ``frequency_shift_fe`` (``ln(f / f_nominal)`` of the perturbed FE model, modes by order) and
+        ``frequency_sd_rel`` (first-order standard deviation per mode).
+    """
+    sc = perturbation_scale(structure)
+    eps = rng.normal(0.0, sc["spread_ln"], len(sc["names"]))
+    factors = {n: float(math.exp(e)) for n, e in zip(sc["names"], eps)}
+    spec = perturb(load_spec(structure), factors)
+    f0 = sc["frequencies_hz"]
+    return spec, {"factors": factors, "spread_ln": sc["spread_ln"], "calibration_rel": sc["calibration_rel"],
+                  "frequency_shift_first_order": [float(x) for x in sc["sensitivity"] @ eps],
+                  "frequency_shift_fe": [float(x) for x in np.log(_band_frequencies(spec, f0.size) / f0)],
+                  "frequency_sd_rel": [float(x) for x in sc["frequency_sd_rel"]]}
+
+
+@lru_cache(maxsize=None)
+def _thresholds(structure: str, controller: str, effect: str, noise_m_s: float) -> tuple:
+    """Detection thresholds of ``effect`` at every location (:func:`vlab.diagnose.detectability.detectability`)."""
+    from vlab.diagnose.detectability import detectability
+
+    return detectability(structure, controller, effects=(effect,), noise_m_s=noise_m_s).thresholds
+
+
+def threshold_ratio(truth: dict, thresholds) -> float | None:
+    """How many times its detection threshold a concealed effect is.
+
+    ``(x - null) / (threshold - null)`` on the side of the drawn value ``x``; for an effect that vanishes
+    only in a limit (a rigid joint, no lag, no force limit) ``threshold / x`` or ``x / threshold``, the
+    inverse of :meth:`vlab.diagnose.detectability.Threshold.scaled`. 0 where the test does not detect the
+    effect even at the end of its range; None where no threshold is known for the effect and location.
+    """
+    ths = [t for t in thresholds if t.effect == truth["effect"] and _same_location(t.location, truth["location"])]
+    ths = [t for t in ths if t.parameter in truth["parameters"]]
+    if not ths:
+        return None
+    x = float(truth["parameters"][ths[0].parameter])
+    for t in ths:
+        if t.null is None:
+            if t.threshold is None:
+                return 0.0
+            return t.threshold / x if t.bound < t.threshold else x / t.threshold
+        if (x - t.null) * (t.bound - t.null) > 0:
+            return 0.0 if t.threshold is None else (x - t.null) / (t.threshold - t.null)
+    return 0.0
+
+
+def _simulate_on_plant(state, force, exc, meas, seed, options: dict) -> dict:
+    """Velocities ``{point: samples}`` of the test run on the MuJoCo plant built from ``state.spec`` with
+    :class:`vlab.sim.SimOptions` ``options`` (tier 2's converged plant): the loop of
+    :func:`vlab.diagnose.data.replay.rerun` from rest, on that plant (picklable, for a second process)."""
+    from vlab.lab.engine import ControllerEngine
+    from vlab.lab.loop import run_loop
+    from vlab.sim import MujocoPlant, SimOptions, build_plant
+
+    if state.dashpots or state.frictions:
+        raise ModelError("point dashpots and friction cannot be expressed in the spec the MuJoCo plant is built from")
+    plant = MujocoPlant(build_plant(state.spec, SimOptions(**options)))
+    d = state.design
+    engine = None if d is None else ControllerEngine(d.f11, d.f12, d.f21, d.f22, period_s=state.chain.period_s)
+    force = np.asarray(force, dtype=float)
+    loop = run_loop(plant, engine, feedback_points=state.actuators, measured_points=tuple(meas),
+                    excitation_point=exc, excitation=force, duration_s=force.size * state.chain.period_s,
+                    chain=state.chain, seed=seed, shape_points=())
+    return {p: np.asarray(loop.recording[f"vel{p}"]) for p in meas}
+
+
 #: An effect is visible when it changes the predicted FRF of some line by this much (log magnitude).
 VISIBLE = 0.05
 
@@ -298,7 +565,7 @@ def _stage(family: str) -> int:
 
 
 def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int, meas: tuple,
-            attempts: int = 8, plant: str = "linear") -> tuple[LabState, list, bool]:
+            attempts: int = 8, plant: str = "linear", accept=None) -> tuple[LabState, list, bool]:
     """Draw the effects of ``families`` into ``st0``, each visible in the final plant.
 
     Effects are drawn in the order of :func:`_stage`. Each effect's size is redrawn (up to ``attempts`` times) until it changes
@@ -314,6 +581,10 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
     A draw the structure cannot carry (an FE model that is not positive
     definite: an added mass that buckles a member of the hanging grid) is
     drawn again; it counts as one of the attempts.
+
+    ``accept`` (tier 2), called with each drawn truth record, must also
+    return True for the draw to count as visible (:data:`MIN_THRESHOLD_RATIO`
+    times the effect's detection threshold); it may add to the record.
 
     Returns
     -------
@@ -334,7 +605,7 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
                 except ModelError:  # a draw the structure cannot carry (a mass that buckles the grid): draw again
                     continue
                 drawn = (cand, t, before)
-                seen = _visible(state, cand, freq_hz, exc, meas, plant)
+                seen = _visible(state, cand, freq_hz, exc, meas, plant) and (accept is None or accept(t))
                 if seen:
                     break
             if drawn is None:
@@ -375,12 +646,28 @@ MUJOCO_EXCLUDED = ("damping_point", "friction", "gravity_prestress")  # not expr
 
 
 def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, ...] = ("bcc", "grid"),
-              null_every: int = 0) -> dict:
+              null_every: int = 0, tier: int = 1) -> dict:
     """Draw case ``i``: structure, controller, concealed effects (``plant`` limits the families).
 
     ``null_every`` = K > 0 makes every K-th case (i = K-1, 2K-1, ...) one without any effect and the others
     one or two effects, so that a run of n cases holds floor(n / K) nulls for certain (issue 28: "at least
-    a quarter"); 0 draws "no effect" with probability 1/4 (the earlier listings)."""
+    a quarter"); 0 draws "no effect" with probability 1/4 (the earlier listings).
+
+    ``tier`` 2 (``plant`` must be ``"mujoco"``) adds ``"tier": 2``, the converged plant's options
+    (``plant_options``, :func:`converged_plant_options`) and the seed of the tier's own random stream
+    (``tier_seed``: the perturbation, the excitation and the noise; module notes, "Tier 2"); the draws of
+    structure, controller and families are those of tier 1.
+
+    Raises
+    ------
+    ValueError
+        ``tier`` 2 with a plant other than ``"mujoco"``, or a tier other than 1 or 2.
+    ModelError
+        Tier 2 without the converged options of the structure (:func:`converged_plant_options`)."""
+    if tier not in (1, 2):
+        raise ValueError(f"tier must be 1 or 2, got {tier!r}")
+    if tier == 2 and plant != "mujoco":
+        raise ValueError(f"tier 2 records on the (converged) MuJoCo plant: plant must be 'mujoco', got {plant!r}")
     rng = np.random.default_rng([seed, i])
     structure = structures[i % len(structures)]
     closed = bool(rng.random() < 0.5)
@@ -400,8 +687,11 @@ def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, .
         f = str(rng.choice(fams))
         if f not in chosen and not ({f, *chosen} >= {"damping_point", "friction"}):
             chosen.append(f)
-    return {"index": i, "structure": structure, "controller": controller, "families": chosen,
+    case = {"index": i, "structure": structure, "controller": controller, "families": chosen,
             "rng_seed": [seed, i, 1], "plant": plant}
+    if tier == 2:
+        case.update({"tier": 2, "plant_options": converged_plant_options(structure), "tier_seed": [seed, i, 2]})
+    return case
 
 
 def _simulate(state, force, exc, meas, plant, seed) -> dict:
@@ -416,9 +706,11 @@ def _record(vel, force, exc, meas, dt, noise, rng, path, case) -> None:
     for p in meas:
         v = vel[p]
         signals[f"vel{p}"] = v + noise * np.std(v) * rng.standard_normal(v.size)
-    write_recording(path, Recording.from_signals(dt, signals, metadata={
-        "structure": case["structure"], "controller": case["controller"], "seed": 0, "resolution_hz": RES_HZ,
-        "plant": RECORDED_PLANT[case.get("plant", "linear")]}), overwrite=True)
+    meta = {"structure": case["structure"], "controller": case["controller"], "seed": 0, "resolution_hz": RES_HZ,
+            "plant": RECORDED_PLANT[case.get("plant", "linear")]}
+    if case.get("tier", 1) == 2:  # a recording of a reality, not of a vlab plant: no plant named (module notes)
+        del meta["plant"]
+    write_recording(path, Recording.from_signals(dt, signals, metadata=meta), overwrite=True)
 
 
 def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = False, diagnose_it: bool = True,
@@ -426,8 +718,19 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     """Generate the recording of one case (and, with ``baseline``, one of the unmodified plant) and diagnose it
     blind (unless ``diagnose_it`` is false: the recordings and ``case<i>.json``, the truth, are left in ``workdir``).
     ``parallel``: simulate the recording and the baseline in two processes (same results; the diagnosis
-    itself is timed alone)."""
+    itself is timed alone).
+
+    Tier 2 (``case["tier"] == 2``, module notes): the plant that records is the converged MuJoCo plant
+    (``case["plant_options"]``) of the nominal spec perturbed within its model-form uncertainty
+    (:func:`draw_perturbation`, recorded under ``perturbation``) with the effects concealed on top, each at
+    least :data:`MIN_THRESHOLD_RATIO` times its detection threshold (its ``threshold_ratio`` in the truth);
+    the excitation, the sensor noise and the measurement noise come from the tier's own stream
+    (``tier_seed``; the seeds used are kept under ``recording_seeds``, for the record only: the recording's
+    metadata names the plant kind and the controller design's seed 0, as in tier 1); a baseline is the
+    perturbed converged plant without the effects."""
+    tier = case.get("tier", 1)
     rng = np.random.default_rng(case["rng_seed"])
+    trng = np.random.default_rng(case["tier_seed"]) if tier == 2 else None
     st0 = nominal_state(case["structure"], case["controller"])
     test = TESTS[case["structure"]]
     settle = settling_time(st0, test.band_hz)
@@ -435,8 +738,11 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     n_periods = max(3, math.ceil(settle / period) + 2)
     dt = st0.chain.period_s
     n = int(round(n_periods * period / dt))
+    force_seed = int(rng.integers(1 << 30))
+    if tier == 2:  # the tier's own excitation realisation (tier 1's draw above keeps its stream in step)
+        force_seed = int(trng.integers(1 << 30))
     force = pseudo_random(np.arange(n) * dt, band_hz=test.band_hz, resolution_hz=RES_HZ, rms_n=test.rms_n,
-                          seed=int(rng.integers(1 << 30)))
+                          seed=force_seed)
     sig = _Signals(force, dt, test.band_hz)
     exc = st0.spec.instrumentation.excitation
     ctx = context_for(st0, test.band_hz, sig)
@@ -445,37 +751,66 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     ctx.freq_hz, ctx.force_amplitude = sig.freq_hz, sig.force_amplitude
     meas = tuple(dict.fromkeys(test.measured_points + st0.actuators))
     plant = case.get("plant", "linear")
-    truth_state, truths, hidden = conceal(rng, case["families"], st0, ctx, sig.freq_hz, exc, meas, plant=plant)
+    real0, extra, accept = st0, {}, None
+    noise_seed, noise_rng = case["index"], rng
+    if tier == 2:
+        spec_p, pert = draw_perturbation(trng, case["structure"])
+        real0 = st0.with_spec(spec_p)  # the controller stays the one designed on the nominal model
+        noise_seed, noise_rng = int(trng.integers(1, 1 << 30)), trng
+        # the thresholds at the recordings' noise: the loop's sensor noise and the measurement noise (a
+        # fraction of each channel's RMS; the largest channel's, which errs towards larger thresholds)
+        v_rms = max(ctx.predicted_velocity_rms(st0, p) for p in meas)
+        det_noise = float(math.hypot(st0.chain.noise_m_s, noise * v_rms))
+
+        def accept(t: dict) -> bool:
+            r = threshold_ratio(t, _thresholds(case["structure"], case["controller"], t["effect"], det_noise))
+            t["threshold_ratio"] = r
+            return r is None or r >= MIN_THRESHOLD_RATIO
+
+        extra = {"perturbation": pert, "threshold_noise_m_s": det_noise,
+                 "recording_seeds": {"force": force_seed, "sensor_noise": noise_seed}}
+    truth_state, truths, hidden = conceal(rng, case["families"], real0, ctx, sig.freq_hz, exc, meas, plant=plant,
+                                          accept=accept)
     t0 = time.perf_counter()
     path = os.path.join(workdir, f"case{case['index']}.uff")
     # the baseline: the same test on the unmodified plant, excited by another record of the same spectrum
     # (other phases) and with other noise: nothing of the recording's realisation is shared (issue 28 item 5)
-    runs = [(truth_state, force, exc, meas, plant, case["index"])]
+    if tier == 2:
+        sim = _simulate_on_plant
+        runs = [(truth_state, force, exc, meas, noise_seed, case["plant_options"])]
+    else:
+        sim = _simulate
+        runs = [(truth_state, force, exc, meas, plant, case["index"])]
     if baseline:
+        force_seed_b = int((rng if tier == 1 else trng).integers(1 << 30))
         force_b = pseudo_random(np.arange(n) * dt, band_hz=test.band_hz, resolution_hz=RES_HZ, rms_n=test.rms_n,
-                                seed=int(rng.integers(1 << 30)))
-        runs.append((st0, force_b, exc, meas, plant, case["index"] + 10_000))
+                                seed=force_seed_b)
+        if tier == 2:  # the real structure without the effects: the perturbed converged plant
+            seed_b = int(trng.integers(1, 1 << 30))
+            runs.append((real0, force_b, exc, meas, seed_b, case["plant_options"]))
+            extra["recording_seeds"].update({"baseline_force": force_seed_b, "baseline_sensor_noise": seed_b})
+        else:
+            runs.append((st0, force_b, exc, meas, plant, case["index"] + 10_000))
     if parallel and len(runs) > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(len(runs)) as ex:
-            vels = list(ex.map(_simulate, *zip(*runs)))
+            vels = list(ex.map(sim, *zip(*runs)))
     else:
-        vels = [_simulate(*r) for r in runs]
-    _record(vels[0], force, exc, meas, dt, noise, rng, path, case)  # noise drawn in this order, as before
+        vels = [sim(*r) for r in runs]
+    _record(vels[0], force, exc, meas, dt, noise, noise_rng, path, case)  # noise drawn in this order, as before
     base_path = None
     if baseline:
         base_path = os.path.join(workdir, f"case{case['index']}_baseline.uff")
-        _record(vels[1], runs[1][1], exc, meas, dt, noise, rng, base_path, case)
+        _record(vels[1], runs[1][1], exc, meas, dt, noise, noise_rng, base_path, case)
     t_gen = time.perf_counter() - t0
+    rec = {**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "recording": path,
+           "baseline": base_path, **extra}
     if not diagnose_it:
-        rec = {**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "recording": path,
-               "baseline": base_path}
         with open(os.path.join(workdir, f"case{case['index']}.json"), "w") as fh:
             json.dump(rec, fh, indent=1)
         return {**rec, "time_generate_s": t_gen, "time_diagnose_s": 0.0, "result": None, "error": "not diagnosed"}
-    return diagnose_case({**case, "truth": truths, "hidden": hidden, "n_periods": n_periods, "recording": path,
-                          "baseline": base_path}, t_gen)
+    return diagnose_case(rec, t_gen)
 
 
 def diagnose_case(rec: dict, t_gen: float = 0.0) -> dict:
@@ -483,8 +818,11 @@ def diagnose_case(rec: dict, t_gen: float = 0.0) -> dict:
     ``case<i>.json`` of ``--keep`` holds it) and return it with the result, the error and the times."""
     t0 = time.perf_counter()
     try:
+        # tier 2: as a user diagnoses a recording of the real structure (plant "auto": the default MuJoCo
+        # plant, and the model's own uncertainty since no vlab plant is named)
         res = diagnose(rec["structure"], rec["recording"], controller=rec["controller"],
-                       plant=rec.get("plant", "linear"), baseline=rec["baseline"])
+                       plant="auto" if rec.get("tier", 1) == 2 else rec.get("plant", "linear"),
+                       baseline=rec["baseline"])
         d = res.as_dict()
         err = None
     except Exception as exc:  # a benchmark records failures instead of stopping
@@ -556,9 +894,15 @@ def _line(r: dict, s: dict) -> str:
     else:
         got = " + ".join(_label(x) for x in d["selected"]) or "mismatch, unexplained"
     truth = " + ".join(_label(t) for t in r["truth"]) or "none"
+    tier2 = ""
+    if r.get("tier", 1) == 2:
+        ratios = ", ".join("n/a" if t.get("threshold_ratio") is None else f"{t['threshold_ratio']:.3g}x"
+                           for t in r["truth"])
+        shift = max(abs(x) for x in r["perturbation"]["frequency_shift_fe"])
+        tier2 = (f" [threshold {ratios}; " if ratios else " [") + f"model-form shift up to {100 * shift:.2g} %]"
     return (f"case {r['index']:3d} {r['structure']:4s} {r['controller']:5s} truth {truth} -> {got}: "
             f"{'OK' if s['right'] else 'WRONG (the right one among its look-alikes)' if s['lookalike'] else 'WRONG'}"
-            f" ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)"
+            f" ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)" + tier2
             + (" [an effect drawn below visibility]" if r.get("hidden") else ""))
 
 
@@ -570,11 +914,15 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", type=float, default=0.01, help="measurement noise, fraction of each channel's RMS")
     ap.add_argument("--json", type=str, default=None, help="write all cases and scores to this file")
     ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case indices")
-    ap.add_argument("--plant", choices=("linear", "mujoco"), default="linear",
-                    help="plant that records the cases and reruns the validation")
+    ap.add_argument("--tier", type=int, choices=(1, 2), default=1,
+                    help="1: recordings from the plant the diagnosis uses; 2: from the converged MuJoCo plant "
+                         "of a spec perturbed within its model-form uncertainty (module notes)")
+    ap.add_argument("--plant", choices=("linear", "mujoco"), default=None,
+                    help="plant that records the cases and reruns the validation (default linear; tier 2: mujoco)")
     ap.add_argument("--structures", nargs="+", choices=("bcc", "grid"), default=["bcc", "grid"])
-    ap.add_argument("--null-every", type=int, default=0,
-                    help="every K-th case without any effect (0: drawn with probability 1/4)")
+    ap.add_argument("--null-every", type=int, default=None,
+                    help="every K-th case without any effect (0: drawn with probability 1/4; default 0, "
+                         f"tier 2: {TIER2_NULL_EVERY})")
     ap.add_argument("--baseline", action="store_true",
                     help="also record the unmodified plant and pass it to the diagnosis as its baseline")
     ap.add_argument("--keep", type=str, default=None,
@@ -584,7 +932,18 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.kept:
         return _run_kept(args)
-    cases = [make_case(i, args.seed, args.plant, tuple(args.structures), args.null_every) for i in range(args.cases)]
+    if args.tier == 2:
+        if args.plant == "linear":
+            ap.error("--tier 2 records on the converged MuJoCo plant and diagnoses with the default one: "
+                     "use --plant mujoco (the default in tier 2)")
+        args.plant = "mujoco"
+        args.null_every = TIER2_NULL_EVERY if args.null_every is None else args.null_every
+        if not 1 <= args.null_every <= 3:
+            ap.error(f"--tier 2 needs at least a third of null cases: --null-every 1, 2 or 3, got {args.null_every}")
+    args.plant = args.plant or "linear"
+    args.null_every = args.null_every or 0
+    cases = [make_case(i, args.seed, args.plant, tuple(args.structures), args.null_every, args.tier)
+             for i in range(args.cases)]
     if args.only:
         cases = [c for c in cases if c["index"] in args.only]
     t_all = time.perf_counter()
@@ -653,7 +1012,13 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     tr = [s["time_ratio"] for s in with_eff if s["right"] and s["time_ratio"]]
     td = [r["time_diagnose_s"] for r in results]
     tg = [r["time_generate_s"] for r in results]
+    tier = max((r.get("tier", 1) for r in results), default=1)
+    ratios = [t.get("threshold_ratio") for r in results for t in r["truth"]]
+    ratios = [x for x in ratios if x is not None]
     summary = {
+        "tier": tier, "right_count": sum(s["right"] for s in with_eff),
+        "param_within_20pct_share": float(np.mean(np.array(perr) <= 0.20)) if perr else None,
+        "threshold_ratio_min": float(min(ratios)) if ratios else None,
         "cases": len(results), "with_effect": len(with_eff), "no_effect": len(no_eff),
         "right_share": sum(s["right"] for s in with_eff) / max(len(with_eff), 1),
         "right_or_lookalike_share": sum(s["right"] or s["lookalike"] for s in with_eff) / max(len(with_eff), 1),
@@ -703,6 +1068,16 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
           + (" (simulation not timed: cases generated earlier, --kept)" if not any(tg) else ""))
     if summary["errors"]:
         print("errors:", summary["errors"])
+    # one line: what issue 24 item 2 asks of each tier
+    pe = (f"median {100 * summary['param_error_median']:.2f} %, max {100 * summary['param_error_max']:.1f} %, "
+          f"within 20 %: {100 * summary['param_within_20pct_share']:.0f} %" if perr else "none")
+    thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their detection threshold"
+           if tier == 2 and ratios else "")
+    print(f"tier {tier}: right effect and location {summary['right_count']}/{summary['with_effect']} effect cases"
+          f"{thr}; false alarms {summary['false_alarms']}/{summary['no_effect']} null cases; parameter error {pe}; "
+          f"time per case median {np.median(np.array(td) + np.array(tg)):.0f} s (diagnosis "
+          f"{summary['diagnose_time_s_median']:.0f} s)"
+          + ("   (targets: >= 85 % right, 0 false alarms, parameters within 20 %)" if tier == 2 else ""))
     if json_path:
         with open(json_path, "w") as fh:
             json.dump({"summary": summary, "cases": results, "scores": scores}, fh, indent=1, default=str)

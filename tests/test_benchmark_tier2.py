@@ -4,7 +4,8 @@ generation, without simulating the converged plant or running a diagnosis.
 Checked: the converged plant's options come from assets/model_form (benchmarks/plant_model_form.py) and reach
 the simulation that records; the model-form perturbation's factors are drawn with the spread derived from the
 FE sensitivities and recorded in the case; at least a third of the cases are null cases; the recording's
-metadata and the diagnosis's arguments carry no seed of the recording and do not point at the converged plant.
+metadata and the diagnosis's arguments carry no seed of the recording and do not point at the converged plant
+(nor name a vlab plant: tier 2's recordings are diagnosed as recordings of the real structure).
 """
 
 from __future__ import annotations
@@ -139,11 +140,12 @@ def test_tier2_recording_reaches_the_diagnosis_without_its_seeds(db, tmp_path, m
         assert set(r["perturbation"]["factors"]) == set(db.perturbation_names(load_spec("bcc")))
         structure, path, kw = diagnosed[-1]
         assert structure == "bcc" and path == r["recording"]
-        assert kw == {"controller": case["controller"], "plant": "mujoco", "baseline": None}
+        # as a recording of the real structure: the default plant ("auto": MuJoCo), no plant named
+        assert kw == {"controller": case["controller"], "plant": "auto", "baseline": None}
         with open(path + ".json") as fh:
             meta = json.load(fh)
-        assert meta["plant"] == "MuJoCo plant" and meta["seed"] == 0
-        assert set(meta) <= {"structure", "controller", "seed", "resolution_hz", "plant"}
+        assert "plant" not in meta and meta["seed"] == 0  # the controller design's seed, not the recording's
+        assert set(meta) <= {"structure", "controller", "seed", "resolution_hz"}
         text = json.dumps(meta)
         assert all(str(v) not in text for v in seeds.values() if v is not None)
         assert "timestep" not in text and "segments" not in text
