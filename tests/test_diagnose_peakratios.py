@@ -16,6 +16,7 @@ import pytest
 
 from vlab.analysis import closed_loop_frf, continuous_controller_frf, velocity_frf
 from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.diagnose.fit import peakanalysis as pa
 from vlab.diagnose.fit import peakratios as pr
 from vlab.errors import DataFileError
 from vlab.fe import build_fe_model, modal_analysis
@@ -41,7 +42,7 @@ def _write_table(path, ratios, fmt="{:.2f}", drop=None, replace=None):
 
 @pytest.fixture(scope="module")
 def analysis():
-    return pr.analysis_side("bcc")
+    return pa.analysis_side("bcc")
 
 
 def test_single_mode_reading_off_resonance_matches_the_closed_form():
@@ -50,16 +51,16 @@ def test_single_mode_reading_off_resonance_matches_the_closed_form():
     wd = w0 * np.sqrt(1 - zeta ** 2)
     p = np.array([-zeta * w0 + 1j * wd, -zeta * w0 - 1j * wd])
     r = np.array([1 / (mass * (p[0] - p[1])), -1 / (mass * (p[0] - p[1]))])  # 1 / (m s^2 + c s + k)
-    frf = pr.PoleResidueFRF(p, r)
+    frf = pa.PoleResidueFRF(p, r)
     f = np.array([3.0, 9.9, 10.0, 12.0])
     direct = 1 / (mass * (w0 ** 2 - (2 * np.pi * f) ** 2) + 2j * zeta * w0 * mass * 2 * np.pi * f)
     np.testing.assert_allclose(frf(f), direct, rtol=1e-10)
-    peak, level, has = pr.find_peaks(frf, np.array([f0]))
+    peak, level, has = pa.find_peaks(frf, np.array([f0]))
     assert has[0] and abs(peak[0] - f0 * np.sqrt(1 - 2 * zeta ** 2)) < 1e-6
     for delta in (0.005, 0.02, 0.05):
-        got = pr.grid_reading_ratio(frf, peak[0], spacing_hz=0.5, origin_hz=peak[0] + delta)
+        got = pa.grid_reading_ratio(frf, peak[0], spacing_hz=0.5, origin_hz=peak[0] + delta)
         assert got == pytest.approx(1 / np.sqrt(1 + (delta / (zeta * f0)) ** 2), rel=1e-2)
-    assert pr.grid_reading_ratio(frf, peak[0], 0.5, peak[0] + 0.5) == pytest.approx(1.0)  # on a grid point
+    assert pa.grid_reading_ratio(frf, peak[0], 0.5, peak[0] + 0.5) == pytest.approx(1.0)  # on a grid point
 
 
 def test_loop_frfs_match_vlab_analysis_and_the_published_tables(analysis):
