@@ -142,7 +142,7 @@ def test_reference_column_errors(tmp_path):
 def test_frf_variance_matches_the_modal_closed_form():
     """Open loop, one mode uncertain: d ln H / d ln f_r of the modal sum, written out here."""
     from vlab.diagnose.model.labmodel import LabState, natural_frequencies, predict_frf
-    from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_variance
+    from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form
     from vlab.lab.loop import HardwareChain
     from vlab.models import nominal_fe_model
 
@@ -155,7 +155,7 @@ def test_frf_variance_matches_the_modal_closed_form():
     freq_rel = np.zeros(n)
     freq_rel[r] = sig
     unc = ModelFormUncertainty(freq_rel, np.full(n, np.inf), {}, {})
-    var = frf_variance(st, f, excitation_point=9, output_points=(6,), uncertainty=unc)[:, 0]
+    var = frf_model_form(st, f, excitation_point=9, output_points=(6,), uncertainty=unc).variance[:, 0]
     # closed form: H = jw sum_k a_k / D_k (times a chain that does not depend on f_r), D = wr^2 - w^2 + 2j z wr w
     w, wr = 2 * np.pi * f, 2 * np.pi * fr
     i6, i9 = fe.dofs.index(6, "w"), fe.dofs.index(9, "w")
@@ -188,6 +188,13 @@ def test_a_recording_within_the_model_form_is_no_mismatch_only_with_it(tmp_path)
     assert without["mismatch"]
     assert not with_mf["mismatch"] and with_mf["within_model_accuracy"]
     assert with_mf["uncertainty"]["model_form"] == "derived"
+    prof = with_mf["uncertainty"]["nominal_profile"]
+    assert prof["nuisance_chi2"] < prof["nuisance_limit"]
+    # five times as far (0.5 % in frequency, 2-9 sigma on the first modes): beyond the model's accuracy
+    far = LabState(fe.spec, replace(fe, k=fe.k * 1.01), HardwareChain(noise_m_s=1e-6), None)
+    path = _record(far, tmp_path / "far.uff", noise=0.002, steady=True)
+    d = diagnose("bcc", path, out_dir=None, model_form="derived", pairs=False).as_dict()
+    assert d["mismatch"] and d["uncertainty"]["nominal_profile"]["beyond"]
 
 
 def test_a_stated_model_form_replaces_the_derived_one(tmp_path):

@@ -47,7 +47,7 @@ from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library
 from .model.labmodel import LabState, natural_frequencies, predict_frf
-from .model.modelform import frf_variance, model_form_uncertainty
+from .model.modelform import frf_model_form, model_form_uncertainty
 from .model.nominal import nominal_design, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -184,7 +184,8 @@ class _Test:
             expected = replace(self.problem.data, h=self.problem.predict(state))
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
-        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor, model_var=self.problem.model_var)
+        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
+                    model_form_frf=self.problem.model_form_frf)
         return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
 
     def detected(self, h, x: float) -> str | None:
@@ -387,13 +388,13 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     spec, nominal, data, ctx = nominal_test(structure, controller, noise_m_s=noise_m_s, seed=seed)
     if model_form not in ("derived", "none"):
         raise ModelError(f"model form {model_form!r}: use 'derived' or 'none'")
-    model_var = None
+    mf_frf = None
     if model_form == "derived":
         f_nom, _, _ = natural_frequencies(nominal)
         mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant")
-        model_var = frf_variance(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                 output_points=data.output_points, uncertainty=mf)
-    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_var=model_var), nominal, ctx)
+        mf_frf = frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                output_points=data.output_points, uncertainty=mf)
+    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
     say(f"thresholds of {len(hyps)} hypotheses")

@@ -89,7 +89,7 @@ from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained
                         prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .model.labmodel import LabState, natural_frequencies, predict_frf
-from .model.modelform import frf_variance, model_form_uncertainty
+from .model.modelform import frf_model_form, model_form_uncertainty
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -430,21 +430,23 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
 
     ctx = context_for(nominal, band, data)
     mf_mode = model_form
+    made_by_vlab = isinstance(meta.get("plant"), str) and meta.get("plant") != ""  # the recording says so
     if model_form == "auto":
-        mf_mode = "none" if (setup.plant is not None or baseline is not None) else "derived"
-    mf, model_var = None, None
+        mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"
+    mf, mf_frf = None, None
     if isinstance(data, FrfData) and mf_mode == "derived":
         f_nom, _, _ = natural_frequencies(nominal)
         mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if replayed is not None else "fe")
-        model_var = frf_variance(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                 output_points=data.output_points, uncertainty=mf)
+        mf_frf = frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                output_points=data.output_points, uncertainty=mf)
         notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
     elif isinstance(data, FrfData):
-        why = ("the recording's metadata names the vlab plant that made it" if setup.plant is not None and
+        why = ("the recording's metadata names the vlab plant that made it" if made_by_vlab and
                model_form == "auto" else "a measured baseline of the same structure" if model_form == "auto"
                else "as asked")
         notes.append(f"no model-form uncertainty ({why}): only the noise and the {100 * floor:g} % floor")
-    problem = Problem(data, nominal, ctx, floor=floor, model_var=model_var, modal_model_form=mf_mode != "none")
+    problem = Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf, modal_model_form=mf_mode != "none",
+                      profile_nominal=True)
     problem.model_form = problem.model_form if mf is None else mf
     problem.guard_s = guard_s
     problem.replay_plant = replay_plant if replayed is not None else None  # the plant the reference was replayed on
@@ -459,7 +461,13 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         t = time.perf_counter()
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
-        mismatch = beyond_noise(chi2_0, limit, peak_0, peak_limit)
+        nuisance = problem.nuisance_test()
+        mismatch = beyond_noise(chi2_0, limit, peak_0, peak_limit) or bool(nuisance and nuisance["beyond"])
+        if nuisance and nuisance["beyond"]:
+            notes.append(f"the nominal model's modes must move beyond their model-form uncertainty to fit the data "
+                         f"(chi-square of the moves {nuisance['nuisance_chi2']:.4g}, limit "
+                         f"{nuisance['nuisance_limit']:.4g}; most: {nuisance['largest']} by "
+                         f"{nuisance['largest_sigmas']:+.3g} sigma)")
         noise_only = None
         if not mismatch and same_record:  # within the floor; within the noise?
             mismatch, stats = changed_beyond_noise(problem, nominal)

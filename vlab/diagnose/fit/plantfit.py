@@ -208,7 +208,7 @@ class PlantModel:
             ratio = problem.predict(nominal) / problem.predict(self.base)
             data = replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2)
         self.problem = Problem(data, nominal, self.ctx, floor=problem.floor, use_phase=problem.use_phase,
-                               model_var=problem.model_var)
+                               model_form_frf=problem.model_form_frf)
         self.n_linearisations = 1
 
     def state(self, h: Hypothesis | None, x) -> LabState:

@@ -83,7 +83,7 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
         model.problem.predict(model.state(h, np.asarray(x_plant, dtype=float)))
     data = model.problem.data
     return Problem(replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2), fe.base, fe.ctx,
-                   floor=fe.floor, use_phase=fe.use_phase, model_var=fe.model_var)
+                   floor=fe.floor, use_phase=fe.use_phase, model_form_frf=fe.model_form_frf)
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best
@@ -224,7 +224,8 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         return chosen, refit, [], None
     cands = [h for h in pool if h.spec_level and h.label != chosen.label]
     try:
-        pairs = rank(fit_pairs([chosen], referred, cands, n_second=n_fit, max_nfev=max_nfev, rounds=0))
+        pairs = rank(fit_pairs([chosen], referred, cands, n_second=n_fit, max_nfev=max_nfev, rounds=0,
+                                n_basin=0))
     except (VlabError, ValueError, np.linalg.LinAlgError):
         pairs = []
     if not pairs:

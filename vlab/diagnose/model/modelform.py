@@ -345,15 +345,43 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     return out
 
 
-def frf_variance(state: LabState, freq_hz: np.ndarray, *, excitation_point: int, output_points,
-                 uncertainty: ModelFormUncertainty) -> np.ndarray:
-    """Variance of ``ln H`` of the lab ``state``'s FRFs from the model-form uncertainty of its modes.
+@dataclass(frozen=True)
+class FrfModelForm:
+    """The model-form uncertainty of FRFs as a low-rank covariance: the sensitivities of ``ln H`` to each
+    uncertain modal parameter and that parameter's standard uncertainty.
 
-    First-order propagation: ``var = sum_r |d ln H / d ln f_r|^2 sigma_f,r^2 + |d ln H / d ln zeta_r|^2
-    sigma_zeta,r^2`` over the modes within :data:`BAND_MARGIN` of the lines, the derivatives by forward
-    differences (:data:`SENSITIVITY_STEP`) of the whole closed-loop prediction
-    (:func:`vlab.diagnose.model.labmodel.predict_frf`) with one mode's frequency or damping changed. A
-    mode whose damping the spec only assumes (infinite sigma) contributes its frequency only.
+    ``cov(ln H_i, ln H_j) = sum_k S_ik conj(S_jk) sigma_k^2``: a frequency error of one mode moves every
+    line near it together, so the lines' model-form errors are correlated, not independent.
+
+    Attributes
+    ----------
+    sens : ndarray, complex, shape (n_f, n_o, k)
+        ``d ln H / d ln p_k`` at every line and channel (real part: log magnitude; imaginary: phase [rad]).
+    sigma : ndarray, shape (k,)
+        Relative standard uncertainty of each parameter ``p_k`` (a mode's frequency or damping ratio) [1].
+    labels : tuple of str
+        ``"f<r>"`` or ``"zeta<r>"`` (mode number r, from 1) per parameter.
+    """
+
+    sens: np.ndarray
+    sigma: np.ndarray
+    labels: tuple[str, ...]
+
+    @property
+    def variance(self) -> np.ndarray:
+        """Variance of ``ln H`` per line and channel, shape (n_f, n_o) [1] (the diagonal of the covariance)."""
+        return np.sum(np.abs(self.sens) ** 2 * self.sigma**2, axis=-1)
+
+
+def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: int, output_points,
+                   uncertainty: ModelFormUncertainty) -> FrfModelForm:
+    """The model-form uncertainty of the lab ``state``'s FRFs, from that of its modes.
+
+    First-order propagation (GUM, JCGM 100:2008, Eq. (13), with the correlations): each mode within
+    :data:`BAND_MARGIN` of the lines contributes its frequency and, where the spec states it, its damping
+    ratio as an uncertain parameter; ``d ln H / d ln p`` by a forward difference
+    (:data:`SENSITIVITY_STEP`) of the whole closed-loop prediction
+    (:func:`vlab.diagnose.model.labmodel.predict_frf`) with that one parameter changed.
 
     Parameters
     ----------
@@ -368,10 +396,7 @@ def frf_variance(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
 
     Returns
     -------
-    ndarray, shape (n_f, n_o)
-        Variance [1] of the complex log FRF (its real and imaginary parts each carry about half).
-
-    Source: GUM (JCGM 100:2008) Eq. (10), law of propagation of uncertainty.
+    FrfModelForm
     """
     f = np.asarray(freq_hz, dtype=float)
     fr, zeta, phi = natural_frequencies(state)
@@ -380,19 +405,23 @@ def frf_variance(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
     pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(), shapes, pts, "the nominal FE model")
     kw = {"excitation_point": excitation_point, "output_points": output_points}
     h0 = predict_frf(_replace(state, point_modes=pm0), f, **kw)
-    var = np.zeros(h0.shape)
     lo, hi = f.min() / BAND_MARGIN, f.max() * BAND_MARGIN
     n_u = len(uncertainty.frequency_rel)
+    sens, sig, labels = [], [], []
     for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
         sf = uncertainty.frequency_rel[min(r, n_u - 1)]
         sz = uncertainty.damping_rel[r] if r < n_u else np.inf
-        for which, sig in (("omega", sf), ("zeta", sz)):
-            if not np.isfinite(sig) or sig <= 0:
+        for which, s_p in (("f", sf), ("zeta", sz)):
+            if not np.isfinite(s_p) or s_p <= 0:
                 continue
             om, ze = pm0.omega.copy(), pm0.zeta.copy()
-            (om if which == "omega" else ze)[r] *= 1.0 + SENSITIVITY_STEP
+            (om if which == "f" else ze)[r] *= 1.0 + SENSITIVITY_STEP
             h = predict_frf(_replace(state, point_modes=_replace(pm0, omega=om, zeta=ze)), f, **kw)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.log(h / h0) / SENSITIVITY_STEP
-            var += np.where(np.isfinite(s), np.abs(s) ** 2, 0.0) * sig**2
-    return var
+            sens.append(np.where(np.isfinite(s), s, 0.0))
+            sig.append(s_p)
+            labels.append(f"{which}{r + 1}")
+    if not sens:
+        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), ())
+    return FrfModelForm(np.stack(sens, axis=-1), np.array(sig), tuple(labels))

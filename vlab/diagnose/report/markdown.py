@@ -199,9 +199,18 @@ def _uncertainty_lines(u: dict | None) -> list[str]:
     if not u:
         return []
     if "modes" not in u:
-        return ["## Uncertainty", "",
-                f"Each line is compared within its measured noise (median {_spct(u['noise_sigma_median_rel'])} of the "
-                f"FRF) and a {_spct(u['model_floor_rel'])} model-error floor: the {u['dominant']} dominates.", ""]
+        out = ["## Uncertainty", "",
+               f"Each line is compared within its measured noise (median {_spct(u['noise_sigma_median_rel'])} of the "
+               f"FRF) and a {_spct(u['model_floor_rel'])} model-error floor"
+               + (f", and the model's own uncertainty (median {_spct(u['model_form_sigma_median_rel'])}, up to "
+                  f"{_spct(u['model_form_sigma_max_rel'])} at a line; correlated across the lines of a mode)"
+                  if u.get("model_form") == "derived" else "") + f": the {u['dominant']} dominates.", ""]
+        p = u.get("nominal_profile")
+        if p:
+            out += [f"The nominal model's modes, moved to their most likely frequencies and damping within that "
+                    f"uncertainty: chi-square of the moves {p['nuisance_chi2']:.4g} (limit {p['nuisance_limit']:.4g}); "
+                    f"the largest, {p['largest']}, by {p['largest_sigmas']:+.3g} standard uncertainties.", ""]
+        return out
     out = ["## Uncertainty", "",
            f"Each residual is weighted by the root sum of squares of the measurement's and the model's standard "
            f"uncertainty; the **{u['dominant']}** dominates. Model form: "
