@@ -47,7 +47,8 @@ from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library
 from .model.labmodel import LabState, natural_frequencies, predict_frf
-from .model.modelform import frf_model_form, model_form_uncertainty
+from .fit.plantfit import plant_modes
+from .model.modelform import damping_by_frequency, frf_model_form, model_form_uncertainty, plant_shape_uncertainty
 from .model.nominal import nominal_design, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -294,6 +295,49 @@ def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | Non
     return (on_side or sides or [None])[0]
 
 
+def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | None, notes: list | None = None):
+    """The model-form uncertainty of ``nominal``'s FRFs on ``data``'s lines, as the diagnosis uses it.
+
+    Through a replay on the MuJoCo plant (``reference_plant="mujoco"``) the perturbed modes are that
+    plant's own (its linearisation, :func:`vlab.diagnose.fit.plantfit.plant_modes`: it has modes the FE
+    model lacks), with their frequencies (calibration residual and the plant's discretisation), damping
+    (the spec's printed rounding, by the nearest FE mode) and shapes (``sqrt(1 - MAC)`` of the default
+    plant against the converged one, :func:`vlab.diagnose.model.modelform.plant_shape_uncertainty`);
+    through another replay or none, the FE model's modes, frequencies and damping only.
+
+    Parameters
+    ----------
+    nominal : LabState
+    data : FrfData
+    reference_plant : {"mujoco", "linear"} or None
+        The plant the data were referred through (None: compared with the FE model itself).
+    notes : list, optional
+        Receives a sentence when the MuJoCo plant cannot be linearised (the FE modes are used then).
+
+    Returns
+    -------
+    (ModelFormUncertainty, FrfModelForm)
+    """
+    f_nom, _, _ = natural_frequencies(nominal)
+    ref_modes = None
+    if reference_plant == "mujoco":
+        try:
+            ref_modes = plant_modes(nominal.spec, tuple(dict.fromkeys(tuple(data.output_points) + nominal.actuators)))
+        except VlabError as exc:
+            if notes is not None:
+                notes.append(f"the replay plant's modes are not available ({exc}): the model form perturbs the FE "
+                             "model's modes")
+    if ref_modes is None:
+        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if reference_plant else "fe")
+        shape_rel = None
+    else:
+        f_ref = ref_modes.omega / (2 * np.pi)
+        mf = damping_by_frequency(model_form_uncertainty(nominal.spec, f_ref, compared_with="plant"), f_nom, f_ref)
+        shape_rel = plant_shape_uncertainty(nominal.spec, f_ref)
+    return mf, frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                              output_points=data.output_points, uncertainty=mf, modes=ref_modes, shape_rel=shape_rel)
+
+
 def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: float = 1e-6, seed: int = 0):
     """The lab's nominal test recorded on the linear plant and read as the diagnosis reads it.
 
@@ -389,11 +433,8 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     if model_form not in ("derived", "none"):
         raise ModelError(f"model form {model_form!r}: use 'derived' or 'none'")
     mf_frf = None
-    if model_form == "derived":
-        f_nom, _, _ = natural_frequencies(nominal)
-        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant")
-        mf_frf = frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                output_points=data.output_points, uncertainty=mf)
+    if model_form == "derived":  # a real test, referred through the MuJoCo plant's replay
+        _mf, mf_frf = frf_model_form_of(nominal, data, "mujoco")
     tester = _Test(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)

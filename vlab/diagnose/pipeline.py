@@ -78,7 +78,7 @@ from .data.reference import RERUN_SEED, recorded_chain, recorded_setup, replay_r
 from .data.replay import start_background_rerun, stop_background
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import Combination, Hypothesis, library
-from .detectability import threshold_of
+from .detectability import frf_model_form_of, threshold_of
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
 from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
@@ -88,8 +88,7 @@ from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained
                         needs_pairs, needs_rerun_check,
                         prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
-from .model.labmodel import LabState, natural_frequencies, predict_frf
-from .model.modelform import frf_model_form, model_form_uncertainty
+from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -435,10 +434,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"
     mf, mf_frf = None, None
     if isinstance(data, FrfData) and mf_mode == "derived":
-        f_nom, _, _ = natural_frequencies(nominal)
-        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if replayed is not None else "fe")
-        mf_frf = frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                output_points=data.output_points, uncertainty=mf)
+        mf, mf_frf = frf_model_form_of(nominal, data, replay_plant if replayed is not None else None, notes)
         notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
     elif isinstance(data, FrfData):
         why = ("the recording's metadata names the vlab plant that made it" if made_by_vlab and

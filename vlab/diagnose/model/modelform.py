@@ -240,6 +240,45 @@ def damping_uncertainty(spec: StructureSpec, n: int) -> np.ndarray:
     return out
 
 
+def plant_shape_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> np.ndarray | None:
+    """Relative uncertainty of each mode's shape from the plant's discretisation: ``sqrt(1 - MAC)`` of the
+    default plant's mode against the converged one's (``assets/model_form/<name>.json``), per mode of
+    ``freq_hz`` (nearest default-plant frequency within 3 %; 0 where none). None without the file.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    freq_hz : ndarray, shape (n,)
+        The modes' frequencies [Hz].
+
+    Raises
+    ------
+    DataFileError
+        The file is malformed.
+
+    Returns
+    -------
+    ndarray, shape (n,) or None
+        ``|phi_default - phi_converged| / |phi|`` to first order [1].
+    """
+    path = MODEL_FORM_DIR / f"{spec.name}.json"
+    if not path.is_file():
+        return None
+    try:
+        obj = json.loads(path.read_text())
+        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
+        mac = np.array([float(m["mac"]) for m in obj["modes"]])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DataFileError(f"{path}: malformed plant model-form file ({exc!r})") from None
+    out = np.zeros(len(freq_hz))
+    for i, f in enumerate(np.asarray(freq_hz)):
+        if f_d.size:
+            j = int(np.argmin(np.abs(np.log(f_d / f))))
+            if abs(math.log(f_d[j] / f)) < 0.03:
+                out[i] = math.sqrt(max(0.0, 1.0 - min(mac[j], 1.0)))
+    return out
+
+
 def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.ndarray, str] | None:
     """``|ln(f_default / f_converged)|`` of the MuJoCo plant per mode, from ``assets/model_form/<name>.json``.
 
@@ -325,7 +364,8 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
         comp = {"calibration": np.array((vals + [vals[-1]] * n)[:n])}
         sources = {"calibration": f"stated in the spec's [model_form]: {spec.model_form.source}"}
     else:
-        cal = calibration_residual(spec, np.asarray(freq_hz))
+        fe = build_fe_model(spec)  # the FE model's modes pair with the reference table by order, another model's may not
+        cal = calibration_residual(spec, modal_analysis(fe.m, fe.k, max(n, 1)).frequencies_hz)
         comp = {"calibration": np.full(n, cal[0] if cal else 0.0)}
         sources = {"calibration": cal[1] if cal else "none: the spec names no calibration reference "
                    "([reference] frequencies with an analytical_hz column) and states no [model_form]"}
@@ -345,6 +385,34 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     return out
 
 
+def damping_by_frequency(unc: ModelFormUncertainty, fe_freq_hz: np.ndarray,
+                         freq_hz: np.ndarray) -> ModelFormUncertainty:
+    """``unc`` (per FE mode) carried over to another model's modes ``freq_hz`` for the damping: each takes
+    the damping uncertainty of the FE mode nearest in frequency (within 3 %), else inf (not profiled).
+
+    Parameters
+    ----------
+    unc : ModelFormUncertainty
+        Its ``damping_rel`` per FE mode.
+    fe_freq_hz : ndarray, shape (n_fe,)
+        The FE modes' frequencies [Hz].
+    freq_hz : ndarray, shape (n,)
+        The other model's frequencies [Hz]; ``unc.frequency_rel`` must already be per these modes.
+
+    Returns
+    -------
+    ModelFormUncertainty
+    """
+    fe = np.asarray(fe_freq_hz, dtype=float)
+    z = np.full(len(freq_hz), np.inf)
+    n_fe = min(len(fe), len(unc.damping_rel))
+    for i, f in enumerate(np.asarray(freq_hz, dtype=float)):
+        j = int(np.argmin(np.abs(np.log(fe[:n_fe] / f))))
+        if abs(math.log(fe[j] / f)) < 0.03:
+            z[i] = unc.damping_rel[j]
+    return ModelFormUncertainty(unc.frequency_rel, z, {**unc.components, "damping": z}, unc.sources)
+
+
 @dataclass(frozen=True)
 class FrfModelForm:
     """The model-form uncertainty of FRFs as a low-rank covariance: the sensitivities of ``ln H`` to each
@@ -360,12 +428,17 @@ class FrfModelForm:
     sigma : ndarray, shape (k,)
         Relative standard uncertainty of each parameter ``p_k`` (a mode's frequency or damping ratio) [1].
     labels : tuple of str
-        ``"f<r>"`` or ``"zeta<r>"`` (mode number r, from 1) per parameter.
+        ``"f<r>"``, ``"zeta<r>"`` or ``"phi<r>@<point>"`` (mode number r, from 1, of ``modes``) per
+        parameter: a mode's frequency, damping ratio, or its shape at one point (changed by
+        ``sigma x`` times the shape's RMS over the points).
+    modes : PointModes
+        The modal model the parameters belong to (the FE model's, or the reference plant's linearisation).
     """
 
     sens: np.ndarray
     sigma: np.ndarray
     labels: tuple[str, ...]
+    modes: PointModes | None = None
 
     @property
     def variance(self) -> np.ndarray:
@@ -373,8 +446,38 @@ class FrfModelForm:
         return np.sum(np.abs(self.sens) ** 2 * self.sigma**2, axis=-1)
 
 
+def perturbed_modes(pm: PointModes, which: str, r: int, j: int | None, u: float) -> PointModes:
+    """``pm`` with one parameter of mode ``r`` changed by the relative amount ``u``: its angular frequency
+    (``"f"``) or damping ratio (``"zeta"``) scaled by ``exp(u)``, or its shape at the ``j``-th point
+    (``"phi"``) moved by ``u`` times the shape's RMS over the points.
+
+    Parameters
+    ----------
+    pm : PointModes
+    which : {"f", "zeta", "phi"}
+    r : int
+        Mode index (from 0).
+    j : int or None
+        Row of the point in ``pm.shapes`` (``"phi"`` only).
+    u : float
+        The relative change [1].
+
+    Returns
+    -------
+    PointModes
+    """
+    if which == "phi":
+        sh = pm.shapes.copy()
+        sh[j, r] += u * float(np.sqrt(np.mean(pm.shapes[:, r] ** 2)))
+        return _replace(pm, shapes=sh)
+    om, ze = pm.omega.copy(), pm.zeta.copy()
+    (om if which == "f" else ze)[r] *= math.exp(u)
+    return _replace(pm, omega=om, zeta=ze)
+
+
 def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: int, output_points,
-                   uncertainty: ModelFormUncertainty) -> FrfModelForm:
+                   uncertainty: ModelFormUncertainty, modes: PointModes | None = None,
+                   shape_rel: np.ndarray | None = None) -> FrfModelForm:
     """The model-form uncertainty of the lab ``state``'s FRFs, from that of its modes.
 
     First-order propagation (GUM, JCGM 100:2008, Eq. (13), with the correlations): each mode within
@@ -392,17 +495,29 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     excitation_point : int
     output_points : sequence of int, length n_o
     uncertainty : ModelFormUncertainty
-        Per mode of the FE model, in frequency order.
+        Per mode of ``modes`` (or of the FE model), in frequency order.
+    modes : PointModes, optional
+        The modes to perturb: those of the plant the data were referred through (its linearisation,
+        with modes the FE model does not have, such as the MuJoCo BCC's crosspiece-arm mode at 8.6 Hz);
+        default the FE model's.
+    shape_rel : ndarray, shape (n_modes,), optional
+        Relative uncertainty of each mode's shape (:func:`plant_shape_uncertainty`); each point of each
+        in-band mode with a positive value becomes a parameter. Default: shapes exact.
 
     Returns
     -------
     FrfModelForm
     """
     f = np.asarray(freq_hz, dtype=float)
-    fr, zeta, phi = natural_frequencies(state)
     pts = tuple(dict.fromkeys(tuple(output_points) + state.actuators))
-    shapes = phi[state.fe.dofs.indices(pts, "w"), :]
-    pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(), shapes, pts, "the nominal FE model")
+    if modes is None:
+        fr, zeta, phi = natural_frequencies(state)
+        pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(), phi[state.fe.dofs.indices(pts, "w"), :],
+                         pts, "the nominal FE model")
+    else:
+        pm0 = PointModes(np.asarray(modes.omega, dtype=float), np.asarray(modes.zeta, dtype=float),
+                         modes.rows(pts), pts, modes.source)
+        fr = pm0.omega / (2 * np.pi)
     kw = {"excitation_point": excitation_point, "output_points": output_points}
     h0 = predict_frf(_replace(state, point_modes=pm0), f, **kw)
     lo, hi = f.min() / BAND_MARGIN, f.max() * BAND_MARGIN
@@ -411,17 +526,18 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
         sf = uncertainty.frequency_rel[min(r, n_u - 1)]
         sz = uncertainty.damping_rel[r] if r < n_u else np.inf
-        for which, s_p in (("f", sf), ("zeta", sz)):
+        ss = float(shape_rel[r]) if shape_rel is not None and r < len(shape_rel) else 0.0
+        params = [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss) for j in range(len(pts))]
+        for which, j, s_p in params:
             if not np.isfinite(s_p) or s_p <= 0:
                 continue
-            om, ze = pm0.omega.copy(), pm0.zeta.copy()
-            (om if which == "f" else ze)[r] *= 1.0 + SENSITIVITY_STEP
-            h = predict_frf(_replace(state, point_modes=_replace(pm0, omega=om, zeta=ze)), f, **kw)
+            pm = perturbed_modes(pm0, which, r, j, SENSITIVITY_STEP)
+            h = predict_frf(_replace(state, point_modes=pm), f, **kw)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.log(h / h0) / SENSITIVITY_STEP
             sens.append(np.where(np.isfinite(s), s, 0.0))
             sig.append(s_p)
-            labels.append(f"{which}{r + 1}")
+            labels.append(f"{which}{r + 1}" + (f"@{pts[j]}" if j is not None else ""))
     if not sens:
-        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), ())
-    return FrfModelForm(np.stack(sens, axis=-1), np.array(sig), tuple(labels))
+        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm0)
+    return FrfModelForm(np.stack(sens, axis=-1), np.array(sig), tuple(labels), pm0)

@@ -44,7 +44,7 @@ from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
-from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
+from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty, perturbed_modes
 from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
@@ -475,28 +475,34 @@ class Problem:
         mf = self.model_form_frf
         base = self.base
         d: FrfData = self.data
-        if base.point_modes is not None:
-            pm0 = base.point_modes
-        else:
+        pm0 = mf.modes
+        if pm0 is None:
             fr, zeta, phi = natural_frequencies(base)
             pts = tuple(dict.fromkeys(tuple(d.output_points) + base.actuators))
             pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float), phi[base.fe.dofs.indices(pts, "w"), :],
                              pts, "the nominal FE model")
-        which = [(lab.startswith("f"), int(lab.lstrip("fzeta")) - 1) for lab in mf.labels]
+        which = []
+        for lab in mf.labels:
+            kind = "phi" if lab.startswith("phi") else "zeta" if lab.startswith("zeta") else "f"
+            head, _, pt = lab[len(kind):].partition("@")
+            which.append((kind, int(head) - 1, pm0.points.index(int(pt)) if pt else None))
+        # the nominal prediction changed as the perturbed modes change theirs
+        h_base = self.predict(base)[self.mask]
+        h_ref = self.predict(replace(base, point_modes=pm0))[self.mask]
 
         def plain(x: np.ndarray) -> np.ndarray:
-            om, ze = pm0.omega.copy(), pm0.zeta.copy()
-            for (is_f, r), s, xi in zip(which, mf.sigma, x):
-                (om if is_f else ze)[r] *= math.exp(s * xi)
-            st = replace(base, point_modes=replace(pm0, omega=om, zeta=ze))
-            ratio = self.predict(st)[self.mask] / d.h[self.mask]
+            pm = pm0
+            for (kind, r, j), s, xi in zip(which, mf.sigma, x):
+                pm = perturbed_modes(pm, kind, r, j, s * xi)
+            st = replace(base, point_modes=pm)
+            ratio = h_base * (self.predict(st)[self.mask] / h_ref) / d.h[self.mask]
             with np.errstate(divide="ignore", invalid="ignore"):
                 re = np.log(np.abs(ratio)) / self.part_sigma
                 rr = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
             return np.where(np.isfinite(rr), rr, PENALTY)
 
         sol = scipy.optimize.least_squares(lambda x: np.concatenate([plain(x), x]), np.zeros(len(which)),
-                                           method="trf", x_scale=1.0, max_nfev=60 * len(which))
+                                           method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=60 * len(which))
         self._profile = (plain(sol.x), np.asarray(sol.x, dtype=float))
         return self._profile
 
