@@ -60,6 +60,59 @@ def test_sequential_replacement_finds_both_effects(two_effects):
     assert found["support_stiffness(point=8, dof=w)"][0] == pytest.approx(150.0, rel=1e-3)
 
 
+# ---------------------------------------------------------------- pairs of mode-moving effects: the basin step
+
+
+@pytest.fixture(scope="module")
+def two_masses_on_the_grid():
+    """Exact FRFs of the linear grid (open loop, 1 % noise variance) with 0.1006 kg at point 6 and 0.0924 kg
+    at point 5, the masses and members of the library screened and the shortlist fitted (a draw of a random
+    sweep of pairs on the linear grid). The best single effect is bar 2-6 made softer, neither mass."""
+    import numpy as np
+
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.fit.estimate import rank, screen
+    from vlab.diagnose.fit.rules import shortlisted
+    from vlab.diagnose.model.labmodel import predict_frf
+
+    fe = nominal_fe_model("grid")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    truth = nominal.with_spec(specedit.add_mass(specedit.add_mass(fe.spec, 6, 0.1006), 5, 0.0924))
+    test = TESTS["grid"]
+    freq = np.arange(4, 201) * 0.05
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
+    data = FrfData("grid-two-masses.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
+    ctx = context_for(nominal, test.band_hz, data)
+    problem = Problem(data, nominal, ctx)
+    scored = sorted(((screen(h, problem)[0][0], h) for h in
+                     library(nominal, ctx, effects=("added_mass", "member_stiffness"))), key=lambda s: s[0])
+    singles = rank([fit_hypothesis(h, problem) for h in shortlisted(scored, 10)])
+    return problem, singles, [h for _, h in scored]
+
+
+def test_forward_and_replacement_alone_miss_two_compensating_masses(two_masses_on_the_grid):
+    """Held at its single fit, neither the best single effect (a member) nor its replacements lead to the
+    masses: the best pair found is two members, far from the noise."""
+    problem, singles, pool = two_masses_on_the_grid
+    assert singles[0].effect == "member_stiffness"
+    best = min(fit_pairs(singles, problem, pool, n_basin=0), key=lambda c: c.bic_)
+    assert {p.effect for p in best.parts} == {"member_stiffness"}
+    assert not problem.within_noise(problem.state_for(best, best.params_))
+
+
+def test_basin_step_finds_two_compensating_masses(two_masses_on_the_grid):
+    """The mode-moving singles with the least smoothed error, held at the centres of their basins, reach the
+    drawn pair (vlab.diagnose.fit.estimate.N_BASIN_FIRSTS)."""
+    problem, singles, pool = two_masses_on_the_grid
+    best = min(fit_pairs(singles, problem, pool), key=lambda c: c.bic_)
+    found = {h.label: x[0] for h, x in zip(best.parts, (best.params_[:1], best.params_[1:]))}
+    assert set(found) == {"added_mass(point=5)", "added_mass(point=6)"}
+    assert found["added_mass(point=6)"] == pytest.approx(0.1006, rel=1e-3)
+    assert found["added_mass(point=5)"] == pytest.approx(0.0924, rel=1e-3)
+
+
 # ---------------------------------------------------------------- coarse scan of a mode-moving effect
 
 

@@ -224,6 +224,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         return chosen, refit, [], None
     cands = [h for h in pool if h.spec_level and h.label != chosen.label]
     try:
+        # the first effect is the one the data were referred through, at its FE value: no basin step
         pairs = rank(fit_pairs([chosen], referred, cands, n_second=n_fit, max_nfev=max_nfev, rounds=0,
                                 n_basin=0))
     except (VlabError, ValueError, np.linalg.LinAlgError):

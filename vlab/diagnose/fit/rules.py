@@ -14,12 +14,22 @@ tests they make are here, and :func:`vlab.diagnose.pipeline.diagnose` applies th
    (:func:`changed_beyond_noise`); a mismatch found only there is kept for
    rule 6. No mismatch: nothing is fitted or selected.
 2. **What is fitted.** Local structural hypotheses the sensitivity ranking
-   does not point at are left out (:func:`prune`); of the screened
+   does not point at are left out (:func:`prune`; the frequency errors it
+   ranks by come from mode fits that stayed at their own peaks: a heavily
+   damped mode's fit that converged on the next resonance is not that
+   mode's frequency, :func:`vlab.diagnose.fit.locate.frf_modes`); of the screened
    hypotheses, the best by chi-square, the best mode-moving ones by
    smoothed error and the best of every effect are fitted
    (:func:`shortlisted`); pairs are fitted only when the best single effect
    leaves more than noise (:func:`needs_pairs`;
-   :func:`vlab.diagnose.fit.estimate.fit_pairs`).
+   :func:`vlab.diagnose.fit.estimate.fit_pairs`): forward from the best single
+   effect and by sequential replacement, and, where the best pair still
+   leaves more than noise, from the
+   :data:`~vlab.diagnose.fit.estimate.N_BASIN_FIRSTS` mode-moving single
+   effects with the least smoothed error held at the centres of their
+   basins with every mode-moving second effect (two effects that both move
+   modes compensate each other's frequency shifts, so neither's single fit
+   is where the pair puts it).
 3. **Selection on the FE model** (:func:`select`): the best single effect by
    BIC, or a pair that beats it by :data:`STRONG_EVIDENCE` in quasi-BIC
    (:func:`evidence`) and lowers its misfit :data:`PAIR_MISFIT_GAIN` times
