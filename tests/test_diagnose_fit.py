@@ -298,3 +298,36 @@ def test_a_friction_pair_stays_on_the_linear_plant(monkeypatch):
     errors = {("linear", pair.label): 0.275, ("linear", fric.label): 0.328}
     best, asked, notes, _ = _tie_break_with(monkeypatch, pair, [pair, fric], errors, "mujoco")
     assert best.label == fric.label and asked == ["linear"] and "linear FE plant" in notes[-1]
+
+
+def test_look_alikes_tied_on_the_linear_plant_are_compared_on_the_mujoco_plant(monkeypatch):
+    """MuJoCo grid benchmark seed 4242 case 3: an actuator gain of 0.65 on channel 2 and a saturation of that
+    channel tied on the linear plant (0.162 each: the FE/MuJoCo model-form error), and the saturation was
+    named. On the MuJoCo plant that recorded the data the rerun of each tells them apart."""
+    from vlab.diagnose.effects.hypotheses import ActuatorGain, Saturation
+
+    sat, gain = Saturation(channel=2), ActuatorGain(channel=2)
+    _fitted(sat, gain)
+    errors = {("linear", sat.label): 0.1619, ("linear", gain.label): 0.1620,
+              ("mujoco", sat.label): 0.0129, ("mujoco", gain.label): 0.0041}
+    from vlab.diagnose.fit import selection
+
+    def tie_break(plant):
+        asked = []
+
+        def fake_reruns(problem, jobs, kind, *, seed):
+            asked.append(kind)
+            return [(kind, state) for state, _key in jobs]
+
+        monkeypatch.setattr(selection, "reruns", fake_reruns)
+        monkeypatch.setattr(selection, "lookalikes", lambda h, problem: [])
+        monkeypatch.setattr(selection, "time_error", lambda run, data: errors[run])
+        notes: list = []
+        best, others = selection.tie_break_by_rerun(_FakeProblem(), sat, [gain], [sat, gain], notes, plant=plant)
+        return best, others, asked, notes
+
+    best, _, asked, _ = tie_break("linear")
+    assert best.label == sat.label and asked == ["linear"]
+    best, others, asked, notes = tie_break("mujoco")
+    assert best.label == gain.label and asked == ["linear", "mujoco"]
+    assert [h.label for h in others] == [sat.label] and "MuJoCo plant" in notes[-1]

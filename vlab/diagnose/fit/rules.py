@@ -38,7 +38,12 @@ tests they make are here, and :func:`vlab.diagnose.pipeline.diagnose` applies th
    The hypotheses within :data:`STRONG_EVIDENCE` of it are its alternatives.
 4. **Look-alikes by rerun**, when the choice or an alternative has
    look-alikes only a rerun separates (:func:`needs_rerun_check`) and the
-   data are time histories: the least time-domain error of a rerun wins,
+   data are time histories: the least time-domain error of a rerun wins
+   (for a recording of the MuJoCo plant, the
+   :data:`~vlab.diagnose.fit.selection.MUJOCO_LOOKALIKES` best on the linear
+   plant are rerun on the MuJoCo plant and compared there: the linear
+   plant's time error holds the FE/MuJoCo model-form error, which left an
+   actuator gain and its look-alike saturation tied),
    and a pair with a nonlinear part is kept only if its rerun error is
    below :data:`PARSIMONY` times that of its nonlinear part alone
    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
