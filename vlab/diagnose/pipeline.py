@@ -625,7 +625,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             notes.append(f"the best candidate, {h.label}, explains only part of the mismatch: "
                          + (f"its validation rerun ({v.plant})" if v is not None else "on the linear model it")
                          + f" lowers the misfit {ratio_text(before, after)} ({before:.3g} -> {after:.3g}"
-                         + (f"; the measured noise alone leaves {noise:.3g}" if noise is not None else "")
+                         + (f"; the measured noise {'and the model form leave' if problem.model_form_frf else 'alone leaves'}"
+                            f" {noise:.3g}" if noise is not None else "")
                          + "), not 5 x nor to the noise: the mismatch lies outside the library; nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0

@@ -46,8 +46,10 @@ class Validation:
     time_error_before, time_error_after : float
         Relative time-domain error [1].
     noise_misfit : float
-        Expected FRF misfit [decades] of an exact model, from the measured
-        noise of the compared FRFs alone (:func:`vlab.diagnose.problem.residuals.noise_misfit`).
+        The misfit an exact model leaves [decades]: from the measured noise of the compared FRFs and, where
+        the diagnosis carries the model's own uncertainty (``problem.model_form_frf``), from that
+        uncertainty's log-magnitude variance (first order), added in quadrature
+        (:func:`vlab.diagnose.problem.residuals.noise_misfit` for the noise).
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
         FRFs of the reruns on the data's lines.
     v_before, v_after : dict
@@ -156,9 +158,13 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     target = data.h_recorded if recorded else data.h
     target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
+    floor_misfit = noise_misfit(target[mask], target_var[mask], w)
+    mf = getattr(problem, "model_form_frf", None)
+    if mf is not None and mf.sigma.size:  # an exact model is also uncertain by the model form
+        var_mag = np.sum(mf.sens[mask].real ** 2 * mf.sigma**2, axis=-1)
+        floor_misfit = float(np.hypot(floor_misfit, np.sqrt(np.sum(w * var_mag) / np.sum(w)) / np.log(10.0)))
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
-                      time_error(runs[0], data), time_error(runs[1], data),
-                      noise_misfit(target[mask], target_var[mask], w), hb, ha,
+                      time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts})
 

@@ -165,7 +165,8 @@ def markdown(res: dict) -> str:
     lines.append(f"- {what}: {_fmt(before)} -> {_fmt(after)}"
                  + (f" ({ratio_text(before, after)})" if ratio_text(before, after) else ""))
     if v.get("noise_misfit") is not None:
-        lines.append(f"- the same misfit of an exact model, from the measured noise alone: {_fmt(v['noise_misfit'])}")
+        lines.append(f"- the same misfit of an exact model, from the measured noise (and the model's own "
+                     f"uncertainty, where it is carried): {_fmt(v['noise_misfit'])}")
     if v.get("modes"):
         base = "reference" if v.get("modes_compared_with") else "nominal model"
         if v.get("modes_compared_with"):
@@ -629,7 +630,9 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         text += (f" Validation ({v.get('plant', 'model')}): misfit {_fmt(v['misfit_before'], 3)} -> "
                  f"{_fmt(v['misfit_after'], 3)} {misfit_unit(res)}, {ratio}")
         if v.get("noise_misfit") is not None:
-            text += f"; the measured noise alone leaves {_fmt(v['noise_misfit'], 3)}"
+            carried = (res.get("uncertainty") or {}).get("model_form") == "derived"
+            text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
+                     f"{_fmt(v['noise_misfit'], 3)}")
         text += "."
     thr = res.get("detection_threshold") or {}
     if thr.get("threshold") is not None:
