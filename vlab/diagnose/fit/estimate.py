@@ -258,12 +258,13 @@ def equivalent(a: Hypothesis, b: Hypothesis) -> bool:
     return pair == {"damping", "friction"} and a.location == b.location
 
 
-def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem, *, n_fit: int,
-                max_nfev: int, skip: set) -> list[Combination]:
-    """Pairs of ``kept`` (held at ``x_kept`` [SI] while screening) with each hypothesis of ``pool``: all screened,
-    the ``n_fit`` best fitted jointly. ``skip`` holds the label sets of pairs already fitted (updated)."""
+def _screen_pairs(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem,
+                  skip: set) -> list[tuple[float, np.ndarray, int]]:
+    """Pairs of ``kept`` (held at ``x_kept`` [SI]) with each hypothesis of ``pool`` screened at that one's trial
+    values (and its single fit, where it has one): ``(chi2, x, index into pool)``, best first. Pairs of ``skip``
+    (label sets), of ``kept`` with itself or with an equivalent are left out."""
     scored = []
-    for b in pool:
+    for i, b in enumerate(pool):
         if b.label == kept.label or equivalent(kept, b) or frozenset((kept.label, b.label)) in skip:
             continue
         c = Combination(first=kept, second=b)
@@ -272,14 +273,25 @@ def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], pr
             if hasattr(b, "params_"):
                 tb = np.vstack([tb, [b.params_]])
             trials = np.array([np.concatenate([x_kept, t]) for t in tb])
-            scored.append((screen(c, problem, trials)[0], c))
+            chi2, x = screen(c, problem, trials)[0]
         except (VlabError, ValueError, np.linalg.LinAlgError):
             continue
-    scored.sort(key=lambda t: t[0][0])
+        scored.append((chi2, x, i))
+    scored.sort(key=lambda t: t[0])
+    return scored
+
+
+def _fit_screened(kept: Hypothesis, scored: list, pool: list[Hypothesis], problem: Problem, *, n_fit: int,
+                  max_nfev: int, skip: set) -> list[Combination]:
+    """The ``n_fit`` best of the screened pairs ``scored`` (:func:`_screen_pairs`) fitted jointly from their
+    screened values; ``skip`` receives their label sets."""
     out: list[Combination] = []
-    for (_chi2, x), c in scored:
+    for _chi2, x, i in scored:
         if len(out) >= n_fit:
             break
+        c = Combination(first=kept, second=pool[i])
+        if frozenset((kept.label, c.parts[1].label)) in skip:
+            continue  # fitted meanwhile (screened in another process)
         if any(equivalent(c.parts[1], o.parts[1]) for o in out):
             continue  # damping and friction at one point: the same linear model, fitted once
         try:
@@ -289,6 +301,44 @@ def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], pr
         skip.add(frozenset((kept.label, c.parts[1].label)))
         out.append(c)
     return out
+
+
+def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem, *, n_fit: int,
+                max_nfev: int, skip: set) -> list[Combination]:
+    """Pairs of ``kept`` (held at ``x_kept`` [SI] while screening) with each hypothesis of ``pool``: all screened,
+    the ``n_fit`` best fitted jointly. ``skip`` holds the label sets of pairs already fitted (updated)."""
+    return _fit_screened(kept, _screen_pairs(kept, x_kept, pool, problem, skip), pool, problem, n_fit=n_fit,
+                         max_nfev=max_nfev, skip=skip)
+
+
+def _screen_job(problem: Problem, held: list, pool: list[Hypothesis], skip: set) -> list[list]:
+    """Worker of :func:`_screen_held`: :func:`_screen_pairs` of each ``(hypothesis, value)`` of ``held``."""
+    return [_screen_pairs(a, x, pool, problem, skip) for a, x in held]
+
+
+def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set, *, workers: int = 2) -> list[list]:
+    """:func:`_screen_pairs` of each ``(hypothesis, value [SI])`` of ``held`` with the whole ``pool``, the pool
+    split over ``workers`` processes (interleaved, so that each screens alike); one process where a pool
+    cannot start or the problem cannot be sent to one. Returns one screened list per held pair, indices
+    into ``pool``."""
+    if workers > 1 and len(pool) > 1:
+        import pickle
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        chunks = [pool[j::workers] for j in range(workers)]
+        try:
+            with ProcessPoolExecutor(workers) as ex:
+                parts = list(ex.map(_screen_job, [problem] * workers, [held] * workers, chunks, [skip] * workers))
+        except (OSError, BrokenProcessPool, pickle.PicklingError, AttributeError, TypeError):
+            parts = None  # no process pool here (or a problem that cannot be sent): one process
+        if parts is not None:
+            merged = []
+            for k in range(len(held)):
+                rows = [(c, x, i * workers + j) for j, part in enumerate(parts) for c, x, i in part[k]]
+                merged.append(sorted(rows, key=lambda t: t[0]))
+            return merged
+    return _screen_job(problem, held, pool, skip)
 
 
 #: Mode-moving single effects tried as the first effect of a pair besides the best single one (the
@@ -395,10 +445,10 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     if best is None or problem.within_noise(problem.state_for(best, best.params_)):
         return out
     movers = [h for h in pool if h.moves_modes and h.n_params == 1]
+    held = [(a, np.asarray(a.coarse_, dtype=float)) for a in _basin_firsts(singles, n_basin)]
     basin: list[Combination] = []
-    for a in _basin_firsts(singles, n_basin):
-        basin += _pairs_with(a, np.asarray(a.coarse_, dtype=float), movers, problem, n_fit=n_second,
-                             max_nfev=max_nfev, skip=skip)
+    for (a, _x), scored in zip(held, _screen_held(held, movers, problem, skip) if held else []):
+        basin += _fit_screened(a, scored, movers, problem, n_fit=n_second, max_nfev=max_nfev, skip=skip)
     out += basin
     top = min(basin, key=lambda c: c.bic_, default=None)
     if top is not None and top.bic_ < best.bic_:
