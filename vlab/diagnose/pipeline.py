@@ -449,6 +449,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     if replayed is not None:  # the validation's nominal rerun is the replay
         problem.__dict__.setdefault("_reruns", {})[("nominal", replay_plant, RERUN_SEED)] = replayed
     chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
+    # the hypotheses are scored on the linearly whitened residuals: the nominal model is compared with them on
+    # the same footing (its profiled chi-square, chi2_0, decides whether there is a mismatch at all)
+    r_lin = problem.residual(nominal)
+    chi2_fit = float(r_lin @ r_lin) if problem.model_form_frf is not None else chi2_0
     limit, peak_limit = problem.noise_chi2(), problem.peak_limit()
     misfit_0 = problem.misfit(nominal)
     on_plant = on_plant and isinstance(data, FrfData) and data.recording is not None
@@ -474,7 +478,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                              f"limit {stats['peak_limit']:.3g}), though within the model-error floor of "
                              f"{100 * problem.floor:g} % a line: a small change")
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
-                              None, notes=notes, misfit_nominal=misfit_0, misfit_selected=misfit_0,
+                              None, notes=notes, chi2_fit=chi2_fit, misfit_nominal=misfit_0, misfit_selected=misfit_0,
                               peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference,
                               instability=_instability(unstable, replayed, loops))
         if not mismatch:
@@ -520,7 +524,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
                 timing["pairs"] = time.perf_counter() - t
             res.ranked = ranked
-            chosen, c_hat, alts = select(ranked, chi2_0, problem.n_obs)
+            chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs)
             res.overdispersion = c_hat
             if chosen is not None and validate_run and data_has_signals(data) and \
                     any(needs_rerun_check(h) for h in [chosen] + alts):
@@ -558,7 +562,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 if not res.too_small:
                     notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
         if mismatch:
-            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         # validation
         if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
             modified, key = res.selected_state(), rerun_key(res.selected)
@@ -589,7 +593,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          "nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
-            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         osc = res.instability or {}
         if res.selected is not None and osc.get("unstable") and osc.get("in_replay") is False and \
                 not reproduces_oscillation(osc["frequency_hz"], _rerun_instability(res, loops)):
@@ -603,10 +607,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          "good without the cause); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
-            res.location.points, res.location.members = located_from_fits(res, chi2_0)
-        if res.selected is not None and not explains(res, chi2_0):
+            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+        if res.selected is not None and not explains(res, chi2_fit):
             h = res.selected
-            notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_0)[0]:.0f} % "
+            notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_fit)[0]:.0f} % "
                          "of the weighted misfit" + ("" if res.validation is None else
                                                      " and its rerun changes the FRF misfit only "
                                                      + ratio_text(res.validation.misfit_before,
@@ -614,7 +618,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
-            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         if res.selected is not None and not any(p.effect in NONLINEAR for p in res.selected_parts) and \
                 not _explains_fully(res, problem, misfit_0):
             h, v = res.selected, res.validation
@@ -631,7 +635,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
             res.outside_library = True
-            res.location.points, res.location.members = located_from_fits(res, chi2_0)
+            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
     finally:
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start

@@ -78,6 +78,9 @@ class DiagnosisResult:
     outside_library : bool
         The best effect of the library explained only part of the mismatch (rule 10 of
         :mod:`vlab.diagnose.fit.rules`) and was not selected.
+    chi2_fit : float or None
+        The nominal lab's chi-square on the footing of the fitted hypotheses (with a model form: the linearly
+        whitened residual, where ``chi2_nominal`` is its nonlinear profile); None: ``chi2_nominal``.
     within_model_accuracy : bool
         No mismatch, but only because of the model's own uncertainty (floor and model form): the nominal
         model differs from the data beyond the measurement's noise alone.
@@ -119,6 +122,7 @@ class DiagnosisResult:
     threshold: dict | None = None
     outside_library: bool = False
     within_model_accuracy: bool = False
+    chi2_fit: float | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -134,7 +138,7 @@ class DiagnosisResult:
         return self.problem.state_for(self.selected, self.selected.params_)
 
     def _entry(self, h: Hypothesis) -> dict:
-        bic0 = self.chi2_nominal
+        bic0 = self.chi2_nominal if self.chi2_fit is None else self.chi2_fit
         return {"effect": h.effect, "location": h.location, "parameters": h.parameters_dict(),
                 "ci95": h.ci95_dict(), "score": float(h.bic_), "aic": float(h.aic_), "chi2": float(h.chi2_),
                 "delta_bic": float(bic0 - h.bic_), "misfit_before": self.misfit_nominal,
