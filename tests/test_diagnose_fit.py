@@ -331,3 +331,68 @@ def test_look_alikes_tied_on_the_linear_plant_are_compared_on_the_mujoco_plant(m
     best, others, asked, notes = tie_break("mujoco")
     assert best.label == gain.label and asked == ["linear", "mujoco"]
     assert [h.label for h in others] == [sat.label] and "MuJoCo plant" in notes[-1]
+
+
+def test_a_second_effect_is_screened_over_its_coarse_scan_too():
+    """The chi-square well of a second effect that moves lightly damped modes lies between its own trial values
+    (a spring's are 3.3x apart): joint 7 softened to 23.3 N m/rad with a 400 N/m spring at the top beam's point
+    17 (linear grid, open loop) screens 3x lower over the spring's coarse scan than at its trial values alone."""
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.effects.hypotheses import Combination, SupportStiffness
+    from vlab.diagnose.fit.estimate import _screen_pairs, screen
+    from vlab.diagnose.model.labmodel import predict_frf
+
+    fe = nominal_fe_model("grid")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    truth = nominal.with_spec(specedit.add_spring(specedit.soften_joint(fe.spec, 7, 23.3), 17, "w", 400.0))
+    test = TESTS["grid"]
+    freq = np.arange(4, 201) * 0.05
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
+    data = FrfData("grid-joint-spring.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
+    problem = Problem(data, nominal, context_for(nominal, test.band_hz, data))
+    joint, spring = JointFlexibility(point=7), SupportStiffness(point=17, dof="w")
+    (chi2, x, _), = _screen_pairs(joint, np.array([23.3]), [spring], problem, set())
+    own = np.array([[23.3, t[0]] for t in spring.space(nominal, problem.ctx)[0]])
+    chi2_own, _ = screen(Combination(first=joint, second=spring), problem, own)[0]
+    assert chi2 < chi2_own / 3.0
+    assert 250.0 < x[1] < 650.0
+
+
+def test_prune_leaves_nothing_out_and_gives_the_ranking_s_estimates():
+    """The sensitivity ranking is first order: it orders (an extra trial value, ``estimate_``), it does not drop."""
+    from vlab.diagnose.effects.hypotheses import JointFlexibility, MemberStiffness
+    from vlab.diagnose.fit.rules import prune
+
+    hyps = [JointFlexibility(point=4), JointFlexibility(point=17), MemberStiffness(member="bar_11_12")]
+    sens = [{"effect": "member_stiffness", "location": {"member": "bar_11_12"}, "explained": 0.8, "estimate": 5.0}]
+    sens += [{"effect": "joint_flexibility", "location": {"point": p}, "explained": 0.01 * p, "estimate": 10.0 * p}
+             for p in range(20, 0, -1)]  # joint 4 far down the ranking
+    out = prune(hyps, sens)
+    assert [h.label for h in out] == [h.label for h in hyps]
+    assert out[2].estimate_ == 5.0 and out[1].estimate_ == 170.0  # 4th of its family
+    assert getattr(out[0], "estimate_", None) is None  # not pointed at: no extra trial, but screened
+
+
+def test_a_dashpot_or_friction_at_a_point_stops_at_the_critical_dashpot():
+    """A dashpot beyond critical for the mode it damps most holds the point still (a support, not damping): the
+    grid's top-beam point 15, 22 mm from the bearing, was given 6.1e11 N s/m (critical there: about 1.5e5)."""
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.effects.beyond_spec import critical_dashpot
+    from vlab.diagnose.effects.hypotheses import PointDamping
+    from vlab.diagnose.model.labmodel import predict_frf
+
+    fe = nominal_fe_model("grid")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    test = TESTS["grid"]
+    freq = np.arange(4, 201) * 0.05
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    h = predict_frf(nominal, freq, excitation_point=exc, output_points=outs)
+    ctx = context_for(nominal, test.band_hz, FrfData("grid.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs))
+    for p in (3, 15):
+        c_crit = critical_dashpot(nominal, ctx, p)
+        trials, lo, hi = PointDamping(point=p).space(nominal, ctx)
+        assert hi[0] <= c_crit and trials.max() <= c_crit and lo[0] < trials.min()
+        assert c_crit > 10 * ctx.point_damping[p]  # the damping the benchmark draws (<= 3x) stays inside

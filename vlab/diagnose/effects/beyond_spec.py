@@ -17,15 +17,38 @@ import numpy as np
 from ...errors import ModelError
 from ...fe import build_fe_model
 from ...units import G_SI
+from ..model.labmodel import natural_frequencies
 from . import specedit
 from .hypothesis import Hypothesis, _log_trials
+
+
+def critical_dashpot(state, ctx, point: int) -> float:
+    """The dashpot to ground at ``point`` [N*s/m] that critically damps the band's mode it damps most:
+    ``min_r 2 omega_r / phi_r(p)^2`` over the modes of ``state`` in ``ctx.band_hz`` (mass-normalised shapes).
+
+    A larger dashpot no longer damps that mode: it holds the point still, a support rather than damping. On
+    the MuJoCo grid (benchmark seed 7373, case 6) a dashpot of 6.1e11 N s/m at the top beam's point 15, next
+    to its bearing (modal mass there about 8 t), and a friction force of 39 N there stood for a spring
+    further along the beam and were selected; as damping they can only be validated on the linear plant.
+    Infinity when no mode of the band moves the point."""
+    f, _, phi = natural_frequencies(state)
+    i = state.fe.dofs.index(point, "w")
+    lo, hi = ctx.band_hz
+    band = (f >= lo) & (f <= hi)
+    if not band.any():
+        band = f > 0
+    ph2 = phi[i, band] ** 2
+    moved = ph2 > 0
+    if not moved.any():
+        return math.inf
+    return float(np.min(2 * (2 * math.pi * f[band][moved]) / ph2[moved]))
 
 
 class PointDamping(Hypothesis):
     """``damping`` at a point: a viscous dashpot to ground on the out-of-plane DOF.
 
-    Parameter: ``c_n_s_per_m`` [N*s/m] (log10). Non-proportional; added to the
-    linear model (not expressible in a spec).
+    Parameter: ``c_n_s_per_m`` [N*s/m] (log10), at most :func:`critical_dashpot`.
+    Non-proportional; added to the linear model (not expressible in a spec).
     """
 
     effect = "damping"
@@ -46,7 +69,9 @@ class PointDamping(Hypothesis):
 
     def _space(self, state, ctx):
         c = self._cref(ctx)
-        return _log_trials(c, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)), np.array([c * 1e-4]), np.array([c * 1e3])
+        hi = min(c * 1e3, critical_dashpot(state, ctx, self.point))  # beyond it: a support, not damping
+        trials = _log_trials(c, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0))
+        return np.minimum(trials, hi), np.array([min(c * 1e-4, hi * 1e-3)]), np.array([hi])
 
     def _apply(self, state, x, ctx):
         state.fe.dofs.index(self.point, "w")
@@ -65,7 +90,8 @@ class Friction(Hypothesis):
     (1963) 1706-1711), ``sigma_v`` the RMS velocity at the point: measured
     where it was recorded, else predicted with the friction in place
     (``c_eq`` and ``sigma_v`` iterated to a fixed point, as statistical
-    linearisation does). At one excitation level it fits exactly like
+    linearisation does), at most the force whose equivalent dashpot at the
+    nominal velocity level is :func:`critical_dashpot`. At one excitation level it fits exactly like
     ``damping`` at the point; a rerun with the friction force itself
     separates them (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
     """
@@ -92,8 +118,12 @@ class Friction(Hypothesis):
 
     def _space(self, state, ctx):
         c = ctx.point_damping.get(self.point, 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg)
-        f = c * self._sigma(state, ctx) * math.sqrt(math.pi / 2)
-        return _log_trials(f, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)), np.array([f * 1e-4]), np.array([f * 1e3])
+        to_force = self._sigma(state, ctx) * math.sqrt(math.pi / 2)
+        f = c * to_force
+        # at most the force whose equivalent dashpot, at the nominal velocity level, is critical (a support beyond)
+        hi = min(f * 1e3, critical_dashpot(state, ctx, self.point) * to_force)
+        trials = _log_trials(f, (0.03, 0.1, 0.3, 1.0, 3.0, 10.0))
+        return np.minimum(trials, hi), np.array([min(f * 1e-4, hi * 1e-3)]), np.array([hi])
 
     def equivalent_damping(self, state, force_n: float, ctx) -> float:
         """``c_eq`` [N*s/m] of friction force ``force_n`` [N] at the point of ``state`` (self-consistent with
