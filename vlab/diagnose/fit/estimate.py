@@ -261,10 +261,10 @@ def equivalent(a: Hypothesis, b: Hypothesis) -> bool:
 
 
 def _screen_pairs(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem,
-                  skip: set) -> list[tuple[float, np.ndarray, int]]:
+                  skip: set, coarse: bool = True) -> list[tuple[float, np.ndarray, int]]:
     """Pairs of ``kept`` (held at ``x_kept`` [SI]) with each hypothesis of ``pool`` screened at that one's trial
-    values, its coarse scan when it is a one-parameter mode-moving effect (:func:`trials_for`) and its single
-    fit, where it has one: ``(chi2, x, index into pool)``, best first. Pairs of ``skip`` (label sets), of ``kept``
+    values, its coarse scan when it is a one-parameter mode-moving effect (:func:`trials_for`; with ``coarse``)
+    and its single fit, where it has one: ``(chi2, x, index into pool)``, best first. Pairs of ``skip`` (label sets), of ``kept``
     with itself or with an equivalent are left out.
 
     The coarse scan, as for a single effect: the chi-square well of a second effect that moves lightly
@@ -281,7 +281,7 @@ def _screen_pairs(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], 
         c = Combination(first=kept, second=b)
         try:
             tb, _, _ = b.space(problem.base, problem.ctx)
-            if b.moves_modes and b.n_params == 1:  # and its coarse scan, for the narrow wells between them
+            if coarse and b.moves_modes and b.n_params == 1:  # and its coarse scan: the narrow wells between
                 tb = np.vstack([tb, trials_for(b, problem)])
             if hasattr(b, "params_"):
                 tb = np.vstack([tb, [b.params_]])
@@ -317,19 +317,21 @@ def _fit_screened(kept: Hypothesis, scored: list, pool: list[Hypothesis], proble
 
 
 def _pairs_with(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], problem: Problem, *, n_fit: int,
-                max_nfev: int, skip: set) -> list[Combination]:
-    """Pairs of ``kept`` (held at ``x_kept`` [SI] while screening) with each hypothesis of ``pool``: all screened,
-    the ``n_fit`` best fitted jointly. ``skip`` holds the label sets of pairs already fitted (updated)."""
-    return _fit_screened(kept, _screen_pairs(kept, x_kept, pool, problem, skip), pool, problem, n_fit=n_fit,
-                         max_nfev=max_nfev, skip=skip)
+                max_nfev: int, skip: set, coarse: bool = False) -> list[Combination]:
+    """Pairs of ``kept`` (held at ``x_kept`` [SI] while screening) with each hypothesis of ``pool``: all screened
+    (in two processes, :func:`_screen_held`), the ``n_fit`` best fitted jointly. ``skip`` holds the label sets
+    of pairs already fitted (updated). ``coarse``: mode-moving candidates over their coarse scan too."""
+    scored, = _screen_held([(kept, np.asarray(x_kept, dtype=float))], pool, problem, skip, coarse=coarse)
+    return _fit_screened(kept, scored, pool, problem, n_fit=n_fit, max_nfev=max_nfev, skip=skip)
 
 
-def _screen_job(problem: Problem, held: list, pool: list[Hypothesis], skip: set) -> list[list]:
+def _screen_job(problem: Problem, held: list, pool: list[Hypothesis], skip: set, coarse: bool = True) -> list[list]:
     """Worker of :func:`_screen_held`: :func:`_screen_pairs` of each ``(hypothesis, value)`` of ``held``."""
-    return [_screen_pairs(a, x, pool, problem, skip) for a, x in held]
+    return [_screen_pairs(a, x, pool, problem, skip, coarse) for a, x in held]
 
 
-def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set, *, workers: int = 2) -> list[list]:
+def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set, *, coarse: bool = True,
+                 workers: int = 2) -> list[list]:
     """:func:`_screen_pairs` of each ``(hypothesis, value [SI])`` of ``held`` with the whole ``pool``, the pool
     split over ``workers`` processes (interleaved, so that each screens alike); one process where a pool
     cannot start or the problem cannot be sent to one. Returns one screened list per held pair, indices
@@ -342,7 +344,8 @@ def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set
         chunks = [pool[j::workers] for j in range(workers)]
         try:
             with ProcessPoolExecutor(workers) as ex:
-                parts = list(ex.map(_screen_job, [problem] * workers, [held] * workers, chunks, [skip] * workers))
+                parts = list(ex.map(_screen_job, [problem] * workers, [held] * workers, chunks, [skip] * workers,
+                                    [coarse] * workers))
         except (OSError, BrokenProcessPool, pickle.PicklingError, AttributeError, TypeError):
             parts = None  # no process pool here (or a problem that cannot be sent): one process
         if parts is not None:
@@ -351,7 +354,7 @@ def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set
                 rows = [(c, x, i * workers + j) for j, part in enumerate(parts) for c, x, i in part[k]]
                 merged.append(sorted(rows, key=lambda t: t[0]))
             return merged
-    return _screen_job(problem, held, pool, skip)
+    return _screen_job(problem, held, pool, skip, coarse)
 
 
 #: Mode-moving single effects tried as the first effect of a pair besides the best single one (the
@@ -381,7 +384,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     """Pairs of effects by forward selection and sequential replacement.
 
     Forward step: with the best single effect in the model, every other
-    hypothesis is screened on top of it and the most promising pairs are
+    hypothesis is screened on top of it (a mode-moving one over its coarse
+    scan too, :func:`_screen_pairs`) and the most promising pairs are
     fitted jointly. Replacement step: each part of the best pair in turn is
     held at its fitted size while hypotheses are screened in place of the
     other part (the ``n_replace`` first of ``candidates`` and every one of the
@@ -403,7 +407,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     screened as the second (a second effect that moves no mode leaves the
     first's frequencies, hence its single fit, unbiased: the forward step
     covers it); the best of these pairs, where it beats the best so far, is
-    improved by the replacement step too. The basin step only adds pairs:
+    improved by the replacement step too (these screens at the trial values
+    alone: the coarse scan doubles a screen's cost). The basin step only adds pairs:
     what the steps before found is kept (run on the linear grid, a basin pair
     that replaced the forward step's best as the start of the replacement
     step led it away from the drawn pair that the forward path reached).
@@ -451,7 +456,7 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     skip: set = set()
     for a in firsts:
         out += _pairs_with(a, np.asarray(a.params_, dtype=float), pool, problem, n_fit=n_second,
-                           max_nfev=max_nfev, skip=skip)
+                           max_nfev=max_nfev, skip=skip, coarse=True)
     best = _replace(min(out, key=lambda c: c.bic_, default=None), pool, problem, out, n_fit=n_second,
                     max_nfev=max_nfev, skip=skip, rounds=rounds, n_replace=n_replace)
     # the basin firsts only where nothing found so far is a full explanation; a search of its own, replaced
@@ -461,7 +466,7 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     movers = [h for h in pool if h.moves_modes and h.n_params == 1]
     held = [(a, np.asarray(a.coarse_, dtype=float)) for a in _basin_firsts(singles, n_basin)]
     basin: list[Combination] = []
-    for (a, _x), scored in zip(held, _screen_held(held, movers, problem, skip) if held else []):
+    for (a, _x), scored in zip(held, _screen_held(held, movers, problem, skip, coarse=False) if held else []):
         basin += _fit_screened(a, scored, movers, problem, n_fit=n_second, max_nfev=max_nfev, skip=skip)
     out += basin
     top = min(basin, key=lambda c: c.bic_, default=None)
