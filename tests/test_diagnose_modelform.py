@@ -213,3 +213,14 @@ def test_a_stated_model_form_replaces_the_derived_one(tmp_path):
     bad.write_text(base + '\n[model_form]\nfrequency_rel = 1.5\nsource = "x"\n')
     with pytest.raises(SpecError, match="frequency_rel"):
         load_spec(str(bad))
+
+
+def test_a_malformed_plant_model_form_file_is_named(tmp_path, monkeypatch):
+    from vlab.diagnose.model import modelform
+
+    (tmp_path / "bcc.json").write_text('{"modes": [{"frequency_default_hz": 1.85}]}')
+    monkeypatch.setattr(modelform, "MODEL_FORM_DIR", tmp_path)
+    with pytest.raises(DataFileError, match="bcc.json"):
+        modelform.plant_discretisation(load_spec("bcc"), np.array([1.85]))
+    with pytest.raises(DataFileError, match="bcc.json"):
+        modelform.plant_shape_uncertainty(load_spec("bcc"), np.array([1.85]))

@@ -240,6 +240,30 @@ def damping_uncertainty(spec: StructureSpec, n: int) -> np.ndarray:
     return out
 
 
+def _nearest(ref_hz: np.ndarray, f_hz: float, tol: float = 0.03) -> int | None:
+    """Index of the entry of ``ref_hz`` nearest to ``f_hz`` in log frequency, if within ``tol`` (relative)."""
+    if np.size(ref_hz) == 0:
+        return None
+    j = int(np.argmin(np.abs(np.log(np.asarray(ref_hz) / f_hz))))
+    return j if abs(math.log(ref_hz[j] / f_hz)) < tol else None
+
+
+def _plant_table(spec: StructureSpec, column: str) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """``(frequency_default_hz, column)`` of every mode of ``assets/model_form/<name>.json`` and the file name;
+    None without the file. Raises DataFileError (naming the file) when it is malformed."""
+    path = MODEL_FORM_DIR / f"{spec.name}.json"
+    if not path.is_file():
+        return None
+    try:
+        obj = json.loads(path.read_text())
+        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
+        val = np.array([float(m[column]) for m in obj["modes"]])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DataFileError(f"{path}: malformed plant model-form file ({exc!r}): regenerate it with "
+                            f"python benchmarks/plant_model_form.py {spec.name}") from None
+    return f_d, val, path.name
+
+
 def plant_shape_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> np.ndarray | None:
     """Relative uncertainty of each mode's shape from the plant's discretisation: ``sqrt(1 - MAC)`` of the
     default plant's mode against the converged one's (``assets/model_form/<name>.json``), per mode of
@@ -261,21 +285,15 @@ def plant_shape_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> np.ndar
     ndarray, shape (n,) or None
         ``|phi_default - phi_converged| / |phi|`` to first order [1].
     """
-    path = MODEL_FORM_DIR / f"{spec.name}.json"
-    if not path.is_file():
+    table = _plant_table(spec, "mac")
+    if table is None:
         return None
-    try:
-        obj = json.loads(path.read_text())
-        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
-        mac = np.array([float(m["mac"]) for m in obj["modes"]])
-    except (ValueError, KeyError, TypeError) as exc:
-        raise DataFileError(f"{path}: malformed plant model-form file ({exc!r})") from None
+    f_d, mac, _name = table
     out = np.zeros(len(freq_hz))
     for i, f in enumerate(np.asarray(freq_hz)):
-        if f_d.size:
-            j = int(np.argmin(np.abs(np.log(f_d / f))))
-            if abs(math.log(f_d[j] / f)) < 0.03:
-                out[i] = math.sqrt(max(0.0, 1.0 - min(mac[j], 1.0)))
+        j = _nearest(f_d, f)
+        if j is not None:
+            out[i] = math.sqrt(max(0.0, 1.0 - min(mac[j], 1.0)))
     return out
 
 
@@ -301,24 +319,16 @@ def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.n
     DataFileError
         The file exists but is malformed (names the file and field).
     """
-    path = MODEL_FORM_DIR / f"{spec.name}.json"
-    if not path.is_file():
+    table = _plant_table(spec, "frequency_rel")
+    if table is None or table[0].size == 0:
         return None
-    try:
-        obj = json.loads(path.read_text())
-        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
-        rel = np.array([float(m["frequency_rel"]) for m in obj["modes"]])
-    except (ValueError, KeyError, TypeError) as exc:
-        raise DataFileError(f"{path}: malformed plant model-form file ({exc!r}): regenerate it with "
-                            f"python benchmarks/plant_model_form.py {spec.name}") from None
-    if f_d.size == 0:
-        return None
+    f_d, rel, name = table
     out = np.full(len(freq_hz), rel.max())
     for i, f in enumerate(np.asarray(freq_hz)):
-        j = int(np.argmin(np.abs(np.log(f_d / f))))
-        if abs(math.log(f_d[j] / f)) < 0.03:
+        j = _nearest(f_d, f)
+        if j is not None:
             out[i] = rel[j]
-    return out, f"the default MuJoCo plant against a converged one ({path.name}, {f_d.size} modes)"
+    return out, f"the default MuJoCo plant against a converged one ({name}, {f_d.size} modes)"
 
 
 _CACHE: dict = {}
@@ -407,8 +417,8 @@ def damping_by_frequency(unc: ModelFormUncertainty, fe_freq_hz: np.ndarray,
     z = np.full(len(freq_hz), np.inf)
     n_fe = min(len(fe), len(unc.damping_rel))
     for i, f in enumerate(np.asarray(freq_hz, dtype=float)):
-        j = int(np.argmin(np.abs(np.log(fe[:n_fe] / f))))
-        if abs(math.log(fe[j] / f)) < 0.03:
+        j = _nearest(fe[:n_fe], f)
+        if j is not None:
             z[i] = unc.damping_rel[j]
     return ModelFormUncertainty(unc.frequency_rel, z, {**unc.components, "damping": z}, unc.sources)
 
