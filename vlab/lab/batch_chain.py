@@ -236,6 +236,33 @@ class BatchChain:
 NOISE_BLOCK = 512
 
 
+def rc_step(rc, u_old, u_new, du, e_old, e_new, w_old, j_old, j_new):
+    """One physics step of the DAC hold and the RC filter (the module notes' equations).
+
+    The one implementation of that arithmetic: on arrays (N, n_act) for the
+    batch, on floats (one channel) for the single loop -- the same IEEE
+    operations in the same order, so both give the same bits.
+
+    Parameters
+    ----------
+    rc : float or ndarray
+        RC output ``y0`` at the start of the step [N].
+    u_old, u_new : float or ndarray
+        Older and newer held DAC samples [N]; ``du = u_old - u_new``.
+    e_old, e_new, w_old, j_old, j_new : float or ndarray
+        The step's coefficients (:class:`BatchChain`).
+
+    Returns
+    -------
+    (rc_end, mean)
+        RC output at the end of the step and its average over the step [N].
+    """
+    dy0 = rc - u_old
+    y1 = u_old + dy0 * e_old
+    dy1 = y1 - u_new
+    return u_new + dy1 * e_new, u_new + (du * w_old + (dy0 * j_old + dy1 * j_new))
+
+
 class ChainRun:
     """The running chain of N simulations: sensor stage and DAC/RC/amplifier stage, with their state.
 
@@ -245,9 +272,13 @@ class ChainRun:
 
     Per tick: :meth:`sense` (sensor gain, lag, noise: one array operation
     each for all N), :meth:`push` (the controller output into the DAC
-    buffer), then :meth:`force` once per physics step. A block whose
-    setting is neutral everywhere (gain 1, no limit, no lag) is skipped: its
-    operation would be exact (``x * 1.0 = x``), so skipping it changes no bit.
+    buffer), then :meth:`force` once per physics step. With N = 1,
+    :meth:`push_one` and :meth:`force_one` do the DAC/RC/amplifier stage on
+    Python floats, channel by channel (:func:`rc_step` and the same blocks,
+    the same operations: a few channels cost less as floats than as arrays).
+    A block whose setting is neutral everywhere (gain 1, no limit, no lag) is
+    skipped: its operation would be exact (``x * 1.0 = x``), so skipping it
+    changes no bit.
 
     Parameters
     ----------
@@ -297,31 +328,49 @@ class ChainRun:
         self._sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
         self._use_lag_a = bool(np.any(hw.actuator_lag > 0))
         self._use_lag_s = bool(np.any(hw.sensor_lag > 0))
+        self._sense_fb = bool(n_fb and (self._sen_gain is not None or self._use_lag_s))
         # the step coefficients of each physics step s, looked up once
         self._steps = [(hw.e_old[s], hw.e_new[s], hw.w_old[s], hw.j_old[s], hw.j_new[s]) for s in range(hw.n_sub)]
         self._u_new = self._u_old = self._du = None
+        if n == 1:  # the floats of push_one / force_one: per step s, per channel (i, m, e_old, e_new, w_old, j_old, j_new)
+            self._hist1 = [[0.0] * n_act for _ in range(hw.history)]
+            self._rc1 = [0.0] * n_act
+            self._f1 = [0.0] * n_act
+            self._lag1 = [0.0] * n_act
+            self._steps1 = [list(zip(range(n_act), hw.delay_int[0].tolist(), *(c[0].tolist() for c in st)))
+                            for st in self._steps]
+            self._post1 = (self._amp is not None or self._clip or self._act_gain is not None or self._use_lag_a)
+            self._coil1 = list(zip(hw.amp_gain[0].tolist(), hw.amp_limit_n[0].tolist(),
+                                   hw.actuator_gain[0].tolist(), hw.actuator_lag[0].tolist()))
 
-    def sense(self, v: np.ndarray, k: int) -> np.ndarray:
+    def sense(self, v: np.ndarray, k: int, out: np.ndarray | None = None) -> np.ndarray:
         """Measured signals of tick ``k`` from the velocities ``v`` (N, n_sensors) [m/s]; same shape.
 
         ``y = sensor gain x v`` (lagged) on the feedback sensors, ``+ sigma w`` on every sensor.
+        ``out`` (N, n_sensors), optional, receives them (and is returned); without it a new array.
+        With N = 1, ``v`` and ``out`` may also be of shape (n_sensors,).
         """
-        hw, n_fb = self.hw, self._n_fb
-        y = v.copy()
-        if n_fb and (self._sen_gain is not None or self._use_lag_s):
-            y_fb = v[:, :n_fb] * self._sen_gain if self._sen_gain is not None else v[:, :n_fb]
+        y = v
+        if self._sense_fb:
+            hw, n_fb = self.hw, self._n_fb
+            y = v.copy()
+            y2 = y.reshape(-1, y.shape[-1])
+            y_fb = y2[:, :n_fb] * self._sen_gain if self._sen_gain is not None else y2[:, :n_fb]
             if self._use_lag_s:
                 self._lag_sen = hw.sensor_lag * self._lag_sen + (1 - hw.sensor_lag) * y_fb
                 y_fb = self._lag_sen
-            y[:, :n_fb] = y_fb
+            y2[:, :n_fb] = y_fb
         if self._rngs is not None:
             i = k % NOISE_BLOCK
             if i == 0:
                 nb = min(NOISE_BLOCK, self._n_ticks - k)
-                self._noise = np.stack([r.standard_normal((nb, v.shape[1])) for r in self._rngs],
-                                       axis=1) * hw.noise_m_s
-            y += self._noise[i]
-        return y
+                noise = np.stack([r.standard_normal((nb, v.shape[-1])) for r in self._rngs], axis=1)
+                self._noise = (noise * self.hw.noise_m_s).reshape(nb, *v.shape)
+            return np.add(y, self._noise[i], out=out)
+        if out is None:
+            return y.copy() if y is v else y
+        out[...] = y
+        return out
 
     def push(self, u: np.ndarray) -> None:
         """Latch the controller outputs ``u`` (N, n_act) [N] of this tick into the DAC buffer."""
@@ -340,17 +389,12 @@ class ChainRun:
 
         ``excitation`` (N, n_act) [N] is added before the amplifier (Fig. 21).
         The DAC/RC step average is ``u_new + (u_old - u_new) d_old/h`` plus
-        the RC's decay terms: exactly ``u_new`` when the step holds one sample
-        and there is no filter, as ``SampleDelay.mean_over`` gives it.
+        the RC's decay terms (:func:`rc_step`): exactly ``u_new`` when the
+        step holds one sample and there is no filter, as
+        ``SampleDelay.mean_over`` gives it.
         """
         hw = self.hw
-        e_old, e_new, w_old, j_old, j_new = self._steps[s]
-        u_new, u_old = self._u_new, self._u_old
-        dy0 = self._rc - u_old
-        y1 = u_old + dy0 * e_old
-        dy1 = y1 - u_new
-        self._rc = u_new + dy1 * e_new
-        f = u_new + (self._du * w_old + (dy0 * j_old + dy1 * j_new))
+        self._rc, f = rc_step(self._rc, self._u_old, self._u_new, self._du, *self._steps[s])
         f += excitation
         if self._amp is not None:
             f *= self._amp
@@ -362,4 +406,33 @@ class ChainRun:
         if self._use_lag_a:
             self._lag_act = hw.actuator_lag * self._lag_act + (1 - hw.actuator_lag) * f
             f = self._lag_act
+        return f
+
+    def push_one(self, u: list) -> None:
+        """:meth:`push` for N = 1 on floats: ``u`` the n_act controller outputs [N] of this tick."""
+        h = self._hist1
+        h.pop()
+        h.insert(0, u)
+
+    def force_one(self, s: int, excitation: list) -> list:
+        """:meth:`force` for N = 1 on floats: the n_act coil forces [N] of physics step ``s`` (a list, reused).
+
+        ``excitation``: n_act floats [N] added before the amplifier. The same
+        operations as :meth:`force` channel by channel, so the same bits.
+        """
+        h, rc, f = self._hist1, self._rc1, self._f1
+        for i, m, e_old, e_new, w_old, j_old, j_new in self._steps1[s]:
+            u_new, u_old = h[m][i], h[m + 1][i]
+            rc[i], fi = rc_step(rc[i], u_old, u_new, u_old - u_new, e_old, e_new, w_old, j_old, j_new)
+            f[i] = fi + excitation[i]
+        if self._post1:
+            lag = self._lag1
+            for i, (amp, limit, gain, a) in enumerate(self._coil1):
+                fi = f[i] * amp if self._amp is not None else f[i]
+                fi = max(min(fi, limit), -limit) if self._clip else fi
+                fi = fi * gain if self._act_gain is not None else fi
+                if self._use_lag_a:
+                    lag[i] = a * lag[i] + (1 - a) * fi
+                    fi = lag[i]
+                f[i] = fi
         return f

@@ -218,6 +218,30 @@ class ControllerEngine:
         self._x = self.F21 @ yk + self.F22 @ self._x
         return u
 
+    def step_trusted(self, y: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """:meth:`step` without its input check, writing ``u_k`` into ``out``; for a loop that checked ``y``.
+
+        Parameters
+        ----------
+        y : ndarray, shape (n_y,)
+            Finite sensor signals [m/s] (the caller has checked them: the
+            closed loop checks every velocity it reads).
+        out : ndarray, shape (n_u,)
+            Receives ``u_k`` [N] (e.g. the loop's row of recorded commands).
+
+        Returns
+        -------
+        ndarray
+            ``out``. The same products as :meth:`step`, bit for bit; the state
+            and tick counter advance as there.
+        """
+        self.n_ticks += 1
+        if not self._x.size:
+            return np.dot(self.F11, y, out=out)
+        np.add(self.F11 @ y, self.F12 @ self._x, out=out)
+        self._x = self.F21 @ y + self.F22 @ self._x
+        return out
+
     def simulate(self, Y) -> np.ndarray:
         """Run the engine over a sequence of sensor samples.
 

@@ -67,9 +67,10 @@ class Plant(Protocol):
     -----
     Optional: a plant may also have a method ``loop_io(sensors,
     shape_points)`` that returns None or an object with ``sample()`` (the
-    velocities at ``sensors`` [m/s], shape (n_sensors,)), ``displacements()``
-    (at ``shape_points`` [m], after ``sample``) and ``drive(forces)``
-    (``set_forces`` then ``step``): the same readings and steps without
+    velocities at ``sensors`` [m/s], shape (n_sensors,)), ``displacements(out)``
+    (at ``shape_points`` [m], after ``sample``, written into ``out`` of shape
+    (n_shape,)) and ``drive(forces)`` (``set_forces`` then ``step``; ``forces``
+    a list of n_act floats [N]): the same readings and steps without
     the per-call checks, for the loop's fixed points and finite forces.
     :class:`vlab.sim.runtime.MujocoPlant` has one; without it (or when it
     returns None) the loop calls the methods above.
@@ -317,11 +318,12 @@ class _ProtocolIO:
     def sample(self) -> np.ndarray:
         return np.asarray(self._plant.velocities(self._sensors), dtype=float) if self._sensors else np.zeros(0)
 
-    def displacements(self) -> np.ndarray:
-        return self._plant.displacements(self._shape)
+    def displacements(self, out: np.ndarray) -> np.ndarray:
+        out[...] = self._plant.displacements(self._shape)
+        return out
 
-    def drive(self, forces: np.ndarray) -> None:
-        self._plant.set_forces(forces)
+    def drive(self, forces) -> None:
+        self._plant.set_forces(np.array(forces, dtype=float))
         self._plant.step()
 
 
@@ -330,6 +332,23 @@ def _plant_io(plant: Plant, sensors: tuple[int, ...], shape: tuple[int, ...]):
     own = getattr(plant, "loop_io", None)
     io = own(sensors, shape) if own is not None else None
     return io if io is not None else _ProtocolIO(plant, sensors, shape)
+
+
+def _stepper(engine: ControllerEngine | None):
+    """``f(y, out) -> out``: the engine's tick writing ``u_k`` into ``out``; None open loop.
+
+    :meth:`ControllerEngine.step_trusted` (the loop has checked ``y``), unless a
+    subclass overrides ``step``: then that ``step``, as the loop always called it.
+    """
+    if engine is None:
+        return None
+    if type(engine).step is ControllerEngine.step:
+        return engine.step_trusted
+
+    def step(y, out):
+        out[...] = engine.step(y)
+        return out
+    return step
 
 
 def run_loop(
@@ -411,8 +430,12 @@ def run_loop(
     -----
     Source: Fig. 21, Sec. 5.3 (chain), Eq. (5.1) (engine). Per tick the loop
     reads the sensors, runs :meth:`ChainRun.sense <vlab.lab.batch_chain.ChainRun.sense>`,
-    the engine's ``step``, :meth:`ChainRun.push <vlab.lab.batch_chain.ChainRun.push>`
-    and, per physics step, :meth:`ChainRun.force <vlab.lab.batch_chain.ChainRun.force>`
+    the engine's :meth:`~vlab.lab.engine.ControllerEngine.step_trusted` (its ``step``
+    without the input check: the loop checked the velocities; a subclass that
+    overrides ``step`` is called through it), :meth:`ChainRun.push_one
+    <vlab.lab.batch_chain.ChainRun.push_one>` and, per physics step,
+    :meth:`ChainRun.force_one <vlab.lab.batch_chain.ChainRun.force_one>` (the
+    chain's arithmetic on floats, the same operations as the batch's arrays)
     and the plant's step; the time per tick against MuJoCo's own loop is in
     docs/batch_speed.txt (``benchmarks/batch_speed.py``).
     """
@@ -457,34 +480,33 @@ def run_loop(
     ys = np.zeros((n_ticks, len(sensors)))  # every sensor's signal; the measured points' columns are recorded
     disp = np.zeros((n_ticks, len(shape)))
     cmds = np.zeros((n_ticks, n_act))
-    u_open = np.zeros((1, n_act))
-    e_vec = np.zeros((1, n_act))
+    u_open = [0.0] * n_act
+    e_list = [0.0] * n_act
+    exc_list = exc.tolist()
     report_every = max(1, n_ticks // 100)
+    sample, drive, step_u = io.sample, io.drive, _stepper(engine)
+    sense, push, force = run.sense, run.push_one, run.force_one
+    subs, dot = range(n_sub), np.dot
     done = n_ticks
     failure: SimulationError | None = None
-    for k in range(n_ticks):
-        v = io.sample()
+    for k, y, e_k, u_k, z_k in zip(range(n_ticks), ys, exc_list, cmds, disp):  # rows of the records
+        v = sample()
         # diverged: a velocity above 1e3 m/s or NaN; |v|^2 <= 1e6 rules both out with one product
-        if not v @ v <= 1e6 and not np.abs(v).max(initial=0.0) <= 1e3:
+        if not dot(v, v) <= 1e6 and not np.abs(v).max(initial=0.0) <= 1e3:
             failure = SimulationError(
                 f"simulation diverged at t = {k * period:.4f} s (velocity {np.max(np.abs(v)):.3g} m/s at "
                 f"points {sensors}): controller unstable on this plant or timestep too large"
             )
             done = k
             break
-        y = run.sense(v[None], k)
-        ys[k] = y[0]
+        sense(v, k, y)
         if shape:
-            disp[k] = io.displacements()
-        if engine is not None:
-            u = engine.step(y[0, :n_fb])
-            cmds[k] = u
-            run.push(u[None])
-        else:
-            run.push(u_open)
-        e_vec[0, exc_ch] = exc[k]
-        for s in range(n_sub):
-            io.drive(run.force(s, e_vec)[0])
+            io.displacements(z_k)
+        # the loop checked v, so y is finite: the engine's own input check is not repeated
+        push(step_u(y[:n_fb], u_k).tolist() if step_u is not None else u_open)
+        e_list[exc_ch] = e_k
+        for s in subs:
+            drive(force(s, e_list))
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
 

@@ -579,6 +579,10 @@ class MujocoPlant:
         return self.data.site_xpos[ids, 2] - self._z0[ids]
 
 
+# looked up once, not per physics step (LoopIO)
+_step1, _step2, _dot, _multiply, _negative = mujoco.mj_step1, mujoco.mj_step2, np.dot, np.multiply, np.negative
+
+
 class LoopIO:
     """The closed loop's access to a :class:`MujocoPlant`, one physics step at a time, without per-call checks.
 
@@ -587,7 +591,7 @@ class LoopIO:
     :func:`vlab.lab.loop.run_loop`::
 
         v = io.sample()          # mj_step1: positions, velocities and sensors at t_k; the sensors' rows
-        z = io.displacements()   # site z minus settled z at the shape points, at t_k
+        io.displacements(z)      # site z minus settled z at the shape points, at t_k, into z
         io.drive(f)              # coil forces, modal damping, mj_step2: the tick's first physics step
         io.drive(f)              # any further step of the tick: modal damping + mj_step
 
@@ -618,8 +622,15 @@ class LoopIO:
         self._site_z = d.site_xpos[:, 2]
         sites = np.array([plant._sites[p] for p in shape_points], dtype=int)
         self._sites, self._z0 = sites, plant._z0[sites]
-        self._ctrl, self._act_ids, self._qvel = d.ctrl, plant._act_ids, d.qvel
-        self._damping = plant.modal_damping
+        ids = plant._act_ids
+        contiguous = ids.size and np.array_equal(ids, np.arange(ids[0], ids[0] + ids.size))
+        self._act_ids = slice(int(ids[0]), int(ids[0]) + ids.size) if contiguous else ids  # a slice writes faster
+        self._ctrl, self._qvel = d.ctrl, d.qvel
+        damping = plant.modal_damping
+        # the modal damping's products a @ (c * (a.T @ qvel)) (ModalDamping.apply) into buffers made once
+        self._damping = None if damping is None else (damping.A, damping.A.T, damping.c, np.empty(damping.c.shape),
+                                                      np.empty(d.qvel.shape), d.qfrc_applied)
+        self._warning = plant._warning
         self._half = False  # mj_step1 done, mj_step2 pending
 
     def sample(self) -> np.ndarray:
@@ -628,34 +639,41 @@ class LoopIO:
         Runs ``mj_step1`` (position and velocity stages, their sensors) at
         the current state; the next :meth:`drive` completes that step.
         """
-        mujoco.mj_step1(self._model, self._data)
+        _step1(self._model, self._data)
         self._half = True
         self._plant._fresh = True
         return self._sensordata[self._rows]
 
-    def displacements(self) -> np.ndarray:
-        """Displacements [m] from the settled state at the shape points, shape (n_shape,), at the last sample."""
-        return self._site_z[self._sites] - self._z0
+    def displacements(self, out: np.ndarray | None = None) -> np.ndarray:
+        """Displacements [m] from the settled state at the shape points, shape (n_shape,), at the last sample.
 
-    def drive(self, forces: np.ndarray) -> None:
-        """Hold the coil forces ``forces`` [N], shape (n_act,), finite, over one physics step and take it.
+        ``out`` (n_shape,), optional, receives them (e.g. the loop's row of recorded displacements).
+        """
+        return np.subtract(self._site_z[self._sites], self._z0, out=out)
+
+    def drive(self, forces) -> None:
+        """Hold the coil forces ``forces`` [N] (n_act finite values, array or list) over one physics step and take it.
 
         Raises
         ------
         SimulationError
             The plant diverged (as :meth:`MujocoPlant.step`).
         """
-        m, d = self._model, self._data
         self._ctrl[self._act_ids] = forces
-        if self._damping is not None:
-            self._damping.apply(d)
+        if self._damping is not None:  # ModalDamping.apply's operations, bit for bit, without temporaries
+            a, at, c, modal, gen, qfrc = self._damping
+            _dot(at, self._qvel, modal)
+            _multiply(c, modal, modal)
+            _negative(_dot(a, modal, gen), qfrc)
         if self._half:
-            mujoco.mj_step2(m, d)
+            _step2(self._model, self._data)
             self._half = False
         else:
-            mujoco.mj_step(m, d)
+            mujoco.mj_step(self._model, self._data)
         self._plant._fresh = False
-        self._plant._check_step(self._qvel)
+        qvel = self._qvel
+        if self._warning.number or not math.isfinite(qvel[0] + qvel[-1]):  # MujocoPlant._check_step's test
+            self._plant._check_step(qvel)
 
 
 def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = None, actuators=None,
