@@ -45,6 +45,8 @@ from .damping import load_modal_damping
 from .linearize import settle
 from .runtime import MujocoPlant, _numbered, sensor_rows
 
+_VEL, _NONE = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE)
+
 #: Fields whose change needs ``mj_setConst`` (masses and inertias feed the derived constants).
 _SETCONST_FIELDS = frozenset(getattr(mujoco.MjModel, "_setconst_inputs", ()))
 
@@ -171,9 +173,9 @@ class MujocoBatchPlant:
                 b.set_const()
             refs = [settle(b.get_model(i)).qpos.copy() for i in range(n)]
         self._qpos_ref = (np.tile(plant._ref.qpos, (n, 1)) if refs is None else np.array(refs))
-        self._damping = self._stack_damping(dampings)
         self._qpos = b.bind("qpos")
         self._qvel = b.bind("qvel")
+        self._damping = self._stack_damping(dampings)
         self._ctrl = b.bind("ctrl")
         self._qfrc = b.bind("qfrc_applied")
         self._time = b.bind("time")
@@ -183,6 +185,9 @@ class MujocoBatchPlant:
         coils = _numbered(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "coil")
         self._act_ids = np.array([coils[p] for p in self.actuator_points], dtype=int)
         self._ctrl_shape = (n, self._act_ids.size)
+        ids = self._act_ids
+        contiguous = ids.size and np.array_equal(ids, np.arange(ids[0], ids[0] + ids.size))
+        self._act_cols = slice(int(ids[0]), int(ids[0]) + ids.size) if contiguous else ids  # a slice writes faster
         self._sites = _numbered(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite, "p")
         self._site_xpos = b.bind("site_xpos") if sample_sites else None
         self.alive = np.ones(n, dtype=bool)
@@ -198,7 +203,10 @@ class MujocoBatchPlant:
             a, c = dampings[0].A[None], dampings[0].c[None]  # broadcast over the simulations
         else:
             a, c = np.array([d.A for d in dampings]), np.array([d.c for d in dampings])
-        return a, a.transpose(0, 2, 1), c[:, :, None]
+        # (A, A^T, c, qvel as (N, nv, 1), buffers of the modal (N, n_damped, 1) and generalized (N, nv, 1) forces)
+        qvel = self._qvel[:, :, None]
+        return (a, a.transpose(0, 2, 1), c[:, :, None], qvel, np.empty((self.n_sim, a.shape[2], 1)),
+                np.empty(qvel.shape))
 
     def reset(self) -> None:
         """Every simulation back to its settled state at rest, time 0, forces 0 (and all alive)."""
@@ -225,7 +233,7 @@ class MujocoBatchPlant:
         f = np.asarray(forces, dtype=float)
         if f.shape != self._ctrl_shape:
             raise SimulationError(f"set_forces: expected shape ({self.n_sim}, {self._act_ids.size}), got {f.shape}")
-        self._ctrl[:, self._act_ids] = f
+        self._ctrl[:, self._act_cols] = f
 
     def step(self, *, sample: bool) -> None:
         """One physics step of every live simulation, with the applied modal damping set first.
@@ -237,12 +245,12 @@ class MujocoBatchPlant:
             state: the step ends a controller period.
         """
         if self._damping is not None:
-            a, at, c = self._damping
-            # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (c * (a.T @ qvel))
-            mv = np.matmul(at, self._qvel[:, :, None])
-            np.negative(np.matmul(a, c * mv)[:, :, 0], out=self._qfrc)
-        stage = int(mujoco.mjtStage.mjSTAGE_VEL) if sample else int(mujoco.mjtStage.mjSTAGE_NONE)
-        self.batch.step(ids=self._ids, stage=stage)
+            a, at, c, qvel, modal, gen = self._damping
+            # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (c * (a.T @ qvel)), into buffers
+            np.matmul(at, qvel, out=modal)
+            np.multiply(c, modal, out=modal)
+            np.negative(np.matmul(a, modal, out=gen)[:, :, 0], out=self._qfrc)
+        self.batch.step(ids=self._ids, stage=_VEL if sample else _NONE)
 
     def velocities(self, points) -> np.ndarray:
         """Out-of-plane velocities [m/s] from the ``vel<ID>`` sensors, shape (N, len(points)).
