@@ -32,7 +32,9 @@ tests/test_loop_reference.py).
 
 This is the one implementation of the chain's arithmetic: the batched loop
 runs it for N simulations and the single loop (:func:`vlab.lab.loop.run_loop`)
-with N = 1.
+with N = 1, where the DAC/RC/amplifier stage runs on Python floats channel by
+channel (:func:`rc_step` serves both: the same operations, the same bits; a
+few channels cost less as floats than as arrays).
 
 Source: Sec. 5.3 and Fig. 21 (PC-1000 delay 1.35 periods, 677 Hz RC filter,
 controlled-current amplifier); the blocks of :mod:`vlab.lab.blocks`.
@@ -315,7 +317,8 @@ class ChainRun:
                 raise ModelError(f"sensor noise: seed must be an int, got {bad[0]!r}")
             self._rngs = [np.random.default_rng(int(s)) for s in seeds]
         self._noise = None
-        self._hist = np.zeros((hw.history, n, n_act))          # _hist[i] = u[k - i]
+        self._hist = np.zeros((hw.history, n, n_act))          # ring of the last u: u[k] at k mod history
+        self._tick = 0
         self._uniform = bool(np.all(hw.delay_int == hw.delay_int.flat[0]))
         self._m0 = int(hw.delay_int.flat[0])
         self._gather = (np.arange(n)[:, None], np.arange(n_act)[None, :])
@@ -374,15 +377,15 @@ class ChainRun:
 
     def push(self, u: np.ndarray) -> None:
         """Latch the controller outputs ``u`` (N, n_act) [N] of this tick into the DAC buffer."""
-        h = self._hist
-        h[1:] = h[:-1]
-        h[0] = u
+        h, t, n_h = self._hist, self._tick, len(self._hist)
+        h[t % n_h] = u  # a ring: u[k - i] is at (k - i) mod history
         if self._uniform:
-            self._u_new, self._u_old = h[self._m0], h[self._m0 + 1]
+            self._u_new, self._u_old = h[(t - self._m0) % n_h], h[(t - self._m0 - 1) % n_h]
         else:
             m = self.hw.delay_int
-            self._u_new, self._u_old = h[(m, *self._gather)], h[(m + 1, *self._gather)]
+            self._u_new, self._u_old = h[((t - m) % n_h, *self._gather)], h[((t - m - 1) % n_h, *self._gather)]
         self._du = self._u_old - self._u_new
+        self._tick = t + 1
 
     def force(self, s: int, excitation: np.ndarray) -> np.ndarray:
         """Coil forces [N], shape (N, n_act), held over physics step ``s`` of the tick.
