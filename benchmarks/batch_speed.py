@@ -6,6 +6,8 @@ machine's speed (and its load) cancels in the ratios:
 * ``C loop mj_step``     -- ``mujoco.mj_step(m, d, nstep=n)``, one thread: the ceiling of one simulation;
 * ``C rollout N=16``     -- ``mujoco.rollout.rollout`` of 16 open-loop copies on ``--threads`` threads
   (aggregate): the ceiling of the machine;
+* ``mujoco.batch step N=16`` -- ``Batch.step(stage=mjSTAGE_VEL)`` once per physics step on a 16-simulation
+  batch with no controller, no damping and no Python work between the steps: the ceiling of the batched loop;
 * ``Python mj_step + damping`` -- a bare Python loop of the plant's own work per tick (the applied
   modal damping of :mod:`vlab.sim.damping` and ``mj_step``): the floor of any Python loop on this plant;
 * ``vlab run_loop``      -- the single 2 kHz closed loop (:func:`vlab.lab.loop.run_loop` on
@@ -63,6 +65,16 @@ BATCH_SIZES = (1, 4, 16, 64)
 def _rss_bytes() -> int:
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _autogroup() -> str:
+    """This process's scheduler autogroup and its nice (Linux): with autogroups on, a process's own nice
+    does not rank it against other sessions' processes, so the batch's second thread may get no core."""
+    try:
+        with open("/proc/self/autogroup") as f:
+            return f.read().strip()
+    except OSError:
+        return "n/a"
 
 
 def _best(fn, repeats: int) -> float:
@@ -145,6 +157,16 @@ def main(argv=None) -> int:
     ctrl = np.random.default_rng(0).standard_normal((n_roll, n_steps, m.nu)) * 0.1
     t = _best(lambda: mujoco.rollout.rollout(m, datas, np.tile(state0, (n_roll, 1)), ctrl), a.repeats)
     rows.append((f"C rollout N={n_roll} ({a.threads} threads), aggregate", n_roll * n_steps * h / t))
+    bare = MujocoBatchPlant(sim, n_roll, nthread=a.threads).batch
+    vel_stage = int(mujoco.mjtStage.mjSTAGE_VEL)
+
+    def batch_steps():
+        for _ in range(n_steps):
+            bare.step(stage=vel_stage)
+
+    rows.append((f"mujoco.batch step N={n_roll} ({a.threads} threads), aggregate",
+                 n_roll * n_steps * h / _best(batch_steps, a.repeats)))
+    del bare
 
     if sim.modal_damping is not None:
         def plant_only():
@@ -180,6 +202,7 @@ def main(argv=None) -> int:
     lines = [
         f"batch_speed.py  {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC  "
         f"{platform.node()}  {os.cpu_count()} CPUs  load average {os.getloadavg()[0]:.2f}  mujoco {mujoco.__version__}",
+        f"process nice {os.nice(0)}, scheduler autogroup: {_autogroup()}",
         f"BCC plant: nv = {m.nv}, physics step {h * 1e3:g} ms, controller period {PERIOD_S * 1e3:g} ms; "
         f"{a.seconds:g} s simulated per simulation; MFDRF with the full PC-1000 chain + noise; best of {a.repeats}",
         *([f"baseline tree: {a.baseline}"] if a.baseline else []),
