@@ -175,9 +175,9 @@ class MujocoBatchPlant:
         self._qpos_ref = (np.tile(plant._ref.qpos, (n, 1)) if refs is None else np.array(refs))
         self._qpos = b.bind("qpos")
         self._qvel = b.bind("qvel")
-        self._damping = self._stack_damping(dampings)
         self._ctrl = b.bind("ctrl")
         self._qfrc = b.bind("qfrc_applied")
+        self._damping = self._stack_damping(dampings)
         self._time = b.bind("time")
         self._sensordata = b.bind("sensordata")
         self._rows = sensor_rows(m)
@@ -201,10 +201,10 @@ class MujocoBatchPlant:
             a, c = dampings[0].A[None], dampings[0].c[None]  # broadcast over the simulations
         else:
             a, c = np.array([d.A for d in dampings]), np.array([d.c for d in dampings])
-        # (A, A^T, c, qvel as (N, nv, 1), buffers of the modal (N, n_damped, 1) and generalized (N, nv, 1) forces)
-        qvel = self._qvel[:, :, None]
-        return (a, a.transpose(0, 2, 1), c[:, :, None], qvel, np.empty((self.n_sim, a.shape[2], 1)),
-                np.empty(qvel.shape))
+        # (A, A^T, -c, qvel and qfrc_applied as (N, nv, 1), the modal forces' buffer (N, n_damped, 1)); -c: the
+        # damping force -A (c * (A^T qvel)) as A (-c * (A^T qvel)), the same numbers (negation is exact)
+        return (a, a.transpose(0, 2, 1), -c[:, :, None], self._qvel[:, :, None], np.empty((self.n_sim, a.shape[2], 1)),
+                self._qfrc[:, :, None])
 
     def reset(self) -> None:
         """Every simulation back to its settled state at rest, time 0, forces 0 (and all alive)."""
@@ -243,11 +243,11 @@ class MujocoBatchPlant:
             state: the step ends a controller period.
         """
         if self._damping is not None:
-            a, at, c, qvel, modal, gen = self._damping
-            # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (c * (a.T @ qvel)), into buffers
+            a, at, neg_c, qvel, modal, qfrc = self._damping
+            # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (-c * (a.T @ qvel)), into buffers
             np.matmul(at, qvel, out=modal)
-            np.multiply(c, modal, out=modal)
-            np.negative(np.matmul(a, modal, out=gen)[:, :, 0], out=self._qfrc)
+            np.multiply(neg_c, modal, out=modal)
+            np.matmul(a, modal, out=qfrc)
         self.batch.step(ids=self._ids, stage=_VEL if sample else _NONE)
 
     def velocities(self, points) -> np.ndarray:

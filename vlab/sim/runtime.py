@@ -591,7 +591,7 @@ def as_slice(ids: np.ndarray):
 
 
 # looked up once, not per physics step (LoopIO)
-_step1, _step2, _dot, _multiply, _negative = mujoco.mj_step1, mujoco.mj_step2, np.dot, np.multiply, np.negative
+_step1, _step2, _dot, _multiply = mujoco.mj_step1, mujoco.mj_step2, np.dot, np.multiply
 
 
 class LoopIO:
@@ -636,9 +636,10 @@ class LoopIO:
         self._act_ids = as_slice(plant._act_ids)
         self._ctrl, self._qvel = d.ctrl, d.qvel
         damping = plant.modal_damping
-        # the modal damping's products a @ (c * (a.T @ qvel)) (ModalDamping.apply) into buffers made once
-        self._damping = None if damping is None else (damping.A, damping.A.T, damping.c, np.empty(damping.c.shape),
-                                                      np.empty(d.qvel.shape), d.qfrc_applied)
+        # ModalDamping.apply's -(a @ (c * (a.T @ qvel))) as a @ (-c * (a.T @ qvel)), into buffers made once: the
+        # same numbers (negating a factor negates every product and sum exactly; only a zero's sign may differ)
+        self._damping = None if damping is None else (damping.A, damping.A.T, -damping.c, np.empty(damping.c.shape),
+                                                      d.qfrc_applied)
         self._warning = plant._warning
         self._half = False  # mj_step1 done, mj_step2 pending
 
@@ -669,11 +670,11 @@ class LoopIO:
             The plant diverged (as :meth:`MujocoPlant.step`).
         """
         self._ctrl[self._act_ids] = forces
-        if self._damping is not None:  # ModalDamping.apply's operations, bit for bit, without temporaries
-            a, at, c, modal, gen, qfrc = self._damping
+        if self._damping is not None:  # ModalDamping.apply's force, without temporaries
+            a, at, neg_c, modal, qfrc = self._damping
             _dot(at, self._qvel, modal)
-            _multiply(c, modal, modal)
-            _negative(_dot(a, modal, gen), qfrc)
+            _multiply(neg_c, modal, modal)
+            _dot(a, modal, qfrc)
         if self._half:
             _step2(self._model, self._data)
             self._half = False
