@@ -93,7 +93,7 @@ def test_rerun_window_is_one_guard_period_before_the_analysed_part():
     assert rerun_window(data, dt, None) == ((3 - GUARD_PERIODS) * n_per, n_per, None)  # to the end
     one = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                   analysed_from_s=GUARD_PERIODS * n_per * dt)
-    assert rerun_window(one, dt) == (0, 0, (1 + RERUN_PERIODS) * n_per)  # nothing to skip: from rest
+    assert rerun_window(one, dt) == (0, 0, None)  # nothing to skip: from rest, through every analysed period
     h1 = FrfData("x", "recording", lines, np.ones((20, 1)), np.ones((20, 1)), 9, (9,), recording=rec,
                  analysed_from_s=3 * n_per * dt, periodic=False)
     assert rerun_window(h1, dt) == (0, 0, None)  # H1 with a window over the whole record: from rest

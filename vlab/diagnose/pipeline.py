@@ -585,13 +585,16 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             v, h = res.validation, res.selected
             res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": v.misfit_before,
                                  "misfit_after": v.misfit_after, "time_error_before": v.time_error_before,
-                                 "time_error_after": v.time_error_after, "noise_misfit": v.noise_misfit})
+                                 "time_error_after": v.time_error_after, "noise_misfit": v.noise_misfit,
+                                 "reason": "its validation rerun makes the fit worse"})
             notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
                          f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
                          f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
-                         f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}); "
-                         "nothing is selected")
+                         f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}): "
+                         "the library's best does not explain the mismatch, which lies outside the library; nothing "
+                         "is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+            res.outside_library = True  # issue 24 item 5: a library effect that does not fit is never the answer
             res.misfit_selected = misfit_0
             res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         osc = res.instability or {}

@@ -11,11 +11,14 @@ mac
     MAC matrix, COMAC, mode pairing.
 instability
     Self-excited oscillations and growth in a recording (the loop went unstable).
+transient
+    Transient removal for periodic excitation (local polynomial method).
 """
 
 from .frf import FRF, h1, measure_frfs
 from .instability import InstabilityCheck, find_instability
 from .mac import comac, mac, pair_modes
+from .transient import PeriodicSpectra, periodic_spectra
 from .modal import (average_peak_error, decay_damping, find_peaks, fit_modes, half_power_damping,
                     peak_level_ratios, peak_levels)
 
@@ -23,4 +26,5 @@ __all__ = [
     "FRF", "h1", "measure_frfs", "mac", "comac", "pair_modes", "find_peaks",
     "half_power_damping", "fit_modes", "decay_damping", "peak_levels",
     "peak_level_ratios", "average_peak_error", "find_instability", "InstabilityCheck",
+    "periodic_spectra", "PeriodicSpectra",
 ]

@@ -195,7 +195,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     -------
     reference : FrfData
         The replay's FRFs on the data's lines, shape (n_f, n_o), zero variance
-        (a noise-free simulation).
+        (a noise-free simulation); ``same_transient`` when it ran from rest through the recording's periods.
     rec : Recording
         The replay (to be reused as the validation's nominal rerun).
     kind : str
@@ -234,7 +234,8 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
                           period=period, stop=stop)
     h = frf_of(run, data)
     ref = replace(data, source=f"the nominal {kind}'s replay of the recorded force", h=h, var=np.zeros(h.shape),
-                  recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None)
+                  recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None,
+                  var_steady=None, same_transient=bool(data.periodic and start == 0 and not period))
     return ref, run, kind
 
 

@@ -30,6 +30,7 @@ from ...lab.linear_plant import LinearPlant
 from ...lab.loop import run_loop
 from ...lab.recording import Recording
 from ...measure.frf import h1
+from ...measure.transient import periodic_spectra
 from ..model.labmodel import LabState
 from .measured import FrfData
 from .warmstart import rerun_window, warm_start
@@ -220,7 +221,9 @@ def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
 
 
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
-    """FRFs of the rerun ``rec`` on the lines of ``data``, the same periods analysed, shape (n_f, n_o)."""
+    """FRFs of the rerun ``rec`` on the lines of ``data``, the same periods analysed, shape (n_f, n_o); periodic
+    excitation over two or more periods: the transient removed as for the recording
+    (:func:`vlab.measure.transient.periodic_spectra`)."""
     dt = rec.dt_s
     f0 = data.freq_hz
     df = float(np.min(np.diff(f0)))  # the lines are multiples of the resolution
@@ -238,11 +241,10 @@ def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
     x = x[: m * n_per].reshape(m, n_per)
     k = np.rint(f0 / df).astype(int)
     X = np.fft.rfft(x, axis=1)[:, k]
-    out = np.empty((f0.size, len(data.output_points)), dtype=complex)
-    for j, p in enumerate(data.output_points):
-        y = np.asarray(rec[f"vel{p}"])[start:start + m * n_per].reshape(m, n_per)
-        out[:, j] = np.mean(np.fft.rfft(y, axis=1)[:, k] / X, axis=0)
-    return out
+    ys = [np.asarray(rec[f"vel{p}"])[start:start + m * n_per] for p in data.output_points]
+    if m >= 2:  # the estimator of the recording (vlab.diagnose.data.measured): what is left of a transient removed
+        return periodic_spectra(np.stack(ys, axis=1), n_per, k).y / X.mean(axis=0)[:, None]
+    return np.stack([np.mean(np.fft.rfft(y.reshape(m, n_per), axis=1)[:, k] / X, axis=0) for y in ys], axis=1)
 
 
 def time_error(rec: Recording, data: FrfData) -> float:

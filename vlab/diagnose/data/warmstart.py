@@ -116,7 +116,8 @@ def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS
                  guard_s: float | None = None) -> tuple[int, int, int | None]:
     """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
     the analysed part where the test is periodic (:func:`start_tick`; else from
-    rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None: the whole record).
+    rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None, or a rerun from
+    rest: the whole record).
 
     Parameters
     ----------
@@ -132,7 +133,8 @@ def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS
     k0 = start_tick(data, dt_s, guard_s)
     n_per = period_ticks(data, dt_s) if data.periodic else 0
     stop = None
-    if periods is not None and n_per:
+    if periods is not None and n_per and k0:  # from rest: through every analysed period, as the recording's
+        # transient is removed over all of them (vlab.measure.transient), so is the rerun's
         stop = int(round(data.analysed_from_s / dt_s)) + periods * n_per
     return (k0, n_per if k0 else 0, stop)
 

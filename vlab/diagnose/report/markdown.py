@@ -596,9 +596,17 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         return text + (f" A change{where}, beyond the noise but within the model's accuracy "
                        f"({100 * s.get('floor', 0.005):g} % a line): too small to name.")
     if not sel and res.get("outside_library"):
-        part = [r for r in res.get("rejected") or [] if r.get("reason") == "explains only part of the mismatch"]
-        best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
-                f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x)") if part else ""
+        part = [r for r in res.get("rejected") or [] if r.get("reason") in (
+            "explains only part of the mismatch", "its validation rerun makes the fit worse")]
+        best = ""
+        if part and part[-1]["reason"].startswith("explains"):
+            best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
+                    f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x)")
+        elif part:
+            r = part[-1]
+            best = (f" (the best, {r['label']}, fails its validation rerun: FRF misfit "
+                    f"{ratio_text(r['misfit_before'], r['misfit_after'])}, time-domain error "
+                    f"{ratio_text(r['time_error_before'], r['time_error_after'])})")
         where = _where_text(res)
         return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
                        f"it{best}.{where}")
