@@ -46,13 +46,13 @@ def test_thresholds_are_positive_and_below_the_range(mass_threshold):
     assert all(x.threshold is None or x.threshold > 0 for x in det.thresholds)
 
 
-def _diagnosed(tmp_path, spec, t, factor: float, seed: int) -> dict:
-    """The diagnosis of a linear-plant recording (open loop) with ``factor`` x the threshold mass at point 6."""
+def _diagnosed(tmp_path, spec, t, factor: float, seed: int, point: int = 6) -> dict:
+    """The diagnosis of a linear-plant recording (open loop) with ``factor`` x the threshold mass at ``point``."""
     fe = build_fe_model(spec)
     chain = default_chain("none", noise_m_s=1e-6)
     nominal = LabState(spec, fe, replace(chain, noise_m_s=0.0), None)
     ctx = context_for(nominal, (0.5, 25.0), None)
-    (h,) = [x for x in library(nominal, ctx, effects=("added_mass",)) if x.location == {"point": 6}]
+    (h,) = [x for x in library(nominal, ctx, effects=("added_mass",)) if x.location == {"point": point}]
     state = h.apply(nominal, np.array([t.scaled(factor)]), ctx)
     cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", chain=chain, seed=seed)
     meta = {"structure": "bcc", "controller": "none", "seed": 0, "plant": "linear FE model"}
@@ -79,7 +79,7 @@ def test_three_times_the_threshold_is_named(tmp_path, mass_threshold):
 
 
 def test_cli_prints_json_with_units_in_the_keys():
-    res = runner.invoke(app, ["detectability", "bcc", "--effect", "actuator_gain", "--json"])
+    res = runner.invoke(app, ["detectability", "bcc", "--effect", "actuator_gain", "--no-naming", "--json"])
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)
     assert d["structure"] == "bcc" and d["noise_m_s"] == 1e-6
@@ -130,3 +130,39 @@ def test_the_models_own_uncertainty_raises_the_thresholds():
     own = {repr(t.location): t.threshold for t in detectability("bcc", "none", model_form="none", **kw).thresholds}
     both = [k for k in real if real[k] is not None and own.get(k) is not None]
     assert both and all(real[k] >= own[k] * (1 - 1e-6) for k in both) and any(real[k] > 1.1 * own[k] for k in both)
+
+
+def test_look_alike_gap_is_the_projection_residual():
+    """First-order gap of naming (vlab.diagnose.naming): the chi-square left after the best non-negative
+    multiple of each look-alike's direction, checked against the closed form on three vectors."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.naming import _Directions
+
+    d = object.__new__(_Directions)
+    d.hyps = [SimpleNamespace(label=x) for x in ("a", "b", "self")]
+    d.matrix = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -2.0], [1.0, 1.0, 1.0]])
+    d.norm2 = np.sum(d.matrix**2, axis=1)
+    v = np.array([3.0, 4.0, 1.0])
+    g = d.gaps(v, "self")
+    assert g[0] == pytest.approx(17.0)  # 26 - 3^2
+    assert g[1] == pytest.approx(26.0)  # pointing away: a >= 0 cannot use it
+    assert g[2] == np.inf
+
+
+def test_naming_threshold_is_at_or_above_detection_and_names_the_effect(tmp_path):
+    """Naming thresholds of added masses among masses, supports and joints (a restricted pool, so only a lower
+    bound of the full library's), then checked on a noisy linear-plant recording at twice the naming threshold:
+    the diagnosis selects the mass where it is."""
+    spec = load_spec("bcc")
+    det = detectability(spec, "none", effects=("added_mass",), model_form="none", naming=True,
+                        look_alikes=("added_mass", "support_stiffness", "joint_flexibility"))
+    ts = [t for t in det.thresholds if t.threshold is not None]
+    assert ts and all(t.named_at is None or t.named_at >= t.threshold * (1 - 1e-12) for t in ts)
+    assert all(t.look_alike is not None for t in ts)
+    (t,) = det.of("added_mass", {"point": 3})
+    assert t.named_at is not None and t.look_alike_chi2 >= 10.0
+    named = replace(t, threshold=t.named_at)
+    d = _diagnosed(tmp_path, spec, named, 2.0, 74, point=3)
+    (sel,) = d["selected"]
+    assert sel["effect"] == "added_mass" and sel["location"] == {"point": 3}

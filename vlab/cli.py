@@ -919,10 +919,13 @@ def detectability(
                            help="derived: thresholds of a real measurement, within the model's own uncertainty "
                                 "(calibration residual, plant discretisation); none: of a recording made by the "
                                 "model itself"),
+    naming: bool = typer.Option(True, "--naming/--no-naming",
+                                help="also the smallest size at which the diagnosis names the effect among its "
+                                     "look-alikes (every one-parameter effect of the library; minutes)"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
-    """Smallest size of each effect of the library, at each location, that the diagnosis's mismatch test detects."""
+    """Smallest size of each effect of the library, at each location, that the diagnosis detects and names."""
     import json
     import math
     from contextlib import nullcontext
@@ -946,7 +949,7 @@ def detectability(
     with err_console.status("detectability: recording the nominal test and searching the thresholds",
                             spinner="dots") if out_fmt == "table" else nullcontext():
         res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed,
-                  model_form=model_form)
+                  model_form=model_form, naming=naming)
     d = res.as_dict()
     if out_path is not None:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:
@@ -963,10 +966,15 @@ def detectability(
                      "parameter": f"{q} [{unit}]" if unit else q,
                      "null": "limit" if t.null is None else f"{t.null:.4g}",
                      "threshold": "not detected in range" if t.threshold is None else f"{t.threshold:.3g}",
-                     "change_pct": rel, "test": t.by or ""})
+                     "change_pct": rel, "test": t.by or "",
+                     "named": ("" if not naming else "not named in range" if t.named_at is None
+                               else f"{t.named_at:.3g}"),
+                     "look_alike": (f"{t.look_alike} ({t.look_alike_chi2:.3g})" if t.look_alike else "")})
     cols = [Column("effect", "effect"), Column("location", "location"), Column("parameter", "parameter [unit]"),
             Column("null", "null value"), Column("threshold", "threshold"),
             Column("change_pct", "change [%]", "+.3g"), Column("test", "found by")]
+    if naming:
+        cols += [Column("named", "named from"), Column("look_alike", "closest look-alike (chi2)")]
     _print_rows(out_fmt, rows, cols, f"{spec.title}, {controller.value}: smallest detectable size of each effect "
                                        f"(noise {noise:g} m/s; chi2 limit {res.chi2_limit:.4g}, "
                                        f"N = {res.n_obs})")

@@ -54,6 +54,9 @@ report
     readable formatting; ``figures``.
 pipeline
     :func:`diagnose`.
+detectability, naming
+    Beside the pipeline (``vlab detectability``): the smallest size of each effect the diagnosis detects
+    (``detectability``) and names among its look-alikes (``naming``) in the lab's nominal test.
 """
 
 from .effects.hypotheses import EFFECTS, Hypothesis, library

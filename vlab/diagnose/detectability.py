@@ -20,7 +20,8 @@ noise and the FE model's own small errors contribute) and the limits those of th
 reaches its limit, found on a grid of 24 sizes geometric in the distance from the null value (from
 1e-7 of the range to its bound) and refined by bisection: at the threshold a recording is called a mismatch about half the time; well below it, rarely;
 well above it, nearly always. It is a threshold of *detection*; naming the effect among its look-alikes
-needs more (the BIC rule, :func:`vlab.diagnose.fit.rules.select`), which is not computed here.
+needs more (the BIC rule, :func:`vlab.diagnose.fit.rules.select`): ``naming=True`` adds the naming
+thresholds of :mod:`vlab.diagnose.naming`.
 
 Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
 pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.
@@ -80,6 +81,13 @@ class Threshold:
         The end of the range searched towards [SI].
     by : str or None
         Which test detects it first: ``"chi2"`` (the total) or ``"peak"`` (one line), None if undetected.
+    named_at : float or None
+        Smallest size [SI] at which the diagnosis names it among its look-alikes (:mod:`vlab.diagnose.naming`);
+        None when not computed or not named within the range (see ``look_alike``).
+    look_alike : str or None
+        The look-alike that comes closest there (or at the largest size tried); None when not computed.
+    look_alike_chi2 : float or None
+        The chi-square that look-alike leaves [1] (named when >= 10).
     """
 
     effect: str
@@ -89,6 +97,9 @@ class Threshold:
     threshold: float | None
     bound: float
     by: str | None
+    named_at: float | None = None
+    look_alike: str | None = None
+    look_alike_chi2: float | None = None
 
     def scaled(self, factor: float) -> float:
         """The parameter value [SI] of ``factor`` times the threshold's effect.
@@ -112,7 +123,9 @@ class Threshold:
     def as_dict(self) -> dict:
         """JSON-ready dict (the parameter name carries the unit)."""
         return {"effect": self.effect, "location": self.location, "parameter": self.parameter,
-                "null": self.null, "threshold": self.threshold, "bound": self.bound, "detected_by": self.by}
+                "null": self.null, "threshold": self.threshold, "bound": self.bound, "detected_by": self.by,
+                "naming_threshold": self.named_at, "closest_look_alike": self.look_alike,
+                "closest_look_alike_chi2": self.look_alike_chi2}
 
 
 @dataclass(frozen=True)
@@ -386,7 +399,8 @@ def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: 
 
 def detectability(structure: str | StructureSpec = "bcc", controller: str = "none", *,
                   effects: tuple[str, ...] | None = None, noise_m_s: float = 1e-6, seed: int = 0,
-                  floor: float = 0.005, model_form: str = "derived", progress=None) -> Detectability:
+                  floor: float = 0.005, model_form: str = "derived", naming: bool = False,
+                  look_alikes: tuple[str, ...] | None = None, progress=None) -> Detectability:
     """Detection thresholds of the library's one-parameter effects for the lab's test of ``structure``.
 
     Parameters
@@ -407,6 +421,12 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         "derived" (default): the thresholds of a real measurement, compared through the plant's replay
         within the model-form uncertainty of :mod:`vlab.diagnose.model.modelform` (calibration residual
         and the plant's discretisation); "none": of a recording made by the model itself.
+    naming : bool
+        Also the naming thresholds (:mod:`vlab.diagnose.naming`): the detection thresholds of every
+        look-alike are needed, so the whole library's are computed (minutes).
+    look_alikes : tuple of str, optional
+        The effects that count as look-alikes for naming (default: every one-parameter effect of the
+        library; fewer only for a quick check -- the thresholds are then lower bounds).
     progress : callable, optional
         Called with a short string per stage.
 
@@ -444,8 +464,29 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
             skipped.append(h.label)
             continue
         out.extend(_thresholds(tester, h))
+    if naming:
+        out = _with_naming(tester, hyps, out, look_alikes, say)
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
                          float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped), model_form)
+
+
+def _with_naming(tester: _Test, hyps: list, out: list, look_alikes, say) -> list:
+    """``out`` with the naming thresholds (:mod:`vlab.diagnose.naming`); the look-alikes' detection thresholds
+    are computed where ``out`` lacks them."""
+    from .naming import _Directions, naming_threshold
+
+    pool = [h for h in library(tester.nominal, tester.ctx, effects=look_alikes) if h.n_params == 1]
+    have = {h.label for h in hyps}
+    say(f"naming among {len(pool)} look-alikes")
+    extra = [t for h in pool if h.label not in have for t in _thresholds(tester, h)]
+    directions = _Directions(tester, pool + [h for h in hyps if h.label not in {x.label for x in pool}],
+                             out + extra)
+    named = []
+    for t in out:
+        h = next(x for x in hyps if x.effect == t.effect and x.location == t.location)
+        n = naming_threshold(directions, h, t)
+        named.append(replace(t, named_at=n.threshold, look_alike=n.look_alike, look_alike_chi2=n.gap_chi2))
+    return named
 
 
 def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "added_mass"):
