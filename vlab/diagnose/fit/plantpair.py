@@ -47,6 +47,7 @@ import numpy as np
 
 from ...errors import ModelError, SpecError, VlabError
 from ..effects.hypothesis import Combination, Hypothesis
+from ..problem.nuisance import within_model_accuracy
 from ..problem.residuals import Problem
 from .estimate import fit_pairs, rank
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
@@ -154,7 +155,11 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
     chi-square and largest single residual), which ``chosen`` alone did not,
     or lowers the misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
-    (the pair rule of :func:`vlab.diagnose.fit.rules.select`).
+    (the pair rule of :func:`vlab.diagnose.fit.rules.select`). Data compared within the model's own
+    uncertainty (``model_form_frf``) are not searched when ``chosen`` leaves only what its modes'
+    model form allows (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: a large effect moves
+    lightly damped modes, and the plant it is modelled on moves them a little differently from the
+    real structure, a difference a second effect would otherwise absorb).
 
     A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
     friction) is left alone: its linear model is a describing function, so
@@ -219,6 +224,10 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         single_chi2, single_peak = plant.chi2(single), plant.peak(single)
         if plant.within_noise(single):
             return chosen, refit, [], None
+        if plant.model_form_frf is not None and within_model_accuracy(plant, single):
+            return chosen, refit, [], (f"{chosen.label} leaves on the MuJoCo plant's linearisation only what its "
+                                       "modes' own model-form uncertainty allows (their frequencies, damping and "
+                                       "shapes moved within it): no second effect searched")
         referred = referred_through(model, chosen, chosen.params_, x_plant)
     except (ModelError, SpecError):
         return chosen, refit, [], None

@@ -44,7 +44,7 @@ from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
-from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty, perturbed_modes
+from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
@@ -388,11 +388,7 @@ class Problem:
         return np.where(np.isfinite(r), r, PENALTY)
 
     def _frf_residual(self, hm: np.ndarray) -> np.ndarray:
-        ratio = hm[self.mask] / self.data.h[self.mask]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            re = np.log(np.abs(ratio)) / self.part_sigma
-            r = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
-        r = np.where(np.isfinite(r), r, PENALTY)
+        r = self.log_residual(hm[self.mask])
         w = getattr(self, "_whiten", None)
         if w is not None:
             u, c = w
@@ -439,9 +435,11 @@ class Problem:
         """
         if not self._profiles(self.base):
             return None
+        from .nuisance import nuisance_limit
+
         _r, x = self.nominal_profile()
         k = len(x)
-        lim = float(safety * scipy.stats.chi2.ppf(quantile, k))
+        lim = nuisance_limit(k, quantile=quantile, safety=safety)
         j = int(np.argmax(np.abs(x)))
         c2 = float(x @ x)
         return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
@@ -471,40 +469,29 @@ class Problem:
         if self._profile is not None:
             return self._profile
         from ..model.labmodel import PointModes
+        from .nuisance import profile
 
-        mf = self.model_form_frf
         base = self.base
         d: FrfData = self.data
-        pm0 = mf.modes
+        pm0 = self.model_form_frf.modes
         if pm0 is None:
             fr, zeta, phi = natural_frequencies(base)
             pts = tuple(dict.fromkeys(tuple(d.output_points) + base.actuators))
             pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float), phi[base.fe.dofs.indices(pts, "w"), :],
                              pts, "the nominal FE model")
-        which = []
-        for lab in mf.labels:
-            kind = "phi" if lab.startswith("phi") else "zeta" if lab.startswith("zeta") else "f"
-            head, _, pt = lab[len(kind):].partition("@")
-            which.append((kind, int(head) - 1, pm0.points.index(int(pt)) if pt else None))
         # the nominal prediction changed as the perturbed modes change theirs
-        h_base = self.predict(base)[self.mask]
-        h_ref = self.predict(replace(base, point_modes=pm0))[self.mask]
-
-        def plain(x: np.ndarray) -> np.ndarray:
-            pm = pm0
-            for (kind, r, j), s, xi in zip(which, mf.sigma, x):
-                pm = perturbed_modes(pm, kind, r, j, s * xi)
-            st = replace(base, point_modes=pm)
-            ratio = h_base * (self.predict(st)[self.mask] / h_ref) / d.h[self.mask]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                re = np.log(np.abs(ratio)) / self.part_sigma
-                rr = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
-            return np.where(np.isfinite(rr), rr, PENALTY)
-
-        sol = scipy.optimize.least_squares(lambda x: np.concatenate([plain(x), x]), np.zeros(len(which)),
-                                           method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=60 * len(which))
-        self._profile = (plain(sol.x), np.asarray(sol.x, dtype=float))
+        scale = self.predict(base)[self.mask] / self.predict(replace(base, point_modes=pm0))[self.mask]
+        self._profile = profile(self, base, pm0, scale)
         return self._profile
+
+    def log_residual(self, h_used: np.ndarray) -> np.ndarray:
+        """Residual of predicted FRFs ``h_used`` (the used lines and channels, shape (n_used,)) weighted by the
+        noise and the floor alone, not whitened by the model form, shape (n_obs,)."""
+        ratio = h_used / self.data.h[self.mask]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            re = np.log(np.abs(ratio)) / self.part_sigma
+            rr = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
+        return np.where(np.isfinite(rr), rr, PENALTY)
 
     def _smoother(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Kernel ``W`` (n_f, n_f), its masked row sums (n_f, n_o) and the smoothed data (n_f, n_o), cached."""
@@ -571,7 +558,11 @@ class Problem:
         ``re^2 + im^2`` of one line and channel (chi-square with 2 degrees of freedom under noise, 1 without
         phase), for modal data the largest squared residual. A local mismatch (one resonance of a
         top-beam segment) can stand far out of the noise while adding little to the total chi-square."""
-        r = self.nominal_profile()[0] if self._profiles(state) else self.residual(state)
+        return self.peak_of(self.nominal_profile()[0] if self._profiles(state) else self.residual(state))
+
+    def peak_of(self, r: np.ndarray) -> float:
+        """Largest squared residual of one observation in the residual vector ``r`` (shape (n_obs,)): of one
+        line and channel, real and imaginary parts together, for FRF data with phase (see :meth:`peak`)."""
         if isinstance(self.data, FrfData) and self.use_phase:
             n = r.size // 2
             r2 = r[:n] ** 2 + r[n:] ** 2

@@ -1,0 +1,144 @@
+"""The model-form parameters profiled out: a lab's modes moved within their model-form uncertainty.
+
+A lab state is compared with FRF data within the model's own uncertainty
+(issue 24, item 1) by letting each uncertain modal parameter of
+:class:`vlab.diagnose.model.modelform.FrfModelForm` (a mode's frequency,
+damping ratio, or shape at a point) move, in units ``x_k`` of its standard
+uncertainty, to where the data put it, at the cost ``|x|^2``::
+
+    min_x |r(x)|^2 + |x|^2
+
+with ``r`` the residual weighted by the noise and the floor alone (not
+whitened). Under the null hypothesis the minimum is about chi-square with N
+degrees of freedom and ``|x|^2`` about chi-square with k. The nominal lab's
+decision uses it (:meth:`vlab.diagnose.problem.residuals.Problem.nominal_profile`),
+and so does the question whether a selected effect leaves more than its own
+model form (:func:`within_model_accuracy`): an effect that moves a lightly
+damped mode leaves, at that mode's peak, a difference between the plant it was
+modelled on and the real structure that first order does not reach.
+
+Source: profile likelihood with the nuisance parameters as Gaussian priors
+(Kennedy & O'Hagan, J. R. Stat. Soc. B 63 (2001) 425-464); nonlinear least
+squares: scipy.optimize.least_squares (trust-region reflective).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+from ..model.labmodel import LabState, PointModes
+from ..model.modelform import FrfModelForm, perturbed_modes
+
+#: Evaluations of the profile per parameter at most.
+NFEV_PER_PARAMETER = 60
+
+
+def parameters(mf: FrfModelForm, pm: PointModes) -> list[tuple[str, int | None, int | None]]:
+    """``(kind, mode index in pm, point row)`` of each parameter of ``mf``, its mode paired with the mode of
+    ``pm`` nearest in frequency to the one ``mf`` perturbs (None where ``pm`` has no mode within 20 %, or not
+    the point).
+
+    Parameters
+    ----------
+    mf : FrfModelForm
+        Labels ``f<r>``, ``zeta<r>``, ``phi<r>@<point>`` (mode numbers of ``mf.modes``).
+    pm : PointModes
+        The modes to move (``mf.modes`` itself, or those of a modified lab).
+
+    Returns
+    -------
+    list of (str, int or None, int or None)
+    """
+    ref = mf.modes.omega if mf.modes is not None else pm.omega
+    out = []
+    for lab in mf.labels:
+        kind = "phi" if lab.startswith("phi") else "zeta" if lab.startswith("zeta") else "f"
+        head, _, pt = lab[len(kind):].partition("@")
+        r0 = int(head) - 1
+        r = None
+        if r0 < len(ref) and len(pm.omega):
+            i = int(np.argmin(np.abs(np.log(np.maximum(pm.omega, 1e-300) / ref[r0]))))
+            r = i if abs(np.log(pm.omega[i] / ref[r0])) <= np.log(1.2) else None
+        j = None
+        if pt:
+            j = pm.points.index(int(pt)) if int(pt) in pm.points else None
+            r = r if j is not None else None
+        out.append((kind, r, j))
+    return out
+
+
+def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.ndarray, np.ndarray]:
+    """``state`` with its modes ``pm0`` moved within the model form of ``problem`` to fit its data (module notes).
+
+    Parameters
+    ----------
+    problem : Problem
+        FRF data with ``model_form_frf``; its unwhitened residual (:meth:`Problem.log_residual`) is used.
+    state : LabState
+        The lab whose modes move.
+    pm0 : PointModes
+        Its modes (``state.point_modes``, or the reference modes the model form was derived on).
+    scale : ndarray, complex, shape (n_used,), optional
+        Multiplies the prediction on the used lines (the nominal lab: its FE prediction over the prediction
+        with ``pm0``, so that the moves change it as they change the reference's).
+
+    Returns
+    -------
+    r : ndarray, shape (n_obs,)
+        The residual at the optimum (not whitened).
+    x : ndarray, shape (k,)
+        The parameters' values in units of their standard uncertainty (0 for a parameter without a mode).
+    """
+    mf = problem.model_form_frf
+    which = parameters(mf, pm0)
+    mask = problem.mask
+    live = [i for i, (_k, r, _j) in enumerate(which) if r is not None]
+
+    def plain(xl: np.ndarray) -> np.ndarray:
+        pm = pm0
+        for i, xi in zip(live, xl):
+            kind, r, j = which[i]
+            pm = perturbed_modes(pm, kind, r, j, mf.sigma[i] * xi)
+        h = problem.predict(replace(state, point_modes=pm))[mask]
+        return problem.log_residual(h if scale is None else scale * h)
+
+    x = np.zeros(len(which))
+    if not live:
+        return plain(np.zeros(0)), x
+    sol = scipy.optimize.least_squares(lambda xl: np.concatenate([plain(xl), xl]), np.zeros(len(live)),
+                                       method="trf", x_scale=1.0, diff_step=1e-3,
+                                       max_nfev=NFEV_PER_PARAMETER * len(live))
+    x[live] = sol.x
+    return plain(sol.x), x
+
+
+def nuisance_limit(k: int, *, quantile: float = 0.999, safety: float = 1.2) -> float:
+    """Largest ``|x|^2`` of ``k`` profiled parameters under the null: ``safety * chi2.ppf(quantile, k)``."""
+    return float(safety * scipy.stats.chi2.ppf(quantile, max(k, 1)))
+
+
+def within_model_accuracy(problem, state: LabState) -> bool:
+    """Whether ``state`` explains ``problem``'s data within the noise and the model's own uncertainty: after
+    its modes (``state.point_modes``) are moved within their model form (:func:`profile`), the chi-square and
+    the largest line are within the problem's limits and the moves within :func:`nuisance_limit`.
+
+    Parameters
+    ----------
+    problem : Problem
+        FRF data; without ``model_form_frf`` this is :meth:`Problem.within_noise`.
+    state : LabState
+
+    Returns
+    -------
+    bool
+    """
+    if problem.model_form_frf is None or problem.model_form_frf.sigma.size == 0 or state.point_modes is None:
+        return problem.within_noise(state)
+    k = sum(r is not None for _kind, r, _j in parameters(problem.model_form_frf, state.point_modes))
+    r, x = profile(problem, state, state.point_modes)
+    return (float(r @ r + x @ x) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
+            and float(x @ x) <= nuisance_limit(k))
