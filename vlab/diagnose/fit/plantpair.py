@@ -153,7 +153,8 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     at the same level of refit; the best of them replaces ``chosen`` only if it beats it there by
     :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and either leaves
     the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
-    chi-square and largest single residual), which ``chosen`` alone did not,
+    chi-square and largest single residual; with a model form carried, or within the model's accuracy,
+    :func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), which ``chosen`` alone did not,
     or lowers the misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
     (the pair rule of :func:`vlab.diagnose.fit.rules.select`). Data compared within the model's own
     uncertainty (``model_form_frf``) are not searched when ``chosen`` leaves only what its modes'
@@ -263,7 +264,9 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     ev = evidence(PlantScore(r.chi2, best.n_params), PlantScore(single_chi2, k), chi2_0=math.inf, n_obs=n_obs,
                   c_hat=c_hat)
     pair_state = model.state(best, r.params)
-    inside = plant.within_noise(pair_state)
+    # within the noise -- or, for data compared within the model's own uncertainty, within that too
+    inside = plant.within_noise(pair_state) or (plant.model_form_frf is not None
+                                                and within_model_accuracy(plant, pair_state))
     gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
     if passes_pair_rule(ev, gain, inside):
         looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < STRONG_EVIDENCE]
@@ -271,6 +274,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "
                                        f"misfit gain {gain:.3g}) passes the pair rule and is selected")
     why = (f"quasi-BIC evidence {ev:.3g} < {STRONG_EVIDENCE:g}" if ev < STRONG_EVIDENCE else
-           f"misfit gain {gain:.3g} < {PAIR_MISFIT_GAIN:g} and the data not within the noise")
+           f"misfit gain {gain:.3g} < {PAIR_MISFIT_GAIN:g} and the data not within the noise"
+           + (" nor the model's accuracy" if plant.model_form_frf is not None else ""))
     return chosen, refit, [], (head + f"; the best, {best.label} (chi-square {r.chi2:.4g} refitted), fails the "
                                f"pair rule ({why}): the single effect stays")
