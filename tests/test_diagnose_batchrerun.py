@@ -93,6 +93,14 @@ def test_value_only_candidates_are_one_batch_bit_for_bit(controller, periodic):
         assert _same(ref, r)
 
 
+def test_a_pair_goes_to_processes_by_default():
+    """Two reruns: processes unless asked (BATCH_MIN_RERUNS = 3, measured: a pair is no faster as a batch)."""
+    lab = _lab("mfdrf")
+    p = _Problem(_data(lab))
+    reruns(p, [(st, None) for st in _value_only(lab)[:2]], "mujoco", seed=4)
+    assert last_reruns_note(p) == "2 mujoco reruns in 2 processes"
+
+
 def test_a_new_geom_falls_back_to_the_single_path():
     """An added mass is a geom of its own: its model's MjData differs in size, so the pair (nominal, mass)
     cannot share a batch -- both are rerun the single way, with the same recordings, and the note says why."""
@@ -102,7 +110,7 @@ def test_a_new_geom_falls_back_to_the_single_path():
     k0, k1 = (batch_key(st, mujoco_plant(st, PTS), PTS) for st in (lab, mass))
     assert why_apart(k0, k1) == "model sizes differ (ngeom 37 vs 38)"
     p = _Problem(data)
-    got = reruns(p, [(lab, "nominal"), (mass, "mass")], "mujoco", seed=4, workers=1)
+    got = reruns(p, [(lab, "nominal"), (mass, "mass")], "mujoco", seed=4, workers=1, batch=True)
     assert last_reruns_note(p) == "2 mujoco reruns one after another (model sizes differ (ngeom 37 vs 38))"
     for st, r in zip((lab, mass), got):
         assert _same(_single(st, data, 4), r)

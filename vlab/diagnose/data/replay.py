@@ -42,6 +42,14 @@ from .warmstart import rerun_window, warm_start
 #: (tests/test_diagnose_batchrerun.py); the speed of each way is printed by benchmarks/rerun_batch_speed.py.
 BATCH_RERUNS = True
 
+#: Fewest reruns :func:`reruns` makes as one batch by default. Measured side by side
+#: (benchmarks/rerun_batch_speed.py, docs/rerun_batch_speed.txt: BCC MFDRF, 27.6 s reruns, 2 cores, load
+#: average 2.0-3.2, nice -10): processes / batch wall time 0.92 for K = 2, 1.05 for K = 3, 1.14 for K = 4
+#: (a second run: 0.90, 1.04, 1.14). The batched loop on one
+#: thread costs about 15 us per tick and simulation at N = 2, 11 at N = 4, against the single loop's
+#: 13.5, while two processes can use the second core when it is free; so a pair goes to processes.
+BATCH_MIN_RERUNS = 3
+
 #: Fewest simulations for which the batch steps on more than one thread: a step of one BCC plant takes
 #: about 6 us, and handing a step to a second thread cost 50-100 us per call on the 2-core machine with
 #: other jobs running (benchmarks/rerun_batch_speed.py), so a few reruns step on one thread.
@@ -504,9 +512,10 @@ def stop_background(problem) -> None:
 def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
-    Several MuJoCo reruns whose plants differ only in values (the same sizes
-    of everything ``MjData`` holds: stiffness, damping, chain and controller
-    gains; not an added mass, a new geom) run as one ``mujoco.batch``
+    Several MuJoCo reruns (:data:`BATCH_MIN_RERUNS` or more, see ``batch``)
+    whose plants differ only in values (the same sizes of everything
+    ``MjData`` holds: stiffness, damping, chain and controller gains; not an
+    added mass, a new geom) run as one ``mujoco.batch``
     (:mod:`vlab.diagnose.data.batchrerun`), bit for bit the reruns made one
     by one; the others, and every linear rerun, run in parallel processes.
     :func:`last_reruns_note` says which way they went.
@@ -527,8 +536,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         one of ``jobs`` is made while it finishes (background reruns already
         finished are collected first and hold none).
     batch : bool, optional
-        Run MuJoCo reruns that can share a batch as one (default
-        :data:`BATCH_RERUNS`); False: processes only.
+        True: run MuJoCo reruns that can share a batch as one (two or more);
+        False: processes only; None (default): as one batch when
+        :data:`BATCH_RERUNS` and at least :data:`BATCH_MIN_RERUNS` are to be made.
 
     Returns
     -------
@@ -550,7 +560,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
             if k is None or ((k, plant, seed) not in cache and (k, plant, seed) not in pending)]
     workers = max(1, workers - len(pending))  # a background rerun holds a core
     how, apart, how_rest = "", "", "one after another"
-    if (BATCH_RERUNS if batch is None else batch) and plant == "mujoco" and len(todo) > 1:
+    if batch is None:
+        batch = BATCH_RERUNS and len(todo) >= BATCH_MIN_RERUNS
+    if batch and plant == "mujoco" and len(todo) > 1:
         out, how, apart = _batched(todo, force, data, seed, window, workers)
     rest = [(i, st) for i, st in todo if i not in out]
     if workers > 1 and len(rest) > 1:

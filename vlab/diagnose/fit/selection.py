@@ -158,9 +158,10 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     The reruns (the recorded force played back,
     :func:`vlab.diagnose.data.replay.reruns`: the linear plant, and the MuJoCo
     plant for the parsimony check with ``plant="mujoco"``) run in parallel
-    processes; MuJoCo reruns of candidates whose plants differ only in values
-    (stiffness, damping, gains; not an added mass, a geom of its own) run as
-    one ``mujoco.batch``, the same recordings (the note says which way). A
+    processes; three or more MuJoCo reruns of candidates whose plants differ
+    only in values (stiffness, damping, gains; not an added mass, a geom of
+    its own) run as one ``mujoco.batch``, the same recordings (the note says
+    which way; :data:`vlab.diagnose.data.replay.BATCH_MIN_RERUNS`). A
     MuJoCo rerun that fails leaves the check to the linear reruns, and the
     note says why.
 
