@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import ModelError, VlabError
 from ..lab.recording import Recording
 from .data.measured import FrfData
-from .data.replay import frf_of, reruns, time_error
+from .data.replay import frf_of, last_reruns_note, reruns, time_error
 from .model.labmodel import LabState
 from .problem.residuals import log_misfit, noise_misfit
 
@@ -145,8 +145,9 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         note = f" (MuJoCo plant failed: {exc}; fell back to the linear plant)"
         kind = "linear"
         runs = both(kind)
+    how = last_reruns_note(problem)  # both reruns made here: one mujoco.batch, or processes (and why)
     desc = ("linear FE plant" if kind == "linear" else "MuJoCo plant" if base.mjcf is None
-            else f"MuJoCo plant of {base.mjcf}") + note
+            else f"MuJoCo plant of {base.mjcf}") + note + (f" ({how})" if how and kind == "mujoco" else "")
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask
     w = problem.weight_mag[mask]

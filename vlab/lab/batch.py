@@ -225,6 +225,7 @@ def run_batch(
     chain: HardwareChain | list = HardwareChain(),
     seeds=0,
     shape_points: tuple[int, ...] = (),
+    initial_states: np.ndarray | None = None,
 ) -> BatchResult:
     """Run N closed loops for ``duration_s`` on a batch plant and record them at the controller rate.
 
@@ -250,6 +251,10 @@ def run_batch(
         one per sensor per tick, feedback sensors first).
     shape_points : tuple of int
         Points whose displacement is sampled (needs a plant with ``sample_sites``).
+    initial_states : ndarray, shape (N, n_x), optional
+        Controller states ``x_0`` of Eq. (5.1) per simulation (default zeros), e.g.
+        the states a warm start left in each :class:`vlab.lab.engine.ControllerEngine`
+        (``engine.state``), which :func:`vlab.lab.loop.run_loop` starts from.
 
     Returns
     -------
@@ -260,7 +265,8 @@ def run_batch(
     ModelError
         As :func:`run_loop` (step not dividing the period, excitation point
         not an actuator, run shorter than two periods, wrong excitation shape,
-        engine sizes not matching), and a wrong number of chains, engines or seeds.
+        engine sizes not matching), and a wrong number of chains, engines or seeds,
+        or ``initial_states`` of the wrong shape, non-finite, or given open loop.
     """
     n = plant.n_sim
     chains = for_each(chain, n)
@@ -301,6 +307,12 @@ def run_batch(
     cmds = np.zeros((n_ticks, n, n_act))
     y_buf = np.zeros((n, n_sens))
     x = np.zeros((n, ctl.f22.shape[1])) if ctl is not None else None
+    if initial_states is not None:
+        x0 = np.asarray(initial_states, dtype=float)
+        if x is None or x0.shape != x.shape or not np.all(np.isfinite(x0)):
+            raise ModelError(f"initial_states: expected finite controller states of shape "
+                             f"{None if x is None else x.shape}, found {x0.shape}")
+        x = x0.copy()
     dynamic = ctl is not None and ctl.f22.shape[1] > 0
     e_mat = np.zeros((n, n_act))
     exc_t = np.ascontiguousarray(exc.T)

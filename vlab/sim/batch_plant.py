@@ -220,6 +220,45 @@ class MujocoBatchPlant:
         self.alive[:] = True
         self._ids = None
 
+    def set_state(self, qpos: np.ndarray, qvel: np.ndarray) -> None:
+        """Every simulation reset (time 0, forces 0, all alive) and then put at its own joint state.
+
+        What :meth:`vlab.sim.runtime.MujocoPlant.set_periodic_state` leaves in one
+        ``MjData`` -- a reset, the joint positions and velocities written, the
+        stages computed (``mj_forward``) -- done per simulation, so that a
+        warm-started run continues as the single plant would: copy each single
+        plant's ``data.qpos`` and ``data.qvel`` here. The displacements of
+        :meth:`displacements` stay measured from each settled state.
+
+        Parameters
+        ----------
+        qpos : ndarray, shape (N, nq)
+            Joint positions (hinge angles [rad]).
+        qvel : ndarray, shape (N, nv)
+            Joint velocities [rad/s].
+
+        Raises
+        ------
+        SimulationError
+            Wrong shapes or non-finite values.
+
+        Source: the ``mujoco.batch.Batch.reset`` docstring (``stage=mjSTAGE_NONE``
+        followed by writes to the state and ``forward()``).
+        """
+        qp, qv = np.asarray(qpos, dtype=float), np.asarray(qvel, dtype=float)
+        if qp.shape != self._qpos.shape or qv.shape != self._qvel.shape:
+            raise SimulationError(f"set_state: expected qpos {self._qpos.shape} and qvel {self._qvel.shape}, "
+                                  f"got {qp.shape} and {qv.shape}")
+        if not (np.all(np.isfinite(qp)) and np.all(np.isfinite(qv))):
+            raise SimulationError("set_state: non-finite joint state")
+        self.reset()  # the settled sites' heights (displacements' zero), all alive
+        self.batch.reset(stage=_NONE)
+        self._qpos[:] = qp
+        self._qvel[:] = qv
+        self._ctrl[:] = 0.0
+        self._qfrc[:] = 0.0
+        self.batch.forward()
+
     def set_forces(self, forces: np.ndarray) -> None:
         """Coil forces [N] along world +z, shape (N, n_act), order :attr:`actuator_points`.
 

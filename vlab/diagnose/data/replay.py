@@ -15,8 +15,9 @@ The same replay gives the reference of a recording (the nominal plant's
 replay, :mod:`vlab.diagnose.data.reference`), the look-alike reruns of the
 selection (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`) and the
 validation (:mod:`vlab.diagnose.validate`): reruns are made in parallel
-processes or in the background, and cached on the problem they belong to
-(:func:`reruns`).
+processes or in the background -- several MuJoCo reruns whose plants share
+one layout as one ``mujoco.batch`` (:mod:`vlab.diagnose.data.batchrerun`) --
+and cached on the problem they belong to (:func:`reruns`).
 """
 
 from __future__ import annotations
@@ -32,8 +33,27 @@ from ...lab.recording import Recording
 from ...measure.frf import h1
 from ...measure.transient import periodic_spectra
 from ..model.labmodel import LabState
+from .batchrerun import batch_key, rerun_together, why_apart
 from .measured import FrfData
 from .warmstart import rerun_window, warm_start
+
+#: Run several MuJoCo reruns of :func:`reruns` whose plants share one layout as one ``mujoco.batch``
+#: (:mod:`vlab.diagnose.data.batchrerun`) instead of one process each. The same recordings either way
+#: (tests/test_diagnose_batchrerun.py); the speed of each way is printed by benchmarks/rerun_batch_speed.py.
+BATCH_RERUNS = True
+
+#: Fewest reruns :func:`reruns` makes as one batch by default. Measured side by side
+#: (benchmarks/rerun_batch_speed.py, docs/rerun_batch_speed.txt: BCC MFDRF, 27.6 s reruns, 2 cores, load
+#: average 2.0-3.2, nice -10): processes / batch wall time 0.92 for K = 2, 1.05 for K = 3, 1.14 for K = 4
+#: (a second run: 0.90, 1.04, 1.14). The batched loop on one
+#: thread costs about 15 us per tick and simulation at N = 2, 11 at N = 4, against the single loop's
+#: 13.5, while two processes can use the second core when it is free; so a pair goes to processes.
+BATCH_MIN_RERUNS = 3
+
+#: Fewest simulations for which the batch steps on more than one thread: a step of one BCC plant takes
+#: about 6 us, and handing a step to a second thread cost 50-100 us per call on the 2-core machine with
+#: other jobs running (benchmarks/rerun_batch_speed.py), so a few reruns step on one thread.
+BATCH_THREAD_MIN = 16
 
 
 class FrictionPlant:
@@ -403,6 +423,64 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     return True
 
 
+def _batched(todo: list, force: np.ndarray, data: FrfData, seed: int, window: tuple,
+             workers: int) -> tuple[dict, str, str]:
+    """The MuJoCo reruns of ``todo`` ((index, LabState) pairs) whose plants share a layout, made as one
+    ``mujoco.batch`` per layout (:func:`vlab.diagnose.data.batchrerun.rerun_together`).
+
+    Returns ``({index: Recording or VlabError}, how, why)``: the reruns made, how (for the notes), and why
+    the others were left out (a plant alone in its layout, one that cannot be built, or a batch that
+    failed): those are for the single path."""
+    pts = tuple(data.output_points)
+    states, plants, groups = dict(todo), {}, {}
+    for i, st in todo:
+        try:
+            plants[i] = mujoco_plant(st, sensors=pts)
+        except VlabError:
+            continue  # rerun the single way, which reports the error
+        groups.setdefault(batch_key(st, plants[i], pts), []).append(i)
+    made: dict = {}
+    apart = ""
+    for key, idx in groups.items():
+        if key is None or len(idx) < 2:
+            continue
+        nthread = max(1, workers) if len(idx) >= BATCH_THREAD_MIN else 1
+        try:
+            res = rerun_together([states[i] for i in idx], [plants[i] for i in idx], force,
+                                 excitation_point=data.excitation_point, measured_points=pts, seed=seed,
+                                 start=window[0], period=window[1], stop=window[2], nthread=nthread)
+        except VlabError as exc:
+            apart = apart or f"the batch failed: {exc}"
+            continue
+        made.update(zip(idx, res))
+    keys = list(groups)
+    if not apart and len(keys) > 1:
+        apart = why_apart(keys[0], keys[1])
+    elif not apart and len(plants) < len(todo):
+        apart = "a plant that cannot be built"
+    how = f"{len(made)} MuJoCo reruns as one mujoco.batch" if made else ""
+    return made, how, apart
+
+
+def last_reruns_note(problem) -> str:
+    """How the last call of :func:`reruns` on ``problem`` made its reruns, for the diagnosis notes.
+
+    E.g. ``"2 MuJoCo reruns as one mujoco.batch"`` or ``"2 mujoco reruns in 2
+    processes (model sizes differ (ngeom 38 vs 37))"``; '' when that call made
+    fewer than two (the rest cached) or ``problem`` has seen no call.
+
+    Parameters
+    ----------
+    problem : Problem
+        As given to :func:`reruns`.
+
+    Returns
+    -------
+    str
+    """
+    return str(problem.__dict__.get("_reruns_note", ""))
+
+
 def _collect_background(problem, keys: list) -> None:
     """Move the background reruns of ``keys`` into the rerun cache, waiting for them; a failed one is
     dropped, to be rerun in the foreground (where its error is reported)."""
@@ -431,8 +509,16 @@ def stop_background(problem) -> None:
         recv.close()
 
 
-def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) -> list:
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
+
+    Several MuJoCo reruns (:data:`BATCH_MIN_RERUNS` or more, see ``batch``)
+    whose plants differ only in values (the same sizes of everything
+    ``MjData`` holds: stiffness, damping, chain and controller gains; not an
+    added mass, a new geom) run as one ``mujoco.batch``
+    (:mod:`vlab.diagnose.data.batchrerun`), bit for bit the reruns made one
+    by one; the others, and every linear rerun, run in parallel processes.
+    :func:`last_reruns_note` says which way they went.
 
     Parameters
     ----------
@@ -449,6 +535,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
         the background (:func:`start_background_rerun`) holds one of them, and
         one of ``jobs`` is made while it finishes (background reruns already
         finished are collected first and hold none).
+    batch : bool, optional
+        True: run MuJoCo reruns that can share a batch as one (two or more);
+        False: processes only; None (default): as one batch when
+        :data:`BATCH_RERUNS` and at least :data:`BATCH_MIN_RERUNS` are to be made.
 
     Returns
     -------
@@ -469,21 +559,29 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     todo = [(i, st) for i, (st, k) in enumerate(jobs)
             if k is None or ((k, plant, seed) not in cache and (k, plant, seed) not in pending)]
     workers = max(1, workers - len(pending))  # a background rerun holds a core
-    if workers > 1 and len(todo) > 1:
+    how, apart, how_rest = "", "", "one after another"
+    if batch is None:
+        batch = BATCH_RERUNS and len(todo) >= BATCH_MIN_RERUNS
+    if batch and plant == "mujoco" and len(todo) > 1:
+        out, how, apart = _batched(todo, force, data, seed, window, workers)
+    rest = [(i, st) for i, st in todo if i not in out]
+    if workers > 1 and len(rest) > 1:
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool
 
         try:
-            with ProcessPoolExecutor(min(workers, len(todo))) as ex:
+            with ProcessPoolExecutor(min(workers, len(rest))) as ex:
                 futs = [(i, ex.submit(_rerun_job, st, force, data.excitation_point, pts, plant, seed, window))
-                        for i, st in todo]
+                        for i, st in rest]
                 for i, fu in futs:
                     try:
                         out[i] = _recording(fu.result())
                     except VlabError as exc:
                         out[i] = exc
+            how_rest = f"in {min(workers, len(rest))} processes"
         except (OSError, BrokenProcessPool):
-            out = {}  # no process pool here: sequential
+            for i, _st in rest:  # no process pool here: sequential
+                out.pop(i, None)
     first = int(round(data.analysed_from_s / data.recording.dt_s))
 
     def here(st: LabState, cores: int = 1):
@@ -500,6 +598,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2) 
     for i, st in todo:  # a lone rerun with the cores free is split over them (rerun_split)
         if i not in out:
             out[i] = here(st, workers if len(todo) == 1 and not waiting else 1)
+    if rest and len(todo) > 1:
+        how = "; ".join(filter(None, [how, f"{len(rest)} {plant} rerun{'s' if len(rest) > 1 else ''} "
+                                      f"{how_rest if len(rest) > 1 else 'alone'}" + (f" ({apart})" if apart else "")]))
+    problem.__dict__["_reruns_note"] = how
     _collect_background(problem, waiting)
     for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
         if k is not None and (k, plant, seed) in waiting and (k, plant, seed) not in cache:

@@ -25,6 +25,16 @@ chi-square scan of :data:`SCAN_POINTS` values within ``+-SCAN_HALF_WIDTH``
 scan point's neighbours. The FE value is one of the scan points, so the
 refit never ends worse on the plant's linearisation than the FE value.
 
+Why not ``mujoco.minimize.least_squares`` (mujoco 4.0, Levenberg-Marquardt on the
+residual vector with a finite-difference Jacobian) for the search: tried in place
+of the Brent step, bounded to the same bracket, on the joint-18 refit of
+tests/test_diagnose_plantfit.py, it crawled along the narrow chi-square well
+of a lightly damped mode (99 iterations, 201 linearisations, chi-square 3.04)
+where the scan and Brent took 11 (chi-square 1.57; the same stiffness to
+0.02 %); with its default tolerances it stopped after 2 iterations at
+chi-square 97. ``mujoco.sysid`` fits rollouts in the time domain, not a
+linearisation's FRFs. So the one-parameter search stays derivative-free.
+
 The FE-fitted parameters stay the diagnosis's answer (``selected``); the
 refitted value is reported with the validation (``validated.parameters``)
 as the value the rerun used.

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...errors import ModelError, VlabError
 from ..data.measured import FrfData
-from ..data.replay import reruns, time_error
+from ..data.replay import last_reruns_note, reruns, time_error
 from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
 from ..problem.residuals import Problem
 from .locate import located_places
@@ -158,8 +158,12 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     The reruns (the recorded force played back,
     :func:`vlab.diagnose.data.replay.reruns`: the linear plant, and the MuJoCo
     plant for the parsimony check with ``plant="mujoco"``) run in parallel
-    processes. A MuJoCo rerun that fails leaves the check to the linear
-    reruns, and the note says why.
+    processes; three or more MuJoCo reruns of candidates whose plants differ
+    only in values (stiffness, damping, gains; not an added mass, a geom of
+    its own) run as one ``mujoco.batch``, the same recordings (the note says
+    which way; :data:`vlab.diagnose.data.replay.BATCH_MIN_RERUNS`). A
+    MuJoCo rerun that fails leaves the check to the linear reruns, and the
+    note says why.
 
     Parameters
     ----------
@@ -223,7 +227,9 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             else:
                 on_plant = {h.label: time_error(r, problem.data) for h, r in zip(top, runs)}
                 best = min(top, key=lambda h: on_plant[h.label])
-                notes[-1] += (" on the linear FE plant; on the MuJoCo plant, which recorded the data: "
+                how = last_reruns_note(problem)  # one mujoco.batch, or processes (and why)
+                notes[-1] += (" on the linear FE plant; on the MuJoCo plant, which recorded the data"
+                              + (f" ({how})" if how else "") + ": "
                               + ", ".join(f"{h.label}: {on_plant[h.label]:.3g}" for h in top))
     alone = singles.get(best.label)
     if alone:
@@ -237,7 +243,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
                 where += f" (the MuJoCo rerun failed: {failed[0]})"
             else:
                 e_pair, e_single = (time_error(r, problem.data) for r in runs)
-                where = "MuJoCo plant"
+                how = last_reruns_note(problem)
+                where = "MuJoCo plant" + (f" ({how})" if how else "")
         notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "
                      f"{single.label} alone: {e_single:.3g}")
         if not e_pair < parsimony * e_single:
