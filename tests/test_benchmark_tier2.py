@@ -151,3 +151,29 @@ def test_tier2_recording_reaches_the_diagnosis_without_its_seeds(db, tmp_path, m
         assert "timestep" not in text and "segments" not in text
     assert r["truth"] and all(t["threshold_ratio"] is None or t["threshold_ratio"] >= db.MIN_THRESHOLD_RATIO
                               for t in r["truth"])
+
+
+def test_threshold_sizer_draws_within_the_window(db):
+    """Tier 2 sizes each effect at 2-5 times its detection threshold at the drawn place (issue 24 item 3),
+    on the side of the drawn value, within the searched range; a place without a threshold keeps its size."""
+    mass = Threshold("added_mass", {"point": 6}, "mass_kg", 0.0, 0.01, 5.0, "chi2")
+    lag = Threshold("actuator_lag", {"channel": "all"}, "corner_hz", None, 700.0, 2.5, "chi2")
+    gain = [Threshold("actuator_gain", {"channel": 9}, "gain", 1.0, 0.9, 0.02, "chi2"),
+            Threshold("actuator_gain", {"channel": 9}, "gain", 1.0, 1.3, 1.5, "chi2")]
+    size_of = db.threshold_sizer(lambda effect: [mass, lag, *gain])
+    rng = np.random.default_rng(3)
+    ratios = []
+    for _ in range(30):
+        m = size_of(rng, "added_mass", {"point": 6}, "mass_kg", 1.0)
+        ratios.append(db.threshold_ratio({"effect": "added_mass", "location": {"point": 6},
+                                          "parameters": {"mass_kg": m}}, [mass]))
+        fc = size_of(rng, "actuator_lag", {"channel": "all"}, "corner_hz", 100.0)
+        ratios.append(db.threshold_ratio({"effect": "actuator_lag", "location": {"channel": "all"},
+                                          "parameters": {"corner_hz": fc}}, [lag]))
+        g = size_of(rng, "actuator_gain", {"channel": 9}, "gain", 0.7)
+        assert g < 1.0  # the side of the drawn value
+        ratios.append(db.threshold_ratio({"effect": "actuator_gain", "location": {"channel": 9},
+                                          "parameters": {"gain": g}}, gain))
+        assert size_of(rng, "actuator_gain", {"channel": 9}, "gain", 1.2) <= 1.5  # held within the range
+    assert min(ratios) >= 2.0 - 1e-9 and max(ratios) <= 5.0 + 1e-9 and max(ratios) - min(ratios) > 1.0
+    assert size_of(rng, "added_mass", {"point": 2}, "mass_kg", 0.3) == 0.3  # no threshold there: kept
