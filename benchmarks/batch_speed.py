@@ -56,6 +56,8 @@ from vlab.sim import MujocoPlant, build_plant
 from vlab.sim.batch_plant import MujocoBatchPlant
 from vlab.spec import load_spec
 
+from _listing import emit
+
 ACTS = (5, 7, 9)
 MEAS = (5, 7, 9, 6)
 PERIOD_S = 0.5e-3
@@ -215,12 +217,7 @@ def main(argv=None) -> int:
     lines.append("")
     lines.append(f"memory per simulation (N = {max(BATCH_SIZES)} batch, recordings of {a.seconds:g} s included): "
                  f"{rss_per_sim / 1e6:.2f} MB")
-    text = "\n".join(lines)
-    print(text)
-    if a.out:
-        with open(a.out, "w") as f:
-            f.write(text + "\n")
-    return 0
+    return emit(lines, a.out)
 
 
 if __name__ == "__main__":

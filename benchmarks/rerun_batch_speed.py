@@ -44,6 +44,8 @@ from vlab.lab.experiment import TESTS, default_chain
 from vlab.lab.recording import Recording
 from vlab.models import nominal_fe_model
 
+from _listing import emit, load_average
+
 PTS = (5, 6, 7, 9)
 
 
@@ -53,11 +55,6 @@ class _Problem:
     def __init__(self, data: FrfData, guard_s: float) -> None:
         self.data = data
         self.guard_s = guard_s
-
-
-def _loadavg() -> str:
-    with open("/proc/loadavg") as f:
-        return f.read().strip()
 
 
 def _setup(resolution_hz: float, k_max: int):
@@ -96,7 +93,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=float, default=TESTS["bcc"].resolution_hz, help="line spacing [Hz]")
     ap.add_argument("--out", help="also write the table here")
     a = ap.parse_args(argv)
-    load0 = _loadavg()
+    load0 = load_average()
     lab, data, guard_s, cands = _setup(a.resolution, max(a.ks))
     start, period, stop = rerun_window(data, data.recording.dt_s, guard_s=guard_s)
     sim_s = (stop - start) * data.recording.dt_s
@@ -130,13 +127,8 @@ def main(argv=None) -> int:
     ]
     for k, tp, tb, tt, same, note in rows:
         lines.append(f"{k:>2} {tp:>14.2f} {tb:>10.2f} {tp / tb:>11.2f} {tt:>16.2f} {str(same):>10}  {note}")
-    lines += ["", f"load average after: {_loadavg()}"]
-    text = "\n".join(lines)
-    print(text)
-    if a.out:
-        with open(a.out, "w") as f:
-            f.write(text + "\n")
-    return 0
+    lines += ["", f"load average after: {load_average()}"]
+    return emit(lines, a.out)
 
 
 if __name__ == "__main__":

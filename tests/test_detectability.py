@@ -137,9 +137,9 @@ def test_look_alike_gap_is_the_projection_residual():
     multiple of each look-alike's direction, checked against the closed form on three vectors."""
     from types import SimpleNamespace
 
-    from vlab.diagnose.naming import _Directions
+    from vlab.diagnose.naming import LookAlikes
 
-    d = object.__new__(_Directions)
+    d = object.__new__(LookAlikes)
     d.hyps = [SimpleNamespace(label=x) for x in ("a", "b", "self")]
     d.matrix = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -2.0], [1.0, 1.0, 1.0]])
     d.norm2 = np.sum(d.matrix**2, axis=1)

@@ -19,6 +19,8 @@ from vlab.lab.experiment import TESTS
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
+from _grid_frfs import grid_problem
+
 
 @pytest.fixture(scope="module")
 def two_effects(tmp_path_factory):
@@ -68,24 +70,12 @@ def two_masses_on_the_grid():
     """Exact FRFs of the linear grid (open loop, 1 % noise variance) with 0.1006 kg at point 6 and 0.0924 kg
     at point 5, the masses and members of the library screened and the shortlist fitted (a draw of a random
     sweep of pairs on the linear grid). The best single effect is bar 2-6 made softer, neither mass."""
-    import numpy as np
-
-    from vlab.diagnose.data.measured import FrfData
     from vlab.diagnose.fit.estimate import rank, screen
     from vlab.diagnose.fit.rules import shortlisted
-    from vlab.diagnose.model.labmodel import predict_frf
 
-    fe = nominal_fe_model("grid")
-    nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    truth = nominal.with_spec(specedit.add_mass(specedit.add_mass(fe.spec, 6, 0.1006), 5, 0.0924))
-    test = TESTS["grid"]
-    freq = np.arange(4, 201) * 0.05
-    exc = fe.spec.instrumentation.excitation
-    outs = tuple(test.measured_points)
-    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
-    data = FrfData("grid-two-masses.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
-    ctx = context_for(nominal, test.band_hz, data)
-    problem = Problem(data, nominal, ctx)
+    problem, nominal = grid_problem(lambda spec: specedit.add_mass(specedit.add_mass(spec, 6, 0.1006), 5, 0.0924),
+                                    "grid-two-masses.uff")
+    ctx = problem.ctx
     scored = sorted(((screen(h, problem)[0][0], h) for h in
                      library(nominal, ctx, effects=("added_mass", "member_stiffness"))), key=lambda s: s[0])
     singles = rank([fit_hypothesis(h, problem) for h in shortlisted(scored, 10)])
@@ -120,22 +110,8 @@ def test_basin_step_finds_two_compensating_masses(two_masses_on_the_grid):
 def softened_grid_joint():
     """FRFs of the linear grid with the joint at point 18 (top beam / bar 18-2) softened to 6000 N m/rad:
     two top-beam modes fall into the band, between the hypothesis's own trial values (0.3, 1, 3, ... x k_ref)."""
-    import numpy as np
-
-    from vlab.diagnose.data.measured import FrfData
-    from vlab.diagnose.model.labmodel import predict_frf
-
-    fe = nominal_fe_model("grid")
-    nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    truth = nominal.with_spec(specedit.soften_joint(fe.spec, 18, 6000.0))
-    test = TESTS["grid"]
-    freq = np.arange(4, 201) * 0.05
-    exc = fe.spec.instrumentation.excitation
-    outs = tuple(test.measured_points)
-    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
-    data = FrfData("grid-joint18.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
-    ctx = context_for(nominal, test.band_hz, data)
-    return Problem(data, nominal, ctx), JointFlexibility
+    problem, _nominal = grid_problem(lambda spec: specedit.soften_joint(spec, 18, 6000.0), "grid-joint18.uff")
+    return problem, JointFlexibility
 
 
 def test_coarse_scan_finds_the_narrow_chi2_well(softened_grid_joint):

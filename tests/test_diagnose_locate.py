@@ -6,31 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vlab.diagnose.data.measured import FrfData
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.fit.locate import _at_own_peak, frf_modes, locate
-from vlab.diagnose.model.labmodel import LabState, predict_frf
-from vlab.diagnose.problem.context import context_for
-from vlab.diagnose.problem.residuals import Problem
-from vlab.lab.experiment import TESTS
-from vlab.lab.loop import HardwareChain
-from vlab.models import nominal_fe_model
+
+from _grid_frfs import grid_problem
 
 
 @pytest.fixture(scope="module")
 def damped_mode_3():
     """The grid's mode 3 (1.64 Hz) damped to a ratio of 0.13: three half-power bandwidths of its curve fit
     reach from 0.4 to 2.9 Hz, over modes 1, 2 and 4 (2.74 Hz)."""
-    fe = nominal_fe_model("grid")
-    nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    truth = nominal.with_spec(specedit.set_modal_damping(fe.spec, 3, 0.13))
-    test = TESTS["grid"]
-    freq = np.arange(4, 201) * 0.05
-    exc = fe.spec.instrumentation.excitation
-    outs = tuple(test.measured_points)
-    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
-    data = FrfData("grid-damped-mode3.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs)
-    return Problem(data, nominal, context_for(nominal, test.band_hz, data)), nominal
+    return grid_problem(lambda spec: specedit.set_modal_damping(spec, 3, 0.13), "grid-damped-mode3.uff")
 
 
 def test_a_heavily_damped_mode_keeps_its_own_peak(damped_mode_3):

@@ -473,14 +473,14 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
 def _with_naming(tester: _Test, hyps: list, out: list, look_alikes, say) -> list:
     """``out`` with the naming thresholds (:mod:`vlab.diagnose.naming`); the look-alikes' detection thresholds
     are computed where ``out`` lacks them."""
-    from .naming import _Directions, naming_threshold
+    from .naming import LookAlikes, naming_threshold
 
     pool = [h for h in library(tester.nominal, tester.ctx, effects=look_alikes) if h.n_params == 1]
     have = {h.label for h in hyps}
     say(f"naming among {len(pool)} look-alikes")
     extra = [t for h in pool if h.label not in have for t in _thresholds(tester, h)]
-    directions = _Directions(tester, pool + [h for h in hyps if h.label not in {x.label for x in pool}],
-                             out + extra)
+    pooled = {h.label for h in pool}
+    directions = LookAlikes(tester, pool + [h for h in hyps if h.label not in pooled], out + extra)
     named = []
     for t in out:
         h = next(x for x in hyps if x.effect == t.effect and x.location == t.location)

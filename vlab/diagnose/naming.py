@@ -73,8 +73,26 @@ class Naming:
     gap_chi2: float | None
 
 
-class _Directions:
-    """Whitened residual changes of every look-alike at its detection threshold (module notes)."""
+class LookAlikes:
+    """The look-alikes of the library as directions: each one's whitened residual change at its detection
+    threshold (module notes).
+
+    Parameters
+    ----------
+    tester : vlab.diagnose.detectability._Test
+        The mismatch test of the nominal recording (its problem, nominal lab and context).
+    hyps : list of Hypothesis
+        One-parameter hypotheses that may be look-alikes.
+    thresholds : list of Threshold
+        Their detection thresholds; a hypothesis without one (or not detected) is left out.
+
+    Attributes
+    ----------
+    hyps : list of Hypothesis
+        The look-alikes kept, one entry per side of a null value.
+    matrix : ndarray, shape (n_look_alikes, n_obs)
+        Their whitened residual changes [1].
+    """
 
     def __init__(self, tester, hyps: list, thresholds: list) -> None:
         self.tester = tester
@@ -134,12 +152,12 @@ def _refit(tester, h_o, data_state) -> float:
     return float(min(min(vals), sol.fun))
 
 
-def naming_threshold(directions: _Directions, h, detection) -> Naming:
+def naming_threshold(directions: LookAlikes, h, detection) -> Naming:
     """The naming threshold of hypothesis ``h`` on the side of its detection threshold ``detection``.
 
     Parameters
     ----------
-    directions : _Directions
+    directions : LookAlikes
         The look-alikes (all one-parameter hypotheses of the library with a detection threshold).
     h : Hypothesis
         The effect, one parameter.
@@ -149,6 +167,8 @@ def naming_threshold(directions: _Directions, h, detection) -> Naming:
     Returns
     -------
     Naming
+        ``Naming(None, None, None)`` when the effect is not detected; errors of a size that cannot be built
+        end the ladder (the effect is then not named), none is raised.
     """
     if detection.threshold is None:
         return Naming(None, None, None)
