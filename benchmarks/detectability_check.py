@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import vlab
+from vlab.diagnose.data.replay import linear_plant
 from vlab.diagnose.detectability import detectability, nominal_test
 from vlab.diagnose.effects.hypotheses import library
 from vlab.io.uff import write_recording
@@ -79,7 +80,10 @@ def main(argv=None) -> int:
                     state = h.apply(nominal, np.array([size]), ctx)
                     cfg = ExperimentConfig(structure="bcc", controller=a.controller, plant="linear",
                                            chain=replace(state.chain, noise_m_s=1e-6), seed=seed)
-                    rec = measure(cfg, state.fe, design, metadata=meta).loop.recording
+                    # the plant of the state (a mode's damping lives in its spec, a dashpot in the state: the
+                    # plant measure() builds from the FE model alone would miss them)
+                    rec = measure(cfg, state.fe, design, metadata=meta,
+                                  plant=(linear_plant(state), {"kind": "linear FE model"})).loop.recording
                     path = Path(tmp) / f"{eff}_{factor}_{k}.uff"
                     write_recording(path, rec, overwrite=True)
                     d = vlab.diagnose(spec, path).as_dict()

@@ -82,16 +82,19 @@ on the *default* MuJoCo plant of the nominal spec):
   case (``perturbation``); the controller stays the one designed on the
   nominal model, as in a real lab;
 - the effects are concealed on top of that perturbed spec: each one's kind
-  and place drawn as in tier 1, its size set to ``q`` times its detection
-  threshold there, ``q`` log-uniform in :data:`THRESHOLD_WINDOW` (2-5x;
-  :func:`threshold_sizer`; held within the range the threshold was searched
-  in, and redrawn unless at least :data:`MIN_THRESHOLD_RATIO` (2) times it)
-  (:func:`vlab.diagnose.detectability.detectability` on the nominal test,
-  with the sensor noise set to the recordings' noise: the loop's 1e-6 m/s and
-  ``--noise`` times the largest predicted channel RMS, combined); the ratio is
-  kept in each truth (``threshold_ratio``) and printed per case (samples
-  before this window, seeds 9191-9797, drew tier 1's sizes and kept those at
-  2x or more);
+  and place drawn as in tier 1, its size set to ``q`` times the threshold
+  from which the diagnosis detects and names it there, ``q`` log-uniform in
+  :data:`THRESHOLD_WINDOW` (2-5x; :func:`threshold_sizer`; held within the
+  range the threshold was searched in, and redrawn unless at least
+  :data:`MIN_THRESHOLD_RATIO` (2) times it, or where the effect is never
+  named in its range) (:func:`vlab.diagnose.detectability.detectability`
+  with ``naming=True`` on the nominal test: detection by the diagnosis's own
+  profiled test, naming among the library's look-alikes; the sensor noise
+  set to the recordings' noise: the loop's 1e-6 m/s and ``--noise`` times the
+  largest predicted channel RMS, combined); the ratio is kept in each truth
+  (``threshold_ratio``) and printed per case (samples before this window,
+  seeds 9191-9797, drew tier 1's sizes and kept those at 2x or more; seed
+  9898 drew at 2-5x the first-order detection threshold alone);
 - the excitation realisation, the loop's sensor noise and the measurement
   noise come from the tier's own random stream (``tier_seed`` = [seed, i, 2]);
   the seeds are kept in the case (``recording_seeds``) and nowhere else: the
@@ -350,7 +353,7 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set, size_of
 
 # ------------------------------------------------------------------ tier 2 ---
 
-#: Tier 2: effects are drawn at least this many times their detection threshold (issue 24 item 2).
+#: Tier 2: effects are drawn at least this many times their detect-and-name threshold (issue 24 item 2).
 MIN_THRESHOLD_RATIO = 2.0
 #: Tier 2: every K-th case without any effect by default (at least a third of the cases).
 TIER2_NULL_EVERY = 3
@@ -505,13 +508,18 @@ def draw_perturbation(rng, structure: str) -> tuple[StructureSpec, dict]:
 
 @lru_cache(maxsize=None)
 def _thresholds(structure: str, controller: str, effect: str, noise_m_s: float) -> tuple:
-    """Detection thresholds of ``effect`` at every location (:func:`vlab.diagnose.detectability.detectability`)."""
+    """The thresholds at which the diagnosis detects *and names* ``effect`` at every location (issue 24 item 3:
+    "the smallest size the standard test can detect and name"): :func:`vlab.diagnose.detectability.detectability`
+    with its naming thresholds, each ``threshold`` replaced by the size from which the effect is named (None
+    where it is detected but never named in its range: such a draw is redrawn). The detection test is the
+    diagnosis's own, profiled within the model form."""
     from vlab.diagnose.detectability import detectability
 
-    return detectability(structure, controller, effects=(effect,), noise_m_s=noise_m_s).thresholds
+    det = detectability(structure, controller, effects=(effect,), noise_m_s=noise_m_s, naming=True)
+    return tuple(replace(t, threshold=t.named_at) for t in det.thresholds)
 
 
-#: Tier 2: effects are drawn at this range of multiples of their detection threshold (log-uniform; issue 24
+#: Tier 2: effects are drawn at this range of multiples of their detect-and-name threshold (log-uniform; issue 24
 #: item 3: "benchmark cases are drawn at 1-5x that threshold", and its target counts effects at >= 2x).
 THRESHOLD_WINDOW = (2.0, 5.0)
 
@@ -544,7 +552,7 @@ def threshold_sizer(thresholds_of):
 
 
 def threshold_ratio(truth: dict, thresholds) -> float | None:
-    """How many times its detection threshold a concealed effect is.
+    """How many times its threshold (detect and name, in tier 2) a concealed effect is.
 
     ``(x - null) / (threshold - null)`` on the side of the drawn value ``x``; for an effect that vanishes
     only in a limit (a rigid joint, no lag, no force limit) ``threshold / x`` or ``x / threshold``, the
@@ -644,7 +652,7 @@ def conceal(rng, families: list, st0: LabState, ctx: Context, freq_hz, exc: int,
 
     ``accept`` (tier 2), called with each drawn truth record, must also
     return True for the draw to count as visible (:data:`MIN_THRESHOLD_RATIO`
-    times the effect's detection threshold); it may add to the record.
+    times the effect's detect-and-name threshold); it may add to the record.
     ``size_of`` (tier 2, :func:`threshold_sizer`) sizes each effect from its threshold; the
     threshold then stands for visibility (the 5 % line test is not made).
 
@@ -788,7 +796,7 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     Tier 2 (``case["tier"] == 2``, module notes): the plant that records is the converged MuJoCo plant
     (``case["plant_options"]``) of the nominal spec perturbed within its model-form uncertainty
     (:func:`draw_perturbation`, recorded under ``perturbation``) with the effects concealed on top, each at
-    least :data:`MIN_THRESHOLD_RATIO` times its detection threshold (its ``threshold_ratio`` in the truth);
+    least :data:`MIN_THRESHOLD_RATIO` times its detect-and-name threshold (its ``threshold_ratio`` in the truth);
     the excitation, the sensor noise and the measurement noise come from the tier's own stream
     (``tier_seed``; the seeds used are kept under ``recording_seeds``, for the record only: the recording's
     metadata names the plant kind and the controller design's seed 0, as in tier 1); a baseline is the
@@ -1138,7 +1146,7 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     # one line: what issue 24 item 2 asks of each tier
     pe = (f"median {100 * summary['param_error_median']:.2f} %, max {100 * summary['param_error_max']:.1f} %, "
           f"within 20 %: {100 * summary['param_within_20pct_share']:.0f} %" if perr else "none")
-    thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their detection threshold"
+    thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their detect-and-name threshold"
            if tier == 2 and ratios else "")
     print(f"tier {tier}: right effect and location {summary['right_count']}/{summary['with_effect']} effect cases"
           f"{thr}; false alarms {summary['false_alarms']}/{summary['no_effect']} null cases; parameter error {pe}; "

@@ -123,8 +123,17 @@ def test_tier2_recording_reaches_the_diagnosis_without_its_seeds(db, tmp_path, m
         diagnosed.append((structure, recording, kw))
         raise RuntimeError("not diagnosed in this test")
 
+    def detection_only(structure, controller, effect, noise_m_s):
+        # the detect-and-name thresholds take minutes per effect and have their own tests (test_detectability);
+        # the detection thresholds of a recording by the model itself stand in here
+        from vlab.diagnose.detectability import detectability
+
+        return detectability(structure, controller, effects=(effect,), noise_m_s=noise_m_s,
+                             model_form="none").thresholds
+
     monkeypatch.setattr(db, "_simulate_on_plant", fake_sim)
     monkeypatch.setattr(db, "diagnose", fake_diagnose)
+    monkeypatch.setattr(db, "_thresholds", detection_only)
     cases = [db.make_case(i, 7100, "mujoco", ("bcc",), 3, tier=2) for i in range(6)]
     null = next(c for c in cases if not c["families"] and c["controller"] == "none")
     eff = next(c for c in cases if c["families"] and c["controller"] == "none")

@@ -18,6 +18,7 @@ from typer.testing import CliRunner
 
 import vlab
 from vlab.cli import app
+from vlab.diagnose.data.replay import linear_plant
 from vlab.diagnose.detectability import detectability
 from vlab.diagnose.effects.hypotheses import library
 from vlab.diagnose.model.labmodel import LabState
@@ -57,7 +58,8 @@ def _diagnosed(tmp_path, spec, t, factor: float, seed: int, point: int = 6) -> d
     cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", chain=chain, seed=seed)
     meta = {"structure": "bcc", "controller": "none", "seed": 0, "plant": "linear FE model"}
     path = tmp_path / f"rec_{factor}_{seed}.uff"
-    write_recording(path, measure(cfg, state.fe, None, metadata=meta).loop.recording)
+    plant = (linear_plant(state), {"kind": "linear FE model"})  # the state's own damping and dashpots
+    write_recording(path, measure(cfg, state.fe, None, metadata=meta, plant=plant).loop.recording)
     return vlab.diagnose(spec, path).as_dict()
 
 
@@ -166,3 +168,87 @@ def test_naming_threshold_is_at_or_above_detection_and_names_the_effect(tmp_path
     d = _diagnosed(tmp_path, spec, named, 2.0, 74, point=3)
     (sel,) = d["selected"]
     assert sel["effect"] == "added_mass" and sel["location"] == {"point": 3}
+
+
+def test_profiled_search_finds_a_step_either_way_from_the_first_order_threshold():
+    """The ladder and bisection of the profiled threshold (vlab.diagnose.detectability._profiled_side) on a
+    test that is a known step: found within LADDER**(1/2**N_BISECT_PROFILED) whether the step lies above or
+    below the first-order start, on a null value and on a limit (log) path; None past the end of the range."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose import detectability as dm
+
+    def tester(step: float, up: bool = True):
+        return SimpleNamespace(detected=lambda h, x: "chi2" if (x >= step if up else x <= step) else None)
+
+    tol = dm.LADDER ** (1.0 / 2**dm.N_BISECT_PROFILED)
+    for step in (0.37, 3.1, 20.0):  # below, above and far above the first-order 1.0
+        x, by = dm._profiled_side(tester(step), None, 0.0, 0.0, 100.0, False, 1.0)
+        assert by == "chi2" and step <= x <= step * tol
+    # a stiffness that vanishes as it grows large: the effect grows towards the small end
+    x, _by = dm._profiled_side(tester(2e3, up=False), None, None, 1e9, 1.0, True, 1e5)
+    assert 2e3 / tol <= x <= 2e3
+    assert dm._profiled_side(tester(500.0), None, 0.0, 0.0, 100.0, False, 1.0) == (None, None)
+
+
+def test_profiled_threshold_against_drawn_model_form_errors():
+    """The profiled threshold (issue 24: the diagnosis's own test within the model form) checked by drawing
+    the model-form errors it assumes: the reference modes' frequencies, damping ratios and shapes moved by
+    independent normal draws of their standard uncertainty, on top of the effect, and the diagnosis's decision
+    (profiled chi-square, largest line and nuisance test) made on each. A damping change of mode 1, which
+    the nuisance test detects: at half the threshold at most 1 of 6 draws fires, at twice it 5 of 6 or more."""
+    from vlab.diagnose.detectability import _Test, frf_model_form_of, nominal_test, _thresholds
+    from vlab.diagnose.fit.rules import beyond_noise
+    from vlab.diagnose.model.modelform import perturbed_modes
+    from vlab.diagnose.problem.nuisance import parameters
+    from vlab.diagnose.problem.residuals import Problem
+
+    _spec, nominal, data, ctx = nominal_test("bcc", "none")
+    _mf, mf = frf_model_form_of(nominal, data, "mujoco")
+    tester = _Test(Problem(data, nominal, ctx, model_form_frf=mf), nominal, ctx)
+    (h,) = [x for x in library(nominal, ctx, effects=("damping",)) if x.location == {"mode": 1}]
+    up = [t for t in _thresholds(tester, h) if t.bound > t.null]
+    (t,) = up
+    assert t.threshold is not None and t.by == "nuisance"
+    which = parameters(mf, mf.modes)
+    base_ref = tester.problem.predict(replace(nominal, point_modes=mf.modes))
+    rng = np.random.default_rng(20261125)
+
+    def fires(factor: float) -> bool:
+        state = h.apply(nominal, np.array([t.scaled(factor)]), ctx)
+        pm = mf.modes
+        for (kind, r, j), s in zip(which, mf.sigma):
+            if r is not None:
+                pm = perturbed_modes(pm, kind, r, j, s * rng.standard_normal())
+        real = tester.problem.predict(state) * tester.problem.predict(replace(nominal, point_modes=pm)) / base_ref
+        p = Problem(replace(data, h=real), nominal, ctx, model_form_frf=mf, profile_nominal=True)
+        nu = p.nuisance_test()
+        return beyond_noise(p.chi2(nominal), p.noise_chi2(), p.peak(nominal), p.peak_limit()) or nu["beyond"]
+
+    assert sum(fires(0.5) for _ in range(6)) <= 1
+    assert sum(fires(2.0) for _ in range(6)) >= 5
+
+
+def test_referral_variance_is_the_term_refer_to_model_adds():
+    """The thresholds of a real measurement carry the variance that referring it through the replay plant
+    adds (vlab.diagnose.detectability.referral_variance); checked against what
+    vlab.diagnose.data.measured.refer_to_model adds for a recording whose change since the replay is known:
+    random FRFs, the model 20 % and 0.3 rad off the replay, an effect of 10 % on top."""
+    from vlab.diagnose.data.measured import FrfData, refer_to_model
+    from vlab.diagnose.detectability import referral_variance
+
+    rng = np.random.default_rng(5)
+    shape = (40, 3)
+    base = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) * 1e-3
+    model_over_base = np.log(1.2) + 0.3j * rng.uniform(-1, 1, shape)
+    h_model = base * np.exp(model_over_base)
+    effect = np.exp(0.1 * (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)))
+    h_meas = base * effect  # the real structure: the replay plant with the effect (no model-form error of its own)
+    freq = np.arange(1, 41, dtype=float)
+    tiny = np.full(shape, 1e-30)
+    rec = FrfData("rec", "recording", freq, h_meas, tiny, 9, (1, 2, 3))
+    ref = FrfData("replay", "recording", freq, base, tiny, 9, (1, 2, 3))
+    out = refer_to_model(rec, ref, h_model)
+    added = out.var / np.abs(out.h) ** 2
+    expected = referral_variance(model_over_base, h_model * effect, h_model, None)
+    assert np.allclose(added, expected, rtol=1e-6, atol=1e-20)

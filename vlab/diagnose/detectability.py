@@ -80,7 +80,8 @@ class Threshold:
     bound : float
         The end of the range searched towards [SI].
     by : str or None
-        Which test detects it first: ``"chi2"`` (the total) or ``"peak"`` (one line), None if undetected.
+        Which test detects it first: ``"chi2"`` (the total), ``"peak"`` (one line) or, with a model form,
+        ``"nuisance"`` (the modes had to move beyond their uncertainty), None if undetected.
     named_at : float or None
         Smallest size [SI] at which the diagnosis names it among its look-alikes (:mod:`vlab.diagnose.naming`);
         None when not computed or not named within the range (see ``look_alike``).
@@ -180,53 +181,144 @@ def _path(lo: float, hi: float, log: bool, n: int) -> np.ndarray:
     return np.linspace(lo, hi, n)
 
 
-class _Test:
-    """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab."""
+def referral_variance(model_over_base: np.ndarray, h: np.ndarray, h_model: np.ndarray, mf) -> np.ndarray:
+    """The relative variance that referring a real recording through the replay plant adds, expected for data ``h``.
 
-    def __init__(self, problem: Problem, nominal: LabState, ctx, chi2_noise: float | None = None) -> None:
+    :func:`vlab.diagnose.data.measured.refer_to_model` adds ``(|ln(H_model / H_base)| |ln(H_meas /
+    H_base)|)^2`` (model-form error times change, the referral's second-order error). For a real structure
+    with the change of ``h`` (data referred to the model: ``h = H_model H_meas / H_base``): ``ln(H_meas /
+    H_base) = ln(h / H_model) + e``, ``e`` the structure's own difference from the replay plant, of variance
+    ``mf.variance`` (the plant's modes within their model form); its expected square is used.
+
+    Parameters
+    ----------
+    model_over_base : ndarray, complex, shape (n_f, n_o)
+        ``ln(H_model / H_base)``: the model against the replay plant (its own modes, ``FrfModelForm.modes``).
+    h, h_model : ndarray, complex, shape (n_f, n_o)
+        The data's FRFs (with the effect) and the nominal model's [(m/s)/N].
+    mf : FrfModelForm or None
+        The model form (None: ``e = 0``).
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_o)
+        Relative variance [1].
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        change = np.abs(np.log(h / h_model)) ** 2 + (0.0 if mf is None else mf.variance)
+        out = np.abs(model_over_base) ** 2 * change
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+class _Test:
+    """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab.
+
+    With a model form the diagnosis profiles the nominal lab's modes within it (nonlinear,
+    :meth:`Problem.nominal_profile`) and also tests how far they had to move (:meth:`Problem.nuisance_test`);
+    :meth:`detected` is then that test (``profiled``), and :meth:`detected_first_order` the linear whitening's,
+    which is cheap and gives the starting point of the search (:func:`_side`).
+    """
+
+    def __init__(self, problem: Problem, nominal: LabState, ctx, chi2_noise: float | None = None,
+                 referral: np.ndarray | None = None, var0: np.ndarray | None = None) -> None:
         self.problem, self.nominal, self.ctx = problem, nominal, ctx
+        # the replay plant's referral (its second-order term, :func:`referral_variance`) on top of the
+        # recording's own variance ``var0``
+        self.referral, self.var0 = referral, (problem.data.var if var0 is None else var0)
+        self.h_model = None if referral is None else problem.predict(nominal)
         # what the noise (and the model's own small errors) contribute: the nominal lab against the nominal
         # recording, or, on data with an effect, what the fitted effect leaves
         self.chi2_noise = problem.chi2(nominal) if chi2_noise is None else float(chi2_noise)
         self.limit, self.peak_limit = problem.noise_chi2(), problem.peak_limit()
+        mf = problem.model_form_frf
+        self.profiled = mf is not None and mf.sigma.size > 0 and isinstance(problem.data, FrfData)
+        self.n_profiled = 0
+        if self.profiled:
+            from .problem.nuisance import nuisance_limit, parameters
 
-    def statistic(self, h, x: float) -> tuple[float, float] | None:
-        """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]
-        (None: the lab cannot be built at that size)."""
+            pm0 = mf.modes if mf.modes is not None else nominal.point_modes
+            self.n_profiled = (len(mf.labels) if pm0 is None
+                               else sum(r is not None for _k, r, _j in parameters(mf, pm0)))
+            self.nuisance_limit = nuisance_limit(self.n_profiled)
+
+    def _expected(self, h, x: float, **kw) -> Problem | None:
+        """The problem of the noise-free data of hypothesis ``h`` at size ``x`` (None: cannot be built)."""
         try:
             state = h.apply(self.nominal, np.array([x]), self.ctx)
             expected = replace(self.problem.data, h=self.problem.predict(state))
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
-        p = Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
-                    model_form_frf=self.problem.model_form_frf)
+        if self.referral is not None:
+            expected = replace(expected, var=self.var0 + referral_variance(
+                self.referral, expected.h, self.h_model, self.problem.model_form_frf) * np.abs(expected.h) ** 2)
+        return Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
+                       model_form_frf=self.problem.model_form_frf, **kw)
+
+    def statistic(self, h, x: float) -> tuple[float, float] | None:
+        """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]
+        to first order in the model form (linear whitening; None: the lab cannot be built at that size)."""
+        p = self._expected(h, x)
+        if p is None:
+            return None
         return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
 
-    def detected(self, h, x: float) -> str | None:
-        """``"chi2"``, ``"peak"`` or None for hypothesis ``h`` at size ``x`` [SI]."""
+    def detected_first_order(self, h, x: float) -> str | None:
+        """``"chi2"``, ``"peak"`` or None for hypothesis ``h`` at size ``x`` [SI], to first order."""
         st = self.statistic(h, x)
         if st is None:
             return None
         return "chi2" if st[0] > self.limit else "peak" if st[1] > self.peak_limit else None
+
+    def detected(self, h, x: float) -> str | None:
+        """``"chi2"``, ``"peak"``, ``"nuisance"`` or None: the diagnosis's own test (rule 1 and, with a model
+        form, the profile and its nuisance test; the nuisance statistic's null mean, its number of parameters,
+        added as the noise's share is to the chi-square: the noncentral picture of the module notes)."""
+        if not self.profiled:
+            return self.detected_first_order(h, x)
+        p = self._expected(h, x, profile_nominal=True)
+        if p is None:
+            return None
+        try:
+            chi2, peak, nuis = p.chi2(self.nominal), p.peak(self.nominal), p.nuisance_test()
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            return None
+        if self.chi2_noise + chi2 > self.limit:
+            return "chi2"
+        if peak > self.peak_limit:
+            return "peak"
+        return "nuisance" if nuis and self.n_profiled + nuis["nuisance_chi2"] > self.nuisance_limit else None
 
 
 #: The search starts this fraction of the way from the null value to the bound (geometric in the distance).
 SMALLEST = 1e-7
 
 
-def _first_detected(test: _Test, h, xs) -> tuple[int, str | None]:
-    """Index of the first size of ``xs`` the test detects (and by which test), or ``(-1, None)``."""
+def _first_detected(detected, h, xs) -> tuple[int, str | None]:
+    """Index of the first size of ``xs`` that ``detected(h, x)`` detects (and by which test), or ``(-1, None)``."""
     for i, x in enumerate(xs):
-        by = test.detected(h, float(x))
+        by = detected(h, float(x))
         if by is not None:
             return i, by
     return -1, None
 
 
-def _side(test: _Test, h, null: float | None, start: float, end: float, log: bool) -> tuple[float | None, str | None]:
-    """Threshold between the null end ``start`` and ``end`` [SI]: a grid geometric in the distance from the
-    null value (from :data:`SMALLEST` of the range; geometric in the size itself when the null is a limit of
-    a log-scaled parameter), then bisection."""
+#: Ratio between the sizes of the profiled test's ladder around the first-order threshold.
+LADDER = 1.5
+#: Steps of that ladder at most, each way.
+LADDER_STEPS = 10
+#: Bisection steps of the profiled test between two sizes of its ladder (to about LADDER**(1/32)).
+N_BISECT_PROFILED = 5
+
+
+def _side(test: _Test, h, null: float | None, start: float, end: float, log: bool,
+          profiled: bool = True) -> tuple[float | None, str | None]:
+    """Threshold between the null end ``start`` and ``end`` [SI].
+
+    To first order: a grid geometric in the distance from the null value (from :data:`SMALLEST` of the range;
+    geometric in the size itself when the null is a limit of a log-scaled parameter), then bisection. With a
+    profiled test (a model form): from there a ladder of factors :data:`LADDER` up or down with the
+    diagnosis's own test (minutes for the whole library rather than hours), then bisection in the factor.
+    """
     if null is None:
         xs = _path(start, end, log, N_GRID)
         to_x = None
@@ -238,29 +330,98 @@ def _side(test: _Test, h, null: float | None, start: float, end: float, log: boo
 
         def to_x(d):
             return null + sign * d
-    i, by = _first_detected(test, h, xs)
+    i, by = _first_detected(test.detected_first_order, h, xs)
     if i < 0:
-        return None, None
-    if i == 0:  # detected at the smallest size tried
-        return float(xs[0]), by
-    if to_x is None:
-        a, b = float(xs[i - 1]), float(xs[i])
-        geo = log and a > 0 and b > 0
+        thr = None
+    elif i == 0:  # detected at the smallest size tried
+        thr = float(xs[0])
     else:
-        a, b = float(ds[i - 1]), float(ds[i])
-        geo = True
-    for _ in range(N_BISECT):
-        mid = math.sqrt(a * b) if geo else 0.5 * (a + b)
-        m_by = test.detected(h, mid if to_x is None else to_x(mid))
-        if m_by is None:
-            a = mid
+        if to_x is None:
+            a, b = float(xs[i - 1]), float(xs[i])
+            geo = log and a > 0 and b > 0
         else:
-            b, by = mid, m_by
-    return (b if to_x is None else float(to_x(b))), by
+            a, b = float(ds[i - 1]), float(ds[i])
+            geo = True
+        for _ in range(N_BISECT):
+            mid = math.sqrt(a * b) if geo else 0.5 * (a + b)
+            m_by = test.detected_first_order(h, mid if to_x is None else to_x(mid))
+            if m_by is None:
+                a = mid
+            else:
+                b, by = mid, m_by
+        thr = b if to_x is None else float(to_x(b))
+    if not (profiled and test.profiled):
+        return thr, by
+    return _profiled_side(test, h, null, start, end, log, thr)
 
 
-def _thresholds(tester: _Test, h) -> list[Threshold]:
-    """The thresholds of the one-parameter hypothesis ``h`` (one per side of its null value)."""
+def _profiled_side(test: _Test, h, null, start: float, end: float, log: bool, first: float | None):
+    """The profiled test's threshold on the side from ``start`` to ``end``, searched from the first-order
+    threshold ``first`` (None: at the bound) on a ladder of factors, then bisected in the factor."""
+    if first is None:
+        first = end
+    if null is not None:
+        d1 = abs(first - null)
+        sign = 1.0 if end >= null else -1.0
+
+        def at(s: float) -> float:
+            return null + sign * d1 * s
+    elif log and first > 0 and end > 0:
+        up = end > start
+
+        def at(s: float) -> float:
+            return first * s if up else first / s
+    else:
+        def at(s: float) -> float:
+            return start + (first - start) * s
+
+    def beyond(x: float) -> bool:  # past the end of the range
+        return (x - end) * (end - start) > 0
+
+    def test_at(s: float):
+        x = at(s)
+        return test.detected(h, end if beyond(x) else x)
+
+    by = test_at(1.0)
+    if by is not None:  # detected at the first-order threshold: down the ladder
+        hi, lo = 1.0, None
+        for k in range(1, LADDER_STEPS + 1):
+            s = LADDER**-k
+            b = test_at(s)
+            if b is None:
+                lo = s
+                break
+            hi, by = s, b
+        if lo is None:
+            return float(at(hi)), by
+    else:
+        lo, hi = 1.0, None
+        for k in range(1, LADDER_STEPS + 1):
+            s = LADDER**k
+            prev = at(LADDER ** (k - 1))
+            if beyond(prev) or prev == end:  # the end of the range was tried
+                break
+            by = test_at(s)
+            if by is not None:
+                hi = s
+                break
+            lo = s
+        if hi is None:
+            return None, None
+    for _ in range(N_BISECT_PROFILED):
+        mid = math.sqrt(lo * hi)
+        b = test_at(mid)
+        if b is None:
+            lo = mid
+        else:
+            hi, by = mid, b
+    x = at(hi)
+    return float(end if beyond(x) else x), by
+
+
+def _thresholds(tester: _Test, h, profiled: bool = True) -> list[Threshold]:
+    """The thresholds of the one-parameter hypothesis ``h`` (one per side of its null value); with
+    ``profiled=False`` to first order in the model form only (:func:`_side`)."""
     nominal, ctx = tester.nominal, tester.ctx
     _trials, lower, upper = h.space(nominal, ctx)
     lo, hi, log = float(lower[0]), float(upper[0]), bool(h.log_scale[0])
@@ -276,7 +437,7 @@ def _thresholds(tester: _Test, h) -> list[Threshold]:
         sides = [(x0, hi if abs(hi - x0) >= abs(lo - x0) else lo)]
     out = []
     for start, end in sides:
-        thr, by = _side(tester, h, x0, start, end, log)
+        thr, by = _side(tester, h, x0, start, end, log, profiled)
         out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
     return out
 
@@ -349,6 +510,19 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
         shape_rel = plant_shape_uncertainty(nominal.spec, f_ref)
     return mf, frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
                               output_points=data.output_points, uncertainty=mf, modes=ref_modes, shape_rel=shape_rel)
+
+
+def replay_referral(nominal: LabState, data: FrfData, mf) -> np.ndarray | None:
+    """``ln(H_model / H_base)`` on ``data``'s lines, shape (n_f, n_o) complex: the nominal model against the
+    replay plant, predicted with that plant's own modes (``mf.modes``, :func:`frf_model_form_of`); None without
+    them (the referral's term is then not modelled)."""
+    if mf is None or mf.modes is None:
+        return None
+    kw = {"excitation_point": data.excitation_point, "output_points": data.output_points}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.log(predict_frf(nominal, data.freq_hz, **kw) /
+                     predict_frf(replace(nominal, point_modes=mf.modes), data.freq_hz, **kw))
+    return np.where(np.isfinite(out), out, 0.0)
 
 
 def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: float = 1e-6, seed: int = 0):
@@ -452,10 +626,15 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     spec, nominal, data, ctx = nominal_test(structure, controller, noise_m_s=noise_m_s, seed=seed)
     if model_form not in ("derived", "none"):
         raise ModelError(f"model form {model_form!r}: use 'derived' or 'none'")
-    mf_frf = None
+    mf_frf, referral = None, None
     if model_form == "derived":  # a real test, referred through the MuJoCo plant's replay
         _mf, mf_frf = frf_model_form_of(nominal, data, "mujoco")
-    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx)
+        referral = replay_referral(nominal, data, mf_frf)
+    var0 = data.var
+    if referral is not None:  # the nominal recording as a real one: with the referral's term
+        data = replace(data, var=var0 + referral_variance(referral, data.h, data.h, mf_frf) * np.abs(data.h) ** 2)
+    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx, referral=referral,
+                   var0=var0)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
     say(f"thresholds of {len(hyps)} hypotheses")
@@ -478,7 +657,9 @@ def _with_naming(tester: _Test, hyps: list, out: list, look_alikes, say) -> list
     pool = [h for h in library(tester.nominal, tester.ctx, effects=look_alikes) if h.n_params == 1]
     have = {h.label for h in hyps}
     say(f"naming among {len(pool)} look-alikes")
-    extra = [t for h in pool if h.label not in have for t in _thresholds(tester, h)]
+    # the look-alikes serve as directions (their size scales them, the gap test does not depend on it): their
+    # first-order thresholds suffice
+    extra = [t for h in pool if h.label not in have for t in _thresholds(tester, h, profiled=False)]
     pooled = {h.label for h in pool}
     directions = LookAlikes(tester, pool + [h for h in hyps if h.label not in pooled], out + extra)
     named = []
