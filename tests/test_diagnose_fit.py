@@ -372,3 +372,23 @@ def test_a_dashpot_or_friction_at_a_point_stops_at_the_critical_dashpot():
         trials, lo, hi = PointDamping(point=p).space(nominal, ctx)
         assert hi[0] <= c_crit and trials.max() <= c_crit and lo[0] < trials.min()
         assert c_crit > 10 * ctx.point_damping[p]  # the damping the benchmark draws (<= 3x) stays inside
+
+
+def test_a_validation_worsens_only_beyond_what_it_resolves():
+    """vlab.diagnose.fit.rules.worsens: the FRF misfit must rise by more than the misfit an exact model leaves
+    (in quadrature) to reject; a higher time-domain error rejects only where the FRF misfit does not fall by
+    more than that (the numbers of tier-2 seed 10202, cases 9 and 4, and of a wrong candidate)."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.fit.rules import worsens
+
+    def v(before, after, noise, t_before, t_after):
+        return SimpleNamespace(misfit_before=before, misfit_after=after, noise_misfit=noise,
+                               time_error_before=t_before, time_error_after=t_after)
+
+    assert not worsens(v(0.0447, 0.00866, 0.00931, 0.495, 0.504))  # FRF 5x better, resolved: time not decisive
+    assert not worsens(v(0.00297, 0.0041, 0.00587, 0.042, 0.0375))  # FRF rise within its resolution
+    assert worsens(v(0.00598, 0.00701, 0.006, 0.0418, 0.047))  # FRF unresolved, time worse
+    assert worsens(v(0.01, 0.1, 0.005, 0.2, 0.1))  # FRF 10x worse, beyond the noise
+    assert not worsens(v(0.01, 0.011, 0.005, float("nan"), float("nan")))  # no time error: FRF within resolution
+    assert worsens(v(0.01, 0.012, 0.0, 0.1, 0.1))  # an exact comparison resolves any rise

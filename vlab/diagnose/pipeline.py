@@ -612,15 +612,21 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             res.misfit_selected = misfit_0
             res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         if res.selected is not None and not explains(res, chi2_fit):
-            h = res.selected
+            h, v = res.selected, res.validation
+            res.rejected.append({"effect": h.effect, "label": h.label,
+                                 "misfit_before": misfit_0 if v is None else v.misfit_before,
+                                 "misfit_after": res.misfit_selected if v is None else v.misfit_after,
+                                 "noise_misfit": None if v is None else v.noise_misfit,
+                                 "reason": "explains only part of the mismatch"})
             notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_fit)[0]:.0f} % "
                          "of the weighted misfit" + ("" if res.validation is None else
                                                      " and its rerun changes the FRF misfit only "
                                                      + ratio_text(res.validation.misfit_before,
                                                                   res.validation.misfit_after))
-                         + ": the mismatch is not explained by the library (a model-form error?); nothing is selected")
+                         + ": the mismatch lies outside the library; nothing is selected")
             res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
             res.misfit_selected = misfit_0
+            res.outside_library = True  # issue 24 item 5: a partial fit is never the answer
             res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         if res.selected is not None and not any(p.effect in NONLINEAR for p in res.selected_parts) and \
                 not _explains_fully(res, problem, misfit_0):
