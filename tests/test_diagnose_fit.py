@@ -392,3 +392,42 @@ def test_a_validation_worsens_only_beyond_what_it_resolves():
     assert worsens(v(0.01, 0.1, 0.005, 0.2, 0.1))  # FRF 10x worse, beyond the noise
     assert not worsens(v(0.01, 0.011, 0.005, float("nan"), float("nan")))  # no time error: FRF within resolution
     assert worsens(v(0.01, 0.012, 0.0, 0.1, 0.1))  # an exact comparison resolves any rise
+
+
+def test_a_pair_is_reduced_where_one_part_alone_is_within_the_models_accuracy(monkeypatch):
+    """vlab.diagnose.fit.plantchoice.reduce_pair_on_plant: a pair that passes the pair rule by far (evidence and
+    misfit gain) is still reduced to its main part when that part alone leaves only what its modes' own model
+    form allows (the rule of a second effect searched on the plant; tier-2 seed 10303 case 6: a grounded spring
+    at 4.6x its threshold named with a spurious joint), and kept when it does not or without a model form."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.fit import plantchoice
+    from vlab.diagnose.fit.plantfit import PlantScore
+
+    spring = SimpleNamespace(label="spring", effect="support_stiffness", n_params=1, bic_=100.0, params_=np.array([64.0]),
+                             spec_level=False)
+    joint = SimpleNamespace(label="joint", effect="joint_flexibility", n_params=1, bic_=5000.0, params_=np.array([3e3]),
+                            spec_level=False)
+    pair = SimpleNamespace(label="spring + joint", parts=[spring, joint], n_params=2, params_=np.array([64.0, 3e3]),
+                           spec_level=False)
+    scores = [(PlantScore(2500.0, 2), 0.004, None), (PlantScore(9000.0, 1), 0.02, None),
+              (PlantScore(1e6, 1), 0.1, None)]
+    monkeypatch.setattr(plantchoice, "map_on_plant", lambda fn, model, jobs: scores)
+
+    def model(mf):
+        return SimpleNamespace(problem=SimpleNamespace(n_obs=3800, model_form_frf=mf),
+                               state=lambda h, x: (h.label, float(x[0])))
+
+    seen = []
+
+    def accurate(problem, state):
+        seen.append(state)
+        return state == ("spring", 64.0)
+
+    monkeypatch.setattr(plantchoice, "within_model_accuracy", accurate)
+    chosen, _r, note = plantchoice.reduce_pair_on_plant(model(object()), pair, [spring, joint])
+    assert chosen is spring and "model-form" in note and seen == [("spring", 64.0)]
+    monkeypatch.setattr(plantchoice, "within_model_accuracy", lambda problem, state: False)
+    assert plantchoice.reduce_pair_on_plant(model(object()), pair, [spring, joint])[0] is pair
+    monkeypatch.setattr(plantchoice, "within_model_accuracy", accurate)
+    assert plantchoice.reduce_pair_on_plant(model(None), pair, [spring, joint])[0] is pair  # no model form
