@@ -47,13 +47,15 @@ def test_thresholds_are_positive_and_below_the_range(mass_threshold):
     assert all(x.threshold is None or x.threshold > 0 for x in det.thresholds)
 
 
-def _diagnosed(tmp_path, spec, t, factor: float, seed: int, point: int = 6) -> dict:
-    """The diagnosis of a linear-plant recording (open loop) with ``factor`` x the threshold mass at ``point``."""
+def _diagnosed(tmp_path, spec, t, factor: float, seed: int, point: int = 6, location: dict | None = None) -> dict:
+    """The diagnosis of a linear-plant recording (open loop) with ``factor`` x the threshold ``t`` of its effect
+    at ``location`` (default: a mass at ``point``)."""
     fe = build_fe_model(spec)
     chain = default_chain("none", noise_m_s=1e-6)
     nominal = LabState(spec, fe, replace(chain, noise_m_s=0.0), None)
     ctx = context_for(nominal, (0.5, 25.0), None)
-    (h,) = [x for x in library(nominal, ctx, effects=("added_mass",)) if x.location == {"point": point}]
+    where = {"point": point} if location is None else location
+    (h,) = [x for x in library(nominal, ctx, effects=(t.effect,)) if x.location == where]
     state = h.apply(nominal, np.array([t.scaled(factor)]), ctx)
     cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", chain=chain, seed=seed)
     meta = {"structure": "bcc", "controller": "none", "seed": 0, "plant": "linear FE model"}
@@ -61,6 +63,20 @@ def _diagnosed(tmp_path, spec, t, factor: float, seed: int, point: int = 6) -> d
     plant = (linear_plant(state), {"kind": "linear FE model"})  # the state's own damping and dashpots
     write_recording(path, measure(cfg, state.fe, None, metadata=meta, plant=plant).loop.recording)
     return vlab.diagnose(spec, path).as_dict()
+
+
+def test_a_modes_damping_at_three_times_its_threshold_is_named(tmp_path):
+    """Mode 3's damping ratio lowered to 3x its threshold (about -9 %): named where it is. It was missed twice
+    over: benchmarks/detectability_check.py recorded it on a plant built from the FE model's own spec (the
+    damping lives in the state's spec), and the screening's trials (0.3-3x the nominal ratio) never came within
+    the chi-square well of a lightly damped peak, where the family rule kept a point dashpot instead."""
+    spec = load_spec("bcc")
+    det = detectability(spec, "none", effects=("damping",), model_form="none")
+    (t,) = [x for x in det.of("damping", {"mode": 3}) if x.bound < x.null]
+    d = _diagnosed(tmp_path, spec, t, 3.0, 75, location={"mode": 3})
+    (sel,) = d["selected"]
+    assert sel["effect"] == "damping" and sel["location"] == {"mode": 3}
+    assert sel["parameters"]["damping_ratio"] == pytest.approx(t.scaled(3.0), rel=0.02)
 
 
 def test_half_the_threshold_is_mostly_no_mismatch(tmp_path, mass_threshold):

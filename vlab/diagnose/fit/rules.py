@@ -271,17 +271,22 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
     -------
     list of Hypothesis
         The ``shortlist`` best by chi-square, the ``shortlist // 2`` one-parameter mode-moving ones with
-        the least smoothed error (``coarse_error_``) not among them, and the best of every effect not yet in.
+        the least smoothed error (``coarse_error_``) not among them, and the best of every family not yet in
+        (an effect and the kind of its place: a mode's damping and a point dashpot are two families).
     """
     keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
     # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
     broad = sorted((h for _, h in scored if h.moves_modes and h.n_params == 1), key=lambda h: h.coarse_error_)
     keep += [h for h in broad[:shortlist // 2] if h not in keep]
-    seen = {h.effect for h in keep}
+    # a family: an effect and the kind of place (a mode's damping and a dashpot at a point are two)
+    def family(h: Hypothesis) -> tuple:
+        return h.effect, tuple(sorted(h.location))
+
+    seen = {family(h) for h in keep}
     for _, h in scored:
-        if h.effect not in seen:
+        if family(h) not in seen:
             keep.append(h)
-            seen.add(h.effect)
+            seen.add(family(h))
     return keep
 
 
