@@ -130,6 +130,25 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     return chosen
 
 
+def _rejection(h: Hypothesis, reason: str, before: float, after: float, noise: float | None, **more) -> dict:
+    """The entry of ``res.rejected`` for the candidate ``h`` rejected for ``reason``: its FRF misfits
+    [decades] before and after (validation rerun, else the linear model), the misfit an exact model leaves
+    [decades] (None when unknown) and any further numbers ``more`` (their keys carry their units)."""
+    return {"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
+            "noise_misfit": noise, **more, "reason": reason}
+
+
+def _drop_selection(res: DiagnosisResult, misfit_0: float, chi2_fit: float, *, outside: bool) -> None:
+    """Unselect the candidate of ``res`` that a rule rejected: nothing selected, the nominal misfit
+    ``misfit_0``, the location from the fits (``chi2_fit``); ``outside``: the mismatch lies outside the
+    library (issue 24 item 5: a library effect that does not fit is never the answer)."""
+    res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+    res.misfit_selected = misfit_0
+    if outside:
+        res.outside_library = True
+    res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+
+
 def _instability(check, replayed, loops) -> dict | None:
     """The recording's instability check for the result (issue 24 item 4): its dict, whether the nominal
     plant's replay of the recorded force oscillates too (None without a replay; a nominal lab that is itself
@@ -550,7 +569,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             if chosen is not None:
                 res.selected = chosen
                 res.misfit_selected = float(chosen.misfit_)
+                t = time.perf_counter()
                 thr = threshold_of(problem, nominal, ctx, chosen)
+                timing["threshold"] = time.perf_counter() - t
                 res.threshold = None if thr is None else thr.as_dict()
                 parts = res.selected_parts
                 if not ctx.closed_loop:
@@ -583,20 +604,16 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             timing["validate"] = time.perf_counter() - t
         if res.selected is not None and res.validation is not None and worsens(res.validation):
             v, h = res.validation, res.selected
-            res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": v.misfit_before,
-                                 "misfit_after": v.misfit_after, "time_error_before": v.time_error_before,
-                                 "time_error_after": v.time_error_after, "noise_misfit": v.noise_misfit,
-                                 "reason": "its validation rerun makes the fit worse"})
+            res.rejected.append(_rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
+                                           v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
+                                           time_error_after=v.time_error_after))
             notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
                          f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
                          f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
                          f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}): "
                          "the library's best does not explain the mismatch, which lies outside the library; nothing "
                          "is selected")
-            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
-            res.outside_library = True  # issue 24 item 5: a library effect that does not fit is never the answer
-            res.misfit_selected = misfit_0
-            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+            _drop_selection(res, misfit_0, chi2_fit, outside=True)
         osc = res.instability or {}
         if res.selected is not None and osc.get("unstable") and osc.get("in_replay") is False and \
                 not reproduces_oscillation(osc["frequency_hz"], _rerun_instability(res, loops)):
@@ -608,43 +625,32 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                             "without a validation rerun it cannot be shown to cause the oscillation at ")
                          + f"{osc['frequency_hz']:.2f} Hz (a fit to the FRFs of a self-excited recording can look "
                          "good without the cause); nothing is selected")
-            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
-            res.misfit_selected = misfit_0
-            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+            _drop_selection(res, misfit_0, chi2_fit, outside=False)
         if res.selected is not None and not explains(res, chi2_fit):
             h, v = res.selected, res.validation
-            res.rejected.append({"effect": h.effect, "label": h.label,
-                                 "misfit_before": misfit_0 if v is None else v.misfit_before,
-                                 "misfit_after": res.misfit_selected if v is None else v.misfit_after,
-                                 "noise_misfit": None if v is None else v.noise_misfit,
-                                 "reason": "explains only part of the mismatch"})
+            before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
+                                    else (misfit_0, res.misfit_selected, None))
+            res.rejected.append(_rejection(h, "explains only part of the mismatch", before, after, noise))
             notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_fit)[0]:.0f} % "
                          "of the weighted misfit" + ("" if res.validation is None else
                                                      " and its rerun changes the FRF misfit only "
                                                      + ratio_text(res.validation.misfit_before,
                                                                   res.validation.misfit_after))
                          + ": the mismatch lies outside the library; nothing is selected")
-            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
-            res.misfit_selected = misfit_0
-            res.outside_library = True  # issue 24 item 5: a partial fit is never the answer
-            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+            _drop_selection(res, misfit_0, chi2_fit, outside=True)
         if res.selected is not None and not any(p.effect in NONLINEAR for p in res.selected_parts) and \
                 not _explains_fully(res, problem, misfit_0):
             h, v = res.selected, res.validation
             before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
                                     else (misfit_0, res.misfit_selected, None))
-            res.rejected.append({"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
-                                 "noise_misfit": noise, "reason": "explains only part of the mismatch"})
+            res.rejected.append(_rejection(h, "explains only part of the mismatch", before, after, noise))
             notes.append(f"the best candidate, {h.label}, explains only part of the mismatch: "
                          + (f"its validation rerun ({v.plant})" if v is not None else "on the linear model it")
                          + f" lowers the misfit {ratio_text(before, after)} ({before:.3g} -> {after:.3g}"
                          + (f"; the measured noise {'and the model form leave' if problem.model_form_frf else 'alone leaves'}"
                             f" {noise:.3g}" if noise is not None else "")
                          + "), not 5 x nor to the noise: the mismatch lies outside the library; nothing is selected")
-            res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
-            res.misfit_selected = misfit_0
-            res.outside_library = True
-            res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+            _drop_selection(res, misfit_0, chi2_fit, outside=True)
     finally:
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start

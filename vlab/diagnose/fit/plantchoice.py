@@ -32,8 +32,8 @@ import math
 import numpy as np
 
 from ...errors import ModelError, SpecError
-from ..problem.nuisance import within_model_accuracy
 from ..effects.hypothesis import Combination, Hypothesis
+from ..problem.nuisance import within_model_accuracy
 from .estimate import fit_hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
 from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
