@@ -55,12 +55,13 @@ def test_unstable_recording_is_reported_first(recordings):
     assert text.startswith("Instability: the loop is unstable: a self-excited oscillation at")
     assert "the instability is part of the mismatch" in text
     assert d["mismatch"] is True
-    # three concealed changes, none of which alone reproduces the limit cycle: a fit to the FRFs is not the cause.
-    # Either the best candidate is rejected for not oscillating, or -- the lines next to the oscillation carry its
-    # energy in their transient-removal noise (vlab.measure.transient) -- no candidate is good enough to be tried
-    assert d["selected"] == []
-    assert (any("oscillation at 22." in r.get("reason", "") for r in d["rejected"])
-            or any("no hypothesis of the library explains" in n for n in d["notes"]))
+    # three concealed changes (a 30-period delay, twice the gain, a 3 N limit); the library holds no triple. The
+    # cause is searched among the candidates whose loop is unstable and whose rerun reproduces the limit cycle
+    # (vlab.diagnose.instability_cause): a loop delay, the change that destabilises the loop, must be in it
+    sel = d["selected"]
+    assert any(s["effect"] == "loop_delay" for s in sel)
+    assert any("reproduces it" in n and "generalised Nyquist" in n for n in d["notes"])
+    assert d["validated"]["misfit_after"] < d["validated"]["misfit_before"]
 
 
 def test_stable_recording_says_nothing_of_instability(recordings):

@@ -8,11 +8,12 @@ Layers, lowest first (a module may import its own layer and the layers below it,
 3. ``effects``  -- the library of hypotheses, one module per effect family (``effects/``)
 4. ``fit``      -- fit, rank, locate, the decision rules, the plant refits (``fit/``)
 5. ``validate`` -- the validation rerun (``validate.py``)
-6. ``naming``   -- the look-alikes an effect must beat to be named (``naming.py``)
-7. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
-8. ``report``   -- result, report text, figures (``report/``)
-9. ``pipeline`` -- :func:`vlab.diagnose.diagnose` (``pipeline.py``)
-10. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
+6. ``instability_cause`` -- the cause of a self-excited oscillation: unstable loops, reruns (``instability_cause.py``)
+7. ``naming``   -- the look-alikes an effect must beat to be named (``naming.py``)
+8. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
+9. ``report``   -- result, report text, figures (``report/``)
+10. ``pipeline`` -- :func:`vlab.diagnose.diagnose` (``pipeline.py``)
+11. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
 
 Every import counts: at module level, inside functions (lazy) and under ``TYPE_CHECKING``. Within the
 effects layer the families (``structural``, ``beyond_spec``, ``chain``) import only the base
@@ -28,7 +29,7 @@ from pathlib import Path
 PACKAGE = "vlab.diagnose"
 ROOT = Path(__file__).resolve().parent.parent / "vlab" / "diagnose"
 
-LAYERS = ("model", "data", "problem", "effects", "fit", "validate", "naming", "detectability", "report", "pipeline")
+LAYERS = ("model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "pipeline")
 #: Rank of the package's own ``__init__`` (above every layer: it re-exports the public names).
 TOP = len(LAYERS)
 

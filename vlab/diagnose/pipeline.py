@@ -70,7 +70,6 @@ import numpy as np
 from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import test_definition
-from ..lab.recording import Recording
 from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
@@ -86,8 +85,9 @@ from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
 from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained_share, explains, explains_fully,
                         needs_pairs, needs_rerun_check,
-                        prune, reproduces_oscillation, select, shortlisted, too_small_to_name, worsens)
+                        prune, select, shortlisted, too_small_to_name, worsens)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
+from .instability_cause import search_cause
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
@@ -179,19 +179,30 @@ def _explains_fully(res: DiagnosisResult, problem: Problem, misfit_0: float) -> 
     return problem.within_noise(res.selected_state()) or explains_fully(misfit_0, res.misfit_selected, None)
 
 
-def _rerun_instability(res: DiagnosisResult, loops):
-    """:func:`find_instability` of the selected effect's validation rerun (its analysed window), or None
-    without a rerun."""
-    v, data = res.validation, res.data
-    if v is None or not v.v_after or data.recording is None:
+def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabState, ranked: list, loops,
+                          chi2_fit: float, validate_run: bool, on_plant: bool, notes: list, timing: dict, say):
+    """The choice of a recording that oscillates by itself (rule 9, :mod:`vlab.diagnose.instability_cause`):
+    the best-fitting candidate whose linear loop is unstable and whose rerun reproduces the oscillation, with
+    that rerun as ``res.validation``; the candidates rerun in vain are listed as rejected. None when nothing
+    reproduces it or no rerun can be made."""
+    f0 = res.instability["frequency_hz"]
+    if not (validate_run and data_has_signals(res.data)):
+        notes.append(f"without a validation rerun no candidate can be shown to cause the oscillation at {f0:.2f} Hz "
+                     "(a fit to the FRFs of a self-excited recording can look good without the cause); nothing is "
+                     "selected")
         return None
-    force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    ran = np.all([np.isfinite(np.asarray(x)) for x in v.v_after.values()], axis=0)
-    if ran.sum() < 256:
-        return None
-    signals = {f"force{data.excitation_point}": force[ran]}
-    signals.update({f"vel{p}": np.asarray(x)[ran] for p, x in v.v_after.items()})
-    return find_instability(Recording.from_signals(data.recording.dt_s, signals), feedback_points=loops)
+    say("searching the cause of the oscillation")
+    t = time.perf_counter()
+    cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit,
+                         plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant)
+    timing["instability_cause"] = time.perf_counter() - t
+    notes.append(cause.note(f0))
+    for tr in cause.tried:
+        if not tr["reproduced"]:
+            res.rejected.append({"effect": tr["effect"], "label": tr["label"],
+                                 "reason": f"does not reproduce the self-excited oscillation at {f0:.2f} Hz"})
+    res.validation = cause.validation
+    return cause.chosen
 
 
 def _beyond_measurement(problem: Problem, nominal: LabState) -> bool:
@@ -500,6 +511,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                               None, notes=notes, chi2_fit=chi2_fit, misfit_nominal=misfit_0, misfit_selected=misfit_0,
                               peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference,
                               instability=_instability(unstable, replayed, loops))
+        osc = res.instability or {}
+        self_excited = bool(osc.get("unstable") and osc.get("in_replay") is False)  # part of the mismatch
         if not mismatch:
             res.location.points, res.location.members = [], []
             res.within_model_accuracy = _beyond_measurement(problem, nominal)
@@ -545,7 +558,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             res.ranked = ranked
             chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs)
             res.overdispersion = c_hat
-            if chosen is not None and validate_run and data_has_signals(data) and \
+            if self_excited:  # the cause of the oscillation decides, not the FRF fit (issue 24 item 4)
+                chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, loops, chi2_fit, validate_run,
+                                                     on_plant, notes, timing, say), []
+            elif chosen is not None and validate_run and data_has_signals(data) and \
                     any(needs_rerun_check(h) for h in [chosen] + alts):
                 say("separating look-alikes by rerun")
                 t = time.perf_counter()
@@ -553,7 +569,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                                                   plant="mujoco" if on_plant else "linear", seed=RERUN_SEED)
                 timing["tie_break"] = time.perf_counter() - t
             res.alternatives = alts
-            if chosen is not None and on_plant and chosen.spec_level:
+            if chosen is not None and on_plant and chosen.spec_level and not self_excited:
                 say("refitting on the MuJoCo plant's linearisation")
                 t = time.perf_counter()
                 chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
@@ -585,7 +601,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         if mismatch:
             res.location.points, res.location.members = located_from_fits(res, chi2_fit)
         # validation
-        if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None:
+        if res.selected is not None and validate_run and isinstance(data, FrfData) and data.recording is not None \
+                and res.validation is None:
             modified, key = res.selected_state(), rerun_key(res.selected)
             if res.plant_refit is not None:
                 modified, key = res.plant_refit.state, key + "@plant"
@@ -602,7 +619,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             except (VlabError, ImportError) as exc:
                 notes.append(f"validation rerun not possible: {exc}")
             timing["validate"] = time.perf_counter() - t
-        if res.selected is not None and res.validation is not None and worsens(res.validation):
+        if res.selected is not None and res.validation is not None and worsens(res.validation,
+                                                                              self_excited=self_excited):
             v, h = res.validation, res.selected
             res.rejected.append(_rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
                                            v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
@@ -614,19 +632,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                          "the library's best does not explain the mismatch, which lies outside the library; nothing "
                          "is selected")
             _drop_selection(res, misfit_0, chi2_fit, outside=True)
-        osc = res.instability or {}
-        if res.selected is not None and osc.get("unstable") and osc.get("in_replay") is False and \
-                not reproduces_oscillation(osc["frequency_hz"], _rerun_instability(res, loops)):
-            h = res.selected
-            res.rejected.append({"effect": h.effect, "label": h.label, "reason": "does not reproduce the "
-                                 f"self-excited oscillation at {osc['frequency_hz']:.2f} Hz"})
-            notes.append(f"the best candidate, {h.label}, is rejected: "
-                         + ("its validation rerun does not oscillate at " if res.validation is not None else
-                            "without a validation rerun it cannot be shown to cause the oscillation at ")
-                         + f"{osc['frequency_hz']:.2f} Hz (a fit to the FRFs of a self-excited recording can look "
-                         "good without the cause); nothing is selected")
-            _drop_selection(res, misfit_0, chi2_fit, outside=False)
-        if res.selected is not None and not explains(res, chi2_fit):
+        if res.selected is not None and not self_excited and not explains(res, chi2_fit):
             h, v = res.selected, res.validation
             before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
                                     else (misfit_0, res.misfit_selected, None))
@@ -638,8 +644,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                                                                   res.validation.misfit_after))
                          + ": the mismatch lies outside the library; nothing is selected")
             _drop_selection(res, misfit_0, chi2_fit, outside=True)
-        if res.selected is not None and not any(p.effect in NONLINEAR for p in res.selected_parts) and \
-                not _explains_fully(res, problem, misfit_0):
+        if res.selected is not None and not self_excited and \
+                not any(p.effect in NONLINEAR for p in res.selected_parts) and not _explains_fully(res, problem, misfit_0):
             h, v = res.selected, res.validation
             before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
                                     else (misfit_0, res.misfit_selected, None))

@@ -1,0 +1,231 @@
+"""Stability of the lab's closed loop from its frequency-domain model: the generalised Nyquist criterion.
+
+A loop that oscillates by itself has a closed loop with poles in the right
+half-plane. With the loop transfer ``L(w) = A(w) K(w) S(w) G_fb(w)`` of
+:mod:`vlab.diagnose.model.labmodel` (the matrix that :func:`~vlab.diagnose.model.labmodel.predict_frf`
+inverts as ``I + L``), the number of unstable closed-loop poles is
+
+    Z = P - (1 / pi) * [arg det(I + L(w))] from w = 0 to w_max
+
+(``P``: unstable open-loop poles, those of the controller's state matrix
+``F22`` outside the unit circle; the structure is stable). The phase change
+over ``0 < w < w_max`` is half that over the whole axis (``L(-w)`` is the
+conjugate of ``L(w)``), and ``det(I + L)`` starts real at ``w = 0`` (a velocity
+FRF vanishes there) and returns near 1 at ``w_max`` where ``|L|`` is small.
+
+The phase is followed on a grid refined until no step turns it by more than
+:data:`MAX_STEP_RAD` (lightly damped modes of the structure turn it within a
+fraction of a hertz); the grid starts with points at every natural frequency
+of the structure and of the controller.
+
+Like the whole frequency-domain model, the loop here neglects aliasing: valid
+while ``|L|`` is small beyond the Nyquist frequency, which the count checks
+(:class:`LoopStability` ``closure``).
+
+Source: generalised Nyquist criterion (MacFarlane & Postlethwaite, Int. J.
+Control 25 (1977) 81-127; Skogestad & Postlethwaite, *Multivariable Feedback
+Control*, 2nd ed., 2005, Theorem 4.9).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import ModelError
+from .labmodel import LabState, _modal, actuator_path, controller_frf, plant_frf, sensor_path
+
+#: Largest phase turn of ``det(I + L)`` between neighbouring grid points [rad] before the step is halved.
+MAX_STEP_RAD = 0.25
+
+#: Most halvings of a grid step (a step of 1 Hz is refined down to about 1e-6 Hz).
+MAX_REFINE = 20
+
+#: ``|L|`` (largest singular value) at the top of the grid below which the contour counts as closed.
+CLOSURE = 0.5
+
+
+@dataclass(frozen=True)
+class LoopStability:
+    """The closed loop's stability from :func:`loop_stability`.
+
+    Attributes
+    ----------
+    unstable_poles : int
+        ``Z``, the closed-loop poles in the right half-plane (complex pairs count 2).
+    open_loop_unstable : int
+        ``P``, the controller's unstable poles.
+    winding : float
+        Phase change of ``det(I + L)`` over ``0 < f < f_max`` divided by ``2 pi`` (half the turns).
+    f_max_hz : float
+        Top of the grid [Hz].
+    closure : float
+        Largest singular value of ``L`` at ``f_max_hz``: the count is exact only when it is small.
+    n_points : int
+        Grid points after refinement.
+    """
+
+    unstable_poles: int
+    open_loop_unstable: int
+    winding: float
+    f_max_hz: float
+    closure: float
+    n_points: int
+
+    @property
+    def unstable(self) -> bool:
+        """Whether the closed loop has a pole in the right half-plane."""
+        return self.unstable_poles > 0
+
+    @property
+    def trusted(self) -> bool:
+        """Whether the contour closes (``|L|`` small at the top) and the winding is near a whole number."""
+        return self.closure < CLOSURE and abs(2 * self.winding - round(2 * self.winding)) < 0.1
+
+
+def return_difference(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
+    """``det(I + L(w))`` of the lab's closed loop, ``L = A K S G_fb``.
+
+    Parameters
+    ----------
+    state : LabState
+        A closed-loop lab (with a design).
+    freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz], > 0.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_f,)
+
+    Raises
+    ------
+    ModelError
+        Open loop (no design), or as :func:`~vlab.diagnose.model.labmodel.plant_frf`.
+
+    Source: the loop of :func:`~vlab.diagnose.model.labmodel.predict_frf` (Fig. 21).
+    """
+    return np.linalg.det(np.eye(len(state.actuators))[None] + loop_transfer(state, freq_hz))
+
+
+def loop_transfer(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
+    """The loop transfer ``L(w) = A K S G_fb`` at the feedback points, shape (n_f, n_act, n_act) [-].
+
+    Raises ModelError for an open-loop lab (no design)."""
+    f = np.asarray(freq_hz, dtype=float)
+    k = controller_frf(state, f)
+    if k is None:
+        raise ModelError("the loop's stability needs a controller (the lab is open loop)")
+    acts = state.actuators
+    g = plant_frf(state, f, acts, acts)
+    a, s = actuator_path(state, f), sensor_path(state, f)
+    return (a[:, :, None] * k * s[:, None, :]) @ g
+
+
+def _seed_frequencies(state: LabState, f_max: float) -> np.ndarray:
+    """Natural frequencies [Hz] of the structure (and their half-power points) and the controller below
+    ``f_max``: where the phase of ``det(I + L)`` turns fastest."""
+    if state.point_modes is not None:
+        omega, zeta = state.point_modes.omega, state.point_modes.zeta
+    else:
+        md, zeta = _modal(state)
+        omega = md.omega
+    fn = omega / (2 * math.pi)
+    pts = [fn, fn * (1 - zeta), fn * (1 + zeta)]
+    lam = np.linalg.eigvals(np.atleast_2d(state.design.f22)) if np.size(state.design.f22) else np.zeros(0)
+    lam = lam[np.abs(lam) > 0]
+    pts.append(np.abs(np.angle(lam)) / (2 * math.pi * state.chain.period_s))
+    s = np.concatenate(pts)
+    return s[(s > 0) & (s < f_max)]
+
+
+def unstable_closed_loop_poles(det_of, f_max_hz: float, open_loop_unstable: int, *, df_hz: float = 1.0,
+                               seeds_hz=()) -> tuple[int, float, int]:
+    """Closed-loop poles in the right half-plane from the phase of a return difference (Nyquist).
+
+    Parameters
+    ----------
+    det_of : callable ``ndarray (n_f,) [Hz] -> ndarray complex (n_f,)``
+        ``det(I + L(j 2 pi f))`` of a loop whose ``L`` is real-rational-like (``L(-w) = conj L(w)``),
+        1 at ``f = 0`` up to a real factor, and small at ``f_max_hz``.
+    f_max_hz : float
+        Top of the grid [Hz].
+    open_loop_unstable : int
+        ``P``, the open loop's poles in the right half-plane.
+    df_hz : float
+        Step of the starting grid [Hz]; it is refined until no step turns the phase by more than
+        :data:`MAX_STEP_RAD`.
+    seeds_hz : array_like
+        Extra starting points [Hz] (natural frequencies, where the phase turns fastest).
+
+    Returns
+    -------
+    (Z, winding, n_points)
+        ``Z = P - round(2 winding)``, the winding the phase change over ``0 < f < f_max`` in turns,
+        and the grid's final size.
+
+    Raises
+    ------
+    ModelError
+        The phase cannot be followed after :data:`MAX_REFINE` halvings (a pole on the imaginary axis).
+
+    Source: Nyquist criterion (Skogestad & Postlethwaite, 2005, Theorem 4.9).
+    """
+    seeds = np.asarray(seeds_hz, dtype=float)
+    seeds = seeds[(seeds > 0) & (seeds < f_max_hz)]
+    f = np.unique(np.concatenate([np.arange(df_hz * 1e-3, f_max_hz, df_hz), [f_max_hz], seeds]))
+    d = det_of(f)
+    for _ in range(MAX_REFINE):
+        bad = np.abs(np.angle(d[1:] / d[:-1])) > MAX_STEP_RAD
+        if not bad.any():
+            break
+        mid = 0.5 * (f[:-1][bad] + f[1:][bad])
+        f_new, d_new = np.concatenate([f, mid]), np.concatenate([d, det_of(mid)])
+        order = np.argsort(f_new)
+        f, d = f_new[order], d_new[order]
+    else:
+        raise ModelError(f"the phase of det(I + L) cannot be followed near {f[1:][bad][0]:.6g} Hz "
+                         "(a closed-loop pole on the imaginary axis?)")
+    winding = float(np.sum(np.angle(d[1:] / d[:-1])) + np.angle(d[0])) / (2 * math.pi)
+    return open_loop_unstable - int(round(2 * winding)), winding, int(f.size)
+
+
+def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: float = 1.0) -> LoopStability:
+    """Number of unstable closed-loop poles of the lab's linear model (generalised Nyquist criterion).
+
+    Parameters
+    ----------
+    state : LabState
+        A closed-loop lab. Its structure is that of ``state.point_modes`` when set (the MuJoCo plant's
+        linearisation), else the FE model's.
+    f_max_hz : float, optional
+        Top of the grid [Hz]; default the sampling frequency ``1 / T`` (twice the Nyquist frequency:
+        the hold and the structure's roll-off make ``|L|`` small there).
+    df_hz : float
+        Step of the starting grid [Hz], refined where the phase turns fast.
+
+    Returns
+    -------
+    LoopStability
+
+    Raises
+    ------
+    ModelError
+        Open loop, bad grid arguments, or a grid that cannot follow the phase (a closed-loop pole on the
+        imaginary axis).
+
+    Source: module notes (generalised Nyquist criterion).
+    """
+    if state.design is None:
+        raise ModelError("the loop's stability needs a controller (the lab is open loop)")
+    top = 1.0 / state.chain.period_s if f_max_hz is None else float(f_max_hz)
+    if not (math.isfinite(top) and top > 0 and math.isfinite(df_hz) and 0 < df_hz < top):
+        raise ModelError(f"loop_stability: f_max_hz {f_max_hz!r} and df_hz {df_hz!r} must be finite, "
+                         "0 < df_hz < f_max_hz")
+    f22 = np.atleast_2d(state.design.f22)
+    p = int(np.sum(np.abs(np.linalg.eigvals(f22)) > 1.0)) if f22.size else 0
+    z, winding, n = unstable_closed_loop_poles(lambda f: return_difference(state, f), top, p, df_hz=df_hz,
+                                               seeds_hz=_seed_frequencies(state, top))
+    closure = float(np.linalg.norm(loop_transfer(state, np.array([top]))[0], 2))
+    return LoopStability(z, p, winding, top, closure, n)
