@@ -253,3 +253,24 @@ def test_map_on_plant_keeps_the_order_in_processes_and_gives_none_for_a_plant_er
     assert map_on_plant(_scaled_or_fail, 2.0, jobs, workers=1) == [2.0, None, 6.0]
     # a job that cannot be sent to a process (a local function) runs in this one
     assert map_on_plant(lambda m, x: m + x, 1.0, [(1.0,), (2.0,)]) == [2.0, 3.0]
+
+
+def test_the_answer_is_the_refitted_value_with_the_fe_fit_beside_it():
+    """``selected`` reports a refitted parameter at its refitted value, its interval scaled by refit / FE, and the
+    FE fit as ``fe_fit``; the other part of a pair is reported as fitted."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.effects.hypotheses import AddedMass
+    from vlab.diagnose.report.result import DiagnosisResult
+
+    pair = Combination(first=JointFlexibility(point=18), second=AddedMass(point=3))
+    pair.params_, pair.ci95_ = np.array([5000.0, 0.5]), np.array([[4000.0, 6000.0], [0.4, 0.6]])
+    res = SimpleNamespace(selected=pair, plant_refit=SimpleNamespace(params=np.array([6000.0, 0.5])))
+    joint, mass = DiagnosisResult._selected_entries(res)
+    name = JointFlexibility.param_names[0]
+    assert joint["parameters"][name] == 6000.0 and joint["fe_fit"] == {name: 5000.0}
+    assert joint["ci95"][name] == pytest.approx([4800.0, 7200.0])
+    assert mass["parameters"] == {"mass_kg": 0.5} and "fe_fit" not in mass
+    res.plant_refit = None
+    joint, _ = DiagnosisResult._selected_entries(res)
+    assert joint["parameters"][name] == 5000.0 and "fe_fit" not in joint

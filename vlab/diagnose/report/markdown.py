@@ -103,7 +103,10 @@ def markdown(res: dict) -> str:
         lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g} -> {res['ranked'][0]['chi2']:.4g} "
                   f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}){peak}.", ""]
         for x in res["selected"]:
-            lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}")
+            fe = ("" if not x.get("fe_fit") else
+                  " (refitted on the MuJoCo plant's linearisation; the FE model's fit: "
+                  + ", ".join(f"{k} = {v:.4g}" for k, v in x["fe_fit"].items()) + ")")
+            lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}{fe}")
         lines.append("")
     loc = res["located"]
     lines += ["## Where", "",
