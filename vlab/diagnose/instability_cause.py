@@ -118,7 +118,9 @@ class CauseSearch:
                 + ("oscillates by itself (above the measured band, where the model's modes are not known, at any "
                    "frequency)" if self.above_band else
                    f"oscillates on the same branch (between the natural frequencies {lo:.4g} and {hi:.4g} Hz)"))
-        runs = "; ".join(f"{t['label']}: {t['unstable_poles']} unstable poles, rerun oscillating at "
+        runs = "; ".join(f"{t['label']}: "
+                         + ("linear loop not checked" if t["unstable_poles"] is None
+                            else f"{t['unstable_poles']} unstable poles") + ", rerun oscillating at "
                          + (", ".join(f"{x:.2f}" for x in t["rerun_frequencies_hz"][:2]) + " Hz"
                             if t["rerun_frequencies_hz"] else "nothing")
                          + (" (reproduced)" if t["reproduced"] else "") for t in self.tried)
