@@ -111,7 +111,13 @@ class CauseSearch:
     above_band: bool = False
 
     def note(self, frequency_hz: float) -> str:
-        """One sentence for the report."""
+        """One sentence for the report.
+
+        Parameters
+        ----------
+        frequency_hz : float
+            The recording's self-excited frequency [Hz].
+        """
         lo, hi = self.branch_hz if self.branch_hz else (float("nan"), float("nan"))
         head = (f"cause of the self-excited oscillation at {frequency_hz:.2f} Hz searched among the candidates "
                 f"whose linear loop is unstable on {self.on} (generalised Nyquist criterion) and whose rerun "
@@ -134,7 +140,24 @@ class CauseSearch:
 
 
 def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int, loops):
-    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one."""
+    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one.
+
+    Parameters
+    ----------
+    v : Validation or None
+        Its ``v_after`` (velocities [m/s] on the recording's time axis, NaN before the rerun starts).
+    recording : Recording
+        The recording (its force channel and sampling interval).
+    excitation_point : int
+        Point of the recorded force ``force<ID>``.
+    loops : tuple of int
+        Feedback points.
+
+    Returns
+    -------
+    InstabilityCheck or None
+        None without a rerun or with fewer than 256 samples of it.
+    """
     if v is None or not v.v_after:
         return None
     force = np.asarray(recording[f"force{excitation_point}"])

@@ -110,9 +110,26 @@ def return_difference(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
 
 
 def loop_transfer(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
-    """The loop transfer ``L(w) = A K S G_fb`` at the feedback points, shape (n_f, n_act, n_act) [-].
+    """The loop transfer ``L(w) = A K S G_fb`` at the feedback points.
 
-    Raises ModelError for an open-loop lab (no design)."""
+    Parameters
+    ----------
+    state : LabState
+        A closed-loop lab.
+    freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz].
+
+    Returns
+    -------
+    ndarray, complex, shape (n_f, n_act, n_act) [-]
+
+    Raises
+    ------
+    ModelError
+        Open loop (no design), or as :func:`~vlab.diagnose.model.labmodel.plant_frf`.
+
+    Source: the loop of :func:`~vlab.diagnose.model.labmodel.predict_frf` (Fig. 21).
+    """
     f = np.asarray(freq_hz, dtype=float)
     k = controller_frf(state, f)
     if k is None:
