@@ -596,7 +596,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                     res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in parts) else "both"
             else:
                 res.loop = "open" if not ctx.closed_loop else "both"
-                if not res.too_small:
+                if not res.too_small and not self_excited:  # the cause search wrote its own note
                     notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by 10)")
         if mismatch:
             res.location.points, res.location.members = located_from_fits(res, chi2_fit)
