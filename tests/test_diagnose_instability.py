@@ -61,6 +61,8 @@ def test_unstable_recording_is_reported_first(recordings):
     sel = d["selected"]
     assert any(s["effect"] == "loop_delay" for s in sel)
     assert any("reproduces it" in n and "generalised Nyquist" in n for n in d["notes"])
+    assert "loop_delay" in inst["cause"]["label"] and inst["cause"]["rerun_frequencies_hz"]
+    assert "Its rerun oscillates by itself too" in verdict(d)
     assert d["validated"]["misfit_after"] < d["validated"]["misfit_before"]
 
 

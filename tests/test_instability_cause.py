@@ -140,3 +140,20 @@ def test_destabilising_value_is_the_boundary_nearest_the_fit(log):
     x = destabilising_value(h, p, lambda v: v > 3.7 or v < 0.2)   # unstable on both sides: 3.7 fits better
     assert 3.7 < x < 3.7 * 1.05
     assert destabilising_value(h, p, lambda v: False) is None      # never unstable in the range
+
+
+def test_the_report_quotes_the_chi_square_of_the_selected_fit_not_the_best_ranked():
+    """A self-excited recording's cause need not be the best-ranked fit: the report's chi-square is the selected
+    effect's own (or none)."""
+    from vlab.diagnose.report.markdown import _selected_chi2
+
+    ranked = [{"effect": "member_stiffness+actuator_gain", "location": {"first": {"member": "beam"},
+                                                                         "second": {"channel": 9}}, "chi2": 1417.0},
+              {"effect": "loop_delay", "location": {"channel": 5}, "chi2": 1521.0}]
+    res = {"ranked": ranked, "selected": [{"effect": "loop_delay", "location": {"channel": 5}}]}
+    assert _selected_chi2(res) == 1521.0
+    res["selected"] = [{"effect": "member_stiffness", "location": {"member": "beam"}},
+                       {"effect": "actuator_gain", "location": {"channel": 9}}]
+    assert _selected_chi2(res) == 1417.0
+    res["selected"] = [{"effect": "loop_delay", "location": {"channel": 7}}]
+    assert _selected_chi2(res) is None

@@ -202,6 +202,9 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
             res.rejected.append({"effect": tr["effect"], "label": tr["label"],
                                  "reason": f"does not reproduce the self-excited oscillation at {f0:.2f} Hz"})
     res.validation = cause.validation
+    if cause.chosen is not None:
+        (tried,) = [t for t in cause.tried if t["reproduced"]]
+        res.instability["cause"] = {"label": tried["label"], "rerun_frequencies_hz": tried["rerun_frequencies_hz"]}
     return cause.chosen
 
 

@@ -100,7 +100,9 @@ def markdown(res: dict) -> str:
                   "BIC by 10 or more and explains it.", ""]
     else:
         sel = " + ".join(f"`{x['effect']}` at {_loc(x['location'])}" for x in res["selected"])
-        lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g} -> {res['ranked'][0]['chi2']:.4g} "
+        chi2_sel = _selected_chi2(res)
+        arrow = "" if chi2_sel is None else f" -> {chi2_sel:.4g}"
+        lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g}{arrow} "
                   f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}){peak}.", ""]
         for x in res["selected"]:
             fe = ("" if not x.get("fe_fit") else
@@ -548,6 +550,19 @@ def _where_text(res: dict) -> str:
     return f" Located {'; '.join(parts)}." if parts else ""
 
 
+def _selected_chi2(res: dict) -> float | None:
+    """The chi-square of the selected effect's fit (its entry in ``ranked``), None when it has none there."""
+    sel = res.get("selected") or []
+    if not sel:
+        return None
+    effect = "+".join(x["effect"] for x in sel)
+    where = sel[0]["location"] if len(sel) == 1 else {"first": sel[0]["location"], "second": sel[1]["location"]}
+    for r in res.get("ranked") or []:
+        if r["effect"] == effect and r["location"] == where:
+            return r["chi2"]
+    return None
+
+
 def verdict(res: dict) -> str:
     """One paragraph: mismatch or not, what was selected and why, what the validation shows.
 
@@ -645,6 +660,11 @@ def _verdict_body(res: dict, s: dict, n) -> str:
             text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
                      f"{_fmt(v['noise_misfit'], 3)}")
         text += "."
+    cause = (res.get("instability") or {}).get("cause")
+    if cause:
+        text += (f" Its rerun oscillates by itself too (at {', '.join(_fmt(f, 4) for f in cause['rerun_frequencies_hz'][:2])}"
+                 " Hz): the cause of the oscillation; a limit cycle's FRFs are not the lab's linear response, so the "
+                 "misfit's fall does not judge it.")
     thr = res.get("detection_threshold") or {}
     if thr.get("threshold") is not None:
         q, unit = parameter_unit(thr["parameter"])
