@@ -62,7 +62,7 @@ from .effects.hypothesis import Combination, Hypothesis
 from .fit.plantfit import PlantModel
 from .fit.rules import STRONG_EVIDENCE, branch, evidence, reproduces_oscillation
 from .fit.selection import rerun_key
-from .model.labmodel import LabState, natural_frequencies
+from .model.labmodel import LabState, structure_modes
 from .model.nyquist import loop_stability
 from .validate import Validation, validate
 
@@ -221,9 +221,9 @@ def _chi2(problem, h: Hypothesis, x: float) -> float:
     return float(r @ r)
 
 
-def _moved(h: Hypothesis, problem, x: float, chi2_0: float) -> Hypothesis | None:
+def _moved(h: Hypothesis, problem, x: float, chi2_0: float, c_hat: float) -> Hypothesis | None:
     """A copy of ``h`` at ``x`` with its chi-square there, if the FRFs still support it over the nominal lab
-    (quasi-BIC evidence :data:`~vlab.diagnose.fit.rules.STRONG_EVIDENCE`, overdispersion of ``h``'s own fit)."""
+    (quasi-BIC evidence :data:`~vlab.diagnose.fit.rules.STRONG_EVIDENCE`, overdispersion ``c_hat``)."""
     g = copy.copy(h)
     g.params_ = np.array([x])
     g.chi2_ = _chi2(problem, h, x)
@@ -232,25 +232,19 @@ def _moved(h: Hypothesis, problem, x: float, chi2_0: float) -> Hypothesis | None
     g.moved_from_ = float(h.params_[0])
     # the FRF fit's interval no longer holds the value: what is known is the side of the stability boundary
     g.ci95_ = np.array([[x, np.nan]]) if x > g.moved_from_ else np.array([[np.nan, x]])
-    c_hat = max(1.0, h.chi2_ / max(problem.n_obs - h.n_params, 1))
     return g if evidence(g, None, chi2_0=chi2_0, n_obs=problem.n_obs, c_hat=c_hat) >= STRONG_EVIDENCE else None
 
 
-def _supported(ranked: list, chi2_0: float, n_obs: int) -> list:
-    """The candidates the FRF data support over the nominal lab: single effects first, then pairs, each in
-    BIC order."""
-    singles = [h for h in ranked if not isinstance(h, Combination)]
-    if not singles:
-        return []
-    best = min(singles, key=lambda h: h.bic_)
-    c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
+def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float) -> list:
+    """The candidates the FRF data support over the nominal lab (overdispersion ``c_hat``): single effects
+    first, then pairs, each in BIC order."""
     ok = [h for h in ranked if evidence(h, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE]
     return (sorted([h for h in ok if not isinstance(h, Combination)], key=lambda h: h.bic_)
             + sorted([h for h in ok if isinstance(h, Combination)], key=lambda h: h.bic_))
 
 
 def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, loops, *, chi2_0: float,
-                 plant: str, seed: int, on_plant: bool) -> CauseSearch:
+                 c_hat: float, plant: str, seed: int, on_plant: bool) -> CauseSearch:
     """Find the library effect that makes the loop oscillate at the recording's self-excited frequency.
 
     Parameters
@@ -267,6 +261,8 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
         Feedback points.
     chi2_0 : float
         The nominal lab's chi-square on the fit's footing (evidence over the nominal lab).
+    c_hat : float
+        Overdispersion of the selection (:func:`vlab.diagnose.fit.rules.select`), >= 1.
     plant : {"mujoco", "linear"}
         Plant of the reruns.
     seed : int
@@ -298,30 +294,29 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             return model.state(h, x)
         return nominal if h is None else problem.state_for(h, x)
 
-    def poles(h: Hypothesis, x=None) -> int | None:
+    def poles(h: Hypothesis | None, x=None) -> int | None:
+        """Unstable closed-loop poles of ``h`` at ``x`` (None: a count the criterion cannot vouch for)."""
         try:
-            return loop_stability(state_of(h, x)).unstable_poles
+            st = loop_stability(state_of(h, x))
         except (ModelError, SpecError):
             return None
+        return st.unstable_poles if st.trusted else None
 
     base = state_of(None)
-    natural = (base.point_modes.omega / (2 * np.pi) if base.point_modes is not None
-               else natural_frequencies(base)[0])
+    natural = structure_modes(base)[0]
     out = CauseSearch(on=on, branch_hz=branch(frequency_hz, natural),
                       above_band=frequency_hz > problem.ctx.band_hz[1])
-    try:
-        base_unstable = loop_stability(base).unstable
-    except ModelError:
-        base_unstable = True
-    for h in _supported(ranked, chi2_0, problem.n_obs):
+    # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
+    screen = poles(None) == 0
+    for h in _supported(ranked, chi2_0, problem.n_obs, c_hat):
         if len(out.tried) >= MAX_RERUNS:
             break
         z = None
-        if not base_unstable:  # a nominal loop the model calls unstable while its replay is not: no screen
+        if screen:
             z = poles(h)
             if z == 0 and h.n_params == 1 and state_of(h).spec is base.spec:  # a chain effect: move it
                 x = destabilising_value(h, problem, lambda v: bool(poles(h, v)))
-                g = None if x is None else _moved(h, problem, x, chi2_0)
+                g = None if x is None else _moved(h, problem, x, chi2_0, c_hat)
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))
                     h, z = g, poles(g)

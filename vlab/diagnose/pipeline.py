@@ -144,6 +144,8 @@ def _drop_selection(res: DiagnosisResult, misfit_0: float, chi2_fit: float, *, o
     library (issue 24 item 5: a library effect that does not fit is never the answer)."""
     res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
     res.misfit_selected = misfit_0
+    if res.instability:  # an unselected cause is no cause
+        res.instability.pop("cause", None)
     if outside:
         res.outside_library = True
     res.location.points, res.location.members = located_from_fits(res, chi2_fit)
@@ -193,7 +195,7 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
         return None
     say("searching the cause of the oscillation")
     t = time.perf_counter()
-    cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit,
+    cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit, c_hat=res.overdispersion,
                          plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant)
     timing["instability_cause"] = time.perf_counter() - t
     notes.append(cause.note(f0))

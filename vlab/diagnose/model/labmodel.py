@@ -180,6 +180,18 @@ def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarr
     return md.frequencies_hz[:n], zeta[:n], md.shapes[:, :n]
 
 
+def structure_modes(state: LabState) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequencies [Hz] and damping ratios [1] of the structure :func:`plant_frf` uses for ``state``:
+    ``state.point_modes`` when set (the MuJoCo plant's linearisation), else the FE model's with the spec's
+    damping; each shape (n_modes,), in the model's order.
+
+    Raises ModelError as :func:`natural_frequencies`. Source: Eq. (3.4) via :func:`vlab.fe.modal_analysis`."""
+    if state.point_modes is not None:
+        return state.point_modes.omega / (2 * math.pi), np.asarray(state.point_modes.zeta, dtype=float)
+    md, zeta = _modal(state)
+    return md.omega / (2 * math.pi), zeta
+
+
 def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np.ndarray:
     """Open-loop velocity FRF of the structure (no chain), ``v_out / f_in``.
 

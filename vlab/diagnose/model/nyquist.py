@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ModelError
-from .labmodel import LabState, _modal, actuator_path, controller_frf, plant_frf, sensor_path
+from .labmodel import LabState, actuator_path, controller_frf, plant_frf, sensor_path, structure_modes
 
 #: Largest phase turn of ``det(I + L)`` between neighbouring grid points [rad] before the step is halved.
 MAX_STEP_RAD = 0.25
@@ -140,20 +140,20 @@ def loop_transfer(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
     return (a[:, :, None] * k * s[:, None, :]) @ g
 
 
+def _controller_poles(state: LabState) -> np.ndarray:
+    """Eigenvalues of the controller's state matrix ``F22`` (Eq. 5.1), shape (n_x,) (empty for a static law)."""
+    f22 = np.atleast_2d(state.design.f22)
+    return np.linalg.eigvals(f22) if f22.size else np.zeros(0, dtype=complex)
+
+
 def _seed_frequencies(state: LabState, f_max: float) -> np.ndarray:
     """Natural frequencies [Hz] of the structure (and their half-power points) and the controller below
     ``f_max``: where the phase of ``det(I + L)`` turns fastest."""
-    if state.point_modes is not None:
-        omega, zeta = state.point_modes.omega, state.point_modes.zeta
-    else:
-        md, zeta = _modal(state)
-        omega = md.omega
-    fn = omega / (2 * math.pi)
-    pts = [fn, fn * (1 - zeta), fn * (1 + zeta)]
-    lam = np.linalg.eigvals(np.atleast_2d(state.design.f22)) if np.size(state.design.f22) else np.zeros(0)
+    fn, zeta = structure_modes(state)
+    lam = _controller_poles(state)
     lam = lam[np.abs(lam) > 0]
-    pts.append(np.abs(np.angle(lam)) / (2 * math.pi * state.chain.period_s))
-    s = np.concatenate(pts)
+    s = np.concatenate([fn, fn * (1 - zeta), fn * (1 + zeta),
+                        np.abs(np.angle(lam)) / (2 * math.pi * state.chain.period_s)])
     return s[(s > 0) & (s < f_max)]
 
 
@@ -240,8 +240,7 @@ def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: flo
     if not (math.isfinite(top) and top > 0 and math.isfinite(df_hz) and 0 < df_hz < top):
         raise ModelError(f"loop_stability: f_max_hz {f_max_hz!r} and df_hz {df_hz!r} must be finite, "
                          "0 < df_hz < f_max_hz")
-    f22 = np.atleast_2d(state.design.f22)
-    p = int(np.sum(np.abs(np.linalg.eigvals(f22)) > 1.0)) if f22.size else 0
+    p = int(np.sum(np.abs(_controller_poles(state)) > 1.0))
     z, winding, n = unstable_closed_loop_poles(lambda f: return_difference(state, f), top, p, df_hz=df_hz,
                                                seeds_hz=_seed_frequencies(state, top))
     closure = float(np.linalg.norm(loop_transfer(state, np.array([top]))[0], 2))
