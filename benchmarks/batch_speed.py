@@ -8,6 +8,10 @@ machine's speed (and its load) cancels in the ratios:
   (aggregate): the ceiling of the machine;
 * ``mujoco.batch step N=16`` -- ``Batch.step(stage=mjSTAGE_VEL)`` once per physics step on a 16-simulation
   batch with no controller, no damping and no Python work between the steps: the ceiling of the batched loop;
+* ``+ applied modal damping`` and ``+ a bare feedback law u = F11 y`` -- the same batch with the plant's
+  applied modal damping (three numpy products a tick), then also a direct velocity feedback with no
+  chain, delay, filter or noise (one gather, one product, one write a tick; the issue's "simple
+  vectorised feedback law"): what any batched closed loop on this plant costs at the least;
 * ``Python mj_step + damping`` -- a bare Python loop of the plant's own work per tick (the applied
   modal damping of :mod:`vlab.sim.damping` and ``mj_step``): the floor of any Python loop on this plant;
 * ``vlab run_loop``      -- the single 2 kHz closed loop (:func:`vlab.lab.loop.run_loop` on
@@ -169,6 +173,30 @@ def main(argv=None) -> int:
     rows.append((f"mujoco.batch step N={n_roll} ({a.threads} threads), aggregate",
                  n_roll * n_steps * h / _best(batch_steps, a.repeats)))
     del bare
+    ceiling = MujocoBatchPlant(sim, n_roll, nthread=a.threads)
+
+    def damped_steps():
+        ceiling.reset()
+        for _ in range(n_steps):
+            ceiling.step(sample=True)
+
+    rows.append(("  + applied modal damping, aggregate", n_roll * n_steps * h / _best(damped_steps, a.repeats)))
+    rows_v = np.array([ceiling._rows[p] for p in ACTS])
+    gain = np.ascontiguousarray(np.asarray(eng.F11).T)  # u = F11 y as rows: u = y F11^T, one product for all
+    y = np.empty((n_roll, len(ACTS)))
+    u = np.empty((n_roll, len(ACTS)))
+
+    def minimal_loop():
+        ceiling.reset()
+        sensordata, ctrl = ceiling._sensordata, ceiling._ctrl
+        for _ in range(n_steps):
+            np.take(sensordata, rows_v, axis=1, out=y)
+            np.matmul(y, gain, out=u)
+            ctrl[:, ceiling._act_cols] = u
+            ceiling.step(sample=True)
+
+    rows.append(("  + a bare feedback law u = F11 y, aggregate", n_roll * n_steps * h / _best(minimal_loop, a.repeats)))
+    del ceiling
 
     if sim.modal_damping is not None:
         def plant_only():

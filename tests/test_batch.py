@@ -117,6 +117,31 @@ def test_pc1000_chain_matches_run_loop_bit_for_bit(bcc):
         assert np.array_equal(got, ref)
 
 
+@pytest.mark.parametrize("form", ["dense", "factored"])
+def test_both_forms_of_the_modal_damping_match_run_loop_bit_for_bit(bcc, form, monkeypatch):
+    """The applied modal damping in one product with -C_m (ModalDamping.dense, the BCC's) or in the factored
+    form (a larger plant's, forced here on the BCC): the batch and run_loop give the same bits within a form,
+    and the force equals -C_m qvel (the matrix formed in full) to rounding."""
+    from vlab.sim.damping import ModalDamping
+
+    fe, plant, _ = bcc
+    if form == "factored":
+        monkeypatch.setattr(ModalDamping, "dense", property(lambda self: None))
+    sim = MujocoPlant(plant)
+    md = sim.modal_damping
+    assert (md.dense is not None) == (form == "dense")
+    qvel = np.random.default_rng(3).standard_normal(md.A.shape[0])
+    np.testing.assert_allclose(md.force(qvel), -md.matrix() @ qvel, rtol=0, atol=1e-12 * np.abs(md.force(qvel)).max())
+    chain = HardwareChain(noise_m_s=1e-6)
+    dur = 0.1
+    exc = _excitations(2, int(round(dur / PERIOD)))
+    engine = ControllerEngine.from_gain(bcc_gain("mfdrf"), period_s=PERIOD)
+    rb = run_batch(MujocoBatchPlant(sim, 2, nthread=1), engine, feedback_points=ACTS, measured_points=MEAS,
+                   excitation_point=9, excitation=exc, duration_s=dur, chain=chain, seeds=[1, 2])
+    for i in range(2):
+        assert np.array_equal(_signals(_single(sim, engine, exc[i], i + 1, chain, dur)), _signals(rb.result(i)))
+
+
 def test_substeps_and_fractional_delay_match_run_loop():
     """Two physics steps per period (0.25 ms): the switch 0.35 T falls inside the first step; bit for bit."""
     fe = nominal_fe_model("bcc")

@@ -197,6 +197,10 @@ class MujocoBatchPlant:
             return None
         if any(d is None for d in dampings):
             raise ModelError("models: some simulations carry applied modal damping and some do not")
+        if all(d.dense is not None for d in dampings):  # one product with -C_m, as ModalDamping.apply
+            shared = all(d is dampings[0] for d in dampings)
+            dense = dampings[0].dense[None] if shared else np.array([d.dense for d in dampings])
+            return dense, self._qvel[:, :, None], self._qfrc[:, :, None]
         if all(d is dampings[0] for d in dampings):
             a, c = dampings[0].A[None], dampings[0].c[None]  # broadcast over the simulations
         else:
@@ -281,7 +285,10 @@ class MujocoBatchPlant:
             Compute the position and velocity stages (and sensors) at the new
             state: the step ends a controller period.
         """
-        if self._damping is not None:
+        if self._damping is not None and len(self._damping) == 3:  # ModalDamping.dense: one stacked product
+            dense, qvel, qfrc = self._damping
+            np.matmul(dense, qvel, out=qfrc)
+        elif self._damping is not None:
             a, at, neg_c, qvel, modal, qfrc = self._damping
             # stacked matrix-vector products, slice by slice as MujocoPlant's a @ (-c * (a.T @ qvel)), into buffers
             np.matmul(at, qvel, out=modal)

@@ -30,7 +30,8 @@ Two parts:
      custom numerics ``vlab_modal_A`` and ``vlab_modal_c``, so an exported MJCF
      carries them, and :func:`vlab.sim.linearize.linearize` adds them to the
      linearisation. Explicit, and stable while ``dt * max(c) << 2``. Costs two
-     (nv x N) products per step.
+     (nv x N) products per step, or one (nv x nv) product on a small plant
+     (:attr:`ModalDamping.dense`).
    * ``"tendons"``: one fixed tendon per mode with coefficients ``M phi_r`` and
      damping ``c_r`` -- native MuJoCo, but every coefficient of a fixed tendon
      is evaluated each step at a cost that grows with the square of its count
@@ -58,6 +59,7 @@ numerics and fixed tendons (``doc/XMLreference.rst``); implicit joint damping
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import mujoco
@@ -69,6 +71,10 @@ from ..spec import StructureSpec
 #: Names of the custom numerics that carry the applied modal damping.
 NUMERIC_A = "vlab_modal_A"
 NUMERIC_C = "vlab_modal_c"
+
+#: What one numpy call costs, in multiply-adds of a small matrix product (measured on the BCC: a call
+#: ~0.5 us, a 22 x 22 product ~0.5 us); it decides :attr:`ModalDamping.dense`.
+CALL_COST_FLOPS = 500
 
 #: Modal damping realisations.
 METHODS = ("applied", "tendons", "none")
@@ -120,6 +126,25 @@ class ModalDamping:
     A: np.ndarray
     c: np.ndarray
 
+    @functools.cached_property
+    def dense(self) -> np.ndarray | None:
+        """``-C_m``, shape (nv, nv), where one product with it costs less than the factored form; else None.
+
+        Per step the force ``-C_m qvel`` is either ``-A (c * (A^T qvel))``
+        (three numpy calls, ``2 nv N`` multiply-adds) or ``(-C_m) qvel`` (one
+        call, ``nv^2``). A small plant pays mostly for the calls (about
+        :data:`CALL_COST_FLOPS` multiply-adds each), a large one for the
+        arithmetic: the dense form is used when ``nv^2 <= 2 nv N + 2 x``
+        :data:`CALL_COST_FLOPS` (the BCC: nv = 22, N = 7; not the grid: nv = 165,
+        N = 15). Every user of the damping (:meth:`apply`,
+        :class:`vlab.sim.runtime.LoopIO`, :class:`vlab.sim.batch_plant.MujocoBatchPlant`)
+        takes the same form, so their forces agree bit for bit.
+        """
+        nv, n = self.A.shape
+        if nv * nv > 2 * nv * n + 2 * CALL_COST_FLOPS:
+            return None
+        return np.ascontiguousarray(-((self.A * self.c) @ self.A.T))
+
     def force(self, qvel: np.ndarray) -> np.ndarray:
         """Generalized damping force ``-C_m qvel``.
 
@@ -170,6 +195,13 @@ class ModalDamping:
         base : ndarray, shape (nv,), optional
             Other applied generalized forces (zero by default).
         """
+        dense = self.dense
+        if dense is not None:  # -C_m qvel in one product (the same numbers as LoopIO and the batch plant)
+            if base is None:
+                np.dot(dense, data.qvel, out=data.qfrc_applied)
+            else:
+                np.add(base, dense @ data.qvel, out=data.qfrc_applied)
+            return
         a = self.A
         f = a @ (self.c * (a.T @ data.qvel))
         if base is None:

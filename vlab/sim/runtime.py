@@ -636,10 +636,13 @@ class LoopIO:
         self._act_ids = as_slice(plant._act_ids)
         self._ctrl, self._qvel = d.ctrl, d.qvel
         damping = plant.modal_damping
-        # ModalDamping.apply's -(a @ (c * (a.T @ qvel))) as a @ (-c * (a.T @ qvel)), into buffers made once: the
-        # same numbers (negating a factor negates every product and sum exactly; only a zero's sign may differ)
-        self._damping = None if damping is None else (damping.A, damping.A.T, -damping.c, np.empty(damping.c.shape),
-                                                      d.qfrc_applied)
+        # ModalDamping.apply's force into buffers made once: its one product with -C_m (ModalDamping.dense), or
+        # its -(a @ (c * (a.T @ qvel))) as a @ (-c * (a.T @ qvel)) -- the same numbers (negating a factor negates
+        # every product and sum exactly; only a zero's sign may differ)
+        self._dense = None if damping is None else damping.dense
+        self._damping = None if damping is None or self._dense is not None else (
+            damping.A, damping.A.T, -damping.c, np.empty(damping.c.shape), d.qfrc_applied)
+        self._qfrc = d.qfrc_applied
         self._warning = plant._warning
         self._half = False  # mj_step1 done, mj_step2 pending
 
@@ -670,7 +673,9 @@ class LoopIO:
             The plant diverged (as :meth:`MujocoPlant.step`).
         """
         self._ctrl[self._act_ids] = forces
-        if self._damping is not None:  # ModalDamping.apply's force, without temporaries
+        if self._dense is not None:  # ModalDamping.apply's force, without temporaries
+            _dot(self._dense, self._qvel, self._qfrc)
+        elif self._damping is not None:
             a, at, neg_c, modal, qfrc = self._damping
             _dot(at, self._qvel, modal)
             _multiply(neg_c, modal, modal)
