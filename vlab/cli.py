@@ -1002,9 +1002,8 @@ def robustness(
     chunk_size: int = _opt(25, "--chunk-size", help="samples per independent chunk, >= 1"),
     controllers: str = _opt("mfdrf,lqdrf,lqdrf-diag,lqg", "--controllers",
                             help="comma-separated subset of mfdrf, lqdrf, lqdrf-diag, lqg"),
-    simulate: int = _opt(None, "--simulate",
-                         help="worst samples per controller also run in time on the batched MuJoCo lab "
-                              "(default: 4 for bcc, 0 for grid, whose plant is slow)"),
+    simulate: int = _opt(4, "--simulate",
+                         help="worst samples per controller also run in time on the batched MuJoCo lab, >= 0"),
     out: str = _opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
     markdown_copy: str = _opt(None, "--markdown", help="also write robustness.md to this file, e.g. "
@@ -1036,11 +1035,11 @@ def robustness(
     _input_file("--uncertainty", uncertainty)
     if workers is not None and workers < 1:
         raise OptionError(f"--workers must be >= 1, got {workers!r}")
-    if simulate is not None and simulate < 0:
+    if simulate < 0:
         raise OptionError(f"--simulate must be >= 0, got {simulate!r}")
     if scheduler != "none" and scheduler != "local" and not scheduler.startswith("tcp://"):
         raise OptionError(f"--scheduler {scheduler!r}: use local, none or tcp://HOST:PORT")
-    n_sim = simulate if simulate is not None else (4 if structure == "bcc" else 0)
+    n_sim = simulate
     uncs = load_uncertainties(uncertainty) if uncertainty else DEFAULTS
     cfg = StudyConfig(structure=structure, n_samples=samples, seed=seed, uncertainties=uncs,
                       chunk_size=chunk_size, controllers=tuple(c.strip() for c in controllers.split(",") if c.strip()))

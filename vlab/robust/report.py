@@ -59,7 +59,7 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
         "ranking_most_to_least_robust": summary.ranking,
         "thesis_conclusion_sec7": summary.thesis_conclusion,
         "time_simulation_checks": [
-            {"controller": ch.controller, "samples": ch.indices.tolist(),
+            {"controller": ch.controller, "samples": ch.indices.tolist(), "batches": ch.batches,
              "predicted_unstable": ch.predicted_unstable.tolist(), "diverged": ch.diverged.tolist(),
              "peak_measured_over_linear_by_mode": [[None if not np.isfinite(v) else float(v) for v in row]
                                                    for row in ch.peak_sim_over_linear]}
@@ -238,16 +238,18 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
     if checks:
         lines += ["", "## Time simulation of the worst samples (batched MuJoCo lab)", "",
                   "The worst samples of each controller (unstable first, then by peak-ratio error) were run on "
-                  "MuJoCo plants built from their perturbed specs, together on one `mujoco.batch.Batch`, with "
+                  "MuJoCo plants built from their perturbed specs, together on `mujoco.batch.Batch` runs (one "
+                  "per model layout: a perturbed grid may get another discretisation), with "
                   "their delay, channel gains and sensor noise; H1 at the response point over records of "
                   "4 s compared line by line with the linear prediction for the same sample:", "",
-                  "| controller | samples | predicted unstable | diverged "
+                  "| controller | samples | batches | predicted unstable | diverged "
                   "| measured/linear peak (min..max over modes) |",
-                  "|---|---|---|---|---|"]
+                  "|---|---|---|---|---|---|"]
         for ch in checks:
             r = ch.peak_sim_over_linear[np.isfinite(ch.peak_sim_over_linear)]
             rng = f"{r.min():.3f}..{r.max():.3f}" if r.size else "n/a"
-            lines.append(f"| {_LABELS[ch.controller]} | {ch.indices.tolist()} | {int(ch.predicted_unstable.sum())} | "
+            lines.append(f"| {_LABELS[ch.controller]} | {ch.indices.tolist()} | {ch.batches} | "
+                         f"{int(ch.predicted_unstable.sum())} | "
                          f"{int(ch.diverged.sum())} | {rng} |")
         dev = {ch.controller: float(np.nanmax(np.abs(ch.peak_sim_over_linear - 1.0), initial=0.0)) for ch in checks}
         worst = max(dev, key=dev.get)
@@ -294,7 +296,7 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
                     if not ch.diverged.any() else np.inf)
         from ..viz.rerun_log import log_experiment
 
-        rec = worst.loop.result(0, metadata={"controller": worst.controller, "sample": int(worst.indices[0])})
+        rec = worst.recordings[0]
         files["rerun"] = log_experiment(folder / "worst.rrd", recording=rec.recording,
                                         metadata={"structure": cfg.structure, "controller": worst.controller,
                                                   "sample": int(worst.indices[0])})

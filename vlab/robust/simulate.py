@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calibration import open_loop_ratios
-from ..errors import SimulationError
 from ..fe import build_fe_model
 from ..lab.batch import run_batch
 from ..lab.engine import ControllerEngine
@@ -33,7 +32,7 @@ from ..lab.loop import HardwareChain
 from ..measure.frf import h1
 from ..models import nominal_fe_model
 from ..sim import MujocoPlant, SimOptions, build_plant
-from ..sim.batch_plant import MujocoBatchPlant
+from ..sim.batch_plant import MujocoBatchPlant, layout
 from .sampled_loop import modal_plant, peak_windows, sampled_loop
 from .study import PEAK_HALF_WIDTH, Nominal, StudyConfig
 from .uncertainty import apply_sample, draw_sample
@@ -59,8 +58,10 @@ class SimCheck:
     diverged : ndarray of bool, shape (k,)
     peak_sim_over_linear : ndarray, shape (k, n_modes)
         Measured (H1) over linearly predicted peak level near each mode, same lines [-]; NaN where diverged.
-    loop : object
-        The :class:`vlab.lab.batch.BatchResult` (recordings).
+    recordings : tuple of LoopResult, length k
+        Each sample's run (:class:`vlab.lab.loop.LoopResult`, truncated where it diverged), order of ``indices``.
+    batches : int
+        ``mujoco.batch`` runs it took: one per model layout among the samples.
     """
 
     controller: str
@@ -68,7 +69,8 @@ class SimCheck:
     predicted_unstable: np.ndarray
     diverged: np.ndarray
     peak_sim_over_linear: np.ndarray
-    loop: object
+    recordings: tuple
+    batches: int
 
 
 def worst_samples(res: dict, nominal: Nominal, controller: str, k: int) -> np.ndarray:
@@ -121,12 +123,14 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     -------
     SimCheck
 
-    Raises
-    ------
-    SimulationError
-        A perturbed plant whose MuJoCo model differs in size from the
-        nominal one (the grid's discretisation follows its parameters), so
-        that the samples cannot share one batch.
+    Notes
+    -----
+    Each perturbed plant is built from its spec with the nominal plant's
+    physics step and otherwise as ``build_plant`` builds it; its
+    discretisation can then differ from the nominal one (the grid's
+    shear-flexible top-beam segments get one link or several by their
+    ``12 EI / (kGA L^2)``, which the bending stiffness moves). Samples whose
+    models share a layout run as one batch; each layout gets its own.
     """
     fe0 = nominal_fe_model(cfg.structure)
     spec0 = fe0.spec
@@ -134,19 +138,11 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     acts = nominal.actuators
     design, chain0 = nominal.designs[controller], nominal.chains[controller]
     base = build_plant(spec0)
-    opts = SimOptions(timestep_s=base.timestep_s, member_segments=dict(base.info.links))
+    opts = SimOptions(timestep_s=base.timestep_s)
     samples = [draw_sample(spec0, cfg.uncertainties, seed=cfg.seed, index=int(i), n_act=len(acts),
                            nominal_delay_periods=chain0.delay_periods) for i in indices]
     specs = [apply_sample(spec0, s) for s in samples]
-    models = [build_plant(sp, opts).model for sp in specs]
-    m0 = base.model
-    for i, m in zip(indices, models):
-        if (m.nv, m.nbody, m.nnumericdata, m.nu) != (m0.nv, m0.nbody, m0.nnumericdata, m0.nu):
-            raise SimulationError(f"sample {i}: its MuJoCo plant has another size (nv {m.nv} vs {m0.nv}); the "
-                                  f"{cfg.structure} plant's discretisation follows its parameters, so its samples "
-                                  "cannot share one batch")
-    sim0 = MujocoPlant(base)
-    bp = MujocoBatchPlant(sim0, len(models), nthread=nthread, models=models)
+    plants = [build_plant(sp, opts) for sp in specs]
     chains = [HardwareChain(period_s=chain0.period_s, delay_periods=s.delay_periods, filter_hz=chain0.filter_hz,
                             noise_m_s=CHECK_NOISE_M_S,
                             actuator_gain={p: float(g) for p, g in zip(acts, s.actuator_gain)},
@@ -158,8 +154,19 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     eng = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=chain0.period_s)
     resp = test.response_point
     meas = tuple(dict.fromkeys(acts + (resp,)))
-    out = run_batch(bp, eng, feedback_points=acts, measured_points=meas, excitation_point=acts[nominal.excitation],
-                    excitation=exc, duration_s=dur, chain=chains, seeds=[seed + 1 + int(i) for i in indices])
+    groups: dict = {}
+    for row, plant in enumerate(plants):
+        groups.setdefault(layout(plant.model), []).append(row)
+    results = [None] * len(samples)
+    for rows in groups.values():
+        bp = MujocoBatchPlant(MujocoPlant(plants[rows[0]]), len(rows), nthread=nthread,
+                              models=[plants[r].model for r in rows])
+        out = run_batch(bp, eng, feedback_points=acts, measured_points=meas,
+                        excitation_point=acts[nominal.excitation], excitation=exc, duration_s=dur,
+                        chain=[chains[r] for r in rows], seeds=[seed + 1 + int(indices[r]) for r in rows])
+        for g, r in enumerate(rows):
+            results[r] = out.result(g, metadata={"structure": cfg.structure, "controller": controller,
+                                                 "sample": int(indices[r])})
     skip = int(round(record_s / chain0.period_s))
     ratios = np.full((len(samples), nominal.n_modes), np.nan)
     unstable = np.zeros(len(samples), dtype=bool)
@@ -171,14 +178,16 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
                             filter_hz=chain0.filter_hz, actuator_gain=s.actuator_gain, sensor_gain=s.sensor_gain,
                             excitation=nominal.excitation)
         unstable[row] = loop.spectral_radius >= 1.0
-        if out.done[row] < t.size:
+        rec = results[row].recording
+        if rec.n_samples < t.size:
             continue
-        j = meas.index(resp)
-        frf = h1(exc[skip:], out.velocities[row, skip:, j], dt_s=chain0.period_s,
+        frf = h1(exc[skip:], rec[f"vel{resp}"][skip:], dt_s=chain0.period_s,
                  resolution_hz=resolution_hz, window="boxcar", f_max_hz=test.band_hz[1]).band(*test.band_hz)
         lin = loop.frf(frf.freq_hz)
         for r, (a, b) in enumerate(zip(*peak_windows(nominal.freq_hz[controller], PEAK_HALF_WIDTH))):
             w = (frf.freq_hz >= a) & (frf.freq_hz <= b)
             if w.any():
                 ratios[row, r] = np.max(np.abs(frf.h[w])) / np.max(np.abs(lin[w]))
-    return SimCheck(controller, np.asarray(indices, dtype=int), unstable, out.done < t.size, ratios, out)
+    diverged = np.array([r.recording.n_samples < t.size for r in results], dtype=bool)
+    return SimCheck(controller, np.asarray(indices, dtype=int), unstable, diverged, ratios, tuple(results),
+                    len(groups))

@@ -51,6 +51,37 @@ _VEL, _NONE = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE
 _SETCONST_FIELDS = frozenset(getattr(mujoco.MjModel, "_setconst_inputs", ()))
 
 
+#: MjModel sizes that do not shape ``MjData`` (names and the model's own buffers): left out of the layout.
+_NOT_LAYOUT = frozenset({"nbuffer", "nnames", "nnames_map", "npaths", "ntext", "ntextdata", "ntuple", "ntupledata",
+                         "nuserdata"})
+
+
+def layout(model) -> tuple:
+    """The sizes of a compiled model that shape its ``MjData``: ``((name, size), ...)``, sorted by name.
+
+    Models of one layout can share a :class:`MujocoBatchPlant` (``Batch.set_models``).
+
+    Every integer ``n*`` attribute of ``mujoco.MjModel`` (``nq``, ``nv``, ``nu``,
+    ``ngeom``, ``nsensordata``, ...) but the sizes of its names and text
+    (:data:`_NOT_LAYOUT`; ``nuserdata`` is kept out too as vlab sets none).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+
+    Returns
+    -------
+    tuple of (str, int)
+    """
+    out = []
+    for name in dir(model):
+        if name.startswith("n") and name not in _NOT_LAYOUT:
+            v = getattr(model, name)
+            if isinstance(v, int) and not isinstance(v, bool):
+                out.append((name, v))
+    return tuple(out)
+
+
 class BatchPlant(Protocol):
     """What the batched loop needs from N plants.
 

@@ -35,37 +35,9 @@ import numpy as np
 
 from ...errors import ModelError, SimulationError, VlabError
 from ...lab.engine import ControllerEngine
+from ...sim.batch_plant import layout
 from ..model.labmodel import LabState
 from .warmstart import warm_start
-
-#: MjModel sizes that do not shape ``MjData`` (names and the model's own buffers): left out of the layout.
-_NOT_LAYOUT = frozenset({"nbuffer", "nnames", "nnames_map", "npaths", "ntext", "ntextdata", "ntuple", "ntupledata",
-                         "nuserdata"})
-
-
-def layout(model) -> tuple:
-    """The sizes of a compiled model that shape its ``MjData``: ``((name, size), ...)``, sorted by name.
-
-    Every integer ``n*`` attribute of ``mujoco.MjModel`` (``nq``, ``nv``, ``nu``,
-    ``ngeom``, ``nsensordata``, ...) but the sizes of its names and text
-    (:data:`_NOT_LAYOUT`; ``nuserdata`` is kept out too as vlab sets none).
-
-    Parameters
-    ----------
-    model : mujoco.MjModel
-
-    Returns
-    -------
-    tuple of (str, int)
-    """
-    out = []
-    for name in dir(model):
-        if name.startswith("n") and name not in _NOT_LAYOUT:
-            v = getattr(model, name)
-            if isinstance(v, int) and not isinstance(v, bool):
-                out.append((name, v))
-    return tuple(out)
-
 
 def batch_key(state: LabState, plant, measured_points: tuple[int, ...]) -> tuple | None:
     """What reruns must share to run on one batch; None when ``plant`` cannot be batched at all.
