@@ -39,6 +39,7 @@ import math
 import os
 import sys
 from enum import Enum
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -518,7 +519,6 @@ def experiment(
     warning calls the comparison not meaningful (self-excited oscillation, limit cycle) exits with status 1
     unless --allow-unstable.
     """
-    from pathlib import Path
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
@@ -845,7 +845,6 @@ def diagnose(
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
-    from pathlib import Path
 
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
@@ -1018,10 +1017,9 @@ def robustness(
     worst.rrd.
     """
     import time
-    from pathlib import Path
 
     from .io.atomic import atomic_dir
-    from .robust.report import results_dict, write_outputs
+    from .robust.report import write_outputs
     from .robust.simulate import simulate_samples, worst_samples
     from .robust.study import CONTROLLERS as CONTROLLER_ORDER
     from .robust.study import StudyConfig, default_workers, nominal_analysis, run_study, summarize
@@ -1127,7 +1125,6 @@ def _seed(value: int) -> int:
 
 def _input_file(option: str, value: str | None) -> str | None:
     """A file to read: exists and is a regular file (None passes)."""
-    from pathlib import Path
 
     from .errors import DataFileError
 

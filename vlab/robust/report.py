@@ -253,7 +253,7 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
                          f"{int(ch.diverged.sum())} | {rng} |")
         dev = {ch.controller: float(np.nanmax(np.abs(ch.peak_sim_over_linear - 1.0), initial=0.0)) for ch in checks}
         worst = max(dev, key=dev.get)
-        lines += ["", f"Largest deviation of the time-simulated peak from the linear prediction: "
+        lines += ["", "Largest deviation of the time-simulated peak from the linear prediction: "
                   + ", ".join(f"{_LABELS[c]} {100 * v:.1f} %" for c, v in dev.items())
                   + f"; the largest is {_LABELS[worst]}'s (the MuJoCo hinge-chain plant is itself a model error "
                   "against the FE model the controllers were designed on)."]
