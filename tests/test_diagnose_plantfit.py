@@ -183,40 +183,74 @@ def _mass(point: int, kg: float, chi2: float):
     return h
 
 
+class _TablePlant:
+    """A stand-in for :class:`PlantModel`: plant chi-squares from tables (at the FE value; refitted)."""
+
+    def __init__(self, at_fe: dict, refitted: dict):
+        self.at_fe, self.refitted = at_fe, refitted
+
+    def chi2(self, h, x) -> float:
+        return self.at_fe[h.label]
+
+    def refit(self, h, x0):
+        from vlab.diagnose.fit.plantfit import PlantRefit
+
+        x = np.asarray(x0, dtype=float)
+        return PlantRefit(h.param_names[0], float(x[0]), float(x[0]), x, None, self.at_fe[h.label],
+                          self.refitted[h.label], 1, 0.0)
+
+
+def _spring(point: int, n_per_m: float, chi2: float):
+    from vlab.diagnose.effects.hypotheses import SupportStiffness
+
+    h = SupportStiffness(point=point, dof="w")
+    h.params_, h.chi2_ = np.array([n_per_m]), chi2
+    return h
+
+
 def test_fits_closer_than_the_fe_plant_difference_are_compared_on_the_plant():
     """The numbers of grid benchmark seed 1, case 2 (1.05 kg at point 20): the FE fit put the mass at 21
     (chi-square 765) before 20 (797), 32 apart, not a look-alike (dBIC >= 10). The chosen effect's own
     chi-square moves by 114 from the FE model to the plant, so 20 is compared there, where it fits better
-    (603 refitted, against 641) and is chosen. A fit further than that difference (point 16, 1166) is not
-    compared, however well it would fit on the plant; with a small FE/plant difference 20 is not either."""
+    (603 refitted, against 641) and is chosen. A fit of another kind further than that difference (a spring
+    at 16, 1166) is not compared, however well it would fit on the plant; with a small FE/plant difference 20
+    is still compared, as the best fit of the chosen kind elsewhere (the next test)."""
     from vlab.diagnose.fit.plantchoice import choose_on_plant
 
-    class _TablePlant:  # defined here: not picklable, so map_on_plant runs it in this process
-        """A stand-in for :class:`PlantModel`: plant chi-squares from tables (at the FE value; refitted)."""
-
-        def __init__(self, at_fe: dict, refitted: dict):
-            self.at_fe, self.refitted = at_fe, refitted
-
-        def chi2(self, h, x) -> float:
-            return self.at_fe[h.label]
-
-        def refit(self, h, x0):
-            from vlab.diagnose.fit.plantfit import PlantRefit
-
-            x = np.asarray(x0, dtype=float)
-            return PlantRefit("mass_kg", float(x[0]), float(x[0]), x, None, self.at_fe[h.label],
-                              self.refitted[h.label], 1, 0.0)
-
-    at21, at20, at16 = _mass(21, 2.06, 765.0), _mass(20, 0.80, 797.0), _mass(16, 0.0001, 1166.0)
-    refitted = {at21.label: 641.0, at20.label: 603.0, at16.label: 10.0}
-    model = _TablePlant({at21.label: 651.0, at20.label: 631.0, at16.label: 10.0}, refitted)
-    chosen, refit, alts, note = choose_on_plant(model, at21, [], [at21, at20, at16])
+    at21, at20, sp16 = _mass(21, 2.06, 765.0), _mass(20, 0.80, 797.0), _spring(16, 5.0, 1166.0)
+    refitted = {at21.label: 641.0, at20.label: 603.0, sp16.label: 10.0}
+    model = _TablePlant({at21.label: 651.0, at20.label: 631.0, sp16.label: 10.0}, refitted)
+    chosen, refit, alts, note = choose_on_plant(model, at21, [], [at21, at20, sp16])
     assert chosen is at20 and refit.chi2 == 603.0
-    assert "within 114" in note and at16.label not in note
+    assert "within 114" in note and sp16.label not in note
     assert alts == []  # 21 is 38 worse on the plant: not a look-alike there
-    close = _TablePlant({at21.label: 760.0, at20.label: 631.0, at16.label: 10.0}, refitted)
-    same, _, alts2, note2 = choose_on_plant(close, at21, [], [at21, at20, at16])
-    assert same is at21 and note2 is None
+    close = _TablePlant({at21.label: 760.0, at20.label: 631.0, sp16.label: 10.0}, refitted)
+    same, _, alts2, note2 = choose_on_plant(close, at21, [], [at21, at20, sp16])
+    # a small FE/plant difference on 21 (5): 20 is not within it, but the best of its kind elsewhere: compared
+    assert same is at20 and "within 5" in note2 and sp16.label not in note2
+
+
+def test_the_best_fits_of_the_same_kind_are_compared_on_the_plant_however_far_behind():
+    """The numbers of tier-2 BCC benchmark seed 10808, case 9 (an 18.1 N/m spring at point 9): the FE fit put
+    it at point 8 (chi-square 4340) before point 9 (4460), 120 apart; the chosen spring's own FE/plant
+    difference was only 80, but at point 9 it was 1400: on the plant point 9 scores 3053 (3042 refitted,
+    18.11 N/m) against point 8's 4420 (4402). The best fits of the chosen kind at other places are scored
+    on the plant whatever their FE distance (up to SAME_KIND_COMPARED of them); a mass elsewhere is not."""
+    from vlab.diagnose.fit.plantchoice import SAME_KIND_COMPARED, choose_on_plant
+
+    at8, at9, at7, at6, at5 = (_spring(8, 14.36, 4340.0), _spring(9, 17.64, 4460.0), _spring(7, 11.6, 5613.0),
+                               _spring(6, 10.7, 6298.0), _spring(5, 10.8, 7022.0))
+    mass = _mass(2, 0.0055, 8600.0)
+    at_fe = {at8.label: 4420.0, at9.label: 3053.0, at7.label: 5506.0, at6.label: 6298.0, at5.label: 1.0,
+             mass.label: 1.0}
+    refitted = {at8.label: 4402.0, at9.label: 3042.0, at7.label: 5400.0, at6.label: 6200.0, at5.label: 1.0,
+                mass.label: 1.0}
+    ranked = [at8, at9, at7, at6, at5, mass]
+    chosen, refit, alts, note = choose_on_plant(_TablePlant(at_fe, refitted), at8, [], ranked)
+    assert SAME_KIND_COMPARED == 3
+    assert chosen is at9 and refit.chi2 == 3042.0 and alts == []
+    assert "within 80" in note and at7.label in note and at6.label in note
+    assert at5.label not in note and mass.label not in note  # beyond the three best of the kind; another kind
 
 
 def test_plant_resolution_brings_the_grid_top_beam_mode_to_the_mujoco_plant():
