@@ -58,6 +58,7 @@ from vlab.lab.loop import HardwareChain, run_loop
 from vlab.reference import bcc_gain
 from vlab.sim import MujocoPlant, build_plant
 from vlab.sim.batch_plant import MujocoBatchPlant
+from vlab.sim.runtime import sensor_rows
 from vlab.spec import load_spec
 
 from _listing import emit
@@ -181,18 +182,20 @@ def main(argv=None) -> int:
             ceiling.step(sample=True)
 
     rows.append(("  + applied modal damping, aggregate", n_roll * n_steps * h / _best(damped_steps, a.repeats)))
-    rows_v = np.array([ceiling._rows[p] for p in ACTS])
+    rows_v = np.array([sensor_rows(m)[p] for p in ACTS])  # the vel<ID> rows of sensordata
+    coils = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"coil{p}") for p in ACTS]
     gain = np.ascontiguousarray(np.asarray(eng.F11).T)  # u = F11 y as rows: u = y F11^T, one product for all
     y = np.empty((n_roll, len(ACTS)))
     u = np.empty((n_roll, len(ACTS)))
 
     def minimal_loop():
         ceiling.reset()
-        sensordata, ctrl = ceiling._sensordata, ceiling._ctrl
+        sensordata, ctrl = ceiling.batch.bind("sensordata"), ceiling.batch.bind("ctrl")
+        cols = slice(coils[0], coils[-1] + 1) if coils == list(range(coils[0], coils[-1] + 1)) else coils
         for _ in range(n_steps):
             np.take(sensordata, rows_v, axis=1, out=y)
             np.matmul(y, gain, out=u)
-            ctrl[:, ceiling._act_cols] = u
+            ctrl[:, cols] = u
             ceiling.step(sample=True)
 
     rows.append(("  + a bare feedback law u = F11 y, aggregate", n_roll * n_steps * h / _best(minimal_loop, a.repeats)))

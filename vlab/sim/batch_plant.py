@@ -208,7 +208,7 @@ class MujocoBatchPlant:
         self._qvel = b.bind("qvel")
         self._ctrl = b.bind("ctrl")
         self._qfrc = b.bind("qfrc_applied")
-        self._damping = self._stack_damping(dampings)
+        self._dense_damping, self._damping = self._stack_damping(dampings)
         self._time = b.bind("time")
         self._sensordata = b.bind("sensordata")
         self._rows = sensor_rows(m)
@@ -224,22 +224,24 @@ class MujocoBatchPlant:
         self.reset()
 
     def _stack_damping(self, dampings):
+        """``(dense, factored)``: the applied modal damping's stacked operands in the form ModalDamping.apply
+        takes (:attr:`vlab.sim.damping.ModalDamping.dense`), the other None; both None without damping."""
         if all(d is None for d in dampings):
-            return None
+            return None, None
         if any(d is None for d in dampings):
             raise ModelError("models: some simulations carry applied modal damping and some do not")
         if all(d.dense is not None for d in dampings):  # one product with -C_m, as ModalDamping.apply
             shared = all(d is dampings[0] for d in dampings)
             dense = dampings[0].dense[None] if shared else np.array([d.dense for d in dampings])
-            return dense, self._qvel[:, :, None], self._qfrc[:, :, None]
+            return (dense, self._qvel[:, :, None], self._qfrc[:, :, None]), None
         if all(d is dampings[0] for d in dampings):
             a, c = dampings[0].A[None], dampings[0].c[None]  # broadcast over the simulations
         else:
             a, c = np.array([d.A for d in dampings]), np.array([d.c for d in dampings])
         # (A, A^T, -c, qvel and qfrc_applied as (N, nv, 1), the modal forces' buffer (N, n_damped, 1)); -c: the
         # damping force -A (c * (A^T qvel)) as A (-c * (A^T qvel)), the same numbers (negation is exact)
-        return (a, a.transpose(0, 2, 1), -c[:, :, None], self._qvel[:, :, None], np.empty((self.n_sim, a.shape[2], 1)),
-                self._qfrc[:, :, None])
+        return None, (a, a.transpose(0, 2, 1), -c[:, :, None], self._qvel[:, :, None],
+                      np.empty((self.n_sim, a.shape[2], 1)), self._qfrc[:, :, None])
 
     def reset(self) -> None:
         """Every simulation back to its settled state at rest, time 0, forces 0 (and all alive)."""
@@ -316,8 +318,8 @@ class MujocoBatchPlant:
             Compute the position and velocity stages (and sensors) at the new
             state: the step ends a controller period.
         """
-        if self._damping is not None and len(self._damping) == 3:  # ModalDamping.dense: one stacked product
-            dense, qvel, qfrc = self._damping
+        if self._dense_damping is not None:  # ModalDamping.dense: one stacked product
+            dense, qvel, qfrc = self._dense_damping
             np.matmul(dense, qvel, out=qfrc)
         elif self._damping is not None:
             a, at, neg_c, qvel, modal, qfrc = self._damping

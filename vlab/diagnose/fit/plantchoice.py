@@ -233,8 +233,8 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     known = {chosen.label: model.chi2(chosen, chosen.params_)}  # at the FE values: one linearisation each
     delta = abs(known[chosen.label] - chosen.chi2_) if math.isfinite(known[chosen.label]) else 0.0
     near = sorted((h for h in ranked if abs(h.chi2_ - chosen.chi2_) < delta), key=lambda h: h.chi2_)
-    kind = sorted((h for h in ranked if type(h) is type(chosen)), key=lambda h: h.chi2_)
-    looks = list({h.label: h for h in list(alternatives) + near + kind[:SAME_KIND_COMPARED + 1]
+    kind = sorted((h for h in ranked if type(h) is type(chosen) and h.label != chosen.label), key=lambda h: h.chi2_)
+    looks = list({h.label: h for h in list(alternatives) + near + kind[:SAME_KIND_COMPARED]
                   if h.label != chosen.label and not isinstance(h, Combination) and refit_index(h) is not None
                   }.values())[:max_lookalikes]
     if not looks:
