@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 from vlab.cli import app
 from vlab.errors import MeasurementError, OutputError, SimulationError, SpecError
 from vlab.io.atomic import atomic_dir, atomic_file
+from vlab.io.manifest import write_manifest
 
 runner = CliRunner()
 
@@ -107,7 +108,8 @@ def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old")
-    (out / "results.json").write_text("{}")  # a previous vlab output folder: the only kind --overwrite replaces
+    (out / "results.json").write_text("{}")
+    write_manifest(out)  # a previous vlab output folder: the only kind --overwrite replaces
     before = _tree(out)
     with pytest.raises(KeyboardInterrupt):
         with atomic_dir(out, overwrite=True) as tmp:
@@ -120,13 +122,14 @@ def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old")
-    (out / "results.json").write_text("{}")  # a previous vlab output folder: the only kind --overwrite replaces
+    (out / "results.json").write_text("{}")
+    write_manifest(out)  # a previous vlab output folder: the only kind --overwrite replaces
     with pytest.raises(OutputError, match="--overwrite"):
         with atomic_dir(out) as tmp:
             pass
     with atomic_dir(out, overwrite=True) as tmp:
         (tmp / "new.txt").write_text("new")
-    assert sorted(p.name for p in out.iterdir()) == ["new.txt"]
+    assert sorted(p.name for p in out.iterdir()) == ["new.txt", "vlab-manifest.json"]
     mask = os.umask(0)
     os.umask(mask)
     fresh = tmp_path / "fresh"
@@ -207,7 +210,7 @@ def test_overwrite_never_deletes_a_folder_vlab_did_not_write_nor_a_parent_of_the
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "precious.txt").write_text("keep")
-    with pytest.raises(OutputError, match="not a vlab output folder"):
+    with pytest.raises(OutputError, match="not proven a vlab output folder"):
         with atomic_dir(mine, overwrite=True):
             pass
     assert (mine / "precious.txt").read_text() == "keep"

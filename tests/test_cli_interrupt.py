@@ -30,8 +30,11 @@ from pathlib import Path
 
 import pytest
 
+from vlab.io.manifest import write_manifest
+
 ROOT = Path(__file__).resolve().parents[1]
-NEW_FILES = {"recording.uff", "recording.uff.json", "frf.uff", "results.json", "report.md", "frf.png", "run.rrd"}
+NEW_FILES = {"recording.uff", "recording.uff.json", "frf.uff", "results.json", "report.md", "frf.png", "run.rrd",
+             "vlab-manifest.json"}
 ARGS = ["experiment", "bcc", "--plant", "linear", "--controller", "none", "--duration", "40", "--overwrite"]
 
 DRIVER = """
@@ -64,6 +67,7 @@ def _make_old(folder: Path) -> dict[str, str]:
     (folder / "frf.png").write_bytes(b"old figure")
     (folder / "run.rrd").write_bytes(b"old rerun")
     (folder / "notes_of_the_old_run.txt").write_text("only in the old folder\n")
+    write_manifest(folder)  # written by vlab: the only kind of folder --overwrite replaces
     return _snapshot(folder)
 
 

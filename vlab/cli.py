@@ -28,7 +28,9 @@ unless the global ``--debug`` option is given. Exit status:
 Every command that writes (experiment, reproduce, diagnose, export-mjcf)
 writes atomically (:mod:`vlab.io.atomic`): into a temporary folder or file
 beside the target, moved into place when complete; an existing non-empty
-folder or an existing file is replaced only with ``--overwrite``; parent
+folder or an existing file is replaced only with ``--overwrite``, and a folder
+only when its manifest proves every file in it vlab's (:mod:`vlab.io.manifest`);
+a second run writing the same folder at the same time is refused at once; parent
 folders are not created (except those of a command's default ``out/...``).
 """
 
@@ -156,6 +158,9 @@ class _VlabGroup(TyperGroup):
             raise Exit(_exit_code(exc, command)) from None
         finally:
             restore()
+            from .io.manifest import release_lock
+
+            release_lock()  # the output folder's lock, when the command ended before writing it
 
 
 def _expect_output(out_path: Path) -> None:
@@ -944,6 +949,7 @@ def detectability(
     if unknown:
         raise OptionError(f"--effect {', '.join(unknown)}: not an effect of the library ({', '.join(EFFECTS)})")
     spec = _load_structure(structure)
+    _seed(seed)
     out_path = _out_dir(out, DETECT_OUT, overwrite) if out is not None else None
     with err_console.status("detectability: recording the nominal test and searching the thresholds",
                             spinner="dots") if out_fmt == "table" else nullcontext():
@@ -1006,7 +1012,8 @@ def robustness(
     out: str = _opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
     markdown_copy: str = _opt(None, "--markdown", help="also write robustness.md to this file, e.g. "
-                                                        "docs/robustness.md; replaced if it exists (default: none)"),
+                                                        "docs/robustness.md; an existing file is replaced only "
+                                                        "with --overwrite (default: none)"),
     as_json: bool = _flag("--json", help="print robustness.json to stdout instead of the table"),
 ) -> None:
     """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (issue 29, Sec. 7).
@@ -1030,6 +1037,10 @@ def robustness(
         raise OptionError(f"robustness: structure {structure!r} is not one of bcc, grid (the study's "
                           "uncertainties are stated for the dissertation's structures)")
     out_path = _out_dir(out, ROBUSTNESS_OUT, overwrite)
+    if markdown_copy is not None:
+        from .io.atomic import check_output_file
+
+        check_output_file(markdown_copy, overwrite=overwrite, option="--markdown")
     _input_file("--uncertainty", uncertainty)
     if workers is not None and workers < 1:
         raise OptionError(f"--workers must be >= 1, got {workers!r}")
@@ -1061,8 +1072,11 @@ def robustness(
         f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "")
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
         files = write_outputs(tmp, cfg, nominal, res, summary, checks, timings, command)
-    if markdown_copy:
-        Path(markdown_copy).write_text((out_path / "robustness.md").read_text())
+    if markdown_copy is not None:
+        from .io.atomic import atomic_file
+
+        with atomic_file(markdown_copy, overwrite=overwrite) as tmp_md:
+            tmp_md.write_text((out_path / "robustness.md").read_text())
     if as_json:
         _print_json(json.loads((out_path / "robustness.json").read_text()))
         return

@@ -9,10 +9,17 @@ target is renamed away, the new one renamed in, and only then the old one
 deleted; an interrupt (Ctrl-C) during those renames is held back until they
 are done, so that the target is always either the old one or the new one.
 
-Rules (issue 26):
+Rules:
 
 - an existing non-empty folder or an existing file is never replaced without
   ``overwrite``; an empty folder may be;
+- with ``overwrite`` a folder is replaced only when it is proven vlab's own:
+  its manifest (:mod:`vlab.io.manifest`) lists every file in it with its size
+  and SHA-256; anything else is refused, naming the foreign files, and only
+  the listed files are ever deleted. Every folder written here gets such a
+  manifest. Folders without one (written before it existed) are refused;
+- a second run writing the same folder at the same time is refused at its
+  check (:func:`vlab.io.manifest.acquire_lock`), before any work;
 - parent folders are never created: the target's parent must exist (the
   commands' default ``out/...`` folders are the one exception, see
   :func:`check_output_dir` ``create_parent``);
@@ -27,11 +34,13 @@ import shutil
 import signal
 import tempfile
 import threading
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
 from ..errors import OutputError
+from .manifest import MANIFEST_NAME, acquire_lock, ownership_problem, release_lock, remove_owned, write_manifest
 
 TMP_PREFIX = ".vlab-tmp-"
 OLD_PREFIX = ".vlab-old-"
@@ -43,9 +52,6 @@ def _nonempty(path: str | Path | None, option: str) -> Path:
     return Path(path)
 
 
-#: Files by which a folder is known as a vlab output folder (experiment, reproduce, diagnose, robustness); only such a
-#: folder (or an empty one) is replaced with ``--overwrite``: a folder of the user's own is never deleted.
-OUTPUT_MARKERS = ("results.json", "reproduce.json", "diagnosis.json", "robustness.json")
 
 
 def _absolute(path: Path) -> Path:
@@ -69,21 +75,27 @@ def _check_parent(path: Path, option: str, create_parent: bool) -> None:
 
 
 def check_output_dir(path: str | Path | None, *, overwrite: bool = False, option: str = "--out",
-                     create_parent: bool = False) -> Path:
-    """Check an output folder before any work starts.
+                     create_parent: bool = False, lock: bool = True) -> Path:
+    """Check an output folder before any work starts, and hold its lock.
 
     Parameters
     ----------
     path : str or Path
         The folder the command will write (created by :func:`atomic_dir`).
     overwrite : bool
-        Whether an existing non-empty folder may be replaced (``--overwrite``).
+        Whether an existing non-empty folder may be replaced (``--overwrite``);
+        only a folder proven vlab's by its manifest
+        (:func:`vlab.io.manifest.ownership_problem`) is.
     option : str
         The option name used in messages (``"--out"``).
     create_parent : bool
         Accept missing parent folders, which :func:`atomic_dir` creates when
         writing starts (only for a command's default output folder, never
         for a user-given one); the nearest existing ancestor must be writable.
+    lock : bool
+        Take the folder's lock (:func:`vlab.io.manifest.acquire_lock`), held
+        until :func:`atomic_dir` has moved the folder into place or the
+        process ends.
 
     Returns
     -------
@@ -94,29 +106,38 @@ def check_output_dir(path: str | Path | None, *, overwrite: bool = False, option
     ------
     OutputError
         Empty path; the parent folder is missing, not a folder or not
-        writable; ``path`` is a regular file (or other non-folder); ``path``
-        is the current folder, one of its parents, the home folder or the
-        root; ``path`` is a non-empty folder and ``overwrite`` is False, or
-        it holds none of :data:`OUTPUT_MARKERS` (not a vlab output folder,
-        never deleted).
+        writable; ``path`` is a symbolic link, a regular file or another
+        non-folder; ``path`` is the current folder, one of its parents, the
+        home folder or the root; ``path`` is a non-empty folder and
+        ``overwrite`` is False, or it is not proven vlab's (no valid
+        manifest, or files the manifest does not list: named); another run
+        holds the folder's lock.
     """
     p = _nonempty(path, option)
-    if p.is_symlink() or (p.exists() and not p.is_dir()):
+    if p.is_symlink():
+        raise OutputError(f"{option} {p}: is a symbolic link (to {os.readlink(p)}); give the folder itself: vlab "
+                          "replaces an output folder by renaming and would replace the link")
+    if p.exists() and not p.is_dir():
         raise OutputError(f"{option} {p}: is a file, not a folder; give a folder name")
     if p.is_dir():
         full, cwd = _absolute(p), _absolute(Path.cwd())
         if full == cwd or full in cwd.parents or full == _absolute(Path.home()) or full == Path(full.anchor):
             raise OutputError(f"{option} {p}: is the current folder, one of its parents, the home folder or the "
                               "root; give a folder of its own")
-        if any(p.iterdir()):
+        try:
+            nonempty = any(p.iterdir())
+        except OSError as exc:
+            raise OutputError(f"{option} {p}: the folder cannot be read ({exc.strerror})") from None
+        if nonempty:
             if not overwrite:
                 raise OutputError(f"{option} {p}: the folder exists and is not empty; use --overwrite to replace "
                                   "it or choose another folder")
-            if not any((p / m).is_file() for m in OUTPUT_MARKERS):
-                raise OutputError(f"{option} {p}: the folder is not a vlab output folder (it holds none of "
-                                  f"{', '.join(OUTPUT_MARKERS)}); --overwrite replaces only those: choose another "
-                                  "folder")
+            why = ownership_problem(p)
+            if why is not None:
+                raise OutputError(f"{option} {p}: not replaced: {why}")
     _check_parent(p, option, create_parent)
+    if lock:
+        acquire_lock(p, option)
     return p
 
 
@@ -187,17 +208,50 @@ def _remove(path: Path) -> None:
             pass
 
 
+def _temp_sibling(target: Path, prefix: str, *, folder: bool, suffix: str = "") -> Path:
+    """A new temporary folder or file beside ``target``; OutputError naming ``target`` when it cannot be made."""
+    try:
+        if folder:
+            return Path(tempfile.mkdtemp(prefix=f"{prefix}{target.name}-", dir=target.parent))
+        fd, name = tempfile.mkstemp(prefix=f"{prefix}{target.name}-", suffix=suffix, dir=target.parent)
+        os.close(fd)
+        return Path(name)
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot write into the folder {target.parent} "
+                          f"({exc.strerror or exc})") from None
+
+
+def _commit_dir(tmp: Path, target: Path, overwrite: bool) -> None:
+    """Move ``tmp`` onto ``target``; an existing ``target`` is renamed away, checked again, and only its listed files deleted."""
+    check_output_dir(target, overwrite=overwrite)
+    old = None
+    if target.exists():
+        old = _temp_sibling(target, OLD_PREFIX, folder=True)
+        os.replace(target, old)  # replaces the empty placeholder folder
+        # checked again under the private name (nothing can be added there now): never delete a file not proven vlab's
+        why = ownership_problem(old) if any(old.iterdir()) else None
+        if why is not None:
+            os.replace(old, target)
+            raise OutputError(f"{target}: not replaced: {why}")
+    os.replace(tmp, target)
+    if old is not None:  # still deferred: an interrupt now leaves no .vlab-old- folder behind
+        left = remove_owned(old)
+        if left:
+            warnings.warn(f"{old}: kept, it holds {', '.join(left[:10])} (not written by vlab)", stacklevel=3)
+
+
 @contextmanager
 def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bool = False) -> Iterator[Path]:
-    """Write a folder atomically: yield a temporary sibling, move it into place on success.
+    """Write a folder atomically: yield a temporary sibling, move it into place on success with its manifest.
 
     Parameters
     ----------
     target : str or Path
         The final folder; its parent must exist (:func:`check_output_dir`).
     overwrite : bool
-        Replace an existing non-empty folder (renamed away first, deleted
-        after the new one is in place).
+        Replace an existing non-empty folder proven vlab's by its manifest
+        (renamed away first; after the new one is in place only the files
+        its manifest lists are deleted).
     create_parent : bool
         Create the missing parent folders first (a command's default output
         folder only).
@@ -206,38 +260,38 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
     ------
     Path
         The temporary folder to write into (``.vlab-tmp-<name>-XXXX`` beside
-        ``target``). On any exception, ``KeyboardInterrupt`` included, it is
-        deleted and ``target`` is left untouched.
+        ``target``). On success :data:`vlab.io.manifest.MANIFEST_NAME` listing
+        every file written is added before the folder is moved into place. On
+        any exception, ``KeyboardInterrupt`` included, it is deleted and
+        ``target`` is left untouched. The folder's lock is released either way.
 
     Raises
     ------
     OutputError
         As :func:`check_output_dir`, checked again when committing (the
-        target appeared meanwhile).
+        target appeared or changed meanwhile); the temporary folder cannot be
+        made; a file written is a link or is named like the manifest.
     """
-    check_output_dir(target, overwrite=overwrite, create_parent=create_parent)
-    target = _absolute(Path(target))
-    if create_parent:
-        try:
-            target.absolute().parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise OutputError(f"{target}: cannot create the folder {target.absolute().parent} ({exc.strerror})") from None
-    tmp = Path(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}{target.name}-", dir=target.absolute().parent))
-    os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's 0700 -> what mkdir would give
     try:
-        yield tmp
-        with _interrupts_deferred():
-            check_output_dir(target, overwrite=overwrite)
-            old = None
-            if target.exists():
-                old = Path(tempfile.mkdtemp(prefix=f"{OLD_PREFIX}{target.name}-", dir=target.absolute().parent))
-                os.replace(target, old)  # replaces the empty placeholder folder
-            os.replace(tmp, target)
-            if old is not None:  # still deferred: an interrupt now leaves no .vlab-old- folder behind
-                _remove(old)
-    except BaseException:
-        _remove(tmp)
-        raise
+        check_output_dir(target, overwrite=overwrite, create_parent=create_parent)
+        target = _absolute(Path(target))
+        if create_parent:
+            try:
+                target.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise OutputError(f"{target}: cannot create the folder {target.parent} ({exc.strerror})") from None
+        tmp = _temp_sibling(target, TMP_PREFIX, folder=True)
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's 0700 -> what mkdir would give
+        try:
+            yield tmp
+            write_manifest(tmp)
+            with _interrupts_deferred():
+                _commit_dir(tmp, target, overwrite)
+        except BaseException:
+            _remove(tmp)
+            raise
+    finally:
+        release_lock(target)
 
 
 @contextmanager
@@ -264,10 +318,7 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
     """
     check_output_file(target, overwrite=overwrite, option="output")
     target = _absolute(Path(target))
-    fd, name = tempfile.mkstemp(prefix=f"{TMP_PREFIX}{target.name}-", suffix=target.suffix,
-                                dir=target.absolute().parent)
-    os.close(fd)
-    tmp = Path(name)
+    tmp = _temp_sibling(target, TMP_PREFIX, folder=False, suffix=target.suffix)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 -> what open() would give
     try:
         yield tmp
