@@ -51,3 +51,53 @@ def test_bad_input_is_refused_with_its_location(case, tmp_path):
     for frag in case.fragments:                       # and the field / record / channel / value
         assert frag in msg, f"{frag!r} not in: {msg}"
     assert _snapshot(d) == before                     # nothing written, changed or removed
+
+
+def test_a_file_named_outside_is_not_read_nor_echoed_and_an_option_allows_it(tmp_path, monkeypatch):
+    """A structure file naming /etc/hostname is refused before it is opened: its content is not in the message;
+    the explicit allowance (environment of ``vlab --allow-outside-inputs``) reads it."""
+    from vlab.errors import SpecError
+    from vlab.io.confine import ALLOW_ENV
+    from vlab.spec import load_spec
+
+    host = Path("/etc/hostname")
+    if not host.is_file() or not host.read_text().strip():
+        pytest.skip("no /etc/hostname here")
+    p = tmp_path / "s.toml"
+    p.write_text(readers_cases.sub1(readers_cases.BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"',
+                                    'frequencies = "/etc/hostname"'))
+    monkeypatch.delenv(ALLOW_ENV, raising=False)
+    with pytest.raises(SpecError) as info:
+        load_spec(p)
+    assert "reaches outside" in str(info.value)
+    assert host.read_text().splitlines()[0].strip() not in str(info.value).replace("/etc/hostname", "")
+    assert load_spec(p, allow_outside=True).reference["frequencies"] == "/etc/hostname"
+    monkeypatch.setenv(ALLOW_ENV, "1")
+    assert load_spec(p).reference["frequencies"] == "/etc/hostname"
+
+
+def test_files_beside_the_structure_file_and_includes_beside_the_model_are_read(tmp_path):
+    """The confinement keeps the legitimate uses: a table beside the structure file, an include beside the MJCF."""
+    import re
+    import shutil
+
+    from vlab.sim import load_mjcf
+    from vlab.spec import DATA_DIR, load_spec
+
+    shutil.copy(DATA_DIR / "table1_bcc_frequencies.csv", tmp_path / "mine.csv")
+    p = tmp_path / "s.toml"
+    p.write_text(readers_cases.sub1(readers_cases.BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"',
+                                    'frequencies = "mine.csv"'))
+    assert load_spec(p).reference["frequencies"] == str((tmp_path / "mine.csv").resolve())
+    t = readers_cases.good_mjcf_text()
+    sensors = re.search(r"<sensor>.*?</sensor>", t, flags=re.S).group(0)
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "sensors.xml").write_text(f"<mujoco>{sensors}</mujoco>")
+    (tmp_path / "plant.xml").write_text(t.replace(sensors, '<include file="sub/sensors.xml"/>'))
+    assert load_mjcf(tmp_path / "plant.xml").nsensor == load_mjcf_text_sensors(t)
+
+
+def load_mjcf_text_sensors(text: str) -> int:
+    import mujoco
+
+    return mujoco.MjModel.from_xml_string(text).nsensor

@@ -130,6 +130,9 @@ class _VlabGroup(TyperGroup):
         _STATE["interrupted"] = "interrupted: nothing written"
         _STATE["out_path"] = _STATE["out_id"] = None
         _STATE["sigint"] = False
+        from .io.confine import ALLOW_ENV
+
+        allow_env = os.environ.get(ALLOW_ENV)
         restore = _install_sigint_flag()
         try:
             return super().invoke(ctx)
@@ -161,6 +164,10 @@ class _VlabGroup(TyperGroup):
             from .io.manifest import release_lock
 
             release_lock()  # the output folder's lock, when the command ended before writing it
+            if allow_env is None:
+                os.environ.pop(ALLOW_ENV, None)
+            else:
+                os.environ[ALLOW_ENV] = allow_env
 
 
 def _expect_output(out_path: Path) -> None:
@@ -288,9 +295,17 @@ app = typer.Typer(
 
 
 @app.callback(epilog=EPILOG)
-def _root(debug: bool = _flag("--debug", help="show the Python traceback of an error")) -> None:
+def _root(debug: bool = _flag("--debug", help="show the Python traceback of an error"),
+          allow_outside_inputs: bool = _flag(
+              "--allow-outside-inputs", help="read files that a structure file ([reference]) or an MJCF model "
+                                             "(<include>, assets) names outside its own folder (default: refused)"),
+          ) -> None:
     """vlab: a virtual laboratory for active vibration control of flexible structures."""
+    from .io.confine import ALLOW_ENV
+
     _STATE["debug"] = debug
+    if allow_outside_inputs:
+        os.environ[ALLOW_ENV] = "1"  # read by the loaders, here and in worker processes; restored after the command
 
 
 class OutputFormat(str, Enum):
@@ -546,7 +561,7 @@ def experiment(
     if mjcf is not None:
         if plant is PlantKind.linear:
             raise OptionError(f"--mjcf {mjcf} runs a MuJoCo plant: it contradicts --plant linear")
-        _input_file("--mjcf", mjcf)
+        _mjcf_input(mjcf)
     if spawn:
         from .viz.rerun_log import viewer_unavailable_reason
 
@@ -863,7 +878,7 @@ def diagnose(
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
     _input_file("--recording", recording)
     _input_file("--baseline", baseline)
-    _input_file("--mjcf", mjcf)
+    _mjcf_input(mjcf)
     _expect_output(out_path)
     with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
                   console=err_console, transient=True, disable=out_fmt != "table") as bar:
@@ -1151,6 +1166,15 @@ def _input_file(option: str, value: str | None) -> str | None:
         raise DataFileError(f"{option} {value}: file not found")
     if not p.is_file():
         raise DataFileError(f"{option} {value}: not a regular file")
+    return value
+
+
+def _mjcf_input(value: str | None) -> str | None:
+    """``--mjcf``: a regular file whose includes and assets stay in its folder (:func:`vlab.io.confine.check_mjcf_files`)."""
+    from .io.confine import check_mjcf_files
+
+    if _input_file("--mjcf", value) is not None:
+        check_mjcf_files(value)
     return value
 
 

@@ -701,13 +701,16 @@ def _dof(r: _Reader, key: str, value: str) -> str:
     return value
 
 
-def load_spec(name_or_path: str | Path) -> StructureSpec:
+def load_spec(name_or_path: str | Path, *, allow_outside: bool | None = None) -> StructureSpec:
     """Load a structure definition.
 
     Parameters
     ----------
     name_or_path : str or Path
         ``"bcc"``/``"grid"`` (a file in ``assets/structures``) or a path to a TOML file.
+    allow_outside : bool, optional
+        Allow ``[reference]`` files outside the structure file's folder and
+        the packaged data (:func:`spec_from_dict`).
 
     Returns
     -------
@@ -720,7 +723,8 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
         If the file is missing or unreadable, is not UTF-8 (names the byte
         offset and line), is not valid TOML, has a missing, unknown or
         mistyped field, a non-positive stiffness/mass, a value outside
-        :data:`PLAUSIBLE_RANGES`, or an unknown point id; the message names the file and field.
+        :data:`PLAUSIBLE_RANGES`, an unknown point id, or a ``[reference]``
+        file outside its folders (:func:`spec_from_dict`); the message names the file and field.
     """
     path = Path(name_or_path)
     if path.suffix != ".toml":
@@ -745,10 +749,29 @@ def load_spec(name_or_path: str | Path) -> StructureSpec:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
-    return spec_from_dict(doc, path=path)
+    return spec_from_dict(doc, path=path, allow_outside=allow_outside)
 
 
-def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> StructureSpec:
+def _reference_file(file: str, field_name: str, fname: str, path: Path | None, allow_outside: bool | None) -> str:
+    """A ``[reference]`` file name checked: inside the structure file's folder or :data:`DATA_DIR`.
+
+    Returns the name as given when the file is in :data:`DATA_DIR` (read as
+    ``DATA_DIR / name``), else its absolute real path. Raises SpecError naming
+    the file and field when the name reaches outside both folders (unless
+    ``allow_outside``, see :func:`vlab.io.confine.confined_file`), is
+    missing, not a regular file or over :data:`vlab.io.confine.MAX_NAMED_BYTES`.
+    """
+    from .io.confine import confined_file
+
+    folders = ([Path(path).parent] if path is not None else []) + [DATA_DIR]
+    real = confined_file(fname, folders, where=f"{file}: field {field_name!r}", allow=allow_outside,
+                         error=SpecError)
+    data = Path(DATA_DIR).resolve()
+    return fname if data in real.parents and (data / fname).resolve() == real else str(real)
+
+
+def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
+                   allow_outside: bool | None = None) -> StructureSpec:
     """Build a :class:`StructureSpec` from a parsed TOML document (see :func:`load_spec`).
 
     Parameters
@@ -758,7 +781,11 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         ``{ value, unit, source }`` tables, converted to SI here.
     path : Path, optional
         File the document came from: stored in the spec and named in errors
-        (``"<dict>"`` when None).
+        (``"<dict>"`` when None); its folder is where ``[reference]`` files
+        are looked for first (then :data:`DATA_DIR`).
+    allow_outside : bool, optional
+        Allow ``[reference]`` files outside those two folders (None: the
+        environment, :func:`vlab.io.confine.outside_allowed`).
 
     Returns
     -------
@@ -773,6 +800,8 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
         :data:`MAX_COORDINATE_M`, two consecutive member points coincide,
         ``elements_per_segment`` exceeds :data:`MAX_ELEMENTS_PER_SEGMENT`, a
         point, section or DOF is unknown, a referenced data file is missing,
+        reaches outside the structure file's folder and the packaged data,
+        is not a regular file or is too large,
         member ids repeat, or a ``[test]`` / ``[design]`` value is out of range
         (a band beyond :data:`MAX_TEST_BAND_HZ`, a resolution leaving fewer than
         4 lines, a response point not recorded, ...); the message names the
@@ -961,8 +990,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None) -> Structur
     for key, fname in reference.items():
         if not isinstance(fname, str):
             top.fail(f"reference.{key}", f"expected a file name, got {fname!r}")
-        if not (DATA_DIR / fname).exists():
-            top.fail(f"reference.{key}", f"data file {fname!r} not found in {DATA_DIR}")
+        reference[key] = _reference_file(file, f"reference.{key}", fname, path, allow_outside)
     masters: dict[str, tuple[tuple[int, str], ...]] = {}
     rr = top.sub("reduction", None)
     if rr is not None:

@@ -1148,3 +1148,92 @@ def _missing_mjcf(d):
 
 
 CASES.append(Case("mjcf_missing", "mjcf", _missing_mjcf, read_mjcf, DataFileError, ("file not found",)))
+
+
+# ==================================================== files named by an input stay in its folder
+OUTSIDE = "../" * 12  # enough parents to reach the root from any temporary folder
+
+
+@toml_case("reference.frequencies", "reaches outside", "/etc/passwd", "--allow-outside-inputs")
+def toml_reference_parent_path(t):
+    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', f'frequencies = "{OUTSIDE}etc/passwd"')
+
+
+@toml_case("reference.frequencies", "reaches outside", "/etc/passwd")
+def toml_reference_absolute_path(t):
+    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "/etc/passwd"')
+
+
+@toml_case("reference.frequencies", "reaches outside", "/dev/zero")
+def toml_reference_device(t):
+    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "/dev/zero"')
+
+
+@toml_case("reference.frequencies", "'mine.csv'", "not found")
+def toml_reference_missing(t):
+    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "mine.csv"')
+
+
+def _toml_reference_symlink(d):
+    (d / "freq.csv").symlink_to("/etc/passwd")
+    p = d / "bcc_edit.toml"
+    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
+    return p
+
+
+def _toml_reference_fifo(d):
+    os.mkfifo(d / "freq.csv")
+    p = d / "bcc_edit.toml"
+    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
+    return p
+
+
+def _toml_reference_too_large(d):
+    with open(d / "freq.csv", "wb") as fh:
+        fh.truncate(65 * 2**20)  # sparse: no disk used
+    p = d / "bcc_edit.toml"
+    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
+    return p
+
+
+CASES += [
+    Case("toml_reference_symlink_outside", "toml", _toml_reference_symlink, read_toml, SpecError,
+         ("reference.frequencies", "'freq.csv'", "reaches outside", "/etc/passwd")),
+    Case("toml_reference_fifo", "toml", _toml_reference_fifo, read_toml, SpecError,
+         ("reference.frequencies", "not a regular file")),
+    Case("toml_reference_too_large", "toml", _toml_reference_too_large, read_toml, SpecError,
+         ("reference.frequencies", "68157440 bytes")),
+]
+
+
+def _mjcf_with(d, tail, extra=None):
+    """The good MJCF with ``tail`` inserted before its last closing tag; ``extra(d)`` makes companion files."""
+    t = good_mjcf_text()
+    i = t.rindex("</mujoco>")
+    p = d / "plant.xml"
+    p.write_text(t[:i] + tail + t[i:])
+    if extra is not None:
+        extra(d)
+    return p
+
+
+CASES += [
+    Case("mjcf_include_absolute", "mjcf", lambda d: _mjcf_with(d, '<include file="/etc/hostname"/>'), read_mjcf,
+         DataFileError, ("<include file=\"/etc/hostname\">", "reaches outside", "--allow-outside-inputs")),
+    Case("mjcf_include_parent", "mjcf", lambda d: _mjcf_with(d, f'<include file="{OUTSIDE}etc/passwd"/>'),
+         read_mjcf, DataFileError, ("include", "reaches outside", "/etc/passwd")),
+    Case("mjcf_include_device", "mjcf", lambda d: _mjcf_with(d, '<include file="/dev/zero"/>'), read_mjcf,
+         DataFileError, ("/dev/zero", "reaches outside")),
+    Case("mjcf_include_nested_outside", "mjcf",
+         lambda d: _mjcf_with(d, '<include file="more.xml"/>', lambda d: (d / "more.xml").write_text(
+             '<mujoco><include file="/etc/passwd"/></mujoco>')),
+         read_mjcf, DataFileError, ("more.xml", "/etc/passwd", "reaches outside")),
+    Case("mjcf_include_missing", "mjcf", lambda d: _mjcf_with(d, '<include file="nope_inc.xml"/>'), read_mjcf,
+         DataFileError, ("nope_inc.xml", "not found")),
+    Case("mjcf_mesh_outside", "mjcf",
+         lambda d: _mjcf_with(d, '<asset><mesh name="m" file="/etc/passwd"/></asset>'), read_mjcf,
+         DataFileError, ("<mesh file=", "reaches outside")),
+    Case("mjcf_meshdir_outside", "mjcf",
+         lambda d: _mjcf_with(d, '<compiler meshdir="/etc"/><asset><mesh name="m" file="passwd"/></asset>'),
+         read_mjcf, DataFileError, ("<mesh file=\"passwd\">", "reaches outside", "/etc/passwd")),
+]

@@ -68,12 +68,16 @@ def export_mjcf(plant: Plant, path: str | Path, *, overwrite: bool = True) -> Pa
     return path
 
 
-def load_mjcf(path: str | Path) -> mujoco.MjModel:
-    """Load an exported plant.
+def load_mjcf(path: str | Path, *, allow_outside: bool | None = None) -> mujoco.MjModel:
+    """Load an exported plant, its includes and assets checked first.
 
     Parameters
     ----------
     path : str or Path
+        The MJCF file.
+    allow_outside : bool, optional
+        Allow ``<include>`` and asset files outside the file's folder (None:
+        the environment, :func:`vlab.io.confine.outside_allowed`).
 
     Returns
     -------
@@ -82,11 +86,16 @@ def load_mjcf(path: str | Path) -> mujoco.MjModel:
     Raises
     ------
     DataFileError
-        If the file is missing or not a loadable MJCF model (names the file).
+        If the file is missing or not a loadable MJCF model, or names an
+        include or asset outside its folder, missing, not a regular file or
+        too large (:func:`vlab.io.confine.check_mjcf_files`; names the file).
     """
+    from ..io.confine import check_mjcf_files
+
     path = Path(path)
     if not path.exists():
         raise DataFileError(f"{path}: file not found")
+    check_mjcf_files(path, allow=allow_outside)
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except Exception as exc:
