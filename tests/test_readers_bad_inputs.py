@@ -101,3 +101,24 @@ def load_mjcf_text_sensors(text: str) -> int:
     import mujoco
 
     return mujoco.MjModel.from_xml_string(text).nsensor
+
+
+def test_an_frf_axis_in_rad_per_s_is_read_in_hz(tmp_path):
+    """A frequency abscissa labelled rad/s is converted (not read as Hz); the coherence record still pairs."""
+    import numpy as np
+
+    from vlab.io.uff import read_frfs
+
+    good = readers_cases.good_frfs()
+    p = readers_cases.write_frf(tmp_path, good)
+
+    def to_rad(sets):
+        for s in sets:
+            s["x"] = np.asarray(s["x"]) * 2 * np.pi
+            s["abscissa_axis_units_lab"] = "rad/s"
+    readers_cases.rewrite(p, to_rad)
+    back = read_frfs(p)
+    assert len(back) == len(good)
+    for a, b in zip(back, good):
+        np.testing.assert_allclose(a.freq_hz, b.freq_hz, rtol=1e-9)
+        assert a.coherence is not None

@@ -1237,3 +1237,51 @@ CASES += [
          lambda d: _mjcf_with(d, '<compiler meshdir="/etc"/><asset><mesh name="m" file="passwd"/></asset>'),
          read_mjcf, DataFileError, ("<mesh file=\"passwd\">", "reaches outside", "/etc/passwd")),
 ]
+
+
+# ======================================================= UFF 58 units: honoured or refused, never assumed
+def _units_record(units_code=2, description="BG", length=0.3048, force=4.44822):
+    return dict(type=164, units_code=units_code, units_description=description, temp_mode=2, length=length,
+                force=force, temp=1.8, temp_offset=459.67)
+
+
+def _with_units_record(p, **kw):
+    def fn(sets):
+        return [_units_record(**kw)] + sets
+    return rewrite(p, fn)
+
+
+@case("uff58-frf", read_frf, DataFileError, "per 'lbf'", "FRF record 1")
+def frf_per_lbf(d):
+    return set_field(write_frf(d), 0, orddenom_axis_units_lab="lbf")
+
+
+@case("uff58-frf", read_frf, DataFileError, "'rpm'", "frequency axis")
+def frf_abscissa_rpm(d):
+    return set_field(write_frf(d), 0, abscissa_axis_units_lab="rpm")
+
+
+@case("uff58-frf", read_frf, DataFileError, "units record (dataset 164)", "'BG'", "length factor 0.3048")
+def frf_units_record_not_si(d):
+    return _with_units_record(write_frf(d))
+
+
+@case("uff58-frf", read_frf, DataFileError, "orddenom_len_unit_exp 1", "specific data type 13")
+def frf_denominator_exponents_not_force(d):
+    return set_field(write_frf(d), 0, orddenom_len_unit_exp=1, orddenom_force_unit_exp=0)
+
+
+@case("uff58-time", read_rec, DataFileError, "units record (dataset 164)", "force factor 4.44822")
+def time_units_record_not_si(d):
+    return _with_units_record(write_rec(d, good_recording()))
+
+
+@case("uff58-time", read_rec, DataFileError, "time axis in 'ms'", "record 2")
+def time_abscissa_ms(d):
+    return set_field(write_rec(d, good_recording()), 1, abscissa_axis_units_lab="ms")
+
+
+@case("uff58-time", read_rec, DataFileError, "ordinate_len_unit_exp 0", "ordinate_force_unit_exp 1",
+      "specific data type 11")
+def time_velocity_with_force_exponents(d):
+    return set_field(write_rec(d, good_recording()), 1, ordinate_len_unit_exp=0, ordinate_force_unit_exp=1)

@@ -52,6 +52,7 @@ from ..errors import DataFileError, MeasurementError
 from ..lab.recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
                              parse_channel_name)
 from ..measure.frf import FRF
+from .uff_units import check_exponents, check_force_denominator, check_time_axis, check_units_records, frequency_factor
 
 #: UFF specific data type code of each quantity.
 SPEC_DATA_TYPE = {"displacement": 8, "velocity": 11, "acceleration": 12, "force": 13}
@@ -145,6 +146,7 @@ def _read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
         sets = [sets]
     sets = [s for s in sets if s]  # pyuff returns {} for unsupported datasets
     _check_record_count(p, [s for s in sets if s.get("type") == 58])
+    check_units_records(p, sets)
     return p, sets
 
 
@@ -329,7 +331,9 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
         Missing, empty, malformed or truncated file; no time-response
         record; unknown ordinate type; mislabelled, mis-sampled or
         inconsistent records (above); NaN/inf samples; duplicate channels;
-        unreadable sidecar. The message names the file, record and channel.
+        unreadable sidecar; units that are not SI (:mod:`vlab.io.uff_units`:
+        a non-SI units record, a time axis not in s, unit exponents that
+        contradict the data type). The message names the file, record and channel.
     MeasurementError
         A clipped channel or an implausible RMS (names file, record, channel
         and the value).
@@ -363,9 +367,11 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
                                     f"{quantity} (data type {code}) at node {node} (mislabelled channel)")
         direction = _check_direction(p, s, "rsp_dir", where)
         _check_unit_label(p, s, quantity, where)
+        check_exponents(p, s, "ordinate", code, where)
         absc = int(s.get("abscissa_spec_data_type", _TIME) or 0)
         if absc not in (0, _TIME):
             raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not time ({_TIME})")
+        check_time_axis(p, s, where)
         data = np.asarray(s["data"]) if "data" in s else np.zeros(0)
         if np.iscomplexobj(data):
             raise DataFileError(f"{p}: {where}: complex samples in a time response")
@@ -578,8 +584,12 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
         a frequency axis that is negative or not increasing; a coherence
         outside [0, 1]; a node that is not a point id, a direction that is
         not a translation, a unit label or channel name that contradicts the
-        record (mislabelled); two FRFs between the same nodes. The message
-        names the file, the FRF record and the value.
+        record (mislabelled); two FRFs between the same nodes; units that
+        are not SI (:mod:`vlab.io.uff_units`: a non-SI units record, a
+        denominator per lbf, a frequency axis in units other than Hz, kHz or
+        rad/s -- those two are converted to Hz -- unit exponents that
+        contradict the data type). The message names the file, the FRF
+        record and the value.
     """
     p, sets = _read_uff(path)
     sets = [s for s in sets if s.get("type") == 58]
@@ -621,9 +631,12 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
         _check_direction(p, s, "rsp_dir", where)
         _check_direction(p, s, "ref_dir", where)
         _check_unit_label(p, s, response, where)
+        check_exponents(p, s, "ordinate", code, where)
+        check_force_denominator(p, s, where)
         absc = int(s.get("abscissa_spec_data_type", _FREQ) or 0)
         if absc not in (0, _FREQ):
             raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not frequency ({_FREQ})")
+        to_hz = frequency_factor(p, s, where)
         f = np.asarray(s.get("x", []))
         h = np.asarray(s.get("data", []))
         if np.iscomplexobj(f):
@@ -651,6 +664,7 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
                                 f"(first: {seen[key]})")
         seen[key] = label
         c = _coherence_for(s, f, sets, cohs)
+        f = f * to_hz  # the record's own unit (rad/s, kHz) to Hz, after pairing with its coherence record
         if c is not None:
             bad = np.flatnonzero(~np.isfinite(c))
             if bad.size:
