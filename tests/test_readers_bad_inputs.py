@@ -122,3 +122,13 @@ def test_an_frf_axis_in_rad_per_s_is_read_in_hz(tmp_path):
     for a, b in zip(back, good):
         np.testing.assert_allclose(a.freq_hz, b.freq_hz, rtol=1e-9)
         assert a.coherence is not None
+
+
+def test_a_periodic_recording_without_corruption_is_accepted(tmp_path):
+    """The force-repeat check accepts the same recording uncorrupted (no false refusal)."""
+    from vlab.io.uff import read_recording
+
+    for n in (2, 3):
+        p = readers_cases.write_rec(tmp_path, readers_cases.periodic_recording(n), name=f"ok{n}.uff")
+        data = readers_cases.diagnose_rec(p)
+        assert data.periodic and read_recording(p).n_samples == n * readers_cases.N

@@ -1285,3 +1285,35 @@ def time_abscissa_ms(d):
       "specific data type 11")
 def time_velocity_with_force_exponents(d):
     return set_field(write_rec(d, good_recording()), 1, ordinate_len_unit_exp=0, ordinate_force_unit_exp=1)
+
+
+# ============================== a NaN written by pyuff (as 0) into a periodic excitation's force
+def periodic_recording(n_periods=3):
+    """Three periods of 1 s (the corpus's 1 Hz resolution) of a periodic force and responses."""
+    from vlab.lab.recording import Recording
+
+    rng = np.random.default_rng(11)
+    force = np.tile(0.5 * rng.standard_normal(N), n_periods)
+    t = np.arange(force.size) * DT
+    sig = {"force9": force}
+    for p in (5, 7, 9, 6):
+        sig[f"vel{p}"] = 1e-3 * np.sin(2 * np.pi * 3.0 * t + p) + 1e-5 * rng.standard_normal(force.size)
+    return Recording.from_signals(DT, sig, metadata={"structure": "bcc", "seed": 1})
+
+
+def _nan_through_pyuff(d, index, n_periods=3):
+    """pyuff's writer turns NaN into 0 (``np.nan_to_num``): the file holds 0 where the NaN was."""
+    def fn(sets):
+        data = np.array(sets[0]["data"], dtype=float)
+        data[index] = np.nan
+        sets[0]["data"] = data
+    return rewrite(write_rec(d, periodic_recording(n_periods)), fn)
+
+
+CASES += [
+    Case("time_force_nan_in_analysed_period", "uff58-time", lambda d: _nan_through_pyuff(d, 2 * N + 345),
+         diagnose_rec, MeasurementError, ("force9", f"sample {2 * N + 345}", "period 3 of 3",
+                                          "repeats exactly")),
+    Case("time_force_nan_in_two_periods", "uff58-time", lambda d: _nan_through_pyuff(d, 17, n_periods=2),
+         diagnose_rec, MeasurementError, ("force9", "samples 17 and 2017", "repeats exactly")),
+]

@@ -216,6 +216,59 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
             f"from index {start} (saturated amplifier or ADC range)")
 
 
+#: At most this many samples of two periods of a force may differ for them to be read as one periodic
+#: excitation with corrupted samples (rather than a non-periodic excitation).
+CORRUPT_AT_MOST = 8
+
+
+def check_force_repeats(path: str, name: str, xp: np.ndarray, first: int, *, nearly_only: bool = False) -> None:
+    """Raise MeasurementError where a periodic excitation's force does not repeat from period to period.
+
+    The force of a periodic excitation (a generated signal, recognised by its
+    first two periods repeating exactly) repeats exactly in every period; a
+    sample that differs is corrupted, typically a NaN or Inf that the file's
+    writer replaced by a number (pyuff writes NaN as 0 and Inf as the largest
+    double), which would otherwise be analysed as data. With ``nearly_only``
+    (periods that do not repeat: a non-periodic excitation, or a periodic one
+    with corrupted samples) only periods that repeat but for at most
+    :data:`CORRUPT_AT_MOST` samples are refused.
+
+    Parameters
+    ----------
+    path : str
+        The recording (for messages).
+    name : str
+        The force channel's name.
+    xp : ndarray, shape (m, n_per)
+        The analysed periods of the force [N].
+    first : int
+        Index in the channel of ``xp[0, 0]`` (for messages).
+    nearly_only : bool
+        Refuse only when at most :data:`CORRUPT_AT_MOST` samples differ.
+
+    Raises
+    ------
+    MeasurementError
+        Naming the channel, the sample index and both values.
+    """
+    m = xp.shape[0]
+    if m < 2:
+        return
+    ref = np.median(xp, axis=0) if m >= 3 else xp[0]
+    tol = 1e-9 * max(float(np.max(np.abs(ref))), 1e-300)
+    bad = np.argwhere(np.abs(xp - ref) > tol)
+    if bad.size and not (nearly_only and bad.shape[0] > CORRUPT_AT_MOST):
+        k, j = (int(v) for v in bad[0])
+        n = xp.shape[1]
+        what = (f"sample {first + k * n + j} (period {k + 1} of {m}) is {xp[k, j]:.6g} N where the other periods "
+                f"hold {ref[j]:.6g} N" if m >= 3 else
+                f"samples {first + j} and {first + n + j} (periods 1 and 2) are {xp[0, j]:.6g} N and "
+                f"{xp[1, j]:.6g} N")
+        raise MeasurementError(
+            f"{path}: channel {name}: {what}: a periodic excitation repeats exactly, so a sample was corrupted "
+            f"(a NaN or Inf that the file's writer replaced by a number?); {bad.shape[0]} sample(s) differ")
+
+
 def _check_points(path: str, spec: StructureSpec, fe: FEModel, items: list[tuple[str, int]]) -> None:
     for name, p in items:
         if p not in spec.points:
@@ -298,7 +351,8 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
         channel at an unknown or fixed point, the force not at an actuator,
         channels other than force/velocity.
     MeasurementError
-        NaN, dead or clipped channel; record shorter than two periods
+        NaN, dead or clipped channel; a periodic excitation whose force does not
+        repeat in the analysed periods (:func:`check_force_repeats`); record shorter than two periods
         (periodic excitation) or one block (other excitation).
     """
     rate = 1.0 / rec.dt_s
@@ -336,6 +390,8 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
     notes = []
     lo, hi = band_hz
     outs = tuple(c.point_id for c in vels)
+    if not _is_periodic(x, n_per) and x.size >= 2 * n_per:
+        check_force_repeats(path, fch.name, x[:2 * n_per].reshape(2, n_per), 0, nearly_only=True)
     if _is_periodic(x, n_per):
         n_periods = x.size // n_per
         need = max(1, math.ceil(settle_s / (n_per * dt) - 1e-9))
@@ -350,6 +406,7 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
                 f"{path}: channel {fch.name}: record of {x.size * dt:g} s holds {n_periods} period(s) of the "
                 f"{resolution_hz:g} Hz excitation; the analysis needs one to settle and one to measure "
                 f"({2 * n_per * dt:g} s)")
+        check_force_repeats(path, fch.name, x[:n_periods * n_per].reshape(n_periods, n_per), 0)
         seg = slice(skip * n_per, (skip + m) * n_per)
         xp = x[seg].reshape(m, n_per)
         X = np.fft.rfft(xp, axis=1)
