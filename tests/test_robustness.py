@@ -184,7 +184,11 @@ def small_study():
 
 
 def test_dask_local_cluster_gives_the_in_process_results(small_study, monkeypatch):
-    """Chunks on a 2-process LocalCluster, and on an existing scheduler by its tcp:// address: identical arrays."""
+    """Chunks on a 2-process LocalCluster, and on an existing scheduler by its tcp:// address: the same arrays.
+
+    Within rtol 1e-9, not bit for bit: another process may load another BLAS kernel (threading, CPU dispatch)
+    whose sums round differently in the last bits; the samples themselves are the same draws.
+    """
     cfg, nominal = small_study
     root = str(Path(vlab.__file__).resolve().parent.parent)
     monkeypatch.setenv("PYTHONPATH", root + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -192,12 +196,14 @@ def test_dask_local_cluster_gives_the_in_process_results(small_study, monkeypatc
     _, dask = run_study(cfg, nominal=nominal, scheduler="local", n_workers=2)
     assert local.keys() == dask.keys()
     for k in local:
-        assert np.array_equal(local[k], dask[k]), k
+        np.testing.assert_allclose(dask[k], local[k], rtol=1e-9, atol=0, err_msg=k)
+    assert np.array_equal(local["index"], dask["index"])
     from dask.distributed import LocalCluster
 
     with LocalCluster(n_workers=1, processes=False, protocol="tcp://", dashboard_address=None) as cluster:
         _, remote = run_study(cfg, nominal=nominal, scheduler=cluster.scheduler_address)
-    assert all(np.array_equal(local[k], remote[k]) for k in local)
+    for k in local:
+        np.testing.assert_allclose(remote[k], local[k], rtol=1e-9, atol=0, err_msg=k)
     with pytest.raises(OptionError, match="--scheduler 'udp://x'"):
         run_study(cfg, nominal=nominal, scheduler="udp://x")
 
@@ -215,7 +221,8 @@ def test_summary_and_time_simulation(small_study):
 
     chk = simulate_samples(cfg, nominal, "lqdrf-diag", [int(res["index"][0])], seed=1, resolution_hz=1.0,
                            records=3)
-    assert not chk.diverged.any() and not chk.predicted_unstable.any()
+    assert not chk.diverged.any() and not chk.predicted_unstable.any() and not chk.unstable_on_plant.any()
+    assert not chk.nominal.unstable  # LQDRF-diag works on the unperturbed MuJoCo plant
     r = chk.peak_sim_over_linear[np.isfinite(chk.peak_sim_over_linear)]
     assert r.size >= 3 and np.all(np.abs(np.log(r)) < 0.25)
 

@@ -26,6 +26,9 @@ import pytest
 from typer.testing import CliRunner
 
 from vlab.cli import app
+from vlab.io.manifest import write_manifest
+from vlab.spec import STRUCTURES_DIR as STRUCTURES
+from vlab.spec import load_spec
 
 CASES = json.loads((Path(__file__).parent / "cli_cases.json").read_text())["cases"]
 
@@ -53,13 +56,39 @@ def _populate(root: Path) -> None:
     (root / "existing_file.txt").write_text("precious\n")
     (root / "rec.uff").write_text("    -1\n    58\n")
     (root / "model.xml").write_text("<mujoco/>\n")
+    # an output folder vlab did not write, holding a file named like one of vlab's outputs
+    (root / "notvlab").mkdir()
+    (root / "notvlab" / "results.json").write_text("{}\n")
+    (root / "notvlab" / "thesis.tex").write_text("\\documentclass{book}\n")
+    # a folder vlab wrote, to which the user added a file, and one whose listed file the user edited
+    for name, extra in (("vlab_plus_foreign", "thesis.tex"), ("vlab_edited", None)):
+        (root / name).mkdir()
+        (root / name / "results.json").write_text('{"structure": "bcc"}\n')
+        write_manifest(root / name)
+        if extra:
+            (root / name / extra).write_text("mine\n")
+        else:
+            (root / name / "results.json").write_text('{"structure": "bcc", "my_note": 1}\n')
+    (root / "link_to_dir").symlink_to("existing_dir")
+    bcc = (STRUCTURES / "bcc.toml").read_text()
+    ref = 'frequencies = "table1_bcc_frequencies.csv"'
+    assert ref in bcc
+    for name, target in (("escape_abs.toml", "/etc/passwd"), ("escape_rel.toml", "../" * 12 + "etc/passwd"),
+                         ("escape_dev.toml", "/dev/zero"), ("escape_hostname.toml", "/etc/hostname")):
+        (root / name).write_text(bcc.replace(ref, f'frequencies = "{target}"'))
+    points = load_spec("bcc").points
+    (root / "all_clamped.toml").write_text(bcc + "".join(
+        f'\n[[supports]]\npoint = {k}\nfixed = ["w"]\ninplane = "free"\n' for k in points))
+    (root / "include_abs.xml").write_text('<mujoco><include file="/etc/passwd"/></mujoco>\n')
+    (root / "include_rel.xml").write_text(f'<mujoco><include file="{"../" * 12}etc/hostname"/></mujoco>\n')
 
 
 def _snapshot(root: Path) -> dict[str, str]:
     out = {}
     for p in sorted(root.rglob("*")):
         rel = str(p.relative_to(root))
-        out[rel] = hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
+        out[rel] = (f"link:{p.readlink()}" if p.is_symlink() else
+                    hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir")
     return out
 
 

@@ -1,4 +1,4 @@
-"""Monte Carlo robustness study of the controllers designed on the nominal model (issue 29, Sec. 7).
+"""Monte Carlo robustness study of the controllers designed on the nominal model (Sec. 7).
 
 Every controller (MFDRF, LQDRF, LQDRF-diag, LQG) is designed once on the
 nominal FE model with the thesis settings (:func:`vlab.design.design_controller`)
@@ -229,7 +229,7 @@ def default_workers() -> int:
 
 
 def run_study(cfg: StudyConfig, *, scheduler: str | None = None, nominal: Nominal | None = None,
-              n_workers: int | None = None) -> tuple[Nominal, dict]:
+              n_workers: int | None = None, client=None) -> tuple[Nominal, dict]:
     """Run every chunk of the study; return the nominal analysis and the per-sample arrays (:func:`run_chunk`).
 
     Parameters
@@ -238,31 +238,35 @@ def run_study(cfg: StudyConfig, *, scheduler: str | None = None, nominal: Nomina
     scheduler : str or None
         None: in this process; ``"local"``: a ``dask.distributed.LocalCluster``
         with ``n_workers`` processes (default one per CPU), one thread each;
-        ``"tcp://HOST:PORT"``: an existing Dask scheduler.
+        ``"tcp://HOST:PORT"``: an existing Dask scheduler (asked for its
+        identity first, within :data:`vlab.robust.scheduler.CONNECT_TIMEOUT_S`).
     nominal : Nominal, optional
         Reuse a nominal analysis (default: computed here).
     n_workers : int, optional
         Processes of the local cluster.
+    client : distributed.Client, optional
+        An open client to run on (then ``scheduler`` is not used).
 
     Raises
     ------
     OptionError
-        A scheduler that is neither None, ``"local"`` nor a ``tcp://`` address.
+        A scheduler that is neither None, ``"local"`` nor a ``tcp://HOST:PORT`` address.
+    SchedulerError
+        A remote scheduler that does not answer in time.
     """
+    from .scheduler import check_scheduler, dask_client, parse_scheduler
+
+    scheduler = parse_scheduler(scheduler) if client is None else None
+    if scheduler not in (None, "local"):
+        check_scheduler(scheduler)
     nominal = nominal if nominal is not None else nominal_analysis(cfg)
     chunks = [range(a, min(a + cfg.chunk_size, cfg.n_samples)) for a in range(0, cfg.n_samples, cfg.chunk_size)]
+    if client is not None:
+        return nominal, _gather(client, cfg, nominal, chunks)
     if scheduler is None:
         return nominal, _merge([run_chunk(cfg, nominal, ch) for ch in chunks])
-    if scheduler != "local" and not scheduler.startswith("tcp://"):
-        raise OptionError(f"--scheduler {scheduler!r}: use 'local' or a Dask scheduler address tcp://HOST:PORT")
-    from dask.distributed import Client, LocalCluster
-
-    if scheduler == "local":
-        with LocalCluster(n_workers=n_workers or default_workers(), threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
-            return nominal, _gather(client, cfg, nominal, chunks)
-    with Client(scheduler) as client:
-        return nominal, _gather(client, cfg, nominal, chunks)
+    with dask_client(scheduler, n_workers or default_workers()) as cl:
+        return nominal, _gather(cl, cfg, nominal, chunks)
 
 
 def _gather(client, cfg, nominal, chunks) -> dict:
@@ -299,8 +303,23 @@ class Summary:
 N_BOOTSTRAP = 400
 
 
-def _median_ci(x: np.ndarray, seed: int) -> list:
-    """95 % bootstrap interval [low, high] of the median of ``x`` (seeded; [None, None] if empty)."""
+def median_ci(x: np.ndarray, seed: int) -> list:
+    """95 % percentile-bootstrap interval ``[low, high]`` of the median of ``x``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Values (any unit; the interval has it).
+    seed : int
+        Seed of the :data:`N_BOOTSTRAP` resamples.
+
+    Returns
+    -------
+    list of float or None
+        ``[None, None]`` when ``x`` is empty.
+
+    Source: Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 13.3 (percentile interval).
+    """
     if x.size == 0:
         return [None, None]
     rng = np.random.default_rng([int(seed), 29])
@@ -362,9 +381,9 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
             "damping_ratio_by_mode": [_q(res[f"{c}/zeta"][:, r]) for r in range(nominal.n_modes)],
             "peak_ratio_analysis_over_experiment_by_mode": [_q(ratio[stable, r]) for r in range(nominal.n_modes)],
             "peak_ratio_error_db_median": score["peak_ratio_error_db"][c],
-            "peak_ratio_error_db_median_ci95": _median_ci(per_sample_db[np.isfinite(per_sample_db)], cfg.seed),
+            "peak_ratio_error_db_median_ci95": median_ci(per_sample_db[np.isfinite(per_sample_db)], cfg.seed),
             "damping_change_relative_median": score["damping_change"][c],
-            "damping_change_relative_median_ci95": _median_ci(per_sample_dz, cfg.seed),
+            "damping_change_relative_median_ci95": median_ci(per_sample_dz, cfg.seed),
             "energy_index_ratio_to_nominal": _q(e_ratio[stable]),
             "spectral_radius_max": float(np.max(res[f"{c}/spectral_radius"])),
         }

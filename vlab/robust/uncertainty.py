@@ -18,10 +18,13 @@ tip_mass            crosspiece tip and clamp masses, end fittings, joint   U(+-1
                     hardware and plates (every lumped mass but the coils)              lumped masses, Table 1)
 coil_mass           each voice-coil mass                                   U(+-10 %)   assumed (calibrated)
 support_stiffness   each support spring (the grid's pendulum supports)     U(+-10 %)   assumed
-delay_samples       the PC-1000 computation delay, one per sample          +-0.2       issue 29 (Sec. 5.3:
-                    (absolute, periods; one DAC for all channels)                      1.35 periods)
-actuator_gain       each coil's force constant                             U(+-5 %)    issue 29
-sensor_gain         each velocity sensor's sensitivity                     U(+-5 %)    issue 29
+delay_samples       the PC-1000 computation delay, one per sample          U(+-0.2)    assumed around the
+                    (absolute, periods; one DAC for all channels)                      measured 1.35 periods
+                                                                                       (Sec. 5.3)
+actuator_gain       each coil's force constant                             U(+-5 %)    assumed (calibrated
+                                                                                       channels)
+sensor_gain         each velocity sensor's sensitivity                     U(+-5 %)    assumed (calibrated
+                                                                                       channels)
 ==================  =====================================================  ==========  =========================
 
 A TOML file replaces any of these::
@@ -93,12 +96,42 @@ DEFAULTS: tuple[Uncertainty, ...] = (
     Uncertainty("tip_mass", "uniform", 0.10, "assumed (calibrated lumped masses, Table 1 + Table 8)"),
     Uncertainty("coil_mass", "uniform", 0.10, "assumed (calibrated coil masses, Table 1 + Table 8)"),
     Uncertainty("support_stiffness", "uniform", 0.10, "assumed"),
-    Uncertainty("delay_samples", "uniform", 0.2, "issue 29 (Sec. 5.3: 1.35 periods)"),
-    Uncertainty("actuator_gain", "uniform", 0.05, "issue 29"),
-    Uncertainty("sensor_gain", "uniform", 0.05, "issue 29"),
+    Uncertainty("delay_samples", "uniform", 0.2, "assumed around the measured 1.35 periods (Sec. 5.3)"),
+    Uncertainty("actuator_gain", "uniform", 0.05, "assumed (calibrated coil force constants)"),
+    Uncertainty("sensor_gain", "uniform", 0.05, "assumed (calibrated sensor sensitivities)"),
 )
 #: Parameter groups, in draw order.
 GROUPS = tuple(u.group for u in DEFAULTS)
+#: How each group reads in a sentence.
+GROUP_WORDS = {"member_ei": "EI", "member_mass": "section mass", "cable_tension": "cable tension",
+               "tip_mass": "lumped masses", "coil_mass": "coil masses", "support_stiffness": "support springs",
+               "delay_samples": "delay", "actuator_gain": "actuator gains", "sensor_gain": "sensor gains"}
+
+
+def describe(uncertainties=DEFAULTS, nominal_delay_periods: float = 1.35) -> str:
+    """The spreads in one line, e.g. ``"EI ±5 %, section mass ±3 %, ..., delay 1.15-1.55 periods, ..."``.
+
+    Parameters
+    ----------
+    uncertainties : sequence of Uncertainty
+    nominal_delay_periods : float
+        The delay the ``delay_samples`` spread is added to [periods] (Sec. 5.3: 1.35).
+
+    Returns
+    -------
+    str
+        Uniform spreads as ``±x %`` (the delay as its range), normal ones as ``sd x %``.
+    """
+    parts = []
+    for u in uncertainties:
+        name = GROUP_WORDS.get(u.group, u.group)
+        if u.group == "delay_samples":
+            lo, hi = nominal_delay_periods - u.spread, nominal_delay_periods + u.spread
+            parts.append(f"{name} {lo:.2f}-{hi:.2f} periods" if u.kind == "uniform"
+                         else f"{name} {nominal_delay_periods:g} periods sd {u.spread:g}")
+        else:
+            parts.append(f"{name} {'±' if u.kind == 'uniform' else 'sd '}{100 * u.spread:g} %")
+    return ", ".join(parts)
 
 
 def load_uncertainties(path: str | Path) -> tuple[Uncertainty, ...]:

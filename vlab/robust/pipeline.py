@@ -1,0 +1,92 @@
+"""A whole robustness study, as ``vlab robustness`` runs it: designs, samples, MuJoCo check, limit cycle.
+
+Order: the scheduler is reached first (a remote one must answer within
+:data:`vlab.robust.scheduler.CONNECT_TIMEOUT_S`, before any computation),
+then the designs, the samples in chunks, the MuJoCo runs of the chosen
+samples of every controller (:func:`vlab.robust.simulate.choose_samples`),
+and, for every controller whose *unperturbed* loop is unstable on the
+MuJoCo plant, the limit cycle's sensitivity (:mod:`vlab.robust.limit_cycle`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+
+from .limit_cycle import limit_cycle_sensitivity
+from .scheduler import check_scheduler, dask_client, parse_scheduler
+from .simulate import CHECK_RECORDS, CHECK_RESOLUTION_HZ, choose_samples, simulate_samples
+from .study import StudyConfig, default_workers, nominal_analysis, run_study, summarize
+
+#: Default samples per controller run on MuJoCo: the worst by the linear measure, and drawn at random.
+DEFAULT_WORST = 4
+DEFAULT_RANDOM = 100
+
+
+def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: int | None = None,
+                 n_worst: int = DEFAULT_WORST, n_random: int = DEFAULT_RANDOM, limit_cycle: bool = True):
+    """Run the study and its checks; return what :func:`vlab.robust.report.write_outputs` takes.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    scheduler : str or None
+        None or ``"none"`` (this process), ``"local"`` or ``tcp://HOST:PORT`` (:mod:`vlab.robust.scheduler`).
+    workers : int, optional
+        Processes of the local cluster (default one per CPU).
+    n_worst, n_random : int
+        Samples per controller run on MuJoCo (>= 0; both 0: no time simulation).
+    limit_cycle : bool
+        Run :func:`vlab.robust.limit_cycle.limit_cycle_sensitivity` for the
+        controllers unstable on MuJoCo at nominal.
+
+    Returns
+    -------
+    nominal : Nominal
+    res : dict
+        Per-sample arrays (:func:`vlab.robust.study.run_chunk`).
+    summary : Summary
+    checks : list of SimCheck
+    timings : dict
+        Seconds: ``designs`` (with the cluster's start), ``study``, ``time_simulation``, ``total``; ``where`` (text).
+    extras : dict
+        ``time_simulation`` settings and ``limit_cycle_sensitivity`` rows.
+
+    Raises
+    ------
+    OptionError
+        A bad scheduler address.
+    SchedulerError
+        A remote scheduler that does not answer in time.
+    """
+    scheduler = parse_scheduler(scheduler)
+    if scheduler not in (None, "local"):
+        check_scheduler(scheduler)
+    n_proc = workers or default_workers()
+    where = ("this process" if scheduler is None else
+             f"a Dask LocalCluster of {n_proc} processes" if scheduler == "local"
+             else f"the Dask scheduler {scheduler}")
+    t0 = time.perf_counter()
+    with (dask_client(scheduler, n_proc) if scheduler else contextlib.nullcontext()) as client:
+        nominal = nominal_analysis(cfg)
+        t1 = time.perf_counter()
+        nominal, res = run_study(cfg, nominal=nominal, client=client)
+    t2 = time.perf_counter()
+    checks, lc = [], {}
+    if n_worst or n_random:
+        for c in cfg.controllers:
+            idx, w, r = choose_samples(res, nominal, c, n_worst, n_random, seed=cfg.seed)
+            checks.append(simulate_samples(cfg, nominal, c, idx, worst=w, random=r, seed=cfg.seed))
+        if limit_cycle:
+            lc = {ch.controller: limit_cycle_sensitivity(cfg, nominal, ch.controller, seed=cfg.seed)
+                  for ch in checks if ch.nominal.unstable}
+    t3 = time.perf_counter()
+    summary = summarize(cfg, nominal, res)
+    timings = {"designs": t1 - t0, "study": t2 - t1, "time_simulation": t3 - t2, "total": t3 - t0, "where": where}
+    extras = {"time_simulation": {"worst_per_controller": n_worst, "random_per_controller": n_random,
+                                  "random_selection": "simple random sample without replacement of all samples, "
+                                                      "numpy default_rng([seed, 7]), the same for every controller",
+                                  "resolution_hz": CHECK_RESOLUTION_HZ, "records": CHECK_RECORDS,
+                                  "run_s": CHECK_RECORDS / CHECK_RESOLUTION_HZ},
+              "limit_cycle_sensitivity": lc}
+    return nominal, res, summary, checks, timings, extras

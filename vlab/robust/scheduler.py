@@ -1,0 +1,235 @@
+"""Where the chunks of a robustness study run: the address checked, the scheduler reached in bounded time.
+
+``--scheduler`` takes ``none`` (this process), ``local`` (a
+``dask.distributed.LocalCluster``) or ``tcp://HOST:PORT`` (an existing Dask
+scheduler). An address is parsed before anything runs (a missing or bad port
+is an input error naming the value), and a remote scheduler is asked for its
+identity within :data:`CONNECT_TIMEOUT_S` before the designs start: a
+``dask.distributed.Client`` given ``timeout=`` still waits without bound on a
+server that accepts the connection and never answers, so the first exchange
+runs under ``asyncio.wait_for``.
+
+Source: ``distributed.comm.connect`` and the scheduler's ``identity`` handler
+(Dask distributed documentation, "Communications" and "Scheduler").
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+from urllib.parse import urlsplit
+
+from ..errors import OptionError, VlabError
+
+#: The most a scheduler may take to answer its identity [s].
+CONNECT_TIMEOUT_S = 8.0
+#: Seconds one sample takes per worker process, all four controllers, measured on two shared cores
+#: (``vlab robustness bcc|grid --samples 1000``: 20 s and 234 s on 2 processes).
+SECONDS_PER_SAMPLE = {"bcc": 0.04, "grid": 0.47}
+#: A study estimated to take longer than this [s] needs ``--yes``.
+CONFIRM_ABOVE_S = 1800.0
+
+
+class SchedulerError(VlabError):
+    """The Dask scheduler could not be reached or did not answer in time."""
+
+
+def parse_scheduler(value: str | None) -> str | None:
+    """The scheduler setting checked: None (in this process), ``"local"`` or ``"tcp://HOST:PORT"``.
+
+    Parameters
+    ----------
+    value : str or None
+        ``None`` or ``"none"``, ``"local"``, or ``tcp://HOST:PORT`` (port 1-65535).
+
+    Returns
+    -------
+    str or None
+
+    Raises
+    ------
+    OptionError
+        Anything else, naming the value (a ``tcp://`` address without a host or a port included).
+    """
+    if value is None or value == "none":
+        return None
+    if value == "local":
+        return value
+    if not isinstance(value, str) or not value.startswith("tcp://"):
+        raise OptionError(f"--scheduler {value!r}: use local, none or a Dask scheduler address tcp://HOST:PORT")
+    parts = urlsplit(value)
+    try:
+        port = parts.port
+    except ValueError:
+        port = -1
+    if not parts.hostname or port is None or not 1 <= port <= 65535 or parts.path not in ("", "/") \
+            or parts.query or parts.fragment:
+        raise OptionError(f"--scheduler {value!r}: a Dask scheduler address is tcp://HOST:PORT with a host and a "
+                          "port 1-65535, e.g. tcp://127.0.0.1:8786")
+    return value
+
+
+async def _identity(address: str, timeout_s: float) -> dict:
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout_s)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def check_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> dict:
+    """Ask the Dask scheduler at ``address`` for its identity, within ``timeout_s`` seconds in all.
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://HOST:PORT`` (:func:`parse_scheduler`).
+    timeout_s : float
+        Bound on the connection and the answer together [s].
+
+    Returns
+    -------
+    dict
+        The scheduler's identity (``type``, ``id``, ``address``, ``workers``, ...).
+
+    Raises
+    ------
+    SchedulerError
+        Refused, unreachable, silent, or an answer that is not a scheduler's.
+    """
+    try:
+        ident = asyncio.run(asyncio.wait_for(_identity(address, timeout_s), timeout_s))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise SchedulerError(f"--scheduler {address}: no answer from a Dask scheduler within {timeout_s:g} s "
+                             "(is it a Dask scheduler, and running?)") from None
+    except OSError as exc:
+        raise SchedulerError(f"--scheduler {address}: cannot connect ({exc})") from None
+    if not isinstance(ident, dict) or ident.get("type") != "Scheduler":
+        raise SchedulerError(f"--scheduler {address}: the server answered, but not as a Dask scheduler")
+    return ident
+
+
+def parse_samples(value) -> int:
+    """``--samples`` as an integer >= 1: digits, or a float notation of an integer (``1e4``).
+
+    Parameters
+    ----------
+    value : str or int
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    OptionError
+        Not a positive whole number, naming the value.
+    """
+    try:
+        x = float(str(value).strip().replace("_", ""))
+    except ValueError:
+        x = math.nan
+    if not math.isfinite(x) or x < 1 or x != int(x):
+        raise OptionError(f"--samples must be a positive integer (e.g. 1000 or 1e4), got {value!r}")
+    return int(x)
+
+
+def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers: int) -> float:
+    """Rough run time of a study's samples [s]: :data:`SECONDS_PER_SAMPLE` scaled to the controllers and workers.
+
+    Parameters
+    ----------
+    structure : str
+        ``"bcc"`` or ``"grid"``.
+    n_samples, n_controllers, workers : int
+        ``workers`` >= 1 processes.
+
+    Returns
+    -------
+    float
+    """
+    return SECONDS_PER_SAMPLE[structure] * n_samples * n_controllers / 4 / max(workers, 1)
+
+
+def format_duration(seconds: float) -> str:
+    """``seconds`` as ``"N s"``, ``"N min"``, ``"N h"`` or ``"N days"`` (two significant figures)."""
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s" if math.isfinite(seconds) else "unknown"
+
+
+@contextlib.contextmanager
+def _workers_ignore_sigint():
+    """SIGINT ignored in this process while the local workers start, so that they inherit the ignored state.
+
+    A terminal's Ctrl-C reaches every process of the foreground group; a worker process that has Python's
+    default handler prints its own KeyboardInterrupt traceback. Workers started while SIGINT is ignored keep
+    ignoring it across ``exec`` (POSIX), and Python then installs no handler of its own in them; this
+    process's handler is restored at once (a Ctrl-C during the start is lost). Only on the main thread.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str, n_workers: int):
+    """A ``dask.distributed.Client`` on a new LocalCluster (``"local"``) or the scheduler at ``scheduler``.
+
+    Dask's own log lines below ERROR are silenced while it runs, and an
+    interrupt closes the cluster without its shutdown chatter: Ctrl-C leaves
+    the command's one line.
+
+    Parameters
+    ----------
+    scheduler : str
+        ``"local"`` or a checked ``tcp://`` address (:func:`check_scheduler`).
+    n_workers : int
+        Processes of a local cluster (one thread each).
+
+    Yields
+    ------
+    distributed.Client
+
+    Raises
+    ------
+    SchedulerError
+        The remote scheduler did not take the client within :data:`CONNECT_TIMEOUT_S`.
+    """
+    from dask.distributed import Client, LocalCluster
+
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
+    try:
+        if scheduler == "local":
+            with _workers_ignore_sigint():
+                cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+            with cluster, Client(cluster) as client:
+                yield client
+        else:
+            try:
+                client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+            except (OSError, TimeoutError) as exc:
+                raise SchedulerError(f"--scheduler {scheduler}: {exc}") from None
+            with client:
+                yield client
+    finally:
+        for lg, lv in zip(loggers, levels):
+            lg.setLevel(lv)
