@@ -223,3 +223,18 @@ def test_overwrite_never_deletes_a_folder_vlab_did_not_write_nor_a_parent_of_the
             with atomic_dir(target, overwrite=True):
                 pass
     assert here.is_dir() and (tmp_path / "a" / "results.json").exists()
+
+
+def test_an_experiment_whose_loop_is_predicted_unstable_exits_1_unless_allowed(tmp_path):
+    """A delay of 1e5 samples (50 s, longer than a 20 s record) makes the analysis predict negative damping: the
+    premise of the comparison fails, so the run says why and exits 1; --allow-unstable exits 0 (outputs kept)."""
+    out = tmp_path / "out"
+    args = ["experiment", "bcc", "--plant", "linear", "--delay-samples", "1e5", "--out", str(out)]
+    res = runner.invoke(app, args)
+    flat = _flat(res.output)
+    assert res.exit_code == 1, res.output
+    assert "predicted unstable" in flat and "--delay-samples 100000" in flat and "at least one record" in flat
+    assert (out / "results.json").exists()
+    res = runner.invoke(app, [*args, "--overwrite", "--allow-unstable"])
+    assert res.exit_code == 0, res.output
+    assert "predicted unstable" in _flat(res.output)

@@ -72,6 +72,11 @@ def _check_parent(path: Path, option: str, create_parent: bool) -> None:
         raise OutputError(f"{option} {path}: {parent} is not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: the folder {parent} is not writable")
+    try:  # os.access trusts the permission bits (root passes on /proc, a read-only mount): try it
+        os.rmdir(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}probe-", dir=parent))
+    except OSError as exc:
+        raise OutputError(f"{option} {path}: nothing can be written into the folder {parent} "
+                          f"({exc.strerror or exc})") from None
 
 
 def check_output_dir(path: str | Path | None, *, overwrite: bool = False, option: str = "--out",
