@@ -285,7 +285,10 @@ def acquire_lock(target: str | Path, option: str = "--out") -> None:
     except OSError:  # no usable temporary folder: run without a lock rather than refuse
         return
     while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o600)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o600)
+        except OSError:  # the lock folder is not usable: run without a lock rather than refuse
+            return
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
