@@ -238,3 +238,28 @@ def test_an_experiment_whose_loop_is_predicted_unstable_exits_1_unless_allowed(t
     res = runner.invoke(app, [*args, "--overwrite", "--allow-unstable"])
     assert res.exit_code == 0, res.output
     assert "predicted unstable" in _flat(res.output)
+
+
+def test_allow_outside_inputs_is_explicit_and_does_not_outlive_the_command(tmp_path, monkeypatch):
+    """A [reference] outside the structure's folder is refused; `vlab --allow-outside-inputs` reads it (here a
+    table beside, in a sibling folder); the allowance ends with the command."""
+    import shutil
+
+    from vlab.io.confine import ALLOW_ENV
+    from vlab.spec import DATA_DIR, STRUCTURES_DIR
+
+    monkeypatch.delenv(ALLOW_ENV, raising=False)
+    (tmp_path / "tables").mkdir()
+    (tmp_path / "model").mkdir()
+    shutil.copy(DATA_DIR / "table1_bcc_frequencies.csv", tmp_path / "tables" / "f.csv")
+    text = (STRUCTURES_DIR / "bcc.toml").read_text().replace('frequencies = "table1_bcc_frequencies.csv"',
+                                                             'frequencies = "../tables/f.csv"')
+    toml = tmp_path / "model" / "mine.toml"
+    toml.write_text(text)
+    res = runner.invoke(app, ["modes", str(toml), "--n", "2"])
+    assert res.exit_code == 2 and "reaches outside" in _flat(res.output) and "--allow-outside-inputs" in res.output
+    res = runner.invoke(app, ["--allow-outside-inputs", "modes", str(toml), "--n", "2"])
+    assert res.exit_code == 0, res.output
+    assert ALLOW_ENV not in os.environ
+    res = runner.invoke(app, ["modes", str(toml), "--n", "2"])
+    assert res.exit_code == 2
