@@ -29,6 +29,10 @@ Writing never replaces an existing file unless ``overwrite=True``; files are
 written to a temporary name and moved into place, so a failed write leaves
 no partial file.
 
+Layout: shared file handling and header checks in :mod:`vlab.io.uff_files`,
+units in :mod:`vlab.io.uff_units`, mode shapes (dataset 55) in
+:mod:`vlab.io.uff55` (re-exported here).
+
 Source: UFF dataset descriptions (SDRC/I-DEAS, https://www.ceas3.uc.edu/sdrluff/);
 pyuff (Slavič et al., https://github.com/ladisk/pyuff).
 """
@@ -39,175 +43,33 @@ import json
 import math
 import os
 import re
-import uuid
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyuff
 
 from ..errors import DataFileError, MeasurementError
 from ..lab.recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
                              parse_channel_name)
 from ..measure.frf import FRF
-from .uff_units import check_exponents, check_force_denominator, check_time_axis, check_units_records, frequency_factor
+from .uff_files import (_UNITS, _check_direction, _check_node, _check_target, _check_unit_label, _get_int, _ids,
+                        _label, _read_uff, _write_text, _write_uff, sidecar_path)
+from .uff_units import check_exponents, check_force_denominator, check_time_axis, frequency_factor
 
 #: UFF specific data type code of each quantity.
 SPEC_DATA_TYPE = {"displacement": 8, "velocity": 11, "acceleration": 12, "force": 13}
 _CODE_QUANTITY = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force", 9: "force"}
 _UNIT_EXP = {  # (length exponent, force exponent) of each quantity
     "displacement": (1, 0), "velocity": (1, 0), "acceleration": (1, 0), "force": (0, 1)}
-_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
 _TIME, _FREQ = 17, 18
 _FUNC_TIME, _FUNC_FRF, _FUNC_COH = 1, 4, 6
-_RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
 _DT_RE = re.compile(r"^dt_s=(\S+)$")
 _NAVG_RE = re.compile(r"^n_averages=(\d+)$")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _CONV_RE = re.compile(r"^(force|disp|vel|acc)\d+$")
-#: Unit labels accepted for each quantity (compared case-insensitively; ``NONE`` or empty = not given).
-_UNIT_LABELS = {"displacement": {"m"}, "velocity": {"m/s"}, "acceleration": {"m/s^2", "m/s2", "m/s**2"},
-                "force": {"n"}}
-#: UFF direction codes of a translation (1..3 = X, Y, Z; negative = opposite sense).
-_TRANSLATIONS = (-3, -2, -1, 1, 2, 3)
 #: Fewest samples a time-response record needs (an FFT of fewer has no line between DC and Nyquist).
 MIN_SAMPLES = 4
-
-
-# --------------------------------------------------------------------------- files
-def sidecar_path(path: str | os.PathLike) -> Path:
-    """Path of the JSON metadata sidecar of a UFF file: ``<path>.json``."""
-    p = Path(path)
-    return p.with_name(p.name + ".json")
-
-
-def _check_target(path: Path, overwrite: bool, *others: Path) -> None:
-    for p in (path, *others):
-        if p.exists() and not overwrite:
-            raise DataFileError(f"{p}: file exists; pass overwrite=True to replace it")
-    if not path.parent.is_dir():
-        raise DataFileError(f"{path}: directory {path.parent} does not exist")
-
-
-def _tmp_path(path: Path) -> str:
-    """An unused name next to ``path`` for writing before the final move."""
-    return str(path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp"))
-
-
-def _write_uff(path: Path, dsets: list[dict]) -> None:
-    """Write datasets to a fresh temporary file and move it to ``path``.
-
-    pyuff's 'overwrite' mode truncates the header of a binary first record,
-    so the records are always appended ('add') to the new temporary file.
-    """
-    tmp = _tmp_path(path)
-    try:
-        pyuff.UFF(tmp).write_sets(dsets, mode="add")
-        os.replace(tmp, path)
-    except Exception as exc:  # pyuff raises bare Exception
-        raise DataFileError(f"{path}: writing UFF failed: {exc}") from exc
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def _write_text(path: Path, text: str) -> None:
-    tmp = _tmp_path(path)
-    try:
-        with open(tmp, "x", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def _read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
-    """All datasets of a UFF file, after checks for existence and truncation."""
-    p = Path(path)
-    if not p.is_file():
-        raise DataFileError(f"{p}: no such file")
-    with open(p, "rb") as fh:
-        fh.seek(0, os.SEEK_END)
-        size = fh.tell()
-        fh.seek(max(0, size - 16))
-        tail = fh.read()
-    if size == 0:
-        raise DataFileError(f"{p}: empty file")
-    if not tail.rstrip().endswith(b"    -1"):  # every dataset closes with '%6i' % -1
-        raise DataFileError(f"{p}: truncated or malformed UFF (does not end with the '-1' delimiter)")
-    try:
-        sets = pyuff.UFF(str(p)).read_sets()
-    except Exception as exc:  # pyuff raises bare Exception
-        raise DataFileError(f"{p}: malformed UFF: {exc}") from exc
-    if isinstance(sets, dict):
-        sets = [sets]
-    sets = [s for s in sets if s]  # pyuff returns {} for unsupported datasets
-    _check_record_count(p, [s for s in sets if s.get("type") == 58])
-    check_units_records(p, sets)
-    return p, sets
-
-
-def _check_record_count(path: Path, sets: list[dict]) -> None:
-    """Use vlab's ``id5 = 'record i of n'`` to detect missing records."""
-    counts = set()
-    for s in sets:
-        m = _RECORD_RE.match(str(s.get("id5", "")).strip())
-        if m:
-            counts.add(int(m.group(2)))
-    if counts and (len(counts) > 1 or counts.pop() != len(sets)):
-        raise DataFileError(f"{path}: truncated UFF: {len(sets)} dataset-58 record(s) found, "
-                            "the ID lines announce a different number")
-
-
-def _ids(name: str, kind: str, i: int, n: int, id3: str = "NONE", id4: str = "NONE") -> dict:
-    for line in (name, kind, id3, id4):
-        if len(line) > 80:
-            raise DataFileError(f"UFF ID line longer than 80 characters: {line!r}")
-    return {"id1": name, "id2": kind, "id3": id3, "id4": id4, "id5": f"record {i} of {n}"}
-
-
-def _label(dset: dict, fallback: str) -> str:
-    name = str(dset.get("id1", "")).strip()
-    return name if name and name.upper() != "NONE" else fallback
-
-
-def _get_int(p: Path, s: dict, key: str, where: str) -> int:
-    """Integer header field ``key`` of a record (``where`` names the record in the error)."""
-    if key not in s:
-        raise DataFileError(f"{p}: {where}: header field {key!r} is missing")
-    try:
-        v = float(s[key])
-    except (TypeError, ValueError):
-        raise DataFileError(f"{p}: {where}: header field {key!r} is not a number: {s[key]!r}") from None
-    if not math.isfinite(v) or v != int(v):
-        raise DataFileError(f"{p}: {where}: header field {key!r} is not an integer: {s[key]!r}")
-    return int(v)
-
-
-def _check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
-    """Refuse an ordinate unit label that contradicts the specific data type (``in/s`` on a velocity)."""
-    lab = str(s.get("ordinate_axis_units_lab", "") or "").strip()
-    if lab and lab.upper() != "NONE" and lab.lower() not in _UNIT_LABELS[quantity]:
-        raise DataFileError(f"{p}: {where}: ordinate unit label {lab!r} does not match its data type "
-                            f"{quantity} (SI {_UNITS[quantity]!r} expected; vlab reads SI only)")
-
-
-def _check_direction(p: Path, s: dict, key: str, where: str) -> int:
-    d = _get_int(p, s, key, where)
-    if d not in _TRANSLATIONS:
-        raise DataFileError(f"{p}: {where}: {key} = {d} is not a translation direction code "
-                            f"(expected one of {list(_TRANSLATIONS)}; 3 = out of plane)")
-    return d
-
-
-def _check_node(p: Path, s: dict, key: str, where: str) -> int:
-    n = _get_int(p, s, key, where)
-    if n < 1:
-        raise DataFileError(f"{p}: {where}: {key} = {n} is not a point id (positive integers)")
-    return n
 
 
 # --------------------------------------------------------------------------- recordings
@@ -704,196 +566,4 @@ def _coherence_for(frf_set: dict, f: np.ndarray, sets: list[dict], cohs: list[di
     return None
 
 
-# --------------------------------------------------------------------------- mode shapes
-@dataclass(frozen=True, eq=False)
-class ModeShapes:
-    """Mode shapes at structure points (the content of UFF 55 records).
-
-    Parameters
-    ----------
-    freq_hz : array_like, shape (n_modes,)
-        Natural frequencies [Hz].
-    shapes : array_like, shape (n_points, n_modes)
-        Out-of-plane (Z) shape values, real (normal modes) or complex.
-    point_ids : array_like of int, shape (n_points,)
-        Structure point of each row.
-    damping_ratio : array_like, shape (n_modes,), optional
-        Viscous damping ratios [-]; zeros by default.
-    description : str
-        Free text (UFF ID line 1, at most 80 characters).
-
-    Raises
-    ------
-    DataFileError
-        Inconsistent shapes, duplicate point ids, non-finite values.
-    """
-
-    freq_hz: np.ndarray
-    shapes: np.ndarray
-    point_ids: np.ndarray
-    damping_ratio: np.ndarray | None = None
-    description: str = ""
-
-    def __post_init__(self) -> None:
-        f = np.array(self.freq_hz, dtype=float).reshape(-1)
-        sh = np.array(self.shapes)
-        sh = sh.astype(complex if np.iscomplexobj(sh) else float)
-        pid = np.array(self.point_ids)
-        if sh.ndim != 2 or sh.shape[1] != f.size or pid.shape != (sh.shape[0],):
-            raise DataFileError(f"ModeShapes: shapes {sh.shape} must be (n_points={pid.size}, "
-                                f"n_modes={f.size})")
-        if not np.all(np.equal(np.mod(pid, 1), 0)) or len(set(pid.tolist())) != pid.size:
-            raise DataFileError(f"ModeShapes: point_ids must be distinct integers, got {pid.tolist()}")
-        z = np.zeros(f.size) if self.damping_ratio is None else np.array(self.damping_ratio, dtype=float)
-        if z.shape != f.shape:
-            raise DataFileError(f"ModeShapes: damping_ratio shape {z.shape} != ({f.size},)")
-        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(sh)) and np.all(np.isfinite(z))):
-            raise DataFileError("ModeShapes: non-finite values")
-        for name, arr in (("freq_hz", f), ("shapes", sh), ("point_ids", pid.astype(int)),
-                          ("damping_ratio", z)):
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-
-    @property
-    def n_modes(self) -> int:
-        """Number of modes."""
-        return int(self.freq_hz.size)
-
-
-def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: bool = False) -> Path:
-    """Write mode shapes as UFF 55 records, one per mode (values in Z, 6 significant digits).
-
-    Real shapes are written as normal modes (analysis type 2: frequency,
-    viscous damping ratio); complex shapes as complex modes (type 3,
-    eigenvalue ``-zeta omega_n + i omega_n sqrt(1 - zeta^2)``).
-
-    Parameters
-    ----------
-    path : str or path-like
-        Target file.
-    modes : ModeShapes
-        Shapes to write; ``point_ids`` become the UFF nodes.
-    overwrite : bool
-        Replace an existing file.
-
-    Returns
-    -------
-    Path
-
-    Raises
-    ------
-    DataFileError
-        Target exists and ``overwrite`` is False, description too long, pyuff failure.
-    """
-    p = Path(path)
-    _check_target(p, overwrite)
-    cplx = np.iscomplexobj(modes.shapes)
-    desc = modes.description or "NONE"
-    dsets = []
-    nodes = modes.point_ids
-    for r in range(modes.n_modes):
-        z = modes.shapes[:, r]
-        zeros = np.zeros_like(z)
-        d = dict(type=55, model_type=1, data_ch=2, spec_data_type=8, node_nums=nodes,
-                 r1=zeros, r2=zeros, r3=z, load_case=1, mode_n=r + 1)
-        if cplx:
-            wn = 2 * np.pi * modes.freq_hz[r]
-            zeta = modes.damping_ratio[r]
-            d.update(analysis_type=3, eig=complex(-zeta * wn, wn * math.sqrt(max(1 - zeta**2, 0.0))))
-        else:
-            d.update(analysis_type=2, freq=modes.freq_hz[r], modal_m=0.0,
-                     modal_damp_vis=modes.damping_ratio[r], modal_damp_his=0.0)
-        d.update(_ids(desc, "vlab ModeShapes", r + 1, modes.n_modes))
-        dsets.append(d)
-    _write_uff(p, dsets)
-    return p
-
-
-def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = None) -> ModeShapes:
-    """Read UFF 55 normal or complex modes (Z component) into :class:`ModeShapes`.
-
-    Parameters
-    ----------
-    path : str or path-like
-        UFF file.
-    points : sequence of int, optional
-        Point ids of the structure; a node outside them is refused.
-
-    Returns
-    -------
-    ModeShapes
-
-    Raises
-    ------
-    DataFileError
-        Missing, malformed or truncated file; no dataset 55 of analysis
-        type 2 or 3; records over different nodes; a node that is not a
-        positive integer, repeats, or is not in ``points``; a record without
-        Z values; non-finite or all-zero shapes; a frequency that is not
-        positive and finite; a damping ratio outside [0, 1); a repeated mode
-        number. The message names the file, the record and the value.
-    """
-    p, sets = _read_uff(path)
-    recs = [s for s in sets if s.get("type") == 55 and s.get("analysis_type") in (2, 3)]
-    if not recs:
-        raise DataFileError(f"{p}: no dataset-55 normal or complex mode record")
-    counts = {int(m.group(2)) for s in recs if (m := _RECORD_RE.match(str(s.get("id5", "")).strip()))}
-    if counts and counts != {len(recs)}:
-        raise DataFileError(f"{p}: truncated UFF: {len(recs)} mode record(s), ID lines announce {counts}")
-    if "node_nums" not in recs[0]:
-        raise DataFileError(f"{p}: mode record 1 has no node numbers")
-    nodes = np.asarray(recs[0]["node_nums"], dtype=float)
-    if nodes.size == 0:
-        raise DataFileError(f"{p}: mode record 1 has no node")
-    badn = np.flatnonzero(~np.isfinite(nodes) | (nodes < 1) | (nodes != np.round(nodes)))
-    if badn.size:
-        raise DataFileError(f"{p}: mode record 1: node {float(nodes[badn[0]]):g} is not a point id (positive integers)")
-    nodes = nodes.astype(int)
-    dup = sorted({n for n in nodes.tolist() if nodes.tolist().count(n) > 1})
-    if dup:
-        raise DataFileError(f"{p}: mode record 1: node {dup[0]} appears more than once")
-    if points is not None:
-        unknown = [n for n in nodes.tolist() if n not in set(points)]
-        if unknown:
-            raise DataFileError(f"{p}: node {unknown[0]} is not a point of the structure "
-                                f"(points: {sorted(points)})")
-    freqs, zetas, cols, numbers = [], [], [], []
-    for i, s in enumerate(recs, start=1):
-        mode_n = s.get("mode_n", i)
-        where = f"mode record {i} (mode {mode_n})"
-        nn = np.asarray(s.get("node_nums", []), dtype=float)
-        if not np.array_equal(nn, nodes):
-            raise DataFileError(f"{p}: mode {mode_n} is given at different nodes than mode 1")
-        if int(s.get("data_ch", 2) or 2) not in (2, 3) or "r3" not in s:
-            raise DataFileError(f"{p}: {where}: data characteristic {s.get('data_ch')!r} holds no Z value "
-                                "(3 DOF translation, data_ch = 2, expected)")
-        z = np.asarray(s["r3"])
-        if z.size != nodes.size:
-            raise DataFileError(f"{p}: mode {mode_n}: {z.size} values for {nodes.size} nodes")
-        bad = np.flatnonzero(~np.isfinite(z))
-        if bad.size:
-            raise DataFileError(f"{p}: {where}: non-finite shape value {z[bad[0]]} at node {nodes[bad[0]]}")
-        if not np.any(z != 0):
-            raise DataFileError(f"{p}: {where}: the shape is zero at every node")
-        if s["analysis_type"] == 2:
-            fr, zeta = float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0))
-        else:
-            lam = complex(s.get("eig", np.nan))
-            fr = abs(lam) / (2 * np.pi)
-            zeta = -lam.real / abs(lam) if lam != 0 and np.isfinite(abs(lam)) else 0.0
-        if not (math.isfinite(fr) and fr > 0):
-            raise DataFileError(f"{p}: {where}: natural frequency {fr!r} Hz is not a positive finite number")
-        if not (math.isfinite(zeta) and 0.0 <= zeta < 1.0):
-            raise DataFileError(f"{p}: {where}: damping ratio {zeta!r} is outside [0, 1)")
-        if mode_n in numbers:
-            raise DataFileError(f"{p}: {where}: mode number {mode_n} repeats")
-        numbers.append(mode_n)
-        freqs.append(fr)
-        zetas.append(zeta)
-        cols.append(z)
-    desc = _label(recs[0], "")
-    try:
-        return ModeShapes(freq_hz=np.array(freqs), shapes=np.column_stack(cols), point_ids=nodes,
-                          damping_ratio=np.array(zetas), description=desc)
-    except DataFileError as exc:
-        raise DataFileError(f"{p}: {exc}") from exc
+from .uff55 import ModeShapes, read_mode_shapes, write_mode_shapes  # noqa: E402  (dataset 55, re-exported)
