@@ -233,8 +233,11 @@ def test_an_experiment_whose_loop_is_predicted_unstable_exits_1_unless_allowed(t
     res = runner.invoke(app, args)
     flat = _flat(res.output)
     assert res.exit_code == 1, res.output
-    assert "predicted unstable" in flat and "--delay-samples 100000" in flat and "at least one record" in flat
-    assert (out / "results.json").exists()
+    assert "predicted unstable" in flat and "delay 100000 samples" in flat and "at least one record" in flat
+    import json
+
+    warnings = json.loads((out / "results.json").read_text())["warnings"]
+    assert any("predicted unstable" in w for w in warnings) and any("at least one record" in w for w in warnings)
     res = runner.invoke(app, [*args, "--overwrite", "--allow-unstable"])
     assert res.exit_code == 0, res.output
     assert "predicted unstable" in _flat(res.output)

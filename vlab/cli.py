@@ -552,7 +552,7 @@ def experiment(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from .io.atomic import atomic_dir
-    from .io.results import experiment_summary, write_outputs
+    from .io.results import experiment_summary, failed_premises, write_outputs
     from .io.tabular import Column
     from .lab.experiment import ExperimentConfig, default_chain, not_meaningful, run_experiment, test_definition
 
@@ -617,8 +617,7 @@ def experiment(
         out_path.absolute().parent.mkdir(parents=True, exist_ok=True)
     files = write_outputs(result, fe.spec, out_path, spawn=spawn, overwrite=overwrite)
     summary = experiment_summary(result)
-    premise = _failed_premises(result, delay_samples=delay_samples, period_s=chain.period_s,
-                               record_s=1.0 / test.resolution_hz)
+    premise = failed_premises(result)
     blocking = premise + not_meaningful(result.warnings)
     for w in premise:
         err_console.print(f"[bold yellow]warning:[/] {escape(w)}", soft_wrap=True, highlight=False)
@@ -1203,31 +1202,6 @@ def _input_file(option: str, value: str | None) -> str | None:
     if not p.is_file():
         raise DataFileError(f"{option} {value}: not a regular file")
     return value
-
-
-def _failed_premises(result, *, delay_samples: float, period_s: float, record_s: float) -> list[str]:
-    """Why an experiment's comparison of analysis and measurement is meaningless, before looking at its data.
-
-    - the analysis predicts the loop unstable: a mode's predicted damping ratio is negative (the sampled-data
-      loop with its hold, delay and filter, Sec. 5.3), so there is no steady state for the measured FRF to
-      approach;
-    - the computation delay is at least one record of the test (1/resolution): the controller acts on the
-      response to another record's excitation.
-
-    Returns one sentence per failed premise (empty when none), each naming the value.
-    """
-    out = []
-    unstable = [m for m in result.modes if m.damping_predicted is not None and m.damping_predicted < 0]
-    if unstable:
-        m = min(unstable, key=lambda m: m.damping_predicted)
-        out.append(f"the loop is predicted unstable: mode {m.mode} ({m.frequency_predicted_hz:.4g} Hz) has a "
-                   f"predicted damping ratio of {m.damping_predicted:.4g} < 0 (--delay-samples {delay_samples:g}, "
-                   f"{len(unstable)} mode(s) negative); the measured FRF has no steady state to compare with")
-    delay_s = delay_samples * period_s
-    if delay_s >= record_s:
-        out.append(f"--delay-samples {delay_samples:g} is {delay_s:g} s, at least one record of the test "
-                   f"({record_s:g} s): the controller acts on the response to another record's excitation")
-    return out
 
 
 def _mjcf_input(value: str | None) -> str | None:

@@ -169,8 +169,50 @@ def experiment_summary(result) -> dict:
         "design": None if d is None else design_summary(d),
         "modes": [m.as_dict() for m in result.modes],
         "avg_peak_error": result.avg_peak_error,
-        "warnings": list(result.warnings),
+        "warnings": list(result.warnings) + failed_premises(result),
     }
+
+
+def failed_premises(result) -> list[str]:
+    """Why an experiment's comparison of analysis and measurement is meaningless, from its settings and analysis.
+
+    - the analysis predicts the loop unstable: a mode's predicted damping ratio
+      is negative (the sampled-data loop with its hold, delay and filter,
+      Sec. 5.3), so the measured FRF has no steady state to compare with;
+    - the computation delay is at least one record of the test
+      (``1 / resolution_hz``): the controller acts on the response to another
+      record's excitation.
+
+    ``vlab experiment`` exits with status 1 when there is one, unless
+    ``--allow-unstable``.
+
+    Parameters
+    ----------
+    result : ExperimentResult
+        The experiment (:func:`vlab.lab.experiment.run_experiment`).
+
+    Returns
+    -------
+    list of str
+        One sentence per failed premise, naming the mode and its predicted
+        damping ratio [-] or the delay [samples, s] and the record [s]; empty
+        when none failed.
+    """
+    out = []
+    cfg = result.config
+    delay = cfg.chain.delay_periods
+    unstable = [m for m in result.modes if m.damping_predicted is not None and m.damping_predicted < 0]
+    if unstable:
+        m = min(unstable, key=lambda m: m.damping_predicted)
+        out.append(f"the loop is predicted unstable: mode {m.mode} ({m.frequency_predicted_hz:.4g} Hz) has a "
+                   f"predicted damping ratio of {m.damping_predicted:.4g} < 0 (delay {delay:g} samples, "
+                   f"{len(unstable)} mode(s) negative); the measured FRF has no steady state to compare with")
+    delay_s = delay * cfg.chain.period_s
+    if cfg.resolution_hz and delay_s >= 1.0 / cfg.resolution_hz:
+        out.append(f"the delay of {delay:g} samples is {delay_s:g} s, at least one record of the test "
+                   f"({1.0 / cfg.resolution_hz:g} s): the controller acts on the response to another record's "
+                   "excitation")
+    return out
 
 
 def report_markdown(summary: dict) -> str:
