@@ -147,7 +147,7 @@ def test_clean_recording_has_no_mismatch(nominal, tmp_path):
 
 
 def test_modal_table_with_concealed_mass(tmp_path):
-    from vlab.calibration import open_loop_ratios
+    from vlab.fe.damping import open_loop_ratios
     from vlab.fe import modal_analysis
 
     fe = nominal_fe_model("bcc")
@@ -171,7 +171,7 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     The excitation's hold is divided out; the loop applies the RC filter's exact average over each physics
     step, so the lab model and the analysis have the same chain (an independent composition of it)."""
     from vlab.analysis import closed_loop_frf, sampled_data_controller_frf, velocity_frf
-    from vlab.calibration import modal_damping_matrix, open_loop_ratios
+    from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
     from vlab.diagnose.model.labmodel import predict_frf, zoh
 
     fe = nominal_fe_model("bcc")

@@ -113,7 +113,7 @@ def test_a_change_found_only_without_the_floor_is_explained_only_without_it(bcc)
     it passed)."""
     from types import SimpleNamespace
 
-    from vlab.diagnose.pipeline import explained_share, explains
+    from vlab.diagnose.fit.rules import explained_share, explains
 
     nominal = bcc[0]
     problem = _problem(bcc, nominal.with_spec(specedit.add_mass(nominal.spec, 5, MASS_KG)), seed=1)

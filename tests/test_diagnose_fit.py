@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vlab.calibration import open_loop_ratios
+from vlab.fe.damping import open_loop_ratios
+from vlab.diagnose.policy import DEFAULT_POLICY
 from vlab.diagnose.data.measured import read_modal_csv
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.effects.hypotheses import AddedMass, JointFlexibility, library
@@ -415,7 +416,7 @@ def test_a_pair_is_reduced_where_one_part_alone_is_within_the_models_accuracy(mo
     monkeypatch.setattr(plantchoice, "map_on_plant", lambda fn, model, jobs: scores)
 
     def model(mf):
-        return SimpleNamespace(problem=SimpleNamespace(n_obs=3800, model_form_frf=mf),
+        return SimpleNamespace(problem=SimpleNamespace(n_obs=3800, model_form_frf=mf, policy=DEFAULT_POLICY),
                                state=lambda h, x: (h.label, float(x[0])))
 
     seen = []

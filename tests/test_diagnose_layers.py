@@ -2,6 +2,7 @@
 
 Layers, lowest first (a module may import its own layer and the layers below it, never one above):
 
+0. ``policy``   -- the decision policy: every threshold, from the false-alarm rate (``policy.py``)
 0. ``model``    -- the lab in the frequency domain and the nominal lab (``model/``)
 1. ``data``     -- recordings, their replay on a plant, the reference (``data/``)
 2. ``problem``  -- context, residuals, noise limits, floors (``problem/``)
@@ -12,8 +13,9 @@ Layers, lowest first (a module may import its own layer and the layers below it,
 7. ``naming``   -- the look-alikes an effect must beat to be named (``naming.py``)
 8. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
 9. ``report``   -- result, report text, figures (``report/``)
-10. ``pipeline`` -- :func:`vlab.diagnose.diagnose` (``pipeline.py``)
-11. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
+10. ``decision`` -- the mismatch tests, the gates a choice must pass, its remainder (``decision.py``)
+11. ``pipeline`` -- :func:`vlab.diagnose.diagnose` (``pipeline.py``)
+12. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
 
 Every import counts: at module level, inside functions (lazy) and under ``TYPE_CHECKING``. Within the
 effects layer the families (``structural``, ``beyond_spec``, ``chain``) import only the base
@@ -29,7 +31,7 @@ from pathlib import Path
 PACKAGE = "vlab.diagnose"
 ROOT = Path(__file__).resolve().parent.parent / "vlab" / "diagnose"
 
-LAYERS = ("model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "pipeline")
+LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "decision", "pipeline")
 #: Rank of the package's own ``__init__`` (above every layer: it re-exports the public names).
 TOP = len(LAYERS)
 

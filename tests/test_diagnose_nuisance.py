@@ -13,7 +13,8 @@ from vlab.diagnose.data.measured import FrfData
 from vlab.diagnose.model.labmodel import LabState, PointModes, natural_frequencies, predict_frf
 from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, perturbed_modes
 from vlab.diagnose.problem.context import context_for
-from vlab.diagnose.problem.nuisance import nuisance_limit, parameters, profile, within_model_accuracy
+from vlab.diagnose.policy import DEFAULT_POLICY
+from vlab.diagnose.problem.nuisance import parameters, profile, within_model_accuracy
 from vlab.diagnose.problem.residuals import Problem
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
@@ -52,7 +53,7 @@ def test_the_profile_finds_the_move_back():
 def test_a_move_beyond_the_uncertainty_is_not_within_the_models_accuracy():
     problem, st = _problem(10.0)
     _r, x = profile(problem, st, st.point_modes)
-    assert x[0] ** 2 > nuisance_limit(1)  # 10 sigma: chi2(1) at 0.999 x 1.2 is 13.0
+    assert x[0] ** 2 > DEFAULT_POLICY.nuisance_limit(1)  # 10 sigma: the limit is 1.2 x 8.6 = 10.4
     assert not within_model_accuracy(problem, st)
 
 
@@ -60,4 +61,26 @@ def test_without_a_model_form_it_is_the_noise_test():
     problem, st = _problem(2.0)
     problem.model_form_frf = None
     assert within_model_accuracy(problem, st) is problem.within_noise(st) is False
-    assert nuisance_limit(1) == pytest.approx(1.2 * 10.827566, rel=1e-6)  # chi2.ppf(0.999, 1), tabulated
+
+
+def test_the_policy_limits_follow_from_the_false_alarm_rate():
+    """Šidák: three tests at 1 - (1 - alpha)^(1/3) keep alpha together; chi-square with one degree of freedom
+    is a squared standard normal, so its upper quantile is the normal's at half the rate (an identity checked
+    against a second distribution, not the same function)."""
+    import scipy.stats
+
+    from vlab.diagnose.policy import DecisionPolicy
+
+    p = DecisionPolicy(false_alarm_rate=0.01, noise_margin=1.0)
+    assert (1 - p.test_rate) ** 3 == pytest.approx(0.99, rel=1e-12)
+    assert p.nuisance_limit(1) == pytest.approx(scipy.stats.norm.isf(p.test_rate / 2) ** 2, rel=1e-9)
+    assert p.lr_limit(1) == pytest.approx(scipy.stats.norm.isf(0.005) ** 2, rel=1e-9)  # 6.635, tabulated
+    assert p.lr_limit(1, c_hat=3.0) == pytest.approx(3 * p.lr_limit(1))
+    # a lower false-alarm rate raises every limit
+    q = DecisionPolicy(false_alarm_rate=0.001, noise_margin=1.0)
+    assert q.chi2_limit(500) > p.chi2_limit(500) and q.line_limit(500, 2) > p.line_limit(500, 2)
+    # the limit of the largest of n lines: P(max of n chi2(2) > L) = the test's rate (exact for chi2(2): exp(-L/2))
+    n = 1000
+    assert 1 - (1 - np.exp(-p.line_limit(n, 2) / 2)) ** n == pytest.approx(p.test_rate, rel=1e-9)
+    with pytest.raises(Exception, match="false-alarm rate"):
+        DecisionPolicy(false_alarm_rate=0.7)

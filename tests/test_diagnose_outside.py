@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 import vlab
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.diagnose.report.markdown import verdict
 from vlab.io.uff import write_recording
 from vlab.lab.experiment import ExperimentConfig, default_chain, measure

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from vlab.analysis import closed_loop_frf, continuous_controller_frf, velocity_frf
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.diagnose.fit import peakanalysis as pa
 from vlab.diagnose.fit import peakratios as pr
 from vlab.errors import DataFileError

@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vlab.calibration import open_loop_ratios
+from vlab.fe.damping import open_loop_ratios
 from vlab.diagnose.data.measured import FrfData, refer_to_model
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.effects.hypotheses import JointFlexibility, library
@@ -187,7 +187,12 @@ class _TablePlant:
     """A stand-in for :class:`PlantModel`: plant chi-squares from tables (at the FE value; refitted)."""
 
     def __init__(self, at_fe: dict, refitted: dict):
+        from types import SimpleNamespace
+
+        from vlab.diagnose.policy import DEFAULT_POLICY
+
         self.at_fe, self.refitted = at_fe, refitted
+        self.problem = SimpleNamespace(policy=DEFAULT_POLICY)
 
     def chi2(self, h, x) -> float:
         return self.at_fe[h.label]

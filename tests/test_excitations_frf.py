@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from vlab.analysis import closed_loop_modes
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.lab.experiment import (
     EXCITATIONS, TESTS, ExperimentConfig, not_meaningful, run_experiment, settle_records,
 )

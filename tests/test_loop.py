@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vlab.analysis import closed_loop_frf, sampled_data_controller_frf, velocity_frf
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.errors import SimulationError
 from vlab.lab.engine import ControllerEngine
 from vlab.lab.excitation import pseudo_random

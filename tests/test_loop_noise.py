@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.lab.engine import ControllerEngine
 from vlab.lab.linear_plant import LinearPlant
 from vlab.lab.loop import HardwareChain, run_loop

@@ -27,7 +27,7 @@ import math
 import numpy as np
 import pytest
 
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.design import design_controller
 from vlab.errors import ModelError, SimulationError
 from vlab.lab.blocks import CurrentAmplifier, RCLowPass, SampleDelay, SensorNoise

@@ -158,7 +158,7 @@ def test_calibrated_bcc_agrees_as_documented(subset):
 def test_sampled_data_modes_tend_to_the_continuous_loop():
     """Fast sampling, no delay, no filter: the discrete loop's modes approach the continuous ones (DRF)."""
     from vlab.analysis import closed_loop_modes
-    from vlab.calibration import modal_damping_matrix, open_loop_ratios
+    from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
     from vlab.models import nominal_fe_model
     from vlab.reference import bcc_gain
 

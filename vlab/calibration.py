@@ -26,6 +26,7 @@ import numpy as np
 import scipy.optimize
 
 from .fe import FEModel, build_fe_model, modal_analysis
+from .fe.damping import modal_damping_matrix, open_loop_ratios, structural_damping  # noqa: F401 (the first two: re-exported)
 from .reference import bcc_gain, column
 from .spec import StructureSpec, load_spec, with_quantity
 from .units import G_SI, INCH_M, LBF_N
@@ -50,36 +51,6 @@ _STARTS = (
 )
 
 
-def modal_damping_matrix(m: np.ndarray, k: np.ndarray, ratios: np.ndarray) -> np.ndarray:
-    """Damping matrix with prescribed modal damping ratios (proportional damping).
-
-    ``c = m Phi diag(2 zeta_i omega_i) Phi^T m`` with mass-normalised ``Phi``, so
-    that ``Phi^T c Phi = diag(2 zeta_i omega_i)`` (Sec. 2.1.2: "proportional
-    damping equivalent to the measured open loop damping").
-
-    Parameters
-    ----------
-    m, k : ndarray, shape (n, n)
-        Mass [kg] and stiffness [N/m] matrices.
-    ratios : ndarray, shape (n,)
-        Damping ratio of every mode, in frequency order.
-
-    Returns
-    -------
-    ndarray, shape (n, n) [N*s/m]
-    """
-    modes = modal_analysis(m, k)
-    phi = modes.shapes
-    return m @ phi @ np.diag(2.0 * np.asarray(ratios) * modes.omega) @ phi.T @ m
-
-
-def open_loop_ratios(spec: StructureSpec, n: int) -> np.ndarray:
-    """The spec's modal damping ratios extended with its default to ``n`` modes."""
-    z = list(spec.damping.modal_ratios) if spec.damping else []
-    default = spec.damping.default_ratio if spec.damping else 0.0
-    return np.array((z + [default] * n)[:n])
-
-
 def drf_damping_ratios(fe: FEModel, d: np.ndarray, n_modes: int) -> np.ndarray:
     """Closed-loop damping ratios of the first modes under direct rate feedback.
 
@@ -93,7 +64,7 @@ def drf_damping_ratios(fe: FEModel, d: np.ndarray, n_modes: int) -> np.ndarray:
     ndarray, shape (n_modes,)
     """
     acts = fe.spec.instrumentation.actuators
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    c = structural_damping(fe)
     u = fe.force_input(acts)
     ct = c + u @ d @ u.T
     n = fe.n

@@ -873,6 +873,10 @@ def diagnose(
                                 "discretisation), none (the data come from this model itself), auto (none for a "
                                 "recording whose metadata names the vlab plant that made it or with --baseline, "
                                 "else derived)"),
+    false_alarm_rate: float = _opt(0.01, "--false-alarm-rate", metavar="<alpha>",
+                                   help="probability [1], in (0, 0.5), of reporting a mismatch on a recording of "
+                                        "the nominal structure; every threshold of the decision follows from it "
+                                        "(chi-square and single-line limits, the likelihood-ratio test)"),
     fmt: OutputFormat = _format_opt(),
     as_json: bool = _flag("--json", help="print one JSON object instead of the table (= --format json)"),
 ) -> None:
@@ -883,7 +887,10 @@ def diagnose(
     from .diagnose import diagnose as run_diagnose
     from .io.atomic import atomic_dir
 
+    from .diagnose.policy import DecisionPolicy
+
     out_fmt = _output_format(fmt, as_json)
+    DecisionPolicy(false_alarm_rate=false_alarm_rate)  # a bad rate is refused before any work
     spec = _load_structure(structure)
     out_path = _out_dir(out, DIAGNOSE_OUT, overwrite)
     if plant not in DIAGNOSE_PLANTS:
@@ -899,6 +906,7 @@ def diagnose(
             res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
+                               false_alarm_rate=false_alarm_rate,
                                progress=lambda stage: bar.update(task, description=escape(str(stage))))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":

@@ -28,7 +28,7 @@ from controllers.lq import lqg, lqr, reduced_on_full
 from controllers.performance import feedback_performance, modes as cl_modes
 from controllers.statespace import modal_initial_states, state_space
 
-from .calibration import modal_damping_matrix, open_loop_ratios
+from .fe.damping import modal_damping_matrix, open_loop_ratios
 from .errors import ModelError, ReductionError, SpecError
 from .fe import FEModel
 from .models import master_indices, reduce_model
@@ -243,7 +243,10 @@ class ControllerDesign:
     extra : dict
         Further numbers of the design, every key with its unit:
         ``"gain_thesis_lb_s_per_in"`` and ``"active_constraints"`` (indices,
-        DRF), ``"gain_thesis_lbf_per_thesis_state"`` (LQR/LQG: ``F_th``),
+        DRF), ``"gain_thesis_lbf_per_thesis_state"`` (LQR/LQG: ``F_th`` in
+        lbf per thesis state unit, Sec. 3.1: in/cs or rad/cs for the
+        velocities, in or rad for the displacements, columns in the order of
+        :attr:`state_labels`, whose units are the SI ones of ``gain``),
         ``"kalman_poles_max_real_per_s"`` and the spillover results (LQG).
     state_labels : tuple of str
         LQR/LQG: name and SI unit of each column of ``gain``, e.g.
@@ -426,8 +429,9 @@ def design_controller(
     seed, n_starts : int
         Reproducible multi-start of the DRF optimisers; ``n_starts`` defaults
         to 32 for MFDRF (its min-max problem has many local minima, and a
-        start costs milliseconds: with 4 starts the BCC design stops at
-        gamma = 0.0507 instead of 0.0498 lb*s/in) and 4 for LQDRF.
+        start costs milliseconds: with one start the BCC design stops at
+        gamma = 0.0507 instead of 0.04964 lb*s/in, with 4 starts for about
+        half of the seeds) and 4 for LQDRF.
     period_s : float, optional
         Sampling period [s] of the Eq. (5.1) realization (LQG: Eqs. 5.2-5.5
         integrate the observer over one period); default

@@ -355,11 +355,17 @@ class Damping:
         Damping ratio [-] of every higher mode.
     source : str
         Provenance of the values.
+    basis : StructureSpec or None
+        The structure whose modes the ratios belong to (None: this structure's own). A physical change
+        added to a structure (a mass, a spring, a stiffer member) leaves its damping matrix as it was: the
+        spec of the changed structure keeps the unchanged one here, and its modal damping ratios follow
+        from that matrix (:func:`vlab.fe.damping.structural_damping`). Not read from a structure file.
     """
 
     modal_ratios: tuple[float, ...]
     default_ratio: float
     source: str
+    basis: "StructureSpec | None" = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)

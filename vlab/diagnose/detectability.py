@@ -15,8 +15,8 @@ on the data the effect would give::
 
 with ``chi2_noise`` the nominal model's chi-square against the nominal recording itself (what the
 noise and the FE model's own small errors contribute) and the limits those of the diagnosis
-(:meth:`vlab.diagnose.problem.residuals.Problem.noise_chi2`, ``peak_limit``: the 0.999 quantile with a
-1.2 safety factor), the model-error floor included. The threshold is where the expected statistic
+(:meth:`vlab.diagnose.problem.residuals.Problem.noise_chi2`, ``peak_limit``: the limits of the decision
+policy at its false-alarm rate, :mod:`vlab.diagnose.policy`), the model-error floor included. The threshold is where the expected statistic
 reaches its limit, found on a grid of 24 sizes geometric in the distance from the null value (from
 1e-7 of the range to its bound) and refined by bisection: at the threshold a recording is called a mismatch about half the time; well below it, rarely;
 well above it, nearly always. It is a threshold of *detection*; naming the effect among its look-alikes
@@ -37,7 +37,7 @@ noise (BCC: 18-36 % of the FRF against 2 %), and masses' thresholds rise 10-30 t
 Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
 pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.
 
-Source: the diagnosis's own test (issue 6, rule 1 of :mod:`vlab.diagnose.fit.rules`); the noncentral
+Source: the diagnosis's own test (rule 1 of :mod:`vlab.diagnose.fit.rules`); the noncentral
 chi-square picture of detection, e.g. Kay, *Fundamentals of Statistical Signal Processing*, Vol. II,
 Sec. 7.3.
 """
@@ -245,12 +245,12 @@ class _Test:
         self.profiled = mf is not None and mf.sigma.size > 0 and isinstance(problem.data, FrfData)
         self.n_profiled = 0
         if self.profiled:
-            from .problem.nuisance import nuisance_limit, parameters
+            from .problem.nuisance import parameters
 
             pm0 = mf.modes if mf.modes is not None else nominal.point_modes
             self.n_profiled = (len(mf.labels) if pm0 is None
                                else sum(r is not None for _k, r, _j in parameters(mf, pm0)))
-            self.nuisance_limit = nuisance_limit(self.n_profiled)
+            self.nuisance_limit = self.problem.policy.nuisance_limit(self.n_profiled)
 
     def _expected(self, h, x: float, **kw) -> Problem | None:
         """The problem of the noise-free data of hypothesis ``h`` at size ``x`` (None: cannot be built)."""
@@ -263,7 +263,7 @@ class _Test:
             expected = replace(expected, var=self.var0 + referral_variance(
                 self.referral, expected.h, self.h_model, self.problem.model_form_frf) * np.abs(expected.h) ** 2)
         return Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
-                       model_form_frf=self.problem.model_form_frf, **kw)
+                       model_form_frf=self.problem.model_form_frf, policy=self.problem.policy, **kw)
 
     def statistic(self, h, x: float) -> tuple[float, float] | None:
         """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]

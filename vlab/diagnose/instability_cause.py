@@ -13,7 +13,7 @@ rejected by the FRF rules). The physics of an instability decides instead:
 1. **The linear loop must be unstable.** A self-excited oscillation needs
    closed-loop poles in the right half-plane. Every fitted candidate that
    the FRF data support over the nominal lab (quasi-BIC evidence
-   :data:`~vlab.diagnose.fit.rules.STRONG_EVIDENCE`) is checked with the
+   the policy's ``evidence``) is checked with the
    generalised Nyquist criterion (:func:`vlab.diagnose.model.nyquist.loop_stability`)
    on the MuJoCo plant's linearisation (:class:`~vlab.diagnose.fit.plantfit.PlantModel`),
    the structure the rerun uses: the FE model damps its unmeasured modes
@@ -60,7 +60,7 @@ from ..lab.recording import Recording
 from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
 from .fit.plantfit import PlantModel
-from .fit.rules import STRONG_EVIDENCE, branch, evidence, reproduces_oscillation
+from .fit.rules import branch, evidence, reproduces_oscillation
 from .fit.selection import rerun_key
 from .model.labmodel import LabState, structure_modes
 from .model.nyquist import loop_stability
@@ -223,7 +223,7 @@ def _chi2(problem, h: Hypothesis, x: float) -> float:
 
 def _moved(h: Hypothesis, problem, x: float, chi2_0: float, c_hat: float) -> Hypothesis | None:
     """A copy of ``h`` at ``x`` with its chi-square there, if the FRFs still support it over the nominal lab
-    (quasi-BIC evidence :data:`~vlab.diagnose.fit.rules.STRONG_EVIDENCE`, overdispersion ``c_hat``)."""
+    (quasi-BIC evidence the policy's ``evidence``, overdispersion ``c_hat``)."""
     g = copy.copy(h)
     g.params_ = np.array([x])
     g.chi2_ = _chi2(problem, h, x)
@@ -232,13 +232,13 @@ def _moved(h: Hypothesis, problem, x: float, chi2_0: float, c_hat: float) -> Hyp
     g.moved_from_ = float(h.params_[0])
     # the FRF fit's interval no longer holds the value: what is known is the side of the stability boundary
     g.ci95_ = np.array([[x, np.nan]]) if x > g.moved_from_ else np.array([[np.nan, x]])
-    return g if evidence(g, None, chi2_0=chi2_0, n_obs=problem.n_obs, c_hat=c_hat) >= STRONG_EVIDENCE else None
+    return g if evidence(g, None, chi2_0=chi2_0, n_obs=problem.n_obs, c_hat=c_hat) >= problem.policy.evidence else None
 
 
-def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float) -> list:
-    """The candidates the FRF data support over the nominal lab (overdispersion ``c_hat``): single effects
-    first, then pairs, each in BIC order."""
-    ok = [h for h in ranked if evidence(h, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE]
+def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float, min_evidence: float) -> list:
+    """The candidates the FRF data support over the nominal lab (overdispersion ``c_hat``; quasi-BIC evidence
+    at least ``min_evidence``): single effects first, then pairs, each in BIC order."""
+    ok = [h for h in ranked if evidence(h, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= min_evidence]
     return (sorted([h for h in ok if not isinstance(h, Combination)], key=lambda h: h.bic_)
             + sorted([h for h in ok if isinstance(h, Combination)], key=lambda h: h.bic_))
 
@@ -308,7 +308,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                       above_band=frequency_hz > problem.ctx.band_hz[1])
     # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
     screen = poles(None) == 0
-    for h in _supported(ranked, chi2_0, problem.n_obs, c_hat):
+    for h in _supported(ranked, chi2_0, problem.n_obs, c_hat, problem.policy.evidence):
         if len(out.tried) >= MAX_RERUNS:
             break
         z = None
@@ -332,7 +332,8 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             continue
         check = rerun_oscillation(v, data.recording, data.excitation_point, loops)
         if not out.above_band:
-            ok = reproduces_oscillation(frequency_hz, check, natural_hz=natural)
+            ok = reproduces_oscillation(frequency_hz, check, natural_hz=natural,
+                                            tolerance=problem.policy.oscillation_tolerance)
         else:  # above the measured band the model's modes are not known: any self-excited line
             ok = check is not None and check.unstable
         freqs = [] if check is None or not check.unstable else \

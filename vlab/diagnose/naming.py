@@ -2,8 +2,7 @@
 
 Detecting a change (:mod:`vlab.diagnose.detectability`) is not naming it. The
 diagnosis names an effect when its fit beats every other hypothesis of the
-library by :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in BIC (issue 24,
-item 3; rule 4 of :mod:`vlab.diagnose.fit.rules`); one-parameter hypotheses
+library by the decision policy's ``evidence`` in BIC (rule 3 of :mod:`vlab.diagnose.fit.rules`); one-parameter hypotheses
 have the same penalty, so the margin is in chi-square. For the noise-free
 data the effect of size ``x`` would give (as the detection thresholds use),
 the chi-square a look-alike ``o`` leaves is
@@ -42,7 +41,6 @@ import numpy as np
 import scipy.optimize
 
 from ..errors import VlabError
-from .fit.rules import STRONG_EVIDENCE
 from .problem.residuals import Problem
 
 #: Ratio between the sizes tried above the detection threshold.
@@ -98,7 +96,7 @@ class LookAlikes:
         self.tester = tester
         expected = replace(tester.problem.data, h=tester.problem.predict(tester.nominal))
         self.p0 = Problem(expected, tester.nominal, tester.ctx, floor=tester.problem.floor,
-                          model_form_frf=tester.problem.model_form_frf)
+                          model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy)
         self.hyps, self.vectors = [], []
         for t in thresholds:
             h = next((x for x in hyps if x.effect == t.effect and x.location == t.location), None)
@@ -131,7 +129,7 @@ def _refit(tester, h_o, data_state) -> float:
     """Chi-square look-alike ``h_o`` leaves on the noise-free data of ``data_state`` after a bounded scalar fit."""
     expected = replace(tester.problem.data, h=tester.problem.predict(data_state))
     p = Problem(expected, tester.nominal, tester.ctx, floor=tester.problem.floor,
-                model_form_frf=tester.problem.model_form_frf)
+                model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy)
     _trials, lower, upper = h_o.space(tester.nominal, tester.ctx)
     lo, hi, log = float(lower[0]), float(upper[0]), bool(h_o.log_scale[0]) and lower[0] > 0
 
@@ -187,13 +185,13 @@ def naming_threshold(directions: LookAlikes, h, detection) -> Naming:
             return Naming(float(x), None, None)
         j = int(np.argmin(gaps))
         last = (directions.hyps[j].label, float(gaps[j]))
-        if gaps[j] >= STRONG_EVIDENCE:
+        if gaps[j] >= tester.problem.policy.evidence:
             state = h.apply(tester.nominal, np.array([x]), tester.ctx)
             order = np.argsort(gaps)[:N_REFIT]
             refits = [(_refit(tester, directions.hyps[i], state), directions.hyps[i].label) for i in order]
             worst = min(refits)
             last = (worst[1], worst[0])
-            if worst[0] >= STRONG_EVIDENCE:
+            if worst[0] >= tester.problem.policy.evidence:
                 return Naming(float(x), worst[1], worst[0])
         if beyond:
             break

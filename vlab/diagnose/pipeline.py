@@ -1,6 +1,6 @@
 """``diagnose``: compare a recording with the nominal lab, locate the mismatch, explain it, validate.
 
-Pipeline (issue 6):
+Pipeline:
 
 1. **Predict** the nominal lab for the same excitation and controller: the
    spec's FE model with its open-loop damping, the thesis controller
@@ -83,18 +83,18 @@ from .fit.locate import locate
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import (NONLINEAR, beyond_noise, changed_beyond_noise, explained_share, explains, explains_fully,
-                        needs_pairs, needs_rerun_check,
-                        prune, select, shortlisted, too_small_to_name, worsens)
+from .fit.rules import (beyond_noise, changed_beyond_noise, needs_pairs, needs_rerun_check, prune, select,
+                        shortlisted, too_small_to_name)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, located_from_fits, rerun_key, tie_break_by_rerun
 from .instability_cause import search_cause
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
-from .report.markdown import ratio_text
 from .report.result import DiagnosisResult
 from .validate import validate
+from .decision import apply_gates, mismatch_tests, remainder_of
+from .policy import DecisionPolicy
 
 __all__ = ["diagnose", "DiagnosisResult"]
 
@@ -130,29 +130,8 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     return chosen
 
 
-def _rejection(h: Hypothesis, reason: str, before: float, after: float, noise: float | None, **more) -> dict:
-    """The entry of ``res.rejected`` for the candidate ``h`` rejected for ``reason``: its FRF misfits
-    [decades] before and after (validation rerun, else the linear model), the misfit an exact model leaves
-    [decades] (None when unknown) and any further numbers ``more`` (their keys carry their units)."""
-    return {"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
-            "noise_misfit": noise, **more, "reason": reason}
-
-
-def _drop_selection(res: DiagnosisResult, misfit_0: float, chi2_fit: float, *, outside: bool) -> None:
-    """Unselect the candidate of ``res`` that a rule rejected: nothing selected, the nominal misfit
-    ``misfit_0``, the location from the fits (``chi2_fit``); ``outside``: the mismatch lies outside the
-    library (issue 24 item 5: a library effect that does not fit is never the answer)."""
-    res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
-    res.misfit_selected = misfit_0
-    if res.instability:  # an unselected cause is no cause
-        res.instability.pop("cause", None)
-    if outside:
-        res.outside_library = True
-    res.location.points, res.location.members = located_from_fits(res, chi2_fit)
-
-
 def _instability(check, replayed, loops) -> dict | None:
-    """The recording's instability check for the result (issue 24 item 4): its dict, whether the nominal
+    """The recording's instability check for the result: its dict, whether the nominal
     plant's replay of the recorded force oscillates too (None without a replay; a nominal lab that is itself
     unstable with this controller is not a mismatch of the structure), and a one-sentence summary."""
     if check is None:
@@ -170,15 +149,6 @@ def _instability(check, replayed, loops) -> dict | None:
                  "; the nominal plant's replay does not: the instability is part of the mismatch")
     out["summary"] = text
     return out
-
-
-def _explains_fully(res: DiagnosisResult, problem: Problem, misfit_0: float) -> bool:
-    """Rule 10 (:func:`vlab.diagnose.fit.rules.explains_fully`) on the validation rerun, or on the linear model
-    without one (where data brought within the noise count as explained)."""
-    v = res.validation
-    if v is not None:
-        return explains_fully(v.misfit_before, v.misfit_after, v.noise_misfit)
-    return problem.within_noise(res.selected_state()) or explains_fully(misfit_0, res.misfit_selected, None)
 
 
 def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabState, ranked: list, loops,
@@ -214,10 +184,29 @@ def _beyond_measurement(problem: Problem, nominal: LabState) -> bool:
     """Whether the nominal model differs from the data beyond the measurement's uncertainty alone (no floor,
     no model-form uncertainty): the data are then within the model's accuracy, not within the noise."""
     if isinstance(problem.data, FrfData):
-        bare = Problem(problem.data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase)
+        bare = Problem(problem.data, nominal, problem.ctx, floor=0.0, use_phase=problem.use_phase,
+                       policy=problem.policy)
     else:
-        bare = Problem(problem.data, nominal, problem.ctx, modal_model_form=False)
+        bare = Problem(problem.data, nominal, problem.ctx, modal_model_form=False, policy=problem.policy)
     return beyond_noise(bare.chi2(nominal), bare.noise_chi2(), bare.peak(nominal), bare.peak_limit())
+
+
+def _remainder_note(rem: dict) -> str:
+    """One sentence on the remainder a selected effect leaves (:func:`vlab.diagnose.decision.remainder_of`)."""
+    where = []
+    if rem["modes"]:
+        where.append("modes " + ", ".join(str(m) for m in rem["modes"]))
+    if rem["points"]:
+        where.append("points " + ", ".join(str(p) for p in rem["points"]))
+    line = rem.get("largest_line")
+    if line:
+        where.append(f"largest at {line['frequency_hz']:.2f} Hz on the sensor at point {line['point']}")
+    noise = rem["noise_misfit_decades"]
+    return (f"the selected effect explains part of the mismatch: on {rem['judged_on']} it leaves a misfit of "
+            f"{rem['misfit_decades']:.3g} decades"
+            + (f", resolved from the {noise:.3g} an exact model leaves" if noise is not None else "")
+            + (f" ({'; '.join(where)})" if where else "")
+            + ": a remainder outside the selected effect, not named by the library")
 
 
 def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str | None = None,
@@ -226,7 +215,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
-             reference_column: str | None = None, model_form: str = "auto") -> DiagnosisResult:
+             reference_column: str | None = None, model_form: str = "auto",
+             false_alarm_rate: float = 0.01) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -279,7 +269,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     replay : bool
         Compare a time-history recording with the nominal plant's replay of
         its force (:func:`vlab.diagnose.data.reference.replay_reference`) when no
-        baseline is given (issue 28, item 1). False: with the FE model alone.
+        baseline is given. False: with the FE model alone.
     force : bool
         Use ``controller``, ``seed`` and ``plant`` even where the recording's
         metadata says otherwise.
@@ -302,6 +292,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         to come from the model itself. "auto": "none" for a recording whose metadata names the vlab plant
         that made it (a simulation of this model), and for a measured baseline (the structure before the
         change: its own model-form difference cancels); "derived" otherwise.
+    false_alarm_rate : float
+        The probability [1], in (0, 0.5), of reporting a mismatch on data of the nominal structure; every
+        threshold of the decision follows from it (:class:`vlab.diagnose.policy.DecisionPolicy`).
 
     Returns
     -------
@@ -319,11 +312,12 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         Unknown controller or effect name.
     OptionError
         ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``);
-        ``mjcf`` with the linear plant.
+        ``mjcf`` with the linear plant; ``false_alarm_rate`` outside (0, 0.5).
     SpecError
         Unknown structure.
     """
     t_start = time.perf_counter()
+    policy = DecisionPolicy(false_alarm_rate=false_alarm_rate)  # checked before any work
     timing: dict = {}
     say = progress or (lambda s: None)
     spec = load_spec(structure) if isinstance(structure, str) else structure
@@ -477,7 +471,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                else "as asked")
         notes.append(f"no model-form uncertainty ({why}): only the noise and the {100 * floor:g} % floor")
     problem = Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf, modal_model_form=mf_mode != "none",
-                      profile_nominal=True)
+                      profile_nominal=True, policy=policy)
     problem.model_form = problem.model_form if mf is None else mf
     problem.guard_s = guard_s
     problem.replay_plant = replay_plant if replayed is not None else None  # the plant the reference was replayed on
@@ -497,7 +491,8 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         location = locate(problem, nominal)
         timing["locate"] = time.perf_counter() - t
         nuisance = problem.nuisance_test()
-        mismatch = beyond_noise(chi2_0, limit, peak_0, peak_limit) or bool(nuisance and nuisance["beyond"])
+        tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance)
+        mismatch = bool(tests)
         if nuisance and nuisance["beyond"]:
             notes.append(f"the nominal model's modes must move beyond their model-form uncertainty to fit the data "
                          f"(chi-square of the moves {nuisance['nuisance_chi2']:.4g}, limit "
@@ -508,6 +503,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             mismatch, stats = changed_beyond_noise(problem, nominal)
             if mismatch:
                 noise_only = stats
+                tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance, stats)
                 notes.append(f"the recording differs from its reference beyond the noise (chi-square "
                              f"{stats['chi2']:.4g}, limit {stats['chi2_limit']:.4g}; largest line {stats['peak']:.3g}, "
                              f"limit {stats['peak_limit']:.3g}), though within the model-error floor of "
@@ -515,7 +511,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         res = DiagnosisResult(spec.name, controller, data, problem, nominal, mismatch, chi2_0, limit, location,
                               None, notes=notes, chi2_fit=chi2_fit, misfit_nominal=misfit_0, misfit_selected=misfit_0,
                               peak_nominal=peak_0, peak_limit=peak_limit, noise_only=noise_only, reference=reference,
-                              instability=_instability(unstable, replayed, loops))
+                              instability=_instability(unstable, replayed, loops), mismatch_tests=tests)
         osc = res.instability or {}
         self_excited = bool(osc.get("unstable") and osc.get("in_replay") is False)  # part of the mismatch
         if not mismatch:
@@ -561,9 +557,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
                 timing["pairs"] = time.perf_counter() - t
             res.ranked = ranked
-            chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs)
+            chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs, policy)
             res.overdispersion = c_hat
-            if self_excited:  # the cause of the oscillation decides, not the FRF fit (issue 24 item 4)
+            if self_excited:  # the cause of the oscillation decides, not the FRF fit
                 chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, loops, chi2_fit, validate_run,
                                                      on_plant, notes, timing, say), []
             elif chosen is not None and validate_run and data_has_signals(data) and \
@@ -580,7 +576,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
                 chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=effects))
                 timing["plant_refit"] = time.perf_counter() - t
             if too_small_to_name(chosen, noise_only):
-                # beyond the noise, within the model's accuracy: located, not named (issue 28)
+                # beyond the noise, within the model's accuracy: located, not named
                 res.too_small, res.too_small_candidates = True, [chosen] + list(alts)
                 cands = [h.label for h in [chosen] + list(alts)][:4]
                 notes.append("the change is beyond the noise but within the model-error floor of "
@@ -624,44 +620,14 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
             except (VlabError, ImportError) as exc:
                 notes.append(f"validation rerun not possible: {exc}")
             timing["validate"] = time.perf_counter() - t
-        if res.selected is not None and res.validation is not None and worsens(res.validation,
-                                                                              self_excited=self_excited):
-            v, h = res.validation, res.selected
-            res.rejected.append(_rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
-                                           v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
-                                           time_error_after=v.time_error_after))
-            notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
-                         f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
-                         f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
-                         f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}): "
-                         "the library's best does not explain the mismatch, which lies outside the library; nothing "
-                         "is selected")
-            _drop_selection(res, misfit_0, chi2_fit, outside=True)
-        if res.selected is not None and not self_excited and not explains(res, chi2_fit):
-            h, v = res.selected, res.validation
-            before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
-                                    else (misfit_0, res.misfit_selected, None))
-            res.rejected.append(_rejection(h, "explains only part of the mismatch", before, after, noise))
-            notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_fit)[0]:.0f} % "
-                         "of the weighted misfit" + ("" if res.validation is None else
-                                                     " and its rerun changes the FRF misfit only "
-                                                     + ratio_text(res.validation.misfit_before,
-                                                                  res.validation.misfit_after))
-                         + ": the mismatch lies outside the library; nothing is selected")
-            _drop_selection(res, misfit_0, chi2_fit, outside=True)
-        if res.selected is not None and not self_excited and \
-                not any(p.effect in NONLINEAR for p in res.selected_parts) and not _explains_fully(res, problem, misfit_0):
-            h, v = res.selected, res.validation
-            before, after, noise = ((v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None
-                                    else (misfit_0, res.misfit_selected, None))
-            res.rejected.append(_rejection(h, "explains only part of the mismatch", before, after, noise))
-            notes.append(f"the best candidate, {h.label}, explains only part of the mismatch: "
-                         + (f"its validation rerun ({v.plant})" if v is not None else "on the linear model it")
-                         + f" lowers the misfit {ratio_text(before, after)} ({before:.3g} -> {after:.3g}"
-                         + (f"; the measured noise {'and the model form leave' if problem.model_form_frf else 'alone leaves'}"
-                            f" {noise:.3g}" if noise is not None else "")
-                         + "), not 5 x nor to the noise: the mismatch lies outside the library; nothing is selected")
-            _drop_selection(res, misfit_0, chi2_fit, outside=True)
+        apply_gates(res, problem, chi2_fit=chi2_fit, misfit_0=misfit_0, self_excited=self_excited, notes=notes)
+        if res.selected is not None and not self_excited:
+            say("testing the remainder")
+            t = time.perf_counter()
+            res.remainder = remainder_of(res, problem, misfit_0)
+            timing["remainder"] = time.perf_counter() - t
+            if res.remainder is not None:
+                notes.append(_remainder_note(res.remainder))
     finally:
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start

@@ -23,7 +23,7 @@ from ..analysis import (
     sampled_data_controller_frf,
     velocity_frf,
 )
-from ..calibration import modal_damping_matrix, open_loop_ratios
+from ..fe.damping import structural_damping
 from ..errors import MeasurementError, ModelError
 from ..errors import SpecError
 from ..fe import FEModel
@@ -348,7 +348,7 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
         raise ModelError(f"--mjcf {cfg.mjcf} needs the MuJoCo plant (--plant mujoco); --plant {cfg.plant} "
                          "would ignore it: drop one of the two options")
     if cfg.plant == "linear":
-        c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+        c = structural_damping(fe)
         pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
         h = timestep_s or cfg.chain.period_s / 2
         return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=actuators, timestep_s=h), {
@@ -406,7 +406,7 @@ def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
 def _predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies [Hz] and damping ratios, each (n,), of the continuous closed loop's first test modes in band."""
     test, acts, _ = _test_of(fe)
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    c = structural_damping(fe)
     u = fe.force_input(acts)
     fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
     in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
@@ -613,7 +613,7 @@ def run_experiment(
         design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed,
                                    period_s=cfg.chain.period_s)
     check_design_period(design, cfg.chain)
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(fe.spec, fe.n))
+    c = structural_damping(fe)
     u = fe.force_input(acts)
     fm, zm = _predicted_modes(fe, design)
     m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))

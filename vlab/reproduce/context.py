@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis import velocity_frf
-from ..calibration import modal_damping_matrix, open_loop_ratios
+from ..fe.damping import modal_damping_matrix, open_loop_ratios
 from ..design import ControllerDesign, DesignModel, design_controller, design_model
 from ..errors import ModelError
 from ..fe import FEModel, modal_analysis

@@ -42,7 +42,7 @@ import scipy.signal
 from controllers.realization import estimator_realization
 
 from ..analysis import closed_loop_modes
-from ..calibration import modal_damping_matrix, open_loop_ratios
+from ..fe.damping import modal_damping_matrix, open_loop_ratios
 from ..errors import ModelError, SimulationError
 from ..lab.engine import ControllerEngine
 from ..lab.linear_plant import LinearPlant

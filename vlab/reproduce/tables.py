@@ -20,7 +20,8 @@ from controllers.drf import lqdrf
 from controllers.errors import ControllerError
 from controllers.lq import lqg, lqr, lqr_weight_for_damping
 
-from ..calibration import drf_damping_ratios, open_loop_ratios
+from ..fe.damping import open_loop_ratios
+from ..calibration import drf_damping_ratios
 from ..correction import orthogonality_matrix, orthogonality_summary, sequential_correction
 from ..design import THESIS_SETTINGS
 from ..fe import modal_analysis

@@ -690,6 +690,45 @@ def _compile(ms: mujoco.MjSpec, spec: StructureSpec) -> mujoco.MjModel:
         raise SimulationError(f"{spec._file()}: MuJoCo could not compile the plant: {exc}") from exc
 
 
+#: Plants of unchanged structures (damping bases), by the identity of the spec and its ratios.
+_BASIS_PLANTS: dict = {}
+
+
+def _basis_damping(spec: StructureSpec, options: SimOptions | None, model0: mujoco.MjModel):
+    """The damping of the unchanged structure that ``spec`` names as its basis (:attr:`vlab.spec.Damping.basis`):
+    ``(beta, ModalDamping, DampingReport, dof_damping)``, or None when there is none or its plant's joints
+    differ from ``model0``'s (then the changed plant's damping is designed on its own modes)."""
+    d = spec.damping
+    if d is None or d.basis is None:
+        return None
+    key = (id(d.basis), d.modal_ratios, d.default_ratio, options)
+    hit = _BASIS_PLANTS.get(key)
+    if hit is None or hit[0] is not d.basis:
+        base = build_plant(d.basis.replace(damping=dataclasses.replace(d, basis=None)), options)
+        if len(_BASIS_PLANTS) >= 8:
+            _BASIS_PLANTS.pop(next(iter(_BASIS_PLANTS)))
+        hit = _BASIS_PLANTS[key] = (d.basis, base)
+    base = hit[1]
+    names = [base.model.joint(i).name for i in range(base.model.njnt)]
+    if base.model.nv != model0.nv or names != [model0.joint(i).name for i in range(model0.njnt)]:
+        return None
+    md = base.modal_damping
+    if md is None:
+        return None
+    return base.options.stiffness_damping_s or 0.0, md, base.damping, np.array(base.model.dof_damping)
+
+
+def _set_joint_damping(ms: mujoco.MjSpec, model0: mujoco.MjModel, dof_damping: np.ndarray) -> None:
+    """Give every joint of ``ms`` the damping of its DOF in ``dof_damping`` (joints matched by name with
+    ``model0``, whose DOF layout ``dof_damping`` follows)."""
+    for j in ms.joints:
+        jid = model0.joint(j.name).id
+        adr = int(model0.jnt_dofadr[jid])
+        v = np.array(j.damping, dtype=float)
+        v[0] = dof_damping[adr]
+        j.damping = v
+
+
 def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant:
     """Build and compile the MuJoCo plant of a structure.
 
@@ -720,7 +759,7 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     and linearise it (:mod:`vlab.sim.linearize`) and compute the modal damping
     (:mod:`vlab.sim.damping`), then with hinge damping and modal damping.
     """
-    from .damping import add_modal_tendons, modal_damping_plan, store_modal_damping
+    from .damping import add_modal_tendons, modal_damping_plan, projected_modes, store_modal_damping
 
     opts = (options or SimOptions()).resolved(spec)
     armature: dict[str, float] = {}
@@ -747,13 +786,21 @@ def build_plant(spec: StructureSpec, options: SimOptions | None = None) -> Plant
     report = None
     md = None
     designed = None
-    if spec.damping is not None and (opts.modal_damping or beta is None):
+    kept = _basis_damping(spec, options, model0) if opts.modal_damping and opts.damping_method == "applied" else None
+    if kept is not None:  # a changed structure keeps the unchanged one's damping (vlab.fe.damping)
+        beta, md, report, dof_damping = kept
+        ms, extra = build_mjspec(spec, opts, beta=beta, armature=armature)
+        _set_joint_damping(ms, model0, dof_damping)
+        designed = projected_modes(spec, model0, dof_damping, md)
+    elif spec.damping is not None and (opts.modal_damping or beta is None):
         beta, md, report, designed = modal_damping_plan(spec, model0, beta, opts.n_damped_modes,
                                                         method=opts.damping_method)
         if not opts.modal_damping:
             md, report, designed = None, None, None
     beta = float(beta or 0.0)
-    if beta > 0.0:
+    if kept is not None:
+        pass
+    elif beta > 0.0:
         ms, extra = build_mjspec(spec, opts, beta=beta, armature=armature)
     else:
         ms = ms0

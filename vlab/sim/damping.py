@@ -281,7 +281,7 @@ def _targets(spec: StructureSpec, plant_modes, n_damped: int | None):
     if not paired:
         raise SimulationError(f"{spec._file()}: no plant mode pairs with an FE mode: cannot place modal damping")
     # every plant mode up to ABOVE_DAMPED x the highest damped FE mode gets at least the default ratio, paired
-    # or not, as every FE mode does (vlab.calibration.open_loop_ratios): a changed spec can move a mode down into the band
+    # or not, as every FE mode does (vlab.fe.damping.open_loop_ratios): a changed spec can move a mode down into the band
     # from above, or mix two close modes so that the MAC pairing misses one; with the hinge damping alone
     # (~0.1 x the smallest ratio) such a mode would ring far longer than in the FE model
     below = np.flatnonzero(plant_modes.frequencies_hz <= ABOVE_DAMPED * f_top)
@@ -363,6 +363,43 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
     zeta = beta * np.einsum("ir,i,ir->r", pm.joint_shapes, k, pm.joint_shapes) / (2 * pm.omega)
     zeta[idx] += c / (2 * omega)
     return float(beta), md, report, dataclasses.replace(pm, damping_ratios=zeta)
+
+
+def projected_modes(spec: StructureSpec, model: mujoco.MjModel, dof_damping: np.ndarray, md: ModalDamping):
+    """The modes of an undamped plant with the ratios a given damping matrix gives them.
+
+    ``zeta_r = phi_r^T (diag(dof_damping) + A diag(c) A^T) phi_r / (2 omega_r)`` (diagonal projection, the
+    cross terms left out): the ratios of a changed structure that kept the unchanged one's hinge damping
+    and modal damping matrix (:mod:`vlab.fe.damping`).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+        Its points give the shapes' rows.
+    model : mujoco.MjModel
+        The changed plant without damping.
+    dof_damping : ndarray, shape (nv,)
+        Joint damping [N*s/m or N*m*s/rad] per DOF.
+    md : ModalDamping
+        The modal damping matrix, shape (nv, N) for ``A``.
+
+    Returns
+    -------
+    SimModes
+        As :func:`vlab.sim.linearize.modes`, with ``damping_ratios``.
+
+    Raises
+    ------
+    SimulationError
+        The plant does not settle.
+    """
+    from .linearize import modes, settle
+
+    pm = modes(model, sorted(spec.points), data=settle(model))
+    phi = pm.joint_shapes
+    c_phi = np.einsum("ir,i,ir->r", phi, np.asarray(dof_damping, dtype=float), phi)
+    c_phi += np.sum((md.A.T @ phi) ** 2 * md.c[:, None], axis=0)
+    return dataclasses.replace(pm, damping_ratios=c_phi / (2 * pm.omega))
 
 
 def store_modal_damping(ms: mujoco.MjSpec, md: ModalDamping) -> None:

@@ -1,6 +1,6 @@
 """The reference a recording is compared with: the recording's own settings, and its replay on the nominal plant.
 
-Issue 28, item 1: for a time-history recording the reference is, by default,
+For a time-history recording the reference is, by default,
 the *simulation*: the recorded force is played back through vlab's own
 nominal plant (the plant the recording names, MuJoCo by default) with the
 controller and the hardware chain of the recording, and the recording is
@@ -13,7 +13,7 @@ on the nominal replay, not absorbed by an effect. A *measured* baseline
 
 The replay is made without sensor noise: the only noise in the comparison
 is the recording's own (nothing of the recording's noise realisation is
-borrowed, issue 28 item 5).
+borrowed).
 
 The recording's metadata (the sidecar ``recording.uff.json`` that ``vlab
 experiment`` writes: structure, controller, reduction, seed, plant, hardware

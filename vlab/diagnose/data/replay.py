@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...fe.damping import structural_damping
 from ...errors import ModelError, VlabError
 from ...lab.engine import ControllerEngine
 from ...lab.linear_plant import LinearPlant
@@ -123,7 +123,7 @@ def linear_plant(state: LabState):
         A dashpot or friction at a point without a free out-of-plane DOF.
     """
     fe = state.fe
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(state.spec, fe.n))
+    c = structural_damping(fe, state.spec)
     for p, cp in state.dashpots:
         i = fe.dofs.index(p, "w")
         c[i, i] += cp

@@ -8,6 +8,12 @@ given. The FE model (:func:`vlab.fe.build_fe_model`) and the MuJoCo plant
 Every added element carries ``source = "diagnosis: <effect>"`` so that a
 report or an exported model shows where it came from.
 
+A physical change keeps the structure's damping matrix: the edited spec names
+the structure before the first change as its damping basis
+(:attr:`vlab.spec.Damping.basis`, :mod:`vlab.fe.damping`), so that its modal
+damping ratios move with its modes as a fixed damping matrix makes them move
+(an added mass lowers a mode's ratio with its frequency).
+
 Errors: :class:`vlab.errors.SpecError` naming the point, DOF or member.
 """
 
@@ -19,6 +25,16 @@ from ...errors import SpecError
 from ...spec import Damping, LumpedMass, Member, Quantity, Spring, StructureSpec, Support
 
 _SOURCE = "diagnosis: {}"
+
+
+def _keeps_damping(before: StructureSpec, after: StructureSpec) -> StructureSpec:
+    """``after`` (a physical change of ``before``) with the damping matrix of the structure before any change:
+    its damping basis is ``before``'s basis, or ``before`` itself."""
+    d = after.damping
+    if d is None:
+        return after
+    basis = before.damping.basis if before.damping is not None and before.damping.basis is not None else before
+    return after.replace(damping=dataclasses.replace(d, basis=basis))
 
 
 def _unique_id(existing: set[str], base: str) -> str:
@@ -44,7 +60,7 @@ def add_mass(spec: StructureSpec, point: int, mass_kg: float, *, effect: str = "
         raise SpecError(f"{effect}: mass must be >= 0 kg, got {mass_kg!r}")
     ident = _unique_id({m.id for m in spec.masses}, f"{effect}_{point}")
     lm = LumpedMass(ident, point, Quantity(float(mass_kg), _SOURCE.format(effect)))
-    return spec.replace(masses=spec.masses + (lm,))
+    return _keeps_damping(spec, spec.replace(masses=spec.masses + (lm,)))
 
 
 def add_spring(spec: StructureSpec, point: int, dof: str, stiffness_si: float, *,
@@ -83,7 +99,7 @@ def add_spring(spec: StructureSpec, point: int, dof: str, stiffness_si: float, *
         supports.append(s)
     ident = _unique_id({s.id for s in spec.springs}, f"{effect}_{point}_{dof}")
     sp = Spring(ident, point, dof, Quantity(float(stiffness_si), _SOURCE.format(effect)))
-    return spec.replace(springs=spec.springs + (sp,), supports=tuple(supports))
+    return _keeps_damping(spec, spec.replace(springs=spec.springs + (sp,), supports=tuple(supports)))
 
 
 def is_fixed(spec: StructureSpec, point: int, dof: str) -> bool:
@@ -165,7 +181,7 @@ def scale_segments(spec: StructureSpec, factors: dict[tuple[int, int], float], *
     missing = [tuple(sorted(k)) for k in wanted if k not in found]
     if missing:
         raise SpecError(f"{effect}: no member segment between points {missing[0]} in {spec.name}")
-    return spec.replace(members=tuple(members), sections=sections)
+    return _keeps_damping(spec, spec.replace(members=tuple(members), sections=sections))
 
 
 def member_segment_points(spec: StructureSpec, member: str) -> list[tuple[int, int]]:
@@ -252,8 +268,8 @@ def set_modal_damping(spec: StructureSpec, mode: int, ratio: float, *, n_modes: 
     """Return ``spec`` with the open-loop damping ratio of ``mode`` (1-based) set to ``ratio``.
 
     Modes beyond the listed ratios get the default ratio up to ``mode``;
-    ``n_modes`` is accepted for symmetry with :func:`vlab.calibration.open_loop_ratios`
-    and unused.
+    ``n_modes`` is accepted for symmetry with :func:`vlab.fe.damping.open_loop_ratios`
+    and unused. A changed structure's modes are numbered as those of its damping basis.
 
     Raises
     ------
@@ -269,7 +285,7 @@ def set_modal_damping(spec: StructureSpec, mode: int, ratio: float, *, n_modes: 
     while len(z) < mode:
         z.append(d.default_ratio)
     z[mode - 1] = float(ratio)
-    return spec.replace(damping=Damping(tuple(z), d.default_ratio, d.source + f"; diagnosis: mode {mode}"))
+    return spec.replace(damping=Damping(tuple(z), d.default_ratio, d.source + f"; diagnosis: mode {mode}", d.basis))
 
 
 def without_gravity(spec: StructureSpec) -> StructureSpec:

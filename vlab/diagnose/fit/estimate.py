@@ -43,7 +43,7 @@ from ...errors import ModelError, VlabError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..problem.residuals import PENALTY, Problem, noise_misfit
-from .rules import explains_fully
+from .rules import remainder_resolved
 
 #: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).
 COARSE_POINTS = 12
@@ -395,8 +395,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
     repeated while the best pair changes, at most ``rounds`` times.
 
     Basin step, when no fit so far explains the data fully on the linear
-    model (:func:`_explained`: within the noise, or the misfit lowered as
-    rule 10 asks, :func:`vlab.diagnose.fit.rules.explains_fully`): two
+    model (:func:`_explained`: within the noise, or a remainder not resolved from
+    the noise, :func:`vlab.diagnose.fit.rules.remainder_resolved`): two
     effects that both move modes compensate each other's frequency shifts,
     so the single fit of either is biased toward a value the pair does not
     have, and the best single effect may be neither of them. The ``n_basin``
@@ -478,9 +478,8 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
 
 def _explained(problem: Problem, fitted: list[Hypothesis]) -> bool:
     """Whether one of the ``fitted`` hypotheses explains the data of ``problem`` fully on the linear model: it
-    leaves them within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`), or lowers the
-    nominal lab's misfit as rule 10 asks of a validation (:func:`vlab.diagnose.fit.rules.explains_fully`,
-    against the misfit the noise alone leaves)."""
+    leaves them within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`), or leaves a
+    misfit not resolved from the one the noise alone leaves (:func:`vlab.diagnose.fit.rules.remainder_resolved`)."""
     fits = [h for h in fitted if np.isfinite(getattr(h, "misfit_", np.nan))]
     if not fits:
         return False
@@ -491,7 +490,7 @@ def _explained(problem: Problem, fitted: list[Hypothesis]) -> bool:
     if isinstance(problem.data, FrfData):
         m = problem.mask
         noise = noise_misfit(problem.data.h[m], problem.data.var[m], problem.weight_mag[m])
-    return explains_fully(problem.misfit(problem.base), min(h.misfit_ for h in fits), noise)
+    return noise is not None and not remainder_resolved(min(h.misfit_ for h in fits), noise)
 
 
 def _replace(best: Combination | None, pool: list[Hypothesis], problem: Problem, out: list, *, n_fit: int,

@@ -22,7 +22,7 @@ from scipy import optimize
 from scipy.interpolate import CubicSpline
 
 from ...analysis import closed_loop_modes
-from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...fe.damping import modal_damping_matrix, open_loop_ratios
 from ...design import design_controller
 from ...errors import DataFileError, ModelError
 from ...fe import build_fe_model, modal_analysis

@@ -36,7 +36,7 @@ from ..effects.hypothesis import Combination, Hypothesis
 from ..problem.nuisance import within_model_accuracy
 from .estimate import fit_hypothesis
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
-from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
+from .rules import NONLINEAR, evidence, passes_pair_rule
 
 
 def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> tuple[Hypothesis, PlantRefit | None,
@@ -44,8 +44,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     """Apply the pair rule of the selection again on the plant's linearisation.
 
     The FE fit selects a pair only if it beats the best single effect by
-    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and lowers the
-    misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
+    the policy's ``evidence`` in quasi-BIC and lowers the
+    misfit the policy's ``pair_misfit_gain`` times
     (:func:`vlab.diagnose.fit.rules.select`). A second effect can pass that rule by
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
@@ -106,7 +106,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     # as for a second effect searched on the plant (vlab.diagnose.fit.plantpair): no pair where one part alone
     # leaves only what its modes' own model form allows (a second part would absorb that difference)
     inside = not nonlinear and _within_model_accuracy(model, pair.parts[i1], values[i1] if r1 is None else r1.params)
-    if not inside and passes_pair_rule(ev, gain, nonlinear):
+    policy = model.problem.policy
+    if not inside and passes_pair_rule(ev, gain, nonlinear, policy):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])
@@ -122,8 +123,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
                 f"the pair {pair.label} absorbed the model's own error; {h1.label} is selected")
     else:
         note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
-                f"(quasi-BIC evidence for the pair {ev:.3g} < {STRONG_EVIDENCE:g}, or misfit gain {gain:.3g} < "
-                f"{PAIR_MISFIT_GAIN:g}): the second effect absorbed the FE/plant model-form difference; "
+                f"(quasi-BIC evidence for the pair {ev:.3g} < {policy.evidence:g}, or misfit gain {gain:.3g} < "
+                f"{policy.pair_misfit_gain:g}): the second effect absorbed the FE/plant model-form difference; "
                 f"{h1.label} is selected")
     return h1, r1, note
 
@@ -171,7 +172,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
 
     The FE model cannot tell apart effects the data cannot (within
-    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in BIC): the stiffness of one
+    the policy's ``evidence`` in BIC): the stiffness of one
     end segment of the grid's top beam or of its mirror. The FE/plant
     model-form difference can also order them wrongly, and the plant is the
     model that is rerun. Here the selected effect and up to
@@ -181,7 +182,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     (:meth:`PlantModel.refit`, from their own FE fits; in parallel processes,
     :func:`map_on_plant`), and the least plant
     chi-square wins. The alternatives left are those whose plant chi-square
-    (refitted, else at the FE value) is within ``STRONG_EVIDENCE`` of the
+    (refitted, else at the FE value) is within the policy's ``evidence`` of the
     winner's, and those not scored.
 
     How far the FE ordering can be trusted is measured on the chosen effect
@@ -252,7 +253,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
         return chosen, None, alternatives, None
     c_best = refits[best.label].chi2
     pool = {h.label: h for h in [chosen] + list(alternatives) + looks}.values()
-    alts = [h for h in pool if h is not best and (h.label not in known or known[h.label] - c_best < STRONG_EVIDENCE)]
+    alts = [h for h in pool if h is not best and (h.label not in known or known[h.label] - c_best < model.problem.policy.evidence)]
     note = (f"look-alikes (the fits within {delta:.3g} in FE chi-square, the FE/plant difference on "
             f"{chosen.label}, and the best of its kind elsewhere) compared on the MuJoCo plant's linearisation "
             f"(chi-square, refitted for the best "

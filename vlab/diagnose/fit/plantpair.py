@@ -51,7 +51,7 @@ from ..problem.nuisance import within_model_accuracy
 from ..problem.residuals import Problem
 from .estimate import fit_pairs, rank
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
-from .rules import NONLINEAR, PAIR_MISFIT_GAIN, STRONG_EVIDENCE, evidence, passes_pair_rule
+from .rules import NONLINEAR, evidence, passes_pair_rule
 
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
 REFERRED_FIT = "fit on the data referred through the first effect"
@@ -84,7 +84,8 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
         model.problem.predict(model.state(h, np.asarray(x_plant, dtype=float)))
     data = model.problem.data
     return Problem(replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2), fe.base, fe.ctx,
-                   floor=fe.floor, use_phase=fe.use_phase, model_form_frf=fe.model_form_frf)
+                   floor=fe.floor, use_phase=fe.use_phase, model_form_frf=fe.model_form_frf,
+                   policy=fe.policy)
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best
@@ -151,11 +152,11 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     (:func:`refit_pair`; in parallel processes,
     :func:`vlab.diagnose.fit.plantfit.map_on_plant`), so that they are compared
     at the same level of refit; the best of them replaces ``chosen`` only if it beats it there by
-    :data:`vlab.diagnose.fit.rules.STRONG_EVIDENCE` in quasi-BIC and either leaves
+    the policy's ``evidence`` in quasi-BIC and either leaves
     the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
     chi-square and largest single residual; with a model form carried, or within the model's accuracy,
     :func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), which ``chosen`` alone did not,
-    or lowers the misfit :data:`vlab.diagnose.fit.rules.PAIR_MISFIT_GAIN` times
+    or lowers the misfit the policy's ``pair_misfit_gain`` times
     (the pair rule of :func:`vlab.diagnose.fit.rules.select`). Data compared within the model's own
     uncertainty (``model_form_frf``) are not searched when ``chosen`` leaves only what its modes'
     model form allows (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: a large effect moves
@@ -199,7 +200,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         The pair's refit on the plant (its ``params`` the values the rerun uses), or ``refit`` unchanged.
     lookalikes : list of Combination
         With a pair selected: the other pairs whose plant chi-square (refitted, else at the referred fit)
-        is within ``STRONG_EVIDENCE`` of the selected one's (the data cannot tell them apart: a spring at
+        is within the policy's ``evidence`` of the selected one's (the data cannot tell them apart: a spring at
         the grid's top-beam point 14 or 15 next to a hinge-like joint 8); else empty.
     note : str or None
         What was tried and decided, or why nothing was searched next to a nonlinear effect (None when nothing
@@ -268,13 +269,14 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     inside = plant.within_noise(pair_state) or (plant.model_form_frf is not None
                                                 and within_model_accuracy(plant, pair_state))
     gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
-    if passes_pair_rule(ev, gain, inside):
-        looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < STRONG_EVIDENCE]
+    policy = plant.policy
+    if passes_pair_rule(ev, gain, inside, policy):
+        looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < policy.evidence]
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "
                                        f"misfit gain {gain:.3g}) passes the pair rule and is selected")
-    why = (f"quasi-BIC evidence {ev:.3g} < {STRONG_EVIDENCE:g}" if ev < STRONG_EVIDENCE else
-           f"misfit gain {gain:.3g} < {PAIR_MISFIT_GAIN:g} and the data not within the noise"
+    why = (f"quasi-BIC evidence {ev:.3g} < {policy.evidence:g}" if ev < policy.evidence else
+           f"misfit gain {gain:.3g} < {policy.pair_misfit_gain:g} and the data not within the noise"
            + (" nor the model's accuracy" if plant.model_form_frf is not None else ""))
     return chosen, refit, [], (head + f"; the best, {best.label} (chi-square {r.chi2:.4g} refitted), fails the "
                                f"pair rule ({why}): the single effect stays")

@@ -1,110 +1,92 @@
 """The decision rules of the diagnosis, in the order they are applied: what is fitted, what is selected, what is not.
 
-The searches and fits that feed these rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`,
-:mod:`vlab.diagnose.fit.selection`, :mod:`vlab.diagnose.fit.plantfit`, :mod:`vlab.diagnose.fit.plantchoice`,
-:mod:`vlab.diagnose.fit.plantpair`, :mod:`vlab.diagnose.validate`); the rules, their thresholds and the
-tests they make are here, and :func:`vlab.diagnose.pipeline.diagnose` applies them in this order:
+Every threshold comes from the decision policy (:class:`vlab.diagnose.policy.DecisionPolicy`, carried by the
+problem as ``problem.policy``): chi-square and single-line limits at the user's false-alarm rate, the
+likelihood-ratio test of whether parameters are needed, the Kass-Raftery evidence that orders candidates,
+and the quadrature rule by which a validation resolves a change of misfit. The searches and fits that feed
+the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose.fit.selection`,
+:mod:`vlab.diagnose.fit.plantfit`, :mod:`vlab.diagnose.fit.plantchoice`, :mod:`vlab.diagnose.fit.plantpair`,
+:mod:`vlab.diagnose.validate`); :func:`vlab.diagnose.pipeline.diagnose` applies them in this order:
 
-1. **Is there a mismatch?** The nominal lab's chi-square exceeds the noise
-   limit, or one line of one channel stands out of the noise
-   (:func:`beyond_noise`, with :meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`
-   and :meth:`~vlab.diagnose.problem.residuals.Problem.peak_limit`). Data
-   within those limits whose reference was excited by the recording's own
-   force record are tested once more without the model-error floor
-   (:func:`changed_beyond_noise`); a mismatch found only there is kept for
-   rule 6. No mismatch: nothing is fitted or selected.
-2. **What is fitted.** Every hypothesis of the library is screened; those
-   the sensitivity ranking points at get its first-order size as an extra
-   trial (:func:`prune`, which no longer leaves any out: the ranking is first
-   order and lost large changes; the frequency errors it ranks by come from
-   mode fits that stayed at their own peaks: a heavily damped mode's fit that
-   converged on the next resonance is not that mode's frequency,
-   :func:`vlab.diagnose.fit.locate.frf_modes`); of the screened
-   hypotheses, the best by chi-square, the best mode-moving ones by
-   smoothed error and the best of every effect are fitted
-   (:func:`shortlisted`); pairs are fitted only when the best single effect
+1. **Is there a mismatch?** The nominal lab's chi-square exceeds its limit,
+   one line of one channel stands out, or the nominal lab's modes must move
+   beyond their model-form uncertainty (:func:`beyond_noise`, with
+   :meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`,
+   :meth:`~vlab.diagnose.problem.residuals.Problem.peak_limit` and
+   :meth:`~vlab.diagnose.problem.residuals.Problem.nuisance_test`: three
+   tests sharing the false-alarm rate). Data within those limits whose
+   reference was excited by the recording's own force record are tested
+   once more without the model-error floor (:func:`changed_beyond_noise`); a
+   mismatch found only there is kept for rule 6. No mismatch: nothing is
+   fitted or selected.
+2. **What is fitted.** Every hypothesis of the library is screened
+   (:func:`prune` gives the ones the sensitivity ranking points at its
+   first-order size as an extra trial); the best by chi-square, the best
+   mode-moving ones by smoothed error and the best of every family are
+   fitted (:func:`shortlisted`); pairs are fitted when the best single effect
    leaves more than noise (:func:`needs_pairs`;
-   :func:`vlab.diagnose.fit.estimate.fit_pairs`; a mode-moving second effect
-   screened over its coarse scan too, as a single one, since its chi-square
-   well lies between its trial values): forward from the best single
-   effect and by sequential replacement, and, where no fit so far explains
-   the data fully on the linear model (within the noise, or as
-   :func:`explains_fully` asks), from the
-   :data:`~vlab.diagnose.fit.estimate.N_BASIN_FIRSTS` mode-moving single
-   effects with the least smoothed error held at the centres of their
-   basins with every mode-moving second effect (two effects that both move
-   modes compensate each other's frequency shifts, so neither's single fit
-   is where the pair puts it). A dashpot or friction at a point is fitted
-   up to the critical dashpot of the mode it damps most
-   (:func:`vlab.diagnose.effects.beyond_spec.critical_dashpot`): beyond it the
-   point is held still, a support and no longer damping.
+   :func:`vlab.diagnose.fit.estimate.fit_pairs`). A dashpot or friction at a
+   point is fitted up to the critical dashpot of the mode it damps most
+   (:func:`vlab.diagnose.effects.beyond_spec.critical_dashpot`).
 3. **Selection on the FE model** (:func:`select`): the best single effect by
-   BIC, or a pair that beats it by :data:`STRONG_EVIDENCE` in quasi-BIC
-   (:func:`evidence`) and lowers its misfit :data:`PAIR_MISFIT_GAIN` times
-   (not asked of a pair with a :data:`NONLINEAR` part); the choice must beat
-   the nominal model by :data:`STRONG_EVIDENCE`, else nothing is selected.
-   The hypotheses within :data:`STRONG_EVIDENCE` of it are its alternatives.
-4. **Look-alikes by rerun**, when the choice or an alternative has
-   look-alikes only a rerun separates (:func:`needs_rerun_check`) and the
-   data are time histories: the least time-domain error of a rerun wins
-   (for a recording of the MuJoCo plant, the
-   :data:`~vlab.diagnose.fit.selection.MUJOCO_LOOKALIKES` best on the linear
-   plant are rerun on the MuJoCo plant and compared there: the linear
-   plant's time error holds the FE/MuJoCo model-form error, which left an
-   actuator gain and its look-alike saturation tied),
-   and a pair with a nonlinear part is kept only if its rerun error is
-   below :data:`PARSIMONY` times that of its nonlinear part alone
+   BIC, or a pair that beats it by the policy's evidence, whose second part
+   the likelihood-ratio test finds needed and that lowers its misfit by the
+   policy's ``pair_misfit_gain`` (not asked of a pair with a
+   :data:`NONLINEAR` part); the choice must beat the nominal model by the
+   evidence and the likelihood-ratio test, else nothing is selected. The
+   hypotheses within the evidence of it are its look-alikes.
+4. **Look-alikes by rerun**, when the choice or a look-alike is one only a
+   rerun separates (:func:`needs_rerun_check`) and the data are time
+   histories: the least time-domain error of a rerun wins, and a pair with a
+   nonlinear part is kept only if its rerun error is below the policy's
+   ``parsimony`` times that of its nonlinear part alone
    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 5. **On the MuJoCo plant's linearisation**, for a spec-level choice on a
    recording of the MuJoCo plant: a pair must pass the pair rule again
    there (:func:`passes_pair_rule` in
    :func:`vlab.diagnose.fit.plantchoice.reduce_pair_on_plant`), else the
    better of its parts is chosen; a single effect is compared there with its
-   look-alikes and the fits the FE model orders by less than the FE/plant
-   difference, the least plant chi-square winning
-   (:func:`vlab.diagnose.fit.plantchoice.choose_on_plant`); a single effect
-   that leaves more than noise there is replaced by a pair with a second
-   effect only if the pair passes the pair rule there, a residual brought
-   into the noise standing in for the misfit gain
+   look-alikes (:func:`vlab.diagnose.fit.plantchoice.choose_on_plant`); a
+   single effect that leaves more than noise there is replaced by a pair
+   only if the pair passes the pair rule there
    (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`).
 6. **Too small to name** (:func:`too_small_to_name`): a choice made on a
    mismatch found only without the floor (rule 1) is located, not named.
 7. **Rejected by its validation** (:func:`worsens`): a choice whose
-   validation rerun raises the FRF misfit or the time-domain error is not
+   validation rerun makes the fit worse beyond what it resolves is not
    selected.
-8. **Not explained** (:func:`explains`): a choice that removes less than
-   half of the nominal chi-square, leaves the data out of the noise and
-   whose rerun does not halve the FRF misfit either is not selected (judged
-   without the floor when the mismatch was found only without it,
-   :func:`explained_share`).
-10. **Only part of it** (:func:`explains_fully`): a choice that passes rule 8
-    but whose validation rerun lowers the FRF misfit less than
-    :data:`FULL_EXPLANATION` times and leaves it above :data:`AT_THE_NOISE`
-    times the misfit the measured noise alone leaves (without a rerun: the
-    same test on the linear model) explains only part of the mismatch: it is
-    shown as rejected and the mismatch is reported as outside the library.
-    Not applied to a choice with a :data:`NONLINEAR` part: its FE fit is a
-    describing function, and its rerun's misfit measures that fit's accuracy
-    as much as the effect (a clipping amplifier, rightly named, lowered it
-    3.1 x).
-9. **The oscillation reproduced** (:func:`reproduces_oscillation`): when
-   the recording holds a self-excited oscillation that the nominal replay
-   does not (:mod:`vlab.measure.instability`), its H1 FRFs hold the
-   oscillation's leakage and a fit to them can look good without the cause;
-   a choice is selected only if its validation rerun oscillates at the same
-   frequency (within :data:`OSCILLATION_TOLERANCE`) or on the same branch
-   (between the same two natural frequencies, :func:`branch`), else it is
-   shown as rejected. The candidates tried are those whose linear loop is
-   unstable (:mod:`vlab.diagnose.instability_cause`).
+8. **Better than nothing, on the same footing** (:func:`improves_on_nominal`):
+   the choice's chi-square must fall below the nominal lab's -- the lower of
+   its chi-square with the model form whitened and with its modes profiled
+   within their model form, the statistic that declared the mismatch -- by
+   the likelihood-ratio limit; and its validation rerun must lower the FRF
+   misfit.
+   A choice that passes the mismatch test's competitor only on a different
+   footing is not an explanation.
+9. **Not explained** (:func:`explains`): a choice that removes less than the
+   policy's ``explained_share`` of the nominal chi-square, leaves the data
+   out of the noise and whose rerun does not lower the FRF misfit by as
+   much is not selected: the mismatch lies outside the library.
+10. **The remainder** (:func:`remainder_resolved`): what a selected choice
+    leaves is tested against what an exact model leaves; a resolved
+    remainder is reported with its size and place (the choice explains part
+    of the mismatch), never dropped.
+11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when
+    the recording holds a self-excited oscillation that the nominal replay
+    does not (:mod:`vlab.measure.instability`), a choice is selected only if
+    its validation rerun oscillates at the same frequency (within the
+    policy's ``oscillation_tolerance``) or on the same branch (between the
+    same two natural frequencies, :func:`branch`). The candidates tried are
+    those whose linear loop is unstable (:mod:`vlab.diagnose.instability_cause`).
 
 Where the mismatch is reported once effects are fitted is
 :func:`vlab.diagnose.fit.selection.located_from_fits`; which parameter of a
 choice is refitted on the plant, :func:`vlab.diagnose.fit.plantfit.refit_index`.
 
-Sources: a BIC difference of 10 is "very strong" evidence (Kass & Raftery,
-J. Am. Stat. Assoc. 90 (1995) 773-795); quasi-BIC with the overdispersion
-of the best fit (Burnham & Anderson, *Model Selection and Multimodel
-Inference*, 2nd ed., 2002, Sec. 6.2).
+Sources: Kass & Raftery, J. Am. Stat. Assoc. 90 (1995) 773-795 (a BIC difference of 10 is "very strong"
+evidence); quasi-BIC with the overdispersion of the best fit (Burnham & Anderson, *Model Selection and
+Multimodel Inference*, 2nd ed., 2002, Sec. 6.2); the likelihood-ratio test (Wilks, Ann. Math. Stat. 9
+(1938) 60-62).
 """
 
 from __future__ import annotations
@@ -117,18 +99,9 @@ from ...errors import ModelError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis, PointDamping
 from ..model.labmodel import LabState
+from ..policy import DEFAULT_POLICY, DecisionPolicy
 from ..problem.residuals import Problem, without_floor
 
-
-#: BIC difference that counts as strong evidence.
-STRONG_EVIDENCE = 10.0
-
-#: A pair is chosen over the best single effect only if it also lowers that
-#: effect's FRF misfit by this factor (practical, not only statistical,
-#: significance). **Calibrated** on the benchmark runs of seed 0
-#: (docs/diagnose_benchmark_*.txt): true pairs lowered it 1.9-24x, pairs that
-#: only absorbed the MuJoCo plant's model-form error 1.06-1.4x.
-PAIR_MISFIT_GAIN = 1.5
 
 #: Effects whose frequency-domain model is a describing function: their FRF
 #: misfit understates what they explain, so pairs with them skip the gain test.
@@ -136,17 +109,6 @@ NONLINEAR = ("saturation", "friction")
 
 #: Local structural effects: the ones the sensitivity ranking can point at (:func:`prune`).
 STRUCTURAL = ("added_mass", "support_stiffness", "joint_flexibility", "member_stiffness")
-
-#: Factor a pair's rerun error must beat its nonlinear part's alone by to be kept (rule 4,
-#: :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
-PARSIMONY = 0.8
-#: Rule 10: an explanation lowers the FRF misfit at least this many times (it accounts for 80 % of it) ...
-FULL_EXPLANATION = 5.0
-#: ... or leaves at most this multiple of the misfit the measured noise alone leaves.
-AT_THE_NOISE = 1.5
-
-#: Relative frequency tolerance within which a rerun's self-excited line is the recording's (rule 9).
-OSCILLATION_TOLERANCE = 0.02
 
 
 def beyond_noise(chi2: float, chi2_limit: float, peak: float, peak_limit: float) -> bool:
@@ -315,17 +277,19 @@ def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: flo
     return (cw - cb) / c_hat - (kb - kw) * math.log(n_obs)
 
 
-def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothesis | None, float, list]:
+def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int,
+           policy: DecisionPolicy = DEFAULT_POLICY) -> tuple[Hypothesis | None, float, list]:
     """Choose the explaining effect among the fitted hypotheses ``ranked``.
 
     ``chi2_0`` is the nominal model's chi-square, ``n_obs`` the number of residuals.
 
-    The best single effect (lowest BIC) is chosen unless a pair beats it by
-    :data:`STRONG_EVIDENCE` in quasi-BIC (overdispersion from the best single
-    fit) and lowers its misfit by :data:`PAIR_MISFIT_GAIN` (not asked of
-    pairs with a :data:`NONLINEAR` effect); the choice must
-    beat the nominal model by :data:`STRONG_EVIDENCE` too, else nothing is
-    selected.
+    The best single effect (lowest BIC) is chosen unless a pair beats it by the
+    policy's ``evidence`` in quasi-BIC (overdispersion from the best single
+    fit), its second part is needed by the likelihood-ratio test
+    (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`) and it lowers the single effect's misfit by
+    ``pair_misfit_gain`` (not asked of pairs with a :data:`NONLINEAR` effect); the choice must
+    beat the nominal model by ``evidence`` and be needed by the likelihood-ratio test too, else nothing
+    is selected.
 
     Returns
     -------
@@ -333,7 +297,7 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothe
     c_hat : float
         Overdispersion ``max(1, chi2 / (N - k))`` of the selected (or best) fit.
     alternatives : list of Hypothesis
-        Other hypotheses within :data:`STRONG_EVIDENCE` of the selected one.
+        Other hypotheses within the policy's ``evidence`` of the selected one.
     """
     singles = [h for h in ranked if not isinstance(h, Combination)]
     combos = [h for h in ranked if isinstance(h, Combination)]
@@ -346,14 +310,17 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int) -> tuple[Hypothe
         gain = getattr(best, "misfit_", np.nan) / getattr(pair, "misfit_", np.nan)
         if any(h.effect in NONLINEAR for h in pair.parts):
             gain = np.nan
-        if (evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= STRONG_EVIDENCE
-                and not gain < PAIR_MISFIT_GAIN):  # a NaN gain leaves the decision to the evidence
+        c_pair = max(1.0, pair.chi2_ / max(n_obs - pair.n_params, 1))
+        if (evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= policy.evidence
+                and policy.needed(best.chi2_, pair.chi2_, pair.n_params - best.n_params, c_pair)
+                and not gain < policy.pair_misfit_gain):  # a NaN gain leaves the decision to the evidence
             best = pair
-            c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
-    if evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE:
+            c_hat = c_pair
+    if (evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < policy.evidence
+            or not policy.needed(chi2_0, best.chi2_, best.n_params, c_hat)):
         return None, c_hat, []
     alts = [h for h in ranked if h is not best and h.n_params <= best.n_params
-            and evidence(best, h, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < STRONG_EVIDENCE]
+            and evidence(best, h, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < policy.evidence]
     return best, c_hat, alts
 
 
@@ -364,25 +331,24 @@ def needs_rerun_check(h: Hypothesis) -> bool:
     return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
 
 
-def passes_pair_rule(ev: float, gain: float, exempt: bool) -> bool:
+def passes_pair_rule(ev: float, gain: float, exempt: bool, policy: DecisionPolicy = DEFAULT_POLICY) -> bool:
     """Rule 5: the pair rule of the selection applied on the plant's linearisation: the pair's quasi-BIC
-    evidence ``ev`` over the single effect (:func:`evidence`) is at least :data:`STRONG_EVIDENCE`, and its
-    misfit ``gain`` (single effect's misfit / the pair's) at least :data:`PAIR_MISFIT_GAIN` unless
+    evidence ``ev`` over the single effect (:func:`evidence`) is at least the policy's ``evidence``, and its
+    misfit ``gain`` (single effect's misfit / the pair's) at least its ``pair_misfit_gain`` unless
     ``exempt`` (a pair with a :data:`NONLINEAR` part, or one that brings the data within the noise)."""
-    return ev >= STRONG_EVIDENCE and (exempt or gain >= PAIR_MISFIT_GAIN)
+    return ev >= policy.evidence and (exempt or gain >= policy.pair_misfit_gain)
 
 
 def too_small_to_name(chosen: Hypothesis | None, noise_only: dict | None) -> bool:
     """Rule 6: whether a choice is too small to name: ``chosen`` explains a mismatch found only without
     the model-error floor (``noise_only``, the statistics of :func:`changed_beyond_noise`; None when the
     mismatch was found with the floor). Beyond the noise, within the model's accuracy: the FE surrogate's
-    own errors of that size could mimic any of the candidates, so the change is located, not named
-    (issue 28)."""
+    own errors of that size could mimic any of the candidates, so the change is located, not named."""
     return chosen is not None and noise_only is not None
 
 
 def worsens(v, *, self_excited: bool = False) -> bool:
-    """Whether a validation rerun makes the fit worse (issue 28, item 2: such an effect is never selected).
+    """Whether a validation rerun makes the fit worse (such an effect is never selected).
 
     Worse means worse beyond what the comparison resolves. The FRF comparison has a known resolution, the
     misfit an exact model leaves (``noise_misfit``: the recording's noise and the model's own uncertainty):
@@ -408,9 +374,8 @@ def worsens(v, *, self_excited: bool = False) -> bool:
     -------
     bool
     """
-    tol = v.noise_misfit**2 if np.isfinite(v.noise_misfit) else 0.0
-    frf_worse = bool(v.misfit_after**2 - v.misfit_before**2 > tol)
-    frf_better = bool(v.misfit_before**2 - v.misfit_after**2 > tol)
+    frf_worse = DecisionPolicy.resolved(v.misfit_after, v.misfit_before, v.noise_misfit)
+    frf_better = DecisionPolicy.resolved(v.misfit_before, v.misfit_after, v.noise_misfit)
     if self_excited:
         return frf_worse
     return frf_worse or (bool(v.time_error_after > v.time_error_before) and not frf_better)
@@ -452,15 +417,16 @@ def explained_share(res, chi2_0: float) -> tuple[float, bool]:
     return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
 
 
-def explains(res, chi2_0: float, *, share: float = 0.5) -> bool:
-    """Whether the selected effect of ``res`` explains the mismatch: it removes at least ``share`` of the
-    nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
+def explains(res, chi2_0: float) -> bool:
+    """Whether the selected effect of ``res`` explains the mismatch: it removes at least the policy's
+    ``explained_share`` (``res.problem.policy``) of the nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
     (:meth:`Problem.within_noise`: a local mismatch removed), both without the model-error floor when the
     mismatch was found only without it (:func:`explained_share`), or its validation rerun lowers the FRF
     misfit by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function:
     friction, saturation)."""
     if res.selected is None:
         return False
+    share = res.problem.policy.explained_share
     removed, within = explained_share(res, chi2_0)
     if removed >= share or within:
         return True
@@ -479,7 +445,8 @@ def branch(frequency_hz: float, natural_hz) -> tuple[float, float]:
     return (float(below[-1]) if below.size else 0.0, float(above[0]) if above.size else math.inf)
 
 
-def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None) -> bool:
+def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
+                           tolerance: float = DEFAULT_POLICY.oscillation_tolerance) -> bool:
     """Rule 9: whether a rerun oscillates by itself at the recording's self-excited frequency.
 
     Parameters
@@ -500,13 +467,13 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None) ->
     Returns
     -------
     bool
-        True when the rerun holds a self-excited line within
-        :data:`OSCILLATION_TOLERANCE` of ``frequency_hz`` (or two of its
+        True when the rerun holds a self-excited line within the relative
+        ``tolerance`` (the policy's ``oscillation_tolerance``) of ``frequency_hz`` (or two of its
         spectral lines, whichever is wider), or on its branch.
     """
     if rerun_check is None or not rerun_check.unstable:
         return False
-    tol = max(OSCILLATION_TOLERANCE * frequency_hz, 2 * rerun_check.resolution_hz)
+    tol = max(tolerance * frequency_hz, 2 * rerun_check.resolution_hz)
     if any(abs(o.frequency_hz - frequency_hz) <= tol for o in rerun_check.oscillations):
         return True
     if natural_hz is None or not np.size(natural_hz):
@@ -515,27 +482,67 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None) ->
     return any(branch(o.frequency_hz, natural_hz) == b for o in rerun_check.oscillations)
 
 
-def explains_fully(misfit_before: float, misfit_after: float, noise_misfit: float | None) -> bool:
-    """Rule 10: whether an explanation accounts for the whole mismatch, not only part of it.
+def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, validation,
+                        policy: DecisionPolicy = DEFAULT_POLICY, *, self_excited: bool = False) -> tuple[bool, str]:
+    """Rule 8: whether a choice fits better than the nominal lab on the footing of the mismatch test.
 
     Parameters
     ----------
-    misfit_before, misfit_after : float
-        FRF misfit [decades] (modal data: relative frequency error) of the nominal lab and of the lab with
-        the chosen effect: of the validation rerun, or of the linear model without one.
+    chosen : Hypothesis
+        Fitted (``chi2_``, ``n_params``).
+    chi2_nominal : float
+        The nominal lab's chi-square on the same weights [1]: the lower of its whitened chi-square and its
+        profiled one (modes moved within their model form), so that a choice must beat what the model's
+        own uncertainty already explains.
+    c_hat : float
+        Overdispersion of the choice's fit (>= 1).
+    validation : Validation or None
+        Its validation rerun (None: none was made): its FRF misfit must fall. The size of the fall is not
+        judged against the misfit an exact model leaves: that misfit is a root mean square over every line,
+        and a local mismatch (one line out of the noise) changes it by less than the noise's share while the
+        change itself is far out of it; a rise beyond the resolution is rule 7's veto.
+    policy : DecisionPolicy
+    self_excited : bool
+        The recording oscillates by itself and the choice's rerun reproduces it: its FRFs hold a limit
+        cycle, and neither the linear fit nor the FRF misfit judges it.
+
+    Returns
+    -------
+    (bool, str)
+        Whether it does, and the reason when it does not ("" when it does).
+    """
+    if self_excited:
+        return True, ""
+    if not policy.needed(chi2_nominal, chosen.chi2_, chosen.n_params, c_hat):
+        return False, (f"its chi-square {chosen.chi2_:.4g} is not below the nominal lab's {chi2_nominal:.4g} by the "
+                       f"likelihood-ratio limit {policy.lr_limit(chosen.n_params, c_hat):.4g}")
+    v = validation
+    if v is not None and not v.misfit_after < v.misfit_before:
+        return False, (f"its validation rerun does not lower the FRF misfit ({v.misfit_before:.3g} -> "
+                       f"{v.misfit_after:.3g} decades)")
+    return True, ""
+
+
+def remainder_resolved(misfit_after: float, noise_misfit: float | None) -> bool:
+    """Whether the misfit an explanation leaves is resolved from the misfit an exact model leaves.
+
+    Misfits of independent parts add in quadrature: the remainder's own misfit is
+    ``sqrt(after^2 - noise^2)``, resolved when it exceeds ``noise`` itself
+    (:meth:`vlab.diagnose.policy.DecisionPolicy.resolved` of ``after`` against ``noise``), i.e. when
+    ``after > sqrt(2) noise``.
+
+    Parameters
+    ----------
+    misfit_after : float
+        FRF misfit [decades] of the lab with the chosen effect (validation rerun or linear model).
     noise_misfit : float or None
-        The misfit the measured noise alone leaves (same unit; None: unknown).
+        The misfit an exact model leaves (same unit): the measured noise, and the model form where it is
+        carried. None or not finite: unknown, and nothing is resolved.
 
     Returns
     -------
     bool
-        True when ``misfit_after * FULL_EXPLANATION <= misfit_before`` or
-        ``misfit_after <= AT_THE_NOISE * noise_misfit``. The two numbers are the benchmark's own
-        criterion of a successful explanation (issue 28: "misfit >= 5x lower or at the noise"); on both
-        fresh BCC samples every right answer met it.
     """
-    if not (np.isfinite(misfit_before) and np.isfinite(misfit_after)):
-        return True  # nothing to judge by: rule 8 stands
-    if misfit_after * FULL_EXPLANATION <= misfit_before:
-        return True
-    return noise_misfit is not None and np.isfinite(noise_misfit) and misfit_after <= AT_THE_NOISE * noise_misfit
+    if noise_misfit is None or not np.isfinite(noise_misfit) or not np.isfinite(misfit_after):
+        return False
+    return DecisionPolicy.resolved(misfit_after, noise_misfit, noise_misfit)

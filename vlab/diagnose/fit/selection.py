@@ -21,7 +21,8 @@ from ..data.replay import last_reruns_note, reruns, time_error
 from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
 from ..problem.residuals import Problem
 from .locate import located_places
-from .rules import NONLINEAR, PARSIMONY
+from ..policy import DEFAULT_POLICY
+from .rules import NONLINEAR
 
 #: Effects that act only in the controller path (seen closed loop only).
 CONTROLLER_PATH = ("loop_delay", "sensor_lag", "sensor_gain")
@@ -128,7 +129,7 @@ def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypo
 
 
 def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
-                       notes: list, *, max_candidates: int = 4, parsimony: float = PARSIMONY, plant: str = "linear",
+                       notes: list, *, max_candidates: int = 4, parsimony: float = DEFAULT_POLICY.parsimony, plant: str = "linear",
                        seed: int = 0) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
 

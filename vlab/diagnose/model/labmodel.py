@@ -35,7 +35,7 @@ import numpy as np
 import scipy.special
 
 from ...analysis import sampled_data_controller_frf
-from ...calibration import open_loop_ratios
+from ...fe.damping import structural_ratios
 from ...errors import ModelError
 from ...fe import FEModel, Modes, build_fe_model, modal_analysis
 from ...lab.loop import HardwareChain, check_design_period
@@ -146,8 +146,11 @@ class LabState:
 
 
 def _modal(state: LabState) -> tuple[Modes, np.ndarray]:
-    """All modes of ``state`` (:func:`vlab.fe.modal_analysis`) and the spec's open-loop damping ratios."""
-    return modal_analysis(state.fe.m, state.fe.k), open_loop_ratios(state.spec, state.fe.n)
+    """All modes of ``state`` (:func:`vlab.fe.modal_analysis`) and their open-loop damping ratios: the spec's,
+    or, for a changed structure, those the unchanged structure's damping matrix gives them
+    (:func:`vlab.fe.damping.structural_ratios`)."""
+    md = modal_analysis(state.fe.m, state.fe.k)
+    return md, structural_ratios(state.fe, md, state.spec)
 
 
 def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -164,7 +167,8 @@ def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarr
     -------
     freq_hz : ndarray, shape (n,)
     zeta : ndarray, shape (n,)
-        Open-loop damping ratios of the spec (Sec. 2.1.2, Table 1/3).
+        Open-loop damping ratios (Sec. 2.1.2, Table 1/3; of a changed structure, from the unchanged one's
+        damping matrix: :func:`vlab.fe.damping.structural_ratios`).
     phi : ndarray, shape (n_dof, n)
         Shapes with ``phi^T m phi = I``.
 

@@ -2,7 +2,7 @@
 from the real structure's when nothing is wrong with the structure.
 
 A diagnosis compares data with a model. The data carry measurement noise; the
-model carries its own error, which no measurement removes (issue 24, item 1).
+model carries its own error, which no measurement removes.
 Both enter the decision "mismatch / no mismatch" and every interval:
 ``sigma^2 = sigma_measurement^2 + sigma_model^2`` per observation.
 

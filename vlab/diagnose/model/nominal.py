@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ...analysis import closed_loop_modes
-from ...calibration import modal_damping_matrix, open_loop_ratios
+from ...fe.damping import structural_damping
 from ...errors import ModelError
 from ...fe import FEModel
 from ...spec import StructureSpec
@@ -118,7 +118,7 @@ def settling_time(state: LabState, band_hz: tuple[float, float], *, decay: float
     continuous controller).
     """
     fe = state.fe
-    c = modal_damping_matrix(fe.m, fe.k, open_loop_ratios(state.spec, fe.n))
+    c = structural_damping(fe, state.spec)
     u = fe.force_input(state.actuators)
     cont = state.design.continuous if state.design is not None and state.design.continuous else None
     try:

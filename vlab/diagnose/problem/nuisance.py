@@ -1,7 +1,7 @@
 """The model-form parameters profiled out: a lab's modes moved within their model-form uncertainty.
 
 A lab state is compared with FRF data within the model's own uncertainty
-(issue 24, item 1) by letting each uncertain modal parameter of
+by letting each uncertain modal parameter of
 :class:`vlab.diagnose.model.modelform.FrfModelForm` (a mode's frequency,
 damping ratio, or shape at a point) move, in units ``x_k`` of its standard
 uncertainty, to where the data put it, at the cost ``|x|^2``::
@@ -28,7 +28,6 @@ from dataclasses import replace
 
 import numpy as np
 import scipy.optimize
-import scipy.stats
 
 from ..model.labmodel import LabState, PointModes
 from ..model.modelform import FrfModelForm, perturbed_modes
@@ -116,15 +115,11 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     return plain(sol.x), x
 
 
-def nuisance_limit(k: int, *, quantile: float = 0.999, safety: float = 1.2) -> float:
-    """Largest ``|x|^2`` of ``k`` profiled parameters under the null: ``safety * chi2.ppf(quantile, k)``."""
-    return float(safety * scipy.stats.chi2.ppf(quantile, max(k, 1)))
-
-
 def within_model_accuracy(problem, state: LabState) -> bool:
     """Whether ``state`` explains ``problem``'s data within the noise and the model's own uncertainty: after
     its modes (``state.point_modes``) are moved within their model form (:func:`profile`), the chi-square and
-    the largest line are within the problem's limits and the moves within :func:`nuisance_limit`.
+    the largest line are within the problem's limits and the moves within the policy's
+    :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit`.
 
     Parameters
     ----------
@@ -141,4 +136,4 @@ def within_model_accuracy(problem, state: LabState) -> bool:
     k = sum(r is not None for _kind, r, _j in parameters(problem.model_form_frf, state.point_modes))
     r, x = profile(problem, state, state.point_modes)
     return (float(r @ r + x @ x) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
-            and float(x @ x) <= nuisance_limit(k))
+            and float(x @ x) <= problem.policy.nuisance_limit(k))

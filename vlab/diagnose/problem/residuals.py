@@ -37,14 +37,13 @@ import math
 from dataclasses import replace
 
 import numpy as np
-import scipy.optimize
-import scipy.stats
 
 from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
+from ..policy import DEFAULT_POLICY, DecisionPolicy
 from .context import Context
 
 #: Residual returned for a state the model cannot be built for (unstable, singular).
@@ -164,8 +163,9 @@ class Problem:
     def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
                  use_phase: bool = True, freq_sigma: float | None = None, damping_sigma: float | None = None,
                  shape_sigma: float = 0.05, model_form_frf=None, modal_model_form: bool = True,
-                 profile_nominal: bool = False):
+                 profile_nominal: bool = False, policy: DecisionPolicy = DEFAULT_POLICY):
         self.data, self.base, self.ctx = data, base, ctx
+        self.policy = policy
         self.floor, self.use_phase = float(floor), bool(use_phase)
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
         self.n_evaluations = 0
@@ -290,7 +290,7 @@ class Problem:
         self.damping_compared = np.isfinite(d.damping) & (d.damping > 0) & np.isfinite(self.damping_sigma_total) & (self.damping_sigma_total > 0)
 
     def uncertainty(self) -> dict:
-        """What the residuals are weighted by, and which part dominates (issue 24, item 1).
+        """What the residuals are weighted by, and which part dominates.
 
         Returns
         -------
@@ -417,14 +417,14 @@ class Problem:
         r = self.residual(state)
         return float(r @ r)
 
-    def nuisance_test(self, *, quantile: float = 0.999, safety: float = 1.2) -> dict | None:
+    def nuisance_test(self) -> dict | None:
         """Whether the nominal lab's modes must move beyond their model-form uncertainty to fit the data.
 
         The profiled parameters (:meth:`nominal_profile`, in units of their standard uncertainty) are,
-        under the null hypothesis, about standard normal: ``|x|^2`` is tested against ``safety *
-        chi2.ppf(quantile, k)`` (the same quantile and margin as :meth:`noise_chi2`). The total
-        chi-square alone has little power here: eight standard deviations on a few modes add ~200 to a
-        chi-square of ~1000 residuals, inside its margin.
+        under the null hypothesis, about standard normal: ``|x|^2`` is tested against the policy's
+        :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` (one of its three mismatch tests). The
+        total chi-square alone has little power here: eight standard deviations on a few modes add ~200
+        to a chi-square of ~1000 residuals, inside its margin.
 
         Returns
         -------
@@ -435,11 +435,9 @@ class Problem:
         """
         if not self._profiles(self.base):
             return None
-        from .nuisance import nuisance_limit
-
         _r, x = self.nominal_profile()
         k = len(x)
-        lim = nuisance_limit(k, quantile=quantile, safety=safety)
+        lim = self.policy.nuisance_limit(k)
         j = int(np.argmax(np.abs(x)))
         c2 = float(x @ x)
         return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
@@ -545,13 +543,10 @@ class Problem:
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
             return float("nan")
 
-    def noise_chi2(self, *, quantile: float = 0.999, safety: float = 1.2) -> float:
-        """Largest chi-square the nominal model may have for the data to count as 'within the noise'.
-
-        ``safety * chi2.ppf(quantile, N)``: the noise estimate from a few
-        periods is itself uncertain, hence the margin.
-        """
-        return float(safety * scipy.stats.chi2.ppf(quantile, self.n_obs))
+    def noise_chi2(self) -> float:
+        """Largest chi-square the nominal model may have for the data to count as 'within the noise' [1]:
+        the policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.chi2_limit` of :attr:`n_obs` residuals."""
+        return self.policy.chi2_limit(self.n_obs)
 
     def peak(self, state: LabState) -> float:
         """Largest squared residual of one observation of the lab ``state``: for FRF data the largest
@@ -570,29 +565,21 @@ class Problem:
             r2 = r**2
         return float(np.max(r2))
 
-    def peak_limit(self, *, quantile: float = 0.999, safety: float = 1.2) -> float:
-        """Largest :meth:`peak` the nominal model may have for the data to count as 'within the noise'.
+    def peak_limit(self) -> float:
+        """Largest :meth:`peak` the nominal model may have for the data to count as 'within the noise' [1].
 
-        ``safety * chi2.isf((1 - quantile) / n, dof)`` over the ``n``
-        observations (Bonferroni: the chance that the largest of ``n``
-        independent noise-only residuals exceeds it is at most
-        ``1 - quantile``); ``dof`` = 2 for FRF lines with phase, else 1. When
-        the noise is itself estimated from the data with ``nu`` effective
-        degrees of freedom (:attr:`FrfData.var_dof`), a residual scaled by it
-        follows ``dof F(dof, nu)`` instead, whose tail is heavier: with two
-        periods pooled over 21 lines (``nu`` = 27) the limit is 63 instead of
-        35 for 2000 lines (a clean recording's largest residual was 47). The
-        same ``quantile`` and ``safety`` as :meth:`noise_chi2`.
+        The policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.line_limit` over the ``n`` observations
+        (Šidák: the chance that the largest of ``n`` independent noise-only residuals exceeds it is the
+        test's rate); ``dof`` = 2 for FRF lines with phase, else 1. When the noise is itself estimated
+        from the data with ``nu`` effective degrees of freedom (:attr:`FrfData.var_dof`), a residual scaled
+        by it follows ``dof F(dof, nu)`` instead, whose tail is heavier: with two periods pooled over 21
+        lines (``nu`` = 27) the limit is about twice the chi-square one for 2000 lines.
         """
         if isinstance(self.data, FrfData) and self.use_phase:
             n, dof = self.n_obs // 2, 2
         else:
             n, dof = self.n_obs, 1
-        p = (1.0 - quantile) / max(n, 1)
-        nu = getattr(self.data, "var_dof", None)
-        if nu:
-            return float(safety * dof * scipy.stats.f.isf(p, dof, nu))
-        return float(safety * scipy.stats.chi2.isf(p, dof))
+        return self.policy.line_limit(n, dof, getattr(self.data, "var_dof", None))
 
     def within_noise(self, state: LabState) -> bool:
         """Whether the lab ``state`` explains the data within the noise: its chi-square is within
@@ -624,6 +611,6 @@ def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
     p = Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
                 use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
                 shape_sigma=problem.shape_sigma, model_form_frf=getattr(problem, "model_form_frf", None),
-                profile_nominal=getattr(problem, "profile_nominal", False))
+                profile_nominal=getattr(problem, "profile_nominal", False), policy=problem.policy)
     p.model_form = problem.model_form
     return p

@@ -95,9 +95,8 @@ def markdown(res: dict) -> str:
                   f"over N = {s['n_obs']} residuals is within the noise (limit {s['chi2_limit']:.4g}){peak}; no "
                   "effect is proposed.", ""]
     elif not res["selected"]:
-        lines += [f"**Mismatch, not explained.** chi2 = {s['chi2_nominal']:.4g} (noise limit "
-                  f"{s['chi2_limit']:.4g}){peak}, but no hypothesis of the library (alone or in pairs) improves the "
-                  "BIC by 10 or more and explains it.", ""]
+        lines += [f"**Mismatch, not explained.** {_mismatch_text(s, s['n_obs'])}{peak}; no effect of the library "
+                  "(alone or in pairs) explains it: see the verdict.", ""]
     else:
         sel = " + ".join(f"`{x['effect']}` at {_loc(x['location'])}" for x in res["selected"])
         chi2_sel = _selected_chi2(res)
@@ -339,7 +338,7 @@ def write_report(out_dir: str | Path, res: dict, figures: dict, *, overwrite: bo
     return {**{k: out / v for k, v in files.items()}, "report": out / names["report"], "json": out / names["json"]}
 
 
-# ------------------------------------------------------------------ readable formatting (issue 27) ---
+# ------------------------------------------------------------------ readable formatting ---
 
 #: Unit suffixes of parameter names (longest first) and how they are printed.
 UNIT_SUFFIXES = (
@@ -526,7 +525,7 @@ def hypothesis_rows(res: dict, limit: int | None = 8) -> list[dict]:
 
 
 def ratio_text(before, after) -> str:
-    """``before -> after`` as "N x lower" or "N x higher" (issue 28: never a fraction); "" when either is
+    """``before -> after`` as "N x lower" or "N x higher" (never a fraction); "" when either is
     not a positive finite number."""
     if not _ok(before, after) or before <= 0:
         return ""
@@ -586,6 +585,49 @@ def verdict(res: dict) -> str:
     return first + _verdict_body(res, s, n)
 
 
+def _mismatch_text(s: dict, n) -> str:
+    """The tests the nominal lab failed (``statistics.mismatch_tests``), each with its statistic and limit."""
+    parts = []
+    for t in s.get("mismatch_tests") or []:
+        if t["test"] == "chi2":
+            parts.append(f"the nominal model's chi2 = {_fmt(t['statistic'])} over N = {n} residuals exceeds its limit "
+                         f"{_fmt(t['limit'])}")
+        elif t["test"] == "line":
+            parts.append(f"one line stands out (largest squared residual {_fmt(t['statistic'])}, limit "
+                         f"{_fmt(t['limit'])})")
+        elif t["test"] == "model_form":
+            parts.append(f"the nominal model's modes must move beyond their model-form uncertainty to fit (chi-square "
+                         f"of the moves {_fmt(t['statistic'])}, limit {_fmt(t['limit'])}; most: {t['largest']} by "
+                         f"{t['largest_sigmas']:+.3g} sigma)")
+        elif t["test"] == "change":
+            parts.append(f"without the model-error floor the recording differs from its reference: chi2 = "
+                         f"{_fmt(t['statistic'])} over N = {n} residuals exceeds its limit {_fmt(t['limit'])} (with "
+                         "the floor it is within)")
+    if not parts:  # a result written without the tests: the total chi-square is what it quotes
+        parts.append(f"the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals (limit "
+                     f"{_fmt(s['chi2_limit'])})")
+    rate = (s.get("policy") or {}).get("false_alarm_rate")
+    return "; ".join(parts) + (f" (false-alarm rate {rate:g})" if rate is not None else "")
+
+
+def _remainder_text(rem: dict | None) -> str:
+    """The verdict's sentence on a remainder the selected effect leaves (empty without one)."""
+    if not rem:
+        return ""
+    where = []
+    if rem.get("modes"):
+        where.append("modes " + ", ".join(str(m) for m in rem["modes"]))
+    if rem.get("points"):
+        where.append("points " + ", ".join(str(p) for p in rem["points"]))
+    line = rem.get("largest_line")
+    if line:
+        where.append(f"largest at {_fmt(line['frequency_hz'])} Hz, point {line['point']}")
+    noise = rem.get("noise_misfit_decades")
+    return (f" Explained in part: a remainder is left (misfit {_fmt(rem['misfit_decades'], 3)} decades on "
+            f"{rem['judged_on']}" + (f", an exact model leaves {_fmt(noise, 3)}" if noise is not None else "")
+            + (f"; {'; '.join(where)}" if where else "") + "), outside the library.")
+
+
 def _verdict_body(res: dict, s: dict, n) -> str:
     """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
     if not res["mismatch"]:
@@ -596,17 +638,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
                     "alone: no effect is proposed (see 'Uncertainty').")
         return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
                 f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
-    no = s.get("noise_only")
-    if no:
-        text = (f"Mismatch: without the model-error floor the nominal model's chi2 = {_fmt(no['chi2'])} over N = {n} "
-                f"residuals exceeds the noise limit {_fmt(no['chi2_limit'])} (with the floor it is within).")
-    elif s['chi2_nominal'] <= s['chi2_limit'] and s.get('peak_nominal') is not None:
-        text = (f"Mismatch: one line stands out of the noise (largest squared residual {_fmt(s['peak_nominal'])}, "
-                f"limit {_fmt(s['peak_limit'])}; the total chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals is "
-                f"within its limit {_fmt(s['chi2_limit'])}).")
-    else:
-        text = (f"Mismatch: the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals exceeds the "
-                f"noise limit {_fmt(s['chi2_limit'])}.")
+    text = "Mismatch: " + _mismatch_text(s, n) + "."
     sel = res.get("selected") or []
     if not sel and res.get("too_small_to_name"):
         pts = (res.get("located") or {}).get("points") or []
@@ -629,7 +661,12 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
                        f"it{best}.{where}")
     if not sel:
-        return text + (" No hypothesis of the library (alone or in pairs) improves the BIC by 10 or more and "
+        worse = [r for r in res.get("rejected") or [] if r.get("reason") == "fits no better than the nominal lab"]
+        if worse:
+            return text + (f" No effect of the library fits the data better than the nominal model within its own "
+                           f"uncertainty (the best, {worse[-1]['label']}, does not): the cause is not identified.")
+        ev = (s.get("policy") or {}).get("evidence", 10.0)
+        return text + (f" No hypothesis of the library (alone or in pairs) improves the BIC by {ev:g} or more and "
                        "explains it: the cause is not identified.")
     what = " + ".join(f"{x['effect']} at {format_location(x['location'])} "
                       f"({format_parameters(x['parameters'], x.get('ci95'), names=True)})" for x in sel)
@@ -660,6 +697,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
             text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
                      f"{_fmt(v['noise_misfit'], 3)}")
         text += "."
+    text += _remainder_text(res.get("remainder"))
     cause = (res.get("instability") or {}).get("cause")
     if cause:
         text += (f" Its rerun oscillates by itself too (at {', '.join(_fmt(f, 4) for f in cause['rerun_frequencies_hz'][:2])}"

@@ -65,7 +65,7 @@ class DiagnosisResult:
         ``time_error_after`` [1].
     too_small : bool
         The mismatch was found only without the model-error floor and a candidate explained it: a change
-        located but too small to name (issue 28); ``too_small_candidates`` are the hypotheses within 10 of
+        located but too small to name; ``too_small_candidates`` are the hypotheses within 10 of
         the best BIC, whose places are reported.
     reference : str
         What the recording was compared with: the nominal simulation's replay, a measured baseline, or the
@@ -76,14 +76,21 @@ class DiagnosisResult:
         there was no replay, and ``summary``); None for FRFs, modal tables and open-loop recordings (without
         feedback the lab's structure cannot oscillate by itself).
     outside_library : bool
-        The best effect of the library explained only part of the mismatch (rule 10 of
-        :mod:`vlab.diagnose.fit.rules`) and was not selected.
+        The best effect of the library was rejected (its validation made the fit worse, or it explained
+        less than the policy's ``explained_share``: rules 7 and 9 of :mod:`vlab.diagnose.fit.rules`).
     chi2_fit : float or None
         The nominal lab's chi-square on the footing of the fitted hypotheses (with a model form: the linearly
         whitened residual, where ``chi2_nominal`` is its nonlinear profile); None: ``chi2_nominal``.
     within_model_accuracy : bool
         No mismatch, but only because of the model's own uncertainty (floor and model form): the nominal
         model differs from the data beyond the measurement's noise alone.
+    mismatch_tests : list of dict
+        The mismatch tests the nominal lab failed (:func:`vlab.diagnose.decision.mismatch_tests`: ``test``,
+        ``statistic``, ``limit``); empty when there is no mismatch.
+    remainder : dict or None
+        What the selected effect leaves, when it is resolved from what an exact model leaves
+        (:func:`vlab.diagnose.decision.remainder_of`); None when nothing resolved is left or nothing is
+        selected.
     threshold : dict or None
         The detection threshold of the selected effect on these data, on the side of its fitted value
         (:func:`vlab.diagnose.detectability.threshold_of`, ``Threshold.as_dict()``); None without a selected
@@ -123,6 +130,8 @@ class DiagnosisResult:
     outside_library: bool = False
     within_model_accuracy: bool = False
     chi2_fit: float | None = None
+    mismatch_tests: list = field(default_factory=list)
+    remainder: dict | None = None
 
     @property
     def selected_parts(self) -> list[Hypothesis]:
@@ -250,7 +259,9 @@ class DiagnosisResult:
                            "peak_nominal": self.peak_nominal, "peak_limit": self.peak_limit,
                            "n_obs": self.problem.n_obs, "floor": self.problem.floor,
                            "noise_only": self.noise_only,
-                           "overdispersion": self.overdispersion},
+                           "overdispersion": self.overdispersion,
+                           "mismatch_tests": list(self.mismatch_tests),
+                           "policy": self.problem.policy.as_dict()},
             "located": located,
             "ranked": [self._entry(h) for h in self.ranked],
             "selected": self._selected_entries(),
@@ -263,6 +274,7 @@ class DiagnosisResult:
             "detection_threshold": self.threshold,
             "outside_library": bool(self.outside_library),
             "within_model_accuracy": bool(self.within_model_accuracy),
+            "remainder": self.remainder,
             "validated": validated,
             "notes": list(self.notes),
             "timing_s": dict(self.timing_s),

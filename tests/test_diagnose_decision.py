@@ -1,0 +1,114 @@
+"""The diagnosis's decision is consistent by construction: properties over generated statistics.
+
+- "mismatch" is declared only when a named statistic exceeds its limit, and the verdict names it with the
+  JSON's own numbers;
+- a choice stands only if it fits better than the nominal lab by the likelihood-ratio limit and its
+  validation lowers the misfit;
+- a remainder is reported only where it is resolved from what an exact model leaves.
+"""
+
+from __future__ import annotations
+
+import re
+from types import SimpleNamespace
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vlab.diagnose.decision import mismatch_tests
+from vlab.diagnose.fit.rules import improves_on_nominal, remainder_resolved
+from vlab.diagnose.policy import DecisionPolicy
+from vlab.diagnose.report.markdown import _fmt, verdict
+
+positive = st.floats(min_value=1e-3, max_value=1e6, allow_nan=False, allow_infinity=False)
+rates = st.floats(min_value=1e-4, max_value=0.2)
+
+
+@settings(max_examples=300, deadline=None)
+@given(chi2=positive, lim=positive, peak=positive, plim=positive, nuis=st.none() | st.tuples(positive, positive))
+def test_a_mismatch_is_a_named_statistic_beyond_its_limit(chi2, lim, peak, plim, nuis):
+    nuisance = None if nuis is None else {"nuisance_chi2": nuis[0], "nuisance_limit": nuis[1],
+                                          "beyond": nuis[0] > nuis[1], "largest": "f1", "largest_sigmas": 3.0}
+    tests = mismatch_tests(chi2, lim, peak, plim, nuisance)
+    beyond = chi2 > lim or peak > plim or (nuis is not None and nuis[0] > nuis[1])
+    assert bool(tests) == beyond
+    assert all(t["statistic"] > t["limit"] for t in tests)
+    if not tests:
+        return
+    stats = {"chi2_nominal": chi2, "chi2_limit": lim, "peak_nominal": peak, "peak_limit": plim, "n_obs": 100,
+             "mismatch_tests": tests, "policy": DecisionPolicy().as_dict()}
+    res = {"mismatch": True, "statistics": stats, "selected": [], "rejected": [], "ranked": []}
+    text = verdict(res)
+    for t in tests:  # each failed test is named with the JSON's own numbers
+        assert _fmt(t["statistic"]) in text and _fmt(t["limit"]) in text
+    # a statistic within its limit is never presented as the reason
+    if chi2 <= lim:
+        assert f"chi2 = {_fmt(chi2)} over N = 100 residuals exceeds" not in text
+    if peak <= plim:
+        assert "one line stands out" not in text
+
+
+def _chosen(chi2, k=1):
+    return SimpleNamespace(chi2_=chi2, n_params=k)
+
+
+@settings(max_examples=300, deadline=None)
+@given(chi2_0=positive, ratio=st.floats(min_value=0.0, max_value=2.0), c_hat=st.floats(min_value=1.0, max_value=5.0),
+       alpha=rates, before=positive, after=positive, noise=positive)
+def test_a_choice_stands_only_if_it_fits_better_and_its_validation_confirms_it(chi2_0, ratio, c_hat, alpha,
+                                                                               before, after, noise):
+    policy = DecisionPolicy(false_alarm_rate=alpha)
+    h = _chosen(chi2_0 * ratio)
+    v = SimpleNamespace(misfit_before=before, misfit_after=after, noise_misfit=noise)
+    ok, why = improves_on_nominal(h, chi2_0, c_hat, v, policy)
+    if ok:
+        assert h.chi2_ < chi2_0 - policy.lr_limit(1, c_hat)
+        assert after < before
+        assert why == ""
+    else:
+        assert why  # the reason is stated
+    # fitting worse than the nominal lab is never accepted
+    worse, _ = improves_on_nominal(_chosen(chi2_0 * 1.01), chi2_0, c_hat, None, policy)
+    assert not worse
+
+
+@settings(max_examples=300, deadline=None)
+@given(after=positive, noise=positive)
+def test_a_remainder_is_reported_only_where_it_is_resolved(after, noise):
+    got = remainder_resolved(after, noise)
+    assert got == (after**2 - noise**2 > noise**2)
+    assert not remainder_resolved(after, None) and not remainder_resolved(after, float("nan"))
+
+
+@settings(max_examples=100, deadline=None)
+@given(a=rates, b=rates, n=st.integers(min_value=1, max_value=20000), k=st.integers(min_value=1, max_value=6))
+def test_a_lower_false_alarm_rate_never_lowers_a_limit(a, b, n, k):
+    lo, hi = sorted((a, b))
+    p_lo, p_hi = DecisionPolicy(false_alarm_rate=lo), DecisionPolicy(false_alarm_rate=hi)
+    assert p_lo.chi2_limit(n) >= p_hi.chi2_limit(n)
+    assert p_lo.line_limit(n, 2) >= p_hi.line_limit(n, 2)
+    assert p_lo.nuisance_limit(k) >= p_hi.nuisance_limit(k)
+    assert p_lo.lr_limit(k) >= p_hi.lr_limit(k)
+
+
+def test_the_chi2_limit_holds_the_rate_on_noise_only_residuals():
+    """Without the margin, the total chi-square of N standard normal residuals exceeds the limit in the
+    test's rate of draws (Monte Carlo, 20000 draws of N = 200)."""
+    p = DecisionPolicy(false_alarm_rate=0.05, noise_margin=1.0)
+    rng = np.random.default_rng(3)
+    chi2 = np.sum(rng.standard_normal((20000, 200)) ** 2, axis=1)
+    rate = np.mean(chi2 > p.chi2_limit(200))
+    assert abs(rate - p.test_rate) < 4 * np.sqrt(p.test_rate / 20000)
+
+
+def test_a_verdict_without_a_selection_states_why():
+    tests = [{"test": "model_form", "statistic": 113.8, "limit": 86.47, "largest": "f3", "largest_sigmas": 4.1}]
+    stats = {"chi2_nominal": 185.9, "chi2_limit": 5019.0, "peak_nominal": 0.81, "peak_limit": 62.7, "n_obs": 4000,
+             "mismatch_tests": tests, "policy": DecisionPolicy().as_dict()}
+    rejected = [{"effect": "member_stiffness", "label": "member_stiffness(member=beam)", "misfit_before": 0.0056,
+                 "misfit_after": 0.0055, "noise_misfit": 0.0056, "reason": "fits no better than the nominal lab"}]
+    text = verdict({"mismatch": True, "statistics": stats, "selected": [], "rejected": rejected, "ranked": []})
+    assert "model-form uncertainty" in text and "113.8" in text and "86.47" in text
+    assert "one line stands out" not in text and "exceeds its limit 5019" not in text
+    assert re.search(r"no effect of the library fits the data better than the nominal model", text, re.I)

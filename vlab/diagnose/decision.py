@@ -1,0 +1,222 @@
+"""The decision of the diagnosis after the fits: which mismatch test fired, whether the choice stands, the remainder.
+
+Three steps, each from the decision policy (:class:`vlab.diagnose.policy.DecisionPolicy`, ``problem.policy``)
+and each leaving a statement in the result, so that the verdict can never contradict its own numbers:
+
+1. :func:`mismatch_tests` -- the tests of rule 1 of :mod:`vlab.diagnose.fit.rules` that the nominal lab
+   fails, each with its statistic and limit (the verdict names them; a mismatch is declared only when one
+   of them is listed).
+2. :func:`apply_gates` -- a choice stands only if its validation does not make the fit worse (rule 7), it
+   fits better than the nominal lab on the mismatch test's footing and its validation lowers the misfit
+   (rule 8), and it explains the larger part of the mismatch (rule 9); otherwise it is listed as rejected,
+   with the reason.
+3. :func:`remainder_of` -- what a choice that stands leaves (rule 10): resolved from what an exact model
+   leaves, it is reported with its size and where it is (modes, points, the largest line).
+
+Sources: as :mod:`vlab.diagnose.fit.rules` and :mod:`vlab.diagnose.policy`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .data.measured import FrfData
+from .fit.locate import locate
+from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
+from .fit.selection import located_from_fits
+from .problem.nuisance import within_model_accuracy
+from .problem.residuals import Problem, noise_misfit
+from .report.markdown import ratio_text
+from .report.result import DiagnosisResult
+
+#: Names of the mismatch tests (``test`` of an entry of :func:`mismatch_tests`).
+TESTS = {"chi2": "the total chi-square", "line": "the largest single line",
+         "model_form": "the moves of the nominal modes beyond their model-form uncertainty",
+         "change": "the change from the reference without the model-error floor"}
+
+
+def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: float, nuisance: dict | None,
+                   change: dict | None = None) -> list[dict]:
+    """The mismatch tests the nominal lab fails (rule 1), each as ``test``, ``statistic``, ``limit`` [1].
+
+    Parameters
+    ----------
+    chi2, chi2_limit : float
+        The nominal lab's chi-square and its limit (:meth:`Problem.noise_chi2`).
+    peak, peak_limit : float
+        Its largest squared residual of one line and channel and its limit (:meth:`Problem.peak_limit`).
+    nuisance : dict or None
+        :meth:`Problem.nuisance_test` (None: no model form profiled).
+    change : dict or None
+        The statistics of :func:`vlab.diagnose.fit.rules.changed_beyond_noise` when that test found a change
+        (``chi2``, ``chi2_limit``, ``peak``, ``peak_limit``), else None.
+
+    Returns
+    -------
+    list of dict
+        Empty when the nominal lab passes every test (no mismatch).
+    """
+    out = []
+    if chi2 > chi2_limit:
+        out.append({"test": "chi2", "statistic": float(chi2), "limit": float(chi2_limit)})
+    if peak > peak_limit:
+        out.append({"test": "line", "statistic": float(peak), "limit": float(peak_limit)})
+    if nuisance and nuisance["beyond"]:
+        out.append({"test": "model_form", "statistic": float(nuisance["nuisance_chi2"]),
+                    "limit": float(nuisance["nuisance_limit"]), "largest": nuisance["largest"],
+                    "largest_sigmas": float(nuisance["largest_sigmas"])})
+    if change:
+        out.append({"test": "change", "statistic": float(change["chi2"]), "limit": float(change["chi2_limit"]),
+                    "peak": float(change["peak"]), "peak_limit": float(change["peak_limit"])})
+    return out
+
+
+def rejection(h, reason: str, before: float, after: float, noise: float | None, **more) -> dict:
+    """The entry of ``res.rejected`` for the candidate ``h`` rejected for ``reason``: its FRF misfits
+    [decades] before and after (validation rerun, else the linear model), the misfit an exact model leaves
+    [decades] (None when unknown) and any further numbers ``more`` (their keys carry their units)."""
+    return {"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
+            "noise_misfit": noise, **more, "reason": reason}
+
+
+def drop_selection(res: DiagnosisResult, misfit_0: float, chi2_fit: float, *, outside: bool) -> None:
+    """Unselect the candidate of ``res`` that a rule rejected: nothing selected, the nominal misfit
+    ``misfit_0``, the location from the fits (``chi2_fit``); ``outside``: the mismatch lies outside the
+    library (a library effect that does not fit is never the answer)."""
+    res.selected, res.validation, res.alternatives, res.plant_refit = None, None, [], None
+    res.misfit_selected = misfit_0
+    if res.instability:  # an unselected cause is no cause
+        res.instability.pop("cause", None)
+    if outside:
+        res.outside_library = True
+    res.location.points, res.location.members = located_from_fits(res, chi2_fit)
+
+
+def _misfits(res: DiagnosisResult, misfit_0: float) -> tuple[float, float, float | None]:
+    v = res.validation
+    return (v.misfit_before, v.misfit_after, v.noise_misfit) if v is not None else (misfit_0, res.misfit_selected,
+                                                                                   None)
+
+
+def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misfit_0: float, self_excited: bool,
+                notes: list) -> None:
+    """Rules 7-9 on the choice of ``res`` (modified in place: a rejected choice is unselected and listed in
+    ``res.rejected`` with its reason, and ``notes`` says why).
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        With ``selected`` (or None: nothing to do), ``validation`` and ``chi2_nominal`` set.
+    problem : Problem
+        Its policy decides.
+    chi2_fit : float
+        The nominal lab's chi-square on the fitted hypotheses' footing (whitened model form) [1].
+    misfit_0 : float
+        The nominal lab's misfit on the linear model [decades].
+    self_excited : bool
+        The recording oscillates by itself and the nominal replay does not (its cause was searched).
+    notes : list of str
+    """
+    policy = problem.policy
+    if res.selected is not None and res.validation is not None and worsens(res.validation, self_excited=self_excited):
+        v, h = res.validation, res.selected
+        res.rejected.append(rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
+                                      v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
+                                      time_error_after=v.time_error_after))
+        notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
+                     f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
+                     f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
+                     f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}): "
+                     "the library's best does not explain the mismatch, which lies outside the library; nothing "
+                     "is selected")
+        drop_selection(res, misfit_0, chi2_fit, outside=True)
+    if res.selected is not None:
+        h = res.selected
+        ok, why = improves_on_nominal(h, min(chi2_fit, res.chi2_nominal), res.overdispersion, res.validation,
+                                      policy, self_excited=self_excited)
+        if not ok:
+            before, after, noise = _misfits(res, misfit_0)
+            res.rejected.append(rejection(h, "fits no better than the nominal lab", before, after, noise))
+            notes.append(f"the best candidate, {h.label}, is rejected: {why}; no effect of the library fits the data "
+                         "better than the nominal lab within its own uncertainty, and nothing is selected")
+            drop_selection(res, misfit_0, chi2_fit, outside=False)
+    if res.selected is not None and not self_excited and not explains(res, chi2_fit):
+        h = res.selected
+        before, after, noise = _misfits(res, misfit_0)
+        res.rejected.append(rejection(h, "explains only part of the mismatch", before, after, noise))
+        notes.append(f"the best candidate, {h.label}, removes only {100 * explained_share(res, chi2_fit)[0]:.0f} % "
+                     "of the weighted misfit" + ("" if res.validation is None else
+                                                 " and its rerun changes the FRF misfit only "
+                                                 + ratio_text(res.validation.misfit_before,
+                                                              res.validation.misfit_after))
+                     + f", less than the {100 * policy.explained_share:.0f} % an explanation must account for: the "
+                       "mismatch lies outside the library; nothing is selected")
+        drop_selection(res, misfit_0, chi2_fit, outside=True)
+
+
+def _largest_line(problem: Problem, r: np.ndarray) -> dict | None:
+    """The line and channel of FRF data with the largest squared residual in ``r`` (shape (n_obs,))."""
+    d = problem.data
+    if not isinstance(d, FrfData):
+        return None
+    idx = np.argwhere(problem.mask)  # C order, as the residual's entries
+    n = len(idx)
+    r2 = r[:n] ** 2 + (r[n:2 * n] ** 2 if problem.use_phase and r.size >= 2 * n else 0.0)
+    k = int(np.argmax(r2))
+    line, ch = idx[k]
+    return {"frequency_hz": float(d.freq_hz[line]), "point": int(d.output_points[ch]), "squared_residual": float(r2[k])}
+
+
+def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dict | None:
+    """Rule 10: what the choice of ``res`` leaves, when it is resolved from what an exact model leaves.
+
+    Judged on the validation rerun when there is one (its misfit against the exact model's,
+    :func:`vlab.diagnose.fit.rules.remainder_resolved`), else on the linear model (the data out of the noise,
+    or of the model's accuracy where a model form is carried, and a resolved misfit). A choice with a
+    nonlinear part and no rerun is not judged: its linear model is a describing function.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        With a selected choice (else None is returned).
+    problem : Problem
+    misfit_0 : float
+        The nominal lab's misfit on the linear model [decades].
+
+    Returns
+    -------
+    dict or None
+        ``misfit_decades`` (left by the choice), ``noise_misfit_decades`` (an exact model's), ``judged_on``,
+        ``chi2`` and ``chi2_limit`` [1] and ``peak``/``peak_limit`` [1] of the choice's lab on the linear
+        model, ``modes`` (whose fit still disagrees), ``points`` (where the sensitivity ranking puts the
+        remainder), ``largest_line`` (``frequency_hz``, ``point``, ``squared_residual``); None when nothing
+        resolved is left.
+    """
+    if res.selected is None:
+        return None
+    state = res.selected_state()
+    v = res.validation
+    if v is not None:
+        if not remainder_resolved(v.misfit_after, v.noise_misfit):
+            return None
+        after, noise, judged = v.misfit_after, v.noise_misfit, f"the validation rerun ({v.plant})"
+    else:
+        if any(p.effect in NONLINEAR for p in res.selected_parts):
+            return None
+        inside = (within_model_accuracy(problem, state) if problem.model_form_frf is not None
+                  else problem.within_noise(state))
+        noise = None
+        if isinstance(problem.data, FrfData):
+            m = problem.mask
+            noise = noise_misfit(problem.data.h[m], problem.data.var[m], problem.weight_mag[m])
+        after = res.misfit_selected
+        if inside or (noise is not None and not remainder_resolved(after, noise)):
+            return None
+        judged = "the linear model"
+    r = problem.residual(state)
+    loc = locate(problem, state)
+    return {"misfit_decades": float(after), "noise_misfit_decades": None if noise is None else float(noise),
+            "misfit_nominal_decades": float(misfit_0), "judged_on": judged,
+            "chi2": float(r @ r), "chi2_limit": problem.noise_chi2(), "peak": problem.peak_of(r),
+            "peak_limit": problem.peak_limit(), "modes": [m.mode for m in loc.modes if m.flagged],
+            "points": list(loc.points), "largest_line": _largest_line(problem, r)}

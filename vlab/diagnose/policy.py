@@ -1,0 +1,137 @@
+"""The decision policy of the diagnosis: every threshold it decides by, in one object, derived from one rate.
+
+The user states a false-alarm rate ``alpha``: the probability that a recording of the nominal structure
+(within the measurement's noise and the model's stated uncertainty) is reported as a mismatch. Every limit
+of the diagnosis follows from it:
+
+* **Is there a mismatch?** Three tests look at the same residuals, weighted by one covariance (noise +
+  model-error floor + model form): the total chi-square, the largest single line (a local mismatch) and the
+  moves of the nominal lab's modes beyond their model-form uncertainty (the profiled nuisance parameters).
+  Each runs at the Šidák rate ``1 - (1 - alpha)^(1/3)``, so that the three together keep ``alpha``; the
+  largest of ``n`` lines runs at ``1 - (1 - a)^(1/n)`` of its test's rate ``a`` (Šidák, J. Am. Stat. Assoc.
+  62 (1967) 626-633).
+* **Is an effect better than nothing, a pair better than its better part?** A nested likelihood-ratio test
+  (Wilks, Ann. Math. Stat. 9 (1938) 60-62) at the rate ``alpha``: the fall of the chi-square, divided by
+  the overdispersion ``c_hat`` of the larger model (Burnham & Anderson, *Model Selection and Multimodel
+  Inference*, 2nd ed., 2002, Sec. 6.2), must exceed the ``1 - alpha`` quantile of chi-square with as many
+  degrees of freedom as parameters were added; and its quasi-BIC evidence must reach :attr:`evidence`
+  ("very strong" on the Kass-Raftery scale of ``2 ln B``, Kass & Raftery, J. Am. Stat. Assoc. 90 (1995)
+  773-795), which also orders the candidates.
+* **What does a validation resolve?** Misfits of independent parts add in quadrature: a rerun that raises
+  the FRF misfit from ``before`` to ``after`` makes the fit worse when ``after^2 - before^2`` exceeds the
+  square of the misfit an exact model leaves (the noise and the model form), and what a choice leaves is a
+  remainder when ``after^2 - noise^2`` exceeds ``noise^2`` (:meth:`DecisionPolicy.resolved`).
+
+Numbers without a statistical principle (yet) are stated as such in their attribute's text.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import scipy.stats
+
+from ..errors import OptionError
+
+#: Number of mismatch tests that share the false-alarm rate (total chi-square, largest line, mode moves).
+MISMATCH_TESTS = 3
+
+
+@dataclass(frozen=True)
+class DecisionPolicy:
+    """Every threshold of the diagnosis (see the module text for the principles).
+
+    Attributes
+    ----------
+    false_alarm_rate : float
+        ``alpha`` in (0, 0.5): the probability of reporting a mismatch on data of the nominal structure
+        [1]. Default 0.01.
+    noise_margin : float
+        Factor on the chi-square limits [1] (>= 1). No statistical principle: the noise variance is
+        estimated from a few excitation periods, and the total chi-square's limit carries no term for
+        that estimate's own scatter (the single-line limit uses the F distribution instead when the
+        estimate's degrees of freedom are known). 1.2 covers the scatter of a variance estimated from
+        about 25 degrees of freedom per line at one standard deviation.
+    evidence : float
+        Smallest quasi-BIC difference [1] for one candidate to be preferred to another (10: "very
+        strong", Kass & Raftery 1995); the candidates within it of the choice are its look-alikes.
+    explained_share : float
+        Share of the nominal chi-square [1] an effect must remove to be reported as *the* explanation (a
+        definition: the larger part of the mismatch), unless it brings the data within the noise.
+    pair_misfit_gain : float
+        Factor [1] by which a pair must lower its better part's FRF misfit to replace it. No statistical
+        principle: a practical significance that keeps out second effects which only absorb the
+        difference between the FE model and the MuJoCo plant when no model-form uncertainty is carried
+        (a vlab recording); a remainder it leaves is reported, not dropped.
+    parsimony : float
+        Factor [1] by which a pair with a nonlinear part must beat the time-domain error of that part's
+        rerun alone. No statistical principle: the time-domain error has no known resolution.
+    oscillation_tolerance : float
+        Relative frequency tolerance [1] within which a rerun's self-excited line is the recording's
+        (a limit cycle's frequency depends on its amplitude).
+    """
+
+    false_alarm_rate: float = 0.01
+    noise_margin: float = 1.2
+    evidence: float = 10.0
+    explained_share: float = 0.5
+    pair_misfit_gain: float = 1.5
+    parsimony: float = 0.8
+    oscillation_tolerance: float = 0.02
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.false_alarm_rate < 0.5) or not math.isfinite(self.false_alarm_rate):
+            raise OptionError(f"false-alarm rate {self.false_alarm_rate!r} must lie in (0, 0.5)")
+        if not self.noise_margin >= 1.0:
+            raise OptionError(f"noise margin {self.noise_margin!r} must be at least 1")
+
+    @property
+    def test_rate(self) -> float:
+        """Rate of each of the :data:`MISMATCH_TESTS` mismatch tests [1] (Šidák)."""
+        return 1.0 - (1.0 - self.false_alarm_rate) ** (1.0 / MISMATCH_TESTS)
+
+    def chi2_limit(self, n: int) -> float:
+        """Largest total chi-square of ``n`` residuals under the null [1]: ``margin * chi2.isf(a, n)``."""
+        return float(self.noise_margin * scipy.stats.chi2.isf(self.test_rate, max(int(n), 1)))
+
+    def line_limit(self, n_lines: int, dof: int, nu: float | None = None) -> float:
+        """Largest squared residual of one of ``n_lines`` lines, each with ``dof`` (1 or 2) degrees of
+        freedom, under the null [1]; ``nu``: the degrees of freedom of an estimated noise variance (the
+        residual then follows ``dof F(dof, nu)``, whose tail is heavier). Šidák over the lines."""
+        p = 1.0 - (1.0 - self.test_rate) ** (1.0 / max(int(n_lines), 1))
+        if nu:
+            return float(self.noise_margin * dof * scipy.stats.f.isf(p, dof, nu))
+        return float(self.noise_margin * scipy.stats.chi2.isf(p, dof))
+
+    def nuisance_limit(self, k: int) -> float:
+        """Largest ``|x|^2`` of ``k`` profiled model-form parameters (standard normal under the null) [1]."""
+        return float(self.noise_margin * scipy.stats.chi2.isf(self.test_rate, max(int(k), 1)))
+
+    def lr_limit(self, k_added: int, c_hat: float = 1.0) -> float:
+        """Smallest fall of the chi-square [1] that ``k_added`` more parameters must give to be needed:
+        ``c_hat * chi2.isf(alpha, k_added)`` (Wilks; overdispersion ``c_hat`` >= 1)."""
+        return float(max(c_hat, 1.0) * scipy.stats.chi2.isf(self.false_alarm_rate, max(int(k_added), 1)))
+
+    def needed(self, chi2_without: float, chi2_with: float, k_added: int, c_hat: float = 1.0) -> bool:
+        """Whether ``k_added`` parameters that lower the chi-square from ``chi2_without`` to ``chi2_with``
+        are needed (:meth:`lr_limit`)."""
+        return bool(chi2_without - chi2_with > self.lr_limit(k_added, c_hat))
+
+    @staticmethod
+    def resolved(before: float, after: float, noise: float | None) -> bool:
+        """Whether a validation resolves a fall of the FRF misfit from ``before`` to ``after`` [decades],
+        given the misfit ``noise`` an exact model leaves (quadrature: ``before^2 - after^2 > noise^2``).
+        Without a finite ``noise``, any fall counts."""
+        if not (math.isfinite(before) and math.isfinite(after)):
+            return False
+        tol = noise**2 if noise is not None and math.isfinite(noise) else 0.0
+        return bool(before**2 - after**2 > tol)
+
+    def as_dict(self) -> dict:
+        """The policy's numbers for the JSON report (all dimensionless), with the per-test rate."""
+        return {**asdict(self), "mismatch_test_rate": self.test_rate}
+
+
+#: The default policy (``vlab diagnose`` without ``--false-alarm-rate``).
+DEFAULT_POLICY = DecisionPolicy()
