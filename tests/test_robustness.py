@@ -11,7 +11,7 @@ import pytest
 
 import vlab
 from vlab.analysis import closed_loop_frf, closed_loop_modes, sampled_data_controller_frf, velocity_frf
-from vlab.calibration import modal_damping_matrix, open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.design import design_controller
 from vlab.errors import DataFileError, OptionError
 from vlab.fe import build_fe_model

@@ -44,6 +44,7 @@ def test_self_excited_lqg_sample_is_unstable_on_mujoco_and_left_out(lqg_study):
     assert st["working_loop_at_nominal"] is False
     plants = per_plant(summarize(cfg, nominal, res), [chk], cfg.n_samples, cfg.seed)
     assert plants["fe_sampled_loop"]["lqg"]["probability_unstable"] == 0.0
+    assert plants["fe_sampled_loop"]["lqg"]["working_loop_at_nominal"] is True  # on the FE model it works
     assert plants["mujoco_time_simulation"]["lqg"]["probability_unstable"] == 1.0
 
 

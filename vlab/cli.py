@@ -1052,9 +1052,10 @@ def robustness(
     simulate: int = _opt(4, "--simulate",
                          help="worst samples per controller (by the linear measure) also run in time on the "
                               "batched MuJoCo lab, >= 0"),
-    simulate_random: int = _opt(100, "--simulate-random",
+    simulate_random: int = _opt(None, "--simulate-random",
                                 help="samples per controller drawn at random and run on the MuJoCo lab, >= 0: "
-                                     "the MuJoCo plant's P(unstable) is estimated from them"),
+                                     "the MuJoCo plant's P(unstable) is estimated from them (default: 100 for the "
+                                     "BCC, 10 for the grid, whose 12 s runs take about 6 s each)"),
     yes: bool = _flag("--yes", help="run a study estimated to take more than 30 min"),
     out: str = _opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = _flag("--overwrite", help="replace an existing non-empty output folder"),
@@ -1072,7 +1073,7 @@ def robustness(
     robustness.json, samples.npz, robustness.png, worst_time_history.png, robustness.md, worst.rrd.
     """
     from .io.atomic import atomic_dir
-    from .robust.pipeline import run_pipeline
+    from .robust.pipeline import DEFAULT_RANDOM, run_pipeline
     from .robust.report import write_outputs
     from .robust.scheduler import CONFIRM_ABOVE_S, estimate_seconds, format_duration, parse_samples, \
         parse_scheduler
@@ -1088,6 +1089,7 @@ def robustness(
     sched = parse_scheduler(scheduler)
     if workers is not None and workers < 1:
         raise OptionError(f"--workers must be >= 1, got {workers!r}")
+    simulate_random = DEFAULT_RANDOM[structure] if simulate_random is None else simulate_random
     for name, value in (("--simulate", simulate), ("--simulate-random", simulate_random)):
         if value < 0:
             raise OptionError(f"{name} must be >= 0, got {value!r}")
@@ -1113,7 +1115,7 @@ def robustness(
         f" --uncertainty {uncertainty}" if uncertainty else "") + (
         f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "") + (
         f" --simulate {simulate}" if simulate != 4 else "") + (
-        f" --simulate-random {simulate_random}" if simulate_random != 100 else "")
+        f" --simulate-random {simulate_random}" if simulate_random != DEFAULT_RANDOM[structure] else "")
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
         files = write_outputs(tmp, cfg, nominal, res, summary, checks, timings, command, extras=extras)
     if markdown_copy is not None:

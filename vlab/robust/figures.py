@@ -43,7 +43,8 @@ def _violin_panel(ax, data: list, title: str, labels: list[str], *, nominal_valu
     ax.set_xticks(range(1, len(labels) + 1), labels, rotation=45, fontsize=7)
 
 
-def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict, plants: dict) -> Path:
+def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict, plants: dict, *,
+                       checks=()) -> Path:
     """``robustness.png``: the distributions per controller as violins, P(unstable) per plant with intervals.
 
     Parameters
@@ -56,6 +57,8 @@ def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict
         Per-sample arrays of :func:`vlab.robust.study.run_study`.
     plants : dict
         Of :func:`vlab.robust.plants.per_plant`.
+    checks : sequence of SimCheck
+        The MuJoCo runs: a panel of their random samples' peak-ratio errors [dB] (stable runs only).
 
     Returns
     -------
@@ -82,7 +85,18 @@ def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict
     _violin_panel(axes[2, 0], [x[np.isfinite(x)] for x in e], "energy index / nominal", labels)
     ax = axes[2, 1] if nm > 1 else axes[2, 0]
     _probability_panel(ax, ctl, labels, plants)
-    for a in axes[2, 2:]:
+    rest = list(axes[2, 2:])
+    if checks and rest:
+        by = {ch.controller: ch for ch in checks}
+        data = []
+        for c in ctl:
+            ch = by.get(c)
+            ok = np.zeros(0, dtype=bool) if ch is None else ch.random & ~ch.unstable_on_plant
+            x = np.zeros(0) if ch is None else np.abs(20 * np.log10(ch.peak_analysis_over_experiment[ok])).mean(axis=1)
+            data.append(x[np.isfinite(x)])
+        _violin_panel(rest[0], data, "MuJoCo: peak-ratio error [dB], random stable runs", labels)
+        rest = rest[1:]
+    for a in rest:
         a.axis("off")
     fig.suptitle(f"{cfg.structure}: {cfg.n_samples} samples, seed {cfg.seed}; violins: sampled-data loop on the "
                  "perturbed FE model; peak ratio = analysis/experiment (Table 10)", fontsize=9)

@@ -52,6 +52,36 @@ def _spec_with_ei(spec, factor: float):
     return out
 
 
+def fe_loop_mode_near(cfg: StudyConfig, nominal: Nominal, controller: str, frequency_hz: float) -> dict:
+    """The nominal FE sampled loop's closed-loop mode nearest ``frequency_hz``: what the linear analysis predicts there.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+    controller : str
+    frequency_hz : float
+        E.g. the MuJoCo limit cycle's line [Hz].
+
+    Returns
+    -------
+    dict
+        ``frequency_hz`` [Hz] and ``damping_ratio`` [-] of the pole ``s = ln(z) / T`` nearest in frequency.
+    """
+    from .simulate import _linear_loop
+
+    spec0 = nominal_fe_model(cfg.structure).spec
+    chain0 = nominal.chains[controller]
+    ones = np.ones(len(nominal.actuators))
+    loop = _linear_loop(spec0, nominal, controller, nominal.response_point, delay_periods=chain0.delay_periods,
+                        actuator_gain=ones, sensor_gain=ones)
+    s = np.log(np.linalg.eigvals(loop.a_cl).astype(complex)) / chain0.period_s
+    s = s[s.imag > 0]
+    f = np.abs(s) / (2 * np.pi)
+    i = int(np.argmin(np.abs(f - frequency_hz)))
+    return {"frequency_hz": float(f[i]), "damping_ratio": float(-s[i].real / abs(s[i]))}
+
+
 def limit_cycle_sensitivity(cfg: StudyConfig, nominal: Nominal, controller: str, *, seed: int = 0,
                             nthread: int = 0) -> list[dict]:
     """Run the nominal loop of ``controller`` on the MuJoCo plant with each change of :data:`CHANGES`.

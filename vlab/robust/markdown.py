@@ -34,7 +34,7 @@ def _num(v, ci, fmt: str, scale: float = 1.0, unit: str = "") -> str:
     return text + (f" [{scale * ci[0]:{fmt}}, {scale * ci[1]:{fmt}}]" if ci and ci[0] is not None else "")
 
 
-def plant_table(plants: dict, sim: dict) -> list[str]:
+def plant_table(plants: dict, sim: dict, n_modes: int) -> list[str]:
     """Sec. 7 restated: a row per controller and plant (P(unstable), peak-ratio error, damping change, nominal)."""
     from .plants import PLANTS
 
@@ -46,19 +46,46 @@ def plant_table(plants: dict, sim: dict) -> list[str]:
             v = per.get(c)
             if v is None:
                 continue
+            w = v.get("working_loop_at_nominal")
+            nominal = "n/a" if w is None else "yes" if w else "**no**"
             if plant == "mujoco_time_simulation":
-                where = (f"{PLANTS[plant]}: {v['simulated_random_samples']} random samples")
-                nominal = ("yes" if v["working_loop_at_nominal"] else
-                           f"**no**: {v['nominal_plant']['summary']}")
+                where = f"{PLANTS[plant]}: {v['simulated_random_samples']} random samples"
+                f0 = v["nominal_plant"]["frequency_hz"]
+                if not w and f0 is not None:
+                    nominal += f": self-excited at {f0:.1f} Hz"
             else:
                 where = f"{PLANTS[plant]}: all {v['samples']} samples"
-                nominal = "yes" if v["probability_unstable"] < 1 else "no"
             damp = v.get("damping_change_relative_median")
+            err = _num(v['peak_ratio_error_db_median'], v['peak_ratio_error_db_median_ci95'], '.3f')
+            compared = v.get("peak_ratio_modes_compared")
+            if compared and len(compared) < n_modes:
+                err += (f" (modes {', '.join(map(str, compared))}: the others' windows hold no "
+                        f"{sim.get('resolution_hz', '?')} Hz line)")
             lines.append(f"| {LABELS[c]} | {where} | {_pct(v['probability_unstable'], v['probability_unstable_ci95'])} "
-                         f"| {_num(v['peak_ratio_error_db_median'], v['peak_ratio_error_db_median_ci95'], '.3f')} | "
+                         f"| {err} | "
                          + ("not measured (4 s records)" if damp is None and plant != "fe_sampled_loop" else
                             _num(damp, v.get("damping_change_relative_median_ci95"), ".2f", 100, " %"))
                          + f" | {nominal} |")
+    return lines
+
+
+def _not_working(plants: dict, fe_modes: dict) -> list[str]:
+    """Sentences for the controllers whose unperturbed loop is unstable on the MuJoCo plant (Sec. 6.1 compared)."""
+    lines = []
+    for c, v in plants.get("mujoco_time_simulation", {}).items():
+        if v["working_loop_at_nominal"]:
+            continue
+        fe = plants["fe_sampled_loop"][c]
+        m = fe_modes.get(c)
+        near = ("" if m is None else f" (its closed-loop mode nearest the line, {m['frequency_hz']:.2f} Hz, keeps "
+                f"a damping ratio of {m['damping_ratio']:+.4f} there)")
+        lines += ["", f"**{LABELS[c]} is not a working loop on the MuJoCo plant**, already at nominal: "
+                  f"{v['nominal_plant']['summary']}. Its numbers on the FE model (P(unstable) "
+                  f"{100 * fe['probability_unstable']:.1f} %, peak-ratio error "
+                  f"{fe['peak_ratio_error_db_median']:.3f} dB) are those of a loop that works on the FE model, "
+                  f"residual modes included{near}, and not on the MuJoCo plant: "
+                  f"{v['unstable_random_samples']} of {v['simulated_random_samples']} random samples self-excite "
+                  "there. The dissertation's LQG ended in a limit cycle too, at about 41 Hz (Sec. 6.1)."]
     return lines
 
 
@@ -128,7 +155,9 @@ def _limit_cycle_lines(rows_by_controller: dict) -> list[str]:
                   "| change | self-excited line [Hz] | shift [Hz] | growth [1/s] | nearest FE open-loop mode [Hz] |",
                   "|---|---|---|---|---|"]
         for r in rows:
-            what = "none (thesis chain)" if r["quantity"] == "nominal" else f"{r['quantity']} = {r['value']:g} {r['unit']}"
+            what = ("none (thesis chain)" if r["quantity"] == "nominal" else
+                    f"every section's EI x {r['value']:g}" if r["quantity"] == "bending_stiffness_factor" else
+                    f"{r['quantity']} = {r['value']:g} {r['unit']}")
             f = "stable" if r["frequency_hz"] is None else f"{r['frequency_hz']:.2f}"
             sh = "" if r["shift_hz"] is None else f"{r['shift_hz']:+.2f}"
             g = "" if r["growth_rate_1_s"] is None else f"{r['growth_rate_1_s']:.3f}"
@@ -183,8 +212,9 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
               "Probabilities with the Wilson 95 % interval, medians with a 95 % bootstrap interval; the peak-ratio "
               "error is each sample's mean over modes of |20 log10(analysis/experiment)| (Table 10's ratio), over "
               "the samples stable on that plant.", ""]
-    lines += plant_table(plants, sim)
+    lines += plant_table(plants, sim, nominal.n_modes)
     lines += [""] + [f"- **{p}**: {text}" for p, text in sec7_on_plants(plants).items()]
+    lines += _not_working(plants, extras.get("fe_loop_mode_near_limit_cycle", {}))
     lines += _fe_lines(cfg, nominal, summary)
     if checks:
         lines += _sim_lines(checks, sim)

@@ -13,18 +13,19 @@ from __future__ import annotations
 import contextlib
 import time
 
-from .limit_cycle import limit_cycle_sensitivity
+from .limit_cycle import fe_loop_mode_near, limit_cycle_sensitivity
 from .scheduler import check_scheduler, dask_client, parse_scheduler
 from .simulate import CHECK_RECORDS, CHECK_RESOLUTION_HZ, choose_samples, simulate_samples
 from .study import StudyConfig, default_workers, nominal_analysis, run_study, summarize
 
-#: Default samples per controller run on MuJoCo: the worst by the linear measure, and drawn at random.
+#: Default samples per controller run on MuJoCo: the worst by the linear measure, and drawn at random
+#: (per structure: a 12 s grid run takes about 6 s on two shared cores, a BCC run about 0.3-0.8 s).
 DEFAULT_WORST = 4
-DEFAULT_RANDOM = 100
+DEFAULT_RANDOM = {"bcc": 100, "grid": 10}
 
 
 def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: int | None = None,
-                 n_worst: int = DEFAULT_WORST, n_random: int = DEFAULT_RANDOM, limit_cycle: bool = True):
+                 n_worst: int = DEFAULT_WORST, n_random: int | None = None, limit_cycle: bool = True):
     """Run the study and its checks; return what :func:`vlab.robust.report.write_outputs` takes.
 
     Parameters
@@ -35,7 +36,8 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
     workers : int, optional
         Processes of the local cluster (default one per CPU).
     n_worst, n_random : int
-        Samples per controller run on MuJoCo (>= 0; both 0: no time simulation).
+        Samples per controller run on MuJoCo (>= 0; both 0: no time simulation); ``n_random`` defaults to
+        :data:`DEFAULT_RANDOM` of the structure.
     limit_cycle : bool
         Run :func:`vlab.robust.limit_cycle.limit_cycle_sensitivity` for the
         controllers unstable on MuJoCo at nominal.
@@ -50,7 +52,8 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
     timings : dict
         Seconds: ``designs`` (with the cluster's start), ``study``, ``time_simulation``, ``total``; ``where`` (text).
     extras : dict
-        ``time_simulation`` settings and ``limit_cycle_sensitivity`` rows.
+        ``time_simulation`` settings, ``limit_cycle_sensitivity`` rows and
+        ``fe_loop_mode_near_limit_cycle`` (:func:`vlab.robust.limit_cycle.fe_loop_mode_near`).
 
     Raises
     ------
@@ -59,6 +62,7 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
     SchedulerError
         A remote scheduler that does not answer in time.
     """
+    n_random = DEFAULT_RANDOM[cfg.structure] if n_random is None else n_random
     scheduler = parse_scheduler(scheduler)
     if scheduler not in (None, "local"):
         check_scheduler(scheduler)
@@ -80,6 +84,8 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
         if limit_cycle:
             lc = {ch.controller: limit_cycle_sensitivity(cfg, nominal, ch.controller, seed=cfg.seed)
                   for ch in checks if ch.nominal.unstable}
+    fe_modes = {ch.controller: fe_loop_mode_near(cfg, nominal, ch.controller, ch.nominal.frequency_hz)
+                for ch in checks if ch.nominal.unstable and ch.nominal.frequency_hz == ch.nominal.frequency_hz}
     t3 = time.perf_counter()
     summary = summarize(cfg, nominal, res)
     timings = {"designs": t1 - t0, "study": t2 - t1, "time_simulation": t3 - t2, "total": t3 - t0, "where": where}
@@ -88,5 +94,5 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
                                                       "numpy default_rng([seed, 7]), the same for every controller",
                                   "resolution_hz": CHECK_RESOLUTION_HZ, "records": CHECK_RECORDS,
                                   "run_s": CHECK_RECORDS / CHECK_RESOLUTION_HZ},
-              "limit_cycle_sensitivity": lc}
+              "limit_cycle_sensitivity": lc, "fe_loop_mode_near_limit_cycle": fe_modes}
     return nominal, res, summary, checks, timings, extras

@@ -88,7 +88,9 @@ def mujoco_statistics(check, seed: int) -> dict:
         the unstable runs, None if none), ``peak_ratio_error_db_median`` and
         ``..._ci95`` (random samples stable on the plant: mean over modes of
         |20 log10(analysis/experiment)|, H1 against the nominal prediction on
-        the same lines), ``peak_ratio_samples``,
+        the same lines; over the modes whose +-10 % window holds a line of
+        the check's resolution in every such run), ``peak_ratio_samples``,
+        ``peak_ratio_modes_compared`` (1-based),
         ``damping_change_relative_median`` (None: 4 s records do not
         identify the damping of the controlled modes), ``nominal_plant``
         (the unperturbed plant's verdict) and ``working_loop_at_nominal``.
@@ -97,8 +99,8 @@ def mujoco_statistics(check, seed: int) -> dict:
     n_r, k_r = int(rnd.sum()), int((rnd & bad).sum())
     ok = rnd & ~bad
     db = np.abs(20 * np.log10(check.peak_analysis_over_experiment[ok]))
-    per_sample = db.mean(axis=1) if db.size else np.zeros(0)
-    per_sample = per_sample[np.isfinite(per_sample)]
+    modes = np.flatnonzero(np.all(np.isfinite(db), axis=0)) if db.size else np.zeros(0, dtype=int)
+    per_sample = db[:, modes].mean(axis=1) if db.size and modes.size else np.zeros(0)
     osc = check.oscillation_hz[bad & np.isfinite(check.oscillation_hz)]
     return {
         "simulated_random_samples": n_r, "unstable_random_samples": k_r,
@@ -111,6 +113,7 @@ def mujoco_statistics(check, seed: int) -> dict:
         "peak_ratio_error_db_median": float(np.median(per_sample)) if per_sample.size else None,
         "peak_ratio_error_db_median_ci95": median_ci(per_sample, seed),
         "peak_ratio_samples": int(per_sample.size),
+        "peak_ratio_modes_compared": [int(r) + 1 for r in modes],
         "damping_change_relative_median": None,
         "nominal_plant": _verdict_dict(check.nominal),
         "working_loop_at_nominal": not check.nominal.unstable,
@@ -134,7 +137,8 @@ def per_plant(summary: Summary, checks, n_samples: int, seed: int) -> dict:
     dict
         FE plant: ``samples``, ``probability_unstable`` and its Wilson
         ``..._ci95``, ``peak_ratio_error_db_median`` and ``..._ci95``,
-        ``damping_change_relative_median`` and ``..._ci95``. MuJoCo plant:
+        ``damping_change_relative_median`` and ``..._ci95``,
+        ``working_loop_at_nominal`` (the nominal sampled loop's ``max |z| < 1``). MuJoCo plant:
         :func:`mujoco_statistics`.
     """
     fe = {}
@@ -145,7 +149,9 @@ def per_plant(summary: Summary, checks, n_samples: int, seed: int) -> dict:
                  "peak_ratio_error_db_median": v["peak_ratio_error_db_median"],
                  "peak_ratio_error_db_median_ci95": v["peak_ratio_error_db_median_ci95"],
                  "damping_change_relative_median": v["damping_change_relative_median"],
-                 "damping_change_relative_median_ci95": v["damping_change_relative_median_ci95"]}
+                 "damping_change_relative_median_ci95": v["damping_change_relative_median_ci95"],
+                 "working_loop_at_nominal": (None if v.get("nominal_spectral_radius") is None
+                                             else bool(v["nominal_spectral_radius"] < 1.0))}
     out = {"fe_sampled_loop": fe}
     if checks:
         out["mujoco_time_simulation"] = {ch.controller: mujoco_statistics(ch, seed) for ch in checks}

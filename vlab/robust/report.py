@@ -69,7 +69,8 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
     extras : dict, optional
         ``"time_simulation"`` (settings of the check: samples per controller, selection, resolution),
         ``"limit_cycle_sensitivity"`` (controller -> rows of
-        :func:`vlab.robust.limit_cycle.limit_cycle_sensitivity`); copied in as they are.
+        :func:`vlab.robust.limit_cycle.limit_cycle_sensitivity`), ``"fe_loop_mode_near_limit_cycle"``
+        (controller -> :func:`vlab.robust.limit_cycle.fe_loop_mode_near`); copied in as they are.
     """
     from .plants import PLANTS, per_plant, sec7_on_plants
 
@@ -98,6 +99,7 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
         "time_simulation": extras.get("time_simulation", {}),
         "time_simulation_checks": [check_dict(ch) for ch in checks],
         "limit_cycle_sensitivity": extras.get("limit_cycle_sensitivity", {}),
+        "fe_loop_mode_near_limit_cycle": extras.get("fe_loop_mode_near_limit_cycle", {}),
     }
     return out
 
@@ -191,7 +193,8 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
     files["json"].write_text(json.dumps(_clean(results_dict(cfg, nominal, summary, checks, timings, extras=extras)),
                                         indent=2, allow_nan=False, default=_json_default) + "\n")
     write_samples(files["samples"], cfg, nominal, res)
-    distribution_plots(files["plot"], cfg, nominal, res, per_plant(summary, checks, cfg.n_samples, cfg.seed))
+    distribution_plots(files["plot"], cfg, nominal, res, per_plant(summary, checks, cfg.n_samples, cfg.seed),
+                       checks=checks)
     files["markdown"].write_text(markdown(cfg, nominal, summary, checks, timings, command, extras=extras))
     worst = worst_run(checks)
     if worst is not None:
@@ -199,12 +202,15 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
 
         ch, row = worst
         rec = ch.recordings[row]
-        state = (f"unstable on MuJoCo: {ch.summaries[row]}" if ch.unstable_on_plant[row]
-                 else "stable on MuJoCo")
+        state = ("diverged on MuJoCo" if ch.diverged[row] else
+                 f"self-excited on MuJoCo at {ch.oscillation_hz[row]:.2f} Hz, "
+                 f"{100 * ch.power_above_band[row]:.1f} % of the power above the band"
+                 if ch.unstable_on_plant[row] else "stable on MuJoCo")
+        state += f"; FE sampled loop: {'unstable' if ch.predicted_unstable[row] else 'stable'}"
         test = TESTS[cfg.structure]
         files["time_history"] = time_history_plot(
             folder / "worst_time_history.png", rec, response_point=test.response_point, band_hz=test.band_hz,
-            title=f"{_LABELS[ch.controller]}, sample {int(ch.indices[row])}: {state[:160]}")
+            title=f"{_LABELS[ch.controller]}, sample {int(ch.indices[row])}: {state}")
         files["rerun"] = log_experiment(folder / "worst.rrd", recording=rec.recording,
                                         metadata={"structure": cfg.structure, "controller": ch.controller,
                                                   "sample": int(ch.indices[row])})

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calibration import open_loop_ratios
+from ..fe.damping import open_loop_ratios
 from ..fe import build_fe_model
 from ..lab.batch import run_batch
 from ..lab.engine import ControllerEngine

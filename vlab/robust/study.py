@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..calibration import open_loop_ratios
+from ..fe.damping import open_loop_ratios
 from ..errors import OptionError
 from ..fe import build_fe_model
 from ..lab.experiment import TESTS, default_chain
@@ -107,6 +107,8 @@ class Nominal:
     response_point : int
     displacement : bool
         Whether the compared FRF is displacement (BCC) or velocity (grid).
+    spectral_radius : dict of str to float
+        Nominal sampled loop's ``max |z|`` [-] (< 1: a working loop on the nominal FE model).
     """
 
     designs: dict
@@ -120,6 +122,7 @@ class Nominal:
     excitation: int
     response_point: int
     displacement: bool
+    spectral_radius: dict = field(default_factory=dict)
 
 
 def _evaluate(fe, design, chain, nominal: Nominal, *, delay_periods, actuator_gain, sensor_gain, centres):
@@ -163,7 +166,7 @@ def nominal_analysis(cfg: StudyConfig) -> Nominal:
     designs, chains = {}, {}
     base = Nominal({}, {}, {}, {}, {}, {}, test.n_modes, acts, exc, test.response_point,
                    test.response_quantity == "displacement")
-    out = {k: {} for k in ("zeta", "freq_hz", "peaks", "energy_j_s")}
+    out = {k: {} for k in ("zeta", "freq_hz", "peaks", "energy_j_s", "rho")}
     ones = np.ones(len(acts))
     for c in cfg.controllers:
         chain = default_chain(c)
@@ -172,8 +175,9 @@ def nominal_analysis(cfg: StudyConfig) -> Nominal:
         z, f, rho, j, pk = _evaluate(fe, d, chain, base, delay_periods=chain.delay_periods, actuator_gain=ones,
                                      sensor_gain=ones, centres=None)
         out["zeta"][c], out["freq_hz"][c], out["peaks"][c], out["energy_j_s"][c] = z, f, pk, j
+        out["rho"][c] = float(rho)
     return Nominal(designs, chains, out["zeta"], out["freq_hz"], out["peaks"], out["energy_j_s"], test.n_modes,
-                   acts, exc, test.response_point, test.response_quantity == "displacement")
+                   acts, exc, test.response_point, test.response_quantity == "displacement", out["rho"])
 
 
 def run_chunk(cfg: StudyConfig, nominal: Nominal, indices) -> dict:
@@ -386,6 +390,7 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
             "damping_change_relative_median_ci95": median_ci(per_sample_dz, cfg.seed),
             "energy_index_ratio_to_nominal": _q(e_ratio[stable]),
             "spectral_radius_max": float(np.max(res[f"{c}/spectral_radius"])),
+            "nominal_spectral_radius": nominal.spectral_radius.get(c),
         }
     ranking = {m: sorted(cfg.controllers, key=lambda c: (s[c], CONTROLLERS.index(c))) for m, s in score.items()}
     holds = {}
