@@ -235,7 +235,7 @@ def test_command_writes_the_outputs(tmp_path):
     out = tmp_path / "rob"
     md = tmp_path / "rob.md"
     res = CliRunner().invoke(app, ["robustness", "bcc", "--samples", "2", "--chunk-size", "1", "--scheduler",
-                                   "none", "--simulate", "0", "--controllers", "lqdrf-diag,lqg", "--out", str(out),
+                                   "none", "--simulate", "1", "--controllers", "lqdrf-diag,lqg", "--out", str(out),
                                    "--markdown", str(md)])
     assert res.exit_code == 0, res.output
     data = json.loads((out / "robustness.json").read_text())
@@ -243,6 +243,11 @@ def test_command_writes_the_outputs(tmp_path):
     assert data["thesis_conclusion_sec7"]["probability_unstable"]["verdict"] == "undecided (all equal)"
     assert (out / "robustness.png").stat().st_size > 0 and md.read_text().startswith("# Robustness")
     assert set(np.load(out / "samples.npz").files) >= {"lqg/damping_ratio", "lqg/peak_level_m_per_n"}
+    # the probabilities per plant: the FE loop over both samples, MuJoCo over the random ones (both, here)
+    fe, mj = data["per_plant"]["fe_sampled_loop"]["lqg"], data["per_plant"]["mujoco_time_simulation"]["lqg"]
+    assert fe["samples"] == 2 and fe["probability_unstable_ci95"][1] > 0
+    assert mj["simulated_random_samples"] == 2 and mj["probability_unstable"] == 1.0
+    assert (out / "worst_time_history.png").stat().st_size > 0 and (out / "worst.rrd").stat().st_size > 0
     res = CliRunner().invoke(app, ["robustness", "bcc", "--samples", "2", "--scheduler", "ftp://x",
                                    "--out", str(tmp_path / "x")])
     assert res.exit_code == 2 and "--scheduler" in res.output
