@@ -1075,8 +1075,7 @@ def robustness(
     from .io.atomic import atomic_dir
     from .robust.pipeline import DEFAULT_RANDOM, run_pipeline
     from .robust.report import write_outputs
-    from .robust.scheduler import CONFIRM_ABOVE_S, estimate_seconds, format_duration, parse_samples, \
-        parse_scheduler
+    from .robust.scheduler import confirm_size, parse_samples, parse_scheduler
     from .robust.study import CONTROLLERS as CONTROLLER_ORDER
     from .robust.study import StudyConfig, default_workers
     from .robust.uncertainty import DEFAULTS, load_uncertainties
@@ -1094,11 +1093,8 @@ def robustness(
         if value < 0:
             raise OptionError(f"{name} must be >= 0, got {value!r}")
     cfg_controllers = tuple(c.strip() for c in controllers.split(",") if c.strip())
-    n_proc = 1 if sched is None else (workers or default_workers())
-    est = estimate_seconds(structure, n_samples, max(len(cfg_controllers), 1), n_proc)
-    if est > CONFIRM_ABOVE_S and not yes:
-        raise OptionError(f"--samples {samples}: about {format_duration(est)} on {n_proc} process(es) "
-                          f"({n_samples} samples); pass --yes to run it, or fewer samples")
+    confirm_size(samples, structure, n_samples, len(cfg_controllers),
+                 1 if sched is None else (workers or default_workers()), yes)
     out_path = _out_dir(out, ROBUSTNESS_OUT, overwrite)
     if markdown_copy is not None:
         from .io.atomic import check_output_file

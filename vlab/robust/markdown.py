@@ -35,7 +35,22 @@ def _num(v, ci, fmt: str, scale: float = 1.0, unit: str = "") -> str:
 
 
 def plant_table(plants: dict, sim: dict, n_modes: int) -> list[str]:
-    """Sec. 7 restated: a row per controller and plant (P(unstable), peak-ratio error, damping change, nominal)."""
+    """Sec. 7 restated: a row per controller and plant (P(unstable), peak-ratio error, damping change, nominal).
+
+    Parameters
+    ----------
+    plants : dict
+        Of :func:`vlab.robust.plants.per_plant`.
+    sim : dict
+        Settings of the time simulation (``resolution_hz`` named where modes are left out).
+    n_modes : int
+        Modes compared.
+
+    Returns
+    -------
+    list of str
+        Markdown lines.
+    """
     from .plants import PLANTS
 
     lines = ["| controller | plant | P(unstable) [95 % interval] | median peak-ratio error [dB] [95 %] | "

@@ -37,7 +37,17 @@ def _f(v) -> float | None:
 
 
 def check_dict(ch) -> dict:
-    """JSON of one :class:`vlab.robust.simulate.SimCheck` (units in the keys; NaN -> None)."""
+    """JSON of one :class:`vlab.robust.simulate.SimCheck` (units in the keys; NaN -> None).
+
+    Parameters
+    ----------
+    ch : SimCheck
+
+    Returns
+    -------
+    dict
+        Lists of length k (samples), ``..._by_mode`` lists of k lists of n_modes.
+    """
     rows = lambda a: [[_f(v) for v in row] for row in a]  # noqa: E731
     return {"controller": ch.controller, "samples": ch.indices.tolist(), "batches": ch.batches,
             "chosen_as_worst": ch.worst.tolist(), "drawn_at_random": ch.random.tolist(),

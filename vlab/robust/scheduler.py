@@ -156,6 +156,36 @@ def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers
     return SECONDS_PER_SAMPLE[structure] * n_samples * n_controllers / 4 / max(workers, 1)
 
 
+def confirm_size(samples_text: str, structure: str, n_samples: int, n_controllers: int, workers: int,
+                 yes: bool) -> float:
+    """Refuse a study estimated (:func:`estimate_seconds`) to run longer than :data:`CONFIRM_ABOVE_S` unless ``yes``.
+
+    Parameters
+    ----------
+    samples_text : str
+        ``--samples`` as given (named in the message).
+    structure : str
+    n_samples, n_controllers, workers : int
+    yes : bool
+        ``--yes``.
+
+    Returns
+    -------
+    float
+        The estimate [s].
+
+    Raises
+    ------
+    OptionError
+        Over the limit without ``yes``: the message gives the estimate.
+    """
+    est = estimate_seconds(structure, n_samples, max(n_controllers, 1), workers)
+    if est > CONFIRM_ABOVE_S and not yes:
+        raise OptionError(f"--samples {samples_text}: about {format_duration(est)} on {workers} process(es) "
+                          f"({n_samples} samples); pass --yes to run it, or fewer samples")
+    return est
+
+
 def format_duration(seconds: float) -> str:
     """``seconds`` as ``"N s"``, ``"N min"``, ``"N h"`` or ``"N days"`` (two significant figures)."""
     for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):

@@ -232,7 +232,22 @@ def run_cases(cfg: StudyConfig, nominal: Nominal, controller: str, specs, chains
 
 
 def sample_chain(chain0: HardwareChain, sample, actuators) -> HardwareChain:
-    """The controller's thesis chain with a sample's delay [periods] and channel gains, and the check's noise."""
+    """The controller's thesis chain with a sample's delay and channel gains, and the check's sensor noise.
+
+    Parameters
+    ----------
+    chain0 : HardwareChain
+        The controller's thesis chain (period [s], RC filter [Hz]).
+    sample : Sample
+        Of :func:`vlab.robust.uncertainty.draw_sample` (delay [periods], gains (n_act,) [-]).
+    actuators : sequence of int
+        Actuator points, the order of the sample's gains.
+
+    Returns
+    -------
+    HardwareChain
+        With :data:`CHECK_NOISE_M_S` [m/s] of sensor noise.
+    """
     return HardwareChain(period_s=chain0.period_s, delay_periods=sample.delay_periods, filter_hz=chain0.filter_hz,
                          noise_m_s=CHECK_NOISE_M_S,
                          actuator_gain={p: float(g) for p, g in zip(actuators, sample.actuator_gain)},
@@ -291,7 +306,20 @@ class SimCheck:
 
 
 def linear_error_db(res: dict, nominal: Nominal, controller: str) -> np.ndarray:
-    """Each sample's mean over modes of |20 log10(analysis/experiment)| on the FE loop [dB], shape (n,); inf if unstable."""
+    """Each sample's mean over modes of |20 log10(analysis/experiment)| on the FE loop [dB].
+
+    Parameters
+    ----------
+    res : dict
+        Per-sample arrays of :func:`vlab.robust.study.run_study`.
+    nominal : Nominal
+    controller : str
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        [dB]; inf for a sample whose FE loop is unstable (or has no peak).
+    """
     err = np.abs(20 * np.log10(nominal.peaks[controller][None, :] / res[f"{controller}/peaks"])).mean(axis=1)
     return np.where(res[f"{controller}/spectral_radius"] >= 1.0, np.inf, np.nan_to_num(err, nan=np.inf))
 
