@@ -191,7 +191,12 @@ def sec7_on_plants(plants: dict) -> dict:
         if p:
             parts.append("by P(unstable): " + _ordered(p, lambda v: f"{100 * v:.1f} %"))
         if e:
-            parts.append("by median peak-ratio error of the stable samples: " + _ordered(e, lambda v: f"{v:.2f} dB"))
+            text = "by median peak-ratio error of the stable samples: " + _ordered(e, lambda v: f"{v:.2f} dB")
+            sets = {c: tuple(per[c].get("peak_ratio_modes_compared") or ()) for c in e}
+            if len(set(sets.values())) > 1:
+                text += (" (over different modes, so not like for like: "
+                         + ", ".join(f"{LABELS[c]} modes {', '.join(map(str, m))}" for c, m in sets.items()) + ")")
+            parts.append(text)
         broken = [LABELS[c] for c, v in per.items() if v.get("working_loop_at_nominal") is False]
         if broken:
             parts.append(f"not a working loop at nominal: {', '.join(broken)}")
