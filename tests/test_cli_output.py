@@ -124,7 +124,8 @@ def test_diagnose_prints_a_table_with_units_and_a_verdict(tmp_path, monkeypatch)
 
 
 def test_verdict_without_a_mismatch_and_a_higher_misfit():
-    from vlab.diagnose.report.markdown import format_location, format_parameter, verdict
+    from vlab.diagnose.report.text import format_location, format_parameter
+    from vlab.diagnose.report.verdict import verdict
 
     d = _fake_result().as_dict()
     assert "No significant mismatch" in verdict(dict(d, mismatch=False))
@@ -140,7 +141,7 @@ def test_unbounded_interval_is_said_not_printed():
     import numpy as np
 
     from vlab.diagnose.fit.estimate import UNBOUNDED_DECADES, _ci95
-    from vlab.diagnose.report.markdown import format_parameter
+    from vlab.diagnose.report.text import format_parameter
 
     jac = np.array([[1.0, 1e-9], [0.0, 1e-9], [1.0, 0.0]])  # the second (log) parameter barely moves the residuals
     ci = _ci95(jac, np.array([0.5, -4.5]), chi2=3.0, n=3, log=(False, True))

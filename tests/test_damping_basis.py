@@ -92,3 +92,33 @@ def test_the_plant_of_a_changed_structure_keeps_the_damping_and_its_ratios_are_m
     fe1 = build_fe_model(changed)
     z_fe = structural_ratios(fe1, modal_analysis(fe1.m, fe1.k))[0]
     assert p1.modes.damping_ratios[0] == pytest.approx(z_fe, rel=0.01)
+
+
+def test_the_fe_frf_of_a_changed_structure_is_the_direct_solution(bcc):
+    """The modal FRF of a changed structure (classical sum plus the damping coupling of the modes near the band,
+    vlab.diagnose.model.labmodel.plant_frf) against the direct solution j w (K - w^2 M + j w C0)^-1 at the
+    points, with the unchanged structure's damping matrix C0 carried over (no modes at all)."""
+    from vlab.diagnose.model.labmodel import LabState, plant_frf
+    from vlab.lab.loop import HardwareChain
+
+    changed = specedit.add_mass(bcc, 6, 0.3)
+    fe = build_fe_model(changed)
+    state = LabState(changed, fe, HardwareChain(), None)
+    f = np.linspace(0.5, 25.0, 400)
+    pts = (5, 6, 7, 9)
+    h = plant_frf(state, f, pts, (9,))[:, :, 0]
+    c = structural_damping(fe)
+    rows = fe.dofs.indices(pts, "w")
+    col = fe.dofs.indices((9,), "w")[0]
+    direct = np.array([1j * w * np.linalg.solve(fe.k - w**2 * fe.m + 1j * w * c, np.eye(fe.n)[:, col])[rows]
+                       for w in 2 * np.pi * f])
+    rel = np.abs(h - direct) / np.max(np.abs(direct), axis=0)
+    assert np.max(rel) < 2e-3
+    # the classical sum alone (each mode with its projected ratio) misses the coupling of the close modes
+    from vlab.diagnose.model import labmodel
+
+    md = modal_analysis(fe.m, fe.k)
+    ph = md.shapes[fe.dofs.indices(pts + (9,), "w"), :]
+    w = 2 * np.pi * f
+    classical = labmodel._receptance(md.omega, structural_ratios(fe, md), ph, w)[:, :len(pts), -1] * 1j * w[:, None]
+    assert np.max(np.abs(classical - direct) / np.max(np.abs(direct), axis=0)) > 5 * np.max(rel)

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from vlab.diagnose.decision import mismatch_tests
 from vlab.diagnose.fit.rules import improves_on_nominal, remainder_resolved
 from vlab.diagnose.policy import DecisionPolicy
-from vlab.diagnose.report.markdown import _fmt, verdict
+from vlab.diagnose.report.text import _fmt
+from vlab.diagnose.report.verdict import verdict
 
 positive = st.floats(min_value=1e-3, max_value=1e6, allow_nan=False, allow_infinity=False)
 rates = st.floats(min_value=1e-4, max_value=0.2)
@@ -112,3 +113,30 @@ def test_a_verdict_without_a_selection_states_why():
     assert "model-form uncertainty" in text and "113.8" in text and "86.47" in text
     assert "one line stands out" not in text and "exceeds its limit 5019" not in text
     assert re.search(r"no effect of the library fits the data better than the nominal model", text, re.I)
+
+
+def test_a_partial_fit_not_separated_from_its_look_alikes_is_outside_the_library():
+    tests = [{"test": "chi2", "statistic": 3950.0, "limit": 35.37}]
+    stats = {"chi2_nominal": 3950.0, "chi2_limit": 35.37, "peak_nominal": 2139.0, "peak_limit": 15.85, "n_obs": 12,
+             "mismatch_tests": tests, "policy": DecisionPolicy().as_dict()}
+    rejected = [{"effect": "support_stiffness", "label": "support_stiffness(point=7, dof=w)", "misfit_before": 0.0142,
+                 "misfit_after": 0.0101, "noise_misfit": None, "look_alikes": ["a", "b", "c"],
+                 "reason": "explains only part of the mismatch and is not separated from its look-alikes"}]
+    text = verdict({"mismatch": True, "statistics": stats, "selected": [], "rejected": rejected, "ranked": [],
+                    "outside_library": True})
+    assert "outside the library" in text and "not separated from 3 look-alike(s)" in text and "1.41 x" in text
+    assert "Selected" not in text
+
+
+def test_a_remainder_is_stated_in_the_verdict_with_its_place():
+    tests = [{"test": "chi2", "statistic": 3.8e4, "limit": 4798.0}]
+    stats = {"chi2_nominal": 3.8e4, "chi2_limit": 4798.0, "peak_nominal": 10.0, "peak_limit": 60.0, "n_obs": 4000,
+             "mismatch_tests": tests, "policy": DecisionPolicy().as_dict()}
+    sel = [{"effect": "added_mass", "location": {"point": 2}, "parameters": {"mass_kg": 0.3},
+            "ci95": {"mass_kg": [0.29, 0.31]}}]
+    rem = {"misfit_decades": 0.02, "noise_misfit_decades": 0.001, "judged_on": "the validation rerun (MuJoCo plant)",
+           "modes": [3], "points": [8], "largest_line": {"frequency_hz": 9.37, "point": 7, "squared_residual": 900.0}}
+    res = {"mismatch": True, "statistics": stats, "selected": sel, "rejected": [], "ranked": [], "remainder": rem,
+           "data": {"kind": "recording"}}
+    text = verdict(res)
+    assert "Explained in part" in text and "modes 3" in text and "points 8" in text and "9.37 Hz" in text

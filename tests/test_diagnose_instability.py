@@ -42,7 +42,7 @@ def recordings(tmp_path_factory):
 
 
 def test_unstable_recording_is_reported_first(recordings):
-    from vlab.diagnose.report.markdown import verdict
+    from vlab.diagnose.report.verdict import verdict
 
     res = vlab.diagnose("bcc", recordings[1])
     d = res.as_dict()
@@ -67,7 +67,7 @@ def test_unstable_recording_is_reported_first(recordings):
 
 
 def test_stable_recording_says_nothing_of_instability(recordings):
-    from vlab.diagnose.report.markdown import verdict
+    from vlab.diagnose.report.verdict import verdict
 
     d = vlab.diagnose("bcc", recordings[0], validate_run=False).as_dict()
     assert d["instability"]["unstable"] is False and d["instability"]["in_replay"] is None

@@ -14,8 +14,10 @@ Layers, lowest first (a module may import its own layer and the layers below it,
 8. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
 9. ``report``   -- result, report text, figures (``report/``)
 10. ``decision`` -- the mismatch tests, the gates a choice must pass, its remainder (``decision.py``)
-11. ``pipeline`` -- :func:`vlab.diagnose.diagnose` (``pipeline.py``)
-12. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
+11. ``reading``  -- stage 1: the data, the nominal lab, the reference (``reading.py``)
+12. ``explain``  -- stages 3-5: screen, fit, select, the plant check (``explain.py``)
+13. ``pipeline`` -- :func:`vlab.diagnose.diagnose`, the stages in order (``pipeline.py``)
+14. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
 
 Every import counts: at module level, inside functions (lazy) and under ``TYPE_CHECKING``. Within the
 effects layer the families (``structural``, ``beyond_spec``, ``chain``) import only the base
@@ -31,7 +33,7 @@ from pathlib import Path
 PACKAGE = "vlab.diagnose"
 ROOT = Path(__file__).resolve().parent.parent / "vlab" / "diagnose"
 
-LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "decision", "pipeline")
+LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "decision", "reading", "explain", "pipeline")
 #: Rank of the package's own ``__init__`` (above every layer: it re-exports the public names).
 TOP = len(LAYERS)
 

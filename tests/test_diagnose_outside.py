@@ -15,7 +15,7 @@ import numpy as np
 
 import vlab
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
-from vlab.diagnose.report.markdown import verdict
+from vlab.diagnose.report.verdict import verdict
 from vlab.io.uff import write_recording
 from vlab.lab.experiment import ExperimentConfig, default_chain, measure
 from vlab.lab.linear_plant import LinearPlant

@@ -145,7 +145,7 @@ def test_destabilising_value_is_the_boundary_nearest_the_fit(log):
 def test_the_report_quotes_the_chi_square_of_the_selected_fit_not_the_best_ranked():
     """A self-excited recording's cause need not be the best-ranked fit: the report's chi-square is the selected
     effect's own (or none)."""
-    from vlab.diagnose.report.markdown import _selected_chi2
+    from vlab.diagnose.report.verdict import selected_chi2 as _selected_chi2
 
     ranked = [{"effect": "member_stiffness+actuator_gain", "location": {"first": {"member": "beam"},
                                                                          "second": {"channel": 9}}, "chi2": 1417.0},

@@ -925,7 +925,7 @@ def _diagnosis_csv(d: dict[str, Any], out=None) -> None:
     Columns: rank, effect, location, parameters (SI, with 95 % intervals), BIC difference to the best, misfit
     after the effect is modelled (its unit in the column name: decades for FRF data).
     """
-    from .diagnose.report.markdown import hypothesis_rows, misfit_unit
+    from .diagnose.report.text import hypothesis_rows, misfit_unit
     from .io.tabular import Column, write_csv
 
     unit = misfit_unit(d).replace(".", "").replace(" ", "_")
@@ -970,7 +970,7 @@ def detectability(
     from contextlib import nullcontext
 
     from .diagnose.detectability import detectability as run, figure
-    from .diagnose.report.markdown import format_location, parameter_unit
+    from .diagnose.report.text import format_location, parameter_unit
     from .io.atomic import atomic_dir
     from .io.results import jsonable
     from .io.tabular import Column
@@ -1151,7 +1151,8 @@ def _print_robustness(data: dict, n_samples: int, structure: str) -> None:
 
 def _print_diagnosis(d: dict[str, Any], out_path) -> None:
     """The ranked hypotheses as a table (units in the headers and cells) and the one-paragraph verdict."""
-    from .diagnose.report.markdown import hypothesis_rows, misfit_unit, verdict
+    from .diagnose.report.text import hypothesis_rows, misfit_unit
+    from .diagnose.report.verdict import verdict
 
     rows = hypothesis_rows(d, limit=8)
     unit = misfit_unit(d)

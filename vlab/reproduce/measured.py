@@ -71,7 +71,7 @@ def diagnose_measurements() -> list[MeasuredDiagnosis]:
         A published table is missing or malformed.
     """
     from ..diagnose import diagnose
-    from ..diagnose.report.markdown import verdict
+    from ..diagnose.report.verdict import verdict
 
     out = []
     for name, structure, fn in MODAL_TABLES:

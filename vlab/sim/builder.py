@@ -701,7 +701,7 @@ def _basis_damping(spec: StructureSpec, options: SimOptions | None, model0: mujo
     d = spec.damping
     if d is None or d.basis is None:
         return None
-    key = (id(d.basis), d.modal_ratios, d.default_ratio, options)
+    key = (id(d.basis), d.modal_ratios, d.default_ratio, repr(options))
     hit = _BASIS_PLANTS.get(key)
     if hit is None or hit[0] is not d.basis:
         base = build_plant(d.basis.replace(damping=dataclasses.replace(d, basis=None)), options)

@@ -129,11 +129,10 @@ class SensorLag(_Lag):
     order = 9
 
 
-#: Screening trials of a channel gain (factors on its nominal 1). The ones within 7 % are there because the
-#: chi-square well of a small gain change is narrower than the coarse steps: on tier 2 of the benchmark
-#: (seed 10707, case 7, now a development case) a sensor gain of 0.982 on channel 7, 2.7 times its
-#: detect-and-name threshold, screened worse at 0.85 and 1.2 than another channel's and was never fitted;
-#: fitted, it left a chi-square of 822 against the selected candidate's 2346.
+#: Screening trials of a channel gain (factors on its nominal 1): a search grid, not a decision threshold. A
+#: gain change of a few per cent moves every peak of its channel by that much, so its chi-square well is
+#: about as wide as the change itself: trials 4-7 % apart near 1 keep a small change within one well of a
+#: trial, the coarser ones reach large changes. More trials cost one FE evaluation each.
 TRIAL_FACTORS_GAIN = (0.4, 0.65, 0.85, 0.93, 0.97, 1.03, 1.07, 1.2, 1.6, 2.5)
 
 

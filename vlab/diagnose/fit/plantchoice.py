@@ -60,8 +60,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     searched on the plant (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`),
     the pair is reduced whenever its better part alone leaves only what its
     modes' model form allows (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`),
-    whatever the pair rule says (tier-2 seed 10303, case 6: a grounded spring
-    at 4.6 times its threshold selected with a joint beside it).
+    whatever the pair rule says: a second effect is then not needed (the
+    likelihood-ratio question of the policy answered by the model form).
 
     Parameters
     ----------
@@ -141,13 +141,15 @@ def _within_model_accuracy(model: PlantModel, h: Hypothesis, x) -> bool:
         return False
 
 
-#: Most look-alikes of a selected single effect scored on the plant by :func:`choose_on_plant`, and how
-#: many of the best of them (with the selected one) are refitted there (a refit takes ~11 linearisations,
-#: ~3.5 s on the grid; a score at the FE value one).
+#: Search effort on the plant, not decision thresholds (a candidate not compared there keeps its FE
+#: ranking): most look-alikes of a selected single effect scored on the plant by :func:`choose_on_plant`,
+#: how many of the best of them (with the selected one) are refitted there (a refit takes ~11
+#: linearisations, ~3.5 s on the grid; a score at the FE value one), and how many of the best fits of the
+#: selected effect's own kind at other places are scored there however far behind on the FE model (the
+#: neighbours of the chosen place on each side, where the FE model's local shapes differ most from the
+#: plant's).
 MAX_LOOKALIKES = 6
 LOOKALIKES_REFITTED = 2
-#: The best fits of the selected effect's own kind at other places (by FE chi-square) that are scored on the
-#: plant as well, however far behind on the FE model (:func:`choose_on_plant`).
 SAME_KIND_COMPARED = 3
 
 
@@ -192,9 +194,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     chi-square is within ``delta`` of the chosen one's is ordered by that
     difference as much as by the data, and is compared on the plant too
     (after the look-alikes, best FE fit first; up to ``max_lookalikes`` in
-    all). Measured on the grid (benchmark seed 1, case 2: 1.05 kg at the
-    hanger point 20): the FE fit preferred point 21, 22 mm away, by 32 in
-    chi-square; ``delta`` was 114; on the plant, 20 won by 38 (0.95 kg).
+    all).
 
     That difference belongs to each effect and place, not to the chosen one
     alone: where the FE model's local shapes differ from the plant's, the
@@ -202,10 +202,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     So the :data:`SAME_KIND_COMPARED` best fits of the chosen effect's own
     kind at other places (the place is what the model-form error confounds;
     the kind, what the data decide first) are scored on the plant as well,
-    however far behind on the FE model. Measured on the BCC (tier-2
-    benchmark seed 10808, case 9: a 18.1 N/m spring at point 9): the FE fit
-    preferred point 8 by 120 in chi-square, ``delta`` was 80; on the plant
-    point 9 scored 3042 against point 8's 4402 (refitted 18.11 N/m).
+    however far behind on the FE model.
 
     Parameters
     ----------

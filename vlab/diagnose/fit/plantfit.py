@@ -117,7 +117,23 @@ def plant_modes(spec: StructureSpec, points) -> PointModes:
     except SimulationError as exc:
         raise ModelError(f"the MuJoCo plant of {spec.name!r} cannot be linearised: {exc}") from None
     w = site_jacobian_w(plant.model, data, [f"p{p}" for p in pts]) @ sm.joint_shapes
-    return PointModes(sm.omega, sm.damping_ratios, w, tuple(pts), "the MuJoCo plant's linearisation")
+    return PointModes(sm.omega, sm.damping_ratios, w, tuple(pts), "the MuJoCo plant's linearisation",
+                      _plant_coupling(spec, plant, sm.joint_shapes))
+
+
+def _plant_coupling(spec: StructureSpec, plant, phi: np.ndarray) -> np.ndarray | None:
+    """Off-diagonal modal damping [1/s] of the plant of a changed structure (its kept hinge and modal damping
+    in its own modes ``phi``, shape (nv, n)), None for a structure with its own damping
+    (:attr:`vlab.diagnose.model.labmodel.PointModes.coupling`)."""
+    if spec.damping is None or spec.damping.basis is None:
+        return None
+    md = plant.modal_damping
+    c = np.diag(np.asarray(plant.model.dof_damping, dtype=float))
+    if md is not None:
+        c = c + md.matrix()
+    cm = phi.T @ c @ phi
+    np.fill_diagonal(cm, 0.0)
+    return cm
 
 
 def refit_index(h: Hypothesis, part: Hypothesis | None = None) -> int | None:

@@ -125,11 +125,9 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     On referred data (:func:`vlab.diagnose.data.measured.refer_to_model`) the nominal
     model's residual is ``ln(H_baseline / H_recorded)`` whatever the model:
     the floor, an allowance for what the model cannot represent, has nothing
-    to allow for in the question whether anything changed. With it, a change
-    of 1.3 % at one line, 65 standard deviations of the two recordings' noise
-    out, passed as model error (MuJoCo grid benchmark, seed 1, case 2: 1.05 kg
-    at point 20 under LQG; nominal chi-square 1161 with the 0.5 % floor,
-    16 873 without, limit 3099). The same tests as :meth:`Problem.within_noise`
+    to allow for in the question whether anything changed: with it, a change
+    of 1.3 % at one line, far beyond the two recordings' noise, would pass as
+    model error. The same tests as :meth:`Problem.within_noise`
     (total chi-square and largest line), on weights ``1 / sigma_rel^2``: the
     two recordings' relative noise variances plus the referral's own
     second-order term (model-form error x change), which
@@ -185,18 +183,12 @@ def prune(hyps: list[Hypothesis], sensitivity: list[dict], *, share: float = 0.2
     the frequency errors, a local structural hypothesis (added mass, spring at a
     free DOF, joint flexibility, member rigidity) whose sensitivity candidate
     explains at least ``share`` of the best one or is among the ``per_family``
-    best of its effect gets ``estimate_``. The others were once left out
-    (pruned) before the screening. They are screened now: the ranking is
-    first order in the frequency errors of modes paired by nearest frequency,
-    and the changes it misjudges are the large ones. On the MuJoCo grid
-    (benchmark seed 7373, case 2) a joint softened to 25 N m/rad moved nine
-    modes by 1.4-5 %, a shift the linearisation cannot follow and the pairing
-    by frequency confused (mode 9 "+5 %"); the ranking's best explained 50 %
-    and the joint was left out, though its fit leaves a chi-square of 1.2e4
-    against 1.2e6 for the best fit screened; a spring (seed 6161, case 0) and
-    the grid's joint 18 (when the ranking was applied from a fifth of the errors explained: docs/diagnosis.md)
-    were lost the same way. Screening them all costs about
-    50 more hypotheses on the grid, 3-4 s.
+    best of its effect gets ``estimate_``. None is left out of the screening:
+    the ranking is first order in the frequency errors of modes paired by
+    nearest frequency, and the changes it misjudges are the large ones (a
+    joint softened enough to move several modes by a few per cent, a shift
+    the linearisation cannot follow and the pairing by frequency confuses).
+    Screening them all costs about 50 more hypotheses on the grid, 3-4 s.
     """
     if not sensitivity or sensitivity[0]["explained"] < min_explained:
         return hyps

@@ -6,7 +6,8 @@ dashpots, and the hardware chain of Fig. 21 (delay, RC filter, amplifier
 gains and lags, sensor gains and lags, saturation). :func:`predict_frf`
 turns a state into the FRFs an experiment measures, in the frequency domain::
 
-    plant      G(w)   = j w Phi diag(1 / (w_r^2 - w^2 + 2 j zeta_r w_r w)) Phi^T    (+ dashpots, Woodbury)
+    plant      G(w)   = j w Phi diag(1 / (w_r^2 - w^2 + 2 j zeta_r w_r w)) Phi^T    (+ dashpots, Woodbury;
+                        a changed structure's damping coupling of the modes near the band exactly)
     actuators  A(w)   = diag(g_amp g_a,i L_a,i(w) n_i)    L_a = (1 - c) / (1 - c e^{-jwh}), c = e^{-2 pi f_a h}
     sensors    S(w)   = diag(g_s,i L_s,i(w))              L_s = (1 - a) / (1 - a e^{-jwT}), a = e^{-2 pi f_s T}
     controller K(w)   = sampled-data K of Eq. (5.1) with hold, delay and RC filter (vlab.analysis);
@@ -35,7 +36,7 @@ import numpy as np
 import scipy.special
 
 from ...analysis import sampled_data_controller_frf
-from ...fe.damping import structural_ratios
+from ...fe.damping import structural_damping, structural_ratios
 from ...errors import ModelError
 from ...fe import FEModel, Modes, build_fe_model, modal_analysis
 from ...lab.loop import HardwareChain, check_design_period
@@ -60,6 +61,9 @@ class PointModes:
         Point ids of the rows of ``shapes``.
     source : str
         Where the modes come from (for reports).
+    coupling : ndarray or None
+        Off-diagonal modal damping ``phi_r^T C phi_s`` [1/s], shape (n, n), zero diagonal: the damping a
+        changed structure keeps couples its modes (:mod:`vlab.fe.damping`); None: classical damping.
     """
 
     omega: np.ndarray
@@ -67,6 +71,7 @@ class PointModes:
     shapes: np.ndarray
     points: tuple[int, ...]
     source: str = ""
+    coupling: np.ndarray | None = None
 
     def rows(self, points) -> np.ndarray:
         """Rows of ``shapes`` at ``points``, shape (len(points), n). Raises ModelError for a point not carried."""
@@ -153,6 +158,56 @@ def _modal(state: LabState) -> tuple[Modes, np.ndarray]:
     return md, structural_ratios(state.fe, md, state.spec)
 
 
+def _coupling(state: LabState, md: Modes) -> np.ndarray | None:
+    """Off-diagonal modal damping of a changed structure (:attr:`PointModes.coupling`), None for a structure
+    that has its own classical damping."""
+    d = state.spec.damping
+    if d is None or d.basis is None:
+        return None
+    phi = md.shapes
+    cm = phi.T @ structural_damping(state.fe, state.spec) @ phi
+    np.fill_diagonal(cm, 0.0)
+    return cm
+
+
+#: Modes whose damping coupling is taken exactly: those below this multiple of the highest frequency of an FRF.
+COUPLED_BAND = 2.5
+
+
+def _coupled_block(omega, zeta, ph, w, coupling, idx) -> np.ndarray:
+    """Receptance [m/N] of the modes ``idx`` with their damping coupling, shape (n_f, n_p, n_p): the state-space
+    modes of ``q'' + C_m q' + Omega^2 q = Phi^T f`` (``C_m`` = diag(2 zeta omega) + coupling), summed exactly."""
+    n = len(idx)
+    om = omega[idx]
+    cm = coupling[np.ix_(idx, idx)] + np.diag(2.0 * zeta[idx] * om)
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(om**2), -cm]])
+    lam, v = np.linalg.eig(a)
+    b = np.vstack([np.zeros((n, ph.shape[0])), ph[:, idx].T])          # (2n, n_p)
+    left = ph[:, idx] @ v[:n, :]                                         # (n_p, 2n): displacement rows
+    right = np.linalg.solve(v, b)                                        # (2n, n_p)
+    g = 1.0 / (1j * w[:, None] - lam[None, :])                           # (n_f, 2n)
+    return np.einsum("pk,fk,kq->fpq", left, g, right)
+
+
+def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
+    """Receptance between the points of ``ph`` (shape (n_p, n)) at ``w`` [rad/s], shape (n_f, n_p, n_p) [m/N]:
+    the classical modal sum, with the modes below :data:`COUPLED_BAND` times the top of ``w`` taken with
+    their damping coupling when ``coupling`` is given (the rest stay classical: far from the band the
+    coupling moves nothing)."""
+    den = omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * w[:, None]
+    r = 1.0 / den
+    idx = np.array([], dtype=int)
+    if coupling is not None and w.size:
+        idx = np.flatnonzero(omega <= COUPLED_BAND * np.max(w))
+        if idx.size < 2:
+            idx = np.array([], dtype=int)
+        r[:, idx] = 0.0
+    alpha = (ph[None] * r.real[:, None, :]) @ ph.T + 1j * ((ph[None] * r.imag[:, None, :]) @ ph.T)
+    if idx.size:
+        alpha = alpha + _coupled_block(omega, zeta, ph, w, coupling, idx)
+    return alpha
+
+
 def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Open-loop natural frequencies [Hz], damping ratios and mass-normalised shapes of ``state``.
 
@@ -221,13 +276,12 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     all_pts = list(out_points) + list(in_points) + d_pts
     if state.point_modes is not None:
         pm = state.point_modes
-        omega, zeta, ph = pm.omega, pm.zeta, pm.rows(all_pts)
+        omega, zeta, ph, coupling = pm.omega, pm.zeta, pm.rows(all_pts), pm.coupling
     else:
         md, zeta = _modal(state)
         omega, ph = md.omega, md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
-    den = omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * w[:, None]
-    r = 1.0 / den
-    alpha = (ph[None] * r.real[:, None, :]) @ ph.T + 1j * ((ph[None] * r.imag[:, None, :]) @ ph.T)  # (n_f, n_p, n_p)
+        coupling = _coupling(state, md)
+    alpha = _receptance(omega, zeta, ph, w, coupling)                                    # (n_f, n_p, n_p)
     no, ni = len(out_points), len(in_points)
     io = slice(0, no)
     ii = slice(no, no + ni)

@@ -1,0 +1,229 @@
+"""Stages 3-5 of the diagnosis: screen and fit the library, select, and check the choice on the MuJoCo plant.
+
+Every hypothesis of the library (:func:`vlab.diagnose.effects.hypotheses.library`) is screened at a few
+sizes, the most promising are fitted by least squares and ranked by BIC, pairs are fitted when the best
+single effect leaves more than noise (:mod:`vlab.diagnose.fit.estimate`), and the choice follows the rules
+of :mod:`vlab.diagnose.fit.rules` under the problem's decision policy: selection by evidence and the
+likelihood-ratio test, look-alikes separated by rerun, the cause of a self-excited oscillation by its
+physics (:mod:`vlab.diagnose.instability_cause`), and a spec-level choice refitted and compared with its
+look-alikes on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import VlabError
+from .data.reference import RERUN_SEED
+from .data.replay import start_background_rerun
+from .detectability import threshold_of
+from .effects.hypotheses import Combination, Hypothesis, library
+from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
+from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
+from .fit.plantfit import PlantModel
+from .fit.plantpair import second_effect_on_plant
+from .fit.rules import needs_pairs, needs_rerun_check, prune, select, shortlisted, too_small_to_name
+from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
+from .instability_cause import search_cause
+from .model.labmodel import LabState
+from .problem.residuals import Problem
+from .report.result import DiagnosisResult
+
+
+@dataclass(frozen=True)
+class Search:
+    """How the explanation is searched (see :func:`vlab.diagnose.diagnose`).
+
+    Attributes
+    ----------
+    effects : tuple of str or None
+        The library's effects to try (None: all).
+    shortlist : int
+        Screened hypotheses fitted in full.
+    pairs : bool
+        Fit pairs when no single effect explains the data.
+    validate_run : bool
+        Reruns allowed (look-alikes by rerun, the cause of an oscillation, the validation).
+    on_plant : bool
+        The comparison is with the MuJoCo plant (refit on its linearisation, reruns there).
+    self_excited : bool
+        The recording oscillates by itself and the nominal replay does not.
+    loops : tuple of int
+        Feedback points.
+    """
+
+    effects: tuple | None
+    shortlist: int
+    pairs: bool
+    validate_run: bool
+    on_plant: bool
+    self_excited: bool
+    loops: tuple
+
+
+def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
+                    pool: list[Hypothesis]) -> Hypothesis:
+    """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`); a pair
+    is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
+    look-alikes and the fits of ``res.ranked`` the FE model orders by less than its difference from the plant
+    (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
+    ``pool`` is searched next to it (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`). Sets
+    ``res.plant_refit`` (and ``res.alternatives``); returns the choice."""
+    try:
+        model = PlantModel(problem)
+    except (VlabError, ImportError) as exc:
+        notes.append(f"the MuJoCo plant could not be linearised for a refit: {exc}")
+        return chosen
+    if isinstance(chosen, Combination):
+        reduced, res.plant_refit, note = reduce_pair_on_plant(model, chosen, res.ranked)
+        if note is not None:
+            notes.append(note)
+            res.alternatives = [h for h in res.alternatives if h is not reduced]
+        return reduced
+    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives, res.ranked)
+    if note is not None:
+        notes.append(note)
+    single = chosen
+    chosen, res.plant_refit, looks, note = second_effect_on_plant(model, chosen, res.plant_refit, pool)
+    if note is not None:
+        notes.append(note)
+    if chosen is not single:
+        res.alternatives = looks  # the pair's look-alikes on the plant, not those of the single effect
+    return chosen
+
+
+def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabState, ranked: list, loops,
+                          chi2_fit: float, validate_run: bool, on_plant: bool, notes: list, timing: dict, say):
+    """The choice of a recording that oscillates by itself (rule 9, :mod:`vlab.diagnose.instability_cause`):
+    the best-fitting candidate whose linear loop is unstable and whose rerun reproduces the oscillation, with
+    that rerun as ``res.validation``; the candidates rerun in vain are listed as rejected. None when nothing
+    reproduces it or no rerun can be made."""
+    f0 = res.instability["frequency_hz"]
+    if not (validate_run and data_has_signals(res.data)):
+        notes.append(f"without a validation rerun no candidate can be shown to cause the oscillation at {f0:.2f} Hz "
+                     "(a fit to the FRFs of a self-excited recording can look good without the cause); nothing is "
+                     "selected")
+        return None
+    say("searching the cause of the oscillation")
+    t = time.perf_counter()
+    cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit, c_hat=res.overdispersion,
+                         plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant)
+    timing["instability_cause"] = time.perf_counter() - t
+    notes.append(cause.note(f0))
+    for tr in cause.tried:
+        if not tr["reproduced"]:
+            res.rejected.append({"effect": tr["effect"], "label": tr["label"],
+                                 "reason": f"does not reproduce the self-excited oscillation at {f0:.2f} Hz"})
+    res.validation = cause.validation
+    if cause.chosen is not None:
+        (tried,) = [t for t in cause.tried if t["reproduced"]]
+        res.instability["cause"] = {"label": tried["label"], "rerun_frequencies_hz": tried["rerun_frequencies_hz"]}
+    return cause.chosen
+
+
+def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, search: Search, timing: dict,
+                   say) -> list:
+    """Screen every hypothesis of the library, fit the shortlist and, where needed, pairs; returns them ranked by
+    BIC (best first). ``sensitivity``: the localisation's ranking (:func:`vlab.diagnose.fit.rules.prune`).
+    A hypothesis that cannot be built or fitted is left out."""
+    say("screening hypotheses")
+    t = time.perf_counter()
+    scored = []
+    for h in prune(library(nominal, ctx, effects=search.effects), sensitivity):
+        try:
+            trials = trials_for(h, problem)
+            est = getattr(h, "estimate_", None)
+            if est is not None and np.isfinite(est):
+                trials = np.vstack([trials, [[est]], [[est * 0.7]], [[est * 1.4]]])
+            scored.append((screen(h, problem, trials)[0][0], h))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            continue
+    scored.sort(key=lambda s: s[0])
+    keep = shortlisted(scored, search.shortlist)
+    timing["screen"] = time.perf_counter() - t
+    say("fitting")
+    t = time.perf_counter()
+    fitted = []
+    for h in keep:
+        try:
+            fitted.append(fit_hypothesis(h, problem))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            continue
+    ranked = rank(fitted)
+    timing["fit"] = time.perf_counter() - t
+    if search.pairs and needs_pairs(ranked[0] if ranked else None, problem):
+        say("fitting pairs")
+        t = time.perf_counter()
+        ranked = rank(ranked + fit_pairs(ranked, problem, [h for _, h in scored]))
+        timing["pairs"] = time.perf_counter() - t
+    return ranked
+
+
+def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2_fit: float, noise_only: dict | None,
+            notes: list, timing: dict, say) -> None:
+    """Stages 3-5 on a mismatch: fill ``res.ranked``, ``res.selected`` (or None, with the reason in ``notes``),
+    ``res.alternatives``, ``res.overdispersion``, ``res.plant_refit``, ``res.threshold`` and ``res.loop``.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        With ``mismatch`` True and its location.
+    problem : Problem
+    ctx : Context
+    search : Search
+    chi2_fit : float
+        The nominal lab's chi-square on the fitted hypotheses' footing [1].
+    noise_only : dict or None
+        The statistics of a mismatch found only without the model-error floor.
+    notes : list of str
+    timing : dict
+    say : callable
+    """
+    nominal = res.nominal
+    if search.on_plant and problem.replay_plant is None:
+        start_background_rerun(problem, nominal, "nominal", "mujoco", seed=RERUN_SEED)  # on the other core
+    ranked = res.ranked = screen_and_fit(problem, nominal, ctx, res.location.sensitivity, search, timing, say)
+    chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs, problem.policy)
+    res.overdispersion = c_hat
+    if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
+        chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,
+                                             search.validate_run, search.on_plant, notes, timing, say), []
+    elif chosen is not None and search.validate_run and data_has_signals(res.data) and \
+            any(needs_rerun_check(h) for h in [chosen] + alts):
+        say("separating look-alikes by rerun")
+        t = time.perf_counter()
+        chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes,
+                                          plant="mujoco" if search.on_plant else "linear", seed=RERUN_SEED)
+        timing["tie_break"] = time.perf_counter() - t
+    res.alternatives = alts
+    if chosen is not None and search.on_plant and chosen.spec_level and not search.self_excited:
+        say("refitting on the MuJoCo plant's linearisation")
+        t = time.perf_counter()
+        chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects))
+        timing["plant_refit"] = time.perf_counter() - t
+    if too_small_to_name(chosen, noise_only):  # beyond the noise, within the model's accuracy: located, not named
+        res.too_small, res.too_small_candidates = True, [chosen] + list(alts)
+        cands = [h.label for h in [chosen] + list(alts)][:4]
+        notes.append("the change is beyond the noise but within the model-error floor of "
+                     f"{100 * problem.floor:g} % a line: too small to name (the FE surrogate's own errors "
+                     "of that size could mimic any of the candidates); best candidates: " + ", ".join(cands))
+        chosen = None
+    if chosen is None:
+        res.loop = "open" if not ctx.closed_loop else "both"
+        if not res.too_small and not search.self_excited:  # the cause search wrote its own note
+            notes.append("no hypothesis of the library explains the mismatch (quasi-BIC not lowered by "
+                         f"{problem.policy.evidence:g} with the likelihood-ratio test passed)")
+        return
+    res.selected = chosen
+    res.misfit_selected = float(chosen.misfit_)
+    t = time.perf_counter()
+    thr = threshold_of(problem, nominal, ctx, chosen)
+    timing["threshold"] = time.perf_counter() - t
+    res.threshold = None if thr is None else thr.as_dict()
+    if not ctx.closed_loop:
+        res.loop = "open"
+    else:
+        res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in res.selected_parts) else "both"

@@ -1,0 +1,283 @@
+"""Stage 1 of the diagnosis: the data, the nominal lab they are compared with, and the reference.
+
+From a recording (UFF 58 time histories or FRFs) or a modal table, and the options of ``vlab diagnose``:
+the recording's own setup (controller, seed, plant and chain from its metadata,
+:func:`vlab.diagnose.data.reference.recorded_setup`), the nominal lab (the controller that ran, designed on
+the spec's own mesh at the recording's sample interval; the FE model meshed as the MuJoCo plant resolves
+the structure when the comparison is with that plant), the FRFs, and the reference they are referred to
+the model through (:func:`vlab.diagnose.data.measured.refer_to_model`): a measured baseline, or the
+nominal plant's replay of the recorded force (:func:`vlab.diagnose.data.reference.replay_reference`), or
+the FE model alone. The result is one immutable :class:`Inputs`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import DataFileError, ModelError, OptionError, VlabError
+from ..fe import FEModel, build_fe_model
+from ..lab.experiment import test_definition
+from ..measure.instability import find_instability
+from ..spec import StructureSpec, load_spec
+from .data.measured import FrfData, ModalData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
+from .data.reference import recorded_chain, recorded_setup, replay_reference, shares_excitation_record
+from .data.warmstart import GUARD_DECAY
+from .model.labmodel import LabState, predict_frf
+from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
+
+
+@dataclass(frozen=True)
+class Options:
+    """The options of a diagnosis that decide what is read and compared (see :func:`vlab.diagnose.diagnose`)."""
+
+    controller: str | None = None
+    plant: str = "auto"
+    resolution_hz: float | None = None
+    seed: int | None = None
+    baseline: str | Path | None = None
+    replay: bool = True
+    force: bool = False
+    mjcf: str | Path | None = None
+    reference_column: str | None = None
+    model_form: str = "auto"
+    validate_run: bool = True
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What a diagnosis compares (immutable).
+
+    Attributes
+    ----------
+    spec : StructureSpec
+    fe : FEModel
+        The FE model of ``spec`` (the controller's mesh).
+    band_hz : tuple of float
+        The structure's test band [Hz].
+    path : Path
+        The recording.
+    what : {"recording", "frf", "modal"}
+    recording : object
+        What the reader returned (a Recording, FRFs or a modal table).
+    metadata : dict
+        The recording's metadata (empty for FRFs and tables).
+    controller : str
+        The controller that ran.
+    plant : {"auto", "linear", "mujoco"}
+        The plant of the validation reruns.
+    replay_plant : {"linear", "mujoco"}
+        The plant the recording names (or MuJoCo), replayed as the reference.
+    on_plant : bool
+        The comparison is with the MuJoCo plant: the effect is refitted on its linearisation.
+    nominal : LabState
+    data : FrfData or ModalData
+        Referred to the model through the reference.
+    replayed : object or None
+        The nominal plant's replay of the recorded force (a Recording), when it is the reference.
+    same_record : bool
+        The reference was excited by the recording's own force record.
+    reference : str
+        What the data were compared with, in words.
+    instability : object or None
+        :func:`vlab.measure.instability.find_instability` of a closed-loop recording.
+    loops : tuple of int
+        Feedback points (empty in open loop).
+    guard_s : float or None
+        How long before the analysed part reruns start warm [s].
+    notes : tuple of str
+    timing_s : dict
+        Stage -> seconds.
+    """
+
+    spec: StructureSpec
+    fe: FEModel
+    band_hz: tuple
+    path: Path
+    what: str
+    recording: object
+    metadata: dict
+    controller: str
+    plant: str
+    replay_plant: str
+    on_plant: bool
+    nominal: LabState
+    data: FrfData | ModalData
+    replayed: object
+    same_record: bool
+    reference: str
+    instability: object
+    loops: tuple
+    guard_s: float | None
+    notes: tuple = ()
+    timing_s: dict = field(default_factory=dict)
+
+
+def _check_options(opt: Options, path: Path) -> None:
+    """Refuse contradicting options before any work (ModelError, OptionError)."""
+    if opt.plant not in ("auto", "linear", "mujoco"):
+        raise ModelError(f"unknown plant {opt.plant!r}; use 'auto', 'linear' or 'mujoco'")
+    if opt.mjcf is not None and opt.plant == "linear":
+        raise OptionError(f"--mjcf {opt.mjcf} names a MuJoCo plant: it cannot be used with --plant linear")
+    if opt.model_form not in ("auto", "derived", "none"):
+        raise OptionError(f"model form {opt.model_form!r}: use 'auto', 'derived' or 'none'")
+    if opt.reference_column is not None and detect_kind(path) != "modal":
+        raise OptionError(f"reference column {opt.reference_column!r}: only a modal table (.csv) has columns; for a "
+                          "recording give a measured baseline")
+
+
+def _period_note(controller: str, what: str, period_s: float, thesis_s: float) -> str:
+    src = ("the recording's sample interval" if what == "recording" else
+           f"the thesis's period for {controller} (Sec. 5.3): FRF files do not say at which period the "
+           "controller ran")
+    if what == "recording" and abs(period_s - thesis_s) > 1e-9 * period_s:
+        src += (f"; the thesis ran {controller} at {thesis_s * 1e3:g} ms: a recording "
+                "sampled by an acquisition system faster than the controller gives the wrong period here")
+    return f"the {controller} controller is realised at a {period_s * 1e3:g} ms sampling period ({src})"
+
+
+def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
+    """Refer the data of ``inp`` to the model through the reference (baseline, replay or none); sets ``data``,
+    ``replayed``, ``same_record`` and ``reference`` in ``inp``."""
+    data, nominal, spec, fe = inp["data"], inp["nominal"], inp["spec"], inp["fe"]
+    inp.update(replayed=None, same_record=False)
+    replaying = opt.replay and opt.baseline is None and inp["what"] == "recording"
+    if opt.baseline is not None:
+        if not isinstance(data, FrfData):
+            raise DataFileError(f"{inp['path']}: a baseline needs FRF data (time histories or FRFs), not a modal table")
+        bwhat, bobj = read_uff_any(Path(opt.baseline))
+        base = read_data(spec, fe, Path(opt.baseline), bwhat, bobj, resolution_hz=opt.resolution_hz,
+                         band_hz=inp["band_hz"], settle_of=lambda: settling_time(nominal, inp["band_hz"]))
+        h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                            output_points=data.output_points)
+        inp["data"] = refer_to_model(data, base, h_nom)
+        inp["reference"] = f"the measured baseline {opt.baseline}"
+        inp["same_record"] = shares_excitation_record(inp["data"], bobj if bwhat == "recording" else None)
+        if not inp["same_record"]:
+            notes.append(f"the baseline {opt.baseline} was not excited by the recording's own force record: the two "
+                         "are compared within the model-error floor only (differences that depend on the "
+                         "excitation's realisation, such as nonlinear distortion, are not in the period-to-period "
+                         "noise)")
+    elif replaying and isinstance(data, FrfData) and data.recording is not None:
+        say(f"replaying the recorded force on the nominal {inp['replay_plant']} plant")
+        t = time.perf_counter()
+        try:
+            base, replayed, kind = replay_reference(data, nominal, inp["replay_plant"], guard_s=inp["guard_s"])
+        except (VlabError, ImportError) as exc:
+            notes.append(f"the recorded force could not be replayed on the nominal {inp['replay_plant']} plant "
+                         f"({exc}): the recording is compared with the FE model alone")
+            inp["reference"] = "the FE model (the replay failed)"
+        else:
+            h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
+                                output_points=data.output_points)
+            inp.update(data=refer_to_model(data, base, h_nom), replayed=replayed, same_record=True,
+                       reference=f"the nominal {kind}'s replay of the recorded force")
+        timing["replay"] = time.perf_counter() - t
+    elif inp["what"] == "modal" and opt.reference_column is not None:
+        inp["reference"] = (f"the table's column {opt.reference_column!r} (a reference model's frequencies; vlab's FE "
+                            "model predicts what an effect changes)")
+    else:
+        inp["reference"] = "the FE model"
+
+
+def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, period_s: float, on_plant: bool,
+                 mjcf, notes: list) -> LabState:
+    """The nominal lab: the controller that ran, designed on the spec's own mesh at ``period_s``; the FE model
+    meshed as the MuJoCo plant resolves the structure when ``on_plant``."""
+    model_spec = plant_resolution(spec) if on_plant else spec
+    fe_model = fe if model_spec is spec else build_fe_model(model_spec)
+    if model_spec is not spec:
+        notes.append("compared with the MuJoCo plant: the FE model meshed as that plant resolves the structure "
+                     f"({PLANT_RESOLUTION_ELEMENTS} elements per segment of a shear-flexible member, "
+                     f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
+                     "mesh")
+    chain = recorded_chain(setup, period_s)
+    design = nominal_design(fe, controller, setup.seed, period_s=chain.period_s, reduction=setup.reduction)
+    return LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
+
+
+def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt: Options, say=None) -> Inputs:
+    """Stage 1: read the recording, find its setup, build the nominal lab and refer the data to it.
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+    recording_path : str or Path
+    opt : Options
+    say : callable, optional
+        Progress (one short string per step).
+
+    Returns
+    -------
+    Inputs
+
+    Raises
+    ------
+    DataFileError, MeasurementError, ModelError, OptionError, SpecError
+        As :func:`vlab.diagnose.diagnose`.
+    """
+    t_start = time.perf_counter()
+    say = say or (lambda s: None)
+    spec = load_spec(structure) if isinstance(structure, str) else structure
+    fe = build_fe_model(spec)
+    band = test_definition(spec).band_hz
+    path = Path(recording_path)
+    notes: list = []
+    timing: dict = {}
+    _check_options(opt, path)
+    controller = opt.controller
+    if detect_kind(path) == "modal" and controller not in (None, "none"):
+        notes.append(f"a modal table holds open-loop modes: compared with the open-loop model (controller "
+                     f"{controller!r} ignored)")
+        controller = "none"
+    from ..design import thesis_period_s
+
+    say("reading data")
+    if detect_kind(path) == "modal":
+        what, obj = "modal", read_modal_csv(path, spec, reference_column=opt.reference_column)
+    else:
+        what, obj = read_uff_any(path)
+    meta = dict(obj.metadata) if what == "recording" else {}
+    setup = recorded_setup(meta, str(path), controller=controller, seed=opt.seed,
+                           plant=None if opt.plant == "auto" else opt.plant, force=opt.force)
+    notes.extend(setup.notes)
+    controller = setup.controller
+    has_mujoco = importlib.util.find_spec("mujoco") is not None
+    replay_plant = setup.plant or ("mujoco" if has_mujoco else "linear")  # the plant that made the recording
+    plant = "linear" if opt.plant == "auto" and setup.plant == "linear" else opt.plant
+    # the controller's sampling period: a recording's own sample interval, else the thesis's (Sec. 5.3)
+    period_s = float(obj.dt_s) if what == "recording" else thesis_period_s(controller)
+    if controller != "none":
+        notes.append(_period_note(controller, what, period_s, thesis_period_s(controller)))
+    replaying = opt.replay and opt.baseline is None and what == "recording"
+    on_plant = ((opt.validate_run or replaying) and what == "recording" and plant != "linear" and has_mujoco
+                and replay_plant == "mujoco")
+    nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes)
+    data = read_data(spec, fe, path, what, obj, resolution_hz=opt.resolution_hz, band_hz=band,
+                     settle_of=lambda: settling_time(nominal, band))
+    if opt.mjcf is not None:
+        if what != "recording" or not has_mujoco or (setup.plant or "mujoco") != "mujoco":
+            raise OptionError(f"--mjcf {opt.mjcf}: a nominal MJCF plant is replayed and rerun, which needs time "
+                              "histories of a MuJoCo-plant recording and the mujoco package")
+        from ..sim.runtime import load_plant_for_experiment
+
+        load_plant_for_experiment(spec, mjcf=opt.mjcf, sensors=tuple(data.output_points))  # the contract, now
+        notes.append(f"the nominal plant is {opt.mjcf}: the recorded force is replayed there; effects that edit the "
+                     "structure are validated on the plant built from the spec, and refitted on its linearisation")
+    loops = tuple(spec.instrumentation.actuators) if controller != "none" else ()
+    # only a loop can make the lab's structure oscillate by itself: an open-loop recording is not searched (its
+    # lightly damped modes, still settling after a period, would look like growing lines)
+    unstable = find_instability(obj, feedback_points=loops) if what == "recording" and loops else None
+    if unstable is not None and unstable.unstable:
+        say("the recording shows a self-excited oscillation")
+    inp = dict(spec=spec, fe=fe, band_hz=band, path=path, what=what, recording=obj, metadata=meta,
+               controller=controller, plant=plant, replay_plant=replay_plant, nominal=nominal, data=data,
+               instability=unstable, loops=loops,
+               guard_s=settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None)
+    _refer(inp, opt, notes, timing, say)
+    data = inp["data"]
+    inp["on_plant"] = on_plant and isinstance(data, FrfData) and data.recording is not None
+    timing["read"] = time.perf_counter() - t_start
+    return Inputs(**inp, notes=tuple(getattr(data, "notes", [])) + tuple(notes), timing_s=timing)

@@ -1,0 +1,188 @@
+"""The verdict of a diagnosis: one paragraph written from its JSON object, so that every number in it is the
+JSON's (mismatch tests, selection, validation, remainder, detection threshold)."""
+
+from __future__ import annotations
+
+from .text import _fmt, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text
+
+
+def _where_text(res: dict) -> str:
+    """Where an unexplained mismatch is, in one sentence: points, modes, band (from ``located``)."""
+    loc = res.get("located") or {}
+    parts = []
+    if loc.get("points"):
+        parts.append(f"at point{'s' if len(loc['points']) > 1 else ''} {', '.join(str(p) for p in loc['points'])}")
+    if loc.get("modes"):
+        parts.append(f"in mode{'s' if len(loc['modes']) > 1 else ''} {', '.join(str(m) for m in loc['modes'])}")
+    extra = loc.get("extra_resonances") or []
+    if extra:
+        parts.append("with resonance" + ("s" if len(extra) > 1 else "") + " the model does not have at "
+                     + ", ".join(f"{_fmt(r['frequency_hz'], 4)} Hz (damping ratio {_fmt(r.get('damping_ratio'), 3)}, "
+                                 f"strongest at point {r['point']})" for r in extra))
+    return f" Located {'; '.join(parts)}." if parts else ""
+
+
+def selected_chi2(res: dict) -> float | None:
+    """The chi-square of the selected effect's fit (its entry in ``ranked``), None when it has none there."""
+    sel = res.get("selected") or []
+    if not sel:
+        return None
+    effect = "+".join(x["effect"] for x in sel)
+    where = sel[0]["location"] if len(sel) == 1 else {"first": sel[0]["location"], "second": sel[1]["location"]}
+    for r in res.get("ranked") or []:
+        if r["effect"] == effect and r["location"] == where:
+            return r["chi2"]
+    return None
+
+
+def verdict(res: dict) -> str:
+    """One paragraph: mismatch or not, what was selected and why, what the validation shows.
+
+    Parameters
+    ----------
+    res : dict
+        :meth:`DiagnosisResult.as_dict`.
+
+    Returns
+    -------
+    str
+        Plain text (no markup). It names the mismatch tests that failed
+        (``statistics.mismatch_tests``), the selection and why (the decision
+        policy's rules, :mod:`vlab.diagnose.fit.rules`), the validation's misfit
+        ratio ("N x lower" or "N x higher"), a remainder, or why nothing is
+        selected; every number is one of ``res``.
+    """
+    s = res["statistics"]
+    n = s.get("n_obs")
+    inst = res.get("instability") or {}
+    first = f"Instability: {inst['summary']}. " if inst.get("unstable") else ""
+    return first + _verdict_body(res, s, n)
+
+
+def mismatch_text(s: dict, n) -> str:
+    """The tests the nominal lab failed (``statistics.mismatch_tests``), each with its statistic and limit."""
+    parts = []
+    for t in s.get("mismatch_tests") or []:
+        if t["test"] == "chi2":
+            parts.append(f"the nominal model's chi2 = {_fmt(t['statistic'])} over N = {n} residuals exceeds its limit "
+                         f"{_fmt(t['limit'])}")
+        elif t["test"] == "line":
+            parts.append(f"one line stands out (largest squared residual {_fmt(t['statistic'])}, limit "
+                         f"{_fmt(t['limit'])})")
+        elif t["test"] == "model_form":
+            parts.append(f"the nominal model's modes must move beyond their model-form uncertainty to fit (chi-square "
+                         f"of the moves {_fmt(t['statistic'])}, limit {_fmt(t['limit'])}; most: {t['largest']} by "
+                         f"{t['largest_sigmas']:+.3g} sigma)")
+        elif t["test"] == "change":
+            parts.append(f"without the model-error floor the recording differs from its reference: chi2 = "
+                         f"{_fmt(t['statistic'])} over N = {n} residuals exceeds its limit {_fmt(t['limit'])} (with "
+                         "the floor it is within)")
+    if not parts:  # a result written without the tests: the total chi-square is what it quotes
+        parts.append(f"the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals (limit "
+                     f"{_fmt(s['chi2_limit'])})")
+    rate = (s.get("policy") or {}).get("false_alarm_rate")
+    return "; ".join(parts) + (f" (false-alarm rate {rate:g})" if rate is not None else "")
+
+
+def _remainder_text(rem: dict | None, unit: str = "decades") -> str:
+    """The verdict's sentence on a remainder the selected effect leaves (empty without one); ``unit``: the
+    misfit's (:func:`misfit_unit`)."""
+    if not rem:
+        return ""
+    where = []
+    if rem.get("modes"):
+        where.append("modes " + ", ".join(str(m) for m in rem["modes"]))
+    if rem.get("points"):
+        where.append("points " + ", ".join(str(p) for p in rem["points"]))
+    line = rem.get("largest_line")
+    if line:
+        where.append(f"largest at {_fmt(line['frequency_hz'])} Hz, point {line['point']}")
+    noise = rem.get("noise_misfit_decades")
+    return (f" Explained in part: a remainder is left (misfit {_fmt(rem['misfit_decades'], 3)} {unit} on "
+            f"{rem['judged_on']}" + (f", an exact model leaves {_fmt(noise, 3)}" if noise is not None else "")
+            + (f"; {'; '.join(where)}" if where else "") + "), outside the library.")
+
+
+def _verdict_body(res: dict, s: dict, n) -> str:
+    """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
+    if not res["mismatch"]:
+        if res.get("within_model_accuracy"):
+            return (f"Within the model's accuracy: the nominal model's weighted residual chi2 = "
+                    f"{_fmt(s['chi2_nominal'])} over N = {n} residuals is within the limit {_fmt(s['chi2_limit'])} "
+                    "set by the measurement's and the model's own uncertainty, though beyond the measurement's "
+                    "alone: no effect is proposed (see 'Uncertainty').")
+        return (f"No significant mismatch: the nominal model's weighted residual chi2 = {_fmt(s['chi2_nominal'])} over "
+                f"N = {n} residuals is within the noise limit {_fmt(s['chi2_limit'])}, so no effect is proposed.")
+    text = "Mismatch: " + mismatch_text(s, n) + "."
+    sel = res.get("selected") or []
+    if not sel and res.get("too_small_to_name"):
+        pts = (res.get("located") or {}).get("points") or []
+        where = f" at point{'s' if len(pts) > 1 else ''} {', '.join(str(p) for p in pts)}" if pts else ""
+        return text + (f" A change{where}, beyond the noise but within the model's accuracy "
+                       f"({100 * s.get('floor', 0.005):g} % a line): too small to name.")
+    if not sel and res.get("outside_library"):
+        part = [r for r in res.get("rejected") or [] if str(r.get("reason", "")).startswith(
+            ("explains only part of the mismatch", "its validation rerun makes the fit worse"))]
+        best = ""
+        if part and part[-1]["reason"].startswith("explains"):
+            best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
+                    f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x"
+                    + (f" and is not separated from {len(part[-1]['look_alikes'])} look-alike(s)"
+                       if part[-1].get("look_alikes") else "") + ")")
+        elif part:
+            r = part[-1]
+            best = (f" (the best, {r['label']}, fails its validation rerun: FRF misfit "
+                    f"{ratio_text(r['misfit_before'], r['misfit_after'])}, time-domain error "
+                    f"{ratio_text(r['time_error_before'], r['time_error_after'])})")
+        where = _where_text(res)
+        return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
+                       f"it{best}.{where}")
+    if not sel:
+        worse = [r for r in res.get("rejected") or [] if r.get("reason") == "fits no better than the nominal lab"]
+        if worse:
+            return text + (f" No effect of the library fits the data better than the nominal model within its own "
+                           f"uncertainty (the best, {worse[-1]['label']}, does not): the cause is not identified.")
+        ev = (s.get("policy") or {}).get("evidence", 10.0)
+        return text + (f" No hypothesis of the library (alone or in pairs) improves the BIC by {ev:g} or more and "
+                       "explains it: the cause is not identified.")
+    what = " + ".join(f"{x['effect']} at {format_location(x['location'])} "
+                      f"({format_parameters(x['parameters'], x.get('ci95'), names=True)})" for x in sel)
+    ranked = res.get("ranked") or []
+    text += f" Selected: {what}"
+    top_is_selected = bool(ranked) and (len(sel) > 1 or ranked[0]["effect"] == sel[0]["effect"]) and (
+        ranked[0]["location"] == (sel[0]["location"] if len(sel) == 1 else
+                                  {"first": sel[0]["location"], "second": sel[1]["location"]}))
+    if top_is_selected:
+        top = ranked[0]
+        text += (f", the lowest BIC of {len(ranked)} fitted hypotheses (chi2 {_fmt(s['chi2_nominal'])} -> "
+                 f"{_fmt(top['chi2'])}")
+        if len(ranked) > 1:
+            text += f"; the next, {ranked[1]['effect']} at {format_location(ranked[1]['location'])}, is " \
+                    f"{_fmt(float(ranked[1]['score'] - top['score']))} higher"
+        text += ")"
+    text += "."
+    alts = res.get("alternatives") or []
+    if alts:
+        text += f" Not separable by these data (BIC within 10): {', '.join(alts)}."
+    v = res.get("validated") or {}
+    ratio = ratio_text(v.get("misfit_before"), v.get("misfit_after"))
+    if ratio:
+        text += (f" Validation ({v.get('plant', 'model')}): misfit {_fmt(v['misfit_before'], 3)} -> "
+                 f"{_fmt(v['misfit_after'], 3)} {misfit_unit(res)}, {ratio}")
+        if v.get("noise_misfit") is not None:
+            carried = (res.get("uncertainty") or {}).get("model_form") == "derived"
+            text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
+                     f"{_fmt(v['noise_misfit'], 3)}")
+        text += "."
+    text += _remainder_text(res.get("remainder"), misfit_unit(res))
+    cause = (res.get("instability") or {}).get("cause")
+    if cause:
+        text += (f" Its rerun oscillates by itself too (at {', '.join(_fmt(f, 4) for f in cause['rerun_frequencies_hz'][:2])}"
+                 " Hz): the cause of the oscillation; a limit cycle's FRFs are not the lab's linear response, so the "
+                 "misfit's fall does not judge it.")
+    thr = res.get("detection_threshold") or {}
+    if thr.get("threshold") is not None:
+        q, unit = parameter_unit(thr["parameter"])
+        text += (f" The smallest {thr['effect']} there that these data would show: {q} {_fmt(thr['threshold'], 3)}"
+                 + (f" {unit}" if unit else "") + " (vlab detectability).")
+    return text
