@@ -1094,7 +1094,8 @@ def robustness(
             raise OptionError(f"{name} must be >= 0, got {value!r}")
     cfg_controllers = tuple(c.strip() for c in controllers.split(",") if c.strip())
     confirm_size(samples, structure, n_samples, len(cfg_controllers),
-                 1 if sched is None else (workers or default_workers()), yes)
+                 1 if sched is None else (workers or default_workers()), yes,
+                 runs=len(cfg_controllers) * (min(simulate + simulate_random, n_samples) + 1))
     out_path = _out_dir(out, ROBUSTNESS_OUT, overwrite)
     if markdown_copy is not None:
         from .io.atomic import check_output_file

@@ -28,6 +28,9 @@ CONNECT_TIMEOUT_S = 8.0
 #: Seconds one sample takes per worker process, all four controllers, measured on two shared cores
 #: (``vlab robustness bcc|grid --samples 1000``: 20 s and 234 s on 2 processes).
 SECONDS_PER_SAMPLE = {"bcc": 0.04, "grid": 0.47}
+#: Seconds one 12 s MuJoCo run of the time check takes, measured on two shared cores (``vlab robustness
+#: bcc|grid``: 365 s for 427 runs, 362 s for 60 runs).
+SECONDS_PER_RUN = {"bcc": 0.85, "grid": 6.0}
 #: A study estimated to take longer than this [s] needs ``--yes``.
 CONFIRM_ABOVE_S = 1800.0
 
@@ -139,8 +142,9 @@ def parse_samples(value) -> int:
     return int(x)
 
 
-def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers: int) -> float:
-    """Rough run time of a study's samples [s]: :data:`SECONDS_PER_SAMPLE` scaled to the controllers and workers.
+def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers: int, runs: int = 0) -> float:
+    """Rough run time of a study [s]: :data:`SECONDS_PER_SAMPLE` scaled to the controllers and workers, plus
+    ``runs`` MuJoCo runs of :data:`SECONDS_PER_RUN`.
 
     Parameters
     ----------
@@ -148,16 +152,19 @@ def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers
         ``"bcc"`` or ``"grid"``.
     n_samples, n_controllers, workers : int
         ``workers`` >= 1 processes.
+    runs : int
+        MuJoCo runs of the time check, all controllers together.
 
     Returns
     -------
     float
     """
-    return SECONDS_PER_SAMPLE[structure] * n_samples * n_controllers / 4 / max(workers, 1)
+    return (SECONDS_PER_SAMPLE[structure] * n_samples * n_controllers / 4 / max(workers, 1)
+            + SECONDS_PER_RUN[structure] * runs)
 
 
 def confirm_size(samples_text: str, structure: str, n_samples: int, n_controllers: int, workers: int,
-                 yes: bool) -> float:
+                 yes: bool, runs: int = 0) -> float:
     """Refuse a study estimated (:func:`estimate_seconds`) to run longer than :data:`CONFIRM_ABOVE_S` unless ``yes``.
 
     Parameters
@@ -168,6 +175,8 @@ def confirm_size(samples_text: str, structure: str, n_samples: int, n_controller
     n_samples, n_controllers, workers : int
     yes : bool
         ``--yes``.
+    runs : int
+        MuJoCo runs of the time check (:func:`estimate_seconds`).
 
     Returns
     -------
@@ -179,7 +188,7 @@ def confirm_size(samples_text: str, structure: str, n_samples: int, n_controller
     OptionError
         Over the limit without ``yes``: the message gives the estimate.
     """
-    est = estimate_seconds(structure, n_samples, max(n_controllers, 1), workers)
+    est = estimate_seconds(structure, n_samples, max(n_controllers, 1), workers, runs)
     if est > CONFIRM_ABOVE_S and not yes:
         raise OptionError(f"--samples {samples_text}: about {format_duration(est)} on {workers} process(es) "
                           f"({n_samples} samples); pass --yes to run it, or fewer samples")
