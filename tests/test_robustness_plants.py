@@ -216,5 +216,7 @@ def test_ctrl_c_on_a_dask_run_prints_one_line(tmp_path):
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert p.returncode == 130, (out, err)
     assert len(lines) == 1 and lines[0].startswith("interrupted"), err
-    time.sleep(1.0)
-    assert not [c for c in _group_members(p.pid) if "spawn_main" in c]
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and [c for c in _group_members(p.pid) if "spawn_main" in c]:
+        time.sleep(0.2)
+    assert not [c for c in _group_members(p.pid) if "spawn_main" in c], _group_members(p.pid)

@@ -203,26 +203,37 @@ def format_duration(seconds: float) -> str:
     return f"{seconds:.2g} s" if math.isfinite(seconds) else "unknown"
 
 
+#: Environment variable of Dask's log level for ``distributed`` (read by each worker process at its start).
+_WORKER_LOG_ENV = "DASK_LOGGING__DISTRIBUTED"
+
+
 @contextlib.contextmanager
 def _workers_ignore_sigint():
-    """SIGINT ignored in this process while the local workers start, so that they inherit the ignored state.
+    """SIGINT ignored in this process while the local workers start, so that they inherit the ignored state;
+    their Dask log level set to ERROR through the environment they inherit.
 
     A terminal's Ctrl-C reaches every process of the foreground group; a worker process that has Python's
     default handler prints its own KeyboardInterrupt traceback. Workers started while SIGINT is ignored keep
     ignoring it across ``exec`` (POSIX), and Python then installs no handler of its own in them; this
     process's handler is restored at once (a Ctrl-C during the start is lost). Only on the main thread.
     """
+    import os
     import signal
     import threading
 
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    env = os.environ.get(_WORKER_LOG_ENV)
+    os.environ[_WORKER_LOG_ENV] = "error"  # the workers' own log lines below ERROR ("event loop unresponsive")
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        if main:
+            signal.signal(signal.SIGINT, previous)
+        if env is None:
+            os.environ.pop(_WORKER_LOG_ENV, None)
+        else:
+            os.environ[_WORKER_LOG_ENV] = env
 
 
 @contextlib.contextmanager
