@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vlab.fe.damping import open_loop_ratios
+from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.diagnose.data.measured import FrfData, refer_to_model
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.effects.hypotheses import JointFlexibility, library
@@ -28,11 +28,21 @@ MASS_FACTOR = 0.98
 
 
 def other_model_modes(spec, points) -> PointModes:
-    """Modes of a second model of ``spec`` whose frequencies are all 1 % above the FE model's."""
+    """Modes of a second model of ``spec`` whose frequencies are all 1 % above the FE model's. A changed
+    structure keeps the unchanged one's damping matrix (that of the second model of the unchanged structure,
+    built here from its own matrices): its ratios and the modes' coupling follow from it."""
     fe = build_fe_model(spec)
     md = modal_analysis(MASS_FACTOR * fe.m, fe.k)
     rows = fe.dofs.indices(list(points), "w")
-    return PointModes(md.omega, open_loop_ratios(spec, len(md.omega)), md.shapes[rows, :], tuple(points), "test")
+    if spec.damping is None or spec.damping.basis is None:
+        return PointModes(md.omega, open_loop_ratios(spec, len(md.omega)), md.shapes[rows, :], tuple(points), "test")
+    base = build_fe_model(spec.damping.basis)
+    assert base.dofs.labels == fe.dofs.labels
+    c0 = modal_damping_matrix(MASS_FACTOR * base.m, base.k, open_loop_ratios(spec, base.n))
+    cm = md.shapes.T @ c0 @ md.shapes
+    zeta = np.diag(cm) / (2 * md.omega)
+    np.fill_diagonal(cm, 0.0)
+    return PointModes(md.omega, zeta, md.shapes[rows, :], tuple(points), "test", cm)
 
 
 def _referred_problem(edit, name: str) -> Problem:
