@@ -82,6 +82,11 @@ def test_lq_gain_json_is_force_per_si_state(structure, controller, model):
     assert len(out["gain_state_labels"]) == n2
     for lab, (_nd, d) in zip(out["gain_state_labels"], list(dm.labels) * 2):
         assert lab.endswith("[m/s]" if d == "w" else "[rad/s]") or lab.endswith("[m]" if d == "w" else "[rad]")
+    # the thesis gain's columns are labelled in the thesis's units, and those units are the ones that convert it
+    si_of = {"[in/cs]": IN_M / CS_S, "[rad/cs]": 1.0 / CS_S, "[in]": IN_M, "[rad]": 1.0}
+    units = [lab[lab.rindex("["):] for lab in out["gain_thesis_state_labels"]]
+    np.testing.assert_allclose(np.asarray(out["gain_thesis_lbf_per_thesis_state"]) * LBF_N
+                               / np.array([si_of[u] for u in units])[None, :], out["gain_n_per_si_state"], rtol=1e-9)
     # the SI gain on the SI model closes the loop with the poles of the thesis design (in 1/s)
     poles_si = _sorted_eigs(a_si - b_si @ np.asarray(out["gain_n_per_si_state"]))
     poles_th = _sorted_eigs(a_th - b_th @ f_th) / CS_S

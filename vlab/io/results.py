@@ -80,6 +80,21 @@ def write_json(path: Path, obj: dict) -> Path:
 DRF_CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag")
 
 
+
+#: SI units of the state labels and the thesis's units of the same columns (Sec. 3.1: 1 cs = 0.01 s).
+_THESIS_STATE_UNITS = (("[m/s]", "[in/cs]"), ("[rad/s]", "[rad/cs]"), ("[m]", "[in]"), ("[rad]", "[rad]"))
+
+
+def thesis_state_label(label: str) -> str:
+    """A state label with its SI unit (``"dw/dt@9 [m/s]"``) in the thesis's units (``"dw/dt@9 [in/cs]"``):
+    the columns of ``gain_thesis_lbf_per_thesis_state`` (Sec. 3.1). A label without a known unit is returned
+    as it is."""
+    for si, th in _THESIS_STATE_UNITS:
+        if label.endswith(si):
+            return label[: -len(si)] + th
+    return label
+
+
 def design_summary(d) -> dict:
     """A controller design as a JSON object whose every number carries its unit in its key.
 
@@ -100,8 +115,9 @@ def design_summary(d) -> dict:
         (D, shape (n_c, n_c), ``u = -D y``) and ``gain_thesis_lb_s_per_in``
         (the form of Tables 7, 11, 15); for LQR/LQG ``gain_n_per_si_state``
         (F, shape (n_c, 2n_d), ``u = -F x``), ``gain_state_labels`` (name
-        and SI unit of each column) and ``gain_thesis_lbf_per_thesis_state``
-        (per in/cs, rad/cs, in, rad); ``damping_ratios`` [-] and
+        and SI unit of each column), ``gain_thesis_lbf_per_thesis_state``
+        (per in/cs, rad/cs, in, rad) and ``gain_thesis_state_labels`` (its
+        columns' names in those units, :func:`thesis_state_label`); ``damping_ratios`` [-] and
         ``frequencies_hz`` of the closed loop; ``performance_index_thesis_units``
         (J_i, Eqs. 4.7, 4.20, 4.33); ``gamma_lb_s_per_in`` and
         ``gamma_n_s_per_m`` (MFDRF/LQDRF max row sum of ``|D|``, null for
@@ -121,6 +137,7 @@ def design_summary(d) -> dict:
         out["gain_n_per_si_state"] = d.gain
         out["gain_state_labels"] = list(d.state_labels)
         out["gain_thesis_lbf_per_thesis_state"] = extra.pop("gain_thesis_lbf_per_thesis_state", None)
+        out["gain_thesis_state_labels"] = [thesis_state_label(x) for x in d.state_labels]
     out.update({
         "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
         "performance_index_thesis_units": d.performance_index,
