@@ -33,6 +33,22 @@ from vlab.spec import load_spec
 CASES = json.loads((Path(__file__).parent / "cli_cases.json").read_text())["cases"]
 
 
+def _import_every_module() -> None:
+    """Import every module of vlab now, before any trap is set: a module imported for the first time while a
+    trap replaces ``vlab.sim.build_plant`` would bind the trap by ``from ..sim import build_plant`` for the
+    rest of the test session."""
+    import importlib
+    import pkgutil
+
+    import vlab
+
+    for m in pkgutil.walk_packages(vlab.__path__, "vlab."):
+        importlib.import_module(m.name)
+
+
+_import_every_module()
+
+
 class StartedWork(BaseException):
     """Raised by the traps: a refused case must not reach the work (BaseException: no handler catches it)."""
 

@@ -76,8 +76,9 @@ def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: floa
 
 def rejection(h, reason: str, before: float, after: float, noise: float | None, **more) -> dict:
     """The entry of ``res.rejected`` for the candidate ``h`` rejected for ``reason``: its FRF misfits
-    [decades] before and after (validation rerun, else the linear model), the misfit an exact model leaves
-    [decades] (None when unknown) and any further numbers ``more`` (their keys carry their units)."""
+    [decades] ``before`` and ``after`` (validation rerun, else the linear model), the misfit an exact model
+    leaves, ``noise`` [decades] (None when unknown), and any further numbers ``more`` (their keys carry their
+    units)."""
     return {"effect": h.effect, "label": h.label, "misfit_before": before, "misfit_after": after,
             "noise_misfit": noise, **more, "reason": reason}
 
@@ -181,8 +182,9 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     a flat model-error floor does not cover -- a 0.05 % frequency difference moves the line at a peak of
     damping ratio 0.002 by tens of per cent -- so a remainder confined to one line is not reported.
     Where a validation rerun was made, its misfit must also be resolved from what an exact model leaves
-    (:func:`vlab.diagnose.fit.rules.remainder_resolved`). A choice with a nonlinear part and no rerun is not
-    judged: its linear model is a describing function.
+    (:func:`vlab.diagnose.fit.rules.remainder_resolved`). A choice with a nonlinear part is not judged: its
+    linear model is a describing function, whose error is not a remainder, and its value was fitted through
+    that describing function, so the rerun's misfit measures that fit as much as what is left.
 
     Parameters
     ----------
@@ -204,7 +206,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     if res.selected is None:
         return None
     v = res.validation
-    if v is None and any(p.effect in NONLINEAR for p in res.selected_parts):
+    if any(p.effect in NONLINEAR for p in res.selected_parts):
         return None
     state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
     profiled = problem.model_form_frf is not None and state.point_modes is not None
@@ -236,9 +238,11 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
 
 
 def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list) -> None:
-    """Rule 10 on the choice of ``res`` (in place): test the remainder it leaves (:func:`remainder_of`); keep it
-    as ``res.remainder`` when the choice is identified (no look-alike within the policy's evidence), else
-    reject the choice -- the mismatch then lies outside the library -- naming its look-alikes."""
+    """Rule 10 on the choice of ``res`` (in place): test the remainder it leaves on the data of ``problem``
+    (:func:`remainder_of`); keep it as ``res.remainder`` when the choice is identified (no look-alike within
+    the policy's evidence), else reject the choice -- the mismatch then lies outside the library -- naming
+    its look-alikes in ``notes``; ``chi2_fit``: the nominal lab's chi-square on the fits' footing, for the
+    location from the fits."""
     if res.selected is None:
         return
     rem = remainder_of(res, problem, res.misfit_nominal)

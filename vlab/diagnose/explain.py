@@ -126,9 +126,11 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
 
 def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, search: Search, timing: dict,
                    say) -> list:
-    """Screen every hypothesis of the library, fit the shortlist and, where needed, pairs; returns them ranked by
-    BIC (best first). ``sensitivity``: the localisation's ranking (:func:`vlab.diagnose.fit.rules.prune`).
-    A hypothesis that cannot be built or fitted is left out."""
+    """Screen every hypothesis of the library of the lab ``nominal`` (context ``ctx``) on the data of
+    ``problem``, fit the shortlist and, where needed, pairs (as ``search`` says); returns them ranked by BIC
+    (best first). ``sensitivity``: the localisation's ranking (:func:`vlab.diagnose.fit.rules.prune`);
+    ``timing``: stage -> seconds, filled in; ``say``: progress. A hypothesis that cannot be built or fitted
+    is left out."""
     say("screening hypotheses")
     t = time.perf_counter()
     scored = []

@@ -115,7 +115,7 @@ class DecisionPolicy:
 
     def needed(self, chi2_without: float, chi2_with: float, k_added: int, c_hat: float = 1.0) -> bool:
         """Whether ``k_added`` parameters that lower the chi-square from ``chi2_without`` to ``chi2_with``
-        are needed (:meth:`lr_limit`)."""
+        are needed (:meth:`lr_limit`, with the overdispersion ``c_hat``)."""
         return bool(chi2_without - chi2_with > self.lr_limit(k_added, c_hat))
 
     @staticmethod

@@ -31,7 +31,10 @@ from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_reso
 
 @dataclass(frozen=True)
 class Options:
-    """The options of a diagnosis that decide what is read and compared (see :func:`vlab.diagnose.diagnose`)."""
+    """The options of a diagnosis that decide what is read and compared: ``controller``, ``plant``,
+    ``resolution_hz``, ``seed``, ``baseline``, ``replay``, ``force``, ``mjcf``, ``reference_column``,
+    ``model_form`` and ``validate_run``, as the parameters of :func:`vlab.diagnose.diagnose` of the same
+    names."""
 
     controller: str | None = None
     plant: str = "auto"

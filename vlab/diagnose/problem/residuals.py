@@ -140,6 +140,8 @@ class Problem:
         :meth:`peak` of ``base``) are those of its modes' most likely frequencies and damping within their
         model-form uncertainty (:meth:`nominal_profile`, nonlinear), not of the linear whitening: a
         frequency error of a mode with 0.1 % damping moves its peak lines far beyond first order.
+    policy : DecisionPolicy
+        Every limit of the decision (:mod:`vlab.diagnose.policy`; default: a false-alarm rate of 1 %).
 
     Attributes
     ----------

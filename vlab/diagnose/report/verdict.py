@@ -23,7 +23,7 @@ def _where_text(res: dict) -> str:
 
 
 def selected_chi2(res: dict) -> float | None:
-    """The chi-square of the selected effect's fit (its entry in ``ranked``), None when it has none there."""
+    """The chi-square of the selected effect's fit (its entry in ``res["ranked"]``), None when it has none there."""
     sel = res.get("selected") or []
     if not sel:
         return None
