@@ -34,7 +34,7 @@ included, divided by 64). Each timing is the best of ``--repeats``.
 Usage::
 
     python benchmarks/batch_speed.py [--seconds 1.0] [--threads 2] [--repeats 2] [--baseline DIR]
-                                     [--out docs/batch_speed.txt]
+                                     [--out docs/validation/data/batch_speed.txt]
 """
 
 from __future__ import annotations

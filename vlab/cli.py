@@ -4,7 +4,7 @@ Thin: every command parses its options, calls the library and prints a rich
 table or, with ``--json``, one JSON object with stable keys (README lists
 them).
 
-One error path for every command (issue 26): a failure is printed as one line
+One error path for every command: a failure is printed as one line
 ``error: <message>`` on stderr naming the file, field, option or value (escaped
 so that rich markup never eats a value such as ``[0.0]``), with no traceback
 unless the global ``--debug`` option is given. Exit status:

@@ -56,8 +56,7 @@ def check_fe_model(fe: FEModel) -> FEModel:
     """Refuse an FE model whose modes double precision cannot resolve.
 
     A structure definition whose values are each plausible can still give a
-    meaningless model (issue 26: EI x 1e30 printed modes at 0.000 Hz and
-    3.3e15 Hz). The shipped structures are held (BCC by its cables, the
+    meaningless model (EI x 1e30 gives modes at 0.000 Hz and 3.3e15 Hz). The shipped structures are held (BCC by its cables, the
     grid by its bearings), so every mode has a positive frequency; a mode with an eigenvalue below the resolution
     floor of :func:`vlab.fe.modal.unresolved_modes` (``100 n eps
     lambda_max``) is either a rigid-body (mechanism) mode -- a support or a

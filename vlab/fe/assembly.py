@@ -106,7 +106,7 @@ def _element_matrices(ei: float, gj: float, rho_a: float, rho_ip: float, length:
     # The flexible part's matrices act on the element-end DOFs: carried to the
     # node DOFs across the inserts, then rotated. The inserts' own mass is
     # already on the node DOFs (:func:`_insert_mass`): rotated only, so that it
-    # is not carried across the offset a second time (issue 25, item 1).
+    # is not carried across the offset a second time.
     off = rigid_offset(a1, a2)
     rot = local_to_global(*direction)
     t = off @ rot

@@ -560,7 +560,7 @@ def measure(
         frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
                              window=window, f_max_hz=test.band_hz[1], input_name=f"force{exc_point}",
                              output_name=f"vel{p}", input_point=exc_point,
-                             output_point=p).band(*test.band_hz)  # only the excited lines (issue 25 item 8)
+                             output_point=p).band(*test.band_hz)  # only the excited lines
     resp = frfs[f"vel{test.response_point}"]
     f, h = resp.freq_hz, resp.h
     if test.response_quantity == "displacement":
@@ -712,7 +712,7 @@ def not_meaningful(warnings) -> list[str]:
     """The warnings that say the run's FRF comparison is not meaningful.
 
     ``vlab experiment`` exits with status 1 when there is one, unless
-    ``--allow-unstable`` (issue 25 item 7).
+    ``--allow-unstable``.
 
     Parameters
     ----------

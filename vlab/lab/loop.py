@@ -437,7 +437,7 @@ def run_loop(
     :meth:`ChainRun.force_one <vlab.lab.batch_chain.ChainRun.force_one>` (the
     chain's arithmetic on floats, the same operations as the batch's arrays)
     and the plant's step; the time per tick against MuJoCo's own loop is in
-    docs/batch_speed.txt (``benchmarks/batch_speed.py``).
+    docs/validation/data/batch_speed.txt (``benchmarks/batch_speed.py``).
     """
     period = chain.period_s
     h = plant.timestep_s

@@ -1,4 +1,4 @@
-"""The dissertation's measurements diagnosed as real data (issue 24, item 6).
+"""The dissertation's measurements diagnosed as real data.
 
 Every other table of ``vlab reproduce`` compares vlab's *analysis* with the
 dissertation's. Here the published *experimental* numbers are handed to

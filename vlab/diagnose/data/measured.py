@@ -1,6 +1,6 @@
 """Measured data for a diagnosis: recordings, FRFs or modal tables, checked and turned into FRFs.
 
-Three inputs (issue 6):
+Three inputs:
 
 - UFF 58 time histories (function type 1) as ``vlab experiment`` writes them:
   one force channel (the excitation, node = point id) and velocity channels;

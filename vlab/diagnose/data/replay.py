@@ -43,7 +43,7 @@ from .warmstart import rerun_window, warm_start
 BATCH_RERUNS = True
 
 #: Fewest reruns :func:`reruns` makes as one batch by default. Measured side by side
-#: (benchmarks/rerun_batch_speed.py, docs/rerun_batch_speed.txt: BCC MFDRF, 27.6 s reruns, 2 cores, load
+#: (benchmarks/rerun_batch_speed.py, docs/validation/data/rerun_batch_speed.txt: BCC MFDRF, 27.6 s reruns, 2 cores, load
 #: average 2.0-3.2, nice -10): processes / batch wall time 0.92 for K = 2, 1.05 for K = 3, 1.14 for K = 4
 #: (a second run: 0.90, 1.04, 1.14). The batched loop on one
 #: thread costs about 15 us per tick and simulation at N = 2, 11 at N = 4, against the single loop's

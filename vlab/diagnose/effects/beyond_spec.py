@@ -27,7 +27,7 @@ def critical_dashpot(state, ctx, point: int) -> float:
     ``min_r 2 omega_r / phi_r(p)^2`` over the modes of ``state`` in ``ctx.band_hz`` (mass-normalised shapes).
 
     A larger dashpot no longer damps that mode: it holds the point still, a support rather than damping. On
-    the MuJoCo grid (benchmark seed 7373, case 6) a dashpot of 6.1e11 N s/m at the top beam's point 15, next
+    the MuJoCo grid a dashpot of 6.1e11 N s/m at the top beam's point 15, next
     to its bearing (modal mass there about 8 t), and a friction force of 39 N there stood for a spring
     further along the beam and were selected; as damping they can only be validated on the linear plant.
     Infinity when no mode of the band moves the point."""

@@ -269,8 +269,7 @@ def _screen_pairs(kept: Hypothesis, x_kept: np.ndarray, pool: list[Hypothesis], 
 
     The coarse scan, as for a single effect: the chi-square well of a second effect that moves lightly
     damped modes is narrower than the spacing of its own trial values (a spring's are 3.3x apart). On the
-    MuJoCo grid (benchmark seed 7373, case 6: joint 7 softened to 23 N m/rad and a 790 N/m spring at the
-    top beam's point 17) the spring at 17 screened at its trial values (885 N/m the nearest) was not among
+    MuJoCo grid (joint 7 softened to 23 N m/rad and a 790 N/m spring at the top beam's point 17) the spring at 17 screened at its trial values (885 N/m the nearest) was not among
     the 12 best partners of the joint; scanned, it was 2nd, and fitted it gave the best pair (chi-square
     19 240, against 20 667 for the spring at 16 and 27 965 for the pair selected before, the joint with a
     friction force at point 15 that pinned the beam there)."""
@@ -360,7 +359,7 @@ def _screen_held(held: list, pool: list[Hypothesis], problem: Problem, skip: set
 #: Mode-moving single effects tried as the first effect of a pair besides the best single one (the
 #: forward step's "basin" firsts, :func:`fit_pairs`): the best by smoothed error, each held at the centre
 #: of its broad basin. Chosen, not fitted (each costs a screen of the mode-moving pool, about 900 FE
-#: evaluations on the grid, 4-8 s). On the MuJoCo grid (benchmark seed 6161, case 2: joint 9 softened to
+#: evaluations on the grid, 4-8 s). On the MuJoCo grid (joint 9 softened to
 #: 22 N m/rad with bar 2-6 stiffened 1.42x) the joint's single fit, 49 N m/rad, absorbs the bar's opposite
 #: frequency shifts; held there, the bar ranks 8th of the partners screened; held at its basin's centre,
 #: 35 N m/rad, 2nd, and the joint fit reaches the drawn pair (chi-square 1.6e4 against 5.5e5 for the

@@ -136,7 +136,7 @@ def _at_own_peak(f_fit: float, peaks_hz: np.ndarray, j: int) -> bool:
 
     A single-mode fit of a heavily damped mode spans its neighbours (three half-power bandwidths of a
     damping ratio of 0.13 at 1.62 Hz reach from 0.4 to 2.9 Hz) and can converge onto the next resonance:
-    on the MuJoCo grid (benchmark seed 6161, case 0) the grid's mode 3, picked at 1.625 Hz, was fitted at
+    on the MuJoCo grid the grid's mode 3, picked at 1.625 Hz, was fitted at
     2.745 Hz, mode 4's peak, and its frequency error (+67 %) then drove the sensitivity ranking (the
     grounded spring that explained it best "explained" 51 % and pruned the true one away)."""
     if not np.isfinite(f_fit):

@@ -168,9 +168,9 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     what its linearisation leaves on the plant is mostly the nonlinearity's
     own distortion, which no linear second effect explains and which
     :meth:`~vlab.diagnose.problem.residuals.Problem.within_noise` cannot judge (MuJoCo
-    grid benchmark, seed 0, case 12, a saturation: chi-square 5.5e5 against a
+    grid, a saturation: chi-square 5.5e5 against a
     noise limit of 3.1e3, and the best pair's quasi-BIC evidence 1.7; the
-    search failed on every benchmark case with a nonlinear single effect, at
+    search failed on every recording with a nonlinear single effect, at
     20-35 s each). Pairs with a nonlinear part are judged by rerun instead
     (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 

@@ -141,8 +141,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     :data:`MUJOCO_LOOKALIKES` best of them (when all can be carried by the
     MuJoCo plant) are compared again on reruns of that plant: the linear
     plant's time error holds the FE/MuJoCo model-form error, which no
-    candidate removes and which can leave look-alikes tied (MuJoCo grid
-    benchmark, seed 4242, case 3: an actuator gain of 0.65 on channel 2 and
+    candidate removes and which can leave look-alikes tied (MuJoCo grid:
+    an actuator gain of 0.65 on channel 2 and
     a saturation of that channel both at 0.162 on the linear plant, and the
     saturation named). When the winner is a pair with such a
     nonlinear part, its linear misfit cannot judge the second effect: the
@@ -153,7 +153,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     reruns of the MuJoCo plant, when both can be carried by it: the linear
     plant's time error holds the FE/MuJoCo model-form error (about 0.25 of
     the signal on the grid), which the pair cannot lower and which hides
-    its gain (MuJoCo grid benchmark, seed 1, case 4: a lag next to a
+    its gain (MuJoCo grid: a lag next to a
     saturation, 0.275 against 0.328 on the linear plant).
 
     The reruns (the recorded force played back,

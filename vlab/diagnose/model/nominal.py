@@ -52,7 +52,7 @@ def plant_resolution(spec: StructureSpec) -> StructureSpec:
     top beam shifts the pair differently when its spacing differs -- a
     781 N/m spring at point 17 moves them +1.06/+1.62 % on the thesis mesh
     and +2.2/+0.5 % on the MuJoCo plant, so the diagnosis on the thesis mesh
-    fitted it at 473 N/m (benchmark seed 1, case 0), and on this mesh at
+    fitted it at 473 N/m, and on this mesh at
     742 N/m (776 N/m refitted on the plant; these three measured with the
     former one-link plant). The BCC has no shear-flexible
     section and is returned unchanged.
