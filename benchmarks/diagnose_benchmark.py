@@ -182,6 +182,9 @@ from vlab.units import G_SI  # noqa: E402
 
 RES_HZ = 0.05
 CONTROLLERS = {"bcc": "mfdrf", "grid": "lqg"}
+#: With ``--closed-nulls``: the controllers the null cases are recorded under, in turn (the dissertation's
+#: two DRF designs, Sec. 5: the closed loops whose prediction a false alarm would discredit).
+NULL_CONTROLLERS = ("mfdrf", "lqdrf")
 #: The recordings' ``plant`` metadata, as ``vlab experiment`` writes it (the diagnosis replays on that plant).
 RECORDED_PLANT = {"linear": "linear FE model", "mujoco": "MuJoCo plant"}
 STRUCT = ("added_mass", "support_stiffness", "joint_flexibility", "member_stiffness", "damping_mode",
@@ -719,7 +722,7 @@ MUJOCO_EXCLUDED = ("damping_point", "friction", "gravity_prestress")  # not expr
 
 
 def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, ...] = ("bcc", "grid"),
-              null_every: int = 0, tier: int = 1) -> dict:
+              null_every: int = 0, tier: int = 1, closed_nulls: bool = False) -> dict:
     """Draw case ``i``: structure, controller, concealed effects (``plant`` limits the families).
 
     ``null_every`` = K > 0 makes every K-th case (i = K-1, 2K-1, ...) one without any effect and the others
@@ -730,6 +733,9 @@ def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, .
     (``plant_options``, :func:`converged_plant_options`) and the seed of the tier's own random stream
     (``tier_seed``: the perturbation, the excitation and the noise; module notes, "Tier 2"); the draws of
     structure, controller and families are those of tier 1.
+
+    ``closed_nulls`` records every null case in closed loop, under :data:`NULL_CONTROLLERS` in turn (the
+    other draws are unchanged).
 
     Raises
     ------
@@ -760,6 +766,8 @@ def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, .
         f = str(rng.choice(fams))
         if f not in chosen and not ({f, *chosen} >= {"damping_point", "friction"}):
             chosen.append(f)
+    if closed_nulls and not chosen:
+        controller = NULL_CONTROLLERS[(i // max(null_every, 1)) % len(NULL_CONTROLLERS)]
     case = {"index": i, "structure": structure, "controller": controller, "families": chosen,
             "rng_seed": [seed, i, 1], "plant": plant}
     if tier == 2:
@@ -998,6 +1006,8 @@ def main(argv=None) -> int:
     ap.add_argument("--null-every", type=int, default=None,
                     help="every K-th case without any effect (0: drawn with probability 1/4; default 0, "
                          f"tier 2: {TIER2_NULL_EVERY})")
+    ap.add_argument("--closed-nulls", action="store_true",
+                    help="record every null case in closed loop (MFDRF and LQDRF in turn)")
     ap.add_argument("--baseline", action="store_true",
                     help="also record the unmodified plant and pass it to the diagnosis as its baseline")
     ap.add_argument("--keep", type=str, default=None,
@@ -1017,7 +1027,8 @@ def main(argv=None) -> int:
             ap.error(f"--tier 2 needs at least a third of null cases: --null-every 1, 2 or 3, got {args.null_every}")
     args.plant = args.plant or "linear"
     args.null_every = args.null_every or 0
-    cases = [make_case(i, args.seed, args.plant, tuple(args.structures), args.null_every, args.tier)
+    cases = [make_case(i, args.seed, args.plant, tuple(args.structures), args.null_every, args.tier,
+                       args.closed_nulls)
              for i in range(args.cases)]
     if args.only:
         cases = [c for c in cases if c["index"] in args.only]

@@ -27,6 +27,7 @@ from vlab.errors import ModelError, SimulationError  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
 from vlab.lab.experiment import TESTS, default_chain  # noqa: E402
 from vlab.lab.recording import Recording  # noqa: E402
+from vlab.diagnose.data.run import DiagnosisRun  # noqa: E402
 from vlab.models import nominal_fe_model  # noqa: E402
 
 RES_HZ = 0.5  # 2 s periods
@@ -35,10 +36,13 @@ PTS = (5, 6, 7, 9)
 
 
 class _Problem:
-    """What :func:`reruns` reads of a problem: the data (its recorded force and analysed part)."""
+    """What :func:`reruns` reads of a problem: the data (its recorded force and analysed part), the rerun
+    window's guard and the run context the reruns are kept in."""
 
     def __init__(self, data):
         self.data = data
+        self.guard_s = None
+        self.run = DiagnosisRun()
 
 
 def _lab(controller: str) -> LabState:

@@ -39,6 +39,7 @@ from ..measure.instability import find_instability
 from ..spec import StructureSpec
 from .data.measured import FrfData
 from .data.reference import RERUN_SEED
+from .data.run import DiagnosisRun
 from .data.replay import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
@@ -109,13 +110,14 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
                model_form == "auto" else "a measured baseline of the same structure" if model_form == "auto"
                else "as asked")
         notes.append(f"no model-form uncertainty ({why}): only the noise and the {100 * floor:g} % floor")
-    problem = Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf, modal_model_form=mf_mode != "none",
-                      profile_nominal=True, policy=policy)
-    problem.model_form = problem.model_form if mf is None else mf
-    problem.guard_s = inp.guard_s
-    problem.replay_plant = inp.replay_plant if inp.replayed is not None else None  # where the reference was replayed
+    run = DiagnosisRun()
     if inp.replayed is not None:  # the validation's nominal rerun is the replay
-        problem.__dict__.setdefault("_reruns", {})[("nominal", inp.replay_plant, RERUN_SEED)] = inp.replayed
+        run.reruns[("nominal", inp.replay_plant, RERUN_SEED)] = inp.replayed
+    problem = Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf, modal_model_form=mf_mode != "none",
+                      profile_nominal=True, policy=policy, run=run, guard_s=inp.guard_s,
+                      replay_plant=inp.replay_plant if inp.replayed is not None else None)
+    if mf is not None:
+        problem.model_form = mf
     return problem
 
 

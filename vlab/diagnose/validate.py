@@ -155,12 +155,12 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force was
     # replayed on as the reference -- is compared with what was recorded; a linear rerun with the data
     # referred to the model when a baseline was given (the model-form error removed)
-    recorded = data.h_recorded is not None and (kind == "mujoco" or kind == getattr(problem, "replay_plant", None))
+    recorded = data.h_recorded is not None and (kind == "mujoco" or kind == problem.replay_plant)
     target = data.h_recorded if recorded else data.h
     target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit = noise_misfit(target[mask], target_var[mask], w)
-    mf = getattr(problem, "model_form_frf", None)
+    mf = problem.model_form_frf
     if mf is not None and mf.sigma.size:  # an exact model is also uncertain by the model form
         var_mag = np.sum(mf.sens[mask].real ** 2 * mf.sigma**2, axis=-1)
         floor_misfit = float(np.hypot(floor_misfit, np.sqrt(np.sum(w * var_mag) / np.sum(w)) / np.log(10.0)))

@@ -410,7 +410,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
+    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s)
     try:
         recv, send = multiprocessing.Pipe(duplex=False)
         proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
@@ -419,7 +419,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
         send.close()
     except (OSError, AssertionError, ValueError):  # AssertionError: a daemon process may not start children
         return False
-    problem.__dict__.setdefault("_background", {})[(key, plant, seed)] = (proc, recv)
+    problem.run.background[(key, plant, seed)] = (proc, recv)
     return True
 
 
@@ -478,14 +478,13 @@ def last_reruns_note(problem) -> str:
     -------
     str
     """
-    return str(problem.__dict__.get("_reruns_note", ""))
+    return problem.run.note
 
 
 def _collect_background(problem, keys: list) -> None:
     """Move the background reruns of ``keys`` into the rerun cache, waiting for them; a failed one is
     dropped, to be rerun in the foreground (where its error is reported)."""
-    pending = problem.__dict__.get("_background", {})
-    cache = problem.__dict__.setdefault("_reruns", {})
+    pending, cache = problem.run.background, problem.run.reruns
     for key in keys:
         if key not in pending:
             continue
@@ -503,7 +502,8 @@ def _collect_background(problem, keys: list) -> None:
 
 def stop_background(problem) -> None:
     """End the background reruns of ``problem`` that were never asked for."""
-    for proc, recv in problem.__dict__.pop("_background", {}).values():
+    pending, problem.run.background = problem.run.background, {}
+    for proc, recv in pending.values():
         proc.terminate()
         proc.join()
         recv.close()
@@ -548,10 +548,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, guard_s=getattr(problem, "guard_s", None))
+    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s)
     pts = tuple(data.output_points)
-    cache = problem.__dict__.setdefault("_reruns", {})
-    pending = problem.__dict__.get("_background", {})
+    cache, pending = problem.run.reruns, problem.run.background
     _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core
     waiting = [(k, plant, seed) for _st, k in jobs if k is not None and (k, plant, seed) in pending]
     out: dict = {}
@@ -601,7 +600,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     if rest and len(todo) > 1:
         how = "; ".join(filter(None, [how, f"{len(rest)} {plant} rerun{'s' if len(rest) > 1 else ''} "
                                       f"{how_rest if len(rest) > 1 else 'alone'}" + (f" ({apart})" if apart else "")]))
-    problem.__dict__["_reruns_note"] = how
+    problem.run.note = how
     _collect_background(problem, waiting)
     for i, (st, k) in enumerate(jobs):  # a background rerun that failed is made here, where its error shows
         if k is not None and (k, plant, seed) in waiting and (k, plant, seed) not in cache:

@@ -41,6 +41,7 @@ import numpy as np
 from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
+from ..data.run import DiagnosisRun
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from ..policy import DEFAULT_POLICY, DecisionPolicy
@@ -142,6 +143,15 @@ class Problem:
         frequency error of a mode with 0.1 % damping moves its peak lines far beyond first order.
     policy : DecisionPolicy
         Every limit of the decision (:mod:`vlab.diagnose.policy`; default: a false-alarm rate of 1 %).
+    run : DiagnosisRun, optional
+        The run context whose reruns the problem's recording is played back into
+        (:mod:`vlab.diagnose.data.run`; default: a new, empty one).
+    guard_s : float, optional
+        Time before the analysed records that a rerun must start at, at least [s]
+        (:func:`vlab.diagnose.data.replay.rerun_window`; None: its default).
+    replay_plant : {"linear", "mujoco"}, optional
+        The plant the reference was replayed on (None: no replay; the data are compared with the FE model
+        or a measured baseline).
 
     Attributes
     ----------
@@ -165,9 +175,12 @@ class Problem:
     def __init__(self, data: FrfData | ModalData, base: LabState, ctx: Context, *, floor: float = 0.005,
                  use_phase: bool = True, freq_sigma: float | None = None, damping_sigma: float | None = None,
                  shape_sigma: float = 0.05, model_form_frf=None, modal_model_form: bool = True,
-                 profile_nominal: bool = False, policy: DecisionPolicy = DEFAULT_POLICY):
+                 profile_nominal: bool = False, policy: DecisionPolicy = DEFAULT_POLICY,
+                 run: DiagnosisRun | None = None, guard_s: float | None = None, replay_plant: str | None = None):
         self.data, self.base, self.ctx = data, base, ctx
         self.policy = policy
+        self.run = DiagnosisRun() if run is None else run
+        self.guard_s, self.replay_plant = guard_s, replay_plant
         self.floor, self.use_phase = float(floor), bool(use_phase)
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
         self.n_evaluations = 0
@@ -208,11 +221,6 @@ class Problem:
         a = np.concatenate(parts, axis=0) / np.concatenate([self.part_sigma] * len(parts))[:, None] * mf.sigma
         u, sv, _ = np.linalg.svd(a, full_matrices=False)
         return u, 1.0 / np.sqrt(1.0 + sv**2) - 1.0
-
-    def __getstate__(self) -> dict:
-        """Pickled (to a worker process) without the rerun bookkeeping of :mod:`vlab.diagnose.data.replay`
-        (background processes and the rerun cache), which stays with the process that made it."""
-        return {k: v for k, v in self.__dict__.items() if k not in ("_background", "_reruns")}
 
     # ------------------------------------------------------------------ modal helpers
     def _nominal_modes(self, base: LabState) -> None:
