@@ -1410,5 +1410,8 @@ def _virtual_measured_modes(fe):
     return freq, shapes
 
 
+from . import cli_update  # noqa: E402,F401  (registers `vlab update` on app)
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()

@@ -24,6 +24,7 @@ from typing import Any
 
 from . import units
 from .errors import SpecError
+from .spec_changes import CHANGE_TABLES, apply_change_tables, release_supports
 
 DOF_NAMES = ("w", "rx", "ry")
 
@@ -938,12 +939,14 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
         )
         r.done()
 
-    springs = []
+    springs, released = [], []
     for i, t in enumerate(top.raw("springs", [], types=(list,))):
         r = _Reader(file, t, f"springs[{i}]")
         dof = _dof(r, "dof", r.str("dof"))
         kind = "stiffness" if dof == "w" else "rot_stiffness"
         springs.append(Spring(r.str("id"), point_of(r, "point"), dof, r.quantity("stiffness", kind)))
+        if r.raw("replaces_support", False, types=(bool,)):
+            released.append((i, (springs[-1].point, dof)))
         r.done()
 
     supports = []
@@ -956,6 +959,8 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
             r.fail("inplane", f"expected true/false or 'free', 'pinned', 'clamped', got {inplane!r}")
         supports.append(Support(point_of(r, "point"), fixed, inplane))
         r.done()
+    supports = release_supports(tuple(supports), [(i, pd) for i, pd in released], lambda i, msg: _Reader(
+        file, top.table["springs"][i], f"springs[{i}]").fail("replaces_support", msg))
 
     instr = None
     ir = top.sub("instrumentation", None)
@@ -1018,12 +1023,13 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
     top.raw("calibration", {}, types=(dict,))
     test = _test_table(top.sub("test", None), instr, points)
     design = _design_table(top.sub("design", None))
+    changes = {name: top.raw(name, [], types=(list,)) for name in CHANGE_TABLES}
     top.done()
 
     ids = [m.id for m in members]
     if len(set(ids)) != len(ids):
         raise SpecError(f"{file}: field 'members': duplicate member ids {ids}")
-    return StructureSpec(
+    spec = StructureSpec(
         name=name,
         title=title,
         path=path,
@@ -1047,6 +1053,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
         design_settings=design,
         raw=doc,
     )
+    return apply_change_tables(spec, changes, lambda t, where: _Reader(file, t, where))
 
 
 def _number(r: _Reader, key: str, default: Any = ..., *, low: float = 0.0, low_open: bool = True,
@@ -1152,6 +1159,29 @@ def _mass_per_length(r: _Reader) -> Quantity:
 
 
 _COLLECTIONS = ("strings", "masses", "crosspieces", "springs")
+
+
+def structure_identity(spec: StructureSpec) -> str:
+    """SHA-256 (hex) of the structure's definition: its parsed document in a canonical form.
+
+    Comments, layout and the order of keys do not count; every value, unit and source does. A spec
+    built in code (no document) is identified by its ``repr``. A diagnosis stores it
+    (``structure_sha256``) so that ``vlab update`` refuses to apply it to another structure.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    import hashlib
+    import json
+
+    text = json.dumps(spec.raw, sort_keys=True, default=str) if spec.raw else repr(spec)
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def with_quantity(spec: StructureSpec, path: str, value_si: float, source: str | None = None) -> StructureSpec:

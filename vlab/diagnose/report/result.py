@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...io.results import jsonable
+from ...spec import structure_identity
 from ..data.measured import FrfData, ModalData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..fit.locate import FLAG, Location
@@ -253,7 +254,8 @@ class DiagnosisResult:
         else:
             data.update(n_modes=int(d.freq_hz.size))
         return jsonable({
-            "structure": self.structure, "controller": self.controller, "data": data,
+            "structure": self.structure, "structure_sha256": structure_identity(self.nominal.spec),
+            "controller": self.controller, "data": data,
             "mismatch": bool(self.mismatch),
             "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
                            "peak_nominal": self.peak_nominal, "peak_limit": self.peak_limit,
