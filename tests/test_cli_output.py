@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 
-COMMANDS = ("modes", "design", "experiment", "crosscheck", "export-mjcf", "reproduce", "diagnose")
+COMMANDS = ("modes", "design", "experiment", "crosscheck", "export-mjcf", "reproduce", "diagnose", "update")
 
 
 def _group():

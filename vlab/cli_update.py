@@ -29,7 +29,7 @@ def update_cmd(
                                           "--mjcf plant and print, side by side, the average peak level error "
                                           "(Table 10) and the closed-loop damping ratios predicted and measured"),
     mjcf: str = _opt(None, "--mjcf", help="with --verify: the plant both designs run on (an MJCF file, e.g. "
-                                          "`vlab export-mjcf` of the changed structure)"),
+                                          "`vlab export-mjcf` of the changed structure; default: none)"),
     controller: ExpController = _opt(None, "--controller",
                                      help="with --verify: the controller designed on each model (default: the "
                                           "diagnosis's, MFDRF for an open-loop diagnosis)"),
