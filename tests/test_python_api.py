@@ -14,7 +14,7 @@ import scipy.linalg
 import vlab
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "python-api.md"
-ENTRY = ("load_spec", "modes", "design", "run_experiment", "diagnose", "export_mjcf")
+ENTRY = ("load_spec", "modes", "design", "run_experiment", "diagnose", "update", "verify_update", "export_mjcf")
 
 
 def test_entry_points_are_callable_and_documented():

@@ -8,7 +8,8 @@ mismatch diagnosis.
 
 Python entry points (stable signatures; ``docs/python-api.md`` is the
 tutorial): :func:`load_spec`, :func:`modes`, :func:`design`,
-:func:`run_experiment`, :func:`diagnose`, :func:`export_mjcf`. They are
+:func:`run_experiment`, :func:`diagnose`, :func:`update`, :func:`verify_update`,
+:func:`export_mjcf`. They are
 imported lazily, so ``import vlab`` stays fast.
 
 ``vlab.design`` and ``vlab.diagnose`` are also the names of subpackages.
@@ -29,7 +30,8 @@ from typing import Any
 
 __version__ = "0.1.0"
 
-__all__ = ["load_spec", "modes", "design", "run_experiment", "diagnose", "export_mjcf", "__version__"]
+__all__ = ["load_spec", "modes", "design", "run_experiment", "diagnose", "update", "verify_update", "export_mjcf",
+           "__version__"]
 
 
 def load_spec(name_or_path: str | Path):
@@ -311,6 +313,82 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str | None = 
 
     return _diagnose(structure, Path(recording), controller=controller, out_dir=out_dir, plant=plant,
                      baseline=baseline, seed=seed, **options)
+
+
+def update(structure: Any, diagnosis: str | Path, *, out: str | Path | None = None, overwrite: bool = False):
+    """Write the structure file with the physics a diagnosis found, as commented entries (``vlab update``).
+
+    The original file's text is kept as written; each selected effect of the diagnosis is appended as an
+    ordinary entry (an added mass, a spring, a member's rigidity, a joint's flexibility, a mode's damping
+    ratio) with the source ``"vlab diagnose <recording>: fitted, 95 % interval [...]"``, read back and
+    checked against the structure the diagnosis evaluated (:mod:`vlab.model_update`).
+
+    Parameters
+    ----------
+    structure : str, Path or StructureSpec
+        The diagnosed structure: ``"bcc"``, ``"grid"``, a ``.toml`` path or a spec loaded from one.
+    diagnosis : str or Path
+        The folder :func:`diagnose` wrote (``out_dir``) or its ``diagnosis.json``.
+    out : str or Path, optional
+        The updated ``.toml`` file to write (None: nothing written, the text is in the result).
+    overwrite : bool
+        Replace an existing ``out``.
+
+    Returns
+    -------
+    UpdateResult
+        ``.spec`` (the updated structure), ``.text``, ``.entries``, ``.path``
+        (:class:`vlab.model_update.UpdateResult`).
+
+    Raises
+    ------
+    DataFileError
+        A diagnosis with nothing selected, outside the library, or made for another structure.
+    ModelError
+        A selected effect a structure file cannot hold (the hardware chain's delay, lags, gains; damping
+        at a point, friction, gravity pre-stress).
+    OutputError
+        ``out`` exists without ``overwrite``, or its folder is missing.
+    """
+    from .model_update import update as _update
+
+    return _update(structure, diagnosis, out=out, overwrite=overwrite)
+
+
+def verify_update(original: Any, updated: Any, mjcf: str | Path, *, controller: str = "mfdrf", seed: int = 0,
+                  duration_s: float | None = None) -> dict:
+    """Design on the original and on the updated structure, run both on the same plant (``vlab update --verify``).
+
+    Parameters
+    ----------
+    original, updated : str, Path or StructureSpec
+        The structure before and after :func:`update`.
+    mjcf : str or Path
+        The plant both designs run on (an MJCF file, e.g. the changed structure from :func:`export_mjcf`).
+    controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg"}
+        The controller designed on each model.
+    seed : int
+        Seed of the excitation, noise and designs.
+    duration_s : float, optional
+        Run length [s]; None: the structure's default.
+
+    Returns
+    -------
+    dict
+        For ``original`` and ``updated``: ``average_peak_level_error`` [1] (Table 10's measure) and
+        ``modes`` with ``damping_ratio_predicted`` and ``damping_ratio_measured``
+        (:func:`vlab.model_update.verify`).
+
+    Raises
+    ------
+    ModelError
+        Open loop or LQR; a plant without the structure's coils and sensors.
+    SimulationError, MeasurementError
+        As :func:`run_experiment`.
+    """
+    from .model_update import verify
+
+    return verify(original, updated, mjcf, controller=controller, seed=seed, duration_s=duration_s)
 
 
 def export_mjcf(structure: Any, path: str | Path, *, overwrite: bool = False) -> Path:
