@@ -186,3 +186,17 @@ def test_experiment_refuses_a_plant_without_the_structure_s_coils(tmp_path):
     res = runner.invoke(app, ["experiment", str(other), "--mjcf", str(tmp_path / "plant.xml"), "--duration", "4",
                               "--out", str(tmp_path / "exp")])
     assert res.exit_code == 2 and "coil5" in res.stderr and "missing" in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize("kind", ["beam", "frame"])
+def test_the_template_s_commented_change_entries_load_when_uncommented(kind):
+    from vlab.templates import template_text
+
+    text = template_text(kind)
+    head, block = text.split("# ---- changes found by a diagnosis")
+    lines = [ln[2:].split("  #")[0] for ln in block.splitlines()[2:] if ln.startswith("# ")]
+    lines = [ln for ln in lines if not ln.startswith("[[springs]]") and not ln.startswith("replaces_support")]
+    spec = spec_from_dict(tomllib.loads(head + "\n".join(lines).replace('"..."', '"test"')))
+    base = spec_from_dict(tomllib.loads(text))
+    assert spec.damping.modal_ratios[1] == 0.012 and len(spec.members) > len(base.members)
+    assert not _freqs(spec) == pytest.approx(_freqs(base), rel=1e-3)
