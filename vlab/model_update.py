@@ -387,7 +387,8 @@ def update(structure: str | Path | StructureSpec, diagnosis: str | Path, *, out:
     target = None if out is None else check_output_file(out, overwrite=overwrite, option="--out", suffix=".toml")
     d, file = read_diagnosis(diagnosis)
     selected = check_diagnosis(d, spec, file)
-    recording = Path(str((d.get("data") or {}).get("source") or "recording")).name
+    src = Path(str((d.get("data") or {}).get("source") or "recording"))
+    recording = f"{src.parent.name}/{src.name}" if src.parent.name else src.name  # e.g. mass6/recording.uff
     text, entries = updated_text(spec.path.read_text(encoding="utf-8"), spec, selected, recording)
     where = str(target or "the updated structure")
     try:
