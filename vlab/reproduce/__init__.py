@@ -6,6 +6,9 @@
 - :mod:`vlab.reproduce.tables`: one function per table group (Tables 1-21);
 - :mod:`vlab.reproduce.experiments`: virtual experiments for the peak-level ratios (Tables 10, 19-21);
 - :mod:`vlab.reproduce.limit_cycle`: the LQG limit cycle of Sec. 6.1;
+- :mod:`vlab.reproduce.peakratios`: Table 10's published peak level ratios diagnosed as real data (the analysis
+  side in :mod:`vlab.reproduce.peakanalysis`, the table and results in :mod:`vlab.reproduce.peaktable`, the fits
+  in :mod:`vlab.reproduce.peakfits`);
 - :mod:`vlab.reproduce.run`: :func:`reproduce` (report.md, reproduce.json, figures) and :func:`print_summary`.
 """
 

@@ -15,7 +15,7 @@ dissertation's. Here the published *experimental* numbers are handed to
 Table 1 (BCC frequencies) and Table 3 (grid frequencies; the dissertation
 blames wires added for the actuators for modes 1-2, Sec. 2.2.2). Table 10
 (BCC peak level ratios in four loop configurations) is diagnosed by
-:mod:`vlab.diagnose.fit.peakratios`, all four configurations together.
+:mod:`vlab.reproduce.peakratios`, all four configurations together.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class MeasuredDiagnosis:
 
 def diagnose_measurements() -> list[MeasuredDiagnosis]:
     """Diagnose Tables 1 and 3 (each against vlab's model and against the published analysis), and
-    Table 10 (:mod:`vlab.diagnose.fit.peakratios`).
+    Table 10 (:mod:`vlab.reproduce.peakratios`).
 
     Returns
     -------
@@ -79,7 +79,7 @@ def diagnose_measurements() -> list[MeasuredDiagnosis]:
         for ref, what in ((None, "vlab's model"), ("analytical_hz", "the published analysis")):
             d = diagnose(structure, path, out_dir=None, reference_column=ref).as_dict()
             out.append(MeasuredDiagnosis(name, what, verdict(d), d))
-    from ..diagnose.fit import peakratios
+    from . import peakratios
 
     d = peakratios.diagnose_peak_ratios()
     out.append(MeasuredDiagnosis("Table 10", "the published analysis (four loop configurations together)",
@@ -113,7 +113,7 @@ def markdown_section(items: list[MeasuredDiagnosis]) -> list[str]:
         lines += [f"### {it.table} against {it.compared_with}", "", it.verdict, ""]
         if it.table == "Table 10":
             lines += ["Per cell, the candidates and their intervals: `docs/diagnose_bcc_table10.md` "
-                      "(`python -c \"from vlab.diagnose.fit.peakratios import main; main()\"`).", ""]
+                      "(`python -c \"from vlab.reproduce.peakratios import main; main()\"`).", ""]
         rows = it.mode_rows()
         if not rows:
             continue

@@ -1,11 +1,11 @@
-"""The analysis side of the Table 10 diagnosis (:mod:`vlab.diagnose.fit.peakratios`).
+"""The analysis side of the Table 10 diagnosis (:mod:`vlab.reproduce.peakratios`).
 
 The dissertation's analysis of the Beam Cross-Cable's peak levels: the continuous closed loop on the full
 BCC model (Sec. 6.1) with Table 1's open-loop damping as proportional modal damping (Sec. 2.1.2), the
 Table 7 gains for MFDRF and LQDRF, vlab's LQG design for LQG; each configuration's FRF in pole-residue
 form, its peaks, how a peak read on a frequency grid falls short of it, and the sensitivities of every
 peak to the open-loop damping that the published rounding of Table 1 leaves uncertain. The method is
-described in :mod:`vlab.diagnose.fit.peakratios`.
+described in :mod:`vlab.reproduce.peakratios`.
 
 Source: Tables 1, 7, 8 and 10; Sec. 2.1.2, Sec. 5.4.2, Sec. 6.1.
 """
@@ -21,14 +21,14 @@ import numpy as np
 from scipy import optimize
 from scipy.interpolate import CubicSpline
 
-from ...analysis import closed_loop_modes
-from ...fe.damping import modal_damping_matrix, open_loop_ratios
-from ...design import design_controller
-from ...errors import DataFileError, ModelError
-from ...fe import build_fe_model, modal_analysis
-from ...reference import bcc_gain
-from ...spec import DATA_DIR, load_spec
-from ..model.modelform import printed_resolution
+from ..analysis import closed_loop_modes
+from ..fe.damping import modal_damping_matrix, open_loop_ratios
+from ..design import design_controller
+from ..diagnose.model.modelform import printed_resolution
+from ..errors import DataFileError, ModelError
+from ..fe import build_fe_model, modal_analysis
+from ..reference import bcc_gain
+from ..spec import DATA_DIR, load_spec
 
 #: Loop configurations, in Table 10's column order (column names of the CSV).
 CONFIGS = ("open_loop", "mfdrf", "lqdrf", "lqg")

@@ -1,4 +1,4 @@
-"""Diagnosis of Table 10's peak level ratios (vlab.diagnose.fit.peakratios) against independent results.
+"""Diagnosis of Table 10's peak level ratios (vlab.reproduce.peakratios) against independent results.
 
 - a closed form: one mode read off its resonance by delta, ``|H(f0 + delta)| / |H(f0)| ~ 1 / sqrt(1 +
   (delta / (zeta f0))^2)``;
@@ -16,11 +16,11 @@ import pytest
 
 from vlab.analysis import closed_loop_frf, continuous_controller_frf, velocity_frf
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
-from vlab.diagnose.fit import peakanalysis as pa
-from vlab.diagnose.fit import peakratios as pr
 from vlab.errors import DataFileError
 from vlab.fe import build_fe_model, modal_analysis
 from vlab.reference import bcc_gain, column
+from vlab.reproduce import peakanalysis as pa
+from vlab.reproduce import peakratios as pr
 from vlab.spec import load_spec
 
 TABLE1 = "table1_bcc_frequencies.csv"
