@@ -716,6 +716,7 @@ def crosscheck(
     def num(x: float) -> float | None:
         return None if x is None or not math.isfinite(x) else float(x)
 
+    verdict, verdict_lines = _crosscheck_tolerance(refs)
     if out == "json":
         _print_json({
             "structure": spec.name,
@@ -738,6 +739,7 @@ def crosscheck(
             "free_decay_mode1_hz": None if decay is None else decay.frequency_hz,
             "free_decay_mode1_damping": None if decay is None else decay.damping_ratio,
             "timestep_s": plant.timestep_s,
+            **verdict,
         })
         return
     thesis, fine = refs["thesis_mesh"], refs["plant_resolution"]
@@ -776,6 +778,36 @@ def crosscheck(
             console.print(f"{label}: MuJoCo mode {u.sim_mode} ({u.sim_hz:.4f} Hz) unpaired: {u.reason}")
     if decay is not None:
         console.print(f"free decay of mode 1: {decay.frequency_hz:.4f} Hz, zeta = {decay.damping_ratio:.4f}")
+    for line in verdict_lines:
+        console.print(line, highlight=False)
+
+
+def _crosscheck_tolerance(refs: dict) -> tuple[dict, list[str]]:
+    """The cross-check's verdict against :data:`vlab.sim.crosscheck.TOL_PCT` and ``MIN_MAC``: JSON fields, lines.
+
+    ``within_tolerance`` is true when every FE mode of every reference (``refs``: name -> CrossCheck) is paired
+    within the frequency tolerance and the MAC threshold; ``beyond_tolerance`` names each reference that is not,
+    with its worst error and MAC; ``tolerance`` gives both limits and their source.
+    """
+    from .sim.crosscheck import MIN_MAC, TOL_PCT, TOLERANCE_SOURCE
+
+    beyond, lines = {}, []
+    for key, r in refs.items():
+        if r.passed(TOL_PCT, MIN_MAC):
+            continue
+        err, mac = r.max_error_pct(), r.min_mac()
+        worst = max(r.pairs, key=lambda p: abs(p.error_pct) if p.sim_mode is not None else math.inf)
+        beyond[key] = {"max_abs_error_pct": err if math.isfinite(err) else None, "min_mac": mac,
+                       "fe_mode": worst.fe_mode}
+        label = key.replace("_", " ")
+        err_text = f"{err:.2f} %" if math.isfinite(err) else "an unpaired FE mode"
+        lines.append(f"BEYOND TOLERANCE ({label}): max |error| {err_text} (FE mode {worst.fe_mode}) against "
+                     f"{TOL_PCT:g} %, min MAC {mac:.4f} against {MIN_MAC:g}")
+    limits = f"|error| <= {TOL_PCT:g} %, MAC >= {MIN_MAC:g}"
+    lines.append(f"tolerance: {limits} ({TOLERANCE_SOURCE})" if beyond else
+                 f"within tolerance ({limits}) against every FE reference; source: {TOLERANCE_SOURCE}")
+    return ({"within_tolerance": not beyond, "beyond_tolerance": beyond,
+             "tolerance": {"max_abs_error_pct": TOL_PCT, "min_mac": MIN_MAC, "source": TOLERANCE_SOURCE}}, lines)
 
 
 @app.command("export-mjcf", cls=_VlabCommand)

@@ -132,7 +132,7 @@ THESIS_SETTINGS = {
 DEFAULT_SETTINGS = THESIS_SETTINGS["bcc"]
 
 
-def design_settings(spec) -> ThesisSettings:
+def design_settings(spec, n_dof: int | None = None, model: str | None = None) -> ThesisSettings:
     """Controller-design settings of a structure: its ``[design]`` table over the defaults.
 
     A structure file's ``[design]`` values (``zeta_min``, ``n_modes``, ``n_f``,
@@ -141,11 +141,21 @@ def design_settings(spec) -> ThesisSettings:
     thesis's settings of a shipped structure of that name (Secs. 6.1, 6.2:
     :data:`THESIS_SETTINGS`), else :data:`DEFAULT_SETTINGS` with the full FE
     model as design model where the file gives no ``[reduction]`` masters.
+    A file without a ``[design]`` table takes every default.
+
+    Given the design model's size ``n_dof``, a mode count the file does not
+    set (``n_modes``, ``n_f``; 6 by default) is capped at ``n_dof`` (a model
+    with three DOFs has three modes to damp and three modal initial
+    conditions), and one the file sets beyond ``n_dof`` is refused.
 
     Parameters
     ----------
     spec : StructureSpec
         The structure (``spec.design_settings``, ``spec.name``, ``spec.master_dofs``).
+    n_dof : int, optional
+        Number of DOFs of the design model (None: no cap, no check).
+    model : str, optional
+        The design model's name, for the error message.
 
     Returns
     -------
@@ -155,7 +165,9 @@ def design_settings(spec) -> ThesisSettings:
     Raises
     ------
     SpecError
-        The structure has no ``[instrumentation]`` (no actuators to design for).
+        The structure has no ``[instrumentation]`` (no actuators to design for),
+        or its ``[design]`` ``n_modes`` or ``n_f`` exceeds ``n_dof`` (names the
+        file, the field, the value and the design model).
     """
     import dataclasses
 
@@ -164,7 +176,20 @@ def design_settings(spec) -> ThesisSettings:
     base = THESIS_SETTINGS.get(spec.name)
     if base is None:
         base = dataclasses.replace(DEFAULT_SETTINGS, default_model="exact" if spec.master_dofs.get("exact") else "full")
-    return dataclasses.replace(base, **spec.design_settings)
+    st = dataclasses.replace(base, **spec.design_settings)
+    if n_dof is None:
+        return st
+    counts = {}
+    for name in ("n_modes", "n_f"):
+        value = getattr(st, name)
+        if value <= n_dof:
+            continue
+        if name in spec.design_settings:
+            raise SpecError(f"{spec._file()}: field 'design.{name}': {value} is more than the {n_dof} DOFs of the "
+                            f"design model ({model or 'default'}); give at most {n_dof}, or a larger design model "
+                            f"(more [reduction] masters, or default_model = \"full\")")
+        counts[name] = n_dof
+    return dataclasses.replace(st, **counts)
 
 
 @dataclass(frozen=True)
@@ -447,7 +472,9 @@ def design_controller(
     ModelError
         Unknown controller, or a ``period_s`` that is not a positive finite number.
     SpecError
-        A structure without ``[instrumentation]`` (:func:`design_settings`).
+        A structure without ``[instrumentation]``, or whose ``[design]``
+        ``n_modes`` or ``n_f`` exceeds the design model's DOFs
+        (:func:`design_settings`).
     ReductionError
         Unknown design model.
     controllers.errors.ControllerError
@@ -467,6 +494,7 @@ def design_controller(
     dm = design_model(fe, model, measured_modes=measured_modes)
     m, c, k = (to_thesis_units(a, dm.labels) for a in (dm.m, dm.c, dm.k))
     n = m.shape[0]
+    st = design_settings(fe.spec, n, model)
     u = np.zeros((n, len(dm.actuator_rows)))
     for j, r in enumerate(dm.actuator_rows):
         u[r, j] = 1.0

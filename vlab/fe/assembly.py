@@ -117,6 +117,45 @@ def _element_matrices(ei: float, gj: float, rho_a: float, rho_ip: float, length:
     return ke, me
 
 
+def check_bending_dofs(spec: StructureSpec) -> None:
+    """Refuse a member whose bending rotation the structure's ``dofs`` leave out.
+
+    A member along the in-plane unit vector ``e = (e_x, e_y)`` bends (slope
+    dw/ds) about the in-plane axis ``(e_y, -e_x)``: about x (``rx``) for a
+    member along y, about y (``ry``) for a member along x, about both for an
+    oblique one. Without that rotation the element's nodes cannot turn and
+    the beam is clamped at every node: its modes would be meaningless.
+
+    Parameters
+    ----------
+    spec : StructureSpec
+
+    Raises
+    ------
+    ModelError
+        Naming the file, the member, its two points, the rotation it needs, the
+        field ``structure.dofs`` and its value.
+
+    Source: the beam element's DOFs (``w``, ``rx``, ``ry``; :mod:`vlab.fe.elements`).
+    """
+    active = spec.active_dofs
+    for m in spec.members:
+        for pa, pb in zip(m.points[:-1], m.points[1:]):
+            (xa, ya), (xb, yb) = spec.points[pa], spec.points[pb]
+            length = float(np.hypot(xb - xa, yb - ya))
+            if length == 0.0:
+                continue  # coincident points: refused by the mesh, with its own message
+            need = [d for d, c in (("rx", (yb - ya) / length), ("ry", (xb - xa) / length)) if abs(c) > 1e-9]
+            missing = [d for d in need if d not in active]
+            if missing:
+                way = "along y" if need == ["rx"] else "along x" if need == ["ry"] else "oblique"
+                raise ModelError(
+                    f"{spec._file()}: field 'structure.dofs': member {m.id!r} ({pa}-{pb}) runs {way}, so it bends "
+                    f"with {' and '.join(repr(d) for d in need)}, which dofs = {list(active)} leave out; add "
+                    f"{' and '.join(repr(d) for d in missing)} (dofs = {['w', *need]} is bending alone; a member along y "
+                    f"bends with 'rx', one along x with 'ry', and the other rotation is its torsion)")
+
+
 def build_fe_model(spec: StructureSpec) -> FEModel:
     """Assemble the FE model of ``spec``.
 
@@ -132,10 +171,12 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
     Raises
     ------
     ModelError
-        For a support on an unknown DOF, a rigid insert longer than its element,
+        For a member whose bending rotation is not among the active DOFs
+        (:func:`check_bending_dofs`), a support on an unknown DOF, a rigid insert longer than its element,
         a structure not held in its plane, or an assembled matrix that is not
         symmetric positive (semi)definite.
     """
+    check_bending_dofs(spec)
     mesh = build_mesh(spec)
     gravity = solve_gravity(spec, mesh)
     active = spec.active_dofs

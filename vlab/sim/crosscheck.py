@@ -38,6 +38,15 @@ from ..spec import StructureSpec
 from .builder import Plant, SimOptions, build_plant
 from .linearize import SimModes, modes, settle
 
+#: Largest |frequency error| [%] of a plant mode against its FE partner that the cross-check accepts.
+TOL_PCT = 2.0
+#: Smallest MAC [-] of an accepted pair.
+MIN_MAC = 0.9
+#: Where :data:`TOL_PCT` and :data:`MIN_MAC` come from (printed and written with a cross-check).
+TOLERANCE_SOURCE = ("frequency: the accuracy the shipped plants were built to (BCC and grid within 1.5 % one-to-one, "
+                    "docs/plants.md), with margin; MAC: 'in excess of 0.9' for correlated modes (Ewins, Modal "
+                    "Testing: Theory, Practice and Application, 2000, Ch. 8)")
+
 
 def mac_matrix(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     """MAC between every column of ``phi_a`` and of ``phi_b``.
@@ -333,15 +342,15 @@ class CrossCheck:
         """Smallest MAC over the pairs (0 if any FE mode is unpaired)."""
         return min((p.mac if p.sim_mode is not None else 0.0) for p in self.pairs)
 
-    def passed(self, tol_pct: float, min_mac: float) -> bool:
+    def passed(self, tol_pct: float = TOL_PCT, min_mac: float = MIN_MAC) -> bool:
         """True when every FE mode is paired within ``tol_pct`` [%] and with MAC >= ``min_mac``.
 
         Parameters
         ----------
         tol_pct : float
-            Largest allowed ``|frequency error|`` [%].
+            Largest allowed ``|frequency error|`` [%] (default :data:`TOL_PCT`).
         min_mac : float
-            Smallest allowed MAC [-].
+            Smallest allowed MAC [-] (default :data:`MIN_MAC`; source: :data:`TOLERANCE_SOURCE`).
         """
         return self.max_error_pct() <= tol_pct and self.min_mac() >= min_mac
 

@@ -8,11 +8,29 @@ velocity sensors and the ``p<ID>`` sites. It loads with
 :meth:`mujoco.MjModel.from_xml_path` alone and reproduces the plant's
 linearised frequencies (tested).
 
-Source: ``doc/python.rst`` ("Save to XML").
+Two things are added to MuJoCo's own XML so that the file runs as it is
+written (``vlab experiment S.toml --mjcf S.xml``):
+
+* a ``vel<ID>`` sensor (``framelinvel`` of site ``p<ID>``) at every point the
+  structure's ``[test]`` table measures (``measured_points``,
+  ``response_point``) that has none yet: the naming contract
+  (:func:`vlab.sim.runtime.check_plant_contract`) asks for one at every
+  recorded point;
+* the physics timestep at full precision (the shortest decimal that parses
+  back to the same double, Python's ``repr``): MuJoCo writes reals with six
+  significant digits, and a step like 0.5 ms / 12 would then no longer divide
+  the controller period.
+
+The naming contract and which attribute to edit for which physics are
+documented in docs/mjcf.md.
+
+Source: ``doc/python.rst`` ("Save to XML"); ``doc/XMLreference.rst``
+(``option/timestep``, ``sensor/framelinvel``).
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import mujoco
@@ -56,16 +74,85 @@ def export_mjcf(plant: Plant, path: str | Path, *, overwrite: bool = True) -> Pa
     from ..io.atomic import atomic_file, check_output_file
 
     path = check_output_file(path, overwrite=overwrite, option="path", suffix=".xml")
-    try:
-        xml = plant.mjspec.to_xml()
-    except Exception as exc:  # compile error inside to_xml
-        raise SimulationError(f"cannot export the plant: {exc}") from exc
+    xml = plant_xml(plant)
     try:
         with atomic_file(path, overwrite=overwrite) as tmp:
             tmp.write_text(xml)
     except OSError as exc:
         raise SimulationError(f"cannot write {path}: {exc}") from exc
     return path
+
+
+def recorded_points(plant: Plant) -> tuple[int, ...]:
+    """Points whose velocity an experiment on the plant records, in order.
+
+    Parameters
+    ----------
+    plant : Plant
+
+    Returns
+    -------
+    tuple of int
+        The plant's sensor points (actuator points first, then
+        ``[instrumentation].sensors``), then the ``[test]`` table's
+        ``measured_points`` and ``response_point`` not among them (none without
+        a ``[test]`` table: a shipped structure's test measures its sensors).
+    """
+    pts = list(plant.sensor_points)
+    test = plant.spec.test
+    if test is not None:
+        pts += [*test.measured_points, test.response_point]
+    return tuple(dict.fromkeys(pts))
+
+
+def plant_xml(plant: Plant) -> str:
+    """The plant's MJCF text: MuJoCo's XML with a sensor at every recorded point and the exact timestep.
+
+    Parameters
+    ----------
+    plant : Plant
+
+    Returns
+    -------
+    str
+        ``MjSpec.to_xml()`` of a copy of the plant's spec with a ``vel<ID>``
+        ``framelinvel`` sensor (world frame, z component = w' [m/s]) on site
+        ``p<ID>`` for each of :func:`recorded_points` without one, and the
+        ``option`` element's ``timestep`` [s] written as ``repr`` of the
+        plant's step.
+
+    Raises
+    ------
+    SimulationError
+        If the spec does not compile, or the written timestep does not read
+        back as the plant's step.
+
+    Source: ``doc/XMLreference.rst`` (``option/timestep``, ``sensor/framelinvel``).
+    """
+    ms = plant.mjspec.copy()
+    have = {s.name for s in ms.sensors}
+    for p in recorded_points(plant):
+        if f"vel{p}" in have:
+            continue
+        s = ms.add_sensor(name=f"vel{p}", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL,
+                          objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"p{p}")
+        s.info = f"spec [test]: velocity sensor at point {p}: world-frame velocity, z component = w' [m/s]"
+    try:
+        xml = ms.to_xml()
+    except Exception as exc:  # compile error inside to_xml
+        raise SimulationError(f"cannot export the plant: {exc}") from exc
+    h = plant.timestep_s
+    xml = _OPTION_TIMESTEP.sub(lambda m: f"{m.group(1)}{h!r}{m.group(3)}", xml, count=1)
+    found = _OPTION_TIMESTEP.search(xml)
+    written = float(found.group(2)) if found is not None else mujoco.MjSpec().option.timestep  # absent: default
+    if written != h:
+        raise SimulationError(f"cannot export the plant: its timestep {h!r} s is not written exactly in the "
+                              f"MJCF <option> element")
+    return xml
+
+
+# the option element's timestep attribute (MuJoCo writes it unless it is MuJoCo's default)
+_OPTION_TIMESTEP = re.compile(r'(<option\b[^>]*?\btimestep=")([^"]*)(")')
 
 
 def load_mjcf(path: str | Path, *, allow_outside: bool | None = None) -> mujoco.MjModel:
