@@ -71,6 +71,16 @@ def test_a_spring_replacing_a_support_releases_it():
                               'stiffness = { value = 400.0, unit = "N*m/rad", source = "test" }\n')
     assert got.supports[0].fixed == ("w",)
     assert _freqs(got) == pytest.approx(_freqs(specedit.add_spring(cant, 1, "rx", 400.0)), rel=1e-9)
+    # an added element keeps the damping matrix of the structure without it, as the diagnosis models it
+    from vlab.fe.damping import structural_damping
+
+    text = '[[springs]]\nid = "wire"\npoint = 5\ndof = "w"\nadded = true\n' \
+           'stiffness = { value = 300.0, unit = "N/m", source = "test" }\n'
+    got, plain = _with_text(EXAMPLE, text), _with_text(EXAMPLE, text.replace("added = true\n", ""))
+    want = specedit.add_spring(cant, 5, "w", 300.0)
+    c_got, c_want = structural_damping(build_fe_model(got)), structural_damping(build_fe_model(want))
+    assert np.allclose(c_got, c_want, rtol=1e-9, atol=1e-12 * np.abs(c_want).max())
+    assert not np.allclose(structural_damping(build_fe_model(plain)), c_want, rtol=1e-3)
     with pytest.raises(SpecError, match=r"springs\[0\].replaces_support.*no support fixes DOF 'rx' at point 3"):
         _with_text(EXAMPLE, '[[springs]]\nid = "s"\npoint = 3\ndof = "rx"\nreplaces_support = true\n'
                             'stiffness = { value = 400.0, unit = "N*m/rad", source = "test" }\n')
@@ -101,7 +111,7 @@ def test_update_appends_commented_entries_and_keeps_the_original_text(tmp_path):
     res = update(EXAMPLE, _diagnosis(tmp_path, cant, sel), out=out)
     text = out.read_text(encoding="utf-8")
     assert text.startswith(EXAMPLE.read_text(encoding="utf-8").rstrip("\n"))
-    assert 'source = "vlab diagnose hidden.uff: fitted, 95 % interval [0.011, 0.013] kg"' in text
+    assert 'source = "vlab diagnose somewhere/hidden.uff: fitted, 95 % interval [0.011, 0.013] kg"' in text
     back = load_spec(out)
     added = [m for m in back.masses if m.id.startswith("added_mass")]
     assert sorted(m.point for m in added) == [4, 6] and all(m.mass.si == pytest.approx(0.012345678) for m in added)
@@ -194,8 +204,9 @@ def test_the_template_s_commented_change_entries_load_when_uncommented(kind):
 
     text = template_text(kind)
     head, block = text.split("# ---- changes found by a diagnosis")
-    lines = [ln[2:].split("  #")[0] for ln in block.splitlines()[2:] if ln.startswith("# ")]
-    lines = [ln for ln in lines if not ln.startswith("[[springs]]") and not ln.startswith("replaces_support")]
+    lines = [ln[2:].split("  #")[0] for ln in block.splitlines() if ln.startswith("# ")]
+    lines = [ln for ln in lines if (ln.startswith("[[") or " = " in ln)
+             and not ln.startswith(("added", "replaces_support"))]
     spec = spec_from_dict(tomllib.loads(head + "\n".join(lines).replace('"..."', '"test"')))
     base = spec_from_dict(tomllib.loads(text))
     assert spec.damping.modal_ratios[1] == 0.012 and len(spec.members) > len(base.members)

@@ -24,7 +24,7 @@ from typing import Any
 
 from . import units
 from .errors import SpecError
-from .spec_changes import CHANGE_TABLES, apply_change_tables, release_supports
+from .spec_changes import CHANGE_TABLES, apply_change_tables, damping_of, release_supports
 
 DOF_NAMES = ("w", "rx", "ry")
 
@@ -781,6 +781,10 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
                    allow_outside: bool | None = None) -> StructureSpec:
     """Build a :class:`StructureSpec` from a parsed TOML document (see :func:`load_spec`).
 
+    The changes a diagnosis found (``vlab update``: ``[[member_stiffness]]``, ``[[joint_flexibility]]``,
+    ``[[mode_damping]]``, springs that replace a support, elements marked ``added = true``) are applied
+    last, keeping the damping matrix of the structure before them (:mod:`vlab.spec_changes`).
+
     Parameters
     ----------
     doc : dict
@@ -907,9 +911,11 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
         )
         r.done()
 
-    masses = []
+    masses, added = [], set()  # (table, index) of the masses and springs marked `added = true`
     for i, t in enumerate(top.raw("masses", [], types=(list,))):
         r = _Reader(file, t, f"masses[{i}]")
+        if r.raw("added", False, types=(bool,)):
+            added.add(("masses", i))
         masses.append(
             LumpedMass(
                 id=r.str("id"),
@@ -942,6 +948,8 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
     springs, released = [], []
     for i, t in enumerate(top.raw("springs", [], types=(list,))):
         r = _Reader(file, t, f"springs[{i}]")
+        if r.raw("added", False, types=(bool,)):
+            added.add(("springs", i))
         dof = _dof(r, "dof", r.str("dof"))
         kind = "stiffness" if dof == "w" else "rot_stiffness"
         springs.append(Spring(r.str("id"), point_of(r, "point"), dof, r.quantity("stiffness", kind)))
@@ -959,8 +967,11 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
             r.fail("inplane", f"expected true/false or 'free', 'pinned', 'clamped', got {inplane!r}")
         supports.append(Support(point_of(r, "point"), fixed, inplane))
         r.done()
-    supports = release_supports(tuple(supports), [(i, pd) for i, pd in released], lambda i, msg: _Reader(
-        file, top.table["springs"][i], f"springs[{i}]").fail("replaces_support", msg))
+    def fail_release(i: int, msg: str) -> None:
+        _Reader(file, top.table["springs"][i], f"springs[{i}]").fail("replaces_support", msg)
+
+    built = tuple(supports)
+    supports = release_supports(built, released, fail_release)
 
     instr = None
     ir = top.sub("instrumentation", None)
@@ -1053,7 +1064,13 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
         design_settings=design,
         raw=doc,
     )
-    return apply_change_tables(spec, changes, lambda t, where: _Reader(file, t, where))
+    base = None
+    if added or changes["member_stiffness"] or changes["joint_flexibility"]:  # the structure before the changes
+        base = spec.replace(
+            masses=tuple(m for i, m in enumerate(masses) if ("masses", i) not in added),
+            springs=tuple(sp for i, sp in enumerate(springs) if ("springs", i) not in added),
+            supports=release_supports(built, [r for r in released if ("springs", r[0]) not in added], fail_release))
+    return damping_of(apply_change_tables(spec, changes, lambda t, where: _Reader(file, t, where)), base)
 
 
 def _number(r: _Reader, key: str, default: Any = ..., *, low: float = 0.0, low_open: bool = True,

@@ -19,6 +19,15 @@ read the changed structure. The tables (each an array of tables, every value wit
     of that mode, replacing the ``[damping]`` table's entry.
 ``[[springs]]`` with ``replaces_support = true``
     The spring's DOF is released from the support at its point (a support of finite stiffness).
+``[[masses]]`` and ``[[springs]]`` with ``added = true``
+    An element attached to the structure the rest of the file describes.
+
+A physical change (an added element, a member's rigidity, a joint) leaves the structure's damping matrix
+as it was: the spec names the structure without them as its damping basis (:attr:`vlab.spec.Damping.basis`,
+:func:`vlab.fe.damping.structural_damping`), so that its modal damping ratios move with its modes as a
+fixed damping matrix makes them move -- as a diagnosis models the change
+(:mod:`vlab.diagnose.effects.specedit`). ``[[mode_damping]]`` changes the ratios themselves (of the
+basis's modes, numbered in frequency order).
 
 A member is cut into pieces at the changed segments (same points, rigid inserts and subdivision; a run
 of consecutive segments given the same rigidity stays one piece, a wholly changed member keeps its id);
@@ -227,3 +236,20 @@ def release_supports(supports: tuple, released: list, fail: Callable) -> tuple:
         s = out[j]
         out[j] = dataclasses.replace(s, fixed=tuple(d for d in s.fixed if d != dof))
     return tuple(out)
+
+
+def damping_of(spec, base):
+    """``spec`` whose damping names ``base`` (the structure before the changes) as its basis; ``spec`` itself
+    when ``base`` is None or there is no ``[damping]`` table.
+
+    Parameters
+    ----------
+    spec, base : StructureSpec or None
+
+    Returns
+    -------
+    StructureSpec
+    """
+    if base is None or spec.damping is None:
+        return spec
+    return spec.replace(damping=dataclasses.replace(spec.damping, basis=base))
