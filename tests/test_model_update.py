@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 from vlab.diagnose.effects import specedit
-from vlab.errors import DataFileError, ModelError, OutputError, SpecError
+from vlab.errors import DataFileError, OutputError, SpecError
 from vlab.fe import build_fe_model
 from vlab.fe.modal import modal_analysis
 from vlab.model_update import update

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import typer
 from rich.markup import escape
 
 from .cli import (ExpController, OutputFormat, _arg_structure, _flag, _format_opt, _load_structure, _mjcf_input,

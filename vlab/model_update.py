@@ -8,9 +8,9 @@ included) and the entries are appended, each commented and with the source
 ============================  ==============================================================
 effect (location)             entry appended
 ============================  ==============================================================
-``added_mass`` (point[s])     ``[[masses]]`` at each point
-``support_stiffness``         ``[[springs]]`` at each point; ``replaces_support = true`` where a
-                              support fixed that DOF (a support of finite stiffness)
+``added_mass`` (point[s])     ``[[masses]]`` at each point, ``added = true``
+``support_stiffness``         ``[[springs]]`` at each point, ``added = true``; ``replaces_support =
+                              true`` where a support fixed that DOF (a support of finite stiffness)
 ``joint_flexibility``         ``[[joint_flexibility]]`` (:mod:`vlab.spec_changes`)
 ``member_stiffness``          ``[[member_stiffness]]`` (the member, or one segment)
 ``damping`` (mode)            ``[[mode_damping]]``
@@ -18,7 +18,9 @@ effect (location)             entry appended
 
 The written file is read back (:func:`vlab.spec.spec_from_dict`) and checked against the structure the
 diagnosis itself evaluated (the original changed by :mod:`vlab.diagnose.effects.specedit`): the same
-natural frequencies (relative difference below :data:`CHECK_RTOL`) and the same modal damping ratios.
+natural frequencies and damping matrix (relative difference below :data:`CHECK_RTOL`). A physical change
+keeps the damping matrix of the structure before it, in the file as in the diagnosis
+(:mod:`vlab.spec_changes`).
 
 Refused, with the reason: a diagnosis with nothing selected, one whose best effect is outside the library
 (``outside_library``), one made for another structure (its ``structure_sha256``,
@@ -26,8 +28,9 @@ Refused, with the reason: a diagnosis with nothing selected, one whose best effe
 friction, gravity pre-stress, the hardware chain's delay, lags, gains and saturation: they belong to the
 lab's settings, not to the structure).
 
-Source: the loop of Sec. 5.4 and Table 10 (analysis vs experiment) closed by model updating: the design on
-the updated model predicts the experiment again (:mod:`vlab.update_verify`).
+:func:`verify` closes the loop: the controller designed on the original and on the updated structure, each
+run on the same plant and compared with its own prediction as in Table 10 (average peak level error) and
+Sec. 5.4 (closed-loop damping ratios predicted and measured).
 """
 
 from __future__ import annotations
@@ -461,6 +464,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
     SimulationError, MeasurementError
         As :func:`vlab.lab.experiment.run_experiment`.
     """
+    from .fe import build_fe_model
     from .lab.experiment import ExperimentConfig, default_chain, run_experiment
     from .models import check_fe_model
 
@@ -469,8 +473,6 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
                          "lqdrf-diag or lqg")
     out: dict[str, Any] = {"plant": str(mjcf), "controller": controller}
     for label, s in (("original", original), ("updated", updated)):
-        from .fe import build_fe_model
-
         spec = s if isinstance(s, StructureSpec) else load_spec(s)
         cfg = ExperimentConfig(structure=spec.name, controller=controller, duration_s=duration_s, seed=seed,
                                chain=default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s),
@@ -483,6 +485,6 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
             "modes": [{"mode": m.mode, "frequency_predicted_hz": m.frequency_predicted_hz,
                        "frequency_measured_hz": m.frequency_measured_hz,
                        "damping_ratio_predicted": m.damping_predicted, "damping_ratio_measured": m.damping_measured,
-                       "peak_level_ratio": m.peak_level_ratio} for m in r.modes],
+                       "peak_level_ratio": float(m.peak_level_ratio)} for m in r.modes],
             "warnings": list(r.warnings)}
     return out
