@@ -8,7 +8,7 @@ import pytest
 
 from vlab.fe.damping import open_loop_ratios
 from vlab.diagnose.policy import DEFAULT_POLICY
-from vlab.diagnose.data.measured import read_modal_csv
+from vlab.diagnose.data.modalcsv import read_modal_csv
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.effects.hypotheses import AddedMass, JointFlexibility, library
 from vlab.diagnose.fit.estimate import fit_hypothesis, fit_pairs

@@ -213,7 +213,7 @@ def test_baseline_of_another_test_is_refused():
 
 
 def test_modal_csv_uncertainty_columns_follow_the_frequency_order(tmp_path):
-    from vlab.diagnose.data.measured import read_modal_csv
+    from vlab.diagnose.data.modalcsv import read_modal_csv
     from vlab.spec import load_spec
 
     p = tmp_path / "modes.csv"

@@ -48,7 +48,7 @@ def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
     """Residuals scaled by a noise variance estimated with nu degrees of freedom (each line its own estimate,
     the worst case) exceed the F-based peak limit in about the test's rate of noise-only records; the
     chi-square limit, which takes the variance as known, is exceeded far more often."""
-    from vlab.diagnose.data.measured import pooled_dof
+    from vlab.diagnose.data.frfestimate import pooled_dof
 
     n, nu, trials = 1000, pooled_dof(2), 2000
     rng = np.random.default_rng(7)

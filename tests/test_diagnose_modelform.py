@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from vlab.diagnose import diagnose
-from vlab.diagnose.data.measured import read_modal_csv
+from vlab.diagnose.data.modalcsv import read_modal_csv
 from vlab.diagnose.model.modelform import (ROUNDING_SIGMA, calibration_residual, damping_uncertainty,
                                            model_form_uncertainty, printed_resolution)
 from vlab.errors import DataFileError, OptionError

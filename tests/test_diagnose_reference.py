@@ -137,7 +137,7 @@ def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_
 def test_a_baseline_excited_by_another_record_does_not_make_an_unchanged_structure_a_mismatch(tmp_path):
     """Issue 28 item 5: the nominal lab recorded twice with two records of the same spectrum (other phases,
     other noise); one is the other's baseline. The decision is "no mismatch"; the record is told apart."""
-    from vlab.diagnose.data.measured import read_uff_any
+    from vlab.diagnose.data.readers import read_uff_any
     from vlab.diagnose.data.reference import shares_excitation_record
     from vlab.diagnose.model.labmodel import LabState
     from vlab.diagnose.model.nominal import nominal_design

@@ -118,7 +118,7 @@ def _read_modes(p):
 
 
 def _read_csv(p):
-    from vlab.diagnose.data.measured import MAX_MODAL_FREQUENCY_HZ, read_modal_csv
+    from vlab.diagnose.data.modalcsv import MAX_MODAL_FREQUENCY_HZ, read_modal_csv
     md = read_modal_csv(p, _spec())
     assert np.all((md.freq_hz > 0) & (md.freq_hz <= MAX_MODAL_FREQUENCY_HZ))
     z = md.damping[np.isfinite(md.damping)]

@@ -71,7 +71,7 @@ def read_rec(p):
 
 
 def diagnose_rec(p):
-    from vlab.diagnose.data.measured import frfs_from_recording
+    from vlab.diagnose.data.frfestimate import frfs_from_recording
     spec, fe = _bcc()
     return frfs_from_recording(read_rec(p), spec, fe, path=str(p), resolution_hz=1.0, band_hz=(0.5, 25.0))
 
@@ -82,7 +82,7 @@ def read_frf(p):
 
 
 def diagnose_frf(p):
-    from vlab.diagnose.data.measured import frfs_from_uff
+    from vlab.diagnose.data.frfestimate import frfs_from_uff
     spec, fe = _bcc()
     return frfs_from_uff(read_frf(p), spec, fe, path=str(p), band_hz=(0.5, 25.0))
 
@@ -93,7 +93,7 @@ def read_modes(p):
 
 
 def read_csv(p):
-    from vlab.diagnose.data.measured import read_modal_csv
+    from vlab.diagnose.data.modalcsv import read_modal_csv
     return read_modal_csv(p, _bcc()[0])
 
 

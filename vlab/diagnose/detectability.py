@@ -2,7 +2,7 @@
 
 For one structure, controller and noise level, the lab's nominal test is recorded once on the linear FE
 plant (the 2 kHz loop with the hardware chain and its sensor noise) and read as the diagnosis reads a
-recording (:func:`vlab.diagnose.data.measured.read_data`: H1 FRFs on the excited lines, noise from the
+recording (:func:`vlab.diagnose.data.readers.read_data`: H1 FRFs on the excited lines, noise from the
 period-to-period scatter), referred to the model through its noise-free replay
 (:func:`vlab.diagnose.data.reference.replay_reference`), as the diagnosis refers a recording. Then, for every one-parameter hypothesis of the library at every location
 (:func:`vlab.diagnose.effects.hypotheses.library`), the effect is grown from its null value towards its
@@ -54,7 +54,8 @@ from ..errors import ModelError, VlabError
 from ..fe import build_fe_model
 from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
 from ..spec import StructureSpec, load_spec
-from .data.measured import FrfData, read_data, refer_to_model
+from .data.measured import FrfData, refer_to_model
+from .data.readers import read_data
 from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library

@@ -22,7 +22,9 @@ from ..fe import FEModel, build_fe_model
 from ..lab.experiment import test_definition
 from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
-from .data.measured import FrfData, ModalData, detect_kind, read_data, read_modal_csv, read_uff_any, refer_to_model
+from .data.measured import FrfData, ModalData, refer_to_model
+from .data.modalcsv import read_modal_csv
+from .data.readers import detect_kind, read_data, read_uff_any
 from .data.reference import recorded_chain, recorded_setup, replay_reference, shares_excitation_record
 from .data.warmstart import GUARD_DECAY
 from .model.labmodel import LabState, predict_frf

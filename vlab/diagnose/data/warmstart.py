@@ -2,7 +2,7 @@
 
 A test with periodic excitation is recorded from rest; its first periods
 are dropped (the transient of the lightly damped structure) and the rest
-analysed (:mod:`vlab.diagnose.data.measured`). A validation rerun only needs the
+analysed (:mod:`vlab.diagnose.data.frfestimate`). A validation rerun only needs the
 analysed periods. So the rerun starts :data:`GUARD_PERIODS` period(s) before
 them, from the steady state the lab would have reached there: the
 excitation's lines over one period (its discrete Fourier transform), the

@@ -9,7 +9,7 @@ one designed on the spec's own mesh, the one that ran.
 
 (The nominal lab's scales for the hypotheses are
 :func:`vlab.diagnose.problem.context.context_for`; the data are read by
-:func:`vlab.diagnose.data.measured.read_data`.)
+:func:`vlab.diagnose.data.readers.read_data`.)
 """
 
 from __future__ import annotations
