@@ -42,6 +42,12 @@ def test_crosscheck_json_shows_both_references_and_the_unpaired_mode():
         (u,) = ref["unpaired_mujoco_modes"]
         assert u["mujoco_mode"] == 3 and u["mujoco_hz"] < pairs[2]["mujoco_hz"]
         assert u["mujoco_hz"] <= ref["pairing_band_hz"]
+    # within the cross-check's tolerance, and the JSON says so with the tolerance and its source
+    tol = out["tolerance"]
+    assert tol["max_abs_error_pct"] > 0 and 0 < tol["min_mac"] < 1 and tol["source"]
+    assert all(r["max_abs_error_pct"] <= tol["max_abs_error_pct"] and r["min_mac"] >= tol["min_mac"]
+               for r in out["references"].values())
+    assert out["within_tolerance"] is True and out["beyond_tolerance"] == {}
     # every number's key names its unit, or is a dimensionless ratio / a mode or element count
     dimensionless = {"relative_error", "mac", "best_mac", "min_mac", "free_decay_mode1_damping", "fe_mode",
                      "mujoco_mode", "best_fe_mode", "beam"}

@@ -149,3 +149,80 @@ def test_diagnosis_names_a_concealed_added_mass(tmp_path):
     rows = list(csv.DictReader(io.StringIO(buf.getvalue())))
     assert len(rows) == len(d["ranked"]) and rows[0]["effect"] == "added_mass"
     assert "misfit_after_decades" in rows[0] and rows[0]["location"] == "point 3"
+
+
+# ------------------------------------------------------------------------ structures written by a new user ---
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+
+
+def _tutorial_strip(tmp_path: Path) -> Path:
+    """The tutorial's strip.toml (docs/tutorials/your-own-structure.md), as a reader copies it: no [design] table."""
+    text = (DOCS / "tutorials" / "your-own-structure.md").read_text()
+    block = re.search(r"```toml\n(# A steel strip.*?)```", text, re.S)
+    assert block is not None and "[design]" not in block.group(1)
+    path = tmp_path / "strip.toml"
+    path.write_text(block.group(1))
+    return path
+
+
+def _invoke(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def test_design_without_a_design_table_takes_the_defaults_capped_at_the_model_s_dofs(tmp_path):
+    strip = _tutorial_strip(tmp_path)
+    out = json.loads(_cli("design", strip, "--controller", "mfdrf", "--format", "json"))
+    assert out["reduction"] == "exact" and out["converged"]
+    # three masters: three modes held to the default zeta_min = 0.03, three modal initial conditions
+    assert len(out["performance_index_thesis_units"]) == 3 and min(out["damping_ratios"][:3]) >= 0.03 - 1e-6
+    # the same design as a [design] table with the defaults written out and the counts at the 3 masters
+    explicit = tmp_path / "strip_explicit.toml"
+    explicit.write_text(strip.read_text() + "\n[design]\nsource = \"test\"\nzeta_min = 0.03\nn_modes = 3\nn_f = 3\n")
+    ref = json.loads(_cli("design", explicit, "--controller", "mfdrf", "--format", "json"))
+    assert np.array_equal(out["gain_n_s_per_m"], ref["gain_n_s_per_m"])
+    # a count beyond the design model is refused, naming the file, the field and the value
+    beyond = tmp_path / "strip_beyond.toml"
+    beyond.write_text(strip.read_text() + "\n[design]\nsource = \"test\"\nn_f = 4\n")
+    res = _invoke("design", beyond, "--controller", "mfdrf")
+    assert res.exit_code == 2, res.output
+    assert "strip_beyond.toml" in res.output and "design.n_f" in res.output and "4" in res.output
+
+
+def test_a_beam_along_x_needs_ry_and_then_has_the_modes_of_the_beam_along_y(tmp_path):
+    along_y = tmp_path / "along_y.toml"
+    _cli("init", "beam", along_y)
+    text = along_y.read_text()
+    coords = re.search(r"coordinates = \{.*\}", text).group(0)
+    turned = text.replace(coords, re.sub(r"\[0, (\d+)\]", r"[\1, 0]", coords))  # the same beam along x
+    assert turned != text
+    along_x = tmp_path / "along_x.toml"
+    along_x.write_text(turned)
+    res = _invoke("modes", along_x)
+    assert res.exit_code == 2
+    message = " ".join(res.output.split())
+    assert "structure.dofs" in message and "'strip'" in message and "along x" in message and "'ry'" in message
+    fixed = tmp_path / "along_x_ry.toml"
+    fixed.write_text(turned.replace('dofs = ["w", "rx"]', 'dofs = ["w", "ry"]')
+                     .replace('fixed = ["w", "rx"]', 'fixed = ["w", "ry"]'))
+    f_y = json.loads(_cli("modes", along_y, "--n", "4", "--format", "json"))["frequencies_hz"]
+    f_x = json.loads(_cli("modes", fixed, "--n", "4", "--format", "json"))["frequencies_hz"]
+    assert np.allclose(f_x, f_y, rtol=1e-9)  # turning a structure in its plane leaves its modes
+
+
+def test_crosscheck_beyond_its_tolerance_says_so(tmp_path):
+    from vlab.sim.crosscheck import MIN_MAC, TOL_PCT
+
+    frame = tmp_path / "frame.toml"
+    _cli("init", "frame", frame)
+    out = json.loads(_cli("crosscheck", frame, "--json"))
+    worst = {k: max(abs(p["error_pct"]) for p in r["pairs"]) for k, r in out["references"].items()}
+    assert max(worst.values()) > TOL_PCT  # the frame's mode 6: about 10 %
+    assert out["within_tolerance"] is False
+    assert out["tolerance"] == {"max_abs_error_pct": TOL_PCT, "min_mac": MIN_MAC, "source": out["tolerance"]["source"]}
+    assert "Ewins" in out["tolerance"]["source"]
+    assert {k for k, v in worst.items() if v > TOL_PCT} == set(out["beyond_tolerance"])
+    for key, b in out["beyond_tolerance"].items():
+        assert b["max_abs_error_pct"] == worst[key]
+    table = " ".join(_cli("crosscheck", frame).split())
+    assert "BEYOND TOLERANCE (thesis mesh)" in table and f"{worst['thesis_mesh']:.2f} %" in table
