@@ -152,8 +152,8 @@ def check_bending_dofs(spec: StructureSpec) -> None:
                 raise ModelError(
                     f"{spec._file()}: field 'structure.dofs': member {m.id!r} ({pa}-{pb}) runs {way}, so it bends "
                     f"with {' and '.join(repr(d) for d in need)}, which dofs = {list(active)} leave out; add "
-                    f"{' and '.join(repr(d) for d in missing)} (dofs = {['w', *need]} is bending alone; a member along y "
-                    f"bends with 'rx', one along x with 'ry', and the other rotation is its torsion)")
+                    f"{' and '.join(repr(d) for d in missing)} (dofs = {['w', *need]} is bending alone; a member "
+                    f"along y bends with 'rx', one along x with 'ry', and the other rotation is its torsion)")
 
 
 def build_fe_model(spec: StructureSpec) -> FEModel:
