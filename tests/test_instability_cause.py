@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from vlab.diagnose.fit.rules import branch, reproduces_oscillation
+from vlab.diagnose.fit.rules import branch, nearest_mode, reproduces_oscillation
 from vlab.diagnose.instability_cause import destabilising_value
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
@@ -110,6 +110,21 @@ def test_an_oscillation_is_reproduced_within_two_percent_or_on_its_branch():
     assert not reproduces_oscillation(43.0, _check(52.0), natural_hz=natural)  # the next branch
     assert not reproduces_oscillation(43.0, _check(), natural_hz=natural)   # the rerun is stable
     assert not reproduces_oscillation(43.0, None, natural_hz=natural)       # no rerun
+
+
+def test_above_the_band_the_oscillating_mode_must_be_the_same():
+    """Above the band the modes are known to their discretisation error only: an oscillation counts when its
+    nearest natural frequency is the recording's (the default MuJoCo BCC plant's modes near 87-155 Hz)."""
+    natural = [67.49, 87.22, 95.26, 97.45, 132.65, 154.23]
+    assert nearest_mode(135.56, natural) == 132.65 and nearest_mode(86.17, natural) == 87.22
+    # a limit cycle of the mode near 87 Hz does not reproduce one of the mode near 133 Hz
+    assert not reproduces_oscillation(135.56, _check(86.17, 258.5), natural_hz=natural, same_mode=True)
+    # the same mode, 2.6 % off: beyond the 2 % tolerance, on the same mode
+    assert reproduces_oscillation(135.56, _check(132.0), natural_hz=natural, same_mode=True)
+    # past the midpoint of two modes the branch changes, the nearest mode does not
+    assert branch(130.0, natural) != branch(134.0, natural)
+    assert reproduces_oscillation(134.0, _check(130.0), natural_hz=natural, same_mode=True)
+    assert not reproduces_oscillation(134.0, _check(130.0), natural_hz=natural)
 
 
 class _Stub:

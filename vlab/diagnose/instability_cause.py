@@ -30,10 +30,11 @@ rejected by the FRF rules). The physics of an instability decides instead:
    first, then pairs), at most :data:`MAX_RERUNS`; the first whose rerun
    oscillates by itself on the recording's branch
    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation` with the plant's
-   natural frequencies) is the cause. Above the measured band neither the
-   model's modes nor their uncertainty are known (the default and converged
-   MuJoCo BCC plants put modes 10-11 at 87/95 and 77/80 Hz), so there any
-   self-excited line of the rerun counts.
+   natural frequencies) is the cause. Above the measured band the model's
+   modes are known only to their discretisation error (the default and
+   converged MuJoCo BCC plants put modes 10-11 at 87/95 and 77/80 Hz), so
+   there the rerun must oscillate nearest the same natural frequency as the
+   recording (the mode the loop drives unstable), not on the same branch.
 
 Its validation is that rerun; the rules that judge an explanation by the FRF
 misfit's fall (a partial explanation, rule 10) do not apply to it, since the
@@ -60,7 +61,7 @@ from ..lab.recording import Recording
 from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
 from .fit.plantfit import PlantModel
-from .fit.rules import branch, evidence, reproduces_oscillation
+from .fit.rules import branch, evidence, nearest_mode, reproduces_oscillation
 from .fit.selection import rerun_key
 from .model.labmodel import LabState, structure_modes
 from .model.nyquist import loop_stability
@@ -95,7 +96,10 @@ class CauseSearch:
     branch_hz : tuple of float
         The natural frequencies bracketing the recorded oscillation (the branch a rerun must oscillate on).
     above_band : bool
-        The oscillation lies above the measured band: any self-excited line of a rerun counts.
+        The oscillation lies above the measured band: a rerun's self-excited line counts when it lies nearest
+        the same natural frequency (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation`, ``same_mode``).
+    mode_hz : float
+        The natural frequency [Hz] of the checked structure nearest the recorded oscillation.
     moved : list of (str, float, float)
         Candidates moved from their fitted value to the nearest value that makes the loop unstable:
         label, fitted and moved values [SI].
@@ -109,6 +113,7 @@ class CauseSearch:
     branch_hz: tuple = ()
     moved: list = field(default_factory=list)
     above_band: bool = False
+    mode_hz: float = float("nan")
 
     def note(self, frequency_hz: float) -> str:
         """One sentence for the report.
@@ -121,8 +126,9 @@ class CauseSearch:
         lo, hi = self.branch_hz if self.branch_hz else (float("nan"), float("nan"))
         head = (f"cause of the self-excited oscillation at {frequency_hz:.2f} Hz searched among the candidates "
                 f"whose linear loop is unstable on {self.on} (generalised Nyquist criterion) and whose rerun "
-                + ("oscillates by itself (above the measured band, where the model's modes are not known, at any "
-                   "frequency)" if self.above_band else
+                + (f"oscillates by itself on the same mode (above the measured band, where the model's modes are "
+                   f"known to their discretisation error: nearest the natural frequency {self.mode_hz:.4g} Hz)"
+                   if self.above_band else
                    f"oscillates on the same branch (between the natural frequencies {lo:.4g} and {hi:.4g} Hz)"))
         runs = "; ".join(f"{t['label']}: "
                          + ("linear loop not checked" if t["unstable_poles"] is None
@@ -305,7 +311,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     base = state_of(None)
     natural = structure_modes(base)[0]
     out = CauseSearch(on=on, branch_hz=branch(frequency_hz, natural),
-                      above_band=frequency_hz > problem.ctx.band_hz[1])
+                      above_band=frequency_hz > problem.ctx.band_hz[1], mode_hz=nearest_mode(frequency_hz, natural))
     # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
     screen = poles(None) == 0
     for h in _supported(ranked, chi2_0, problem.n_obs, c_hat, problem.policy.evidence):
@@ -331,11 +337,8 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                               "reproduced": False, "error": str(exc)})
             continue
         check = rerun_oscillation(v, data.recording, data.excitation_point, loops)
-        if not out.above_band:
-            ok = reproduces_oscillation(frequency_hz, check, natural_hz=natural,
-                                            tolerance=problem.policy.oscillation_tolerance)
-        else:  # above the measured band the model's modes are not known: any self-excited line
-            ok = check is not None and check.unstable
+        ok = reproduces_oscillation(frequency_hz, check, natural_hz=natural, same_mode=out.above_band,
+                                    tolerance=problem.policy.oscillation_tolerance)
         freqs = [] if check is None or not check.unstable else \
             list(dict.fromkeys(round(o.frequency_hz, 2) for o in check.oscillations))
         out.tried.append({"effect": h.effect, "label": h.label, "unstable_poles": z, "rerun_frequencies_hz": freqs, "reproduced": ok})

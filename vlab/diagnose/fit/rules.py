@@ -228,7 +228,8 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
     list of Hypothesis
         The ``shortlist`` best by chi-square, the ``shortlist // 2`` one-parameter mode-moving ones with
         the least smoothed error (``coarse_error_``) not among them, and the best of every family not yet in
-        (an effect and the kind of its place: a mode's damping and a point dashpot are two families).
+        (an effect and the kind of its place: a mode's damping and a point dashpot are two families, a
+        chain effect on one channel and on all channels too).
     """
     keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
     # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
@@ -236,7 +237,8 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
     keep += [h for h in broad[:shortlist // 2] if h not in keep]
     # a family: an effect and the kind of place (a mode's damping and a dashpot at a point are two)
     def family(h: Hypothesis) -> tuple:
-        return h.effect, tuple(sorted(h.location))
+        where = tuple(sorted(h.location))
+        return h.effect, where + (("all",) if h.location.get("channel") == "all" else ())
 
     seen = {family(h) for h in keep}
     for _, h in scored:
@@ -437,8 +439,23 @@ def branch(frequency_hz: float, natural_hz) -> tuple[float, float]:
     return (float(below[-1]) if below.size else 0.0, float(above[0]) if above.size else math.inf)
 
 
+def nearest_mode(frequency_hz: float, natural_hz) -> float:
+    """The natural frequency [Hz] of ``natural_hz`` nearest ``frequency_hz`` (relative distance; nan if none).
+
+    A self-excited oscillation of a lightly damped structure under velocity feedback is a mode driven
+    unstable by the loop's phase: the root-locus branch that crosses the imaginary axis departs from that
+    mode's open-loop pole, and the limit cycle lies close to it (Preumont, *Vibration Control of Active
+    Structures*, 3rd ed., 2011, Sec. 7.2), so the nearest mode names which one oscillates."""
+    f = np.asarray(natural_hz, dtype=float)
+    f = f[np.isfinite(f) & (f > 0)]
+    if not f.size:
+        return math.nan
+    return float(f[np.argmin(np.abs(np.log(f / frequency_hz)))])
+
+
 def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
-                           tolerance: float = DEFAULT_POLICY.oscillation_tolerance) -> bool:
+                           tolerance: float = DEFAULT_POLICY.oscillation_tolerance,
+                           same_mode: bool = False) -> bool:
     """Rule 9: whether a rerun oscillates by itself at the recording's self-excited frequency.
 
     Parameters
@@ -455,13 +472,19 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
         uncertainty of the band covers: the same 8.2 ms delay on one channel of the BCC oscillated at
         43.0 Hz on the converged MuJoCo plant and at 48.2 Hz on the default one, both between its
         modes at 36.9 and 50.1 Hz.
+    same_mode : bool
+        Compare the mode that oscillates instead of the branch: a line counts when its nearest natural
+        frequency (:func:`nearest_mode`) is the recording's. For an oscillation above the measured band,
+        where the model's modes are known only to their discretisation error: a mode's frequency may
+        move past its neighbour's midpoint there (the branch would change) while it stays the nearest
+        mode of its own limit cycle unless the error exceeds half the modes' spacing.
 
     Returns
     -------
     bool
         True when the rerun holds a self-excited line within the relative
         ``tolerance`` (the policy's ``oscillation_tolerance``) of ``frequency_hz`` (or two of its
-        spectral lines, whichever is wider), or on its branch.
+        spectral lines, whichever is wider), or on its branch (its mode with ``same_mode``).
     """
     if rerun_check is None or not rerun_check.unstable:
         return False
@@ -470,6 +493,9 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
         return True
     if natural_hz is None or not np.size(natural_hz):
         return False
+    if same_mode:
+        mode = nearest_mode(frequency_hz, natural_hz)
+        return any(nearest_mode(o.frequency_hz, natural_hz) == mode for o in rerun_check.oscillations)
     b = branch(frequency_hz, natural_hz)
     return any(branch(o.frequency_hz, natural_hz) == b for o in rerun_check.oscillations)
 

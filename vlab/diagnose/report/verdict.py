@@ -137,6 +137,14 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         where = _where_text(res)
         return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
                        f"it{best}.{where}")
+    inst = res.get("instability") or {}
+    if not sel and inst.get("unstable") and inst.get("in_replay") is False:
+        tried = [r["label"] for r in res.get("rejected") or []
+                 if str(r.get("reason", "")).startswith("does not reproduce the self-excited oscillation")]
+        return text + (" No effect of the library whose linear loop is unstable reproduces the self-excited "
+                       f"oscillation at {_fmt(inst.get('frequency_hz'), 5)} Hz in its rerun"
+                       + (f" (rerun: {', '.join(tried)})" if tried else " (none was unstable and supported by the data)")
+                       + ": the cause is not identified.")
     if not sel:
         worse = [r for r in res.get("rejected") or [] if r.get("reason") == "fits no better than the nominal lab"]
         if worse:
