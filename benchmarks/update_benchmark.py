@@ -3,7 +3,7 @@
 Each case conceals one structural effect of known size in the MuJoCo plant (the structure's spec changed
 with :mod:`vlab.diagnose.effects.specedit`, which keeps the damping matrix of a physical change;
 exported as MJCF), records a closed-loop
-MFDRF experiment on it with the controller designed on the nominal model, diagnoses the recording blind
+MFDRF (or ``--controller lqdrf``) experiment on it with the controller designed on the nominal model, diagnoses the recording blind
 (``vlab.diagnose``), writes the updated structure file (``vlab.update``) and runs the MFDRF designed on
 the original and on the updated file against the same changed plant (``vlab.verify_update``).
 
@@ -19,7 +19,7 @@ reported as such, not dropped):
 
 Usage::
 
-    python benchmarks/update_benchmark.py [--cases cantilever|bcc|all] [--out DIR]
+    python benchmarks/update_benchmark.py [--cases cantilever|bcc|all] [--controller mfdrf|lqdrf] [--out DIR]
 
 The structures: ``examples/cantilever_tip_mass.toml`` (a few seconds a case) and the BCC (minutes a case:
 its diagnosis dominates). The sizes are fixed, chosen by hand well above the detection threshold (the
@@ -61,13 +61,13 @@ CASES = {
 }
 
 
-def run_case(structure, label: str, edit, duration_s, work: Path) -> dict:
+def run_case(structure, label: str, edit, duration_s, work: Path, controller: str = "mfdrf") -> dict:
     """One case: conceal, record, diagnose, update, verify. Returns the row printed."""
     nominal = load_spec(structure)
     work.mkdir(parents=True)
     plant = export_mjcf(build_plant(edit(nominal)), work / "plant.xml")
     t0 = time.perf_counter()
-    vlab.run_experiment(nominal, "mfdrf", mjcf=plant, duration_s=duration_s, out_dir=work / "exp")
+    vlab.run_experiment(nominal, controller, mjcf=plant, duration_s=duration_s, out_dir=work / "exp")
     res = vlab.diagnose(nominal, work / "exp" / "recording.uff", out_dir=work / "diag")
     d = res.as_dict()
     sel = "; ".join(f"{e['effect']} {e['location']} {e['parameters']}" for e in d["selected"]) or "nothing"
@@ -77,7 +77,7 @@ def run_case(structure, label: str, edit, duration_s, work: Path) -> dict:
     except VlabError as exc:
         row.update(refused=str(exc).split(": ", 1)[-1][:120])
         return row
-    v = vlab.verify_update(nominal, upd.path, plant, controller="mfdrf", duration_s=duration_s)
+    v = vlab.verify_update(nominal, upd.path, plant, controller=controller, duration_s=duration_s)
     e0, e1 = v["original"]["average_peak_level_error"], v["updated"]["average_peak_level_error"]
     dz = max(abs(m["damping_ratio_measured"] / m["damping_ratio_predicted"] - 1) for m in v["updated"]["modes"])
     row.update(e_original=e0, e_updated=e1, damping_dev=dz, seconds=time.perf_counter() - t0,
@@ -88,6 +88,8 @@ def run_case(structure, label: str, edit, duration_s, work: Path) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", choices=("cantilever", "bcc", "all"), default="cantilever")
+    ap.add_argument("--controller", choices=("mfdrf", "lqdrf"), default="mfdrf",
+                    help="the controller of the recording and of both designs")
     ap.add_argument("--out", default=None, help="folder for the cases' files (default: a temporary folder)")
     a = ap.parse_args()
     names = ("cantilever", "bcc") if a.cases == "all" else (a.cases,)
@@ -96,7 +98,7 @@ def main() -> None:
     n = 0
     for name in names:
         for i, (structure, label, edit, dur) in enumerate(CASES[name]):
-            row = run_case(structure, label, edit, dur, base / f"{name}_{i}")
+            row = run_case(structure, label, edit, dur, base / f"{name}_{i}", a.controller)
             n += 1
             if "refused" in row:
                 print(f"{label:44s} update refused: {row['refused']}  (selected: {row['selected']})")
