@@ -4,7 +4,7 @@ Each case conceals one structural effect of known size in the MuJoCo plant (the 
 with :mod:`vlab.diagnose.effects.specedit`, which keeps the damping matrix of a physical change;
 exported as MJCF), records a closed-loop
 MFDRF (or ``--controller lqdrf``) experiment on it with the controller designed on the nominal model, diagnoses the recording blind
-(``vlab.diagnose``), writes the updated structure file (``vlab.update``) and runs the MFDRF designed on
+(``vlab.diagnose``), writes the updated structure file (``vlab.update``) and runs the controller designed on
 the original and on the updated file against the same changed plant (``vlab.verify_update``).
 
 Printed per case: what was concealed, what the diagnosis selected (or why it refused), the average peak
