@@ -181,6 +181,8 @@ def test_concealed_mass_is_written_back_and_the_redesign_predicts_the_changed_pl
     assert e1 <= 0.5 * e0, (e0, e1)
     for mode in v["updated"]["modes"]:
         assert mode["damping_ratio_measured"] == pytest.approx(mode["damping_ratio_predicted"], rel=0.1)
+    assert v["updated"]["damping_ratio_largest_relative_difference"] == pytest.approx(max(
+        abs(m["damping_ratio_measured"] / m["damping_ratio_predicted"] - 1) for m in v["updated"]["modes"]))
     # the updated file was made for another structure than the original: a second update is refused
     with pytest.raises(DataFileError, match="another structure"):
         update(out, tmp_path / "diag")

@@ -90,6 +90,10 @@ def _print_update(out_fmt: str, obj: dict[str, Any]) -> None:
                 f"{v['controller']} designed on each model, run on {v['plant']}")
     console.print(f"average peak level error (Table 10): original {v['original']['average_peak_level_error']:.4f}, "
                   f"updated {v['updated']['average_peak_level_error']:.4f}", highlight=False)
+    dz = [v[k]["damping_ratio_largest_relative_difference"] for k in ("original", "updated")]
+    if None not in dz:
+        console.print(f"closed-loop damping ratios, largest |measured / predicted - 1|: original {dz[0]:.1%}, "
+                      f"updated {dz[1]:.1%}", highlight=False)
     for label in ("original", "updated"):
         for w in v[label]["warnings"]:
             err_console.print(f"[bold yellow]warning ({label}):[/] {escape(w)}", soft_wrap=True, highlight=False)

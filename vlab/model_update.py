@@ -454,7 +454,8 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         ``plant``, ``controller``, and for ``original`` and ``updated``: ``structure_file``,
         ``average_peak_level_error`` [1], ``modes`` (``mode``, ``frequency_predicted_hz``,
         ``frequency_measured_hz``, ``damping_ratio_predicted``, ``damping_ratio_measured``,
-        ``peak_level_ratio``), ``warnings``.
+        ``peak_level_ratio``), ``damping_ratio_largest_relative_difference`` [1] (``|measured / predicted
+        - 1|`` over the modes), ``warnings``.
 
     Raises
     ------
@@ -487,4 +488,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
                        "damping_ratio_predicted": m.damping_predicted, "damping_ratio_measured": m.damping_measured,
                        "peak_level_ratio": float(m.peak_level_ratio)} for m in r.modes],
             "warnings": list(r.warnings)}
+        dev = [abs(m["damping_ratio_measured"] / m["damping_ratio_predicted"] - 1) for m in out[label]["modes"]
+               if m["damping_ratio_predicted"] and np.isfinite(m["damping_ratio_measured"])]
+        out[label]["damping_ratio_largest_relative_difference"] = max(dev) if dev else None
     return out
