@@ -331,6 +331,17 @@ def check_written(written: StructureSpec, intended: StructureSpec, file: str, n_
     Compared: the first ``n_modes`` natural frequencies and the damping matrices (:func:`vlab.fe.damping.
     structural_damping`, relative to the largest entry) of the two FE models, within :data:`CHECK_RTOL`.
 
+    Parameters
+    ----------
+    written : StructureSpec
+        Read back from the written text.
+    intended : StructureSpec
+        The diagnosis's own edit (:func:`intended_spec`).
+    file : str
+        Named in errors.
+    n_modes : int
+        Modes compared.
+
     Returns
     -------
     dict
