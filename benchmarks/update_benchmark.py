@@ -53,10 +53,17 @@ CASES = {
         (CANTILEVER, "strip EI x 0.85", lambda s: specedit.scale_member(s, "strip", 0.85), 4.0),
         (CANTILEVER, "segment 2-3 EI x 0.6", lambda s: specedit.scale_segments(s, {(2, 3): 0.6}), 4.0),
         (CANTILEVER, "mode 2 damping 0.02", lambda s: specedit.set_modal_damping(s, 2, 0.02), 4.0),
+        (CANTILEVER, "mode 1 damping 0.005", lambda s: specedit.set_modal_damping(s, 1, 0.005), 4.0),
+        (CANTILEVER, "joint at point 3, 300 N*m/rad", lambda s: specedit.soften_joint(s, 3, 300.0), 4.0),
+        (CANTILEVER, "joint at point 4, 150 N*m/rad", lambda s: specedit.soften_joint(s, 4, 150.0), 4.0),
     ],
     "bcc": [
         ("bcc", "added_mass 0.12 kg at point 6", lambda s: specedit.add_mass(s, 6, 0.12), None),
         ("bcc", "spring 150 N/m at point 5", lambda s: specedit.add_spring(s, 5, "w", 150.0), None),
+        ("bcc", "beam segment 6-7 EI x 0.7", lambda s: specedit.scale_segments(s, {(6, 7): 0.7}), None),
+        ("bcc", "mode 3 damping x 2", lambda s: specedit.set_modal_damping(
+            s, 3, 2 * (s.damping.modal_ratios[2] if len(s.damping.modal_ratios) > 2 else s.damping.default_ratio)),
+         None),
     ],
 }
 
@@ -88,6 +95,7 @@ def run_case(structure, label: str, edit, duration_s, work: Path, controller: st
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", choices=("cantilever", "bcc", "all"), default="cantilever")
+    ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case numbers (0-based)")
     ap.add_argument("--controller", choices=("mfdrf", "lqdrf"), default="mfdrf",
                     help="the controller of the recording and of both designs")
     ap.add_argument("--out", default=None, help="folder for the cases' files (default: a temporary folder)")
@@ -98,6 +106,8 @@ def main() -> None:
     n = 0
     for name in names:
         for i, (structure, label, edit, dur) in enumerate(CASES[name]):
+            if a.only is not None and i not in a.only:
+                continue
             row = run_case(structure, label, edit, dur, base / f"{name}_{i}", a.controller)
             n += 1
             if "refused" in row:
