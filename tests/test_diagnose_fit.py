@@ -214,6 +214,11 @@ class _FakeProblem:
 
     data = None
 
+    def __init__(self):
+        from vlab.diagnose.data.run import DiagnosisRun
+
+        self.run = DiagnosisRun()
+
     def state_for(self, h, x):
         return h.label
 
