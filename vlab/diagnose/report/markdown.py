@@ -48,9 +48,8 @@ def _peak_text(s: dict) -> str:
     return f"; largest single-line residual {p:.3g} {word} its limit {lim:.3g}"
 
 
-def markdown(res: dict) -> str:
-    """The report text from ``res``, the JSON object of a diagnosis."""
-    s = res["statistics"]
+def _head_lines(res: dict) -> list[str]:
+    """Title, data, notes, the verdict and any self-excited oscillation."""
     lines = [f"# vlab diagnosis: {res['structure']}, controller {res['controller']}", ""]
     lines += [f"Data: `{res['data']['source']}` ({res['data']['kind']}); {res['data']['n_lines']} lines x "
               f"{res['data']['n_channels']} channels" if res["data"]["kind"] != "modal" else
@@ -69,6 +68,13 @@ def markdown(res: dict) -> str:
                          f"{10 * math.log10(o['line_to_floor']):.0f} | {o['coherence']:.2f} | "
                          f"{o['growth_rate_1_s']:.3g} | {o['rise']:.3g} |")
         lines.append("")
+    return lines
+
+
+def _mismatch_lines(res: dict) -> list[str]:
+    """The mismatch test's outcome in words, with the selected effects and their parameters."""
+    s = res["statistics"]
+    lines = []
     peak = _peak_text(s)
     if s.get("noise_only"):  # found by the test without the model-error floor (a baseline given)
         q = s["noise_only"]
@@ -99,6 +105,12 @@ def markdown(res: dict) -> str:
                   + ", ".join(f"{k} = {v:.4g}" for k, v in x["fe_fit"].items()) + ")")
             lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}{fe}")
         lines.append("")
+    return lines
+
+
+def _where_lines(res: dict) -> list[str]:
+    """Where the mismatch is: loop, band, modes, points, members, sensors, the model's uncertainty."""
+    lines = []
     loc = res["located"]
     lines += ["## Where", "",
               f"- loop: {loc['loop']}",
@@ -129,20 +141,33 @@ def markdown(res: dict) -> str:
             lines.append(f"| {p} | {_fmt(c['chi2_per_residual'], 3)} | {_fmt(c['misfit_decades'], 3)} | "
                          f"{_fmt(c['comac'], 3)} |")
         lines.append("")
-    if res["ranked"]:
-        lines += ["## Hypotheses (ranked by BIC, lower is better)", "",
-                  "| # | effect | location | parameters [95 % interval] | BIC | dBIC to the best | dBIC vs nominal | "
-                  f"misfit before [{misfit_unit(res)}] | misfit after [{misfit_unit(res)}] |",
-                  "|---|---|---|---|---|---|---|---|---|"]
-        best = res["ranked"][0]["score"]
-        for i, h in enumerate(res["ranked"][:15], start=1):
-            lines.append(f"| {i} | {h['effect']} | {_loc(h['location'])} | {_params(h['parameters'], h['ci95'])} | "
-                         f"{h['score']:.5g} | {h['score'] - best:.4g} | {h['delta_bic']:.4g} | "
-                         f"{_fmt(h['misfit_before'], 3)} | {_fmt(h['misfit_after'], 3)} |")
-        lines.append("")
-        if res.get("alternatives"):
-            lines += ["Within 10 of the selected BIC (not separable by these data): "
-                      + ", ".join(res["alternatives"]), ""]
+    return lines
+
+
+def _ranked_lines(res: dict) -> list[str]:
+    """The hypotheses ranked by BIC (the first 15) and the alternatives not separable from the selection."""
+    lines = []
+    if not res["ranked"]:
+        return lines
+    lines += ["## Hypotheses (ranked by BIC, lower is better)", "",
+              "| # | effect | location | parameters [95 % interval] | BIC | dBIC to the best | dBIC vs nominal | "
+              f"misfit before [{misfit_unit(res)}] | misfit after [{misfit_unit(res)}] |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    best = res["ranked"][0]["score"]
+    for i, h in enumerate(res["ranked"][:15], start=1):
+        lines.append(f"| {i} | {h['effect']} | {_loc(h['location'])} | {_params(h['parameters'], h['ci95'])} | "
+                     f"{h['score']:.5g} | {h['score'] - best:.4g} | {h['delta_bic']:.4g} | "
+                     f"{_fmt(h['misfit_before'], 3)} | {_fmt(h['misfit_after'], 3)} |")
+    lines.append("")
+    if res.get("alternatives"):
+        lines += ["Within 10 of the selected BIC (not separable by these data): "
+                  + ", ".join(res["alternatives"]), ""]
+    return lines
+
+
+def _validation_lines(res: dict) -> list[str]:
+    """The validation: misfit before and after on the plant, the refit, the modes, the time-domain error."""
+    lines = []
     v = res["validated"]
     what = ("RMS relative frequency error" if res["data"]["kind"] == "modal"
             else "FRF log-magnitude misfit [decades]")
@@ -181,6 +206,12 @@ def markdown(res: dict) -> str:
         lines.append(f"- time-domain error ||v_model - v_recorded|| / ||v_recorded||: "
                      f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}")
     lines.append("")
+    return lines
+
+
+def markdown(res: dict) -> str:
+    """The report text from ``res``, the JSON object of a diagnosis."""
+    lines = _head_lines(res) + _mismatch_lines(res) + _where_lines(res) + _ranked_lines(res) + _validation_lines(res)
     if res.get("files"):
         lines += ["## Figures", ""] + [f"![{k}]({f})" for k, f in res["files"].items() if f.endswith(".png")] + [""]
     t = res.get("timing_s", {})
