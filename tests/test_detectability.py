@@ -187,12 +187,12 @@ def test_naming_threshold_is_at_or_above_detection_and_names_the_effect(tmp_path
 
 
 def test_profiled_search_finds_a_step_either_way_from_the_first_order_threshold():
-    """The ladder and bisection of the profiled threshold (vlab.diagnose.detectability._profiled_side) on a
+    """The ladder and bisection of the profiled threshold (vlab.diagnose.thresholds._profiled_side) on a
     test that is a known step: found within LADDER**(1/2**N_BISECT_PROFILED) whether the step lies above or
     below the first-order start, on a null value and on a limit (log) path; None past the end of the range."""
     from types import SimpleNamespace
 
-    from vlab.diagnose import detectability as dm
+    from vlab.diagnose import thresholds as dm
 
     def tester(step: float, up: bool = True):
         return SimpleNamespace(detected=lambda h, x: "chi2" if (x >= step if up else x <= step) else None)
@@ -213,17 +213,18 @@ def test_profiled_threshold_against_drawn_model_form_errors():
     independent normal draws of their standard uncertainty, on top of the effect, and the diagnosis's decision
     (profiled chi-square, largest line and nuisance test) made on each. A damping change of mode 1, which
     the nuisance test detects: at half the threshold at most 1 of 6 draws fires, at twice it 5 of 6 or more."""
-    from vlab.diagnose.detectability import _Test, frf_model_form_of, nominal_test, _thresholds
+    from vlab.diagnose.detectability import frf_model_form_of, nominal_test
     from vlab.diagnose.fit.rules import beyond_noise
     from vlab.diagnose.model.modelform import perturbed_modes
     from vlab.diagnose.problem.nuisance import parameters
     from vlab.diagnose.problem.residuals import Problem
+    from vlab.diagnose.thresholds import DetectionTest, effect_thresholds
 
     _spec, nominal, data, ctx = nominal_test("bcc", "none")
     _mf, mf = frf_model_form_of(nominal, data, "mujoco")
-    tester = _Test(Problem(data, nominal, ctx, model_form_frf=mf), nominal, ctx)
+    tester = DetectionTest(Problem(data, nominal, ctx, model_form_frf=mf), nominal, ctx)
     (h,) = [x for x in library(nominal, ctx, effects=("damping",)) if x.location == {"mode": 1}]
-    up = [t for t in _thresholds(tester, h) if t.bound > t.null]
+    up = [t for t in effect_thresholds(tester, h) if t.bound > t.null]
     (t,) = up
     assert t.threshold is not None and t.by == "nuisance"
     which = parameters(mf, mf.modes)
@@ -247,11 +248,11 @@ def test_profiled_threshold_against_drawn_model_form_errors():
 
 def test_referral_variance_is_the_term_refer_to_model_adds():
     """The thresholds of a real measurement carry the variance that referring it through the replay plant
-    adds (vlab.diagnose.detectability.referral_variance); checked against what
+    adds (vlab.diagnose.thresholds.referral_variance); checked against what
     vlab.diagnose.data.measured.refer_to_model adds for a recording whose change since the replay is known:
     random FRFs, the model 20 % and 0.3 rad off the replay, an effect of 10 % on top."""
     from vlab.diagnose.data.measured import FrfData, refer_to_model
-    from vlab.diagnose.detectability import referral_variance
+    from vlab.diagnose.thresholds import referral_variance
 
     rng = np.random.default_rng(5)
     shape = (40, 3)

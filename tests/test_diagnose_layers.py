@@ -10,14 +10,15 @@ Layers, lowest first (a module may import its own layer and the layers below it,
 4. ``fit``      -- fit, rank, locate, the decision rules, the plant refits (``fit/``)
 5. ``validate`` -- the validation rerun (``validate.py``)
 6. ``instability_cause`` -- the cause of a self-excited oscillation: unstable loops, reruns (``instability_cause.py``)
-7. ``naming``   -- the look-alikes an effect must beat to be named (``naming.py``)
-8. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
-9. ``report``   -- result, report text, figures (``report/``)
-10. ``decision`` -- the mismatch tests, the gates a choice must pass, its remainder (``decision.py``)
-11. ``reading``  -- stage 1: the data, the nominal lab, the reference (``reading.py``)
-12. ``explain``  -- stages 3-5: screen, fit, select, the plant check (``explain.py``)
-13. ``pipeline`` -- :func:`vlab.diagnose.diagnose`, the stages in order (``pipeline.py``)
-14. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
+7. ``thresholds`` -- the detection threshold of one effect: the mismatch test on its noise-free data (``thresholds.py``)
+8. ``naming``   -- the look-alikes an effect must beat to be named (``naming.py``)
+9. ``detectability`` -- the smallest size of each effect the mismatch test detects, and names (``detectability.py``)
+10. ``report``   -- result, report text, figures (``report/``)
+11. ``decision`` -- the mismatch tests, the gates a choice must pass, its remainder (``decision.py``)
+12. ``reading``  -- stage 1: the data, the nominal lab, the reference (``reading.py``)
+13. ``explain``  -- stages 3-5: screen, fit, select, the plant check (``explain.py``)
+14. ``pipeline`` -- :func:`vlab.diagnose.diagnose`, the stages in order (``pipeline.py``)
+15. the package ``vlab.diagnose`` itself (``__init__.py``: its public names)
 
 Every import counts: at module level, inside functions (lazy) and under ``TYPE_CHECKING``. Within the
 effects layer the families (``structural``, ``beyond_spec``, ``chain``) import only the base
@@ -33,7 +34,7 @@ from pathlib import Path
 PACKAGE = "vlab.diagnose"
 ROOT = Path(__file__).resolve().parent.parent / "vlab" / "diagnose"
 
-LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "naming", "detectability", "report", "decision", "reading", "explain", "pipeline")
+LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "thresholds", "naming", "detectability", "report", "decision", "reading", "explain", "pipeline")
 #: Rank of the package's own ``__init__`` (above every layer: it re-exports the public names).
 TOP = len(LAYERS)
 

@@ -29,10 +29,11 @@ test is then the diagnosis's own in full: the nominal lab's modes are profiled w
 line taken after the profile, and the nuisance test added (the modes moved beyond their uncertainty;
 its statistic's null mean, the number of profiled parameters, added as ``chi2_noise`` is). That test is
 searched from the first-order threshold (linear whitening of the model form) on a ladder of factors
-:data:`LADDER`, then bisected. A real recording is also referred through the replay on the MuJoCo plant,
-whose second-order variance (:func:`vlab.diagnose.data.measured.refer_to_model`) the thresholds carry as
-its expected value (:func:`referral_variance`): at the lightly damped peaks it is far larger than the
-noise (BCC: 18-36 % of the FRF against 2 %), and masses' thresholds rise 10-30 times.
+:data:`~vlab.diagnose.thresholds.LADDER`, then bisected (:mod:`vlab.diagnose.thresholds`: the test and
+the search). A real recording is also referred through the replay on the MuJoCo plant, whose
+second-order variance (:func:`vlab.diagnose.data.measured.refer_to_model`) the thresholds carry as its
+expected value (:func:`~vlab.diagnose.thresholds.referral_variance`): at the lightly damped peaks it is
+far larger than the noise (BCC: 18-36 % of the FRF against 2 %), and masses' thresholds rise 10-30 times.
 
 Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
 pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.
@@ -65,80 +66,7 @@ from .model.modelform import damping_by_frequency, frf_model_form, model_form_un
 from .model.nominal import nominal_design, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
-
-#: Sizes tried between an effect's null value and its bound before the bisection.
-N_GRID = 24
-#: Bisection steps after the grid (the threshold to about 2**-8 of a grid step).
-N_BISECT = 8
-
-
-@dataclass(frozen=True)
-class Threshold:
-    """The detection threshold of one effect at one location, on one side of its null value.
-
-    Attributes
-    ----------
-    effect : str
-        Library name (``added_mass``, ``loop_delay``, ...).
-    location : dict
-        Where (``{"point": 6}``, ``{"channel": "all"}``, ...).
-    parameter : str
-        Parameter name with its SI unit suffix (``mass_kg``).
-    null : float or None
-        Value at which the effect vanishes [SI] (None: only as a limit, e.g. a rigid joint).
-    threshold : float or None
-        Smallest departure from ``null`` that the test detects [SI]; None when even the bound of the
-        parameter's range is not detected.
-    bound : float
-        The end of the range searched towards [SI].
-    by : str or None
-        Which test detects it first: ``"chi2"`` (the total), ``"peak"`` (one line) or, with a model form,
-        ``"nuisance"`` (the modes had to move beyond their uncertainty), None if undetected.
-    named_at : float or None
-        Smallest size [SI] at which the diagnosis names it among its look-alikes (:mod:`vlab.diagnose.naming`);
-        None when not computed or not named within the range (see ``look_alike``).
-    look_alike : str or None
-        The look-alike that comes closest there (or at the largest size tried); None when not computed.
-    look_alike_chi2 : float or None
-        The chi-square that look-alike leaves [1] (named when >= 10).
-    """
-
-    effect: str
-    location: dict
-    parameter: str
-    null: float | None
-    threshold: float | None
-    bound: float
-    by: str | None
-    named_at: float | None = None
-    look_alike: str | None = None
-    look_alike_chi2: float | None = None
-
-    def scaled(self, factor: float) -> float:
-        """The parameter value [SI] of ``factor`` times the threshold's effect.
-
-        With a null value, the departure from it is scaled (``null + factor (threshold - null)``); where the
-        effect vanishes only in a limit (a rigid joint or support, no lag, no force limit: an infinite
-        stiffness, corner or limit), the effect grows as the inverse of the parameter (a compliance, ``f /
-        f_c``, a clipped share) and the parameter is divided by ``factor``.
-
-        Raises
-        ------
-        ValueError
-            No threshold (the effect is not detected in its range).
-        """
-        if self.threshold is None:
-            raise ValueError(f"{self.effect} at {self.location}: no threshold to scale")
-        if self.null is not None:
-            return self.null + factor * (self.threshold - self.null)
-        return self.threshold / factor if self.bound < self.threshold else self.threshold * factor
-
-    def as_dict(self) -> dict:
-        """JSON-ready dict (the parameter name carries the unit)."""
-        return {"effect": self.effect, "location": self.location, "parameter": self.parameter,
-                "null": self.null, "threshold": self.threshold, "bound": self.bound, "detected_by": self.by,
-                "naming_threshold": self.named_at, "closest_look_alike": self.look_alike,
-                "closest_look_alike_chi2": self.look_alike_chi2}
+from .thresholds import DetectionTest, Threshold, effect_thresholds, referral_variance
 
 
 @dataclass(frozen=True)
@@ -186,277 +114,6 @@ class Detectability:
         return [t for t in self.thresholds if t.effect == effect and t.location == location]
 
 
-def _path(lo: float, hi: float, log: bool, n: int) -> np.ndarray:
-    """``n`` sizes from ``lo`` to ``hi`` (either order), log-spaced when ``log`` and both are positive."""
-    if log and lo > 0 and hi > 0:
-        return np.geomspace(lo, hi, n)
-    return np.linspace(lo, hi, n)
-
-
-def referral_variance(model_over_base: np.ndarray, h: np.ndarray, h_model: np.ndarray, mf) -> np.ndarray:
-    """The relative variance that referring a real recording through the replay plant adds, expected for data ``h``.
-
-    :func:`vlab.diagnose.data.measured.refer_to_model` adds ``(|ln(H_model / H_base)| |ln(H_meas /
-    H_base)|)^2`` (model-form error times change, the referral's second-order error). For a real structure
-    with the change of ``h`` (data referred to the model: ``h = H_model H_meas / H_base``): ``ln(H_meas /
-    H_base) = ln(h / H_model) + e``, ``e`` the structure's own difference from the replay plant, of variance
-    ``mf.variance`` (the plant's modes within their model form); its expected square is used.
-
-    Parameters
-    ----------
-    model_over_base : ndarray, complex, shape (n_f, n_o)
-        ``ln(H_model / H_base)``: the model against the replay plant (its own modes, ``FrfModelForm.modes``).
-    h, h_model : ndarray, complex, shape (n_f, n_o)
-        The data's FRFs (with the effect) and the nominal model's [(m/s)/N].
-    mf : FrfModelForm or None
-        The model form (None: ``e = 0``).
-
-    Returns
-    -------
-    ndarray, shape (n_f, n_o)
-        Relative variance [1].
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        change = np.abs(np.log(h / h_model)) ** 2 + (0.0 if mf is None else mf.variance)
-        out = np.abs(model_over_base) ** 2 * change
-    return np.where(np.isfinite(out), out, 0.0)
-
-
-class _Test:
-    """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab.
-
-    With a model form the diagnosis profiles the nominal lab's modes within it (nonlinear,
-    :meth:`Problem.nominal_profile`) and also tests how far they had to move (:meth:`Problem.nuisance_test`);
-    :meth:`detected` is then that test (``profiled``), and :meth:`detected_first_order` the linear whitening's,
-    which is cheap and gives the starting point of the search (:func:`_side`).
-    """
-
-    def __init__(self, problem: Problem, nominal: LabState, ctx, chi2_noise: float | None = None,
-                 referral: np.ndarray | None = None, var0: np.ndarray | None = None) -> None:
-        self.problem, self.nominal, self.ctx = problem, nominal, ctx
-        # the replay plant's referral (its second-order term, :func:`referral_variance`) on top of the
-        # recording's own variance ``var0``
-        self.referral, self.var0 = referral, (problem.data.var if var0 is None else var0)
-        self.h_model = None if referral is None else problem.predict(nominal)
-        # what the noise (and the model's own small errors) contribute: the nominal lab against the nominal
-        # recording, or, on data with an effect, what the fitted effect leaves
-        self.chi2_noise = problem.chi2(nominal) if chi2_noise is None else float(chi2_noise)
-        self.limit, self.peak_limit = problem.noise_chi2(), problem.peak_limit()
-        mf = problem.model_form_frf
-        self.profiled = mf is not None and mf.sigma.size > 0 and isinstance(problem.data, FrfData)
-        self.n_profiled = 0
-        if self.profiled:
-            from .problem.nuisance import parameters
-
-            pm0 = mf.modes if mf.modes is not None else nominal.point_modes
-            self.n_profiled = (len(mf.labels) if pm0 is None
-                               else sum(r is not None for _k, r, _j in parameters(mf, pm0)))
-            self.nuisance_limit = self.problem.policy.nuisance_limit(self.n_profiled)
-
-    def _expected(self, h, x: float, **kw) -> Problem | None:
-        """The problem of the noise-free data of hypothesis ``h`` at size ``x`` (None: cannot be built)."""
-        try:
-            state = h.apply(self.nominal, np.array([x]), self.ctx)
-            expected = replace(self.problem.data, h=self.problem.predict(state))
-        except (VlabError, ValueError, np.linalg.LinAlgError):
-            return None
-        if self.referral is not None:
-            expected = replace(expected, var=self.var0 + referral_variance(
-                self.referral, expected.h, self.h_model, self.problem.model_form_frf) * np.abs(expected.h) ** 2)
-        return Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
-                       model_form_frf=self.problem.model_form_frf, policy=self.problem.policy, **kw)
-
-    def statistic(self, h, x: float) -> tuple[float, float] | None:
-        """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]
-        to first order in the model form (linear whitening; None: the lab cannot be built at that size)."""
-        p = self._expected(h, x)
-        if p is None:
-            return None
-        return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
-
-    def detected_first_order(self, h, x: float) -> str | None:
-        """``"chi2"``, ``"peak"`` or None for hypothesis ``h`` at size ``x`` [SI], to first order."""
-        st = self.statistic(h, x)
-        if st is None:
-            return None
-        return "chi2" if st[0] > self.limit else "peak" if st[1] > self.peak_limit else None
-
-    def detected(self, h, x: float) -> str | None:
-        """``"chi2"``, ``"peak"``, ``"nuisance"`` or None: the diagnosis's own test (rule 1 and, with a model
-        form, the profile and its nuisance test; the nuisance statistic's null mean, its number of parameters,
-        added as the noise's share is to the chi-square: the noncentral picture of the module notes)."""
-        if not self.profiled:
-            return self.detected_first_order(h, x)
-        p = self._expected(h, x, profile_nominal=True)
-        if p is None:
-            return None
-        try:
-            chi2, peak, nuis = p.chi2(self.nominal), p.peak(self.nominal), p.nuisance_test()
-        except (VlabError, ValueError, np.linalg.LinAlgError):
-            return None
-        if self.chi2_noise + chi2 > self.limit:
-            return "chi2"
-        if peak > self.peak_limit:
-            return "peak"
-        return "nuisance" if nuis and self.n_profiled + nuis["nuisance_chi2"] > self.nuisance_limit else None
-
-
-#: The search starts this fraction of the way from the null value to the bound (geometric in the distance).
-SMALLEST = 1e-7
-
-
-def _first_detected(detected, h, xs) -> tuple[int, str | None]:
-    """Index of the first size of ``xs`` that ``detected(h, x)`` detects (and by which test), or ``(-1, None)``."""
-    for i, x in enumerate(xs):
-        by = detected(h, float(x))
-        if by is not None:
-            return i, by
-    return -1, None
-
-
-#: Ratio between the sizes of the profiled test's ladder around the first-order threshold.
-LADDER = 1.5
-#: Steps of that ladder at most, each way.
-LADDER_STEPS = 10
-#: Bisection steps of the profiled test between two sizes of its ladder (to about LADDER**(1/32)).
-N_BISECT_PROFILED = 5
-
-
-def _side(test: _Test, h, null: float | None, start: float, end: float, log: bool,
-          profiled: bool = True) -> tuple[float | None, str | None]:
-    """Threshold between the null end ``start`` and ``end`` [SI].
-
-    To first order: a grid geometric in the distance from the null value (from :data:`SMALLEST` of the range;
-    geometric in the size itself when the null is a limit of a log-scaled parameter), then bisection. With a
-    profiled test (a model form): from there a ladder of factors :data:`LADDER` up or down with the
-    diagnosis's own test (minutes for the whole library rather than hours), then bisection in the factor.
-    """
-    if null is None:
-        xs = _path(start, end, log, N_GRID)
-        to_x = None
-    else:
-        dist = abs(end - null)
-        sign = 1.0 if end >= null else -1.0
-        ds = np.geomspace(SMALLEST * dist, dist, N_GRID)
-        xs = null + sign * ds
-
-        def to_x(d):
-            return null + sign * d
-    i, by = _first_detected(test.detected_first_order, h, xs)
-    if i < 0:
-        thr = None
-    elif i == 0:  # detected at the smallest size tried
-        thr = float(xs[0])
-    else:
-        if to_x is None:
-            a, b = float(xs[i - 1]), float(xs[i])
-            geo = log and a > 0 and b > 0
-        else:
-            a, b = float(ds[i - 1]), float(ds[i])
-            geo = True
-        for _ in range(N_BISECT):
-            mid = math.sqrt(a * b) if geo else 0.5 * (a + b)
-            m_by = test.detected_first_order(h, mid if to_x is None else to_x(mid))
-            if m_by is None:
-                a = mid
-            else:
-                b, by = mid, m_by
-        thr = b if to_x is None else float(to_x(b))
-    if not (profiled and test.profiled):
-        return thr, by
-    return _profiled_side(test, h, null, start, end, log, thr)
-
-
-def _profiled_side(test: _Test, h, null, start: float, end: float, log: bool, first: float | None):
-    """The profiled test's threshold on the side from ``start`` to ``end``, searched from the first-order
-    threshold ``first`` (None: at the bound) on a ladder of factors, then bisected in the factor."""
-    if first is None:
-        first = end
-    if null is not None:
-        d1 = abs(first - null)
-        sign = 1.0 if end >= null else -1.0
-
-        def at(s: float) -> float:
-            return null + sign * d1 * s
-    elif log and first > 0 and end > 0:
-        up = end > start
-
-        def at(s: float) -> float:
-            return first * s if up else first / s
-    else:
-        def at(s: float) -> float:
-            return start + (first - start) * s
-
-    def beyond(x: float) -> bool:  # past the end of the range
-        return (x - end) * (end - start) > 0
-
-    def test_at(s: float):
-        x = at(s)
-        return test.detected(h, end if beyond(x) else x)
-
-    by = test_at(1.0)
-    if by is not None:  # detected at the first-order threshold: down the ladder
-        hi, lo = 1.0, None
-        for k in range(1, LADDER_STEPS + 1):
-            s = LADDER**-k
-            b = test_at(s)
-            if b is None:
-                lo = s
-                break
-            hi, by = s, b
-        if lo is None:
-            return float(at(hi)), by
-    else:
-        lo, hi = 1.0, None
-        for k in range(1, LADDER_STEPS + 1):
-            s = LADDER**k
-            prev = at(LADDER ** (k - 1))
-            if beyond(prev) or prev == end:  # the end of the range was tried
-                break
-            by = test_at(s)
-            if by is not None:
-                hi = s
-                break
-            lo = s
-        if hi is None:
-            return None, None
-    for _ in range(N_BISECT_PROFILED):
-        mid = math.sqrt(lo * hi)
-        b = test_at(mid)
-        if b is None:
-            lo = mid
-        else:
-            hi, by = mid, b
-    x = at(hi)
-    return float(end if beyond(x) else x), by
-
-
-def _thresholds(tester: _Test, h, profiled: bool = True, toward: float | None = None) -> list[Threshold]:
-    """The thresholds of the one-parameter hypothesis ``h`` (one per side of its null value); with
-    ``profiled=False`` to first order in the model form only (:func:`_side`); with ``toward`` [SI] only on
-    the side of that value (both where it is the null value itself)."""
-    nominal, ctx = tester.nominal, tester.ctx
-    _trials, lower, upper = h.space(nominal, ctx)
-    lo, hi, log = float(lower[0]), float(upper[0]), bool(h.log_scale[0])
-    null = h.null(nominal, ctx)
-    x0 = None if null is None else float(np.asarray(null)[0])
-    if x0 is None:  # the effect vanishes only in a limit: start at the end where it is least visible
-        st = {v: tester.statistic(h, v) for v in (lo, hi)}
-        start = min((lo, hi), key=lambda v: math.inf if st[v] is None else st[v][0])
-        sides = [(start, hi if start == lo else lo)]
-    elif lo < x0 < hi:
-        sides = [(x0, lo), (x0, hi)]
-    else:
-        sides = [(x0, hi if abs(hi - x0) >= abs(lo - x0) else lo)]
-    if toward is not None and x0 is not None:
-        sides = [(a, b) for a, b in sides if (toward - x0) * (b - x0) > 0] or sides
-    out = []
-    for start, end in sides:
-        thr, by = _side(tester, h, x0, start, end, log, profiled)
-        out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
-    return out
-
-
 def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | None:
     """The detection threshold of a found effect on the diagnosis's own data, on the side of its fitted value.
 
@@ -480,7 +137,7 @@ def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | Non
         return None
     x = float(np.asarray(h.params_)[0])
     # the side of the fitted value only (a profiled side costs a few seconds)
-    sides = _thresholds(_Test(problem, nominal, ctx, chi2_noise=getattr(h, "chi2_", None)), h, toward=x)
+    sides = effect_thresholds(DetectionTest(problem, nominal, ctx, chi2_noise=getattr(h, "chi2_", None)), h, toward=x)
     return (sides or [None])[0]
 
 
@@ -650,7 +307,7 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     var0 = data.var
     if referral is not None:  # the nominal recording as a real one: with the referral's term
         data = replace(data, var=var0 + referral_variance(referral, data.h, data.h, mf_frf) * np.abs(data.h) ** 2)
-    tester = _Test(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx, referral=referral,
+    tester = DetectionTest(Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf), nominal, ctx, referral=referral,
                    var0=var0)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
@@ -659,14 +316,14 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         if h.n_params != 1:
             skipped.append(h.label)
             continue
-        out.extend(_thresholds(tester, h))
+        out.extend(effect_thresholds(tester, h))
     if naming:
         out = _with_naming(tester, hyps, out, look_alikes, say)
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
                          float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped), model_form)
 
 
-def _with_naming(tester: _Test, hyps: list, out: list, look_alikes, say) -> list:
+def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say) -> list:
     """``out`` with the naming thresholds (:mod:`vlab.diagnose.naming`); the look-alikes' detection thresholds
     are computed where ``out`` lacks them."""
     from .naming import LookAlikes, naming_threshold
@@ -676,7 +333,7 @@ def _with_naming(tester: _Test, hyps: list, out: list, look_alikes, say) -> list
     say(f"naming among {len(pool)} look-alikes")
     # the look-alikes serve as directions (their size scales them, the gap test does not depend on it): their
     # first-order thresholds suffice
-    extra = [t for h in pool if h.label not in have for t in _thresholds(tester, h, profiled=False)]
+    extra = [t for h in pool if h.label not in have for t in effect_thresholds(tester, h, profiled=False)]
     pooled = {h.label for h in pool}
     directions = LookAlikes(tester, pool + [h for h in hyps if h.label not in pooled], out + extra)
     named = []

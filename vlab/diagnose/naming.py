@@ -77,7 +77,7 @@ class LookAlikes:
 
     Parameters
     ----------
-    tester : vlab.diagnose.detectability._Test
+    tester : vlab.diagnose.thresholds.DetectionTest
         The mismatch test of the nominal recording (its problem, nominal lab and context).
     hyps : list of Hypothesis
         One-parameter hypotheses that may be look-alikes.
