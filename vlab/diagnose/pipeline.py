@@ -32,6 +32,7 @@ one policy (:class:`vlab.diagnose.policy.DecisionPolicy`, from the user's false-
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from ..errors import VlabError
@@ -39,7 +40,7 @@ from ..measure.instability import find_instability
 from ..spec import StructureSpec
 from .data.measured import FrfData
 from .data.reference import RERUN_SEED
-from .data.run import DiagnosisRun
+from .data.run import DiagnosisRun, one_blas_thread
 from .data.replay import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
@@ -290,12 +291,29 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     SpecError
         Unknown structure.
     """
-    t_start = time.perf_counter()
     policy = DecisionPolicy(false_alarm_rate=false_alarm_rate)  # checked before any work
-    say = progress or (lambda s: None)
     opt = Options(controller=controller, plant=plant, resolution_hz=resolution_hz, seed=seed, baseline=baseline,
                   replay=replay, force=force, mjcf=mjcf, reference_column=reference_column, model_form=model_form,
                   validate_run=validate_run)
+    search = Search(effects, shortlist, pairs, validate_run, False, False, ())
+    with one_blas_thread():
+        res = _run(structure, recording_path, opt, search, floor=floor, policy=policy, progress=progress)
+    if out_dir is not None:
+        from .report.figures import figures_for
+        from .report.markdown import write_report
+
+        (progress or (lambda s: None))("writing the report")
+        res.files = write_report(out_dir, res.as_dict(), figures_for(res), overwrite=overwrite)
+    return res
+
+
+def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, policy: DecisionPolicy,
+         progress) -> DiagnosisResult:
+    """Stages 1-6 of :func:`diagnose` (``how``: the search options; its plant, oscillation and loops are set
+    here from the inputs)."""
+    t_start = time.perf_counter()
+    say = progress or (lambda s: None)
+    model_form, baseline, validate_run = opt.model_form, opt.baseline, opt.validate_run
     inp = read_inputs(structure, recording_path, opt, say)
     timing = dict(inp.timing_s)
     notes = list(inp.notes)
@@ -305,7 +323,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         osc = res.instability or {}
         self_excited = bool(osc.get("unstable") and osc.get("in_replay") is False)  # part of the mismatch
         if res.mismatch:
-            search = Search(effects, shortlist, pairs, validate_run, inp.on_plant, self_excited, inp.loops)
+            search = replace(how, on_plant=inp.on_plant, self_excited=self_excited, loops=inp.loops)
             explain(res, problem, problem.ctx, search, chi2_fit=res.chi2_fit, noise_only=res.noise_only, notes=notes,
                     timing=timing, say=say)
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)
@@ -323,10 +341,4 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start
     res.timing_s = timing
-    if out_dir is not None:
-        from .report.figures import figures_for
-        from .report.markdown import write_report
-
-        say("writing the report")
-        res.files = write_report(out_dir, res.as_dict(), figures_for(res), overwrite=overwrite)
     return res

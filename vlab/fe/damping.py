@@ -37,6 +37,9 @@ from .modal import Modes, modal_analysis
 #: times): (spec, FE model, modes).
 _BASIS_CACHE: dict[int, tuple] = {}
 _CACHE_SIZE = 8
+#: Damping matrices of changed structures carried from their unchanged structure, by (identity of the
+#: unchanged spec, the ratios, the changed model's DOF labels): (spec, matrix). The matrices are read-only.
+_MATRIX_CACHE: dict[tuple, tuple] = {}
 
 
 def open_loop_ratios(spec, n: int) -> np.ndarray:
@@ -98,6 +101,8 @@ def structural_damping(fe: FEModel, spec=None) -> np.ndarray:
     applies (default ``fe.spec``; a lab whose damping was edited without rebuilding its FE model passes its
     own).
 
+    The matrix carried from an unchanged structure is cached and read-only (copy it to add to it).
+
     Raises
     ------
     ModelError
@@ -108,15 +113,25 @@ def structural_damping(fe: FEModel, spec=None) -> np.ndarray:
     if d is None or d.basis is None:
         return modal_damping_matrix(fe.m, fe.k, open_loop_ratios(spec, fe.n))
     base, md = _basis(d.basis)
-    c0 = modal_damping_matrix(base.m, base.k, open_loop_ratios(spec, base.n), md)
+    ratios = open_loop_ratios(spec, base.n)
+    key = (id(d.basis), ratios.tobytes(), tuple(fe.dofs.labels))
+    hit = _MATRIX_CACHE.get(key)
+    if hit is not None and hit[0] is d.basis:
+        return hit[1]
+    c0 = modal_damping_matrix(base.m, base.k, ratios, md)
     if base.dofs.labels == fe.dofs.labels:
-        return c0
-    rows = [(i, base.dofs._index.get(lab)) for i, lab in enumerate(fe.dofs.labels)]
-    keep = [(i, j) for i, j in rows if j is not None]
-    ii = np.array([i for i, _ in keep], dtype=int)
-    jj = np.array([j for _, j in keep], dtype=int)
-    c = np.zeros((fe.n, fe.n))
-    c[np.ix_(ii, ii)] = c0[np.ix_(jj, jj)]
+        c = c0
+    else:
+        rows = [(i, base.dofs._index.get(lab)) for i, lab in enumerate(fe.dofs.labels)]
+        keep = [(i, j) for i, j in rows if j is not None]
+        ii = np.array([i for i, _ in keep], dtype=int)
+        jj = np.array([j for _, j in keep], dtype=int)
+        c = np.zeros((fe.n, fe.n))
+        c[np.ix_(ii, ii)] = c0[np.ix_(jj, jj)]
+    c.setflags(write=False)
+    if len(_MATRIX_CACHE) >= _CACHE_SIZE:
+        _MATRIX_CACHE.pop(next(iter(_MATRIX_CACHE)))
+    _MATRIX_CACHE[key] = (d.basis, c)
     return c
 
 
@@ -138,4 +153,4 @@ def structural_ratios(fe: FEModel, modes: Modes, spec=None) -> np.ndarray:
         return open_loop_ratios(spec, modes.shapes.shape[1])
     c = structural_damping(fe, spec)
     phi = modes.shapes
-    return np.einsum("ir,ij,jr->r", phi, c, phi) / (2.0 * modes.omega)
+    return np.sum(phi * (c @ phi), axis=0) / (2.0 * modes.omega)

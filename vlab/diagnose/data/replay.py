@@ -123,7 +123,7 @@ def linear_plant(state: LabState):
         A dashpot or friction at a point without a free out-of-plane DOF.
     """
     fe = state.fe
-    c = structural_damping(fe, state.spec)
+    c = np.array(structural_damping(fe, state.spec))  # a copy: the dashpots are added to it
     for p, cp in state.dashpots:
         i = fe.dofs.index(p, "w")
         c[i, i] += cp

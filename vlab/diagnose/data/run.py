@@ -12,7 +12,10 @@ refers to it) it arrives empty, without the background processes or the cached r
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+
+from threadpoolctl import threadpool_limits
 
 
 @dataclass
@@ -39,3 +42,18 @@ class DiagnosisRun:
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
+
+
+@contextmanager
+def one_blas_thread():
+    """Run the enclosed work with one BLAS thread.
+
+    The diagnosis works on small matrices -- FE models of tens to a few hundred DOFs, receptances of a few
+    points -- evaluated thousands of times in its fits; there a second BLAS thread costs more in hand-off
+    than it gives, and the diagnosis's background rerun holds the other core. ``benchmarks/blas_threads.py``
+    measures the ratio on the grid's FRF prediction.
+
+    Source: threadpoolctl (``threadpool_limits(limits=1, user_api="blas")``).
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield

@@ -186,7 +186,7 @@ def _coupled_block(omega, zeta, ph, w, coupling, idx) -> np.ndarray:
     left = ph[:, idx] @ v[:n, :]                                         # (n_p, 2n): displacement rows
     right = np.linalg.solve(v, b)                                        # (2n, n_p)
     g = 1.0 / (1j * w[:, None] - lam[None, :])                           # (n_f, 2n)
-    return np.einsum("pk,fk,kq->fpq", left, g, right)
+    return (left[None, :, :] * g[:, None, :]) @ right                     # sum over k of left g right
 
 
 def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
