@@ -28,6 +28,17 @@ the selection's own pair rule against the single effect (quasi-BIC evidence
 of 10, and a misfit gain of 1.5 or a residual brought into the noise). Only
 a pair that passes there replaces the single effect.
 
+A nonlinear selected effect (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
+friction) is left alone: its linear model is a describing function, so
+what its linearisation leaves on the plant is mostly the nonlinearity's
+own distortion, which no linear second effect explains and which
+:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise` cannot judge (MuJoCo
+grid, a saturation: chi-square 5.5e5 against a
+noise limit of 3.1e3, and the best pair's quasi-BIC evidence 1.7; the
+search failed on every recording with a nonlinear single effect, at
+20-35 s each). Pairs with a nonlinear part are judged by rerun instead
+(:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
+
 The pair's ``parameters`` in the answer are its fit on ``d'`` (the FE model
 with the first effect's FE/plant difference removed); the values the rerun
 used are its refit on the plant (``validated.parameters``).
@@ -163,16 +174,7 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     lightly damped modes, and the plant it is modelled on moves them a little differently from the
     real structure, a difference a second effect would otherwise absorb).
 
-    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
-    friction) is left alone: its linear model is a describing function, so
-    what its linearisation leaves on the plant is mostly the nonlinearity's
-    own distortion, which no linear second effect explains and which
-    :meth:`~vlab.diagnose.problem.residuals.Problem.within_noise` cannot judge (MuJoCo
-    grid, a saturation: chi-square 5.5e5 against a
-    noise limit of 3.1e3, and the best pair's quasi-BIC evidence 1.7; the
-    search failed on every recording with a nonlinear single effect, at
-    20-35 s each). Pairs with a nonlinear part are judged by rerun instead
-    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
+    A nonlinear ``chosen`` (:data:`vlab.diagnose.fit.rules.NONLINEAR`) is left alone (module docstring).
 
     Parameters
     ----------
@@ -220,19 +222,41 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
                                    f"{chosen.label}: its linear model is a describing function, and what it leaves "
                                    "there is the nonlinearity's own distortion (pairs with it are judged by rerun)")
     x_plant = refit.params if refit is not None else np.asarray(chosen.params_, dtype=float)
+    found, note = _single_on_plant(model, chosen, x_plant)
+    if found is None:
+        return chosen, refit, [], note
+    single, single_chi2, single_peak, referred = found
+    pairs = _pairs_on_referred(chosen, referred, pool, n_fit, max_nfev)
+    if not pairs:
+        return chosen, refit, [], None
+    refits, plant_chi2 = _refit_on_plant(model, pairs, x_plant, chosen.n_params, refit_best)
+    return _judge_pair(model, chosen, refit, pairs, refits, plant_chi2, single, single_chi2, single_peak)
+
+
+def _single_on_plant(model: PlantModel, chosen: Hypothesis, x_plant: np.ndarray) -> tuple[tuple | None, str | None]:
+    """The single effect on the plant and the data referred through it: ``((state, chi-square, largest
+    residual, referred problem), None)``; or ``(None, note)`` when no second effect is searched (the plant
+    already left only noise, or only what the modes' model form allows, or the plant cannot carry it)."""
     plant = model.problem
     try:
         single = model.state(chosen, x_plant)
         single_chi2, single_peak = plant.chi2(single), plant.peak(single)
         if plant.within_noise(single):
-            return chosen, refit, [], None
+            return None, None
         if plant.model_form_frf is not None and within_model_accuracy(plant, single):
-            return chosen, refit, [], (f"{chosen.label} leaves on the MuJoCo plant's linearisation only what its "
-                                       "modes' own model-form uncertainty allows (their frequencies, damping and "
-                                       "shapes moved within it): no second effect searched")
+            return None, (f"{chosen.label} leaves on the MuJoCo plant's linearisation only what its "
+                          "modes' own model-form uncertainty allows (their frequencies, damping and "
+                          "shapes moved within it): no second effect searched")
         referred = referred_through(model, chosen, chosen.params_, x_plant)
     except (ModelError, SpecError):
-        return chosen, refit, [], None
+        return None, None
+    return (single, single_chi2, single_peak, referred), None
+
+
+def _pairs_on_referred(chosen: Hypothesis, referred: Problem, pool: list[Hypothesis], n_fit: int,
+                       max_nfev: int) -> list:
+    """The ``n_fit`` best pairs of ``chosen`` and a spec-level second effect of ``pool``, fitted jointly on the
+    referred data and ranked (empty when none could be fitted)."""
     cands = [h for h in pool if h.spec_level and h.label != chosen.label]
     try:
         # the first effect is the one the data were referred through, at its FE value: no basin step
@@ -240,10 +264,13 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
                                 n_basin=0))
     except (VlabError, ValueError, np.linalg.LinAlgError):
         pairs = []
-    if not pairs:
-        return chosen, refit, [], None
-    k = chosen.n_params
+    return pairs
 
+
+def _refit_on_plant(model: PlantModel, pairs: list, x_plant: np.ndarray, k: int, refit_best: int) -> tuple:
+    """Score every pair on the plant (the first effect at its plant value ``x_plant``, the second at its
+    referred fit) and refit the ``refit_best`` best there: ``(label -> (pair, PlantRefit), label -> plant
+    chi-square, refitted where it was)``."""
     def on_plant(c: Combination) -> np.ndarray:
         return np.concatenate([x_plant, np.asarray(c.params_[k:], dtype=float)])
 
@@ -252,6 +279,16 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     done = map_on_plant(refit_pair, model, [(c, on_plant(c), at_fit[c.label]) for c in best_at_fit])
     refits = {c.label: (c, r) for c, r in zip(best_at_fit, done) if r is not None}
     plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
+    return refits, plant_chi2
+
+
+def _judge_pair(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None, pairs: list, refits: dict,
+                plant_chi2: dict, single, single_chi2: float,
+                single_peak: float) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+    """The best refitted pair against the single effect on the plant by the pair rule; the answer of
+    :func:`second_effect_on_plant` with its note."""
+    plant = model.problem
+    k = chosen.n_params
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
             f"{single_chi2:.4g}, largest residual {single_peak:.3g}, limits "
             f"{plant.noise_chi2():.4g} and {plant.peak_limit():.3g}): a second effect searched on the data "

@@ -199,12 +199,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     """
     if plant not in ("linear", "mujoco"):
         raise ModelError(f"unknown plant {plant!r} for the rerun check; use 'linear' or 'mujoco'")
-    cands, seen = [], set()
-    for h in [chosen] + lookalikes(chosen, problem) + [h for h in alts if h.n_params == chosen.n_params]:
-        if h.label not in seen:
-            seen.add(h.label)
-            cands.append(h)
-    cands = cands[:max_candidates]
+    cands = _rerun_candidates(problem, chosen, alts, max_candidates)
     singles = {h.label: g for h in cands if (g := _nonlinear_alone(h, ranked, problem))}
     # rerun the candidates when there is a choice, and pairs with a nonlinear part and that part alone
     todo: dict = {}
@@ -220,37 +215,66 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         notes.append("look-alikes compared by rerun (time-domain error): "
                      + ", ".join(f"{h.label}: {e:.3g}" for h, e in zip(cands, errs)))
         if plant == "mujoco" and all(h.spec_level for h in cands):
-            top = sorted(cands, key=lambda h: errors[h.label])[:MUJOCO_LOOKALIKES]
-            runs = reruns(problem, _rerun_jobs(problem, top), "mujoco", seed=seed)
-            failed = [r for r in runs if isinstance(r, VlabError)]
-            if failed:
-                notes[-1] += f" (linear FE plant; the MuJoCo rerun failed: {failed[0]})"
-            else:
-                on_plant = {h.label: time_error(r, problem.data) for h, r in zip(top, runs)}
-                best = min(top, key=lambda h: on_plant[h.label])
-                how = last_reruns_note(problem)  # one mujoco.batch, or processes (and why)
-                notes[-1] += (" on the linear FE plant; on the MuJoCo plant, which recorded the data"
-                              + (f" ({how})" if how else "") + ": "
-                              + ", ".join(f"{h.label}: {on_plant[h.label]:.3g}" for h in top))
+            best = _best_on_mujoco(problem, cands, errors, best, notes, seed)
     alone = singles.get(best.label)
     if alone:
-        single = min(alone, key=lambda g: errors[g.label])
-        e_pair, e_single = errors[best.label], errors[single.label]
-        where = "linear FE plant"
-        if plant == "mujoco" and best.spec_level and single.spec_level:
-            runs = reruns(problem, _rerun_jobs(problem, (best, single)), "mujoco", seed=seed)
-            failed = [r for r in runs if isinstance(r, VlabError)]
-            if failed:
-                where += f" (the MuJoCo rerun failed: {failed[0]})"
-            else:
-                e_pair, e_single = (time_error(r, problem.data) for r in runs)
-                how = last_reruns_note(problem)
-                where = "MuJoCo plant" + (f" ({how})" if how else "")
-        notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "
-                     f"{single.label} alone: {e_single:.3g}")
-        if not e_pair < parsimony * e_single:
-            best = single
+        best = _pair_or_its_nonlinear_part(problem, best, alone, errors, notes, plant=plant, parsimony=parsimony,
+                                           seed=seed)
     return best, [h for h in [chosen] + alts if h is not best]
+
+
+def _rerun_candidates(problem: Problem, chosen: Hypothesis, alts: list, max_candidates: int) -> list:
+    """``chosen``, its look-alikes of the same linear model and the alternatives with as many parameters, once
+    each, the first ``max_candidates``."""
+    cands, seen = [], set()
+    for h in [chosen] + lookalikes(chosen, problem) + [h for h in alts if h.n_params == chosen.n_params]:
+        if h.label not in seen:
+            seen.add(h.label)
+            cands.append(h)
+    return cands[:max_candidates]
+
+
+def _best_on_mujoco(problem: Problem, cands: list, errors: dict, best: Hypothesis, notes: list,
+                    seed: int) -> Hypothesis:
+    """The best of the :data:`MUJOCO_LOOKALIKES` best look-alikes (by the linear reruns' time ``errors``) on
+    reruns of the MuJoCo plant; ``best`` when a MuJoCo rerun fails. Completes the last line of ``notes``."""
+    top = sorted(cands, key=lambda h: errors[h.label])[:MUJOCO_LOOKALIKES]
+    runs = reruns(problem, _rerun_jobs(problem, top), "mujoco", seed=seed)
+    failed = [r for r in runs if isinstance(r, VlabError)]
+    if failed:
+        notes[-1] += f" (linear FE plant; the MuJoCo rerun failed: {failed[0]})"
+        return best
+    on_plant = {h.label: time_error(r, problem.data) for h, r in zip(top, runs)}
+    best = min(top, key=lambda h: on_plant[h.label])
+    how = last_reruns_note(problem)  # one mujoco.batch, or processes (and why)
+    notes[-1] += (" on the linear FE plant; on the MuJoCo plant, which recorded the data"
+                  + (f" ({how})" if how else "") + ": "
+                  + ", ".join(f"{h.label}: {on_plant[h.label]:.3g}" for h in top))
+    return best
+
+
+def _pair_or_its_nonlinear_part(problem: Problem, best: Hypothesis, alone: list, errors: dict, notes: list, *,
+                                plant: str, parsimony: float, seed: int) -> Hypothesis:
+    """The pair ``best`` if its rerun error is below ``parsimony`` times that of its nonlinear part ``alone``
+    (the better one), else that part; on the MuJoCo plant where both can be carried by it
+    (:func:`tie_break_by_rerun`). Appends a line to ``notes``."""
+    single = min(alone, key=lambda g: errors[g.label])
+    e_pair, e_single = errors[best.label], errors[single.label]
+    where = "linear FE plant"
+    if plant == "mujoco" and best.spec_level and single.spec_level:
+        runs = reruns(problem, _rerun_jobs(problem, (best, single)), "mujoco", seed=seed)
+        failed = [r for r in runs if isinstance(r, VlabError)]
+        if failed:
+            where += f" (the MuJoCo rerun failed: {failed[0]})"
+        else:
+            e_pair, e_single = (time_error(r, problem.data) for r in runs)
+            how = last_reruns_note(problem)
+            where = "MuJoCo plant" + (f" ({how})" if how else "")
+    notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "
+                 f"{single.label} alone: {e_single:.3g}")
+    if not e_pair < parsimony * e_single:
+        best = single
+    return best
 
 
 def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, list]:
