@@ -32,7 +32,9 @@ model
     ``labmodel``: the linear model of the whole lab (structure, chain, controller) in the frequency
     domain; ``nominal``: the nominal lab (its mesh, the controller design, the settling time).
 data
-    ``measured``: recordings, UFF FRFs and modal tables, checked, turned into FRFs with noise;
+    ``measured``: the measured FRFs and modal tables, and their referral to the model; ``frfestimate``:
+    recordings and UFF FRFs checked and turned into FRFs with noise; ``modalcsv``: modal tables;
+    ``readers``: which kind a file holds;
     ``warmstart``, ``replay``: the recorded force played back through the lab loop on a plant;
     ``reference``: the recording's settings and the replay it is referred through.
 problem
@@ -54,9 +56,10 @@ report
     readable formatting; ``figures``.
 pipeline
     :func:`diagnose`.
-detectability, naming
+thresholds, naming, detectability
     Beside the pipeline (``vlab detectability``): the smallest size of each effect the diagnosis detects
-    (``detectability``) and names among its look-alikes (``naming``) in the lab's nominal test.
+    (``thresholds``: the test and its search; ``detectability``: the whole library) and names among its
+    look-alikes (``naming``) in the lab's nominal test.
 """
 
 from .effects.hypotheses import EFFECTS, Hypothesis, library
