@@ -67,11 +67,13 @@ def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
 
 
 def test_a_problem_pickles_without_its_background_reruns():
-    """Worker processes get the problem; its background rerun processes and rerun cache stay here."""
+    """Worker processes get the problem; its run context's background rerun processes and rerun cache stay
+    here (the copy gets an empty context)."""
     problem = _problem(4, None)
-    problem.__dict__["_background"] = {("nominal", "mujoco"): (lambda: None, None)}  # not picklable
-    problem.__dict__["_reruns"] = {("nominal", "mujoco"): "a recording"}
+    problem.run.background[("nominal", "mujoco", 0)] = (lambda: None, None)  # not picklable
+    problem.run.reruns[("nominal", "mujoco", 0)] = "a recording"
+    problem.run.note = "2 MuJoCo reruns as one mujoco.batch"
     back = pickle.loads(pickle.dumps(problem))
-    assert "_background" not in back.__dict__ and "_reruns" not in back.__dict__
+    assert back.run.background == {} and back.run.reruns == {} and back.run.note == ""
     assert np.array_equal(back.data.h, problem.data.h) and back.n_obs == problem.n_obs
-    assert "_background" in problem.__dict__  # the original keeps them
+    assert ("nominal", "mujoco", 0) in problem.run.background  # the original keeps them
