@@ -1,7 +1,7 @@
 """Speed of the diagnosis's look-alike reruns: K MuJoCo reruns in processes against one mujoco.batch.
 
 The diagnosis reruns the recorded test on several candidate labs
-(:func:`vlab.diagnose.data.replay.reruns`): before, one process per rerun
+(:func:`vlab.diagnose.data.rerun_jobs.reruns`): before, one process per rerun
 (two at a time on this 2-core machine); now, where the candidates' plants
 share one layout, one ``mujoco.batch`` (:mod:`vlab.diagnose.data.batchrerun`).
 Both ways are timed here in one run, on the BCC with MFDRF and the PC-1000
@@ -12,7 +12,7 @@ for K = 2 and 4 value-only candidates (members stiffer by 10-40 %, a mode's
 damping). Each way starts from an empty rerun cache and includes building the
 candidates' plants and their warm starts. Printed: wall time of each way (best
 of ``--repeats``), the ratio processes / batch (> 1: the batch is faster), the
-batch on two threads as well (what :data:`vlab.diagnose.data.replay.BATCH_THREAD_MIN`
+batch on two threads as well (what :data:`vlab.diagnose.data.rerun_jobs.BATCH_THREAD_MIN`
 is chosen from), whether the two ways gave the same recordings bit for bit,
 and the load average before and after (``/proc/loadavg``: other jobs share
 the machine). Run it as ``nice -n -10 python benchmarks/rerun_batch_speed.py``.
@@ -34,7 +34,8 @@ import numpy as np
 
 from vlab.diagnose.data.batchrerun import rerun_together
 from vlab.diagnose.data.measured import FrfData
-from vlab.diagnose.data.replay import last_reruns_note, mujoco_plant, reruns
+from vlab.diagnose.data.replay import mujoco_plant
+from vlab.diagnose.data.rerun_jobs import last_reruns_note, reruns
 from vlab.diagnose.data.warmstart import GUARD_DECAY, rerun_window
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.model.labmodel import LabState

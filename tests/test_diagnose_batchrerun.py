@@ -18,7 +18,8 @@ pytest.importorskip("mujoco")
 from vlab.diagnose.data.batchrerun import batch_key, rerun_together, why_apart  # noqa: E402
 from vlab.sim.batch_plant import layout  # noqa: E402
 from vlab.diagnose.data.measured import FrfData  # noqa: E402
-from vlab.diagnose.data.replay import last_reruns_note, mujoco_plant, rerun, reruns  # noqa: E402
+from vlab.diagnose.data.replay import mujoco_plant, rerun  # noqa: E402
+from vlab.diagnose.data.rerun_jobs import last_reruns_note, reruns  # noqa: E402
 from vlab.diagnose.data.warmstart import rerun_window  # noqa: E402
 from vlab.diagnose.effects import specedit  # noqa: E402
 from vlab.diagnose.model.labmodel import LabState  # noqa: E402

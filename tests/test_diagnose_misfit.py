@@ -8,7 +8,7 @@ import pickle
 import numpy as np
 import pytest
 
-from vlab.diagnose.problem.residuals import log_misfit, noise_misfit
+from vlab.diagnose.problem.misfits import log_misfit, noise_misfit
 
 
 def test_log_misfit_of_a_uniform_gain_is_its_log():

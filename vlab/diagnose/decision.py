@@ -28,7 +28,8 @@ from .fit.locate import locate
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile
-from .problem.residuals import Problem, noise_misfit
+from .problem.misfits import noise_misfit
+from .problem.residuals import Problem
 from .report.text import ratio_text
 from .report.result import DiagnosisResult
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import VlabError
 from .data.reference import RERUN_SEED
-from .data.replay import start_background_rerun
+from .data.rerun_jobs import start_background_rerun
 from .detectability import threshold_of
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for

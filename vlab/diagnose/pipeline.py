@@ -41,7 +41,7 @@ from ..spec import StructureSpec
 from .data.measured import FrfData
 from .data.reference import RERUN_SEED
 from .data.run import DiagnosisRun, one_blas_thread
-from .data.replay import stop_background
+from .data.rerun_jobs import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
 from .explain import Search, explain

@@ -28,9 +28,10 @@ import numpy as np
 from ..errors import ModelError, VlabError
 from ..lab.recording import Recording
 from .data.measured import FrfData
-from .data.replay import frf_of, last_reruns_note, reruns, time_error
+from .data.replay import frf_of, time_error
+from .data.rerun_jobs import last_reruns_note, reruns
 from .model.labmodel import LabState
-from .problem.residuals import log_misfit, noise_misfit
+from .problem.misfits import log_misfit, noise_misfit
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,7 @@ class Validation:
         The misfit an exact model leaves [decades]: from the measured noise of the compared FRFs and, where
         the diagnosis carries the model's own uncertainty (``problem.model_form_frf``), from that
         uncertainty's log-magnitude variance (first order), added in quadrature
-        (:func:`vlab.diagnose.problem.residuals.noise_misfit` for the noise).
+        (:func:`vlab.diagnose.problem.misfits.noise_misfit` for the noise).
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
         FRFs of the reruns on the data's lines.
     v_before, v_after : dict

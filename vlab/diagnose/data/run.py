@@ -4,7 +4,7 @@ A diagnosis plays the recorded force back through the 2 kHz loop on several lab 
 replay, the candidates' validation reruns, the look-alikes' tie-breaks). Each rerun costs a whole
 experiment on the plant, so it is made once and kept here under ``(key, plant, seed)``; the nominal
 lab's MuJoCo rerun may be started in a background process while the hypotheses are fitted
-(:func:`vlab.diagnose.data.replay.start_background_rerun`) and is collected here when first asked for.
+(:func:`vlab.diagnose.data.rerun_jobs.start_background_rerun`) and is collected here when first asked for.
 
 The context belongs to the process that made it: pickled (to a worker process, with the problem that
 refers to it) it arrives empty, without the background processes or the cached recordings.
@@ -20,7 +20,7 @@ from threadpoolctl import threadpool_limits
 
 @dataclass
 class DiagnosisRun:
-    """Reruns of one diagnosis (:mod:`vlab.diagnose.data.replay`).
+    """Reruns of one diagnosis (:mod:`vlab.diagnose.data.rerun_jobs`).
 
     Attributes
     ----------

@@ -42,7 +42,8 @@ import scipy.optimize
 from ...errors import ModelError, VlabError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis
-from ..problem.residuals import PENALTY, Problem, noise_misfit
+from ..problem.misfits import noise_misfit
+from ..problem.residuals import PENALTY, Problem
 from .rules import remainder_resolved
 
 #: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).

@@ -39,7 +39,8 @@ from ..data.measured import FrfData
 from ..effects import specedit
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..problem.context import Context
-from ..problem.residuals import Problem, log_misfit
+from ..problem.misfits import log_misfit
+from ..problem.residuals import Problem
 
 #: Mean chi-square per real residual above which lines, modes or channels count as mismatched.
 FLAG = 4.0

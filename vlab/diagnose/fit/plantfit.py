@@ -399,7 +399,7 @@ def map_on_plant(fn, model: PlantModel, jobs: list, *, workers: int = 2) -> list
     model : PlantModel
     jobs : list of tuple
     workers : int
-        Processes (a background rerun of the nominal lab, :func:`vlab.diagnose.data.replay.start_background_rerun`,
+        Processes (a background rerun of the nominal lab, :func:`vlab.diagnose.data.rerun_jobs.start_background_rerun`,
         may still hold a core for their first seconds); one process where a pool cannot start or the
         model cannot be sent to one (a test's own ``modes_of``).
 

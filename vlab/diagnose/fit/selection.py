@@ -17,7 +17,8 @@ import numpy as np
 
 from ...errors import ModelError, VlabError
 from ..data.measured import FrfData
-from ..data.replay import last_reruns_note, reruns, time_error
+from ..data.replay import time_error
+from ..data.rerun_jobs import last_reruns_note, reruns
 from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
 from ..problem.residuals import Problem
 from .locate import located_places
@@ -40,7 +41,7 @@ def rerun_key(h: Hypothesis) -> str:
 
 def _rerun_jobs(problem: Problem, hyps) -> list:
     """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for
-    :func:`vlab.diagnose.data.replay.reruns`."""
+    :func:`vlab.diagnose.data.rerun_jobs.reruns`."""
     return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
 
 
@@ -157,12 +158,12 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     saturation, 0.275 against 0.328 on the linear plant).
 
     The reruns (the recorded force played back,
-    :func:`vlab.diagnose.data.replay.reruns`: the linear plant, and the MuJoCo
+    :func:`vlab.diagnose.data.rerun_jobs.reruns`: the linear plant, and the MuJoCo
     plant for the parsimony check with ``plant="mujoco"``) run in parallel
     processes; three or more MuJoCo reruns of candidates whose plants differ
     only in values (stiffness, damping, gains; not an added mass, a geom of
     its own) run as one ``mujoco.batch``, the same recordings (the note says
-    which way; :data:`vlab.diagnose.data.replay.BATCH_MIN_RERUNS`). A
+    which way; :data:`vlab.diagnose.data.rerun_jobs.BATCH_MIN_RERUNS`). A
     MuJoCo rerun that fails leaves the check to the linear reruns, and the
     note says why.
 
@@ -185,7 +186,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         Plant of the recording: with ``"mujoco"`` the best look-alikes and the parsimony check are rerun on
         the MuJoCo plant too (the look-alikes are first compared on the linear plant).
     seed : int
-        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.data.replay.reruns`).
+        Seed of the reruns' sensor noise (as :func:`vlab.diagnose.data.rerun_jobs.reruns`).
 
     Returns
     -------

@@ -1,0 +1,63 @@
+"""Misfits of FRFs: the weighted RMS log-magnitude distance between two sets, and the part noise alone leaves.
+
+The diagnosis judges a model's FRFs against the measured ones by the weighted root-mean-square of
+``log10 |H_model / H_measured|`` over the used lines [decades]: the selection's "misfit", the
+validation's before/after comparison. An exact model does not reach zero: the measured FRFs carry their
+noise, whose expected contribution :func:`noise_misfit` gives (first order in the relative noise).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
+    """Weighted RMS of ``log10|h / h_ref|`` [decades]: the FRF misfit of the diagnosis.
+
+    Parameters
+    ----------
+    h, h_ref : ndarray, complex, shape (n,)
+        Compared FRF values (model or rerun; measured) on the same lines [(m/s)/N].
+    weight : ndarray, shape (n,)
+        Line weights, ``1 / (sigma_rel^2 + floor^2)`` (:attr:`vlab.diagnose.problem.residuals.Problem.weight_mag`).
+
+    Returns
+    -------
+    float
+        [decades]; NaN for no lines.
+    """
+    if np.size(h) == 0:
+        return float("nan")
+    e = np.log10(np.abs(np.asarray(h) / np.asarray(h_ref)))
+    w = np.asarray(weight, dtype=float)
+    return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+
+
+def noise_misfit(h: np.ndarray, var: np.ndarray, weight: np.ndarray) -> float:
+    """Expected :func:`log_misfit` of an exact model against measured FRFs, from their noise alone [decades].
+
+    For a small circular complex relative error of variance
+    ``s^2 = var / |h|^2`` the log magnitude takes half of it,
+    ``E[(ln|.|)^2] = s^2 / 2`` (circular noise: its real and imaginary parts
+    are uncorrelated with equal variance, the usual assumption for averaged
+    FRFs, e.g. Pintelon & Schoukens, *System Identification: A Frequency
+    Domain Approach*, 2nd ed., 2012); in decades it is divided by ``ln(10)^2``; the lines are
+    weighted as in the misfit.
+
+    Parameters
+    ----------
+    h : ndarray, complex, shape (n,)
+        Measured FRF values on the compared lines [(m/s)/N].
+    var : ndarray, shape (n,)
+        Their variance ``E|h - h_true|^2`` [((m/s)/N)^2].
+    weight : ndarray, shape (n,)
+        Weights of the misfit.
+
+    Returns
+    -------
+    float
+        [decades]
+    """
+    s2 = np.asarray(var, dtype=float) / np.maximum(np.abs(h) ** 2, 1e-300)
+    w = np.asarray(weight, dtype=float)
+    return float(np.sqrt(np.sum(w * s2 / 2.0) / np.sum(w)) / np.log(10.0))
