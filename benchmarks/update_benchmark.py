@@ -19,10 +19,10 @@ reported as such, not dropped):
 
 Usage::
 
-    python benchmarks/update_benchmark.py [--cases cantilever|bcc|all] [--controller mfdrf|lqdrf] [--out DIR]
+    python benchmarks/update_benchmark.py [--cases cantilever|bcc|grid|all] [--controller mfdrf|lqdrf] [--out DIR]
 
-The structures: ``examples/cantilever_tip_mass.toml`` (a few seconds a case) and the BCC (minutes a case:
-its diagnosis dominates). The sizes are fixed, chosen by hand well above the detection threshold (the
+The structures: ``examples/cantilever_tip_mass.toml`` (a few seconds a case), the BCC (minutes a case:
+its diagnosis dominates) and the grid (one case, longer). The sizes are fixed, chosen by hand well above the detection threshold (the
 diagnosis names the cantilever's 0.3 g mass at point 3; the cases add 10-40 g), not drawn.
 """
 
@@ -65,6 +65,9 @@ CASES = {
             s, 3, 2 * (s.damping.modal_ratios[2] if len(s.damping.modal_ratios) > 2 else s.damping.default_ratio)),
          None),
     ],
+    "grid": [
+        ("grid", "added_mass 1.0 kg at joint 6", lambda s: specedit.add_mass(s, 6, 1.0), None),
+    ],
 }
 
 
@@ -94,13 +97,13 @@ def run_case(structure, label: str, edit, duration_s, work: Path, controller: st
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", choices=("cantilever", "bcc", "all"), default="cantilever")
+    ap.add_argument("--cases", choices=("cantilever", "bcc", "grid", "all"), default="cantilever")
     ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case numbers (0-based)")
     ap.add_argument("--controller", choices=("mfdrf", "lqdrf"), default="mfdrf",
                     help="the controller of the recording and of both designs")
     ap.add_argument("--out", default=None, help="folder for the cases' files (default: a temporary folder)")
     a = ap.parse_args()
-    names = ("cantilever", "bcc") if a.cases == "all" else (a.cases,)
+    names = ("cantilever", "bcc", "grid") if a.cases == "all" else (a.cases,)
     base = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="vlab-update-bench-"))
     print(f"{'case':44s} {'err orig':>9s} {'err upd':>9s} {'<=half':>7s} {'<=0.03':>7s} {'dzeta':>7s}  selected")
     n = 0
