@@ -7,7 +7,8 @@ and each leaving a statement in the result, so that the verdict can never contra
    fails, each with its statistic and limit (the verdict names them; a mismatch is declared only when one
    of them is listed).
 2. :func:`apply_gates` -- a choice stands only if its validation does not make the fit worse (rule 7), it
-   fits better than the nominal lab on the mismatch test's footing and its validation lowers the misfit
+   fits better than the nominal lab on its fit's footing (a likelihood-ratio test of the nested labs) and
+   its validation lowers the misfit
    (rule 8), and it explains the larger part of the mismatch (rule 9); otherwise it is listed as rejected,
    with the reason.
 3. :func:`remainder_of` -- what a choice that stands leaves (rule 10): beyond the mismatch test's own limits
@@ -137,7 +138,7 @@ def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misf
         drop_selection(res, misfit_0, chi2_fit, outside=True)
     if res.selected is not None:
         h = res.selected
-        ok, why = improves_on_nominal(h, min(chi2_fit, res.chi2_nominal), res.overdispersion, res.validation,
+        ok, why = improves_on_nominal(h, chi2_fit, res.overdispersion, res.validation,
                                       policy, self_excited=self_excited)
         if not ok:
             before, after, noise = _misfits(res, misfit_0)

@@ -22,8 +22,8 @@ one policy (:class:`vlab.diagnose.policy.DecisionPolicy`, from the user's false-
 5. **Validate** (:func:`_validated`, :mod:`vlab.diagnose.validate`): the recorded force played back
    through the 2 kHz loop on the nominal and the modified plant; FRF and time-domain misfits.
 6. **Decide** (:func:`vlab.diagnose.decision.apply_gates`, :func:`vlab.diagnose.decision.remainder_of`):
-   the choice stands only if its validation does not make the fit worse, it beats the nominal lab on the
-   mismatch test's footing and explains the larger part of the mismatch; what it leaves, when resolved,
+   the choice stands only if its validation does not make the fit worse, it beats the nominal lab on its
+   fit's footing (likelihood-ratio test) and explains the larger part of the mismatch; what it leaves, when resolved,
    is reported as a remainder.
 7. **Report** (:mod:`vlab.diagnose.report.markdown`): the verdict is written from the result's own
    statistics, so that its numbers are the JSON's.

@@ -509,9 +509,11 @@ def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, v
     chosen : Hypothesis
         Fitted (``chi2_``, ``n_params``).
     chi2_nominal : float
-        The nominal lab's chi-square on the same weights [1]: the lower of its whitened chi-square and its
-        profiled one (modes moved within their model form), so that a choice must beat what the model's
-        own uncertainty already explains.
+        The nominal lab's chi-square on the footing of the choice's fit [1] (the same weights, the model
+        form whitened): the choice at size zero is the nominal lab, so the two are nested and Wilks's
+        likelihood-ratio test applies. (The nominal's *profiled* chi-square is not that footing: its modes
+        move freely within their model form, beyond their limit where the model-form test failed, while the
+        choice's do not.)
     c_hat : float
         Overdispersion of the choice's fit (>= 1).
     validation : Validation or None
