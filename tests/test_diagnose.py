@@ -214,7 +214,7 @@ def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
 def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
     """The nominal rerun started in a background process (while the hypotheses are fitted) is picked up by
     the validation (no rerun in this process) and equals the rerun made here, sample for sample."""
-    from vlab.diagnose.data import replay as vmod
+    from vlab.diagnose.data import rerun_jobs as vmod
 
     p = mass_run.problem
     assert vmod.start_background_rerun(p, mass_run.nominal, "background", "linear")
@@ -222,14 +222,14 @@ def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):
         mp.setattr(vmod, "rerun", lambda *a, **k: pytest.fail("reran in the foreground"))
         bg = vmod.reruns(p, [(mass_run.nominal, "background")], "linear")[0]
     fg = vmod.reruns(p, [(mass_run.nominal, None)], "linear", workers=1)[0]
-    assert "_background" not in p.__dict__ or not p.__dict__["_background"]
+    assert not p.run.background  # collected into the run context's cache
     for q in p.data.output_points:
         np.testing.assert_array_equal(np.asarray(bg[f"vel{q}"]), np.asarray(fg[f"vel{q}"]))
 
 
 def test_reruns_are_cached_per_seed(mass_run, monkeypatch):
     """A rerun is cached under its key, plant and sensor-noise seed: another seed is rerun, not looked up."""
-    from vlab.diagnose.data import replay as vmod
+    from vlab.diagnose.data import rerun_jobs as vmod
 
     calls = []
 
