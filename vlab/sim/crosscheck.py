@@ -38,7 +38,7 @@ from ..spec import StructureSpec
 from .builder import Plant, SimOptions, build_plant
 from .linearize import SimModes, modes, settle
 
-#: Largest |frequency error| [%] of a plant mode against its FE partner that the cross-check accepts.
+#: Largest absolute frequency error [%] of a plant mode against its FE partner that the cross-check accepts.
 TOL_PCT = 2.0
 #: Smallest MAC [-] of an accepted pair.
 MIN_MAC = 0.9
