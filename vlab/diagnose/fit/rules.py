@@ -445,7 +445,20 @@ def nearest_mode(frequency_hz: float, natural_hz) -> float:
     A self-excited oscillation of a lightly damped structure under velocity feedback is a mode driven
     unstable by the loop's phase: the root-locus branch that crosses the imaginary axis departs from that
     mode's open-loop pole, and the limit cycle lies close to it (Preumont, *Vibration Control of Active
-    Structures*, 3rd ed., 2011, Sec. 7.2), so the nearest mode names which one oscillates."""
+    Structures*, 3rd ed., 2011, Sec. 7.2), so the nearest mode names which one oscillates.
+
+    Parameters
+    ----------
+    frequency_hz : float
+        The oscillation's frequency [Hz], > 0.
+    natural_hz : array_like, shape (n,)
+        Natural frequencies [Hz]; non-finite and non-positive values are ignored.
+
+    Returns
+    -------
+    float
+        The nearest by relative distance (``|ln(f / frequency_hz)|``) [Hz]; nan when none is left.
+    """
     f = np.asarray(natural_hz, dtype=float)
     f = f[np.isfinite(f) & (f > 0)]
     if not f.size:
