@@ -171,7 +171,7 @@ def test_export_mjcf_overwrite(tmp_path):
 
 @pytest.fixture(scope="module")
 def short_run():
-    from vlab.lab.experiment import ExperimentConfig, run_experiment
+    from vlab.experiment.runner import ExperimentConfig, run_experiment
     from vlab.models import nominal_fe_model
 
     cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", resolution_hz=0.25, duration_s=8.0)
@@ -182,7 +182,7 @@ def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
     """A viewer that cannot be reached after the run: every output is still written, with a warning."""
     import rerun as rr
 
-    import vlab.lab.experiment as ex
+    import vlab.experiment.runner as ex
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(ex, "run_experiment", lambda cfg, fe, **kw: short_run)

@@ -40,7 +40,7 @@ ARGS = ["experiment", "bcc", "--plant", "linear", "--controller", "none", "--dur
 DRIVER = """
 import pickle, signal, sys, time
 signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal (a background job inherits SIG_IGN)
-import vlab.lab.experiment as ex
+import vlab.experiment.runner as ex
 from vlab.cli import app
 fake = sys.argv[1]
 if fake != "-":
@@ -117,7 +117,7 @@ def _interrupt_runs(tmp_path: Path, fake: str, seeds, window_s: float) -> list[s
 
 @pytest.fixture(scope="module")
 def pickled_result(tmp_path_factory):
-    from vlab.lab.experiment import ExperimentConfig, run_experiment
+    from vlab.experiment.runner import ExperimentConfig, run_experiment
     from vlab.models import nominal_fe_model
 
     fe = nominal_fe_model("bcc")

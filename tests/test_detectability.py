@@ -25,7 +25,7 @@ from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.problem.context import context_for
 from vlab.fe import build_fe_model
 from vlab.io.uff import write_recording
-from vlab.lab.experiment import ExperimentConfig, default_chain, measure
+from vlab.experiment.runner import ExperimentConfig, default_chain, measure
 from vlab.spec import load_spec
 
 runner = CliRunner()

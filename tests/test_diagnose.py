@@ -16,7 +16,7 @@ from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
-from vlab.lab.experiment import TESTS, default_chain
+from vlab.experiment.runner import TESTS, default_chain
 from vlab.lab.loop import HardwareChain
 from vlab.lab.recording import Recording
 from vlab.models import nominal_fe_model

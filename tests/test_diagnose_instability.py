@@ -13,7 +13,7 @@ import pytest
 
 import vlab
 from vlab.io.uff import write_recording
-from vlab.lab.experiment import ExperimentConfig, measure
+from vlab.experiment.runner import ExperimentConfig, measure
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

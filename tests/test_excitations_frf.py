@@ -14,7 +14,7 @@ import pytest
 
 from vlab.analysis import closed_loop_modes
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
-from vlab.lab.experiment import (
+from vlab.experiment.runner import (
     EXCITATIONS, TESTS, ExperimentConfig, not_meaningful, run_experiment, settle_records,
 )
 from vlab.models import nominal_fe_model
@@ -90,7 +90,7 @@ def test_frf_uff_holds_only_the_band_and_figure_has_three_panels(bcc, short_open
     import pyuff
 
     import vlab.viz.figures as figs
-    from vlab.io.results import write_outputs
+    from vlab.experiment.results import write_outputs
 
     saved = []
     orig = figs._save
@@ -122,7 +122,7 @@ def test_cli_exits_1_on_not_meaningful_warning(short_open_loop, tmp_path, monkey
 
     from typer.testing import CliRunner
 
-    import vlab.lab.experiment as ex
+    import vlab.experiment.runner as ex
     from vlab.cli import app
 
     bad = replace(short_open_loop, warnings=("self-excited oscillation at 41.0 Hz (90 % ...); " + ex.NOT_MEANINGFUL,))

@@ -121,7 +121,7 @@ def bcc_fe():
 
 def _bcc_recording(fe, controller):
     import vlab
-    from vlab.lab.experiment import ExperimentConfig, measure
+    from vlab.experiment.runner import ExperimentConfig, measure
 
     design = vlab.design("bcc", controller)
     cfg = ExperimentConfig(structure="bcc", controller=controller)

@@ -180,7 +180,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     structure : str or StructureSpec
         ``"bcc"``, ``"grid"``, the path of a structure file or a spec from
         :func:`load_spec`, with a test definition (its ``[test]`` table or a
-        shipped one: :func:`vlab.lab.experiment.test_definition`).
+        shipped one: :func:`vlab.experiment.runner.test_definition`).
     controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
         Controller in the loop (``"none"``: open loop).
     plant : {"mujoco", "linear"}
@@ -216,7 +216,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     ExperimentResult
         Measured and predicted modes (``.modes``: frequencies [Hz], damping
         ratios, peak level ratios), FRFs, the recording
-        (:class:`vlab.lab.experiment.ExperimentResult`).
+        (:class:`vlab.experiment.runner.ExperimentResult`).
 
     Raises
     ------
@@ -226,13 +226,13 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     SpecError
         Unknown structure, invalid file, or no test definition.
     ModelError, SimulationError, MeasurementError, OutputError
-        As :func:`vlab.lab.experiment.run_experiment` and the output writer.
+        As :func:`vlab.experiment.runner.run_experiment` and the output writer.
     """
     import math
 
     from .errors import OptionError
-    from .lab.experiment import ExperimentConfig, default_chain, test_definition
-    from .lab.experiment import run_experiment as _run
+    from .experiment.runner import ExperimentConfig, default_chain, test_definition
+    from .experiment.runner import run_experiment as _run
 
     if controller == "lqr":
         raise OptionError("controller 'lqr' needs every state measured; the laboratory ran it as LQG (use 'lqg')")
@@ -258,7 +258,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
         out_path = check_output_dir(str(out_dir), overwrite=overwrite, option="out_dir", create_parent=False)
     result = _run(cfg, fe, progress=progress)
     if out_path is not None:
-        from .io.results import write_outputs
+        from .experiment.results import write_outputs
 
         write_outputs(result, fe.spec, out_path, spawn=False, overwrite=overwrite)
     return result

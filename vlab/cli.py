@@ -435,9 +435,9 @@ def design(
 ) -> None:
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from .design import design_controller
-    from .io.results import design_summary
+    from .experiment.results import design_summary
     from .io.tabular import Column
-    from .lab.experiment import period_source
+    from .experiment.runner import period_source
 
     out = _output_format(fmt, as_json)
     period_s = _period_s(period_ms)
@@ -552,9 +552,9 @@ def experiment(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from .io.atomic import atomic_dir
-    from .io.results import experiment_summary, failed_premises, write_outputs
+    from .experiment.results import experiment_summary, failed_premises, write_outputs
     from .io.tabular import Column
-    from .lab.experiment import ExperimentConfig, default_chain, not_meaningful, run_experiment, test_definition
+    from .experiment.runner import ExperimentConfig, default_chain, not_meaningful, run_experiment, test_definition
 
     # --- every option, before any work
     out_fmt = _output_format(fmt, as_json)
@@ -1004,7 +1004,7 @@ def detectability(
     from .diagnose.detectability import detectability as run, figure
     from .diagnose.report.text import format_location, parameter_unit
     from .io.atomic import atomic_dir
-    from .io.results import jsonable
+    from .experiment.results import jsonable
     from .io.tabular import Column
 
     from .diagnose.effects.hypotheses import EFFECTS
@@ -1314,7 +1314,7 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
         Controller sampling period [s].
     duration_s : float or None
         Run length [s]; None = the default (settling records of the slowest
-        open-loop mode, :func:`vlab.lab.experiment.settle_records`, plus the
+        open-loop mode, :func:`vlab.experiment.runner.settle_records`, plus the
         measured records).
     delay_periods : float
         Computation delay [sampling periods].
@@ -1327,9 +1327,9 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
     Raises
     ------
     SpecError
-        Structure without a test definition (:func:`vlab.lab.experiment.test_definition`).
+        Structure without a test definition (:func:`vlab.experiment.runner.test_definition`).
     """
-    from .lab.experiment import ExperimentConfig, settle_records, slowest_decay_rate, test_definition
+    from .experiment.runner import ExperimentConfig, settle_records, slowest_decay_rate, test_definition
 
     test = test_definition(fe.spec)
     record_s = 1.0 / test.resolution_hz

@@ -474,10 +474,10 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         An unknown controller or open loop (``"none"``: nothing is designed); a plant that does not share
         the structure's coils and sensors.
     SimulationError, MeasurementError
-        As :func:`vlab.lab.experiment.run_experiment`.
+        As :func:`vlab.experiment.runner.run_experiment`.
     """
     from .fe import build_fe_model
-    from .lab.experiment import ExperimentConfig, default_chain, run_experiment
+    from .experiment.runner import ExperimentConfig, default_chain, run_experiment
     from .models import check_fe_model
 
     if controller in ("none", "lqr"):

@@ -123,11 +123,11 @@ def test_corpus_is_large_and_unique():
 def test_cli_bad_input(case, tmp_path, monkeypatch):
     import vlab.design
     import vlab.diagnose
-    import vlab.lab.experiment
+    import vlab.experiment.runner
     import vlab.reproduce
     import vlab.sim
 
-    for mod, name in ((vlab.lab.experiment, "run_experiment"), (vlab.design, "design_controller"),
+    for mod, name in ((vlab.experiment.runner, "run_experiment"), (vlab.design, "design_controller"),
                       (vlab.reproduce, "reproduce"), (vlab.diagnose, "diagnose"), (vlab.sim, "export_mjcf"),
                       (vlab.sim, "build_plant")):
         monkeypatch.setattr(mod, name, _trap(f"{mod.__name__}.{name}"))

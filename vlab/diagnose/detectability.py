@@ -53,7 +53,7 @@ import numpy as np
 
 from ..errors import ModelError, VlabError
 from ..fe import build_fe_model
-from ..lab.experiment import ExperimentConfig, default_chain, measure, test_definition
+from ..experiment.runner import ExperimentConfig, default_chain, measure, test_definition
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, refer_to_model
 from .data.readers import read_data

@@ -26,7 +26,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..errors import ModelError
-from ..io.results import write_json
+from ..experiment.results import write_json
 from . import tables as T
 from .context import LABS, ReproContext
 from .experiments import PLANTS, RunSpec, VirtualRun, compare_run, run_virtual_experiment

@@ -192,7 +192,7 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
     OSError
         From writing.
     """
-    from ..lab.experiment import TESTS
+    from ..experiment.runner import TESTS
     from .figures import distribution_plots, time_history_plot
     from .markdown import markdown
     from .plants import per_plant

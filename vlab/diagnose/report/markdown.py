@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DataFileError, VlabError
-from ...io.results import jsonable
+from ...experiment.results import jsonable
 from .text import _fmt, format_location, format_parameters, misfit_unit, ratio_text
 from .verdict import mismatch_text, selected_chi2, verdict
 

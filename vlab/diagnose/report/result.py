@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...io.results import jsonable
+from ...experiment.results import jsonable
 from ...spec import structure_identity
 from ..data.measured import FrfData, ModalData
 from ..effects.hypotheses import Combination, Hypothesis

@@ -27,13 +27,13 @@ from ..fe.damping import structural_damping
 from ..errors import MeasurementError, ModelError
 from ..errors import SpecError
 from ..fe import FEModel
+from ..lab.engine import ControllerEngine
+from ..lab.excitation import periodic_chirp, pseudo_random, pulse_train
+from ..lab.linear_plant import LinearPlant
+from ..lab.loop import HardwareChain, LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import FRF, h1
 from ..spec import StructureSpec, StructureTest, load_spec
-from .engine import ControllerEngine
-from .excitation import periodic_chirp, pseudo_random, pulse_train
-from .linear_plant import LinearPlant
-from .loop import HardwareChain, LoopResult, check_design_period, run_loop
 
 EXCITATIONS = ("random", "sweep", "impulse")
 
@@ -205,7 +205,7 @@ def period_source(controller: str, period_s: float) -> str:
 
 @dataclass(frozen=True)
 class ExperimentResult:
-    """Everything an experiment produced (see :func:`vlab.io.results.write_outputs`).
+    """Everything an experiment produced (see :func:`vlab.experiment.results.write_outputs`).
 
     Attributes
     ----------

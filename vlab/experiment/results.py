@@ -150,7 +150,7 @@ def design_summary(d) -> dict:
 
 
 def experiment_summary(result) -> dict:
-    """The results.json object of an :class:`~vlab.lab.experiment.ExperimentResult`.
+    """The results.json object of an :class:`~vlab.experiment.runner.ExperimentResult`.
 
     Parameters
     ----------
@@ -162,7 +162,7 @@ def experiment_summary(result) -> dict:
     dict
         The stable keys listed in the module docstring (without ``files``).
     """
-    from ..lab.experiment import period_source
+    from .runner import period_source
 
     cfg = result.config
     d = result.design
@@ -206,7 +206,7 @@ def failed_premises(result) -> list[str]:
     Parameters
     ----------
     result : ExperimentResult
-        The experiment (:func:`vlab.lab.experiment.run_experiment`).
+        The experiment (:func:`vlab.experiment.runner.run_experiment`).
 
     Returns
     -------
@@ -302,7 +302,7 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     Parameters
     ----------
     result : ExperimentResult
-        The experiment (:func:`vlab.lab.experiment.run_experiment`).
+        The experiment (:func:`vlab.experiment.runner.run_experiment`).
     spec : StructureSpec
         The structure, for the geometry drawn in the rerun recording.
     out_dir : Path
@@ -331,7 +331,7 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     DataFileError
         If a UFF file cannot be written.
     """
-    from .atomic import atomic_dir
+    from ..io.atomic import atomic_dir
 
     final = Path(out_dir)
     with atomic_dir(final, overwrite=overwrite) as tmp:
@@ -345,7 +345,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
     """Write the experiment's files into the (temporary, empty) folder ``out``."""
     from ..viz.figures import frf_panels_figure
     from ..viz.rerun_log import log_experiment, structure_geometry
-    from .uff import write_frfs, write_recording
+    from ..io.uff import write_frfs, write_recording
 
     overwrite = False
     files = {
@@ -357,7 +357,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
         "rerun": out / "run.rrd",
     }
     write_recording(files["recording"], result.loop.recording, overwrite=overwrite)
-    from ..lab.experiment import test_definition
+    from .runner import test_definition
 
     test = test_definition(spec)
     band = test.band_hz
