@@ -43,7 +43,8 @@ import dataclasses
 import math
 from typing import Any, Callable
 
-from .errors import SpecError
+from ..errors import SpecError
+from .structure import Damping, Member, Quantity
 
 #: The change tables this module reads, in the order they are applied.
 CHANGE_TABLES = ("member_stiffness", "joint_flexibility", "mode_damping")
@@ -84,8 +85,6 @@ def split_segments(spec, rigidity: dict[frozenset, float], source: str):
     SpecError
         A pair of points that is no member segment.
     """
-    from .spec import Member, Quantity
-
     sections, used, members, found = dict(spec.sections), {m.id for m in spec.members}, [], set()
     for m in spec.members:
         ei = [rigidity.get(frozenset(ab)) for ab in zip(m.points[:-1], m.points[1:])]
@@ -159,8 +158,6 @@ def _joint_flexibility(spec, r) -> Any:
 
 def _mode_damping(spec, r) -> Any:
     """Apply one ``[[mode_damping]]`` entry (reader ``r``)."""
-    from .spec import Damping
-
     mode = r.int("mode")
     if mode < 1:
         r.fail("mode", f"mode numbers start at 1, got {mode}")
@@ -182,7 +179,7 @@ _APPLY: dict[str, Callable] = {"member_stiffness": _member_stiffness, "joint_fle
 
 
 def apply_change_tables(spec, tables: dict[str, list], reader: Callable) -> Any:
-    """``spec`` with the change tables of its document applied (:data:`CHANGE_TABLES`, in that order).
+    """``spec`` with the change tables of its document applied (:data:`vlab.spec.CHANGE_TABLES`, in that order).
 
     Parameters
     ----------
@@ -191,7 +188,7 @@ def apply_change_tables(spec, tables: dict[str, list], reader: Callable) -> Any:
     tables : dict
         Table name -> its list of entries (dicts), as parsed.
     reader : callable
-        ``reader(entry, path) -> vlab.spec._Reader`` of one entry (``path`` such as ``"mode_damping[0]"``).
+        ``reader(entry, path) -> vlab.spec.reader.TableReader`` of one entry (``path`` such as ``"mode_damping[0]"``).
 
     Returns
     -------
