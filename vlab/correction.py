@@ -36,16 +36,13 @@ import numpy as np
 import scipy.linalg as sla
 
 from .errors import ModelError
-from .reduction import (
-    ReducedModel,
-    _damping_ratios,
-    _freqs,
-    _frozen,
-    _mode_names,
-    _real_array,
-    _symmetric,
-    natural_frequencies_hz,
-)
+from .reduction import ReducedModel, natural_frequencies_hz
+from .reduction.checks import damping_ratios as _damping_ratios
+from .reduction.checks import frequencies as _freqs
+from .reduction.checks import frozen as _frozen
+from .reduction.checks import mode_names as _mode_names
+from .reduction.checks import real_array as _real_array
+from .reduction.checks import symmetric as _symmetric
 
 __all__ = [
     "SHAPES_MAX_COND",
