@@ -58,7 +58,7 @@ from vlab.lab.loop import HardwareChain, run_loop
 from vlab.reference import bcc_gain
 from vlab.sim import MujocoPlant, build_plant
 from vlab.sim.batch_plant import MujocoBatchPlant
-from vlab.sim.runtime import sensor_rows
+from vlab.sim.contract import sensor_rows
 from vlab.spec import load_spec
 
 from _listing import emit

@@ -122,7 +122,7 @@ def test_both_forms_of_the_modal_damping_match_run_loop_bit_for_bit(bcc, form, m
     """The applied modal damping in one product with -C_m (ModalDamping.dense, the BCC's) or in the factored
     form (a larger plant's, forced here on the BCC): the batch and run_loop give the same bits within a form,
     and the force equals -C_m qvel (the matrix formed in full) to rounding."""
-    from vlab.sim.damping import ModalDamping
+    from vlab.sim.damping_matrix import ModalDamping
 
     fe, plant, _ = bcc
     if form == "factored":

@@ -21,8 +21,9 @@ import pytest
 import vlab.fe
 from vlab.fe.modal import Modes
 from vlab.sim import SimOptions, build_plant
-from vlab.sim.crosscheck import crosscheck, pair_band, pair_modes
+from vlab.sim.crosscheck import crosscheck
 from vlab.sim.linearize import SimModes
+from vlab.sim.pairing import pair_band, pair_modes
 from vlab.spec import load_spec
 
 xc = importlib.import_module("vlab.sim.crosscheck")  # the module (vlab.sim.crosscheck is the function)

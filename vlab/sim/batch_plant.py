@@ -41,9 +41,11 @@ import mujoco.batch
 import numpy as np
 
 from ..errors import ModelError, SimulationError
-from .damping import load_modal_damping
+from .contract import numbered, sensor_rows
+from .damping_matrix import load_modal_damping
 from .linearize import settle
-from .runtime import MujocoPlant, _numbered, as_slice, sensor_rows
+from .loopio import as_slice
+from .runtime import MujocoPlant
 
 _VEL, _NONE = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE)
 
@@ -213,11 +215,11 @@ class MujocoBatchPlant:
         self._sensordata = b.bind("sensordata")
         self._rows = sensor_rows(m)
         self._row_cache: dict = {}
-        coils = _numbered(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "coil")
+        coils = numbered(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "coil")
         self._act_ids = np.array([coils[p] for p in self.actuator_points], dtype=int)
         self._ctrl_shape = (n, self._act_ids.size)
         self._act_cols = as_slice(self._act_ids)
-        self._sites = _numbered(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite, "p")
+        self._sites = numbered(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite, "p")
         self._site_xpos = b.bind("site_xpos") if sample_sites else None
         self.alive = np.ones(n, dtype=bool)
         self._ids = None
@@ -225,7 +227,7 @@ class MujocoBatchPlant:
 
     def _stack_damping(self, dampings):
         """``(dense, factored)``: the applied modal damping's stacked operands in the form ModalDamping.apply
-        takes (:attr:`vlab.sim.damping.ModalDamping.dense`), the other None; both None without damping."""
+        takes (:attr:`vlab.sim.damping_matrix.ModalDamping.dense`), the other None; both None without damping."""
         if all(d is None for d in dampings):
             return None, None
         if any(d is None for d in dampings):

@@ -21,9 +21,9 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
-from .builder import Plant
-from .damping import load_modal_damping
-from .linearize import modes, settle
+from .damping_matrix import load_modal_damping
+from .linearize import modes, settle, site_jacobian_w
+from .plant import Plant
 
 
 def _prestress_ids(model: mujoco.MjModel) -> np.ndarray:
@@ -137,8 +137,6 @@ def free_run(plant: Plant, duration_s: float, *, mode: int = 1, amplitude_m: flo
             sm = modes(m, pts, mode, data=d0)
             phi = sm.joint_shapes[:, mode - 1]
             w = sm.shapes[:, mode - 1]
-            from .linearize import site_jacobian_w
-
             k = int(np.argmax(np.abs(w)))
             jw = site_jacobian_w(m, d0, [f"p{pts[k]}"])[0]
             mujoco.mj_integratePos(m, d.qpos, phi * (amplitude_m / float(jw @ phi)), 1.0)

@@ -31,7 +31,8 @@ Two parts:
      carries them, and :func:`vlab.sim.linearize.linearize` adds them to the
      linearisation. Explicit, and stable while ``dt * max(c) << 2``. Costs two
      (nv x N) products per step, or one (nv x nv) product on a small plant
-     (:attr:`ModalDamping.dense`).
+     (:attr:`vlab.sim.damping_matrix.ModalDamping.dense`; the matrix and its storage live in
+     :mod:`vlab.sim.damping_matrix`).
    * ``"tendons"``: one fixed tendon per mode with coefficients ``M phi_r`` and
      damping ``c_r`` -- native MuJoCo, but every coefficient of a fixed tendon
      is evaluated each step at a cost that grows with the square of its count
@@ -43,7 +44,7 @@ Two parts:
 
 Which plant mode is "mode r" of the spec is decided by pairing with the FE
 modes (MAC at the structure points, one-to-one over a common band,
-:func:`vlab.sim.crosscheck.pair_band`);
+:func:`vlab.sim.pairing.pair_band`);
 plant modes without FE partner below the highest damped one (the crosspiece
 arms' anti-symmetric bending, absent from the FE's single-DOF crosspiece) get
 the spec's ``default_ratio``, and so do all plant modes up to
@@ -59,7 +60,6 @@ numerics and fixed tendons (``doc/XMLreference.rst``); implicit joint damping
 from __future__ import annotations
 
 import dataclasses
-import functools
 from dataclasses import dataclass
 
 import mujoco
@@ -67,14 +67,9 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..spec import StructureSpec
-
-#: Names of the custom numerics that carry the applied modal damping.
-NUMERIC_A = "vlab_modal_A"
-NUMERIC_C = "vlab_modal_c"
-
-#: What one numpy call costs, in multiply-adds of a small matrix product (measured on the BCC: a call
-#: ~0.5 us, a 22 x 22 product ~0.5 us); it decides :attr:`ModalDamping.dense`.
-CALL_COST_FLOPS = 500
+from .damping_matrix import ModalDamping
+from .linearize import modes, settle
+from .pairing import pair_band
 
 #: Modal damping realisations.
 METHODS = ("applied", "tendons", "none")
@@ -111,105 +106,6 @@ class DampingReport:
     modal_damping: np.ndarray
 
 
-@dataclass(frozen=True)
-class ModalDamping:
-    """The modal damping matrix ``C_m = A diag(c) A^T`` of a plant.
-
-    Attributes
-    ----------
-    A : ndarray, shape (nv, n_damped)
-        ``M Phi`` of the damped modes (mass-normalised ``Phi``).
-    c : ndarray, shape (n_damped,)
-        Modal damping coefficients [1/s].
-    """
-
-    A: np.ndarray
-    c: np.ndarray
-
-    @functools.cached_property
-    def dense(self) -> np.ndarray | None:
-        """``-C_m``, shape (nv, nv), where one product with it costs less than the factored form; else None.
-
-        Per step the force ``-C_m qvel`` is either ``-A (c * (A^T qvel))``
-        (three numpy calls, ``2 nv N`` multiply-adds) or ``(-C_m) qvel`` (one
-        call, ``nv^2``). A small plant pays mostly for the calls (about
-        :data:`CALL_COST_FLOPS` multiply-adds each), a large one for the
-        arithmetic: the dense form is used when ``nv^2 <= 2 nv N + 2 x``
-        :data:`CALL_COST_FLOPS` (the BCC: nv = 22, N = 7; not the grid: nv = 165,
-        N = 15). Every user of the damping (:meth:`apply`,
-        :class:`vlab.sim.runtime.LoopIO`, :class:`vlab.sim.batch_plant.MujocoBatchPlant`)
-        takes the same form, so their forces agree bit for bit.
-        """
-        nv, n = self.A.shape
-        if nv * nv > 2 * nv * n + 2 * CALL_COST_FLOPS:
-            return None
-        return np.ascontiguousarray(-((self.A * self.c) @ self.A.T))
-
-    def force(self, qvel: np.ndarray) -> np.ndarray:
-        """Generalized damping force ``-C_m qvel``.
-
-        Parameters
-        ----------
-        qvel : ndarray, shape (nv,)
-            Joint velocities.
-
-        Returns
-        -------
-        ndarray, shape (nv,)
-        """
-        return -self.A @ (self.c * (self.A.T @ qvel))
-
-    def matrix(self) -> np.ndarray:
-        """``C_m``, shape (nv, nv)."""
-        return (self.A * self.c) @ self.A.T
-
-    def step(self, model: mujoco.MjModel, data: mujoco.MjData, n: int = 1,
-             base: np.ndarray | None = None) -> None:
-        """``n`` MuJoCo steps, each with ``qfrc_applied = base - C_m qvel`` set first.
-
-        Parameters
-        ----------
-        model : mujoco.MjModel
-        data : mujoco.MjData
-            Advanced in place.
-        n : int
-            Number of steps.
-        base : ndarray, shape (nv,), optional
-            Other applied generalized forces (zero by default).
-        """
-        for _ in range(n):
-            self.apply(data, base)
-            mujoco.mj_step(model, data)
-
-    def apply(self, data: mujoco.MjData, base: np.ndarray | None = None) -> None:
-        """Set ``qfrc_applied = base - C_m qvel`` from the current ``qvel``, as :meth:`step` does before each step.
-
-        For a caller that splits the step (``mj_step1``, then forces, then
-        ``mj_step2``): ``qvel`` is unchanged by ``mj_step1``, so the force is
-        the one :meth:`step` would set.
-
-        Parameters
-        ----------
-        data : mujoco.MjData
-            Its ``qfrc_applied`` (shape (nv,)) is written in place.
-        base : ndarray, shape (nv,), optional
-            Other applied generalized forces (zero by default).
-        """
-        dense = self.dense
-        if dense is not None:  # -C_m qvel in one product (the same numbers as LoopIO and the batch plant)
-            if base is None:
-                np.dot(dense, data.qvel, out=data.qfrc_applied)
-            else:
-                np.add(base, dense @ data.qvel, out=data.qfrc_applied)
-            return
-        a = self.A
-        f = a @ (self.c * (a.T @ data.qvel))
-        if base is None:
-            np.negative(f, out=data.qfrc_applied)
-        else:
-            np.subtract(base, f, out=data.qfrc_applied)
-
-
 def _elastic_stiffness(model: mujoco.MjModel) -> np.ndarray:
     """Diagonal of the spring stiffness of discretisation joints (``*.bend``, ``*.twist``, ``*.shear``), shape (nv,)."""
     k = np.zeros(model.nv)
@@ -230,7 +126,7 @@ def _targets(spec: StructureSpec, plant_modes, n_damped: int | None):
     """Damping targets for the plant modes up to the highest damped spec mode.
 
     The spec's modes 1..n are paired with plant modes one-to-one over a
-    common band (:func:`vlab.sim.crosscheck.pair_band`: the FE modes just
+    common band (:func:`vlab.sim.pairing.pair_band`: the FE modes just
     above mode n take part in the assignment, so that a plant mode whose own
     FE partner is mode n+1 is not labelled mode n).
 
@@ -258,7 +154,6 @@ def _targets(spec: StructureSpec, plant_modes, n_damped: int | None):
         If ``n_damped`` exceeds the FE model's modes or no plant mode pairs with a damped FE mode.
     """
     from ..fe import build_fe_model, modal_analysis
-    from .crosscheck import pair_band
 
     dmp = spec.damping
     n_spec = n_damped if n_damped is not None else len(dmp.modal_ratios)
@@ -346,8 +241,6 @@ def modal_damping_plan(spec: StructureSpec, model: mujoco.MjModel, beta: float |
     SimulationError
         If no plant mode matches an FE mode, or the plant does not settle.
     """
-    from .linearize import modes, settle
-
     data = settle(model)
     pm = modes(model, sorted(spec.points), data=data)
     idx, ratios, spec_modes = _targets(spec, pm, n_damped)
@@ -393,61 +286,11 @@ def projected_modes(spec: StructureSpec, model: mujoco.MjModel, dof_damping: np.
     SimulationError
         The plant does not settle.
     """
-    from .linearize import modes, settle
-
     pm = modes(model, sorted(spec.points), data=settle(model))
     phi = pm.joint_shapes
     c_phi = np.einsum("ir,i,ir->r", phi, np.asarray(dof_damping, dtype=float), phi)
     c_phi += np.sum((md.A.T @ phi) ** 2 * md.c[:, None], axis=0)
     return dataclasses.replace(pm, damping_ratios=c_phi / (2 * pm.omega))
-
-
-def store_modal_damping(ms: mujoco.MjSpec, md: ModalDamping) -> None:
-    """Write ``A`` (row-major, nv x N) and ``c`` into the spec as custom numerics.
-
-    Parameters
-    ----------
-    ms : mujoco.MjSpec
-        The plant's spec (modified).
-    md : ModalDamping
-    """
-    a = ms.add_numeric(name=NUMERIC_A)
-    a.data = md.A.ravel().tolist()
-    c = ms.add_numeric(name=NUMERIC_C)
-    c.data = md.c.tolist()
-
-
-def load_modal_damping(model: mujoco.MjModel) -> ModalDamping | None:
-    """The applied modal damping stored in a model, or None.
-
-    Parameters
-    ----------
-    model : mujoco.MjModel
-
-    Returns
-    -------
-    ModalDamping or None
-
-    Raises
-    ------
-    SimulationError
-        If the stored arrays do not fit the model (nv).
-    """
-    names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i): i for i in range(model.nnumeric)}
-    if NUMERIC_A not in names or NUMERIC_C not in names:
-        return None
-
-    def data(name):
-        i = names[name]
-        adr, size = int(model.numeric_adr[i]), int(model.numeric_size[i])
-        return np.array(model.numeric_data[adr: adr + size])
-
-    c = data(NUMERIC_C)
-    a = data(NUMERIC_A)
-    if a.size != model.nv * c.size:
-        raise SimulationError(f"stored modal damping has {a.size} coefficients, expected nv x N = "
-                              f"{model.nv} x {c.size}")
-    return ModalDamping(a.reshape(model.nv, c.size), c)
 
 
 def add_modal_tendons(ms: mujoco.MjSpec, model: mujoco.MjModel, md: ModalDamping, report: DampingReport) -> None:

@@ -14,7 +14,7 @@ written (``vlab experiment S.toml --mjcf S.xml``):
 * a ``vel<ID>`` sensor (``framelinvel`` of site ``p<ID>``) at every point the
   structure's ``[test]`` table measures (``measured_points``,
   ``response_point``) that has none yet: the naming contract
-  (:func:`vlab.sim.runtime.check_plant_contract`) asks for one at every
+  (:func:`vlab.sim.contract.check_plant_contract`) asks for one at every
   recorded point;
 * the physics timestep at full precision (the shortest decimal that parses
   back to the same double, Python's ``repr``): MuJoCo writes reals with six
@@ -36,7 +36,7 @@ from pathlib import Path
 import mujoco
 
 from ..errors import DataFileError, SimulationError
-from .builder import Plant
+from .plant import Plant
 
 
 def export_mjcf(plant: Plant, path: str | Path, *, overwrite: bool = True) -> Path:
@@ -46,7 +46,7 @@ def export_mjcf(plant: Plant, path: str | Path, *, overwrite: bool = True) -> Pa
     file name only, never a folder (no absolute path, no user home). Run the
     file with :func:`vlab.sim.load_plant_for_experiment` (``vlab experiment
     --mjcf``), which checks its actuators and sensors against the naming
-    contract (:func:`vlab.sim.runtime.check_plant_contract`).
+    contract (:func:`vlab.sim.contract.check_plant_contract`).
 
     Parameters
     ----------

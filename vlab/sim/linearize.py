@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
+from .damping_matrix import load_modal_damping
 
 
 @dataclass(frozen=True)
@@ -202,7 +203,7 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6,
         Finite-difference step.
     applied_damping : bool
         Include the applied modal damping stored in the model (custom numerics,
-        :mod:`vlab.sim.damping`), which ``mjd_transitionFD`` cannot see because it
+        :mod:`vlab.sim.damping_matrix`), which ``mjd_transitionFD`` cannot see because it
         is set as ``qfrc_applied`` by the stepper (default True).
     centred : bool
         Centred differences (twice the steps). Forward differences are the
@@ -234,8 +235,6 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, *, eps: float = 1e-6,
     D = np.zeros((model.nsensordata, model.nu))
     mujoco.mjd_transitionFD(model, d, eps, centred, A, B, C, D)
     if applied_damping:
-        from .damping import load_modal_damping
-
         md = load_modal_damping(model)
         if md is not None:
             # the force -C_m qvel is set as qfrc_applied before each step: x+ = A x + Bq (-C_m v)

@@ -17,9 +17,9 @@ from ..errors import SimulationError
 from ..fe import FEModel
 from ..spec import StructureSpec
 from .builder import build_plant
-from .crosscheck import BAND_MARGIN
 from .linearize import modes as plant_modes
 from .linearize import settle, site_jacobian_w
+from .pairing import BAND_MARGIN, pair_band
 
 
 def virtual_modal_test(
@@ -80,7 +80,7 @@ def virtual_measured_modes(fe: FEModel) -> tuple[np.ndarray, np.ndarray]:
 
     Shapes: :func:`virtual_modal_test` on the MuJoCo plant at the Guyan
     masters, each plant mode paired with an FE mode by MAC at the masters,
-    one-to-one over a common band (:func:`vlab.sim.crosscheck.pair_band`: the
+    one-to-one over a common band (:func:`vlab.sim.pairing.pair_band`: the
     plant has modes the FE model does not, e.g. the BCC crosspiece arms'
     antisymmetric bending, so order alone would mispair, and FE modes just
     above the measured ones take part so that their partners are not taken). Frequencies: the
@@ -115,7 +115,6 @@ def virtual_measured_modes(fe: FEModel) -> tuple[np.ndarray, np.ndarray]:
     from ..fe import modal_analysis
     from ..models import master_indices
     from ..reference import column
-    from .crosscheck import pair_band
 
     idx = master_indices(fe, "guyan")
     labels = [fe.dofs.labels[i] for i in idx]
