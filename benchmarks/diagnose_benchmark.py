@@ -176,7 +176,7 @@ from vlab.fe import build_fe_model, modal_analysis  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
 from vlab.experiment.runner import TESTS, default_chain  # noqa: E402
-from vlab.lab.recording import Recording  # noqa: E402
+from vlab.io.recording import Recording  # noqa: E402
 from vlab.spec import ASSETS_DIR, Quantity, StructureSpec, load_spec  # noqa: E402
 from vlab.units import G_SI  # noqa: E402
 

@@ -42,7 +42,7 @@ from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design, settling_time
 from vlab.lab.excitation import pseudo_random
 from vlab.experiment.runner import TESTS, default_chain
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model
 
 from _listing import emit, load_average

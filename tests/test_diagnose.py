@@ -18,7 +18,7 @@ from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
 from vlab.experiment.runner import TESTS, default_chain
 from vlab.lab.loop import HardwareChain
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model
 
 RES_HZ = 0.2          # 5 s periods: coarse lines, fast runs

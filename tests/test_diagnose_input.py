@@ -12,7 +12,7 @@ from vlab.diagnose import diagnose
 from vlab.errors import DataFileError, MeasurementError
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 
 DT = 0.5e-3
 

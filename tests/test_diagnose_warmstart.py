@@ -19,7 +19,7 @@ from vlab.diagnose.validate import _on_recording_axis
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
 from vlab.experiment.runner import TESTS, default_chain
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model
 
 RES_HZ = 0.5  # 2 s periods

@@ -15,7 +15,7 @@ import pytest
 from scipy import signal
 
 from vlab.errors import MeasurementError
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 from vlab.measure.instability import ENVELOPE_CV_RAYLEIGH, find_instability, force_period
 
 FS = 2000.0

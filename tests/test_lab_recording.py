@@ -1,4 +1,4 @@
-"""Recording and Channel (vlab.lab.recording)."""
+"""Recording and Channel (vlab.io.recording)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vlab.errors import MeasurementError
-from vlab.lab.recording import Channel, Recording, channel_name, parse_channel_name
+from vlab.io.recording import Channel, Recording, channel_name, parse_channel_name
 
 
 def _rec():
@@ -91,7 +91,7 @@ def test_errors_name_the_channel():
 def test_a_quantised_slow_signal_is_not_clipping_but_its_clipped_copy_is(freq_hz, bits):
     """A real ADC's 12- or 16-bit codes hold a slow sine's extreme for many samples (24 at 1.9 Hz, 0.2 of full
     scale, 2 kHz, 12 bits); that is not a flat top. The same signal clipped at 80 % of its peak is."""
-    from vlab.lab.recording import find_clipping
+    from vlab.io.recording import find_clipping
 
     t = np.arange(0.0, 20.0, 1 / 2000.0)
     x = 0.1 * np.sin(2 * np.pi * freq_hz * t) + 1e-5 * np.random.default_rng(0).standard_normal(t.size)

@@ -9,8 +9,9 @@ from scipy import signal
 from _modal_systems import receptance, state_space, two_dof
 from vlab.errors import MeasurementError
 from vlab.lab.excitation import filtered_random, pseudo_random, time_grid
-from vlab.lab.recording import Recording
-from vlab.measure.frf import FRF, h1, measure_frfs, required_duration_s
+from vlab.io.recording import Recording
+from vlab.io.frf import FRF
+from vlab.measure.frf import h1, measure_frfs, required_duration_s
 
 FS = 400.0
 DT = 1 / FS

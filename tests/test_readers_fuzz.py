@@ -50,8 +50,8 @@ def _spec():
 def good_files() -> dict[str, bytes]:
     """Bytes of one good file of each kind, written by vlab's writers."""
     from vlab.io.uff import ModeShapes, write_frfs, write_mode_shapes, write_recording
-    from vlab.lab.recording import Recording
-    from vlab.measure.frf import FRF
+    from vlab.io.recording import Recording
+    from vlab.io.frf import FRF
 
     rng = np.random.default_rng(11)
     n = 64
@@ -83,7 +83,7 @@ SUFFIX = {"time58b": ".uff", "time58": ".uff", "frf58": ".uff", "modes55": ".uff
 
 # ------------------------------------------------------------------------- readers + their guarantees
 def _check_recording(rec):
-    from vlab.lab.recording import MAX_PLAUSIBLE_RMS, find_clipping
+    from vlab.io.recording import MAX_PLAUSIBLE_RMS, find_clipping
 
     assert math.isfinite(rec.dt_s) and rec.dt_s > 0
     for c in rec.channels:

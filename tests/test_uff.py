@@ -13,8 +13,9 @@ import pyuff
 from vlab.errors import DataFileError
 from vlab.io.uff import (ModeShapes, read_frfs, read_mode_shapes, read_recording, sidecar_path,
                          write_frfs, write_mode_shapes, write_recording)
-from vlab.lab.recording import Recording
-from vlab.measure.frf import FRF, h1
+from vlab.io.recording import Recording
+from vlab.io.frf import FRF
+from vlab.measure.frf import h1
 
 
 def _recording(n=1001, dt=1 / 2048):

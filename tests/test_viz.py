@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from vlab.errors import DataFileError, MeasurementError, ModelError, VlabError
-from vlab.lab.recording import Recording
+from vlab.io.recording import Recording
 from vlab.viz import figures, rerun_log
 
 DT = 0.5e-3

@@ -109,7 +109,7 @@ def read_mjcf(p):
 
 # ------------------------------------------------------------------------ good files
 def good_recording():
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
 
     rng = np.random.default_rng(7)
     t = np.arange(N) * DT
@@ -125,7 +125,7 @@ def write_rec(d, rec=None, name="rec.uff"):
 
 
 def good_frfs(points=(5, 7, 6), freq=None):
-    from vlab.measure.frf import FRF
+    from vlab.io.frf import FRF
 
     f = np.arange(1, 126) * 0.2 if freq is None else freq
     out = []
@@ -210,7 +210,7 @@ def put_bytes(p, old: float, new: float, count=1):
 
 def rec_with(**changes):
     """The good recording with channel samples replaced (name -> function of the samples)."""
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
 
     rec = good_recording()
     sig = {c.name: np.array(c.samples) for c in rec.channels}
@@ -456,7 +456,7 @@ def time_force_channel_missing(d):
 
 @case("uff58-time", diagnose_rec, DataFileError, "exactly one force channel", "force5")
 def time_two_force_channels(d):
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
     rec = good_recording()
     sig = {c.name: np.array(c.samples) for c in rec.channels}
     sig["force5"] = sig.pop("vel5") * 100
@@ -465,7 +465,7 @@ def time_two_force_channels(d):
 
 @case("uff58-time", diagnose_rec, DataFileError, "vel42", "point id 42")
 def time_channel_at_unknown_point(d):
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
     rec = good_recording()
     sig = {c.name: np.array(c.samples) for c in rec.channels}
     sig["vel42"] = sig.pop("vel6")
@@ -474,7 +474,7 @@ def time_channel_at_unknown_point(d):
 
 @case("uff58-time", diagnose_rec, DataFileError, "4096 samples/s", "PC-1000")
 def time_sampled_faster_than_the_pc1000(d):
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
     rec = good_recording()
     return write_rec(d, Recording(1 / 4096, rec.channels, dict(rec.metadata)))
 
@@ -497,7 +497,7 @@ def time_dead_channel(d):
 # ====================================================================== UFF 58 FRFs
 @case("uff58-frf", read_frf, DataFileError, "vel7/force9", "non-finite")
 def frf_nan_value(d):
-    from vlab.measure.frf import FRF
+    from vlab.io.frf import FRF
     frfs = good_frfs()
     h = np.array(frfs[1].h)
     h[10] = 0.987654321e-3
@@ -584,7 +584,7 @@ def frf_input_name_other_node(d):
 
 @case("uff58-frf", read_frf, DataFileError, "a second velocity FRF", "node 9 to node 5")
 def frf_duplicated(d):
-    from vlab.measure.frf import FRF
+    from vlab.io.frf import FRF
     f = good_frfs()
     twin = FRF(freq_hz=f[0].freq_hz, h=f[0].h, response="velocity", output_name="vel5b", input_name="force9",
                output_point=5, input_point=9)
@@ -618,7 +618,7 @@ def frf_axes_differ(d):
 
 @case("uff58-frf", diagnose_frf, DataFileError, "several excitation points", "[7, 9]")
 def frf_two_references(d):
-    from vlab.measure.frf import FRF
+    from vlab.io.frf import FRF
     f = good_frfs()
     f[1] = FRF(freq_hz=f[1].freq_hz, h=f[1].h, response="velocity", output_name="vel6", input_name="force7",
                output_point=6, input_point=7)
@@ -1290,7 +1290,7 @@ def time_velocity_with_force_exponents(d):
 # ============================== a NaN written by pyuff (as 0) into a periodic excitation's force
 def periodic_recording(n_periods=3):
     """Three periods of 1 s (the corpus's 1 Hz resolution) of a periodic force and responses."""
-    from vlab.lab.recording import Recording
+    from vlab.io.recording import Recording
 
     rng = np.random.default_rng(11)
     force = np.tile(0.5 * rng.standard_normal(N), n_periods)

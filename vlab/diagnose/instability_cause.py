@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError, SpecError, VlabError
-from ..lab.recording import Recording
+from ..io.recording import Recording
 from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
 from .fit.plantfit import PlantModel

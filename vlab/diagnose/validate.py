@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import ModelError, VlabError
-from ..lab.recording import Recording
+from ..io.recording import Recording
 from .data.measured import FrfData
 from .data.replay import frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns

@@ -27,12 +27,13 @@ from ..fe.damping import structural_damping
 from ..errors import MeasurementError, ModelError
 from ..errors import SpecError
 from ..fe import FEModel
+from ..io.frf import FRF
 from ..lab.engine import ControllerEngine
 from ..lab.excitation import periodic_chirp, pseudo_random, pulse_train
 from ..lab.linear_plant import LinearPlant
 from ..lab.loop import HardwareChain, LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
-from ..measure.frf import FRF, h1
+from ..measure.frf import h1
 from ..spec import StructureSpec, StructureTest, load_spec
 
 EXCITATIONS = ("random", "sweep", "impulse")

@@ -1,1 +1,16 @@
-"""File input/output: UFF datasets 58/55 (:mod:`vlab.io.uff`)."""
+"""Files and the data types they hold: recordings, FRFs, UFF files, tables, safe writing.
+
+Modules
+-------
+recording
+    :class:`~vlab.io.recording.Recording`: sampled time histories of named channels.
+frf
+    :class:`~vlab.io.frf.FRF`: a frequency response function on a frequency grid.
+uff, uff55, uff_files, uff_units
+    UFF datasets 58 (time histories, FRFs) and 55 (mode shapes).
+tabular
+    A command's result rows as a table or CSV.
+atomic, confine, manifest
+    Output folders written atomically, input files confined to their folder, and
+    the manifest of the files vlab wrote.
+"""

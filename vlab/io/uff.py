@@ -50,9 +50,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataFileError, MeasurementError
-from ..lab.recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
-                             parse_channel_name)
-from ..measure.frf import FRF
+from .frf import FRF
+from .recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
+                        parse_channel_name)
 from .uff_files import (_UNITS, _check_direction, _check_node, _check_target, _check_unit_label, _get_int, _ids,
                         _label, _read_uff, _write_text, _write_uff, sidecar_path)
 from .uff_units import check_exponents, check_force_denominator, check_time_axis, frequency_factor
@@ -151,10 +151,10 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
     offending value:
 
     * non-finite samples (count and first index);
-    * clipping: more than :data:`vlab.lab.recording.CLIP_RUN` (3) consecutive
+    * clipping: more than :data:`vlab.io.recording.CLIP_RUN` (3) consecutive
       samples exactly at the channel's maximum or minimum, or more than
-      :data:`vlab.lab.recording.CLIP_FRACTION` (2 %) of its samples there (a
-      flat top; :func:`vlab.lab.recording.find_clipping`);
+      :data:`vlab.io.recording.CLIP_FRACTION` (2 %) of its samples there (a
+      flat top; :func:`vlab.io.recording.find_clipping`);
     * mis-sampling: fewer than :data:`MIN_SAMPLES` (4) samples, uneven
       abscissa, a non-positive or non-finite step, channels at different
       steps, a step that disagrees with the ``period_s`` of the sidecar
@@ -169,7 +169,7 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
     * inconsistency: channels of different lengths, a header sample count
       that differs from the data;
     * implausible magnitudes: an RMS above
-      :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS` (velocity 10 m/s,
+      :data:`vlab.io.recording.MAX_PLAUSIBLE_RMS` (velocity 10 m/s,
       force 1000 N, displacement 0.1 m, acceleration 1e4 m/s^2; derived
       from the sensors and coils of Sec. 5.3), which is a mis-scaled file.
 
@@ -181,7 +181,7 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
         Accept channels with a flat top (e.g. to inspect a run whose
         amplifier saturated on purpose).
     allow_implausible : bool
-        Accept RMS values beyond :data:`vlab.lab.recording.MAX_PLAUSIBLE_RMS`.
+        Accept RMS values beyond :data:`vlab.io.recording.MAX_PLAUSIBLE_RMS`.
 
     Returns
     -------

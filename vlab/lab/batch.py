@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import ModelError
 from .batch_chain import BatchChain, ChainRun
 from .loop import HardwareChain, LoopResult
-from .recording import Recording
+from ..io.recording import Recording
 
 #: Every this many ticks the simulations' clocks are checked (MuJoCo restarts a diverged one).
 _TIME_CHECK = 50

@@ -40,7 +40,7 @@ from ..errors import ModelError, SimulationError
 from .batch_chain import BatchChain, ChainRun
 from .blocks import PC1000_DELAY_PERIODS, PC1000_PERIOD_S, RC_CORNER_HZ
 from .engine import ControllerEngine
-from .recording import Recording
+from ..io.recording import Recording
 
 
 class Plant(Protocol):

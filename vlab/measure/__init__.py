@@ -3,7 +3,8 @@
 Modules
 -------
 frf
-    :class:`~vlab.measure.frf.FRF`, H1 estimator with coherence, VFRF -> DFRF (Sec. 5.4.1).
+    H1 estimator with coherence (Sec. 5.4.1); the FRF type it returns,
+    :class:`~vlab.io.frf.FRF`, is defined in :mod:`vlab.io.frf` and re-exported here.
 modal
     Peak picking, half-power and curve-fit damping, decay damping, peak level
     ratios (Tables 10, 19-21).
@@ -15,7 +16,8 @@ transient
     Transient removal for periodic excitation (local polynomial method).
 """
 
-from .frf import FRF, h1, measure_frfs
+from ..io.frf import FRF
+from .frf import h1, measure_frfs
 from .instability import InstabilityCheck, find_instability
 from .mac import comac, mac, pair_modes
 from .transient import PeriodicSpectra, periodic_spectra

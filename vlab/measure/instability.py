@@ -57,7 +57,7 @@ import numpy as np
 from scipy import signal
 
 from ..errors import MeasurementError
-from ..lab.recording import Recording, parse_channel_name
+from ..io.recording import Recording, parse_channel_name
 
 #: A line stands at least this factor above the channel's incoherent floor [-] (30 dB).
 LINE_TO_FLOOR = 1e3

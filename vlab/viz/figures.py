@@ -119,7 +119,7 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
         Legend label -> one of: an array shape (n_freq,) on ``freq_hz``
         (complex FRF or magnitude; ``|.|`` is plotted); a pair
         ``(freq_hz_i, values_i)`` on its own grid; an object with
-        ``freq_hz`` and ``h`` (:class:`vlab.measure.frf.FRF`). Plotted in
+        ``freq_hz`` and ``h`` (:class:`vlab.io.frf.FRF`). Plotted in
         the given order; zero magnitudes are left out (log axis).
     title, ylabel : str
         Axes title and y label (give the unit, e.g. ``"|H| [(m/s)/N]"``).

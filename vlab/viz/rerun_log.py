@@ -25,7 +25,7 @@ Timelines
 ---------
 ``sim_time``
     Simulation time, a rerun *duration* timeline in seconds. Sample ``k`` of
-    a :class:`~vlab.lab.recording.Recording` sits at ``k * dt_s``.
+    a :class:`~vlab.io.recording.Recording` sits at ``k * dt_s``.
 ``frequency_mhz``
     Frequency of the FRF points as a rerun *sequence* timeline in integer
     millihertz (1 Hz = 1000). rerun has no non-time numeric x axis; a
@@ -481,13 +481,13 @@ def log_signals(rec, time_s: Any, signals: Mapping[str, Any], *,
 
 def log_recording(rec, recording, *, extra_signals: Mapping[str, Any] | None = None,
                   extra_units: Mapping[str, str] | None = None) -> list[str]:
-    """Log every channel of a :class:`~vlab.lab.recording.Recording` under ``signals/``.
+    """Log every channel of a :class:`~vlab.io.recording.Recording` under ``signals/``.
 
     Parameters
     ----------
     rec : rerun.RecordingStream
         From :func:`open_recording`.
-    recording : vlab.lab.recording.Recording
+    recording : vlab.io.recording.Recording
         Channels of ``n_samples`` samples at ``dt_s`` [s]; logged as
         ``signals/<channel name>`` with the channel's SI unit in the legend.
     extra_signals : mapping of str to array_like, each shape (n_samples,), optional
@@ -815,7 +815,7 @@ def log_frfs(rec, frfs: Mapping[str, Any]) -> list[str]:
         Name -> ``(freq_hz, h)`` with ``freq_hz`` shape (n_freq,) [Hz],
         increasing, and ``h`` shape (n_freq,) complex or real (SI units,
         e.g. (m/s)/N), or any object with ``freq_hz`` and ``h`` attributes
-        (:class:`vlab.measure.frf.FRF`). Names become entity paths
+        (:class:`vlab.io.frf.FRF`). Names become entity paths
         ``frf/<name>/magnitude``; use e.g. ``"experiment/vel4_force4"`` and
         ``"analysis/vel4_force4"``. Grids may differ between FRFs.
 
@@ -873,7 +873,7 @@ def log_experiment(path: str | Path | None, *, recording=None,
     ----------
     path : str or Path or None
         Output ``.rrd`` file (parents created); ``None`` only with ``spawn``.
-    recording : vlab.lab.recording.Recording, optional
+    recording : vlab.io.recording.Recording, optional
         Channels -> ``signals/<name>`` on ``sim_time``; its metadata ->
         ``meta/run`` (merged under ``metadata``).
     structure_points : mapping of int to (float, float), optional

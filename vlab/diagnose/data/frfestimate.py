@@ -35,7 +35,7 @@ import scipy.stats
 
 from ...errors import DataFileError, MeasurementError
 from ...fe import FEModel
-from ...lab.recording import CLIP_RUN, Recording, find_clipping
+from ...io.recording import CLIP_RUN, Recording, find_clipping
 from ...measure.frf import h1
 from ...measure.transient import periodic_spectra
 from ...spec import StructureSpec
@@ -52,7 +52,7 @@ def check_channel_samples(path: str, name: str, x: np.ndarray) -> None:
 
     Clipping: more than :data:`CLIP_RUN` consecutive samples exactly at the
     channel's maximum or minimum, or more than 2 % of them there
-    (:func:`vlab.lab.recording.find_clipping`: a saturated amplifier or ADC
+    (:func:`vlab.io.recording.find_clipping`: a saturated amplifier or ADC
     holds its limit; a smooth signal sampled at 2 kHz does not repeat its
     extreme).
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...errors import DataFileError
-from ...lab.recording import Recording
+from ...io.recording import Recording
 
 #: Lines whose relative noise exceeds this (SNR below ~2) are not used.
 MAX_RELATIVE_NOISE = 0.5

@@ -29,7 +29,7 @@ from ...errors import ModelError
 from ...lab.engine import ControllerEngine
 from ...lab.linear_plant import LinearPlant
 from ...lab.loop import run_loop
-from ...lab.recording import Recording
+from ...io.recording import Recording
 from ...measure.frf import h1
 from ...measure.transient import periodic_spectra
 from ..model.labmodel import LabState

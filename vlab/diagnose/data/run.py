@@ -25,7 +25,7 @@ class DiagnosisRun:
     Attributes
     ----------
     reruns : dict
-        ``(key, plant, seed)`` -> :class:`vlab.lab.recording.Recording`: the reruns made.
+        ``(key, plant, seed)`` -> :class:`vlab.io.recording.Recording`: the reruns made.
     background : dict
         ``(key, plant, seed)`` -> ``(process, connection)``: reruns still running in a background process.
     note : str
