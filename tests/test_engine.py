@@ -11,7 +11,7 @@ from scipy import linalg, signal
 from vlab.errors import ModelError, SimulationError
 from vlab.lab.blocks import PC1000_PERIOD_S, CurrentAmplifier, RCLowPass, SampleDelay
 from vlab.lab.engine import ControllerEngine
-from vlab.measure.modal import decay_damping
+from vlab.measure.decay import decay_damping
 
 DT = PC1000_PERIOD_S
 

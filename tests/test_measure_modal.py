@@ -9,8 +9,10 @@ import pytest
 
 from _modal_systems import receptance, two_dof
 from vlab.errors import MeasurementError
-from vlab.measure.modal import (average_peak_error, decay_damping, find_peaks, fit_modes,
-                                half_power_damping, peak_level_ratios, peak_levels, refine_peak)
+from vlab.measure.decay import decay_damping
+from vlab.measure.modal import (average_peak_error, find_peaks, half_power_damping, peak_level_ratios, peak_levels,
+                                refine_peak)
+from vlab.measure.modal_fit import fit_modes
 
 F = np.arange(0.0, 15.0, 0.005)
 

@@ -6,8 +6,11 @@ frf
     H1 estimator with coherence (Sec. 5.4.1); the FRF type it returns,
     :class:`~vlab.io.frf.FRF`, is defined in :mod:`vlab.io.frf` and re-exported here.
 modal
-    Peak picking, half-power and curve-fit damping, decay damping, peak level
-    ratios (Tables 10, 19-21).
+    Peak picking, half-power damping, peak level ratios (Tables 10, 19-21).
+modal_fit
+    Curve-fit modal parameters (rational fraction, LSCF).
+decay
+    Damping of a free decay (logarithmic decrement of the Hilbert envelope).
 mac
     MAC matrix, COMAC, mode pairing.
 instability
@@ -21,8 +24,9 @@ from .frf import h1, measure_frfs
 from .instability import InstabilityCheck, find_instability
 from .mac import comac, mac, pair_modes
 from .transient import PeriodicSpectra, periodic_spectra
-from .modal import (average_peak_error, decay_damping, find_peaks, fit_modes, half_power_damping,
-                    peak_level_ratios, peak_levels)
+from .decay import decay_damping
+from .modal import average_peak_error, find_peaks, half_power_damping, peak_level_ratios, peak_levels
+from .modal_fit import fit_modes
 
 __all__ = [
     "FRF", "h1", "measure_frfs", "mac", "comac", "pair_modes", "find_peaks",

@@ -16,7 +16,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import MeasurementError
-from .modal import average_peak_error, fit_modes, peak_levels
+from .modal import average_peak_error, peak_levels
+from .modal_fit import fit_modes
 
 
 @dataclass(frozen=True)

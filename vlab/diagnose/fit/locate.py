@@ -34,7 +34,8 @@ import numpy as np
 
 from ...errors import MeasurementError, ModelError, SpecError
 from ...measure.mac import comac, mac, pair_modes
-from ...measure.modal import find_peaks, fit_modes, peak_levels
+from ...measure.modal import find_peaks, peak_levels
+from ...measure.modal_fit import fit_modes
 from ..data.measured import FrfData
 from ..effects import specedit
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
