@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vlab.reproduce import grid_tables as G
+from vlab.reproduce import ratio_tables as RT
 from vlab.reproduce import tables as T
 from vlab.reproduce.context import ReproContext, lab_structure
 from vlab.reproduce.experiments import RunSpec, compare_run, run_virtual_experiment
@@ -48,13 +50,13 @@ def _compute_subset() -> tuple[list[TableResult], dict]:
     tabs = T.frequency_tables(ctx) + T.reduced_frequency_table(ctx)
     tabs += [t for t in T.orthogonality_tables(ctx) if t.name == "Sec. 3.3"]
     tabs += T.bcc_design_tables(ctx)
-    tabs += [T.grid_gains_exact_table(ctx), T.grid_damping_exact_table(ctx)]
-    tabs += [T.grid_gains_corrected_table(ctx), T.grid_damping_corrected_table(ctx)]
+    tabs += [G.grid_gains_exact_table(ctx), G.grid_damping_exact_table(ctx)]
+    tabs += [G.grid_gains_corrected_table(ctx), G.grid_damping_corrected_table(ctx)]
     comps = {}
     for c in ("none", "mfdrf", "lqdrf", "lqg"):
         run = run_virtual_experiment(RunSpec("bcc", c, None, SHORT_RESOLUTION_HZ, 2, 0), ctx=ctx)
         comps[c] = compare_run(ctx, run, ("full",))
-    tabs.append(T.bcc_peak_ratio_table(ctx, comps, "linear", SHORT_RESOLUTION_HZ))
+    tabs.append(RT.bcc_peak_ratio_table(ctx, comps, "linear", SHORT_RESOLUTION_HZ))
     lab = ctx.lab("bcc")
     fe = ctx.fe("bcc")
     u = fe.force_input(tuple(fe.spec.instrumentation.actuators))

@@ -3,7 +3,9 @@
 - :mod:`vlab.reproduce.results`: :class:`Row`, :class:`TableResult`, :class:`ReproduceResult`;
 - :mod:`vlab.reproduce.context`: models, designs, the laboratory structure, the virtual modal test;
 - :mod:`vlab.reproduce.closedloop`: controllers applied to any model (damping, performance indices);
-- :mod:`vlab.reproduce.tables`: one function per table group (Tables 1-21);
+- :mod:`vlab.reproduce.tables`: one function per table group of Tables 1-9 (frequencies, reduction, BCC designs),
+  :mod:`vlab.reproduce.grid_tables` of Tables 11-18 (grid designs) and :mod:`vlab.reproduce.ratio_tables` of
+  Tables 10, 19-21 (peak-level ratios), with what they share in :mod:`vlab.reproduce.table_rows`;
 - :mod:`vlab.reproduce.experiments`: virtual experiments for the peak-level ratios (Tables 10, 19-21);
 - :mod:`vlab.reproduce.limit_cycle`: the LQG limit cycle of Sec. 6.1;
 - :mod:`vlab.reproduce.peakratios`: Table 10's published peak level ratios diagnosed as real data (the analysis

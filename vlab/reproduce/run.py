@@ -27,11 +27,14 @@ import numpy as np
 
 from ..errors import ModelError
 from ..experiment.results import write_json
-from . import tables as T
 from .context import LABS, ReproContext
 from .experiments import PLANTS, RunSpec, VirtualRun, compare_run, run_virtual_experiment
+from .grid_tables import grid_corrected_tables, grid_exact_tables
 from .limit_cycle import BAND_HZ, LimitCycleResult, limit_cycle_study
+from .ratio_tables import bcc_peak_ratio_table, grid_peak_ratio_tables
 from .results import FLAG_TEXT, FLAGS, ReproduceResult, TableResult
+from .table_rows import LABEL
+from .tables import bcc_design_tables, frequency_tables, orthogonality_tables, reduced_frequency_table
 
 #: Table groups in run order (``groups`` argument of :func:`reproduce`).
 GROUPS = ("frequencies", "reduction", "bcc-designs", "grid-exact", "grid-corrected", "bcc-experiments",
@@ -188,10 +191,8 @@ def reproduce(out_dir: str | Path, *, fast: bool = False, plant: str = "linear",
     return result
 
 
-def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, groups: Sequence[str] | None,
-                    progress, seed: int) -> ReproduceResult:
-    """:func:`reproduce` written into the (temporary) folder ``out_dir``."""
-    t_start = time.perf_counter()
+def _checked_options(plant: str, lab: str | None, groups: Sequence[str] | None) -> tuple[str, tuple[str, ...]]:
+    """The laboratory structure (default for the plant) and the table groups, checked; ModelError otherwise."""
     if plant not in PLANTS:
         raise ModelError(f"unknown plant {plant!r}; use one of {PLANTS}")
     if lab is None:
@@ -204,6 +205,67 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
     bad = [g for g in groups if g not in GROUPS]
     if bad:
         raise ModelError(f"unknown table group(s) {bad}; use some of {GROUPS}")
+    return lab, groups
+
+
+def _bcc_experiments(ctx: ReproContext, cfg: dict, plant: str, seed: int, bars: _Bars, runs: list,
+                     figdir: Path) -> tuple[TableResult, list[Path]]:
+    """The BCC's virtual experiments (appended to ``runs``): Table 10 and the Fig. 22 FRFs."""
+    comps, figures = {}, []
+    for c in ("none", "mfdrf", "lqdrf", "lqg"):
+        run = _run(RunSpec("bcc", c, None, cfg["bcc_resolution_hz"], cfg["periods"], seed), ctx, plant, bars)
+        runs.append(run)
+        comps[c] = compare_run(ctx, run, ("full",))
+        bars.step(run.spec.key)
+    table = bcc_peak_ratio_table(ctx, comps, plant, cfg["bcc_resolution_hz"])
+    for c, cmp_ in comps.items():
+        name = "open loop" if c == "none" else LABEL.get(c, c.upper())
+        figures.append(_frf_fig(
+            figdir / f"fig22_bcc_{c}.png", cmp_.run.freq_hz,
+            {"experiment (virtual)": cmp_.run.h, "analysis (full model)": cmp_.analysis["full"][0]},
+            f"BCC, {name}: force at 9, displacement at 6 (cf. Fig. 22)", "|x6 / f9| [m/N]"))
+    return table, figures
+
+
+def _grid_experiments(ctx: ReproContext, cfg: dict, plant: str, seed: int, bars: _Bars, runs: list,
+                      figdir: Path) -> tuple[list[TableResult], list[Path]]:
+    """The grid's virtual experiments (appended to ``runs``): Tables 19-21 and the Figs. 23-31 FRFs."""
+    comps, figures = {}, []
+    specs = [RunSpec("grid", "none", None, cfg["grid_resolution_hz"], cfg["periods"], seed)]
+    specs += [RunSpec("grid", c, "exact", cfg["grid_resolution_hz"], cfg["periods"], seed) for c in GRID_CONTROLLERS]
+    specs += [RunSpec("grid", c, "corrected-guyan", cfg["grid_resolution_hz"], cfg["periods"], seed)
+              for c in GRID_CONTROLLERS]
+    for sp in specs:
+        run = _run(sp, ctx, plant, bars)
+        runs.append(run)
+        models = ("corrected-guyan",) if sp.model == "corrected-guyan" else ("exact", "corrected-guyan")
+        comps[(sp.controller, sp.model)] = compare_run(ctx, run, models)
+        bars.step(sp.key)
+    tables = grid_peak_ratio_tables(ctx, comps, plant, cfg["grid_resolution_hz"])
+    ylabel = "|v4 / f4| [(m/s)/N]"
+    ol = comps[("none", None)]
+    figures.append(_frf_fig(figdir / "fig23_grid_open_loop.png", ol.run.freq_hz, {
+        "exact reduction (analysis)": ol.analysis["exact"][0], "experiment (virtual)": ol.run.h,
+        "corrected Guyan (analysis)": ol.analysis["corrected-guyan"][0]},
+        "Grid, open loop: force and velocity at joint 4 (cf. Fig. 23)", ylabel))
+    for c in GRID_CONTROLLERS:
+        e = comps[(c, "exact")]
+        figures.append(_frf_fig(figdir / f"fig{FIG_NUMBERS_EXACT[c]}_grid_{c}_exact.png", e.run.freq_hz, {
+            "exact reduction (analysis)": e.analysis["exact"][0], "experiment (virtual)": e.run.h,
+            "corrected Guyan (analysis)": e.analysis["corrected-guyan"][0]},
+            f"Grid, {LABEL[c]} designed on the exact reduction (cf. Fig. {FIG_NUMBERS_EXACT[c]})", ylabel))
+        g = comps[(c, "corrected-guyan")]
+        figures.append(_frf_fig(figdir / f"fig{FIG_NUMBERS_CG[c]}_grid_{c}_corrected_guyan.png", g.run.freq_hz, {
+            "experiment (virtual)": g.run.h, "corrected Guyan (analysis)": g.analysis["corrected-guyan"][0]},
+            f"Grid, {LABEL[c]} designed on the corrected Guyan model (cf. Fig. {FIG_NUMBERS_CG[c]})", ylabel))
+    return tables, figures
+
+
+def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, groups: Sequence[str] | None,
+                    progress, seed: int) -> ReproduceResult:
+    """:func:`reproduce` written into the (temporary) folder ``out_dir``."""
+    t_start = time.perf_counter()
+    lab, groups = _checked_options(plant, lab, groups)
     out = Path(out_dir)
     figdir = out / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
@@ -219,59 +281,24 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
     total = len(groups) + n_bcc_runs + n_grid_runs
     with _Bars(progress) as bars:
         bars.start(total)
-        analytic = {"frequencies": lambda: T.frequency_tables(ctx),
-                    "reduction": lambda: T.reduced_frequency_table(ctx) + T.orthogonality_tables(ctx),
-                    "bcc-designs": lambda: T.bcc_design_tables(ctx),
-                    "grid-exact": lambda: T.grid_exact_tables(ctx),
-                    "grid-corrected": lambda: T.grid_corrected_tables(ctx)}
+        analytic = {"frequencies": lambda: frequency_tables(ctx),
+                    "reduction": lambda: reduced_frequency_table(ctx) + orthogonality_tables(ctx),
+                    "bcc-designs": lambda: bcc_design_tables(ctx),
+                    "grid-exact": lambda: grid_exact_tables(ctx),
+                    "grid-corrected": lambda: grid_corrected_tables(ctx)}
         for g in groups:
             if g in analytic:
                 tables += analytic[g]()
                 bars.step(g)
         if "bcc-experiments" in groups:
-            comps = {}
-            for c in ("none", "mfdrf", "lqdrf", "lqg"):
-                run = _run(RunSpec("bcc", c, None, cfg["bcc_resolution_hz"], cfg["periods"], seed), ctx, plant, bars)
-                runs.append(run)
-                comps[c] = compare_run(ctx, run, ("full",))
-                bars.step(run.spec.key)
-            tables.append(T.bcc_peak_ratio_table(ctx, comps, plant, cfg["bcc_resolution_hz"]))
-            for c, cmp_ in comps.items():
-                name = "open loop" if c == "none" else T.LABEL.get(c, c.upper())
-                figures.append(_frf_fig(
-                    figdir / f"fig22_bcc_{c}.png", cmp_.run.freq_hz,
-                    {"experiment (virtual)": cmp_.run.h, "analysis (full model)": cmp_.analysis["full"][0]},
-                    f"BCC, {name}: force at 9, displacement at 6 (cf. Fig. 22)", "|x6 / f9| [m/N]"))
+            table, figs = _bcc_experiments(ctx, cfg, plant, seed, bars, runs, figdir)
+            tables.append(table)
+            figures += figs
             bars.step("bcc-experiments")
         if "grid-experiments" in groups:
-            comps = {}
-            specs = [RunSpec("grid", "none", None, cfg["grid_resolution_hz"], cfg["periods"], seed)]
-            specs += [RunSpec("grid", c, "exact", cfg["grid_resolution_hz"], cfg["periods"], seed) for c in GRID_CONTROLLERS]
-            specs += [RunSpec("grid", c, "corrected-guyan", cfg["grid_resolution_hz"], cfg["periods"], seed)
-                      for c in GRID_CONTROLLERS]
-            for sp in specs:
-                run = _run(sp, ctx, plant, bars)
-                runs.append(run)
-                models = ("corrected-guyan",) if sp.model == "corrected-guyan" else ("exact", "corrected-guyan")
-                comps[(sp.controller, sp.model)] = compare_run(ctx, run, models)
-                bars.step(sp.key)
-            tables += T.grid_peak_ratio_tables(ctx, comps, plant, cfg["grid_resolution_hz"])
-            ylabel = "|v4 / f4| [(m/s)/N]"
-            ol = comps[("none", None)]
-            figures.append(_frf_fig(figdir / "fig23_grid_open_loop.png", ol.run.freq_hz, {
-                "exact reduction (analysis)": ol.analysis["exact"][0], "experiment (virtual)": ol.run.h,
-                "corrected Guyan (analysis)": ol.analysis["corrected-guyan"][0]},
-                "Grid, open loop: force and velocity at joint 4 (cf. Fig. 23)", ylabel))
-            for c in GRID_CONTROLLERS:
-                e = comps[(c, "exact")]
-                figures.append(_frf_fig(figdir / f"fig{FIG_NUMBERS_EXACT[c]}_grid_{c}_exact.png", e.run.freq_hz, {
-                    "exact reduction (analysis)": e.analysis["exact"][0], "experiment (virtual)": e.run.h,
-                    "corrected Guyan (analysis)": e.analysis["corrected-guyan"][0]},
-                    f"Grid, {T.LABEL[c]} designed on the exact reduction (cf. Fig. {FIG_NUMBERS_EXACT[c]})", ylabel))
-                g = comps[(c, "corrected-guyan")]
-                figures.append(_frf_fig(figdir / f"fig{FIG_NUMBERS_CG[c]}_grid_{c}_corrected_guyan.png", g.run.freq_hz, {
-                    "experiment (virtual)": g.run.h, "corrected Guyan (analysis)": g.analysis["corrected-guyan"][0]},
-                    f"Grid, {T.LABEL[c]} designed on the corrected Guyan model (cf. Fig. {FIG_NUMBERS_CG[c]})", ylabel))
+            tabs, figs = _grid_experiments(ctx, cfg, plant, seed, bars, runs, figdir)
+            tables += tabs
+            figures += figs
             bars.step("grid-experiments")
         if "limit-cycle" in groups:
             cb, done = bars.sub(f"limit cycle ({cfg['limit_cycle_s'] + cfg['limit_cycle_saturated_s']:.0f} s simulated)")
