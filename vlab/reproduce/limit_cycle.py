@@ -44,6 +44,7 @@ from controllers.realization import estimator_realization
 from ..analysis import closed_loop_modes
 from ..fe.damping import modal_damping_matrix, open_loop_ratios
 from ..errors import ModelError, SimulationError
+from ..lab.blocks import PC1000_DELAY_PERIODS
 from ..lab.engine import ControllerEngine
 from ..lab.linear_plant import LinearPlant
 from ..lab.loop import HardwareChain, run_loop
@@ -88,7 +89,7 @@ class SampledDataModes:
         return float(f[i]), float(z[i])
 
 
-def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay_periods: float = 1.35,
+def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay_periods: float = PC1000_DELAY_PERIODS,
                        filter_hz: float | None = 677.0) -> SampledDataModes:
     """Exact modes of the digital loop: plant, engine (Eq. 5.1), delay, hold, RC filter.
 
@@ -129,22 +130,48 @@ def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay
     if delay_periods < 0:
         raise ModelError(f"delay_periods must be >= 0, got {delay_periods}")
     m, c, k, u = (np.asarray(a, dtype=float) for a in (m, c, k, u))
-    n, na = u.shape
+    na = u.shape[1]
     f11, f12, f21, f22 = (np.asarray(a, dtype=float) for a in (f11, f12, f21, f22))
     if f11.shape != (na, na):
         raise ModelError(f"F11 must be ({na}, {na}) for {na} collocated pairs, got {f11.shape}")
+    az, bz, cz = _filtered_plant(m, c, k, u, filter_hz)
+    acl = _period_map(az, bz, cz, (f11, f12, f21, f22), period_s, delay_periods)
+    zz = np.linalg.eigvals(acl)
+    zz = zz[np.abs(zz) > 1e-12]
+    s = np.log(zz.astype(complex)) / period_s
+    keep = (s.imag > 1e-9) | ((np.abs(s.imag) <= 1e-9) & (zz.real > 0))
+    s = s[keep]
+    w = np.abs(s)
+    f = w / (2 * np.pi)  # undamped natural frequency, as vlab.analysis.closed_loop_modes
+    zeta = np.where(w > 0, -s.real / np.where(w > 0, w, 1.0), 1.0)
+    o = np.argsort(f)
+    return SampledDataModes(f[o], zeta[o], float(np.max(np.abs(zz))))
+
+
+def _filtered_plant(m: np.ndarray, c: np.ndarray, k: np.ndarray, u: np.ndarray,
+                    filter_hz: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C)`` of the plant from the DAC output to the collocated velocities, state ``[q'; q]`` and,
+    with an RC corner ``filter_hz`` [Hz], the filter state ``v' = w_c (dac - v)`` (force ``f = v``)."""
+    n, na = u.shape
     minv = np.linalg.inv(m)
     a = np.block([[-minv @ c, -minv @ k], [np.eye(n), np.zeros((n, n))]])
     b = np.vstack([minv @ u, np.zeros((n, na))])
     cy = np.hstack([u.T, np.zeros((na, n))])
-    if filter_hz:
-        wc = 2 * np.pi * filter_hz
-        az = np.block([[a, b], [np.zeros((na, 2 * n)), -wc * np.eye(na)]])
-        bz = np.vstack([np.zeros((2 * n, na)), wc * np.eye(na)])
-        cz = np.hstack([cy, np.zeros((na, na))])
-    else:
-        az, bz, cz = a, b, cy
-    nz = az.shape[0]
+    if not filter_hz:
+        return a, b, cy
+    wc = 2 * np.pi * filter_hz
+    az = np.block([[a, b], [np.zeros((na, 2 * n)), -wc * np.eye(na)]])
+    bz = np.vstack([np.zeros((2 * n, na)), wc * np.eye(na)])
+    cz = np.hstack([cy, np.zeros((na, na))])
+    return az, bz, cz
+
+
+def _period_map(az: np.ndarray, bz: np.ndarray, cz: np.ndarray, engine: tuple, period_s: float,
+                delay_periods: float) -> np.ndarray:
+    """The loop's one-period map of ``[z_k; x_k; u_{k-1} .. u_{k-d-1}]`` (see :func:`sampled_data_modes`);
+    ``engine`` = ``(F11, F12, F21, F22)``."""
+    f11, f12, f21, f22 = engine
+    nz, na = bz.shape
 
     def hold(h: float) -> tuple[np.ndarray, np.ndarray]:
         big = np.zeros((nz + na, nz + na))
@@ -181,16 +208,7 @@ def sampled_data_modes(m, c, k, u, f11, f12, f21, f22, period_s: float, *, delay
     acl[bi(0), nz:nz + nx] = f12
     for j in range(1, nb):
         acl[bi(j), bi(j - 1)] = np.eye(na)
-    zz = np.linalg.eigvals(acl)
-    zz = zz[np.abs(zz) > 1e-12]
-    s = np.log(zz.astype(complex)) / period_s
-    keep = (s.imag > 1e-9) | ((np.abs(s.imag) <= 1e-9) & (zz.real > 0))
-    s = s[keep]
-    w = np.abs(s)
-    f = w / (2 * np.pi)  # undamped natural frequency, as vlab.analysis.closed_loop_modes
-    zeta = np.where(w > 0, -s.real / np.where(w > 0, w, 1.0), 1.0)
-    o = np.argsort(f)
-    return SampledDataModes(f[o], zeta[o], float(np.max(np.abs(zz))))
+    return acl
 
 
 @dataclass(frozen=True)
@@ -458,29 +476,12 @@ def limit_cycle_study(ctx: ReproContext, *, duration_s: float = 180.0, saturated
     u = fe.force_input(acts)
     design = ctx.design("bcc", "lqg")
     filt = HardwareChain().filter_hz
-    cases: list[AnalysisCase] = []
-    for zh in (None, low_damping):
-        c = modal_damping_matrix(m, k, _ratios(fe.spec, fe.n, zh))
-        zh_v = float(_ratios(fe.spec, fe.n, zh)[N_MEASURED])
-        f_c, z_c = closed_loop_modes(m, c, k, u, u.T, design.continuous)
-        sel = (f_c >= BAND_HZ[0]) & (f_c <= BAND_HZ[1])
-        i = int(np.argmin(z_c[sel])) if sel.any() else 0
-        cases.append(AnalysisCase("continuous (no sampling, no delay)", None, 0.0, zh_v, tuple(f_c[sel]),
-                                  tuple(z_c[sel]), float(f_c[sel][i]), float(z_c[sel][i]), None))
-        for period in (0.5e-3, LQG_PERIOD_S):
-            real = _realization(design, period)
-            for delay in (0.0, 1.35):
-                sd = sampled_data_modes(m, c, k, u, real.F11, real.F12, real.F21, real.F22, period,
-                                        delay_periods=delay, filter_hz=filt)
-                fb, zb = sd.in_band()
-                lf, lz = sd.least_damped()
-                cases.append(AnalysisCase(f"T = {period * 1e3:g} ms, delay {delay:g} T", period, delay, zh_v,
-                                          tuple(fb), tuple(zb), lf, lz, sd.max_abs_z))
+    cases = _analysis_cases(fe, m, k, u, design, low_damping, filt)
     crit = {}
     zc, fc = critical_damping(m, k, u, fe.spec, None, None, 0.0, None, continuous=design.continuous)
     crit["continuous (no sampling, no delay)"] = {"zeta_crit": zc, "freq_hz": fc}
     for period in (0.5e-3, LQG_PERIOD_S):
-        for delay in (0.0, 1.35):
+        for delay in (0.0, PC1000_DELAY_PERIODS):
             zc, fc = critical_damping(m, k, u, fe.spec, _realization(design, period), period, delay, filt)
             crit[f"T = {period * 1e3:g} ms, delay {delay:g} T"] = {"zeta_crit": zc, "freq_hz": fc}
     if progress:
@@ -494,52 +495,84 @@ def limit_cycle_study(ctx: ReproContext, *, duration_s: float = 180.0, saturated
     done = 0.1
     total = sum(s[3] for s in settings)
     for label, zh, limit, dur in settings:
-        t0 = time.perf_counter()
-        c = modal_damping_matrix(m, k, _ratios(fe.spec, fe.n, zh))
-        zh_v = float(_ratios(fe.spec, fe.n, zh)[N_MEASURED])
-        pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
-        lp = LinearPlant(m, c, k, point_index=pidx, actuator_points=acts, timestep_s=LQG_PERIOD_S / 4)
-        engine = ControllerEngine(real.F11, real.F12, real.F21, real.F22, period_s=LQG_PERIOD_S)
-        chain = HardwareChain(period_s=LQG_PERIOD_S, noise_m_s=noise_m_s, amplifier_limit_n=limit)
         span = (1 - 0.1) * dur / total
 
         def prog(x: float, done=done, span=span) -> None:
             if progress:
                 progress(done + span * x)
-        diverged = False
-        try:
-            res = run_loop(lp, engine, feedback_points=acts, measured_points=(6,), excitation_point=acts[-1],
-                           excitation=np.zeros(int(round(dur / LQG_PERIOD_S))), duration_s=dur, chain=chain,
-                           seed=ctx.seed, progress=prog, shape_points=(6,), metadata={"study": "limit cycle"})
-        except SimulationError as exc:
-            res = exc.partial  # type: ignore[attr-defined]
-            diverged = True
+        runs.append(_virtual_run(ctx, fe, m, k, u, real, label, zh, limit, dur, noise_m_s, filt, prog))
         done += span
-        v = np.asarray(res.recording["vel6"])
-        dt = res.recording.dt_s
-        times, rms = _band_envelope(v, dt, BAND_HZ)
-        sd = sampled_data_modes(m, c, k, u, real.F11, real.F12, real.F21, real.F22, LQG_PERIOD_S,
-                                delay_periods=1.35, filter_hz=filt)
-        lf, lz = sd.least_damped()
-        pred = -lz * 2 * np.pi * lf  # Re s = -zeta |s|, |s| = 2 pi f (SampledDataModes)
-        grows = bool(len(rms) > 6 and rms.max() > 10 * np.median(rms[1:6]))
-        runs.append(LimitCycleRun(label, zh_v, limit, len(v) * dt, times, rms, _growth_rate(times, rms) if grows
-                                  else math.nan, float(pred), _dominant(v, dt, BAND_HZ), grows,
-                                  grows and _settled(rms), diverged, time.perf_counter() - t0))
     if progress:
         progress(1.0)
     return LimitCycleResult(tuple(cases), crit, tuple(runs), _conclusion(cases, crit, runs),
-                            {"lqg_period_s": LQG_PERIOD_S, "delay_periods": 1.35, "filter_hz": filt,
+                            {"lqg_period_s": LQG_PERIOD_S, "delay_periods": PC1000_DELAY_PERIODS, "filter_hz": filt,
                              "noise_m_s": noise_m_s, "band_hz": BAND_HZ, "plant": "linear",
                              "laboratory structure": lab.description})
+
+
+def _analysis_cases(fe, m, k, u, design, low_damping: float, filt: float | None) -> list[AnalysisCase]:
+    """The continuous loop and the sampled-data loops (0.5 and 1 ms, with and without the delay), with the
+    spec's damping of the unmeasured modes and with ``low_damping``."""
+    cases: list[AnalysisCase] = []
+    for zh in (None, low_damping):
+        c = modal_damping_matrix(m, k, _ratios(fe.spec, fe.n, zh))
+        zh_v = float(_ratios(fe.spec, fe.n, zh)[N_MEASURED])
+        f_c, z_c = closed_loop_modes(m, c, k, u, u.T, design.continuous)
+        sel = (f_c >= BAND_HZ[0]) & (f_c <= BAND_HZ[1])
+        i = int(np.argmin(z_c[sel])) if sel.any() else 0
+        cases.append(AnalysisCase("continuous (no sampling, no delay)", None, 0.0, zh_v, tuple(f_c[sel]),
+                                  tuple(z_c[sel]), float(f_c[sel][i]), float(z_c[sel][i]), None))
+        for period in (0.5e-3, LQG_PERIOD_S):
+            real = _realization(design, period)
+            for delay in (0.0, PC1000_DELAY_PERIODS):
+                sd = sampled_data_modes(m, c, k, u, real.F11, real.F12, real.F21, real.F22, period,
+                                        delay_periods=delay, filter_hz=filt)
+                fb, zb = sd.in_band()
+                lf, lz = sd.least_damped()
+                cases.append(AnalysisCase(f"T = {period * 1e3:g} ms, delay {delay:g} T", period, delay, zh_v,
+                                          tuple(fb), tuple(zb), lf, lz, sd.max_abs_z))
+    return cases
+
+
+def _virtual_run(ctx: ReproContext, fe, m, k, u, real, label: str, zh: float | None, limit: float | None,
+                 dur: float, noise_m_s: float, filt: float | None, prog: Callable[[float], None]) -> LimitCycleRun:
+    """One run of the LQG at rest on the linear plant (damping ``zh`` of the unmeasured modes, amplifier
+    limit ``limit``) and the growth the sampled-data analysis predicts for it."""
+    t0 = time.perf_counter()
+    acts = tuple(fe.spec.instrumentation.actuators)
+    c = modal_damping_matrix(m, k, _ratios(fe.spec, fe.n, zh))
+    zh_v = float(_ratios(fe.spec, fe.n, zh)[N_MEASURED])
+    pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
+    lp = LinearPlant(m, c, k, point_index=pidx, actuator_points=acts, timestep_s=LQG_PERIOD_S / 4)
+    engine = ControllerEngine(real.F11, real.F12, real.F21, real.F22, period_s=LQG_PERIOD_S)
+    chain = HardwareChain(period_s=LQG_PERIOD_S, noise_m_s=noise_m_s, amplifier_limit_n=limit)
+    diverged = False
+    try:
+        res = run_loop(lp, engine, feedback_points=acts, measured_points=(6,), excitation_point=acts[-1],
+                       excitation=np.zeros(int(round(dur / LQG_PERIOD_S))), duration_s=dur, chain=chain,
+                       seed=ctx.seed, progress=prog, shape_points=(6,), metadata={"study": "limit cycle"})
+    except SimulationError as exc:
+        res = exc.partial  # type: ignore[attr-defined]
+        diverged = True
+    v = np.asarray(res.recording["vel6"])
+    dt = res.recording.dt_s
+    times, rms = _band_envelope(v, dt, BAND_HZ)
+    sd = sampled_data_modes(m, c, k, u, real.F11, real.F12, real.F21, real.F22, LQG_PERIOD_S,
+                            delay_periods=PC1000_DELAY_PERIODS, filter_hz=filt)
+    lf, lz = sd.least_damped()
+    pred = -lz * 2 * np.pi * lf  # Re s = -zeta |s|, |s| = 2 pi f (SampledDataModes)
+    grows = bool(len(rms) > 6 and rms.max() > 10 * np.median(rms[1:6]))
+    return LimitCycleRun(label, zh_v, limit, len(v) * dt, times, rms, _growth_rate(times, rms) if grows
+                         else math.nan, float(pred), _dominant(v, dt, BAND_HZ), grows,
+                         grows and _settled(rms), diverged, time.perf_counter() - t0)
 
 
 def _conclusion(cases, crit, runs) -> str:
     base = [c for c in cases if c.higher_mode_damping == cases[0].higher_mode_damping]
     cont = base[0]
-    lab_case = next(c for c in base if c.period_s == LQG_PERIOD_S and c.delay_periods == 1.35)
+    lab_case = next(c for c in base if c.period_s == LQG_PERIOD_S and c.delay_periods == PC1000_DELAY_PERIODS)
     nodelay = next(c for c in base if c.period_s == LQG_PERIOD_S and c.delay_periods == 0.0)
-    fast_case = next(c for c in base if c.period_s == 0.5e-3 and c.delay_periods == 1.35)
+    fast_case = next(c for c in base if c.period_s == 0.5e-3 and c.delay_periods == PC1000_DELAY_PERIODS)
     zh = cont.higher_mode_damping
     stable = (lab_case.max_abs_z or 0.0) < 1.0
     parts = [
