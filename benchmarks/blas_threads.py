@@ -25,7 +25,7 @@ from vlab.diagnose.effects.specedit import add_mass
 from vlab.diagnose.model.labmodel import LabState, predict_frf
 from vlab.diagnose.model.nominal import plant_resolution
 from vlab.fe.assembly import build_fe_model
-from vlab.experiment.runner import default_chain, test_definition
+from vlab.experiment.config import default_chain, test_definition
 from vlab.spec import load_spec
 
 

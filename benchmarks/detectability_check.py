@@ -31,7 +31,8 @@ from vlab.diagnose.data.replay import linear_plant
 from vlab.diagnose.detectability import detectability, nominal_test
 from vlab.diagnose.effects.hypotheses import library
 from vlab.io.uff import write_recording
-from vlab.experiment.runner import ExperimentConfig, measure
+from vlab.experiment.config import ExperimentConfig
+from vlab.experiment.runner import measure
 
 #: (effect, location) pairs checked: structural and controller-path, chosen before any run.
 CASES = (("added_mass", {"point": 6}), ("added_mass", {"point": 2}), ("support_stiffness", {"point": 5, "dof": "w"}),

@@ -175,7 +175,7 @@ from vlab.errors import ModelError  # noqa: E402
 from vlab.fe import build_fe_model, modal_analysis  # noqa: E402
 from vlab.io.uff import write_recording  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
-from vlab.experiment.runner import TESTS, default_chain  # noqa: E402
+from vlab.experiment.config import TESTS, default_chain  # noqa: E402
 from vlab.io.recording import Recording  # noqa: E402
 from vlab.spec import ASSETS_DIR, Quantity, StructureSpec, load_spec  # noqa: E402
 from vlab.units import G_SI  # noqa: E402
@@ -464,7 +464,7 @@ def perturbation_scale(structure: str) -> dict:
         The FE model cannot be built.
     """
     from vlab.diagnose.model.modelform import model_form_uncertainty
-    from vlab.experiment.runner import test_definition
+    from vlab.experiment.config import test_definition
 
     spec = load_spec(structure)
     fe = build_fe_model(spec)

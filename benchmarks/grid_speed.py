@@ -44,7 +44,7 @@ from sim_speed import accuracy, measure_plant
 from vlab.design import design_controller
 from vlab.fe import build_fe_model
 from vlab.lab.engine import ControllerEngine
-from vlab.experiment.runner import default_chain, test_definition
+from vlab.experiment.config import default_chain, test_definition
 from vlab.lab.loop import run_loop
 from vlab.sim import MujocoPlant, SimOptions, build_plant, crosscheck
 from vlab.spec import load_spec

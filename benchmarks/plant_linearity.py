@@ -1,7 +1,7 @@
 """Is the MuJoCo plant's forced response linear at the test amplitude? (a check, not a speed benchmark)
 
 Drives ``MujocoPlant(build_plant(spec))`` open loop with the structure's test
-signal (:data:`vlab.experiment.runner.TESTS`: pseudo-random, its band and RMS) at
+signal (:data:`vlab.experiment.config.TESTS`: pseudo-random, its band and RMS) at
 the excitation point, once at full and once at ``--scale`` amplitude, and
 prints, for the response at the test's response point:
 
@@ -28,7 +28,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from vlab.lab.excitation import pseudo_random  # noqa: E402
-from vlab.experiment.runner import TESTS  # noqa: E402
+from vlab.experiment.config import TESTS  # noqa: E402
 from vlab.sim import MujocoPlant, build_plant  # noqa: E402
 from vlab.spec import load_spec  # noqa: E402
 

@@ -28,7 +28,7 @@ converged plant as the reference), the shapes taken at every structure point
 (sites ``p<ID>``) and at the crosspiece arm tips (sites ``<id>.tipa``,
 ``<id>.tipb``: the arms' anti-symmetric mode does not move the beam). For every
 converged mode up to the top of the structure's test band
-(:func:`vlab.experiment.runner.test_definition`: BCC 0.5-25 Hz, grid 0.2-10 Hz)
+(:func:`vlab.experiment.config.test_definition`: BCC 0.5-25 Hz, grid 0.2-10 Hz)
 the JSON holds:
 
 ``frequency_default_hz``, ``frequency_converged_hz``, ``damping_default``, ``damping_converged``
@@ -99,7 +99,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from vlab.fe import modal_analysis  # noqa: E402
-from vlab.experiment.runner import test_definition  # noqa: E402
+from vlab.experiment.config import test_definition  # noqa: E402
 from vlab.sim import (Plant, SimOptions, build_plant, crosscheck, fe_reference, linearize, modes,  # noqa: E402
                       pair_band, settle)
 from vlab.sim.linearize import site_jacobian_w  # noqa: E402

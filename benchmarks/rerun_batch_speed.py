@@ -41,7 +41,7 @@ from vlab.diagnose.effects import specedit
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design, settling_time
 from vlab.lab.excitation import pseudo_random
-from vlab.experiment.runner import TESTS, default_chain
+from vlab.experiment.config import TESTS, default_chain
 from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model
 

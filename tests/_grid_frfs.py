@@ -8,7 +8,7 @@ from vlab.diagnose.data.measured import FrfData
 from vlab.diagnose.model.labmodel import LabState, predict_frf
 from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
-from vlab.experiment.runner import TESTS
+from vlab.experiment.config import TESTS
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

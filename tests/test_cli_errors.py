@@ -171,7 +171,8 @@ def test_export_mjcf_overwrite(tmp_path):
 
 @pytest.fixture(scope="module")
 def short_run():
-    from vlab.experiment.runner import ExperimentConfig, run_experiment
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import run_experiment
     from vlab.models import nominal_fe_model
 
     cfg = ExperimentConfig(structure="bcc", controller="none", plant="linear", resolution_hz=0.25, duration_s=8.0)
@@ -191,7 +192,7 @@ def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
         raise RuntimeError("Failed to connect to Rerun server at rerun+http://127.0.0.1:9876/proxy")
 
     monkeypatch.setattr(rr.RecordingStream, "spawn", no_viewer)
-    import vlab.viz.rerun_log as rl
+    import vlab.viz.viewer as rl
 
     monkeypatch.setattr(rl, "viewer_unavailable_reason", lambda: None)
     out = tmp_path / "o"

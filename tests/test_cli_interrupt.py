@@ -117,7 +117,8 @@ def _interrupt_runs(tmp_path: Path, fake: str, seeds, window_s: float) -> list[s
 
 @pytest.fixture(scope="module")
 def pickled_result(tmp_path_factory):
-    from vlab.experiment.runner import ExperimentConfig, run_experiment
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import run_experiment
     from vlab.models import nominal_fe_model
 
     fe = nominal_fe_model("bcc")

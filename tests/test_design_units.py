@@ -170,7 +170,7 @@ def test_every_json_number_has_its_unit_in_its_key(args):
 
 def test_thesis_periods_and_default_chain():
     from vlab.design import thesis_period_s
-    from vlab.experiment.runner import ExperimentConfig
+    from vlab.experiment.config import ExperimentConfig
 
     assert thesis_period_s("lqg") == 1e-3  # "Delta t = 0.001 seconds", 1000 samples per second
     for c in ("mfdrf", "lqdrf", "lqdrf-diag", "none"):
@@ -183,7 +183,7 @@ def test_thesis_periods_and_default_chain():
 @pytest.fixture
 def quick_bcc_test(monkeypatch):
     """The BCC test at a 0.5 Hz resolution (2 s records) to keep the runs short."""
-    from vlab.experiment import runner as experiment
+    from vlab.experiment import config as experiment
 
     monkeypatch.setitem(experiment.TESTS, "bcc", replace(experiment.TESTS["bcc"], resolution_hz=0.5))
 
@@ -221,7 +221,8 @@ def test_lqg_experiment_runs_at_the_thesis_period_or_the_option(quick_bcc_test, 
 def test_lqg_realization_is_made_at_the_loop_period(quick_bcc_test):
     from vlab.design import design_controller
     from vlab.errors import ModelError
-    from vlab.experiment.runner import ExperimentConfig, run_experiment
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import run_experiment
 
     fe = nominal_fe_model("bcc")
     cfg = ExperimentConfig(structure="bcc", controller="lqg", plant="linear", duration_s=4.0)

@@ -25,7 +25,8 @@ from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.problem.context import context_for
 from vlab.fe import build_fe_model
 from vlab.io.uff import write_recording
-from vlab.experiment.runner import ExperimentConfig, default_chain, measure
+from vlab.experiment.config import ExperimentConfig, default_chain
+from vlab.experiment.runner import measure
 from vlab.spec import load_spec
 
 runner = CliRunner()

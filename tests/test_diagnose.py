@@ -16,7 +16,7 @@ from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.io.uff import write_recording
 from vlab.lab.excitation import pseudo_random
-from vlab.experiment.runner import TESTS, default_chain
+from vlab.experiment.config import TESTS, default_chain
 from vlab.lab.loop import HardwareChain
 from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model

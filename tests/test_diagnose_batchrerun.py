@@ -26,7 +26,7 @@ from vlab.diagnose.model.labmodel import LabState  # noqa: E402
 from vlab.diagnose.model.nominal import nominal_design  # noqa: E402
 from vlab.errors import ModelError, SimulationError  # noqa: E402
 from vlab.lab.excitation import pseudo_random  # noqa: E402
-from vlab.experiment.runner import TESTS, default_chain  # noqa: E402
+from vlab.experiment.config import TESTS, default_chain  # noqa: E402
 from vlab.io.recording import Recording  # noqa: E402
 from vlab.diagnose.data.run import DiagnosisRun  # noqa: E402
 from vlab.models import nominal_fe_model  # noqa: E402

@@ -15,7 +15,7 @@ from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.problem.context import context_for
 from vlab.errors import ModelError, SpecError
 from vlab.fe import build_fe_model
-from vlab.experiment.runner import TESTS
+from vlab.experiment.config import TESTS
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

@@ -13,7 +13,8 @@ import pytest
 
 import vlab
 from vlab.io.uff import write_recording
-from vlab.experiment.runner import ExperimentConfig, measure
+from vlab.experiment.config import ExperimentConfig
+from vlab.experiment.runner import measure
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

@@ -17,7 +17,8 @@ import vlab
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
 from vlab.diagnose.report.verdict import verdict
 from vlab.io.uff import write_recording
-from vlab.experiment.runner import ExperimentConfig, default_chain, measure
+from vlab.experiment.config import ExperimentConfig, default_chain
+from vlab.experiment.runner import measure
 from vlab.lab.linear_plant import LinearPlant
 from vlab.models import nominal_fe_model
 

@@ -19,7 +19,7 @@ from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
 from vlab.errors import ModelError
 from vlab.fe import build_fe_model, modal_analysis
-from vlab.experiment.runner import TESTS
+from vlab.experiment.config import TESTS
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

@@ -18,7 +18,7 @@ from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.validate import _on_recording_axis
 from vlab.errors import ModelError
 from vlab.lab.excitation import pseudo_random
-from vlab.experiment.runner import TESTS, default_chain
+from vlab.experiment.config import TESTS, default_chain
 from vlab.io.recording import Recording
 from vlab.models import nominal_fe_model
 

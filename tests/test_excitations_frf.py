@@ -14,9 +14,10 @@ import pytest
 
 from vlab.analysis import closed_loop_modes
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
-from vlab.experiment.runner import (
-    EXCITATIONS, TESTS, ExperimentConfig, not_meaningful, run_experiment, settle_records,
-)
+from vlab.experiment.checks import not_meaningful
+from vlab.experiment.config import EXCITATIONS, TESTS, ExperimentConfig
+from vlab.experiment.runner import run_experiment
+from vlab.experiment.settling import settle_records
 from vlab.models import nominal_fe_model
 
 RES_HZ = 0.25  # 4 s records
@@ -124,8 +125,9 @@ def test_cli_exits_1_on_not_meaningful_warning(short_open_loop, tmp_path, monkey
 
     import vlab.experiment.runner as ex
     from vlab.cli import app
+    from vlab.experiment.checks import NOT_MEANINGFUL
 
-    bad = replace(short_open_loop, warnings=("self-excited oscillation at 41.0 Hz (90 % ...); " + ex.NOT_MEANINGFUL,))
+    bad = replace(short_open_loop, warnings=("self-excited oscillation at 41.0 Hz (90 % ...); " + NOT_MEANINGFUL,))
     monkeypatch.setattr(ex, "run_experiment", lambda cfg, fe, **kw: bad)
     runner = CliRunner()
     out = tmp_path / "o"

@@ -12,7 +12,8 @@ from vlab.cli import app
 from vlab.errors import MeasurementError, ModelError
 from vlab.experiment.results import write_outputs
 from vlab.io.uff import read_frfs, read_recording
-from vlab.experiment.runner import ExperimentConfig, run_experiment
+from vlab.experiment.config import ExperimentConfig
+from vlab.experiment.runner import run_experiment
 from vlab.models import nominal_fe_model
 from vlab.viz.rerun_log import rrd_entity_paths
 
@@ -74,7 +75,7 @@ def test_cli_unknown_controller():
 
 
 def test_self_excited_oscillation_is_flagged():
-    from vlab.experiment.runner import self_excited_oscillation
+    from vlab.experiment.checks import self_excited_oscillation
 
     t = np.arange(40000) * 0.5e-3
     quiet = 0.01 * np.sin(2 * np.pi * 5 * t)

@@ -121,7 +121,8 @@ def bcc_fe():
 
 def _bcc_recording(fe, controller):
     import vlab
-    from vlab.experiment.runner import ExperimentConfig, measure
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import measure
 
     design = vlab.design("bcc", controller)
     cfg = ExperimentConfig(structure="bcc", controller=controller)

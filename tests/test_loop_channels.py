@@ -161,7 +161,7 @@ def _measured_frf(state, lines_hz, f0, exc, outs):
 def bcc_lab():
     from vlab.diagnose.model.labmodel import LabState
     from vlab.diagnose.model.nominal import nominal_design
-    from vlab.experiment.runner import default_chain
+    from vlab.experiment.config import default_chain
     from vlab.models import nominal_fe_model
 
     fe = nominal_fe_model("bcc")

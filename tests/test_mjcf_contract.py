@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from vlab.errors import DataFileError, ModelError, SimulationError
-from vlab.experiment.runner import ExperimentConfig, make_plant
+from vlab.experiment.config import ExperimentConfig
+from vlab.experiment.runner import make_plant
 from vlab.sim import MujocoPlant, build_plant, export_mjcf, load_plant_for_experiment
 from vlab.spec import load_spec
 

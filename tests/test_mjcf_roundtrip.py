@@ -24,7 +24,7 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 from vlab.design import PERIOD_S
-from vlab.experiment.runner import test_definition
+from vlab.experiment.config import test_definition
 from vlab.sim import build_plant, load_plant_for_experiment
 from vlab.spec import load_spec
 

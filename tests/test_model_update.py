@@ -152,7 +152,8 @@ def test_update_refuses_an_effect_of_the_hardware_chain(tmp_path):
 def test_concealed_mass_is_written_back_and_the_redesign_predicts_the_changed_plant(tmp_path):
     from vlab.design import design_controller
     from vlab.io.uff import write_recording
-    from vlab.experiment.runner import ExperimentConfig, make_plant, measure
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import make_plant, measure
     from vlab.sim import build_plant, export_mjcf
     from vlab.spec import LumpedMass, Quantity
 

@@ -120,7 +120,8 @@ def test_diagnosis_names_a_concealed_added_mass(tmp_path):
     from vlab.design import design_controller
     from vlab.fe import build_fe_model
     from vlab.io.uff import write_recording
-    from vlab.experiment.runner import ExperimentConfig, make_plant, measure
+    from vlab.experiment.config import ExperimentConfig
+    from vlab.experiment.runner import make_plant, measure
     from vlab.spec import LumpedMass, Quantity, load_spec
 
     nominal = load_spec(EXAMPLE)

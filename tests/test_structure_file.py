@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from vlab.cli import app
 from vlab.design import THESIS_SETTINGS, design_settings
 from vlab.errors import SpecError
-from vlab.experiment.runner import TESTS, test_definition
+from vlab.experiment.config import TESTS, test_definition
 from vlab.spec import STRUCTURES_DIR, load_spec, spec_from_dict
 
 runner = CliRunner()

@@ -180,7 +180,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     structure : str or StructureSpec
         ``"bcc"``, ``"grid"``, the path of a structure file or a spec from
         :func:`load_spec`, with a test definition (its ``[test]`` table or a
-        shipped one: :func:`vlab.experiment.runner.test_definition`).
+        shipped one: :func:`vlab.experiment.config.test_definition`).
     controller : {"none", "lqg", "mfdrf", "lqdrf", "lqdrf-diag"}
         Controller in the loop (``"none"``: open loop).
     plant : {"mujoco", "linear"}
@@ -231,7 +231,7 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     import math
 
     from .errors import OptionError
-    from .experiment.runner import ExperimentConfig, default_chain, test_definition
+    from .experiment.config import ExperimentConfig, default_chain, test_definition
     from .experiment.runner import run_experiment as _run
 
     if controller == "lqr":

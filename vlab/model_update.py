@@ -477,7 +477,8 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         As :func:`vlab.experiment.runner.run_experiment`.
     """
     from .fe import build_fe_model
-    from .experiment.runner import ExperimentConfig, default_chain, run_experiment
+    from .experiment.config import ExperimentConfig, default_chain
+    from .experiment.runner import run_experiment
     from .models import check_fe_model
 
     if controller in ("none", "lqr"):

@@ -3,7 +3,7 @@
 ``beam`` and ``frame`` are the files of ``assets/templates`` (a clamped-free
 beam with two coils; a U-shaped portal frame clamped at both feet), each
 with a ``[test]`` and a ``[design]`` table. ``bcc`` and ``grid`` copy a
-shipped structure file and append its test (:data:`vlab.experiment.runner.TESTS`,
+shipped structure file and append its test (:data:`vlab.experiment.config.TESTS`,
 Sec. 5.4.2) and design settings (:data:`vlab.design.THESIS_SETTINGS`,
 Secs. 6.1, 6.2) as tables, so that the copy keeps them when it is renamed.
 Every template loads as written (:func:`vlab.spec.load_spec`).
@@ -51,14 +51,14 @@ def template_text(kind: str) -> str:
 def _shipped_copy(name: str) -> str:
     """A shipped structure file with its test and design settings written out as tables."""
     from .design import THESIS_SETTINGS
-    from .experiment.runner import TESTS
+    from .experiment.config import TESTS
 
     t = TESTS[name]
     d = THESIS_SETTINGS[name]
     head = (f"# A copy of the shipped structure {name!r} (written by `vlab init {name}`).\n"
             "# Its test (Sec. 5.4.2) and design settings (Secs. 6.1, 6.2) are written out below as [test] and\n"
             "# [design] tables, so that they stay when you rename the structure ([structure] name) and edit it.\n\n")
-    test = (f"\n[test]\nsource = \"Sec. 5.4.2 (vlab.experiment.runner.TESTS['{name}'])\"\n"
+    test = (f"\n[test]\nsource = \"Sec. 5.4.2 (vlab.experiment.config.TESTS['{name}'])\"\n"
             f"band_hz = [{t.band_hz[0]!r}, {t.band_hz[1]!r}]\nresolution_hz = {t.resolution_hz!r}\n"
             f"rms_n = {t.rms_n!r}\nn_modes = {t.n_modes}\nresponse_point = {t.response_point}\n"
             f"measured_points = [{', '.join(str(p) for p in t.measured_points)}]\n"

@@ -53,7 +53,8 @@ import numpy as np
 
 from ..errors import ModelError, VlabError
 from ..fe import build_fe_model
-from ..experiment.runner import ExperimentConfig, default_chain, measure, test_definition
+from ..experiment.config import ExperimentConfig, default_chain, test_definition
+from ..experiment.runner import measure
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, refer_to_model
 from .data.readers import read_data

@@ -214,7 +214,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     resolution_hz : float, optional
         Frequency resolution = 1 / excitation period [Hz]; default: the
         recording's metadata, else the structure's test resolution
-        (:data:`vlab.experiment.runner.TESTS`).
+        (:data:`vlab.experiment.config.TESTS`).
     seed : int, optional
         Seed of the controller design's multi-start; default the recording's
         metadata seed, else 0. Replays and reruns carry no sensor noise

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import FEModel, build_fe_model
-from ..experiment.runner import test_definition
+from ..experiment.config import test_definition
 from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, ModalData, refer_to_model

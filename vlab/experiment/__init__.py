@@ -2,10 +2,18 @@
 
 Modules
 -------
+config
+    The modal test of each structure (:data:`~vlab.experiment.config.TESTS`, Sec. 5.4.2) and
+    the settings of one experiment (:class:`~vlab.experiment.config.ExperimentConfig`,
+    :func:`~vlab.experiment.config.default_chain`: the hardware chain of Sec. 5.3).
 runner
     :func:`~vlab.experiment.runner.run_experiment`: design, plant, the digital loop
     with its hardware chain (Sec. 5.3), the excitation and H1 measurement of Sec. 5.4,
     and the mode-by-mode comparison with the analysis (Tables 10, 19-21).
+settling
+    How many records the start-up transient needs to settle (Sec. 5.4.1).
+checks
+    Warnings about a finished run: under-resolved peaks, self-excited oscillations.
 results
     The experiment's output folder: ``results.json``, ``report.md``, UFF files, figures.
 """

@@ -162,7 +162,7 @@ def experiment_summary(result) -> dict:
     dict
         The stable keys listed in the module docstring (without ``files``).
     """
-    from .runner import period_source
+    from .config import period_source
 
     cfg = result.config
     d = result.design
@@ -344,7 +344,8 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
 def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[str, Path], list[str]]:
     """Write the experiment's files into the (temporary, empty) folder ``out``."""
     from ..viz.figures import frf_panels_figure
-    from ..viz.rerun_log import log_experiment, structure_geometry
+    from ..viz.rerun_log import log_experiment
+    from ..viz.rerun_structure import structure_geometry
     from ..io.uff import write_frfs, write_recording
 
     overwrite = False
@@ -357,7 +358,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
         "rerun": out / "run.rrd",
     }
     write_recording(files["recording"], result.loop.recording, overwrite=overwrite)
-    from .runner import test_definition
+    from .config import test_definition
 
     test = test_definition(spec)
     band = test.band_hz

@@ -18,190 +18,25 @@ import numpy as np
 
 from ..analysis import (
     closed_loop_frf,
-    closed_loop_modes,
     continuous_controller_frf,
     sampled_data_controller_frf,
     velocity_frf,
 )
-from ..fe.damping import structural_damping
 from ..errors import MeasurementError, ModelError
-from ..errors import SpecError
 from ..fe import FEModel
+from ..fe.damping import structural_damping
 from ..io.frf import FRF
+from ..io.recording import Recording
 from ..lab.engine import ControllerEngine
 from ..lab.excitation import periodic_chirp, pseudo_random, pulse_train
 from ..lab.linear_plant import LinearPlant
-from ..lab.loop import HardwareChain, LoopResult, check_design_period, run_loop
+from ..lab.loop import LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import h1
-from ..spec import StructureSpec, StructureTest, load_spec
-
-EXCITATIONS = ("random", "sweep", "impulse")
-
-
-TESTS = {
-    # BCC: 0-25 Hz random at point 9, displacement at point 6 (Sec. 5.4.2, Table 10)
-    "bcc": StructureTest((0.5, 25.0), 0.05, 0.5, 6, 6, (5, 6, 7, 9), "displacement"),
-    # grid: 0-10 Hz random at joint 4, velocity at joints 1-5, 8 (Sec. 5.4.2, Tables 19-21)
-    "grid": StructureTest((0.2, 10.0), 0.02, 0.2, 4, 4, (1, 2, 3, 4, 5, 8), "velocity"),
-}
-
-
-def test_definition(spec: StructureSpec | str) -> StructureTest:
-    """The modal test of a structure (Sec. 5.4): its own ``[test]`` table, else the shipped one.
-
-    A structure file's ``[test]`` table (band, resolution, force level,
-    points, response quantity; read by :func:`vlab.spec.load_spec`) wins;
-    without one, a structure named like a shipped one (``"bcc"``, ``"grid"``)
-    gets its entry of :data:`TESTS` (Sec. 5.4.2, Tables 10 and 19-21).
-
-    Parameters
-    ----------
-    spec : StructureSpec or str
-        The structure, or a name or TOML path for :func:`vlab.spec.load_spec`.
-
-    Returns
-    -------
-    StructureTest
-
-    Raises
-    ------
-    SpecError
-        The structure has no ``[test]`` table and no shipped test (the
-        message names its file and the fields to add); as :func:`load_spec`
-        for a name or path.
-    """
-    if isinstance(spec, (str, Path)):
-        spec = load_spec(spec)
-    if spec.test is not None:
-        return spec.test
-    if spec.name in TESTS:
-        return TESTS[spec.name]
-    raise SpecError(f"{spec._file()}: structure {spec.name!r} has no [test] table (band_hz, resolution_hz, rms_n, "
-                    f"n_modes, response_point, measured_points, response_quantity) and no shipped test "
-                    f"(shipped: {', '.join(TESTS)}); add one (`vlab init beam PATH` writes an example)")
-
-
-test_definition.__test__ = False  # not a pytest test, although its name starts with "test_"
-
-
-
-@dataclass(frozen=True)
-class ExperimentConfig:
-    """Settings of one experiment (the options of ``vlab experiment``).
-
-    Attributes
-    ----------
-    structure : str
-        Structure name (``"bcc"``, ``"grid"`` or the ``name`` of a structure file); the
-        test itself comes from the FE model's spec (:func:`test_definition`).
-    controller : str
-        ``"none"`` (open loop), ``"lqg"``, ``"mfdrf"``, ``"lqdrf"`` or
-        ``"lqdrf-diag"`` (:data:`vlab.design.CONTROLLERS`; ``"lqr"`` is refused:
-        it needs the full state).
-    reduction : str or None
-        Design model (``"full"``, ``"exact"``, ``"guyan"``,
-        ``"corrected-guyan"``); None = the thesis's choice
-        (:func:`vlab.design.design_controller`).
-    excitation : str
-        One of :data:`EXCITATIONS`: ``"random"`` (periodic pseudo-random),
-        ``"sweep"`` (a linear sweep across the band once per record) or
-        ``"impulse"`` (one half-sine pulse per record), in the structure's band
-        (Sec. 5.4); all three periodic over a record.
-    duration_s : float or None
-        Run length [s]; None = ``periods`` records of ``1 / resolution_hz``.
-    periods : int
-        Number of records of length ``1 / resolution_hz`` [s] run when
-        ``duration_s`` is None: ``periods - 1`` records are measured after the
-        settling records (one, or more for lightly damped modes; see
-        :func:`settle_records`).
-    chain : HardwareChain or None
-        Hardware between controller and coils (Sec. 5.3). None (default) =
-        the thesis chain at the thesis's sampling period for ``controller``
-        (:func:`vlab.design.thesis_period_s`: LQG 1 ms, the others 0.5 ms);
-        after construction it is always a :class:`HardwareChain`.
-    seed : int
-        Seed of the excitation, the sensor noise and the DRF optimisers' multi-start.
-    plant : str
-        ``"mujoco"`` (MuJoCo plant) or ``"linear"`` (the FE model stepped exactly).
-    mjcf : Path or None
-        An exported and possibly edited MJCF file to run instead of the plant
-        built from the spec (``"mujoco"`` only).
-    resolution_hz : float or None
-        FRF frequency resolution [Hz]; None = the structure's
-        :attr:`StructureTest.resolution_hz`.
-    """
-
-    structure: str = "bcc"
-    controller: str = "mfdrf"
-    reduction: str | None = None
-    excitation: str = "random"
-    duration_s: float | None = None
-    periods: int = 3
-    chain: HardwareChain | None = None
-    seed: int = 0
-    plant: str = "mujoco"
-    mjcf: Path | None = None
-    resolution_hz: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.chain is None:
-            object.__setattr__(self, "chain", default_chain(self.controller))
-
-
-def default_chain(controller: str, **settings) -> HardwareChain:
-    """The Sec. 5.3 hardware chain at the thesis's sampling period for ``controller``.
-
-    Parameters
-    ----------
-    controller : str
-        ``"none"`` or one of :data:`vlab.design.CONTROLLERS`; selects the
-        period (:func:`vlab.design.thesis_period_s`: LQG 1 ms, others 0.5 ms).
-    **settings
-        Other :class:`HardwareChain` fields (``delay_periods``, ``noise_m_s``,
-        ...); ``period_s`` here overrides the thesis period.
-
-    Returns
-    -------
-    HardwareChain
-
-    Raises
-    ------
-    ModelError
-        Unknown controller.
-    """
-    from ..design import thesis_period_s
-
-    settings.setdefault("period_s", thesis_period_s(controller))
-    return HardwareChain(**settings)
-
-
-def period_source(controller: str, period_s: float) -> str:
-    """Where a run's sampling period comes from, for reports: the thesis's value or a user setting.
-
-    Parameters
-    ----------
-    controller : str
-        ``"none"`` or one of :data:`vlab.design.CONTROLLERS`.
-    period_s : float
-        The period used [s].
-
-    Returns
-    -------
-    str
-        E.g. ``"thesis value for lqg (Sec. 5.3)"`` or ``"set by the user (thesis value for lqg: 1 ms)"``.
-
-    Raises
-    ------
-    ModelError
-        Unknown controller.
-    """
-    from ..design import thesis_period_s
-
-    ref = thesis_period_s(controller)
-    if abs(period_s - ref) <= 1e-12 * ref:
-        return f"thesis value for {controller} (Sec. 5.3)"
-    return f"set by the user (thesis value for {controller}: {ref * 1e3:g} ms)"
+from ..spec import StructureTest
+from .checks import self_excited_oscillation, under_resolved_peaks
+from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of
+from .settling import SETTLE_TOLERANCE, predicted_modes, settle_records, slowest_decay_rate
 
 
 @dataclass(frozen=True)
@@ -227,7 +62,7 @@ class ExperimentResult:
         The controller run (None for open loop).
     warnings : tuple of str
         Warnings of the run (a run too short to settle the slowest mode, self-excited
-        oscillation, modes not identified); see :func:`not_meaningful`.
+        oscillation, modes not identified); see :func:`~vlab.experiment.checks.not_meaningful`.
     """
 
     config: ExperimentConfig
@@ -242,11 +77,6 @@ class ExperimentResult:
     design: object | None
     plant_info: dict
     warnings: tuple[str, ...] = ()
-
-
-#: Remaining share of the start-up transient (relative to its initial amplitude) allowed when the
-#: settling records end; the records measured after it see a transient below this level.
-SETTLE_TOLERANCE = 0.01
 
 
 def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float, duration_s: float) -> Callable:
@@ -270,46 +100,6 @@ def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float
     if cfg.excitation == "impulse":
         return lambda t: pulse_train(t, peak_n=20 * test.rms_n, duration_s=1.5 / (1.2 * hi), period_s=record_s)
     raise ModelError(f"unknown excitation {cfg.excitation!r}; use one of {EXCITATIONS}")
-
-
-def settle_records(decay_rate_1_s: float | None, record_s: float, *, tolerance: float = SETTLE_TOLERANCE) -> int:
-    """Records to discard so that the start-up transient has decayed to ``tolerance``.
-
-    The free response started with the excitation decays as
-    ``exp(-sigma t)`` with ``sigma = zeta * 2 pi f_n`` of the slowest mode;
-    ``n = max(1, ceil(ln(1 / tolerance) / (sigma * record_s)))`` records bring
-    it below ``tolerance`` of its initial size (which is about the mode's
-    steady-state amplitude when the run starts at rest).
-
-    Parameters
-    ----------
-    decay_rate_1_s : float or None
-        Slowest decay rate ``sigma = zeta omega_n`` of the modes in band [1/s];
-        None = one record (no damping known).
-    record_s : float
-        Record length [s].
-    tolerance : float
-        Transient share left at the end of the settling records [-], in (0, 1).
-
-    Returns
-    -------
-    int
-        Number of settling records, at least 1.
-
-    Raises
-    ------
-    ModelError
-        A non-positive record length or decay rate, or a tolerance outside (0, 1).
-    """
-    if not record_s > 0:
-        raise ModelError(f"record_s must be > 0, got {record_s!r}")
-    if not 0 < tolerance < 1:
-        raise ModelError(f"tolerance must lie in (0, 1), got {tolerance!r}")
-    if decay_rate_1_s is None:
-        return 1
-    if not (np.isfinite(decay_rate_1_s) and decay_rate_1_s > 0):
-        raise ModelError(f"decay_rate_1_s must be a positive finite rate [1/s], got {decay_rate_1_s!r}")
-    return max(1, int(np.ceil(np.log(1.0 / tolerance) / (decay_rate_1_s * record_s) - 1e-9)))
 
 
 def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], timestep_s: float | None = None):
@@ -399,53 +189,6 @@ class Measurement:
     warnings: tuple[str, ...] = ()
 
 
-def _test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:
-    """The structure's test, its actuator points (channel order) and its excitation point; SpecError if none."""
-    return test_definition(fe.spec), tuple(fe.spec.instrumentation.actuators), fe.spec.instrumentation.excitation
-
-
-def _predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies [Hz] and damping ratios, each (n,), of the continuous closed loop's first test modes in band."""
-    test, acts, _ = _test_of(fe)
-    c = structural_damping(fe)
-    u = fe.force_input(acts)
-    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
-    in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
-    return fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
-
-
-def slowest_decay_rate(fe: FEModel, design=None) -> float | None:
-    """Slowest decay rate ``zeta_r omega_r`` [1/s] of the predicted modes in the test's band.
-
-    The modes are those of the continuous closed loop on the FE model with
-    the spec's open-loop modal damping (:func:`vlab.analysis.closed_loop_modes`;
-    open loop when ``design`` is None), the first ``n_modes`` of the test in
-    its band (:func:`test_definition`). It sets how many records :func:`measure` lets
-    settle (:func:`settle_records`).
-
-    Parameters
-    ----------
-    fe : FEModel
-        The nominal FE model (its spec selects the test).
-    design : ControllerDesign, optional
-        The controller (its ``continuous`` form); None = open loop.
-
-    Returns
-    -------
-    float or None
-        The smallest positive finite decay rate [1/s]; None when no mode in the band has one.
-
-    Raises
-    ------
-    SpecError
-        Structure without a test definition (:func:`test_definition`).
-    """
-    fm, zm = _predicted_modes(fe, design)
-    sigma = 2 * np.pi * fm * zm
-    sigma = sigma[np.isfinite(sigma) & (sigma > 0)]
-    return float(sigma.min()) if sigma.size else None
-
-
 def measure(
     cfg: ExperimentConfig,
     fe: FEModel,
@@ -464,8 +207,8 @@ def measure(
     ``cfg.chain`` (Sec. 5.3); the excitation of ``cfg.excitation`` is added at
     the structure's excitation channel. Every excitation repeats once per
     record of ``1 / resolution_hz`` seconds; the first records settle and are
-    discarded (:func:`settle_records`: enough for the slowest mode's start-up
-    transient to decay to :data:`SETTLE_TOLERANCE`), the rest are analysed
+    discarded (:func:`~vlab.experiment.settling.settle_records`: enough for the slowest mode's start-up
+    transient to decay to :data:`~vlab.experiment.settling.SETTLE_TOLERANCE`), the rest are analysed
     with H1 and a rectangular window over blocks of one record.
 
     Parameters
@@ -504,7 +247,7 @@ def measure(
     Raises
     ------
     SpecError
-        Structure without a test definition (:func:`test_definition`).
+        Structure without a test definition (:func:`~vlab.experiment.config.test_definition`).
     ModelError
         Unknown excitation or plant, a non-positive ``decay_rate_1_s``.
     MeasurementError
@@ -512,8 +255,36 @@ def measure(
     SimulationError
         The plant diverged (the message says when; the partial recording is kept).
     """
-    test, acts, exc_point = _test_of(fe)
+    test, acts, exc_point = test_of(fe)
     res_hz = cfg.resolution_hz or test.resolution_hz
+    duration, n_settle, warnings = _run_length(cfg, res_hz, decay_rate_1_s)
+    plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
+    info = {**info, "actuators": acts}
+    engine = None
+    if design is not None:
+        engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
+    meas = tuple(dict.fromkeys((measured_points or test.measured_points) + acts))
+    if shape_points is None:
+        shape_points = tuple(p for p in fe.spec.points if (p, "w") in fe.dofs)  # supports stay at rest
+    loop = run_loop(
+        plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
+        excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
+        seed=cfg.seed, progress=progress, shape_points=shape_points,
+        metadata=metadata if metadata is not None else _metadata(cfg, fe.spec.name, info.get("kind", "")),
+    )
+    rec = loop.recording
+    skip = int(round(n_settle * (1.0 / res_hz) / rec.dt_s))
+    frfs = _velocity_frfs(rec, skip, exc_point, meas, test, res_hz)
+    resp = frfs[f"vel{test.response_point}"]
+    f, h = resp.freq_hz, resp.h
+    if test.response_quantity == "displacement":
+        h = h / (2j * np.pi * f)
+    return Measurement(replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h, info, skip,
+                       tuple(warnings))
+
+
+def _run_length(cfg: ExperimentConfig, res_hz: float, decay_rate_1_s: float | None) -> tuple[float, int, list[str]]:
+    """Run length [s], settling records and warnings of :func:`measure` (see there); MeasurementError if too short."""
     record_s = 1.0 / res_hz
     n_settle = settle_records(decay_rate_1_s, record_s)
     duration = cfg.duration_s if cfg.duration_s is not None else (n_settle + cfg.periods - 1) * record_s
@@ -533,41 +304,31 @@ def measure(
             f"left when the measured record starts: its FRF and peak level may be off by up to about that; a run "
             f"of at least {(n_settle + 1) * record_s:g} s settles to {100 * SETTLE_TOLERANCE:g} %")
         n_settle = n_records - 1
-    plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
-    info = {**info, "actuators": acts}
-    engine = None
-    if design is not None:
-        engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)
-    meas = tuple(dict.fromkeys((measured_points or test.measured_points) + acts))
-    if shape_points is None:
-        shape_points = tuple(p for p in fe.spec.points if (p, "w") in fe.dofs)  # supports stay at rest
-    loop = run_loop(
-        plant, engine, feedback_points=acts, measured_points=meas, excitation_point=exc_point,
-        excitation=_excitation(cfg, test, res_hz, duration), duration_s=duration, chain=cfg.chain,
-        seed=cfg.seed, progress=progress, shape_points=shape_points,
-        metadata=metadata if metadata is not None else {
-            "structure": fe.spec.name, "controller": cfg.controller, "reduction": cfg.reduction,
-            "excitation": cfg.excitation, "seed": cfg.seed, "plant": info.get("kind", ""),
-            "chain": {"delay_periods": cfg.chain.delay_periods, "filter_hz": cfg.chain.filter_hz,
-                      "amplifier_gain": cfg.chain.amplifier_gain,
-                      "amplifier_limit_n": cfg.chain.amplifier_limit_n}},
-    )
-    rec = loop.recording
-    skip = int(round(n_settle * record_s / rec.dt_s))
+    return duration, n_settle, warnings
+
+
+def _metadata(cfg: ExperimentConfig, structure: str, plant_kind: str) -> dict:
+    """The recording's default metadata: structure, controller, excitation, seed, plant and hardware chain."""
+    return {
+        "structure": structure, "controller": cfg.controller, "reduction": cfg.reduction,
+        "excitation": cfg.excitation, "seed": cfg.seed, "plant": plant_kind,
+        "chain": {"delay_periods": cfg.chain.delay_periods, "filter_hz": cfg.chain.filter_hz,
+                  "amplifier_gain": cfg.chain.amplifier_gain,
+                  "amplifier_limit_n": cfg.chain.amplifier_limit_n}}
+
+
+def _velocity_frfs(rec: Recording, skip: int, exc_point: int, points: tuple[int, ...], test: StructureTest,
+                   res_hz: float) -> dict[str, FRF]:
+    """H1 velocity FRFs [(m/s)/N] of ``points`` after ``skip`` settling samples, on the test band's lines."""
     x = np.asarray(rec[f"force{exc_point}"])[skip:]
     window = "boxcar"  # every excitation is periodic over one record (_excitation)
     frfs = {}
-    for p in meas:
+    for p in points:
         frfs[f"vel{p}"] = h1(x, np.asarray(rec[f"vel{p}"])[skip:], dt_s=rec.dt_s, resolution_hz=res_hz,
                              window=window, f_max_hz=test.band_hz[1], input_name=f"force{exc_point}",
                              output_name=f"vel{p}", input_point=exc_point,
                              output_point=p).band(*test.band_hz)  # only the excited lines
-    resp = frfs[f"vel{test.response_point}"]
-    f, h = resp.freq_hz, resp.h
-    if test.response_quantity == "displacement":
-        h = h / (2j * np.pi * f)
-    return Measurement(replace(cfg, duration_s=duration, resolution_hz=res_hz), loop, frfs, f, h, info, skip,
-                       tuple(warnings))
+    return frfs
 
 
 def run_experiment(
@@ -605,7 +366,7 @@ def run_experiment(
     MeasurementError, SimulationError
         As :func:`measure`.
     """
-    test, acts, exc_point = _test_of(fe)
+    test, acts, exc_point = test_of(fe)
     if cfg.controller == "lqr":
         raise ModelError("LQR needs every state measured; the laboratory ran it as LQG (use --controller lqg)")
     if design is None and cfg.controller != "none":
@@ -616,7 +377,7 @@ def run_experiment(
     check_design_period(design, cfg.chain)
     c = structural_damping(fe)
     u = fe.force_input(acts)
-    fm, zm = _predicted_modes(fe, design)
+    fm, zm = predicted_modes(fe, design)
     m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
     f = m.freq_hz
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
@@ -648,117 +409,3 @@ def run_experiment(
         m.config, m.loop, m.frfs, f, h_cont, h_samp, m.measured, modes, average_error(modes), design,
         m.plant_info, tuple(warnings),
     )
-
-
-def under_resolved_peaks(freq_hz, damping, resolution_hz: float, *, lines_per_bandwidth: float = 2.0) -> list[str]:
-    """Warn about modes whose half-power bandwidth ``2 zeta f`` spans fewer than ``lines_per_bandwidth`` lines.
-
-    Peak levels are read on the FRF lines (:func:`vlab.measure.modal.peak_levels`,
-    Sec. 5.4.1). A peak narrower than the line spacing ``df`` may fall
-    between lines: a line ``df / 2`` from the natural frequency shows only
-    ``1 / sqrt(1 + (df / (2 zeta f))^2)`` of the peak (single mode near
-    resonance). Analysis and experiment are read on the same lines, so their
-    ratio is right when both peaks sit at the same frequency; a plant whose
-    mode is shifted by a fraction of a line changes the measured level by up
-    to that factor (the dissertation's explanation of its open-loop ratios,
-    Sec. 6.1, Table 2).
-
-    Parameters
-    ----------
-    freq_hz : array_like, shape (n_modes,)
-        Predicted natural frequencies [Hz].
-    damping : array_like, shape (n_modes,)
-        Predicted damping ratios zeta [-].
-    resolution_hz : float
-        FRF line spacing ``df`` [Hz].
-    lines_per_bandwidth : float
-        Lines a half-power bandwidth should span to be resolved.
-
-    Returns
-    -------
-    list of str
-        Empty, or one message listing every under-resolved mode with its
-        frequency, zeta, bandwidth and the worst-case level read on a line.
-
-    Raises
-    ------
-    ModelError
-        Shapes differ or a non-positive resolution.
-    """
-    f = np.asarray(freq_hz, dtype=float)
-    z = np.asarray(damping, dtype=float)
-    if f.shape != z.shape or f.ndim != 1:
-        raise ModelError(f"freq_hz {f.shape} and damping {z.shape} must be equal 1-D shapes")
-    if not resolution_hz > 0:
-        raise ModelError(f"resolution_hz must be > 0, got {resolution_hz!r}")
-    bw = 2 * z * f
-    bad = [i for i in range(f.size) if np.isfinite(bw[i]) and 0 < bw[i] < lines_per_bandwidth * resolution_hz]
-    if not bad:
-        return []
-    parts = []
-    for i in bad:
-        worst = 1.0 / np.sqrt(1.0 + (resolution_hz / bw[i]) ** 2)
-        parts.append(f"mode {i + 1} ({f[i]:.2f} Hz, zeta {z[i]:.4f}, bandwidth {bw[i]:.3f} Hz: a line may read "
-                     f"{100 * worst:.0f} % of the peak)")
-    return [f"peaks narrower than {lines_per_bandwidth:g} lines of {resolution_hz:g} Hz: " + "; ".join(parts)
-            + ". Analysis and experiment are read on the same lines; where the plant's mode is shifted by a fraction "
-              "of a line the peak level ratio of that mode is biased by up to that factor: use a finer resolution"]
-
-
-#: Phrase that marks a warning saying the run's FRF comparison cannot be used (see :func:`not_meaningful`).
-NOT_MEANINGFUL = "the FRF comparison is not meaningful"
-
-
-def not_meaningful(warnings) -> list[str]:
-    """The warnings that say the run's FRF comparison is not meaningful.
-
-    ``vlab experiment`` exits with status 1 when there is one, unless
-    ``--allow-unstable``.
-
-    Parameters
-    ----------
-    warnings : sequence of str
-        Warnings of a run (:attr:`ExperimentResult.warnings`).
-
-    Returns
-    -------
-    list of str
-        Those containing :data:`NOT_MEANINGFUL` (a self-excited oscillation or limit cycle).
-    """
-    return [w for w in warnings if NOT_MEANINGFUL in w]
-
-
-def self_excited_oscillation(v: np.ndarray, dt_s: float, *, band_hz: tuple[float, float]) -> list[str]:
-    """Warn when most of the response lies outside the excitation band.
-
-    A closed loop that destabilises a residual mode (spillover, Sec. 6.2.1) or
-    runs into a limit cycle (Sec. 6.1: "a limit cycle at approximately 41 Hz")
-    responds mostly at a frequency the excitation does not contain.
-
-    Parameters
-    ----------
-    v : ndarray, shape (n,)
-        Response velocity [m/s].
-    dt_s : float
-        Sampling interval [s].
-    band_hz : (float, float)
-        Excitation band [Hz].
-
-    Returns
-    -------
-    list of str
-        Empty, or one message naming the dominant frequency and its share of the RMS.
-    """
-    spec = np.abs(np.fft.rfft(v - np.mean(v))) ** 2
-    f = np.fft.rfftfreq(len(v), dt_s)
-    out = f > 1.2 * band_hz[1]
-    total = spec.sum()
-    if total <= 0 or spec[out].sum() < 0.5 * total:
-        return []
-    f_dom = f[out][np.argmax(spec[out])]
-    share = np.sqrt(spec[out].sum() / total)
-    return [
-        f"self-excited oscillation at {f_dom:.1f} Hz ({100 * share:.0f} % of the response RMS lies above the "
-        f"excitation band): the controller destabilises a mode outside its design model (spillover) or the "
-        f"loop runs in a limit cycle; {NOT_MEANINGFUL}"
-    ]

@@ -10,7 +10,7 @@ added to the excitation channel (BCC: point 9, 0.5-25 Hz; grid: joint 4,
 0.2-10 Hz), and the H1 FRF to the response point (BCC: displacement at
 point 6; grid: velocity at joint 4) is measured over the settled periods
 (as many settling periods as the slowest predicted mode needs to decay to
-1 %, :func:`vlab.experiment.runner.settle_records`).
+1 %, :func:`vlab.experiment.settling.settle_records`).
 The plant is the laboratory structure of :mod:`vlab.reproduce.context`
 (``plant="linear"``: stepped exactly; ``plant="mujoco"``: the MuJoCo model of
 the nominal spec).
@@ -36,7 +36,10 @@ from ..analysis import closed_loop_frf, closed_loop_modes, continuous_controller
 from ..design import ControllerDesign, DesignModel
 from ..errors import MeasurementError, ModelError
 from ..fe import FEModel
-from ..experiment.runner import ExperimentConfig, check_design_period, make_plant, measure, slowest_decay_rate, test_definition
+from ..experiment.config import ExperimentConfig, test_definition
+from ..experiment.runner import make_plant, measure
+from ..experiment.settling import slowest_decay_rate
+from ..lab.loop import check_design_period
 from ..lab.linear_plant import LinearPlant
 from ..measure.compare import compare_modes
 from .closedloop import actuator_input

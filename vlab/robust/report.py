@@ -92,7 +92,7 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
         "seed": cfg.seed,
         "chunk_size_samples": cfg.chunk_size,
         "uncertainties": [{"group": u.group, "kind": u.kind,
-                           ("spread_periods" if u.group == "delay_samples" else "spread_relative"): u.spread,
+                           ("spread_periods" if u.group == "delay_periods" else "spread_relative"): u.spread,
                            "source": u.source} for u in cfg.uncertainties],
         "controllers": {c: {"period_s": nominal.chains[c].period_s, "delay_periods": nominal.chains[c].delay_periods,
                             "filter_hz": nominal.chains[c].filter_hz} for c in cfg.controllers},
@@ -192,7 +192,7 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
     OSError
         From writing.
     """
-    from ..experiment.runner import TESTS
+    from ..experiment.config import TESTS
     from .figures import distribution_plots, time_history_plot
     from .markdown import markdown
     from .plants import per_plant

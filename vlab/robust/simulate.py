@@ -15,7 +15,7 @@ does:
 * :func:`vlab.measure.instability.find_instability` finds a self-excited
   line (a spectral line not caused by the force, far above the noise floor,
   with a steady or growing envelope), or
-* :func:`vlab.experiment.runner.self_excited_oscillation` finds most of the
+* :func:`vlab.experiment.checks.self_excited_oscillation` finds most of the
   response above the excitation band.
 
 Such a sample is *unstable on the MuJoCo plant*: its H1 is not a
@@ -42,7 +42,8 @@ from ..fe import build_fe_model
 from ..lab.batch import run_batch
 from ..lab.engine import ControllerEngine
 from ..lab.excitation import pseudo_random
-from ..experiment.runner import TESTS, self_excited_oscillation
+from ..experiment.checks import self_excited_oscillation
+from ..experiment.config import TESTS
 from ..lab.loop import HardwareChain
 from ..measure.frf import h1
 from ..measure.instability import find_instability

@@ -36,7 +36,7 @@ import numpy as np
 from ..fe.damping import open_loop_ratios
 from ..errors import OptionError
 from ..fe import build_fe_model
-from ..experiment.runner import TESTS, default_chain
+from ..experiment.config import TESTS, default_chain
 from ..models import nominal_fe_model
 from .sampled_loop import mode_damping, modal_plant, peak_levels, sampled_loop
 from .uncertainty import DEFAULTS, apply_sample, draw_sample

@@ -343,9 +343,9 @@ class ModelFormDeclared:
 class StructureTest:
     """How a structure is tested (Sec. 5.4): band, resolution, levels, points.
 
-    The shipped structures' tests are :data:`vlab.experiment.runner.TESTS`; any
+    The shipped structures' tests are :data:`vlab.experiment.config.TESTS`; any
     structure file may carry its own in a ``[test]`` table
-    (:func:`vlab.experiment.runner.test_definition` picks one).
+    (:func:`vlab.experiment.config.test_definition` picks one).
 
     Attributes
     ----------
@@ -428,7 +428,7 @@ class StructureSpec:
     test : StructureTest or None
         The ``[test]`` table (band, resolution, points of the modal test,
         Sec. 5.4); None = the shipped test of a structure of that name, if any
-        (:func:`vlab.experiment.runner.test_definition`).
+        (:func:`vlab.experiment.config.test_definition`).
     design_settings : dict[str, Any]
         The ``[design]`` table: controller-design settings (keys of
         :data:`vlab.spec.DESIGN_FIELDS`), checked for type and range;

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ...errors import DataFileError, VlabError
 from ...fe import FEModel
-from ...experiment.runner import test_definition
+from ...experiment.config import test_definition
 from ...spec import StructureSpec
 from .frfestimate import frfs_from_recording, frfs_from_uff
 
