@@ -14,7 +14,7 @@ import subprocess
 
 import pytest
 
-from vlab.viz import rerun_log
+from vlab.viz import rerun_log, viewer
 
 
 class _FakeViewer:
@@ -46,7 +46,7 @@ def fake_viewer(monkeypatch):
     monkeypatch.setattr(subprocess, "Popen", _FakeViewer)
     # rerun's own spawn (listens on 0.0.0.0) must not be used
     monkeypatch.setattr(rr.RecordingStream, "spawn", lambda self, **kw: sdk_spawns.append(kw))
-    monkeypatch.setattr(rerun_log, "_viewer_executable", lambda: "/opt/fake/rerun", raising=False)
+    monkeypatch.setattr(viewer, "_viewer_executable", lambda: "/opt/fake/rerun", raising=False)
     monkeypatch.setattr(rr.RecordingStream, "disconnect", lambda self: None)
     monkeypatch.setattr(rr.RecordingStream, "flush", lambda self, **kw: None)
     sinks = {}
@@ -69,23 +69,23 @@ def test_spawned_viewer_command_binds_loopback(tmp_path, fake_viewer):
 
 def test_spawn_viewer_url_and_errors(monkeypatch, fake_viewer):
     fake, _, _ = fake_viewer
-    proc, url = rerun_log.spawn_viewer(port=None, timeout_s=5.0)
+    proc, url = viewer.spawn_viewer(port=None, timeout_s=5.0)
     port = int(fake.calls[-1][fake.calls[-1].index("--port") + 1])
     assert url == f"rerun+http://127.0.0.1:{port}/proxy"
     assert proc.kwargs["start_new_session"] is True
     proc.sock.close()
     with pytest.raises(ValueError, match="port"):
-        rerun_log.viewer_command(0)
-    monkeypatch.setattr(rerun_log, "_viewer_executable", lambda: None)
+        viewer.viewer_command(0)
+    monkeypatch.setattr(viewer, "_viewer_executable", lambda: None)
     with pytest.raises(RuntimeError, match="not on PATH"):
-        rerun_log.spawn_viewer()
+        viewer.spawn_viewer()
 
 
 def test_viewer_that_exits_gives_runtime_error(monkeypatch):
-    monkeypatch.setattr(rerun_log, "viewer_command",
+    monkeypatch.setattr(viewer, "viewer_command",
                         lambda port, **kw: ["sh", "-c", "echo 'no render context' >&2; exit 3"])
     with pytest.raises(RuntimeError, match="status 3.*no render context"):
-        rerun_log.spawn_viewer(executable="sh", timeout_s=5.0)
+        viewer.spawn_viewer(executable="sh", timeout_s=5.0)
 
 
 def _listening(pid: int) -> list[tuple[str, int]]:
@@ -107,10 +107,10 @@ def _listening(pid: int) -> list[tuple[str, int]]:
 
 def test_real_headless_viewer_listens_on_loopback_only():
     """A real ``rerun --headless`` viewer: every socket it listens on is a loopback address."""
-    if rerun_log._viewer_executable() is None:
+    if viewer._viewer_executable() is None:
         pytest.skip("no rerun viewer executable")
     try:
-        proc, url = rerun_log.spawn_viewer(headless=True, timeout_s=20.0)
+        proc, url = viewer.spawn_viewer(headless=True, timeout_s=20.0)
     except RuntimeError as exc:
         pytest.skip(f"a headless rerun viewer cannot start here: {exc}")
     try:
@@ -122,4 +122,4 @@ def test_real_headless_viewer_listens_on_loopback_only():
         for ip, _ in addrs:
             assert ipaddress.ip_address(ip).is_loopback, f"viewer listens on {ip}: {addrs}"
     finally:
-        rerun_log._kill_group(proc)
+        viewer._kill_group(proc)

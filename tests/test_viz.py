@@ -11,7 +11,7 @@ import pytest
 
 from vlab.errors import DataFileError, MeasurementError, ModelError, VlabError
 from vlab.io.recording import Recording
-from vlab.viz import figures, rerun_log
+from vlab.viz import figures, rerun_common, rerun_log, rerun_structure
 
 DT = 0.5e-3
 N = 2000  # 1 s at 2 kHz
@@ -74,15 +74,15 @@ def test_rrd_read_back_with_rrdreader_directly(rrd):
     assert entry.application_id == "vlab" and entry.recording_id == "test-run"
     chunks = [c for c in reader.store().stream() if c.entity_path == "/signals/vel6" and not c.is_static]
     assert sum(c.num_rows for c in chunks) == N
-    assert all(rerun_log.SIM_TIMELINE in c.timeline_names for c in chunks)
+    assert all(rerun_common.SIM_TIMELINE in c.timeline_names for c in chunks)
 
 
 def test_rrd_row_counts_signals_animation_frfs(rrd):
-    sim = rerun_log.rrd_row_counts(rrd, timeline=rerun_log.SIM_TIMELINE)
+    sim = rerun_log.rrd_row_counts(rrd, timeline=rerun_common.SIM_TIMELINE)
     assert sim["signals/force9"] == N and sim["signals/u5"] == N
     assert sim["structure/members"] == 50  # 1 s decimated to 50 frames per second
     assert sim["structure/points"] == 50
-    freq = rerun_log.rrd_row_counts(rrd, timeline=rerun_log.FREQUENCY_TIMELINE)
+    freq = rerun_log.rrd_row_counts(rrd, timeline=rerun_common.FREQUENCY_TIMELINE)
     assert freq == {"frf/experiment/v6_f9/magnitude": 401, "frf/analysis/v6_f9/magnitude": 401}
 
 
@@ -92,7 +92,7 @@ def test_deformed_strips_hold_scaled_displacement(tmp_path):
     path = tmp_path / "shape.rrd"
     w = _displacement()
     rec = rerun_log.open_recording(path)
-    s = rerun_log.log_deformed_shapes(rec, POINTS, MEMBERS, w, dt_s=DT, fps=10.0, scale=100.0)
+    s = rerun_structure.log_deformed_shapes(rec, POINTS, MEMBERS, w, dt_s=DT, fps=10.0, scale=100.0)
     rerun_log.close_recording(rec)
     assert s == 100.0
     (chunk,) = [c for c in RrdReader(str(path)).store().stream()
@@ -107,20 +107,20 @@ def test_deformed_strips_hold_scaled_displacement(tmp_path):
 
 
 def test_frame_indices_decimate_to_fps():
-    np.testing.assert_array_equal(rerun_log.frame_indices(2000, 0.5e-3, 50.0), np.arange(0, 2000, 40))
-    np.testing.assert_array_equal(rerun_log.frame_indices(5, 0.1, 50.0), np.arange(5))  # already sparse
+    np.testing.assert_array_equal(rerun_structure.frame_indices(2000, 0.5e-3, 50.0), np.arange(0, 2000, 40))
+    np.testing.assert_array_equal(rerun_structure.frame_indices(5, 0.1, 50.0), np.arange(5))  # already sparse
 
 
 def test_auto_scale_maps_largest_deflection_to_ten_percent():
     xy = np.array(list(POINTS.values()))
-    assert rerun_log.auto_scale(xy, _displacement()) == pytest.approx(0.1 * 1.0 / 1e-3, rel=1e-3)
-    assert rerun_log.auto_scale(xy, np.zeros((3, 4))) == 1.0
+    assert rerun_structure.auto_scale(xy, _displacement()) == pytest.approx(0.1 * 1.0 / 1e-3, rel=1e-3)
+    assert rerun_structure.auto_scale(xy, np.zeros((3, 4))) == 1.0
 
 
 def test_structure_geometry_from_spec():
     from vlab.spec import load_spec
 
-    pts, members = rerun_log.structure_geometry(load_spec("bcc"))
+    pts, members = rerun_structure.structure_geometry(load_spec("bcc"))
     assert set(pts) >= {5, 6, 7, 9}
     assert all(len(m) >= 2 and set(m) <= set(pts) for m in members)
 
@@ -129,9 +129,9 @@ def test_errors_name_the_array(tmp_path):
     rec = rerun_log.open_recording(tmp_path / "bad.rrd")
     try:
         with pytest.raises(MeasurementError, match="displacement"):
-            rerun_log.log_deformed_shapes(rec, POINTS, MEMBERS, np.zeros((10, 3)), dt_s=DT)
+            rerun_structure.log_deformed_shapes(rec, POINTS, MEMBERS, np.zeros((10, 3)), dt_s=DT)
         with pytest.raises(ModelError, match="unknown point id"):
-            rerun_log.log_deformed_shapes(rec, POINTS, [(1, 99)], np.zeros((10, 4)), dt_s=DT)
+            rerun_structure.log_deformed_shapes(rec, POINTS, [(1, 99)], np.zeros((10, 4)), dt_s=DT)
         with pytest.raises(MeasurementError, match="'u5'"):
             rerun_log.log_signals(rec, np.arange(10) * DT, {"u5": np.zeros(9)})
         with pytest.raises(MeasurementError, match="'bad'.*h has shape"):

@@ -8,6 +8,12 @@ rerun_log
     (``structure/members``, ``structure/points``) and FRFs
     (``frf/<name>/magnitude`` on ``frequency_mhz``) to a ``.rrd`` file;
     :func:`~vlab.viz.rerun_log.rrd_entity_paths` reads one back.
+rerun_structure
+    The structure at rest and its animated deformed shape in a recording.
+viewer
+    A live rerun viewer listening on the loopback address only.
+rerun_common
+    Entity paths, timelines, colours and input checks the rerun modules share.
 figures
     :func:`~vlab.viz.figures.frf_figure` (log-magnitude FRFs as in Figs.
     22-31), :func:`~vlab.viz.figures.misfit_overlay` and
@@ -18,9 +24,10 @@ loaded when a function first needs them.
 """
 
 from .figures import comparison_bar, frf_figure, misfit_overlay
-from .rerun_log import (FREQUENCY_TIMELINE, SIM_TIMELINE, log_deformed_shapes, log_experiment, log_frfs,
-                        log_recording, log_signals, log_structure, open_recording, close_recording,
-                        rrd_entity_paths, rrd_row_counts, structure_geometry)
+from .rerun_common import FREQUENCY_TIMELINE, SIM_TIMELINE
+from .rerun_log import (close_recording, log_experiment, log_frfs, log_recording, log_signals, open_recording,
+                        rrd_entity_paths, rrd_row_counts)
+from .rerun_structure import log_deformed_shapes, log_structure, structure_geometry
 
 __all__ = [
     "FREQUENCY_TIMELINE", "SIM_TIMELINE",

@@ -47,6 +47,10 @@ function takes an explicit :class:`rerun.RecordingStream`.
 Reading back: :func:`rrd_entity_paths` and :func:`rrd_row_counts` use
 :class:`rerun.chunk.RrdReader`.
 
+The structure's entities are written by :mod:`vlab.viz.rerun_structure`, a
+live viewer is started by :mod:`vlab.viz.viewer`, and the entity paths and
+timelines are the constants of :mod:`vlab.viz.rerun_common`.
+
 Source: rerun-sdk 0.41 Python API (``RecordingStream``, ``send_columns``,
 ``TimeColumn``, ``rerun.chunk.RrdReader``).
 """
@@ -54,8 +58,6 @@ Source: rerun-sdk 0.41 Python API (``RecordingStream``, ``send_columns``,
 from __future__ import annotations
 
 import json
-import math
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -63,104 +65,23 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataFileError, MeasurementError, ModelError
+from .rerun_common import (FREQUENCY_TIMELINE, FRF_ROOT, META_ENTITY, PALETTE, SIGNALS_ROOT, SIM_TIMELINE,
+                           check_name, finite_1d, rerun_module)
+from .rerun_structure import log_deformed_shapes, log_structure
+from .viewer import spawn_viewer
 
 __all__ = [
-    "FREQUENCY_TIMELINE",
-    "FRF_ROOT",
-    "META_ENTITY",
-    "SIGNALS_ROOT",
-    "SIM_TIMELINE",
-    "STRUCTURE_MEMBERS",
-    "STRUCTURE_POINTS",
-    "STRUCTURE_UNDEFORMED",
-    "auto_scale",
     "close_recording",
     "default_blueprint",
-    "frame_indices",
-    "log_deformed_shapes",
     "log_experiment",
     "log_frfs",
     "log_metadata",
     "log_recording",
     "log_signals",
-    "log_structure",
     "open_recording",
-    "spawn_viewer",
-    "viewer_command",
     "rrd_entity_paths",
     "rrd_row_counts",
-    "structure_geometry",
 ]
-
-#: Simulation-time timeline (duration, seconds).
-SIM_TIMELINE = "sim_time"
-#: Frequency timeline of the FRFs (sequence, integer millihertz).
-FREQUENCY_TIMELINE = "frequency_mhz"
-#: Parent entity of the time series.
-SIGNALS_ROOT = "signals"
-#: Animated deformed members (line strips).
-STRUCTURE_MEMBERS = "structure/members"
-#: Animated structure points.
-STRUCTURE_POINTS = "structure/points"
-#: Members at rest (static).
-STRUCTURE_UNDEFORMED = "structure/undeformed"
-#: Parent entity of the FRFs; each FRF goes to ``frf/<name>/magnitude``.
-FRF_ROOT = "frf"
-#: Run metadata (static JSON text document).
-META_ENTITY = "meta/run"
-#: The only address a viewer started by vlab listens on (loopback, IPv4).
-VIEWER_BIND_ADDRESS = "127.0.0.1"
-
-_SEGMENT_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
-_MEMBER_COLOR = (40, 110, 200)
-_UNDEFORMED_COLOR = (150, 150, 150)
-_POINT_COLOR = (220, 80, 30)
-# Tableau-10: the colours of successive FRF curves.
-_PALETTE = (
-    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-    (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207),
-)
-
-
-def _rr():
-    """Import rerun lazily (keeps ``import vlab.viz`` cheap and side-effect free)."""
-    import rerun as rr
-
-    return rr
-
-
-# ------------------------------------------------------------- validation ---
-
-
-def _check_name(name: str, what: str) -> str:
-    """An entity-path name: segments of letters, digits, ``_ . -`` joined by '/'."""
-    if not isinstance(name, str) or not name:
-        raise MeasurementError(f"{what}: name must be a non-empty string, got {name!r}")
-    for seg in name.split("/"):
-        if not _SEGMENT_RE.match(seg):
-            raise MeasurementError(
-                f"{what}: name {name!r} is not a valid entity path; use letters, digits, "
-                "'_', '.', '-' and '/' between non-empty parts")
-    return name
-
-
-def _finite_1d(values: Any, what: str, *, n: int | None = None, dtype: Any = float) -> np.ndarray:
-    arr = np.asarray(values, dtype=dtype)
-    if arr.ndim != 1:
-        raise MeasurementError(f"{what}: expected a 1-D array, got shape {arr.shape}")
-    if n is not None and arr.size != n:
-        raise MeasurementError(f"{what}: expected shape ({n},), got {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise MeasurementError(f"{what}: {bad.size} non-finite value(s), first at index {bad[0]}")
-    return arr
-
-
-def _positive(value: float, what: str) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v <= 0.0:
-        raise MeasurementError(f"{what} must be a positive finite number, got {value!r}")
-    return v
 
 
 # -------------------------------------------------------------- recording ---
@@ -212,7 +133,7 @@ def open_recording(path: str | Path | None, *, app_id: str = "vlab", recording_i
     recording_id : str, optional
         Fixed recording id (e.g. derived from the run's seed); random if None.
     spawn : bool
-        Also start a rerun viewer process with :func:`spawn_viewer` (its
+        Also start a rerun viewer process with :func:`vlab.viz.viewer.spawn_viewer` (its
         gRPC server listens on the loopback address only) and stream to it
         live. Needs a display.
     blueprint : rerun.blueprint.Blueprint, optional
@@ -230,9 +151,9 @@ def open_recording(path: str | Path | None, *, app_id: str = "vlab", recording_i
     DataFileError
         ``path`` is None without ``spawn``, or does not end in ``.rrd``.
     RuntimeError
-        ``spawn`` and the viewer did not start (see :func:`spawn_viewer`).
+        ``spawn`` and the viewer did not start (see :func:`vlab.viz.viewer.spawn_viewer`).
     """
-    rr = _rr()
+    rr = rerun_module()
     if path is None and not spawn:
         raise DataFileError("open_recording: path is None and spawn is False: nothing would be written")
     if path is not None:
@@ -252,177 +173,6 @@ def open_recording(path: str | Path | None, *, app_id: str = "vlab", recording_i
     else:
         rec.save(str(path), default_blueprint=bp)
     return rec
-
-
-def _viewer_executable() -> str | None:
-    """The ``rerun`` viewer executable: on ``PATH`` or beside the Python interpreter."""
-    import os
-    import shutil
-    import sys
-
-    return shutil.which("rerun") or shutil.which("rerun", path=os.path.dirname(sys.executable))
-
-
-def viewer_command(port: int, *, executable: str = "rerun", headless: bool = False,
-                   memory_limit: str = "75%") -> list[str]:
-    """The command line that starts a rerun viewer listening on the loopback address only.
-
-    rerun's own :func:`rerun.spawn` (rerun-sdk 0.41) starts ``rerun --port P``
-    without ``--bind``, and the viewer's gRPC server then listens on
-    ``0.0.0.0`` (``rerun --help``: "--bind: What bind address IP to use
-    [default: 0.0.0.0]"), i.e. on every network interface: anyone on the
-    network could stream data into it. This command adds
-    ``--bind 127.0.0.1``.
-
-    Parameters
-    ----------
-    port : int
-        TCP port of the viewer's gRPC server, 1-65535.
-    executable : str
-        The ``rerun`` executable.
-    headless : bool
-        Add ``--headless`` (no window; the gRPC server still runs).
-    memory_limit : str
-        The viewer's ``--memory-limit`` (rerun's default for spawned viewers).
-
-    Returns
-    -------
-    list of str
-        ``[executable, "--bind", "127.0.0.1", "--port", str(port), ...]``.
-
-    Raises
-    ------
-    ValueError
-        ``port`` is not an integer in 1-65535.
-    """
-    if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
-        raise ValueError(f"viewer port must be an integer in 1-65535, got {port!r}")
-    cmd = [executable, "--bind", VIEWER_BIND_ADDRESS, "--port", str(port),
-           f"--memory-limit={memory_limit}", "--expect-data-soon"]
-    if headless:
-        cmd.append("--headless")
-    return cmd
-
-
-def _free_loopback_port() -> int:
-    import socket
-
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((VIEWER_BIND_ADDRESS, 0))
-        return int(s.getsockname()[1])
-
-
-def _kill_group(proc) -> None:
-    """Kill a process started with ``start_new_session=True`` and its children (the ``rerun``
-    launcher script runs the viewer binary as a child)."""
-    import os
-    import signal
-
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError, AttributeError):
-        proc.kill()
-    proc.wait()
-
-
-def spawn_viewer(*, port: int | None = None, timeout_s: float = 20.0, headless: bool = False,
-                 executable: str | None = None):
-    """Start a rerun viewer whose gRPC server listens on 127.0.0.1 only, and wait until it accepts connections.
-
-    Replaces :meth:`rerun.RecordingStream.spawn`, whose viewer listens on
-    all interfaces (see :func:`viewer_command`). The viewer runs in its own
-    session (detached, like rerun's ``detach_process=True``), so it stays
-    open after the run; its stderr goes to a temporary file that is quoted
-    if it fails to start.
-
-    Parameters
-    ----------
-    port : int, optional
-        TCP port; a free loopback port if None.
-    timeout_s : float
-        How long to wait [s] for the viewer to accept a TCP connection on
-        ``127.0.0.1:port``.
-    headless : bool
-        Start it without a window (``--headless``).
-    executable : str, optional
-        The ``rerun`` executable; looked up on ``PATH`` and beside the
-        Python interpreter if None.
-
-    Returns
-    -------
-    process : subprocess.Popen
-        The viewer process.
-    url : str
-        Its gRPC proxy URL, ``rerun+http://127.0.0.1:<port>/proxy``, for
-        :class:`rerun.GrpcSink`.
-
-    Raises
-    ------
-    RuntimeError
-        No ``rerun`` executable; the viewer exited before accepting
-        connections (the message quotes the end of its stderr); or it did
-        not accept a connection within ``timeout_s`` (it is then killed, with
-        its process group).
-    """
-    import os
-    import socket
-    import subprocess
-    import tempfile
-    import time
-
-    exe = executable or _viewer_executable()
-    if exe is None:
-        raise RuntimeError("the rerun viewer executable is not on PATH")
-    port = _free_loopback_port() if port is None else port
-    cmd = viewer_command(port, executable=exe, headless=headless)
-    env = dict(os.environ, RERUN_APP_ONLY="true")  # as rerun's spawn: no analytics prompt
-    with tempfile.TemporaryFile() as log:
-        proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=log,
-                                env=env, start_new_session=True)
-        deadline = time.monotonic() + float(timeout_s)
-        while True:
-            try:
-                with socket.create_connection((VIEWER_BIND_ADDRESS, port), timeout=0.5):
-                    break
-            except OSError:
-                pass
-            if proc.poll() is not None:
-                log.seek(0)
-                tail = log.read().decode("utf-8", "replace").strip().splitlines()[-3:]
-                raise RuntimeError(f"the rerun viewer exited with status {proc.returncode} before "
-                                   f"accepting connections on {VIEWER_BIND_ADDRESS}:{port}: "
-                                   + " | ".join(tail))
-            if time.monotonic() > deadline:
-                _kill_group(proc)
-                raise RuntimeError(f"the rerun viewer did not accept connections on "
-                                   f"{VIEWER_BIND_ADDRESS}:{port} within {timeout_s} s")
-            time.sleep(0.05)
-    return proc, f"rerun+http://{VIEWER_BIND_ADDRESS}:{port}/proxy"
-
-
-def viewer_unavailable_reason() -> str | None:
-    """Why a live rerun viewer (``spawn=True``) cannot be started here, or None if it can be tried.
-
-    Checked before a run starts (``vlab experiment --spawn``), so that a run
-    is not done only to fail when the viewer is spawned: on Linux and other
-    X11/Wayland systems a display (``DISPLAY`` or ``WAYLAND_DISPLAY``) is
-    needed, and on every system the ``rerun`` viewer executable (on ``PATH``
-    or beside the Python interpreter).
-
-    Returns
-    -------
-    str or None
-        A one-line reason, or None.
-    """
-    import os
-    import sys
-
-    if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
-            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        return "no display: neither DISPLAY nor WAYLAND_DISPLAY is set"
-    if _viewer_executable() is None:
-        return "the rerun viewer executable is not on PATH"
-    return None
 
 
 def close_recording(rec) -> None:
@@ -463,13 +213,13 @@ def log_signals(rec, time_s: Any, signals: Mapping[str, Any], *,
         array that is not 1-D, not finite, or of another length than
         ``time_s`` (the message names the signal).
     """
-    rr = _rr()
-    t = _finite_1d(time_s, "time_s")
+    rr = rerun_module()
+    t = finite_1d(time_s, "time_s")
     units = dict(units or {})
     paths = []
     for name, values in signals.items():
-        _check_name(name, "signal")
-        y = _finite_1d(values, f"signal {name!r}", n=t.size)
+        check_name(name, "signal")
+        y = finite_1d(values, f"signal {name!r}", n=t.size)
         entity = f"{root}/{name}"
         label = f"{name} [{units[name]}]" if name in units else name
         rec.log(entity, rr.SeriesLines(names=label), static=True)
@@ -534,250 +284,11 @@ def log_metadata(rec, metadata: Mapping[str, Any], *, entity: str = META_ENTITY)
     str
         The entity path.
     """
-    rr = _rr()
+    rr = rerun_module()
     text = json.dumps(dict(metadata), indent=2, sort_keys=True, default=str)
     rec.log(entity, rr.TextDocument(f"```json\n{text}\n```", media_type=rr.MediaType.MARKDOWN),
             static=True)
     return entity
-
-
-# -------------------------------------------------------------- structure ---
-
-
-def structure_geometry(spec) -> tuple[dict[int, tuple[float, float]], tuple[tuple[int, ...], ...]]:
-    """Points and member polylines of a :class:`~vlab.spec.StructureSpec`.
-
-    Returns
-    -------
-    points : dict of int to (float, float)
-        Point id -> (x, y) [m], in the spec's order.
-    members : tuple of tuple of int
-        Point ids of each member polyline.
-    """
-    return dict(spec.points), tuple(tuple(m.points) for m in spec.members)
-
-
-def _points_table(structure_points: Mapping[int, Sequence[float]],
-                  point_ids: Sequence[int] | None) -> tuple[list[int], np.ndarray]:
-    if not structure_points:
-        raise ModelError("structure_points is empty")
-    ids = list(structure_points) if point_ids is None else [int(p) for p in point_ids]
-    if len(set(ids)) != len(ids):
-        raise ModelError(f"point_ids: duplicate point id(s) {sorted({p for p in ids if ids.count(p) > 1})}")
-    xy = np.empty((len(ids), 2))
-    for i, p in enumerate(ids):
-        if p not in structure_points:
-            raise ModelError(f"point_ids: unknown point id {p}; structure points are {sorted(structure_points)}")
-        c = np.asarray(structure_points[p], dtype=float)
-        if c.shape != (2,) or not np.all(np.isfinite(c)):
-            raise ModelError(f"structure_points[{p}]: expected finite (x, y) [m], got {structure_points[p]!r}")
-        xy[i] = c
-    return ids, xy
-
-
-def _member_rows(members: Sequence[Any], ids: Sequence[int]) -> list[np.ndarray]:
-    """Row indices (into ``ids``) of each member polyline; members are id sequences or have ``.points``."""
-    if not members:
-        raise ModelError("members is empty: nothing to draw")
-    index = {p: i for i, p in enumerate(ids)}
-    rows = []
-    for k, m in enumerate(members):
-        pts = getattr(m, "points", m)
-        name = getattr(m, "id", k)
-        pts = [int(p) for p in pts]
-        if len(pts) < 2:
-            raise ModelError(f"member {name!r}: a polyline needs at least 2 points, got {pts}")
-        missing = [p for p in pts if p not in index]
-        if missing:
-            raise ModelError(f"member {name!r}: unknown point id(s) {missing}; points are {sorted(index)}")
-        rows.append(np.array([index[p] for p in pts], dtype=int))
-    return rows
-
-
-def log_structure(rec, structure_points: Mapping[int, Sequence[float]], members: Sequence[Any]) -> list[str]:
-    """Log the undeformed structure (static): members as grey strips, labelled points.
-
-    Parameters
-    ----------
-    rec : rerun.RecordingStream
-        From :func:`open_recording`.
-    structure_points : mapping of int to (float, float)
-        Point id -> (x, y) [m] in the structure plane.
-    members : sequence
-        Each a sequence of point ids (a polyline) or an object with a
-        ``points`` attribute (:class:`vlab.spec.Member`).
-
-    Returns
-    -------
-    list of str
-        ``["structure/undeformed"]``.
-
-    Raises
-    ------
-    ModelError
-        No points or members, a malformed coordinate, a member with fewer
-        than two points or an unknown point id.
-    """
-    rr = _rr()
-    ids, xy = _points_table(structure_points, None)
-    rows = _member_rows(members, ids)
-    xyz = np.column_stack([xy, np.zeros(len(ids))])
-    rec.log("structure", rr.ViewCoordinates.RIGHT_HAND_Y_UP, static=True)
-    rec.log(STRUCTURE_UNDEFORMED,
-            rr.LineStrips3D([xyz[r] for r in rows], colors=[_UNDEFORMED_COLOR], radii=[_radius(xy) * 0.5]),
-            static=True)
-    return [STRUCTURE_UNDEFORMED]
-
-
-def _radius(xy: np.ndarray) -> float:
-    """Line radius [m]: 0.4 % of the structure's size (at least 1 mm)."""
-    return max(0.004 * _structure_size(xy), 1e-3)
-
-
-def _structure_size(xy: np.ndarray) -> float:
-    """Size [m] of the structure: the largest extent of its points ``xy`` (n_points, 2); 1.0 for one point."""
-    return float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] > 1 else 1.0
-
-
-def frame_indices(n_frames: int, dt_s: float, fps: float) -> np.ndarray:
-    """Indices of the frames kept when decimating to ``fps`` frames per simulated second.
-
-    Frame ``k`` is at ``k * dt_s`` [s]; the first frame of every
-    ``1 / fps`` interval is kept, so the kept frames are evenly spaced when
-    ``1 / (fps * dt_s)`` is an integer. All frames are kept when they are
-    already sparser than ``fps``.
-
-    Returns
-    -------
-    numpy.ndarray of int, shape (n_kept,)
-
-    Raises
-    ------
-    MeasurementError
-        Non-positive ``n_frames``, ``dt_s`` or ``fps``.
-    """
-    if int(n_frames) != n_frames or n_frames < 1:
-        raise MeasurementError(f"n_frames must be a positive integer, got {n_frames!r}")
-    dt_s = _positive(dt_s, "dt_s")
-    fps = _positive(fps, "fps")
-    t = np.arange(int(n_frames)) * dt_s
-    bins = np.floor(t * fps + 1e-9).astype(np.int64)
-    _, first = np.unique(bins, return_index=True)
-    return first
-
-
-def auto_scale(structure_xy: Any, displacement: Any, *, fraction: float = 0.1) -> float:
-    """Scale factor that draws the largest displacement as ``fraction`` of the structure's size.
-
-    Parameters
-    ----------
-    structure_xy : array_like, shape (n_points, 2)
-        Point coordinates [m].
-    displacement : array_like, shape (n_frames, n_points)
-        Out-of-plane displacements [m].
-    fraction : float
-        Largest drawn deflection / largest extent of the structure.
-
-    Returns
-    -------
-    float
-        Dimensionless factor (1.0 when all displacements are zero).
-    """
-    xy = np.asarray(structure_xy, dtype=float)
-    w_max = float(np.max(np.abs(displacement))) if np.size(displacement) else 0.0
-    size = _structure_size(xy)
-    if w_max == 0.0 or size == 0.0:
-        return 1.0
-    return fraction * size / w_max
-
-
-def log_deformed_shapes(rec, structure_points: Mapping[int, Sequence[float]], members: Sequence[Any],
-                        displacement: Any, *, dt_s: float, point_ids: Sequence[int] | None = None,
-                        t0_s: float = 0.0, fps: float = 50.0, scale: float | None = None) -> float:
-    """Animate the deformed structure on ``sim_time`` (line strips + points), columnar.
-
-    Each kept frame draws every member polyline through its points at
-    ``(x, y, scale * w)``: the structure plane is (x, y), z is the
-    out-of-plane direction.
-
-    Parameters
-    ----------
-    rec : rerun.RecordingStream
-        From :func:`open_recording`.
-    structure_points : mapping of int to (float, float)
-        Point id -> (x, y) [m].
-    members : sequence
-        Point-id polylines or objects with ``points`` (:class:`vlab.spec.Member`).
-    displacement : array_like, shape (n_frames, n_points)
-        Out-of-plane displacement ``w`` [m] of the points, frame ``k`` at
-        ``t0_s + k * dt_s``; column ``j`` belongs to ``point_ids[j]``.
-    dt_s : float
-        Interval between displacement frames [s].
-    point_ids : sequence of int, shape (n_points,), optional
-        Point of each column; default: the order of ``structure_points``.
-        Every member point must be among them.
-    t0_s : float
-        Time of frame 0 [s].
-    fps : float
-        Frames per simulated second kept (decimation, :func:`frame_indices`).
-    scale : float, optional
-        Display factor on ``w``; default :func:`auto_scale` (largest
-        deflection = 10 % of the structure's size).
-
-    Returns
-    -------
-    float
-        The scale factor used (also logged in the entity's label).
-
-    Raises
-    ------
-    MeasurementError
-        ``displacement`` not 2-D, its column count not ``len(point_ids)``,
-        non-finite values, or bad ``dt_s``/``fps``/``scale``.
-    ModelError
-        Unknown point ids or malformed members.
-    """
-    rr = _rr()
-    ids, xy = _points_table(structure_points, point_ids)
-    rows = _member_rows(members, ids)
-    w = np.asarray(displacement, dtype=float)
-    if w.ndim != 2 or w.shape[1] != len(ids):
-        raise MeasurementError(
-            f"displacement: expected shape (n_frames, {len(ids)}) (one column per point of "
-            f"point_ids {ids}), got {w.shape}")
-    bad = np.argwhere(~np.isfinite(w))
-    if bad.size:
-        raise MeasurementError(f"displacement: non-finite value at frame {bad[0, 0]}, point {ids[bad[0, 1]]}")
-    t0 = float(t0_s)
-    if not math.isfinite(t0):
-        raise MeasurementError(f"t0_s must be finite, got {t0_s!r}")
-    keep = frame_indices(w.shape[0], dt_s, fps)
-    s = auto_scale(xy, w) if scale is None else _positive(scale, "scale")
-    wk = w[keep] * s                                   # (n_kept, n_points)
-    n_kept, n_pts = wk.shape
-    times = t0 + keep * float(dt_s)
-
-    # points: (n_kept, n_points, 3)
-    pos = np.empty((n_kept, n_pts, 3), dtype=np.float32)
-    pos[:, :, 0] = xy[:, 0]
-    pos[:, :, 1] = xy[:, 1]
-    pos[:, :, 2] = wk
-    strips = [pos[k, r] for k in range(n_kept) for r in rows]
-    index = [rr.TimeColumn(SIM_TIMELINE, duration=times)]
-    radius = _radius(xy)
-    rec.log(STRUCTURE_MEMBERS,
-            rr.LineStrips3D.from_fields(colors=[_MEMBER_COLOR], radii=[radius],
-                                        labels=[f"w x {s:.3g}"], show_labels=False),
-            static=True)
-    rec.send_columns(STRUCTURE_MEMBERS, indexes=index,
-                     columns=rr.LineStrips3D.columns(strips=strips).partition([len(rows)] * n_kept))
-    rec.log(STRUCTURE_POINTS,
-            rr.Points3D.from_fields(colors=[_POINT_COLOR], radii=[2.5 * radius],
-                                    labels=[str(p) for p in ids], show_labels=True),
-            static=True)
-    rec.send_columns(STRUCTURE_POINTS, indexes=index,
-                     columns=rr.Points3D.columns(positions=pos.reshape(-1, 3)).partition([n_pts] * n_kept))
-    return s
 
 
 # -------------------------------------------------------------------- FRF ---
@@ -793,7 +304,7 @@ def _frf_arrays(name: str, frf: Any) -> tuple[np.ndarray, np.ndarray]:
         raise MeasurementError(
             f"FRF {name!r}: expected a (freq_hz, h) pair or an object with freq_hz and h, "
             f"got {type(frf).__name__}")
-    f = _finite_1d(f, f"FRF {name!r} freq_hz")
+    f = finite_1d(f, f"FRF {name!r} freq_hz")
     h = np.asarray(h)
     if h.ndim != 1 or h.size != f.size:
         raise MeasurementError(f"FRF {name!r}: h has shape {h.shape}, freq_hz has shape {f.shape}")
@@ -831,10 +342,10 @@ def log_frfs(rec, frfs: Mapping[str, Any]) -> list[str]:
         frequencies, or frequencies not strictly increasing after rounding
         to 1 mHz (names the FRF); invalid names.
     """
-    rr = _rr()
+    rr = rerun_module()
     paths = []
     for i, (name, frf) in enumerate(frfs.items()):
-        _check_name(name, "FRF")
+        check_name(name, "FRF")
         f, h = _frf_arrays(name, frf)
         mhz = np.rint(f * 1000.0).astype(np.int64)
         if np.any(np.diff(mhz) <= 0):
@@ -845,7 +356,7 @@ def log_frfs(rec, frfs: Mapping[str, Any]) -> list[str]:
         with np.errstate(divide="ignore"):
             logmag = np.where(mag > 0.0, np.log10(np.where(mag > 0.0, mag, 1.0)), np.nan)
         entity = f"{FRF_ROOT}/{name}/magnitude"
-        rec.log(entity, rr.SeriesLines(names=f"{name} log10|H|", colors=[_PALETTE[i % len(_PALETTE)]]),
+        rec.log(entity, rr.SeriesLines(names=f"{name} log10|H|", colors=[PALETTE[i % len(PALETTE)]]),
                 static=True)
         rec.send_columns(entity, indexes=[rr.TimeColumn(FREQUENCY_TIMELINE, sequence=mhz)],
                          columns=rr.Scalars.columns(scalars=logmag))
@@ -899,7 +410,7 @@ def log_experiment(path: str | Path | None, *, recording=None,
     fps : float
         Animation frames per simulated second.
     scale : float, optional
-        Display factor on the displacement (default :func:`auto_scale`).
+        Display factor on the displacement (default :func:`vlab.viz.rerun_structure.auto_scale`).
     spawn : bool
         Also open a live rerun viewer.
     app_id, recording_id : str
