@@ -192,7 +192,7 @@ def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
         raise RuntimeError("Failed to connect to Rerun server at rerun+http://127.0.0.1:9876/proxy")
 
     monkeypatch.setattr(rr.RecordingStream, "spawn", no_viewer)
-    import vlab.viz.rerun_log as rl
+    import vlab.viz.viewer as rl
 
     monkeypatch.setattr(rl, "viewer_unavailable_reason", lambda: None)
     out = tmp_path / "o"

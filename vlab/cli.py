@@ -437,7 +437,7 @@ def design(
     from .design import design_controller
     from .experiment.results import design_summary
     from .io.tabular import Column
-    from .experiment.runner import period_source
+    from .experiment.config import period_source
 
     out = _output_format(fmt, as_json)
     period_s = _period_s(period_ms)
@@ -554,7 +554,9 @@ def experiment(
     from .io.atomic import atomic_dir
     from .experiment.results import experiment_summary, failed_premises, write_outputs
     from .io.tabular import Column
-    from .experiment.runner import ExperimentConfig, default_chain, not_meaningful, run_experiment, test_definition
+    from .experiment.checks import not_meaningful
+    from .experiment.config import ExperimentConfig, default_chain, test_definition
+    from .experiment.runner import run_experiment
 
     # --- every option, before any work
     out_fmt = _output_format(fmt, as_json)
@@ -1314,7 +1316,7 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
         Controller sampling period [s].
     duration_s : float or None
         Run length [s]; None = the default (settling records of the slowest
-        open-loop mode, :func:`vlab.experiment.runner.settle_records`, plus the
+        open-loop mode, :func:`vlab.experiment.settling.settle_records`, plus the
         measured records).
     delay_periods : float
         Computation delay [sampling periods].
@@ -1327,9 +1329,10 @@ def estimate_experiment(fe, *, plant: str, period_s: float, duration_s: float | 
     Raises
     ------
     SpecError
-        Structure without a test definition (:func:`vlab.experiment.runner.test_definition`).
+        Structure without a test definition (:func:`vlab.experiment.config.test_definition`).
     """
-    from .experiment.runner import ExperimentConfig, settle_records, slowest_decay_rate, test_definition
+    from .experiment.config import ExperimentConfig, test_definition
+    from .experiment.settling import settle_records, slowest_decay_rate
 
     test = test_definition(fe.spec)
     record_s = 1.0 / test.resolution_hz

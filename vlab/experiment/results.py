@@ -344,7 +344,8 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
 def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[str, Path], list[str]]:
     """Write the experiment's files into the (temporary, empty) folder ``out``."""
     from ..viz.figures import frf_panels_figure
-    from ..viz.rerun_log import log_experiment, structure_geometry
+    from ..viz.rerun_log import log_experiment
+    from ..viz.rerun_structure import structure_geometry
     from ..io.uff import write_frfs, write_recording
 
     overwrite = False
