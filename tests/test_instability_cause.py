@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from vlab.diagnose.fit.rules import branch, nearest_mode, reproduces_oscillation
-from vlab.diagnose.instability_cause import destabilising_value
+from vlab.diagnose.instability_cause import destabilising_value, recorded_growth_rate
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.model.nyquist import loop_stability, unstable_closed_loop_poles
@@ -86,6 +86,51 @@ def test_stability_boundary_agrees_with_the_time_domain_loop(bcc_mfdrf):
         growth[factor] = np.std(v[-2000:]) / np.std(v[1000:3000])
     assert growth[0.97] < 1.5
     assert growth[1.03] > 2.5
+
+
+def test_the_shifted_contour_counts_the_poles_growing_faster_than_the_recorded_rate(bcc_mfdrf):
+    """Past the stability boundary (delay 1.15 x its boundary value) the growth rate of vlab's 2 kHz loop on
+    the linear FE plant, fitted to the log-RMS of its time history, against the count on the contour shifted
+    to ``Re s = sigma``: two poles (one pair) faster than 0.9 of it, none faster than 1.1 of it."""
+    from vlab.diagnose.data.replay import rerun
+
+    st = bcc_mfdrf
+
+    def unstable(periods):
+        return loop_stability(replace(st, chain=replace(st.chain, delay_periods=periods))).unstable
+
+    a, b = 1.35, 40.0
+    for _ in range(10):
+        m = 0.5 * (a + b)
+        a, b = (a, m) if unstable(m) else (m, b)
+    s = replace(st, chain=replace(st.chain, delay_periods=1.15 * b))
+    force = np.random.default_rng(0).standard_normal(16000) * 0.1
+    run, _ = rerun(s, force, excitation_point=9, measured_points=(5,), plant="linear")
+    v = np.asarray(run["vel5"])
+    rms = np.array([np.std(v[i:i + 1000]) for i in range(0, v.size, 1000)])
+    t = np.arange(rms.size) * 1000 * 5e-4
+    sigma = np.polyfit(t[6:], np.log(rms[6:]), 1)[0]        # once the growing pole dominates
+    assert sigma > 0.5
+    assert loop_stability(s, sigma_1_s=0.9 * sigma).unstable_poles == 2
+    assert loop_stability(s, sigma_1_s=1.1 * sigma).unstable_poles == 0
+    with pytest.raises(ModelError, match="sigma_1_s"):
+        loop_stability(s, sigma_1_s=-1.0)
+
+
+def test_the_recorded_growth_rate_is_the_least_rate_that_made_the_rise():
+    def line(rise, growing=False, rate=0.0, se=0.0, point=5, f=135.56):
+        return {"point": point, "frequency_hz": f, "rise": rise, "growing": growing, "growth_rate_1_s": rate,
+                "growth_rate_se_1_s": se}
+
+    inst = {"frequency_hz": 135.56, "loop_point": 5, "resolution_hz": 0.25,
+            "oscillations": [line(1e3, point=9), line(np.e ** 6)]}
+    assert recorded_growth_rate(inst, 60.0) == pytest.approx(6 / 60)        # the loop's channel, ln(rise) / T
+    inst["oscillations"][1] = line(np.e ** 6, growing=True, rate=2.0, se=0.1)
+    assert recorded_growth_rate(inst, 60.0) == pytest.approx(1.7)           # still growing: its rate - 3 se
+    inst["oscillations"][1] = line(0.5)                                     # no rise: no bound beyond 0
+    assert recorded_growth_rate(inst, 60.0) == 0.0
+    inst["oscillations"] = [line(1e3, f=86.0)]                               # another line: no bound
+    assert recorded_growth_rate(inst, 60.0) == 0.0
 
 
 def test_loop_stability_needs_a_controller_and_a_sane_grid(bcc_mfdrf):

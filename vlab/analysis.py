@@ -123,7 +123,8 @@ def sampled_data_controller_frf(
     Parameters
     ----------
     freq_hz : array_like, shape (n_f,)
-        Frequencies [Hz], below the Nyquist frequency ``1 / (2 T)``.
+        Frequencies [Hz], below the Nyquist frequency ``1 / (2 T)``. A complex ``f - j sigma / (2 pi)``
+        evaluates ``K`` at ``s = sigma + j 2 pi f`` (every factor is analytic in ``s``).
     f11, f12, f21, f22 : ndarray
         Eq. (5.1) partitions, shapes (n_u, n_y), (n_u, n_x), (n_x, n_y), (n_x, n_x).
     period_s : float
@@ -141,7 +142,8 @@ def sampled_data_controller_frf(
     Source: Eqs. (5.1) and (5.13) (``z = e^{s T}``), Sec. 5.3 (delay 1.35 T,
     677 Hz RC filter, zero-order hold DAC).
     """
-    freq_hz = np.asarray(freq_hz, dtype=float)
+    freq_hz = np.asarray(freq_hz)
+    freq_hz = freq_hz.astype(complex if np.iscomplexobj(freq_hz) else float)
     nx = f22.shape[0]
     out = np.empty((len(freq_hz), *f11.shape), dtype=complex)
     for i, f in enumerate(freq_hz):

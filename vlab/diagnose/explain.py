@@ -27,7 +27,7 @@ from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
 from .fit.rules import needs_pairs, needs_rerun_check, prune, select, shortlisted, too_small_to_name
 from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
-from .instability_cause import search_cause
+from .instability_cause import recorded_growth_rate, search_cause
 from .model.labmodel import LabState
 from .problem.residuals import Problem
 from .report.result import DiagnosisResult
@@ -109,8 +109,10 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
         return None
     say("searching the cause of the oscillation")
     t = time.perf_counter()
+    growth = recorded_growth_rate(res.instability, problem.data.recording.duration_s)
     cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit, c_hat=res.overdispersion,
-                         plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant)
+                         plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant,
+                         growth_1_s=growth)
     timing["instability_cause"] = time.perf_counter() - t
     notes.append(cause.note(f0))
     for tr in cause.tried:

@@ -19,14 +19,21 @@ rejected by the FRF rules). The physics of an instability decides instead:
    the structure the rerun uses: the FE model damps its unmeasured modes
    at 1 % where the plant has 0.02-0.08 %, and on the FE model the 8.2 ms
    delay above left the loop stable. Without MuJoCo the FE model is used.
-   A hardware-chain candidate whose loop is stable at its fitted value is
-   moved to the nearest value that makes it unstable
-   (:func:`destabilising_value`), if the FRFs still support it there: a
-   limit cycle biases the FRF fit (its effective loop gain is not the
-   linear one), the same tier-2 benchmark's 2.97 ms delay on all channels
-   was fitted to 2.0 ms (95 % interval 1.5-2.5 ms), a stable loop.
+   A fit to a limit cycle's FRFs lands near the stability boundary (they
+   are the loop at the amplitude where the nonlinearity's describing
+   function makes it marginal), so a fitted candidate counts when its loop
+   is unstable at all. A hardware-chain candidate whose loop is stable at
+   its fitted value is moved (:func:`destabilising_value`), if the FRFs
+   still support it there, to the nearest value at which the loop grows
+   at least as fast as the recording did: an oscillation that grew
+   ``r``-fold within a record of ``T`` seconds needs a pole with
+   ``Re s >= ln(r) / T`` (saturation only slows the growth the linear loop
+   sets, :func:`recorded_growth_rate`), counted on the Nyquist contour
+   shifted to that rate; at the bare boundary a rerun would not grow at all.
 2. **Its rerun must oscillate on the same branch.** The candidates with an
-   unstable loop are rerun in the order of their fit (single effects
+   unstable loop are rerun -- the whole record from rest, as it was
+   recorded, so that the oscillation has the recording's time to grow --
+   in the order of their fit (single effects
    first, then pairs), at most :data:`MAX_RERUNS`; the first whose rerun
    oscillates by itself on the recording's branch
    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation` with the plant's
@@ -101,8 +108,10 @@ class CauseSearch:
     mode_hz : float
         The natural frequency [Hz] of the checked structure nearest the recorded oscillation.
     moved : list of (str, float, float)
-        Candidates moved from their fitted value to the nearest value that makes the loop unstable:
-        label, fitted and moved values [SI].
+        Candidates moved from their fitted value to the nearest value at which the loop grows at
+        ``growth_1_s``: label, fitted and moved values [SI].
+    growth_1_s : float
+        The least growth rate [1/s] of a moved candidate's loop (:func:`recorded_growth_rate`).
     """
 
     chosen: Hypothesis | None = None
@@ -114,6 +123,7 @@ class CauseSearch:
     moved: list = field(default_factory=list)
     above_band: bool = False
     mode_hz: float = float("nan")
+    growth_1_s: float = 0.0
 
     def note(self, frequency_hz: float) -> str:
         """One sentence for the report.
@@ -138,11 +148,51 @@ class CauseSearch:
                          + (" (reproduced)" if t["reproduced"] else "") for t in self.tried)
         stable = (f"; stable loops, not rerun: {', '.join(self.stable[:4])}"
                   + (f" and {len(self.stable) - 4} more" if len(self.stable) > 4 else "")) if self.stable else ""
-        moved = "".join(f"; {lab} moved from {a:.4g} to {b:.4g}, the nearest value that makes the loop unstable"
+        moved = "".join(f"; {lab} moved from {a:.4g} to {b:.4g}, the nearest value at which the loop grows at "
+                        f"least at the recorded rate ({self.growth_1_s:.3g} 1/s)"
                         for lab, a, b in self.moved)
         verdict = (f": {self.chosen.label} reproduces it" if self.chosen is not None
                    else ": none reproduces it (the cause is not identified)")
         return head + (": " + runs if runs else ": no candidate's loop is unstable") + moved + stable + verdict
+
+
+def recorded_growth_rate(instability: dict, duration_s: float) -> float:
+    """The least growth rate [1/s] of the loop that made a recorded self-excited oscillation.
+
+    The line in the oscillating loop's channel rose ``rise``-fold from the record's first segment to its
+    largest (:class:`vlab.measure.instability.Oscillation`), within the record's ``duration_s``; a linear loop
+    whose fastest pole is ``Re s = sigma`` multiplies a line by at most ``e^{sigma t}``, and saturation or any
+    other nonlinearity of a limit cycle only slows that, so ``sigma >= ln(rise) / duration_s``. A line still
+    growing at the end adds its own measured rate less three standard errors (the test that called it
+    growing).
+
+    Parameters
+    ----------
+    instability : dict
+        :meth:`vlab.measure.instability.InstabilityCheck.as_dict` of the recording (unstable).
+    duration_s : float
+        Length of the analysed record [s], > 0.
+
+    Returns
+    -------
+    float
+        [1/s], >= 0 (0 when no line of the loop's channel at the recorded frequency is listed).
+
+    Source: the envelope of a linear mode, ``e^{sigma t}``; the describing-function view of a limit cycle
+    (Gelb & Vander Velde, 1968, ch. 2): its amplitude grows while the linearised loop is unstable and stops
+    where the nonlinearity's gain brings the loop to its boundary.
+    """
+    f0, loop = instability.get("frequency_hz"), instability.get("loop_point")
+    lines = [o for o in instability.get("oscillations", ())
+             if o.get("point") == loop and f0 is not None
+             and abs(o["frequency_hz"] - f0) <= max(instability.get("resolution_hz", 0.0), 1e-9)]
+    if not lines or not duration_s > 0:
+        return 0.0
+    o = lines[0]
+    bound = math.log(max(float(o["rise"]), 1.0)) / duration_s
+    if o.get("growing"):
+        bound = max(bound, float(o["growth_rate_1_s"]) - 3.0 * float(o["growth_rate_se_1_s"]))
+    return max(bound, 0.0)
 
 
 def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int, loops):
@@ -190,7 +240,8 @@ def destabilising_value(h: Hypothesis, problem, unstable_at) -> float | None:
     problem : Problem
         Its data (the chi-square of the moved value).
     unstable_at : callable ``float -> bool``
-        Whether the lab with ``h`` of that size has an unstable loop.
+        Whether the lab with ``h`` of that size has an unstable loop (one that grows at least at the
+        recorded rate, :func:`recorded_growth_rate`).
 
     Returns
     -------
@@ -250,7 +301,7 @@ def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float, min_eviden
 
 
 def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, loops, *, chi2_0: float,
-                 c_hat: float, plant: str, seed: int, on_plant: bool) -> CauseSearch:
+                 c_hat: float, plant: str, seed: int, on_plant: bool, growth_1_s: float = 0.0) -> CauseSearch:
     """Find the library effect that makes the loop oscillate at the recording's self-excited frequency.
 
     Parameters
@@ -275,6 +326,9 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
         Seed of the reruns.
     on_plant : bool
         Check the loops on the MuJoCo plant's linearisation (else on the FE model).
+    growth_1_s : float
+        The least growth rate [1/s] of the recorded oscillation's loop (:func:`recorded_growth_rate`): a
+        chain effect stable at its fit is moved to where its loop grows that fast (0: to the boundary).
 
     Returns
     -------
@@ -300,17 +354,18 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             return model.state(h, x)
         return nominal if h is None else problem.state_for(h, x)
 
-    def poles(h: Hypothesis | None, x=None) -> int | None:
-        """Unstable closed-loop poles of ``h`` at ``x`` (None: a count the criterion cannot vouch for)."""
+    def poles(h: Hypothesis | None, x=None, sigma: float = 0.0) -> int | None:
+        """Closed-loop poles of ``h`` at ``x`` growing faster than ``e^{sigma t}`` (None: a count the
+        criterion cannot vouch for)."""
         try:
-            st = loop_stability(state_of(h, x))
+            st = loop_stability(state_of(h, x), sigma_1_s=sigma)
         except (ModelError, SpecError):
             return None
         return st.unstable_poles if st.trusted else None
 
     base = state_of(None)
     natural = structure_modes(base)[0]
-    out = CauseSearch(on=on, branch_hz=branch(frequency_hz, natural),
+    out = CauseSearch(on=on, branch_hz=branch(frequency_hz, natural), growth_1_s=float(growth_1_s),
                       above_band=frequency_hz > problem.ctx.band_hz[1], mode_hz=nearest_mode(frequency_hz, natural))
     # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
     screen = poles(None) == 0
@@ -321,7 +376,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
         if screen:
             z = poles(h)
             if z == 0 and h.n_params == 1 and state_of(h).spec is base.spec:  # a chain effect: move it
-                x = destabilising_value(h, problem, lambda v: bool(poles(h, v)))
+                x = destabilising_value(h, problem, lambda v: bool(poles(h, v, growth_1_s)))
                 g = None if x is None else _moved(h, problem, x, chi2_0, c_hat)
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))
@@ -331,7 +386,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                 continue
         try:
             v = validate(problem, nominal, problem.state_for(h, h.params_), plant=plant,
-                         spec_level=h.spec_level, seed=seed, key=rerun_key(h))
+                         spec_level=h.spec_level, seed=seed, key=rerun_key(h), whole_record=True)
         except (VlabError, ImportError) as exc:
             out.tried.append({"effect": h.effect, "label": h.label, "unstable_poles": z, "rerun_frequencies_hz": [],
                               "reproduced": False, "error": str(exc)})

@@ -77,7 +77,7 @@ class Validation:
 
 
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
-             seed: int = 0, key: str | None = None, workers: int = 2) -> Validation:
+             seed: int = 0, key: str | None = None, workers: int = 2, whole_record: bool = False) -> Validation:
     """Rerun the recorded experiment on the nominal and the modified lab and compare with the recording.
 
     Parameters
@@ -96,6 +96,10 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         (the nominal rerun is always cached).
     workers : int
         Run the two reruns in parallel processes when > 1 and both are needed.
+    whole_record : bool
+        Rerun the whole record from rest, as it was recorded (default: from a warm start before the analysed
+        periods, :mod:`vlab.diagnose.data.warmstart`): what grows over the record -- a self-excited
+        oscillation -- grows in the rerun over the same time from the same start.
 
     Returns
     -------
@@ -131,8 +135,13 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
         note = (f" built from the spec (the effect cannot be applied to {nominal.mjcf}: the nominal rerun is "
                 "made there too)")
 
+    window = None
+    if whole_record:
+        window = (0, 0, None)
+        base_key, key = f"{base_key}@whole", (None if key is None else f"{key}@whole")
+
     def both(k: str) -> list[Recording]:
-        runs = reruns(problem, [(base, base_key), (modified, key)], k, seed=seed, workers=workers)
+        runs = reruns(problem, [(base, base_key), (modified, key)], k, seed=seed, workers=workers, window=window)
         for r in runs:
             if isinstance(r, VlabError):
                 raise r

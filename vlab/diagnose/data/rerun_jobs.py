@@ -181,7 +181,8 @@ def stop_background(problem) -> None:
         recv.close()
 
 
-def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None) -> list:
+def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None,
+           window: tuple | None = None) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
     Several MuJoCo reruns (:data:`BATCH_MIN_RERUNS` or more, see ``batch``)
@@ -211,6 +212,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         True: run MuJoCo reruns that can share a batch as one (two or more);
         False: processes only; None (default): as one batch when
         :data:`BATCH_RERUNS` and at least :data:`BATCH_MIN_RERUNS` are to be made.
+    window : (int, int, int or None), optional
+        ``(start, period, stop)`` ticks of the reruns (default :func:`~vlab.diagnose.data.warmstart.rerun_window`:
+        a warm start before the analysed periods; ``(0, 0, None)``: the whole record from rest). The cache
+        keys must name a window other than the default.
 
     Returns
     -------
@@ -220,7 +225,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s)
+    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s) if window is None else window
     pts = tuple(data.output_points)
     cache, pending = problem.run.reruns, problem.run.background
     _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core

@@ -174,6 +174,14 @@ def _coupling(state: LabState, md: Modes) -> np.ndarray | None:
 COUPLED_BAND = 2.5
 
 
+def frequencies(freq_hz) -> np.ndarray:
+    """``freq_hz`` as a float array, or complex where given complex: ``f - j sigma / (2 pi)`` stands for the
+    Laplace variable ``s = sigma + j 2 pi f`` (every response of this module is analytic in ``s``; a shifted
+    Nyquist contour evaluates them there, :func:`vlab.diagnose.model.nyquist.loop_stability`)."""
+    f = np.asarray(freq_hz)
+    return f.astype(complex if np.iscomplexobj(f) else float)
+
+
 def _coupled_block(omega, zeta, ph, w, coupling, idx) -> np.ndarray:
     """Receptance [m/N] of the modes ``idx`` with their damping coupling, shape (n_f, n_p, n_p): the state-space
     modes of ``q'' + C_m q' + Omega^2 q = Phi^T f`` (``C_m`` = diag(2 zeta omega) + coupling), summed exactly."""
@@ -198,7 +206,7 @@ def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
     r = 1.0 / den
     idx = np.array([], dtype=int)
     if coupling is not None and w.size:
-        idx = np.flatnonzero(omega <= COUPLED_BAND * np.max(w))
+        idx = np.flatnonzero(omega <= COUPLED_BAND * np.max(w.real))
         if idx.size < 2:
             idx = np.array([], dtype=int)
         r[:, idx] = 0.0
@@ -270,7 +278,7 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
     ModelError
         Unknown or constrained point, unstable model.
     """
-    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
+    w = 2 * np.pi * frequencies(freq_hz)
     dash = [(p, c) for p, c in state.dashpots if c > 0.0] + [(p, c) for p, _f, c in state.frictions if c > 0.0]
     d_pts = [p for p, _ in dash]
     all_pts = list(out_points) + list(in_points) + d_pts
@@ -337,7 +345,7 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     if d is None:
         return None
     ch = state.chain
-    f = np.asarray(freq_hz, dtype=float)
+    f = frequencies(freq_hz)
     core = _controller_core(d, ch.period_s, f)
     w = 2 * np.pi * f
     if ch.channel_delay_periods:  # a delay per output channel: the rows of K
@@ -355,7 +363,7 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
 
 def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
     """Zero-order hold ``(1 - e^{-jwT}) / (jwT)`` at ``freq_hz`` [Hz] for a period ``period_s`` [s], shape (n_f,)."""
-    wt = 2 * np.pi * np.asarray(freq_hz, dtype=float) * period_s
+    wt = 2 * np.pi * frequencies(freq_hz) * period_s
     out = np.ones_like(wt, dtype=complex)
     nz = wt != 0
     out[nz] = (1 - np.exp(-1j * wt[nz])) / (1j * wt[nz])
@@ -366,7 +374,7 @@ def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
     """Diagonal of ``A(w)`` of ``state`` at ``freq_hz`` [Hz]: amplifier gain x channel gain x lag x
     saturation gain, shape (n_f, n_act)."""
     ch = state.chain
-    f = np.asarray(freq_hz, dtype=float)
+    f = frequencies(freq_hz)
     g = np.array([ch.amplifier_gain * ch.actuator_gain.get(p, 1.0) * _saturation_gain(state, p)
                   for p in state.actuators], dtype=complex)
     a = np.broadcast_to(g, (len(f), len(g))).copy()
@@ -394,7 +402,7 @@ def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
     """Diagonal of ``S(w)`` of ``state`` at ``freq_hz`` [Hz]: sensor gain x discrete first-order lag,
     shape (n_f, n_act)."""
     ch = state.chain
-    f = np.asarray(freq_hz, dtype=float)
+    f = frequencies(freq_hz)
     g = np.array([ch.sensor_gain.get(p, 1.0) for p in state.actuators], dtype=complex)
     s = np.broadcast_to(g, (len(f), len(g))).copy()
     if ch.channel_sensor_lag_hz:

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ModelError
-from .labmodel import LabState, actuator_path, controller_frf, plant_frf, sensor_path, structure_modes
+from .labmodel import LabState, actuator_path, controller_frf, frequencies, plant_frf, sensor_path, structure_modes
 
 #: Largest phase turn of ``det(I + L)`` between neighbouring grid points [rad] before the step is halved.
 MAX_STEP_RAD = 0.25
@@ -54,9 +54,10 @@ class LoopStability:
     Attributes
     ----------
     unstable_poles : int
-        ``Z``, the closed-loop poles in the right half-plane (complex pairs count 2).
+        ``Z``, the closed-loop poles to the right of ``Re s = sigma_1_s`` (complex pairs count 2): with
+        ``sigma_1_s = 0`` the unstable poles.
     open_loop_unstable : int
-        ``P``, the controller's unstable poles.
+        ``P``, the controller's poles there (``|z| > e^{sigma T}``).
     winding : float
         Phase change of ``det(I + L)`` over ``0 < f < f_max`` divided by ``2 pi`` (half the turns).
     f_max_hz : float
@@ -65,6 +66,8 @@ class LoopStability:
         Largest singular value of ``L`` at ``f_max_hz``: the count is exact only when it is small.
     n_points : int
         Grid points after refinement.
+    sigma_1_s : float
+        The shift of the contour [1/s]: poles that grow faster than ``e^{sigma t}`` were counted.
     """
 
     unstable_poles: int
@@ -73,6 +76,7 @@ class LoopStability:
     f_max_hz: float
     closure: float
     n_points: int
+    sigma_1_s: float = 0.0
 
     @property
     def unstable(self) -> bool:
@@ -130,7 +134,7 @@ def loop_transfer(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
 
     Source: the loop of :func:`~vlab.diagnose.model.labmodel.predict_frf` (Fig. 21).
     """
-    f = np.asarray(freq_hz, dtype=float)
+    f = frequencies(freq_hz)
     k = controller_frf(state, f)
     if k is None:
         raise ModelError("the loop's stability needs a controller (the lab is open loop)")
@@ -208,8 +212,14 @@ def unstable_closed_loop_poles(det_of, f_max_hz: float, open_loop_unstable: int,
     return open_loop_unstable - int(round(2 * winding)), winding, int(f.size)
 
 
-def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: float = 1.0) -> LoopStability:
+def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: float = 1.0,
+                   sigma_1_s: float = 0.0) -> LoopStability:
     """Number of unstable closed-loop poles of the lab's linear model (generalised Nyquist criterion).
+
+    With ``sigma_1_s > 0`` the contour is shifted to ``Re s = sigma_1_s``: the count is that of the poles
+    growing faster than ``e^{sigma t}`` (the structure's own poles lie left of it; the controller's count
+    when ``|z| > e^{sigma T}``). A recorded oscillation that grew ``r``-fold within ``t`` seconds needs a
+    pole with ``Re s >= ln(r) / t`` in the loop that made it.
 
     Parameters
     ----------
@@ -221,6 +231,8 @@ def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: flo
         the hold and the structure's roll-off make ``|L|`` small there).
     df_hz : float
         Step of the starting grid [Hz], refined where the phase turns fast.
+    sigma_1_s : float
+        Growth rate [1/s], >= 0, of the shifted contour (default 0: the imaginary axis).
 
     Returns
     -------
@@ -240,8 +252,11 @@ def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: flo
     if not (math.isfinite(top) and top > 0 and math.isfinite(df_hz) and 0 < df_hz < top):
         raise ModelError(f"loop_stability: f_max_hz {f_max_hz!r} and df_hz {df_hz!r} must be finite, "
                          "0 < df_hz < f_max_hz")
-    p = int(np.sum(np.abs(_controller_poles(state)) > 1.0))
-    z, winding, n = unstable_closed_loop_poles(lambda f: return_difference(state, f), top, p, df_hz=df_hz,
-                                               seeds_hz=_seed_frequencies(state, top))
-    closure = float(np.linalg.norm(loop_transfer(state, np.array([top]))[0], 2))
-    return LoopStability(z, p, winding, top, closure, n)
+    if not (math.isfinite(sigma_1_s) and sigma_1_s >= 0):
+        raise ModelError(f"loop_stability: sigma_1_s {sigma_1_s!r} must be finite and >= 0")
+    shift = 1j * sigma_1_s / (2 * math.pi)  # f - j sigma / (2 pi) is s = sigma + j 2 pi f
+    p = int(np.sum(np.abs(_controller_poles(state)) > math.exp(sigma_1_s * state.chain.period_s)))
+    z, winding, n = unstable_closed_loop_poles(lambda f: return_difference(state, f - shift), top, p,
+                                               df_hz=df_hz, seeds_hz=_seed_frequencies(state, top))
+    closure = float(np.linalg.norm(loop_transfer(state, np.array([top - shift]))[0], 2))
+    return LoopStability(z, p, winding, top, closure, n, float(sigma_1_s))
