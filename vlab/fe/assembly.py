@@ -235,6 +235,16 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
     for sp in spec.springs:
         i = dofs.index(sp.point, sp.dof)
         k[i, i] += sp.stiffness.si
+    _add_crosspieces(spec, dofs, m, k)
+    m = 0.5 * (m + m.T)
+    k = 0.5 * (k + k.T)
+    _check_definite(spec.name, dofs, m, k)
+    return FEModel(spec, m, k, dofs, mesh, gravity)
+
+
+def _add_crosspieces(spec: StructureSpec, dofs: DofMap, m: np.ndarray, k: np.ndarray) -> None:
+    """Add each crosspiece's single-DOF equivalent (:func:`crosspiece_sdof`) and the gravity stiffness of its
+    deflected arm mass to ``m`` and ``k`` (in place)."""
     for c in spec.crosspieces:
         kc, m_eff, m_rest = crosspiece_sdof(spec, c)
         i, j = dofs.index(c.point, "w"), dofs.index(c.id, "w")
@@ -254,10 +264,6 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
                 kg = m_eff * G_SI * coef
                 k[np.ix_([r], [j, i])] += [[kg, -kg]]
                 k[np.ix_([j, i], [r])] += [[kg], [-kg]]
-    m = 0.5 * (m + m.T)
-    k = 0.5 * (k + k.T)
-    _check_definite(spec.name, dofs, m, k)
-    return FEModel(spec, m, k, dofs, mesh, gravity)
 
 
 def crosspiece_sdof(spec: StructureSpec, c) -> tuple[float, float, float]:
