@@ -1,4 +1,4 @@
-"""`--format table|csv|json` (issue 27, item 4): CSV with units in the column names, JSON with units in the keys,
+"""`--format table|csv|json`: CSV with units in the column names, JSON with units in the keys,
 the rich table by default; `--json` stays as `--format json` and clashes with `--format csv`."""
 
 from __future__ import annotations

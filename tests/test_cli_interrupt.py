@@ -1,4 +1,4 @@
-"""Ctrl-C during ``vlab experiment`` leaves the output folder either the old one or the complete new one (issue 26).
+"""Ctrl-C during ``vlab experiment`` leaves the output folder either the old one or the complete new one.
 
 ``vlab experiment --plant linear --controller none`` runs in a subprocess;
 SIGINT is sent after a random delay (seeded) while it simulates and writes.

@@ -1,4 +1,4 @@
-"""Readable CLI output (issue 27, item 4): help of every option, no <bool>, no lqr for experiment, full width
+"""Readable CLI output: help of every option, no <bool>, no lqr for experiment, full width
 when piped, the diagnose table and verdict with units."""
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ def test_verdict_without_a_mismatch_and_a_higher_misfit():
 
 
 def test_unbounded_interval_is_said_not_printed():
-    """A log-scaled parameter the data do not bound gets no interval like [7.55e-145, 1.13e+135] (issue 28 review)."""
+    """A log-scaled parameter the data do not bound gets no interval like [7.55e-145, 1.13e+135]."""
     import numpy as np
 
     from vlab.diagnose.fit.estimate import UNBOUNDED_DECADES, _ci95

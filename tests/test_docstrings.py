@@ -12,7 +12,7 @@ import vlab
 
 #: every module of vlab but the command line's (their options are documented by their ``help=``)
 MODULES = sorted(m.name for m in pkgutil.walk_packages(vlab.__path__, "vlab.")
-                 if m.name not in ("vlab.cli", "vlab.cli_update"))
+                 if m.name != "vlab.cli" and not m.name.startswith("vlab.cli."))
 
 
 def _public(module):

@@ -143,10 +143,10 @@ def test_diagnosis_names_a_concealed_added_mass(tmp_path):
     assert len(sel) == 1 and sel[0]["effect"] == "added_mass" and sel[0]["location"] == {"point": 3}, sel
     assert sel[0]["parameters"]["mass_kg"] == pytest.approx(0.04, rel=0.1)
     # the CSV form of the same diagnosis: one line per ranked hypothesis, units in the column names
-    from vlab import cli
+    from vlab.cli.diagnose import diagnosis_csv
 
     buf = io.StringIO()
-    cli._diagnosis_csv(d, out=buf)
+    diagnosis_csv(d, out=buf)
     rows = list(csv.DictReader(io.StringIO(buf.getvalue())))
     assert len(rows) == len(d["ranked"]) and rows[0]["effect"] == "added_mass"
     assert "misfit_after_decades" in rows[0] and rows[0]["location"] == "point 3"

@@ -1,4 +1,4 @@
-"""The CLI bad-input corpus (issue 26): every case is refused cleanly, before any work, changing nothing.
+"""The CLI bad-input corpus: every case is refused cleanly, before any work, changing nothing.
 
 Each case of ``cli_cases.json`` runs ``vlab <args>`` in-process (typer's
 CliRunner) in a fresh temporary folder and checks, independently of vlab:

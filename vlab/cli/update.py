@@ -1,5 +1,5 @@
-"""The ``vlab update`` command: the structure file updated with a diagnosis, and optionally the check that
-the design on it predicts the experiment again (registered on :data:`vlab.cli.app`).
+"""``vlab update``: the structure file updated with a diagnosis, and optionally the check that the design on
+it predicts the experiment again.
 
 Thin: parses the options, calls :func:`vlab.model_update.update` and :func:`vlab.model_update.verify`,
 prints a table or (``--format json``) one JSON object with the keys of :meth:`UpdateResult.as_dict` and,
@@ -12,41 +12,40 @@ from typing import Any
 
 from rich.markup import escape
 
-from .cli import (ExpController, OutputFormat, _arg_structure, _flag, _format_opt, _load_structure, _mjcf_input,
-                  _number, _opt, _output_format, _print_json, _print_rows, _seed, _VlabCommand, app, console,
-                  err_console)
-from .errors import OptionError
+from ..errors import OptionError
+from . import checks
+from .options import ExpController, OutputFormat, arg_structure, flag, format_opt, opt
+from .output import console, print_json, print_rows, print_warnings
 
 
-@app.command("update", cls=_VlabCommand)
 def update_cmd(
-    structure: str = _arg_structure(),
-    diagnosis: str = _opt(..., "--diagnosis", help="the folder `vlab diagnose --out` wrote (or its diagnosis.json)"),
-    out: str = _opt(..., "--out", help="updated structure file to write, ending in .toml; its folder must exist"),
-    overwrite: bool = _flag("--overwrite", help="replace an existing file"),
-    verify: bool = _flag("--verify", help="then design on the original and on the updated file, run both on the "
-                                          "--mjcf plant and print, side by side, the average peak level error "
-                                          "(Table 10) and the closed-loop damping ratios predicted and measured"),
-    mjcf: str = _opt(None, "--mjcf", help="with --verify: the plant both designs run on (an MJCF file, e.g. "
-                                          "`vlab export-mjcf` of the changed structure; default: none)"),
-    controller: ExpController = _opt(None, "--controller",
-                                     help="with --verify: the controller designed on each model (default: the "
-                                          "diagnosis's, MFDRF for an open-loop diagnosis)"),
-    seed: int = _opt(0, "--seed", help="with --verify: seed of the excitation, noise and designs"),
-    duration: float = _opt(None, "--duration", help="with --verify: run length [s] (default: the structure's)"),
-    fmt: OutputFormat = _format_opt(),
+    structure: str = arg_structure(),
+    diagnosis: str = opt(..., "--diagnosis", help="the folder `vlab diagnose --out` wrote (or its diagnosis.json)"),
+    out: str = opt(..., "--out", help="updated structure file to write, ending in .toml; its folder must exist"),
+    overwrite: bool = flag("--overwrite", help="replace an existing file"),
+    verify: bool = flag("--verify", help="then design on the original and on the updated file, run both on the "
+                                         "--mjcf plant and print, side by side, the average peak level error "
+                                         "(Table 10) and the closed-loop damping ratios predicted and measured"),
+    mjcf: str = opt(None, "--mjcf", help="with --verify: the plant both designs run on (an MJCF file, e.g. "
+                                         "`vlab export-mjcf` of the changed structure; default: none)"),
+    controller: ExpController = opt(None, "--controller",
+                                    help="with --verify: the controller designed on each model (default: the "
+                                         "diagnosis's, MFDRF for an open-loop diagnosis)"),
+    seed: int = opt(0, "--seed", help="with --verify: seed of the excitation, noise and designs"),
+    duration: float = opt(None, "--duration", help="with --verify: run length [s] (default: the structure's)"),
+    fmt: OutputFormat = format_opt(),
 ) -> None:
     """Write the structure file with the physics a diagnosis found, as commented entries; --verify checks it."""
-    from .model_update import read_diagnosis, update, verify as run_verify
+    from ..model_update import read_diagnosis, update, verify as run_verify
 
-    out_fmt = _output_format(fmt, False)
-    spec = _load_structure(structure)
+    out_fmt = checks.output_format(fmt, False)
+    spec = checks.load_structure(structure)
     if verify:
         if mjcf is None:
             raise OptionError("--verify needs --mjcf PLANT.xml: the plant both designs run on")
-        _mjcf_input(mjcf)
-        _number("--duration", duration, low=0.0, low_open=True, what="run length [s]")
-        _seed(seed)
+        checks.mjcf_input(mjcf)
+        checks.number("--duration", duration, low=0.0, low_open=True, what="run length [s]")
+        checks.seed(seed)
     elif mjcf is not None or controller is not None or duration is not None:
         raise OptionError("--mjcf, --controller and --duration belong to --verify: add --verify or drop them")
     res = update(spec, diagnosis, out=out, overwrite=overwrite)
@@ -60,14 +59,14 @@ def update_cmd(
             raise OptionError("--controller none: --verify compares designs; choose a controller")
         obj["verify"] = run_verify(spec, res.path, mjcf, controller=ctrl, seed=seed, duration_s=duration)
     if out_fmt == "json":
-        _print_json(obj)
+        print_json(obj)
         return
     _print_update(out_fmt, obj)
 
 
 def _print_update(out_fmt: str, obj: dict[str, Any]) -> None:
     """The written entries and, with ``verify``, the side-by-side comparison (table or CSV)."""
-    from .io.tabular import Column
+    from ..io.tabular import Column
 
     rows = [{"effect": e["effect"], "location": ", ".join(f"{k} {v}" for k, v in e["location"].items()),
              "table": e["table"], "value": f"{v:.6g} {e['unit']}",
@@ -77,16 +76,16 @@ def _print_update(out_fmt: str, obj: dict[str, Any]) -> None:
             Column("value", "value"), Column("ci95", "95 % interval")]
     v = obj.get("verify")
     if out_fmt == "csv" and v is not None:
-        _print_rows(out_fmt, _verify_rows(v), _verify_cols())
+        print_rows(out_fmt, _verify_rows(v), _verify_cols())
         return
-    _print_rows(out_fmt, rows, cols, f"{obj['structure']}: entries written to {obj['out']}")
+    print_rows(out_fmt, rows, cols, f"{obj['structure']}: entries written to {obj['out']}")
     if out_fmt == "csv":
         return
     if v is None:
         console.print(f"wrote {escape(str(obj['out']))}; check it: `vlab update ... --verify --mjcf PLANT.xml`",
                       highlight=False)
         return
-    _print_rows(out_fmt, _verify_rows(v), _verify_cols(),
+    print_rows(out_fmt, _verify_rows(v), _verify_cols(),
                 f"{v['controller']} designed on each model, run on {v['plant']}")
     console.print(f"average peak level error (Table 10): original {v['original']['average_peak_level_error']:.4f}, "
                   f"updated {v['updated']['average_peak_level_error']:.4f}", highlight=False)
@@ -95,8 +94,7 @@ def _print_update(out_fmt: str, obj: dict[str, Any]) -> None:
         console.print(f"closed-loop damping ratios, largest |measured / predicted - 1|: original {dz[0]:.1%}, "
                       f"updated {dz[1]:.1%}", highlight=False)
     for label in ("original", "updated"):
-        for w in v[label]["warnings"]:
-            err_console.print(f"[bold yellow]warning ({label}):[/] {escape(w)}", soft_wrap=True, highlight=False)
+        print_warnings(v[label]["warnings"], label=f"warning ({label})")
 
 
 def _verify_rows(v: dict) -> list[dict]:
@@ -110,7 +108,7 @@ def _verify_rows(v: dict) -> list[dict]:
 
 
 def _verify_cols() -> list:
-    from .io.tabular import Column
+    from ..io.tabular import Column
 
     return [Column("mode", "mode"),
             Column("zeta_pred_orig", "original: zeta pred [-]", ".4f"),
@@ -119,4 +117,3 @@ def _verify_cols() -> list:
             Column("zeta_pred_upd", "updated: zeta pred [-]", ".4f"),
             Column("zeta_meas_upd", "updated: zeta meas [-]", ".4f"),
             Column("ratio_upd", "updated: peak ratio [-]", ".3f")]
-

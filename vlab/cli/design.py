@@ -1,0 +1,123 @@
+"""``vlab design``: a controller designed with the dissertation's settings; gains, damping and performance."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+import numpy as np
+from rich.markup import escape
+
+from ..errors import OptionError
+from . import checks
+from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, format_opt, json_flag, opt
+from .output import console, err_console, print_json, print_rows
+
+
+class ControllerName(str, Enum):
+    """``--controller`` of ``vlab design``."""
+
+    lqr = "lqr"
+    lqg = "lqg"
+    mfdrf = "mfdrf"
+    lqdrf = "lqdrf"
+    lqdrf_diag = "lqdrf-diag"
+
+
+def design(
+    structure: str = arg_structure(),
+    controller: ControllerName = opt(ControllerName.mfdrf, "--controller",
+                                     help="controller: LQR (full state), LQG, MFDRF, LQDRF or LQDRF with a "
+                                          "diagonal gain"),
+    reduction: DesignReduction = opt(None, "--reduction", help=REDUCTION_HELP),
+    modes_file: str = opt(None, "--modes", help="UFF 55 file of measured modes, read only with --reduction "
+                                                 "corrected-guyan (default: a virtual modal test of the MuJoCo plant)"),
+    seed: int = opt(0, "--seed", help="seed of the optimiser's multi-start, an integer in [0, 2**32)"),
+    period_ms: float = opt(None, "--period-ms",
+                           help="sampling period of the realization [ms], > 0 (default: the thesis's, "
+                                "Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
+    fmt: OutputFormat = format_opt(),
+    as_json: bool = json_flag("the tables"),
+) -> None:
+    """Design a controller with the dissertation's settings; print gains, damping and performance."""
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from ..design import design_controller
+    from ..experiment.results import design_summary
+    from ..experiment.config import period_source
+    from ..io.tabular import Column
+
+    out = checks.output_format(fmt, as_json)
+    period_s = checks.period_s(period_ms)
+    checks.seed(seed)
+    if modes_file is not None and reduction is not DesignReduction.corrected_guyan:
+        raise OptionError("--modes is read only with --reduction corrected-guyan "
+                          f"(got --reduction {reduction.value if reduction else 'default'})")
+    checks.input_file("--modes", modes_file)
+    spec = checks.load_structure(structure)
+    fe = checks.fe_model_of(spec)
+    measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console,
+                  transient=True, disable=out != "table") as bar:
+        bar.add_task(f"designing {controller.value} for {spec.name}", total=None)
+        d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
+                              measured_modes=measured, seed=seed, period_s=period_s)
+    if out == "json":
+        print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
+        return
+    n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
+    rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
+             "performance_index_thesis_units": float(d.performance_index[i]) if i < len(d.performance_index) else None}
+            for i in range(n_rows)]
+    cols = [Column("mode", "mode"), Column("frequency_hz", "f [Hz]", ".3f"),
+            Column("damping_ratio", "zeta [-]", ".4f"),
+            Column("performance_index_thesis_units", "J (modal IC) [thesis units]", ".4g")]
+    if out == "csv":
+        print_rows(out, rows, cols)
+        return
+    console.print(f"[bold]{escape(spec.name)} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
+                  f"({escape(str(d.message))})")
+    console.print(f"sampling period {d.period_s * 1e3:g} ms ({period_source(d.controller, d.period_s)})")
+    if d.gamma is not None:
+        console.print(f"gamma = {d.gamma:.4f} lb*s/in" + (f", beta = {d.beta:.4g}" if d.beta is not None else ""))
+    g = d.extra.get("gain_thesis_lb_s_per_in")
+    if g is not None:
+        console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
+        console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
+    print_rows(out, rows, cols, "closed loop on the design model")
+
+
+def _measured_modes(fe, modes_file: str | None):
+    """Measured modes (frequencies, shapes at the Guyan masters) for corrected-guyan."""
+    from ..errors import DataFileError
+    from ..models import master_indices
+
+    if modes_file is None:
+        if "frequencies" not in fe.spec.reference:
+            raise OptionError(f"--reduction corrected-guyan: structure {fe.spec.name!r} has no published frequency "
+                              "table ([reference] frequencies) for a virtual modal test: give --modes FILE (UFF 55)")
+        return _virtual_measured_modes(fe)
+    from ..io.uff import read_mode_shapes
+
+    ms = read_mode_shapes(modes_file)
+    idx = master_indices(fe, "guyan")
+    labels = [fe.dofs.labels[i] for i in idx]
+    rows = []
+    for node, dof in labels:
+        if dof != "w":
+            raise DataFileError(f"{modes_file}: the Guyan master {dof}@{node} is a rotation; UFF 55 gives translations only")
+        if node not in ms.point_ids:
+            raise DataFileError(f"{modes_file}: no shape value at master point {node}")
+        rows.append(list(ms.point_ids).index(node))
+    return np.asarray(ms.freq_hz), np.real(np.asarray(ms.shapes))[rows, :]
+
+
+def _virtual_measured_modes(fe):
+    """:func:`vlab.sim.modaltest.virtual_measured_modes`, saying on stderr where the modes come from."""
+    from ..sim.modaltest import virtual_measured_modes
+
+    freq, shapes = virtual_measured_modes(fe)
+    err_console.print(
+        f"corrected-guyan: {len(freq)} modes, shapes from a virtual modal test on the MuJoCo plant (paired with the "
+        f"FE modes by MAC), frequencies from {fe.spec.reference['frequencies']} (experimental)"
+    )
+    return freq, shapes

@@ -1,0 +1,223 @@
+"""``vlab diagnose``: a mismatch between a recording and the simulation located, named and fitted;
+``vlab detectability``: the smallest size of each effect the diagnosis detects and names.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from ..errors import OptionError
+from . import checks
+from .options import (STRUCTURE_HELP, STRUCTURE_METAVAR, ExpController, OutputFormat, arg_structure, flag,
+                      format_opt, json_flag, opt)
+from .output import console, err_console, print_json, print_rows
+from .runtime import expect_output
+
+DIAGNOSE_OUT = "out/diagnose"
+DIAGNOSE_PLANTS = ("auto", "linear", "mujoco")
+DETECT_OUT = "out/detectability"
+
+
+def diagnose(
+    structure: str = opt(..., "--structure", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
+    recording: str = opt(..., "--recording",
+                         help="the recording: UFF 58 time histories (as `vlab experiment` writes) or FRFs, "
+                              "or a CSV modal table"),
+    controller: ExpController = opt(None, "--controller",
+                                    help="controller that was running during the recording (none = open loop; "
+                                         "default: the recording's metadata, else none)"),
+    force: bool = flag("--force", help="use --controller/--plant even where the recording's metadata says "
+                                       "otherwise"),
+    out: str = opt(DIAGNOSE_OUT, "--out", help="output folder (its parent must exist)"),
+    overwrite: bool = flag("--overwrite", help="replace an existing non-empty output folder"),
+    plant: str = opt("auto", "--plant", metavar="<auto|linear|mujoco>",
+                     help="plant of the replay and the validation rerun: auto (the plant the recording's "
+                          "metadata names, else MuJoCo), linear or mujoco"),
+    baseline: str = opt(None, "--baseline",
+                        help="a measured reference: recording of the same test on the structure before the "
+                             "change (default: the recorded force replayed on the nominal plant)"),
+    mjcf: str = opt(None, "--mjcf", help="the nominal plant as an MJCF file (from `vlab export-mjcf`, edited): the "
+                                         "recorded force is replayed on it (default: the plant built from the "
+                                         "structure); needs a MuJoCo-plant recording"),
+    reference_column: str = opt(None, "--reference-column",
+                                help="modal tables: compare with this column's frequencies (e.g. analytical_hz, "
+                                     "a published analysis) instead of vlab's model; the model predicts what "
+                                     "an effect changes (default: none, compared with vlab's model)"),
+    model_form: str = opt("auto", "--model-form", metavar="<auto|derived|none>",
+                          help="the model's own uncertainty in the decision: derived (from its calibration and "
+                               "discretisation), none (the data come from this model itself), auto (none for a "
+                               "recording whose metadata names the vlab plant that made it or with --baseline, "
+                               "else derived)"),
+    false_alarm_rate: float = opt(0.01, "--false-alarm-rate", metavar="<alpha>",
+                                  help="probability [1], in (0, 0.5), of reporting a mismatch on a recording of "
+                                       "the nominal structure; every threshold of the decision follows from it "
+                                       "(chi-square and single-line limits, the likelihood-ratio test)"),
+    fmt: OutputFormat = format_opt(),
+    as_json: bool = json_flag(),
+) -> None:
+    """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from ..diagnose import diagnose as run_diagnose
+    from ..diagnose.policy import DecisionPolicy
+    from ..io.atomic import atomic_dir
+
+    out_fmt = checks.output_format(fmt, as_json)
+    DecisionPolicy(false_alarm_rate=false_alarm_rate)  # a bad rate is refused before any work
+    spec = checks.load_structure(structure)
+    out_path = checks.out_dir(out, DIAGNOSE_OUT, overwrite)
+    if plant not in DIAGNOSE_PLANTS:
+        raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
+    checks.input_file("--recording", recording)
+    checks.input_file("--baseline", baseline)
+    checks.mjcf_input(mjcf)
+    expect_output(out_path)
+    with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
+                  console=err_console, transient=True, disable=out_fmt != "table") as bar:
+        task = bar.add_task("reading the recording", total=None)
+        with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
+            res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
+                               controller=None if controller is None else controller.value, force=force,
+                               overwrite=False, reference_column=reference_column, model_form=model_form,
+                               false_alarm_rate=false_alarm_rate,
+                               progress=lambda stage: bar.update(task, description=escape(str(stage))))
+    res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
+    if out_fmt == "json":
+        print_json(res.as_dict())
+        return
+    d = res.as_dict()
+    if out_fmt == "csv":
+        diagnosis_csv(d)
+        return
+    _print_diagnosis(d, out_path)
+
+
+def diagnosis_csv(d: dict[str, Any], out=None) -> None:
+    """Every ranked hypothesis of ``d`` (:meth:`DiagnosisResult.as_dict`) as one CSV line on ``out`` (stdout).
+
+    Columns: rank, effect, location, parameters (SI, with 95 % intervals), BIC difference to the best, misfit
+    after the effect is modelled (its unit in the column name: decades for FRF data).
+    """
+    from ..diagnose.report.text import hypothesis_rows, misfit_unit
+    from ..io.tabular import Column, write_csv
+
+    unit = misfit_unit(d).replace(".", "").replace(" ", "_")
+    rows = [{"rank": i, "effect": r["effect"], "location": r["location"], "parameters_si_ci95": r["parameters"],
+             "delta_bic": r["delta_bic"], f"misfit_after_{unit}": r["misfit_after"]}
+            for i, r in enumerate(hypothesis_rows(d, limit=None), start=1)]
+    write_csv(rows, [Column("rank", ""), Column("effect", ""), Column("location", ""),
+                     Column("parameters_si_ci95", ""), Column("delta_bic", ""), Column(f"misfit_after_{unit}", "")],
+              out or sys.stdout)
+
+
+def _print_diagnosis(d: dict[str, Any], out_path) -> None:
+    """The ranked hypotheses as a table (units in the headers and cells) and the one-paragraph verdict."""
+    from ..diagnose.report.text import hypothesis_rows, misfit_unit
+    from ..diagnose.report.verdict import verdict
+
+    rows = hypothesis_rows(d, limit=8)
+    unit = misfit_unit(d)
+    if rows:
+        t = Table(title=f"ranked hypotheses (best {len(rows)} of {len(d['ranked'])}; BIC: lower is better)")
+        for col, justify in (("#", "right"), ("effect", "left"), ("location", "left"),
+                             ("parameters, SI [95 % interval]", "left"), ("dBIC to the best", "right"),
+                             (escape(f"misfit after [{unit}]"), "right")):
+            t.add_column(col, justify=justify, overflow="fold")
+        for i, r in enumerate(rows, start=1):
+            t.add_row(str(i), escape(r["effect"]), escape(r["location"]), escape(r["parameters"]),
+                      r["delta_bic"], r["misfit_after"])
+        console.print(t)
+    console.print(escape(verdict(d)), highlight=False)
+    console.print(f"report: {escape(str(out_path / 'diagnosis.md'))}", highlight=False)
+
+
+def detectability(
+    structure: str = arg_structure(),
+    controller: ExpController = opt(ExpController("none"), "--controller",
+                                    help="controller running during the test (none = open loop)"),
+    effect: list[str] = opt(None, "--effect", metavar="<effect>",
+                            help="only this effect of the library (repeatable; default: all one-parameter "
+                                 "effects): added_mass, support_stiffness, joint_flexibility, member_stiffness, "
+                                 "damping, loop_delay, actuator_lag, sensor_lag, actuator_gain, sensor_gain, "
+                                 "gravity_prestress, saturation"),
+    noise: float = opt(1e-6, "--noise", help="velocity-sensor noise standard deviation [m/s], >= 0"),
+    seed: int = opt(0, "--seed", help="seed of the excitation, the noise and the design's multi-start"),
+    out: str = opt(None, "--out", help="also write detectability.json and a figure into this folder"),
+    overwrite: bool = flag("--overwrite", help="replace an existing non-empty output folder"),
+    model_form: str = opt("derived", "--model-form", metavar="<derived|none>",
+                          help="derived: thresholds of a real measurement, within the model's own uncertainty "
+                               "(calibration residual, plant discretisation); none: of a recording made by the "
+                               "model itself"),
+    naming: bool = typer.Option(True, "--naming/--no-naming",
+                                help="also the smallest size at which the diagnosis names the effect among its "
+                                     "look-alikes (every one-parameter effect of the library; minutes)"),
+    fmt: OutputFormat = format_opt(),
+    as_json: bool = json_flag(),
+) -> None:
+    """Smallest size of each effect of the library, at each location, that the diagnosis detects and names."""
+    from contextlib import nullcontext
+
+    from ..diagnose.detectability import detectability as run, figure
+    from ..diagnose.effects.hypotheses import EFFECTS
+    from ..experiment.results import jsonable
+    from ..io.atomic import atomic_dir
+
+    out_fmt = checks.output_format(fmt, as_json)
+    if not (math.isfinite(noise) and noise >= 0):
+        raise OptionError(f"--noise must be a finite number >= 0 [m/s], got {noise!r}")
+    unknown = [e for e in effect or () if e not in EFFECTS]
+    if unknown:
+        raise OptionError(f"--effect {', '.join(unknown)}: not an effect of the library ({', '.join(EFFECTS)})")
+    spec = checks.load_structure(structure)
+    checks.seed(seed)
+    out_path = checks.out_dir(out, DETECT_OUT, overwrite) if out is not None else None
+    with err_console.status("detectability: recording the nominal test and searching the thresholds",
+                            spinner="dots") if out_fmt == "table" else nullcontext():
+        res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed,
+                  model_form=model_form, naming=naming)
+    d = res.as_dict()
+    if out_path is not None:
+        with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:
+            (tmp / "detectability.json").write_text(json.dumps(jsonable(d), indent=2))
+            figure(res, spec, tmp / "added_mass.png")
+    if out_fmt == "json":
+        print_json(d)
+        return
+    _print_thresholds(out_fmt, res, spec, controller.value, noise, naming)
+
+
+def _print_thresholds(out_fmt: str, res, spec, controller: str, noise: float, naming: bool) -> None:
+    """The thresholds of ``vlab detectability`` as a table or CSV (units in the cells)."""
+    from ..diagnose.report.text import format_location, parameter_unit
+    from ..io.tabular import Column
+
+    rows = []
+    for t in res.thresholds:
+        q, unit = parameter_unit(t.parameter)
+        rel = (100 * (t.threshold / t.null - 1) if t.threshold is not None and t.null not in (None, 0.0) else None)
+        rows.append({"effect": t.effect, "location": format_location(t.location),
+                     "parameter": f"{q} [{unit}]" if unit else q,
+                     "null": "limit" if t.null is None else f"{t.null:.4g}",
+                     "threshold": "not detected in range" if t.threshold is None else f"{t.threshold:.3g}",
+                     "change_pct": rel, "test": t.by or "",
+                     "named": ("" if not naming else "not named in range" if t.named_at is None
+                               else f"{t.named_at:.3g}"),
+                     "look_alike": (f"{t.look_alike} ({t.look_alike_chi2:.3g})" if t.look_alike else "")})
+    cols = [Column("effect", "effect"), Column("location", "location"), Column("parameter", "parameter [unit]"),
+            Column("null", "null value"), Column("threshold", "threshold"),
+            Column("change_pct", "change [%]", "+.3g"), Column("test", "found by")]
+    if naming:
+        cols += [Column("named", "named from"), Column("look_alike", "closest look-alike (chi2)")]
+    print_rows(out_fmt, rows, cols, f"{spec.title}, {controller}: smallest detectable size of each effect "
+                                    f"(noise {noise:g} m/s; chi2 limit {res.chi2_limit:.4g}, "
+                                    f"N = {res.n_obs})")
+    if out_fmt == "table" and res.skipped:
+        console.print(f"not computed (more than one parameter): {', '.join(res.skipped)}", highlight=False)

@@ -1,0 +1,170 @@
+"""The command line's single error path: exit statuses, Ctrl-C, and the command and group classes of the app.
+
+A failure is printed as one line ``error: <message>`` on stderr, with no traceback unless ``--debug``; the
+exit statuses are listed in :mod:`vlab.cli`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from rich.markup import escape
+from typer.core import TyperCommand, TyperGroup
+from typer.exceptions import Abort, Exit, TyperException
+
+from ..errors import BAD_INPUT_ERRORS, MeasurementError, VlabError
+from .output import err_console, error_line
+
+EPILOG = ("Exit status: 0 success; 1 failed run (simulation diverged, measurement failed during a run, "
+          "not-meaningful comparison, write error); 2 bad input (option, output path, spec, data file, model, "
+          "run too large for the machine), refused before any work starts; 130 interrupted (nothing written). "
+          "Errors are one line without traceback; --debug shows the traceback.")
+
+#: Per-invocation state: ``debug`` (the root's --debug), the message of an interrupt, the output folder
+#: expected (and the identity of what is there now), whether SIGINT arrived.
+STATE: dict[str, Any] = {"debug": False, "interrupted": "interrupted: nothing written"}
+
+#: Former option names still accepted but not shown in ``--help``.
+HIDDEN_ALIASES = frozenset({"--delay-samples"})
+
+
+def exit_code(exc: BaseException, command: str | None) -> int:
+    """Exit status of an exception (the mapping in :mod:`vlab.cli`)."""
+    if isinstance(exc, BAD_INPUT_ERRORS):
+        return 2
+    if isinstance(exc, MeasurementError) and command == "diagnose":
+        return 2  # the recording given is the input
+    if isinstance(exc, VlabError):
+        return 1
+    if isinstance(exc, UnicodeDecodeError):  # a file given that is not text
+        return 2
+    return 1  # an internal error (a plain ValueError or TypeError from deep in a run included)
+
+
+def _untyped_help_option(option):
+    """``--help`` shown without a type in the help (it takes no value: not ``<bool>``)."""
+    if option is not None:
+        option.metavar = ""
+    return option
+
+
+class VlabCommand(TyperCommand):
+    """A command whose ``--help`` option is shown without a type and without the hidden aliases."""
+
+    def get_help_option(self, ctx):
+        return _untyped_help_option(super().get_help_option(ctx))
+
+    def format_help(self, ctx, formatter):
+        shown = [(p, p.opts) for p in self.params if HIDDEN_ALIASES.intersection(p.opts)]
+        for p, opts in shown:
+            p.opts = [o for o in opts if o not in HIDDEN_ALIASES]
+        try:
+            return super().format_help(ctx, formatter)
+        finally:
+            for p, opts in shown:
+                p.opts = opts
+
+
+class VlabGroup(TyperGroup):
+    """The app's group: turns every exception of a command into one error line and an exit status."""
+
+    def get_help_option(self, ctx):
+        return _untyped_help_option(super().get_help_option(ctx))
+
+    def invoke(self, ctx) -> Any:
+        STATE["debug"] = False  # set by the callback (--debug)
+        STATE["interrupted"] = "interrupted: nothing written"
+        STATE["out_path"] = STATE["out_id"] = None
+        STATE["sigint"] = False
+        from ..io.confine import ALLOW_ENV
+
+        allow_env = os.environ.get(ALLOW_ENV)
+        restore = _install_sigint_flag()
+        try:
+            return super().invoke(ctx)
+        except (Exit, Abort, TyperException):  # exits, usage errors: typer's own handling
+            raise
+        except KeyboardInterrupt:
+            if STATE["debug"]:
+                raise
+            _interrupted()
+        except Exception as exc:  # noqa: BLE001 - the single error path of the CLI
+            if STATE["debug"]:
+                raise
+            if STATE["sigint"]:  # a library turned the KeyboardInterrupt into its own error (pyuff does)
+                _interrupted()
+            command = ctx.invoked_subcommand
+            error_line(_message(exc, command))
+            raise Exit(exit_code(exc, command)) from None
+        finally:
+            restore()
+            from ..io.manifest import release_lock
+
+            release_lock()  # the output folder's lock, when the command ended before writing it
+            if allow_env is None:
+                os.environ.pop(ALLOW_ENV, None)
+            else:
+                os.environ[ALLOW_ENV] = allow_env
+
+
+def _message(exc: Exception, command: str | None) -> str:
+    """The one-line message of a command's exception."""
+    if isinstance(exc, (VlabError, OSError, UnicodeDecodeError)):
+        text = str(exc) or type(exc).__name__
+        if isinstance(exc, OSError) and not isinstance(exc, VlabError):
+            text = f"{str(exc.filename) + ': ' if exc.filename else ''}{exc.strerror or exc}"
+        return text
+    if isinstance(exc, MemoryError):
+        return f"out of memory ({exc}); shorten the run or free memory"
+    return (f"internal error {type(exc).__name__}: {exc} (run `vlab --debug {command or ''} ...` for "
+            "the traceback and report it)")
+
+
+def expect_output(out_path: Path) -> None:
+    """Remember the output folder (and the identity of what is there now) for the message of an interrupt."""
+    STATE["interrupted"] = f"interrupted: nothing written ({out_path} unchanged)"
+    STATE["out_path"] = out_path
+    STATE["out_id"] = _folder_id(out_path)
+
+
+def _folder_id(path: Path) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def _interrupted() -> None:
+    text = STATE["interrupted"]
+    out_path = STATE.get("out_path")
+    if out_path is not None and _folder_id(out_path) != STATE.get("out_id"):
+        # the new folder was renamed into place before the interrupt landed (the rename is atomic)
+        text = f"interrupted after the outputs were written to {out_path}"
+    err_console.print(escape(text), soft_wrap=True, highlight=False)
+    raise Exit(130) from None
+
+
+def _install_sigint_flag():
+    """While a command runs, Ctrl-C also sets ``STATE["sigint"]`` (a library may swallow the KeyboardInterrupt).
+
+    Only where SIGINT has Python's default handler (not ignored, not replaced) and on the main thread.
+    Returns the function restoring the previous handler.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return lambda: None
+
+    def on_sigint(signum, frame):
+        STATE["sigint"] = True
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, on_sigint)
+    return lambda: signal.signal(signal.SIGINT, previous)
