@@ -172,6 +172,12 @@ def test_uncertainty_toml(tmp_path):
     bad.write_text('[parameters.delay_samples]\nspread = -1\n')
     with pytest.raises(DataFileError, match=r"parameters.delay_samples.spread = -1"):
         load_uncertainties(bad)
+    old_name = tmp_path / "old.toml"  # the delay group's former name is read as delay_periods
+    old_name.write_text('[parameters.delay_samples]\nspread = 0.1\nsource = "old file"\n')
+    assert {x.group: x for x in load_uncertainties(old_name)}["delay_periods"].spread == 0.1
+    old_name.write_text('[parameters.delay_samples]\nspread = 0.1\n[parameters.delay_periods]\nspread = 0.1\n')
+    with pytest.raises(DataFileError, match=r"parameters.delay_periods: group 'delay_periods' given twice"):
+        load_uncertainties(old_name)
     with pytest.raises(OptionError, match="--samples must be a positive integer"):
         StudyConfig(n_samples=0)
 

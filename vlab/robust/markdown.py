@@ -221,7 +221,7 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
         "built from the same perturbed spec, run in time (hinge chain, residual modes above the design model's).",
         "", "## Distributions", "", "| group | kind | spread | source |", "|---|---|---|---|"]
     for u in cfg.uncertainties:
-        sp = f"{u.spread:g} periods" if u.group == "delay_samples" else f"{100 * u.spread:g} %"
+        sp = f"{u.spread:g} periods" if u.group == "delay_periods" else f"{100 * u.spread:g} %"
         lines.append(f"| {u.group} | {u.kind} | {sp} | {u.source} |")
     lines += ["", "## Sec. 7 restated: each controller on each plant", "",
               "Probabilities with the Wilson 95 % interval, medians with a 95 % bootstrap interval; the peak-ratio "

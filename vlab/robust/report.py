@@ -92,7 +92,7 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
         "seed": cfg.seed,
         "chunk_size_samples": cfg.chunk_size,
         "uncertainties": [{"group": u.group, "kind": u.kind,
-                           ("spread_periods" if u.group == "delay_samples" else "spread_relative"): u.spread,
+                           ("spread_periods" if u.group == "delay_periods" else "spread_relative"): u.spread,
                            "source": u.source} for u in cfg.uncertainties],
         "controllers": {c: {"period_s": nominal.chains[c].period_s, "delay_periods": nominal.chains[c].delay_periods,
                             "filter_hz": nominal.chains[c].filter_hz} for c in cfg.controllers},

@@ -18,7 +18,7 @@ tip_mass            crosspiece tip and clamp masses, end fittings, joint   U(+-1
                     hardware and plates (every lumped mass but the coils)              lumped masses, Table 1)
 coil_mass           each voice-coil mass                                   U(+-10 %)   assumed (calibrated)
 support_stiffness   each support spring (the grid's pendulum supports)     U(+-10 %)   assumed
-delay_samples       the PC-1000 computation delay, one per sample          U(+-0.2)    assumed around the
+delay_periods       the PC-1000 computation delay, one per sample          U(+-0.2)    assumed around the
                     (absolute, periods; one DAC for all channels)                      measured 1.35 periods
                                                                                        (Sec. 5.3)
 actuator_gain       each coil's force constant                             U(+-5 %)    assumed (calibrated
@@ -31,8 +31,10 @@ A TOML file replaces any of these::
 
     [parameters.member_ei]
     kind = "normal"        # "uniform" (spread = half-width) or "normal" (spread = standard deviation)
-    spread = 0.03          # relative (absolute periods for delay_samples); 0 switches the group off
+    spread = 0.03          # relative (absolute periods for delay_periods); 0 switches the group off
     source = "my estimate"
+
+The delay group was called ``delay_samples`` before; a file that names it so is read the same way.
 
 Sample ``i`` of a study with seed ``s`` draws from
 ``numpy.random.default_rng([s, i])``: its values do not depend on how the
@@ -50,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from ..lab.blocks import PC1000_DELAY_PERIODS
 from ..spec import StructureSpec, with_quantity
 
 KINDS = ("uniform", "normal")
@@ -66,7 +69,7 @@ class Uncertainty:
     kind : str
         ``"uniform"`` (``spread`` = half-width) or ``"normal"`` (``spread`` = standard deviation).
     spread : float
-        Relative (a factor ``1 + x``), or absolute periods for ``delay_samples``; >= 0.
+        Relative (a factor ``1 + x``), or absolute periods for ``delay_periods``; >= 0.
     source : str
         Where the value comes from.
     """
@@ -96,7 +99,7 @@ DEFAULTS: tuple[Uncertainty, ...] = (
     Uncertainty("tip_mass", "uniform", 0.10, "assumed (calibrated lumped masses, Table 1 + Table 8)"),
     Uncertainty("coil_mass", "uniform", 0.10, "assumed (calibrated coil masses, Table 1 + Table 8)"),
     Uncertainty("support_stiffness", "uniform", 0.10, "assumed"),
-    Uncertainty("delay_samples", "uniform", 0.2, "assumed around the measured 1.35 periods (Sec. 5.3)"),
+    Uncertainty("delay_periods", "uniform", 0.2, "assumed around the measured 1.35 periods (Sec. 5.3)"),
     Uncertainty("actuator_gain", "uniform", 0.05, "assumed (calibrated coil force constants)"),
     Uncertainty("sensor_gain", "uniform", 0.05, "assumed (calibrated sensor sensitivities)"),
 )
@@ -105,17 +108,19 @@ GROUPS = tuple(u.group for u in DEFAULTS)
 #: How each group reads in a sentence.
 GROUP_WORDS = {"member_ei": "EI", "member_mass": "section mass", "cable_tension": "cable tension",
                "tip_mass": "lumped masses", "coil_mass": "coil masses", "support_stiffness": "support springs",
-               "delay_samples": "delay", "actuator_gain": "actuator gains", "sensor_gain": "sensor gains"}
+               "delay_periods": "delay", "actuator_gain": "actuator gains", "sensor_gain": "sensor gains"}
+#: Former names of groups, still read from uncertainty files: the delay in sample periods.
+GROUP_ALIASES = {"delay_samples": "delay_periods"}
 
 
-def describe(uncertainties=DEFAULTS, nominal_delay_periods: float = 1.35) -> str:
+def describe(uncertainties=DEFAULTS, nominal_delay_periods: float = PC1000_DELAY_PERIODS) -> str:
     """The spreads in one line, e.g. ``"EI ±5 %, section mass ±3 %, ..., delay 1.15-1.55 periods, ..."``.
 
     Parameters
     ----------
     uncertainties : sequence of Uncertainty
     nominal_delay_periods : float
-        The delay the ``delay_samples`` spread is added to [periods] (Sec. 5.3: 1.35).
+        The delay the ``delay_periods`` spread is added to [periods] (Sec. 5.3: 1.35).
 
     Returns
     -------
@@ -125,7 +130,7 @@ def describe(uncertainties=DEFAULTS, nominal_delay_periods: float = 1.35) -> str
     parts = []
     for u in uncertainties:
         name = GROUP_WORDS.get(u.group, u.group)
-        if u.group == "delay_samples":
+        if u.group == "delay_periods":
             lo, hi = nominal_delay_periods - u.spread, nominal_delay_periods + u.spread
             parts.append(f"{name} {lo:.2f}-{hi:.2f} periods" if u.kind == "uniform"
                          else f"{name} {nominal_delay_periods:g} periods sd {u.spread:g}")
@@ -162,10 +167,15 @@ def load_uncertainties(path: str | Path) -> tuple[Uncertainty, ...]:
     if not isinstance(params, dict) or set(data) - {"parameters"}:
         raise DataFileError(f"{p}: expected only [parameters.<group>] tables (groups: {', '.join(GROUPS)})")
     out = {u.group: u for u in DEFAULTS}
-    for group, entry in params.items():
-        where = f"{p}: parameters.{group}"
+    given: set[str] = set()
+    for name, entry in params.items():
+        where = f"{p}: parameters.{name}"
+        group = GROUP_ALIASES.get(name, name)
         if group not in out:
             raise DataFileError(f"{where}: unknown group; use one of {', '.join(GROUPS)}")
+        if group in given:
+            raise DataFileError(f"{where}: group {group!r} given twice (under its former name too)")
+        given.add(group)
         if not isinstance(entry, dict) or set(entry) - {"kind", "spread", "source"}:
             raise DataFileError(f"{where}: expected keys kind, spread, source; got {entry!r}")
         kind = entry.get("kind", out[group].kind)
@@ -231,7 +241,7 @@ def draw_sample(spec: StructureSpec, uncertainties, *, seed: int, index: int, n_
     n_act : int
         Number of actuator/sensor channels (gains drawn per channel).
     nominal_delay_periods : float
-        Delay the ``delay_samples`` deviation is added to [periods].
+        Delay the ``delay_periods`` deviation is added to [periods].
 
     Returns
     -------
@@ -243,7 +253,7 @@ def draw_sample(spec: StructureSpec, uncertainties, *, seed: int, index: int, n_
         A delay drawn negative (spread too large for the nominal delay).
     """
     rng = np.random.default_rng([int(seed), int(index)])
-    by_group = {u.group: u for u in uncertainties}
+    by_group = {GROUP_ALIASES.get(u.group, u.group): u for u in uncertainties}
     targets = _targets(spec)
     factors = {}
     delay = nominal_delay_periods
@@ -253,12 +263,12 @@ def draw_sample(spec: StructureSpec, uncertainties, *, seed: int, index: int, n_
         if g in targets:
             x = u.draw(rng, len(targets[g])) if u is not None else np.zeros(len(targets[g]))
             factors.update({p: 1.0 + float(v) for p, v in zip(targets[g], x)})
-        elif g == "delay_samples":
+        elif g == "delay_periods":
             delay = nominal_delay_periods + (float(u.draw(rng, 1)[0]) if u is not None else 0.0)
         else:
             gains[g] = 1.0 + (u.draw(rng, n_act) if u is not None else np.zeros(n_act))
     if delay < 0:
-        raise DataFileError(f"delay_samples: a sample drew a negative delay ({delay:g} periods); reduce its spread")
+        raise DataFileError(f"delay_periods: a sample drew a negative delay ({delay:g} periods); reduce its spread")
     return Sample(int(index), factors, delay, gains["actuator_gain"], gains["sensor_gain"])
 
 
