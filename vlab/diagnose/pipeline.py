@@ -201,24 +201,11 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     recording_path : str or Path
         UFF 58 time histories (force + velocities, as ``vlab experiment``
         writes them), UFF 58 FRFs, or a CSV modal table (``.csv``).
-    controller : {"none", "mfdrf", "lqdrf", "lqdrf-diag", "lqg"}, optional
-        The nominal controller that was running; default: the recording's
-        metadata, else "none" (:func:`vlab.diagnose.data.reference.recorded_setup`).
+    controller, plant, resolution_hz, seed, baseline, replay, force, mjcf, reference_column, model_form, validate_run
+        What was recorded, what it is compared with and whether it is rerun: each as the attribute of the
+        same name of :class:`~vlab.diagnose.reading.Options` (defaults as there).
     out_dir : str or Path, optional
         Folder for ``diagnosis.md``, ``diagnosis.json`` and figures.
-    plant : {"auto", "linear", "mujoco"}
-        Plant of the replay and the validation rerun; ``"auto"``: the plant
-        the recording's metadata names, else MuJoCo (for effects a spec can
-        carry, falling back to the linear plant, saying so). An explicit
-        plant that contradicts the metadata needs ``force``.
-    resolution_hz : float, optional
-        Frequency resolution = 1 / excitation period [Hz]; default: the
-        recording's metadata, else the structure's test resolution
-        (:data:`vlab.experiment.config.TESTS`).
-    seed : int, optional
-        Seed of the controller design's multi-start; default the recording's
-        metadata seed, else 0. Replays and reruns carry no sensor noise
-        (nothing of the recording's noise realisation is reused).
     effects : tuple of str, optional
         Restrict the library to these effect names.
     floor : float
@@ -227,46 +214,10 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
         Number of screened hypotheses fitted in full (plus the best of each effect).
     pairs : bool
         Consider pairs of effects when no single one explains the data.
-    validate_run : bool
-        Rerun the experiment for validation (time-history input only).
     overwrite : bool
         Replace existing report files in ``out_dir``.
     progress : callable, optional
         Called with a short string at each stage.
-    baseline : str or Path, optional
-        A recording (UFF 58 time histories or FRFs) of the same test on the
-        structure before the change: the data are referred to the model
-        through it (:func:`vlab.diagnose.data.measured.refer_to_model`), so that the
-        model's own offsets against this plant, present in both, are not
-        diagnosed as an effect. Without it, a time-history recording is
-        referred to the model through the *replay* of its recorded force on
-        the nominal plant (``replay``).
-    replay : bool
-        Compare a time-history recording with the nominal plant's replay of
-        its force (:func:`vlab.diagnose.data.reference.replay_reference`) when no
-        baseline is given. False: with the FE model alone.
-    force : bool
-        Use ``controller``, ``seed`` and ``plant`` even where the recording's
-        metadata says otherwise.
-    mjcf : str or Path, optional
-        The nominal MuJoCo plant as an MJCF file (``vlab export-mjcf``,
-        edited; it must keep the naming contract): the recorded force is
-        replayed on it, and the validation reruns of effects it can carry
-        (controller-path effects) run on it; an effect that edits the
-        structure is validated on the plant built from the spec, its nominal
-        rerun too. Needs the MuJoCo plant (not ``plant="linear"``).
-    reference_column : str, optional
-        Modal tables: a column of reference-model frequencies (e.g.
-        ``analytical_hz``, the published analysis): the table is compared with
-        it, vlab's model predicting what an effect changes (the reference's
-        own difference from vlab's model cancels, as through a baseline).
-    model_form : {"auto", "derived", "none"}
-        The model's own uncertainty (:mod:`vlab.diagnose.model.modelform`) in the decision and the
-        intervals. "derived": from the structure's calibration residual and discretisation (a modal table
-        always; a recording compared through the replay or with the FE model). "none": the data are known
-        to come from the model itself. "auto": "none" for a recording whose metadata names the vlab plant
-        that made it (a simulation of this model), and for a measured baseline (the structure before the
-        change: its own model-form difference cancels); "derived" otherwise.
     false_alarm_rate : float
         The probability [1], in (0, 0.5), of reporting a mismatch on data of the nominal structure; every
         threshold of the decision follows from it (:class:`vlab.diagnose.policy.DecisionPolicy`).

@@ -181,6 +181,27 @@ def stop_background(problem) -> None:
         recv.close()
 
 
+def _in_processes(rest: list, args: tuple, workers: int) -> dict:
+    """Reruns of the states ``rest`` (index, LabState) in a pool of processes, ``args`` the rest of
+    :func:`~vlab.diagnose.data.replay.rerun_payload`'s arguments: index -> Recording or VlabError; empty
+    where no pool can be started here (then they run in this process)."""
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    out: dict = {}
+    try:
+        with ProcessPoolExecutor(min(workers, len(rest))) as ex:
+            futs = [(i, ex.submit(rerun_payload, st, *args)) for i, st in rest]
+            for i, fu in futs:
+                try:
+                    out[i] = recording_of(fu.result())
+                except VlabError as exc:
+                    out[i] = exc
+    except (OSError, BrokenProcessPool):
+        return {}
+    return out
+
+
 def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None,
            window: tuple | None = None) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
@@ -242,22 +263,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         out, how, apart = _batched(todo, force, data, seed, window, workers)
     rest = [(i, st) for i, st in todo if i not in out]
     if workers > 1 and len(rest) > 1:
-        from concurrent.futures import ProcessPoolExecutor
-        from concurrent.futures.process import BrokenProcessPool
-
-        try:
-            with ProcessPoolExecutor(min(workers, len(rest))) as ex:
-                futs = [(i, ex.submit(rerun_payload, st, force, data.excitation_point, pts, plant, seed, window))
-                        for i, st in rest]
-                for i, fu in futs:
-                    try:
-                        out[i] = recording_of(fu.result())
-                    except VlabError as exc:
-                        out[i] = exc
+        done = _in_processes(rest, (force, data.excitation_point, pts, plant, seed, window), workers)
+        if done:
+            out.update(done)
             how_rest = f"in {min(workers, len(rest))} processes"
-        except (OSError, BrokenProcessPool):
-            for i, _st in rest:  # no process pool here: sequential
-                out.pop(i, None)
     first = int(round(data.analysed_from_s / data.recording.dt_s))
 
     def here(st: LabState, cores: int = 1):
