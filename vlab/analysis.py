@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ModelError
+from .lab.blocks import PC1000_DELAY_PERIODS, RC_CORNER_HZ
 
 
 def velocity_frf(
@@ -109,8 +110,8 @@ def sampled_data_controller_frf(
     f22: np.ndarray,
     period_s: float,
     *,
-    delay_periods: float = 1.35,
-    filter_hz: float | None = 677.0,
+    delay_periods: float = PC1000_DELAY_PERIODS,
+    filter_hz: float | None = RC_CORNER_HZ,
 ) -> np.ndarray:
     """Equivalent ``K(jw)`` (``u = -K y``) of the digital engine with its analog chain.
 
@@ -130,9 +131,12 @@ def sampled_data_controller_frf(
     period_s : float
         Sampling period T [s].
     delay_periods : float
-        Computation delay in periods (Sec. 5.3: 1.35).
+        Computation delay in sampling periods; default :data:`vlab.lab.blocks.PC1000_DELAY_PERIODS`, 1.35
+        (Sec. 5.3: "The actual time delay through the PC-1000 was found to be 1.35 Delta t, where Delta t
+        is the sampling period").
     filter_hz : float or None
-        RC corner frequency [Hz] (Sec. 5.3: 677 Hz); None for no filter.
+        RC corner frequency [Hz]; default :data:`vlab.lab.blocks.RC_CORNER_HZ` (Sec. 5.3: 677 Hz); None for
+        no filter.
 
     Returns
     -------
