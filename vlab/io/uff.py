@@ -210,43 +210,8 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
     dt_ref = None
     ref_name = None
     for i, s in enumerate(recs, start=1):
-        where = f"record {i}"
-        code = _get_int(p, s, "ordinate_spec_data_type", where)
-        node = _check_node(p, s, "rsp_node", where)
-        if code not in _CODE_QUANTITY:
-            raise DataFileError(f"{p}: record {i} ({_label(s, f'node {node}')!r}): unsupported ordinate "
-                                f"specific data type {code} (known: {sorted(_CODE_QUANTITY)})")
-        quantity = _CODE_QUANTITY[code]
-        fallback = channel_name(quantity, node)
-        name = _label(s, fallback)
-        if not _NAME_RE.match(name):
-            name = fallback
-        where = f"record {i}, channel {name}"
-        if _CONV_RE.match(name):
-            q_name, n_name = parse_channel_name(name)
-            if (q_name, n_name) != (quantity, node):
-                raise DataFileError(f"{p}: {where}: the name says {q_name} at point {n_name}, the record holds "
-                                    f"{quantity} (data type {code}) at node {node} (mislabelled channel)")
-        direction = _check_direction(p, s, "rsp_dir", where)
-        _check_unit_label(p, s, quantity, where)
-        check_exponents(p, s, "ordinate", code, where)
-        absc = int(s.get("abscissa_spec_data_type", _TIME) or 0)
-        if absc not in (0, _TIME):
-            raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not time ({_TIME})")
-        check_time_axis(p, s, where)
-        data = np.asarray(s["data"]) if "data" in s else np.zeros(0)
-        if np.iscomplexobj(data):
-            raise DataFileError(f"{p}: {where}: complex samples in a time response")
-        if data.size != int(s.get("num_pts", data.size)):
-            raise DataFileError(f"{p}: {where}: {data.size} samples, header announces "
-                                f"{s['num_pts']} (truncated file)")
-        bad = np.flatnonzero(~np.isfinite(data))
-        if bad.size:
-            raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({float(data[bad[0]])}; "
-                                f"{bad.size} in all, record {i})")
-        if data.size < MIN_SAMPLES:
-            raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
-        data = data.astype(float)
+        name, quantity, node, direction, where = _time_record_identity(p, s, i)
+        data = _time_record_samples(p, s, name, where, i)
         dt = _time_step(p, name, s)
         if dt_ref is None:
             dt_ref, ref_name = dt, name
@@ -263,40 +228,97 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
             raise DataFileError(f"{p}: {where}: duplicates channel {keys[key]} ({quantity} at node {node}, "
                                 f"direction {direction})")
         keys[key] = name
-        if not allow_implausible:
-            with np.errstate(over="ignore"):
-                rms = float(np.sqrt(np.mean(data ** 2)))
-            if rms > MAX_PLAUSIBLE_RMS[quantity]:
-                raise MeasurementError(
-                    f"{p}: {where}: RMS {rms:.4g} {_UNITS[quantity]} is implausible for the lab's hardware "
-                    f"(limit {MAX_PLAUSIBLE_RMS[quantity]:g} {_UNITS[quantity]}, Sec. 5.3): a mis-scaled file "
-                    "(wrong unit or gain)?")
-        if not allow_clipped:
-            clip = find_clipping(data)
-            if clip is not None:
-                run, start, word, value, count = clip
-                raise MeasurementError(
-                    f"{p}: {where}: clipped: {count} samples at its {word} {value:.6g} {_UNITS[quantity]}, "
-                    f"{run} in a row from index {start} (a flat top: more than {CLIP_RUN} in a row or "
-                    f"{100 * CLIP_FRACTION:g} % of the samples; saturated amplifier or ADC range)")
+        _check_magnitude(p, where, data, quantity, allow_clipped=allow_clipped, allow_implausible=allow_implausible)
         try:
             channels.append(Channel(name=name, point_id=node, quantity=quantity, samples=data,
                                     direction=direction))
         except MeasurementError as exc:
             raise DataFileError(f"{p}: record {i}: {exc}") from exc
-    period = metadata.get("period_s")
-    if period is not None:
-        if isinstance(period, bool) or not isinstance(period, (int, float)) or not (
-                math.isfinite(period) and period > 0):
-            raise DataFileError(f"{sidecar_path(p)}: field 'period_s': expected a positive number of seconds, "
-                                f"got {period!r}")
-        if not math.isclose(float(period), dt_ref, rel_tol=1e-6):
-            raise DataFileError(f"{p}: channels are sampled every {dt_ref!r} s, the sidecar's controller period "
-                                f"'period_s' is {period!r} s (mis-sampled recording)")
+    _check_sidecar_period(p, metadata.get("period_s"), dt_ref)
     try:
         return Recording(dt_s=dt_ref, channels=tuple(channels), metadata=metadata)
     except MeasurementError as exc:
         raise DataFileError(f"{p}: {exc}") from exc
+
+
+def _time_record_identity(p: Path, s: dict, i: int) -> tuple[str, str, int, int, str]:
+    """Channel name, quantity, node, direction and message prefix of time record ``i``, its labels checked."""
+    where = f"record {i}"
+    code = _get_int(p, s, "ordinate_spec_data_type", where)
+    node = _check_node(p, s, "rsp_node", where)
+    if code not in _CODE_QUANTITY:
+        raise DataFileError(f"{p}: record {i} ({_label(s, f'node {node}')!r}): unsupported ordinate "
+                            f"specific data type {code} (known: {sorted(_CODE_QUANTITY)})")
+    quantity = _CODE_QUANTITY[code]
+    fallback = channel_name(quantity, node)
+    name = _label(s, fallback)
+    if not _NAME_RE.match(name):
+        name = fallback
+    where = f"record {i}, channel {name}"
+    if _CONV_RE.match(name):
+        q_name, n_name = parse_channel_name(name)
+        if (q_name, n_name) != (quantity, node):
+            raise DataFileError(f"{p}: {where}: the name says {q_name} at point {n_name}, the record holds "
+                                f"{quantity} (data type {code}) at node {node} (mislabelled channel)")
+    direction = _check_direction(p, s, "rsp_dir", where)
+    _check_unit_label(p, s, quantity, where)
+    check_exponents(p, s, "ordinate", code, where)
+    absc = int(s.get("abscissa_spec_data_type", _TIME) or 0)
+    if absc not in (0, _TIME):
+        raise DataFileError(f"{p}: {where}: abscissa specific data type {absc} is not time ({_TIME})")
+    check_time_axis(p, s, where)
+    return name, quantity, node, direction, where
+
+
+def _time_record_samples(p: Path, s: dict, name: str, where: str, i: int) -> np.ndarray:
+    """The real, finite samples of time record ``i`` (at least MIN_SAMPLES, as many as its header says)."""
+    data = np.asarray(s["data"]) if "data" in s else np.zeros(0)
+    if np.iscomplexobj(data):
+        raise DataFileError(f"{p}: {where}: complex samples in a time response")
+    if data.size != int(s.get("num_pts", data.size)):
+        raise DataFileError(f"{p}: {where}: {data.size} samples, header announces "
+                            f"{s['num_pts']} (truncated file)")
+    bad = np.flatnonzero(~np.isfinite(data))
+    if bad.size:
+        raise DataFileError(f"{p}: channel {name}: non-finite sample at index {bad[0]} ({float(data[bad[0]])}; "
+                            f"{bad.size} in all, record {i})")
+    if data.size < MIN_SAMPLES:
+        raise DataFileError(f"{p}: {where}: {data.size} sample(s); a record needs at least {MIN_SAMPLES}")
+    return data.astype(float)
+
+
+def _check_magnitude(p: Path, where: str, data: np.ndarray, quantity: str, *, allow_clipped: bool,
+                     allow_implausible: bool) -> None:
+    """MeasurementError for an implausible RMS or a clipped channel, unless allowed."""
+    if not allow_implausible:
+        with np.errstate(over="ignore"):
+            rms = float(np.sqrt(np.mean(data ** 2)))
+        if rms > MAX_PLAUSIBLE_RMS[quantity]:
+            raise MeasurementError(
+                f"{p}: {where}: RMS {rms:.4g} {_UNITS[quantity]} is implausible for the lab's hardware "
+                f"(limit {MAX_PLAUSIBLE_RMS[quantity]:g} {_UNITS[quantity]}, Sec. 5.3): a mis-scaled file "
+                "(wrong unit or gain)?")
+    if not allow_clipped:
+        clip = find_clipping(data)
+        if clip is not None:
+            run, start, word, value, count = clip
+            raise MeasurementError(
+                f"{p}: {where}: clipped: {count} samples at its {word} {value:.6g} {_UNITS[quantity]}, "
+                f"{run} in a row from index {start} (a flat top: more than {CLIP_RUN} in a row or "
+                f"{100 * CLIP_FRACTION:g} % of the samples; saturated amplifier or ADC range)")
+
+
+def _check_sidecar_period(p: Path, period, dt_ref: float) -> None:
+    """DataFileError when the sidecar's controller period ``period_s`` is not a positive number or not the step."""
+    if period is None:
+        return
+    if isinstance(period, bool) or not isinstance(period, (int, float)) or not (
+            math.isfinite(period) and period > 0):
+        raise DataFileError(f"{sidecar_path(p)}: field 'period_s': expected a positive number of seconds, "
+                            f"got {period!r}")
+    if not math.isclose(float(period), dt_ref, rel_tol=1e-6):
+        raise DataFileError(f"{p}: channels are sampled every {dt_ref!r} s, the sidecar's controller period "
+                            f"'period_s' is {period!r} s (mis-sampled recording)")
 
 
 def _time_step(p: Path, name: str, s: dict) -> float:

@@ -7,6 +7,8 @@ blocks
     :class:`~vlab.lab.blocks.SampleDelay` (the PC-1000's 1.35-period delay),
     :class:`~vlab.lab.blocks.RCLowPass` (677 Hz),
     :class:`~vlab.lab.blocks.CurrentAmplifier`, :class:`~vlab.lab.blocks.SensorNoise`.
+block
+    :class:`~vlab.lab.block.Block`, the base of the blocks: channel count and input checks.
 engine
     :class:`~vlab.lab.engine.ControllerEngine`, Eq. (5.1).
 excitation

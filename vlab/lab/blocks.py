@@ -53,6 +53,7 @@ import math
 import numpy as np
 
 from ..errors import ModelError, SimulationError
+from .block import Block, positive
 
 #: Sampling period of the PC-1000 at its maximum rate of 2000 samples/s [s] (Sec. 5.3).
 PC1000_PERIOD_S = 0.5e-3
@@ -65,58 +66,7 @@ RC_CORNER_HZ = 677.0
 _TIME_TOL = 1e-9
 
 
-def _positive(value: float, *, what: str) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v <= 0.0:
-        raise ModelError(f"{what} must be a positive finite number, got {value!r}")
-    return v
-
-
-def _size(size: int, *, what: str) -> int:
-    if isinstance(size, bool) or int(size) != size or size < 1:
-        raise ModelError(f"{what}: size must be a positive integer, got {size!r}")
-    return int(size)
-
-
-class _Block:
-    """Shared plumbing: a name, a channel count, input checks."""
-
-    #: Name of the input signal.
-    INPUT = "u"
-    #: Name of the output signal.
-    OUTPUT = "y"
-
-    def __init__(self, *, size: int, name: str) -> None:
-        self.name = str(name)
-        self.size = _size(size, what=self.name)
-
-    def _vector(self, value, *, signal: str) -> np.ndarray:
-        """``value`` as a float vector of shape (size,), or a ModelError naming the signal."""
-        arr = np.asarray(value, dtype=float)
-        if arr.shape != (self.size,):
-            raise ModelError(f"{self.name}.{signal}: expected shape ({self.size},), got {arr.shape}")
-        return arr
-
-    def _input(self, u) -> np.ndarray:
-        arr = self._vector(u, signal=self.INPUT)
-        if not math.isfinite(arr.sum()):  # one reduction: a NaN or inf anywhere makes the sum non-finite
-            if not np.all(np.isfinite(arr)):
-                raise SimulationError(f"{self.name}.{self.INPUT}: non-finite input {arr}")
-        return arr.copy()
-
-    def _initial(self, value, *, what: str = "initial_value") -> np.ndarray:
-        """A scalar (broadcast) or a (size,) vector of finite parameter values."""
-        arr = np.asarray(value, dtype=float)
-        arr = np.full(self.size, float(arr)) if arr.ndim == 0 else self._vector(arr, signal=what).copy()
-        if not np.all(np.isfinite(arr)):
-            raise ModelError(f"{self.name}.{what} must be finite, got {arr}")
-        return arr
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(name={self.name!r}, size={self.size})"
-
-
-class ZeroOrderHold(_Block):
+class ZeroOrderHold(Block):
     """Sample-and-hold of a signal at a fixed period.
 
     Update and output (sample ``n`` at ``t_n = offset_s + n * period_s``)::
@@ -155,7 +105,7 @@ class ZeroOrderHold(_Block):
     def __init__(self, *, period_s: float, size: int = 1, initial_value=0.0,
                  offset_s: float = 0.0, name: str = "zoh") -> None:
         super().__init__(size=size, name=name)
-        self.period_s = _positive(period_s, what=f"{name}.period_s")
+        self.period_s = positive(period_s, what=f"{name}.period_s")
         self.offset_s = float(offset_s)
         self._x0 = self._initial(initial_value)
         self.reset()
@@ -184,7 +134,7 @@ class ZeroOrderHold(_Block):
         return self._x.copy()
 
 
-class SampleDelay(_Block):
+class SampleDelay(Block):
     """Zero-order hold followed by a pure delay of ``delay_periods`` sampling periods.
 
     Models the PC-1000 DAC, whose output changes ``D * dt`` after the sample
@@ -240,7 +190,7 @@ class SampleDelay(_Block):
     def __init__(self, *, period_s: float, delay_periods: float, size: int = 1,
                  initial_value=0.0, offset_s: float = 0.0, name: str = "delay") -> None:
         super().__init__(size=size, name=name)
-        self.period_s = _positive(period_s, what=f"{name}.period_s")
+        self.period_s = positive(period_s, what=f"{name}.period_s")
         d = float(delay_periods)
         if not math.isfinite(d) or d < 0.0:
             raise ModelError(f"{name}.delay_periods must be finite and >= 0, got {delay_periods!r}")
@@ -365,7 +315,7 @@ class SampleDelay(_Block):
         return sum(d * v for d, v in segs) / (t1 - t0)
 
 
-class RCLowPass(_Block):
+class RCLowPass(Block):
     """Single-stage passive RC low-pass, exact for a piecewise-constant input, with its step average.
 
     Continuous: ``tau * dy/dt = u - y`` with ``tau = 1 / (2 pi f_c)``. Over a
@@ -420,8 +370,8 @@ class RCLowPass(_Block):
     def __init__(self, *, step_s: float, corner_hz: float = RC_CORNER_HZ, size: int = 1,
                  initial_value=0.0, name: str = "rc") -> None:
         super().__init__(size=size, name=name)
-        self.step_s = _positive(step_s, what=f"{name}.step_s")
-        self.corner_hz = _positive(corner_hz, what=f"{name}.corner_hz")
+        self.step_s = positive(step_s, what=f"{name}.step_s")
+        self.corner_hz = positive(corner_hz, what=f"{name}.corner_hz")
         self.a = math.exp(-2.0 * math.pi * self.corner_hz * self.step_s)
         self._x0 = self._initial(initial_value)
         self.reset()
@@ -496,7 +446,7 @@ class RCLowPass(_Block):
         return self._mean.copy()
 
 
-class CurrentAmplifier(_Block):
+class CurrentAmplifier(Block):
     """Controlled-current power amplifier driving the force coils (memoryless).
 
     ::
@@ -558,7 +508,7 @@ class CurrentAmplifier(_Block):
         return y
 
 
-class SensorNoise(_Block):
+class SensorNoise(Block):
     """Additive white Gaussian measurement noise on the velocity sensors.
 
     ::

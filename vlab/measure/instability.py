@@ -273,6 +273,56 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     return sigma, se, float(rms.max() / rms[0]), cv, change, late_rms
 
 
+def _incoherent_spectrum(x: np.ndarray | None, y: np.ndarray, gxx: np.ndarray | None, kw: dict):
+    """Welch lines ``f``, the part of ``G_yy`` incoherent with ``x``, ``(1 - gamma^2) G_yy``, and ``gamma^2``."""
+    f, gyy = signal.welch(y, **kw)
+    if x is not None:
+        _, gxy = signal.csd(x, y, **kw)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            den = gxx * gyy
+            coh = np.clip(np.where(den > 0, np.abs(gxy) ** 2 / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
+    else:
+        coh = np.zeros_like(gyy)
+    return f, (1.0 - coh) * gyy, coh
+
+
+def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarray | None, gxx: np.ndarray | None,
+                          kw: dict, period: int | None) -> list[Oscillation]:
+    """The self-excited lines of one velocity channel (the rule of the module notes)."""
+    fs, df = kw["fs"], kw["fs"] / kw["nperseg"]
+    f, gnn, coh = _incoherent_spectrum(None if x is None else x[skip:], y_full[skip:], gxx, kw)
+    band = (f > 2 * df) & (f < 0.45 * fs)
+    floor = float(np.median(gnn[band]))
+    if not floor > 0:
+        return []
+    cand = band & (gnn > LINE_TO_FLOOR * floor) & (coh < MAX_COHERENCE)
+    if not cand.any():
+        return []
+    # local maxima of G_nn among the candidates, one per line
+    idx = [i for i in np.flatnonzero(cand) if gnn[i] >= gnn[max(i - 1, 0)] and gnn[i] >= gnn[min(i + 1, len(f) - 1)]]
+    point = parse_channel_name(name)[1]
+    found = []
+    for i in idx:
+        lo, hi = max(i - 1, 0), min(i + 1, len(f) - 1)
+        a, b, c = np.log(gnn[[lo, i, hi]])
+        den = a - 2 * b + c
+        shift = 0.5 * (a - c) / den if den < 0 and lo < i < hi else 0.0
+        f0 = float(f[i] + shift * df)
+        sl = slice(max(i - 2, 0), min(i + 3, len(f)))
+        amp = math.sqrt(float(np.sum(gnn[sl])) * df / 1.5)  # Hann window: noise bandwidth 1.5 bins
+        sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
+        if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
+            continue  # below what the lab's converters resolve next to the response
+        growing = sigma > 3 * se and math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR
+        if change is not None and change < MIN_PERIOD_CHANGE:
+            continue  # it repeats with the force: a forced (possibly nonlinear) response
+        if not (cv < MAX_ENVELOPE_CV or growing):
+            continue  # a Rayleigh envelope: a mode driven by noise, stable
+        found.append(Oscillation(name, point, f0, amp, float(gnn[i] / floor), float(coh[i]),
+                                 sigma, se, bool(growing), rise, cv, change))
+    return found
+
+
 def find_instability(recording: Recording, *, force_channel: str | None = None,
                      feedback_points=(), skip_s: float = 0.0) -> InstabilityCheck:
     """Look for self-excited oscillations (and their growth) in every velocity channel of a recording.
@@ -326,8 +376,7 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
     kw = dict(fs=fs, window="hann", nperseg=nper, noverlap=nper // 2, detrend="constant")
     df = fs / nper
     n_avg = 1 + (n - nper) // (nper - nper // 2)
-    x = None
-    period = None
+    x = gxx = None
     if force_channel is not None:
         x = np.asarray(recording[force_channel], dtype=float)
         if not np.all(np.isfinite(x)):
@@ -340,44 +389,7 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
         y_full = np.asarray(recording[name], dtype=float)
         if not np.all(np.isfinite(y_full)):
             raise MeasurementError(f"channel {name}: non-finite samples")
-        y = y_full[skip:]
-        f, gyy = signal.welch(y, **kw)
-        if x is not None:
-            _, gxy = signal.csd(x[skip:], y, **kw)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                den = gxx * gyy
-                coh = np.clip(np.where(den > 0, np.abs(gxy) ** 2 / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
-        else:
-            coh = np.zeros_like(gyy)
-        gnn = (1.0 - coh) * gyy
-        band = (f > 2 * df) & (f < 0.45 * fs)
-        floor = float(np.median(gnn[band]))
-        if not floor > 0:
-            continue
-        cand = band & (gnn > LINE_TO_FLOOR * floor) & (coh < MAX_COHERENCE)
-        if not cand.any():
-            continue
-        # local maxima of G_nn among the candidates, one per line
-        idx = [i for i in np.flatnonzero(cand) if gnn[i] >= gnn[max(i - 1, 0)] and gnn[i] >= gnn[min(i + 1, len(f) - 1)]]
-        point = parse_channel_name(name)[1]
-        for i in idx:
-            lo, hi = max(i - 1, 0), min(i + 1, len(f) - 1)
-            a, b, c = np.log(gnn[[lo, i, hi]])
-            den = a - 2 * b + c
-            shift = 0.5 * (a - c) / den if den < 0 and lo < i < hi else 0.0
-            f0 = float(f[i] + shift * df)
-            sl = slice(max(i - 2, 0), min(i + 3, len(f)))
-            amp = math.sqrt(float(np.sum(gnn[sl])) * df / 1.5)  # Hann window: noise bandwidth 1.5 bins
-            sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
-            if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
-                continue  # below what the lab's converters resolve next to the response
-            growing = sigma > 3 * se and math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR
-            if change is not None and change < MIN_PERIOD_CHANGE:
-                continue  # it repeats with the force: a forced (possibly nonlinear) response
-            if not (cv < MAX_ENVELOPE_CV or growing):
-                continue  # a Rayleigh envelope: a mode driven by noise, stable
-            found.append(Oscillation(name, point, f0, amp, float(gnn[i] / floor), float(coh[i]),
-                                     sigma, se, bool(growing), rise, cv, change))
+        found += _channel_oscillations(name, y_full, skip, x, gxx, kw, period)
     found.sort(key=lambda o: -o.line_to_floor)
     loop_point = None
     if found:
