@@ -28,9 +28,10 @@ from vlab.reproduce import ratio_tables as RT
 from vlab.reproduce import tables as T
 from vlab.reproduce.context import ReproContext, lab_structure
 from vlab.reproduce.experiments import RunSpec, compare_run, run_virtual_experiment
-from vlab.reproduce.limit_cycle import LQG_PERIOD_S, critical_damping, sampled_data_modes
+from vlab.reproduce.limit_cycle import LQG_PERIOD_S, critical_damping
 from vlab.reproduce.results import TableResult
 from vlab.reproduce.run import reproduce
+from vlab.reproduce.sampled_modes import sampled_data_modes
 
 EXPECTED = Path(__file__).parent / "data" / "reproduce_expected.json"
 #: Table -> (relative tolerance, absolute tolerance) of vlab's numbers.

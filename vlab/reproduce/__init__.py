@@ -7,7 +7,8 @@
   :mod:`vlab.reproduce.grid_tables` of Tables 11-18 (grid designs) and :mod:`vlab.reproduce.ratio_tables` of
   Tables 10, 19-21 (peak-level ratios), with what they share in :mod:`vlab.reproduce.table_rows`;
 - :mod:`vlab.reproduce.experiments`: virtual experiments for the peak-level ratios (Tables 10, 19-21);
-- :mod:`vlab.reproduce.limit_cycle`: the LQG limit cycle of Sec. 6.1;
+- :mod:`vlab.reproduce.limit_cycle`: the LQG limit cycle of Sec. 6.1 (the exact modes of the digital loop in
+  :mod:`vlab.reproduce.sampled_modes`);
 - :mod:`vlab.reproduce.peakratios`: Table 10's published peak level ratios diagnosed as real data (the analysis
   side in :mod:`vlab.reproduce.peakanalysis`, the table and results in :mod:`vlab.reproduce.peaktable`, the fits
   in :mod:`vlab.reproduce.peakfits`);
