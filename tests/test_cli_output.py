@@ -58,6 +58,20 @@ def test_experiment_does_not_offer_lqr():
     assert res.exit_code == 2 and "lqr" in res.output
 
 
+def test_the_delay_option_is_delay_periods_and_its_former_name_a_hidden_alias():
+    out = _help(["experiment"], width=200)
+    assert "--delay-periods" in out and "--delay-samples" not in out
+    for name in ("--delay-periods", "--delay-samples"):
+        res = CliRunner().invoke(app, ["experiment", "--plant", "linear", "--controller", "none", name, "-1"])
+        assert res.exit_code == 2 and "--delay-periods must be >= 0" in " ".join(res.output.split()), res.output
+
+
+@pytest.mark.parametrize("command", ("", *typer.main.get_command(app).commands))
+def test_help_names_no_issue_and_no_file_of_the_repository(command):
+    out = " ".join(re.sub(r"[│╭╮╰╯─]", " ", _help([command] if command else [], width=200)).split())
+    assert not re.search(r"\bissue \d", out) and "docs/" not in out, out
+
+
 def _rows_ok(output: str, needles) -> None:
     assert "…" not in output
     lines = output.splitlines()
