@@ -1,4 +1,4 @@
-"""The CLI's single error path, its atomic outputs and the --spawn fallback (issue 26)."""
+"""The CLI's single error path, its atomic outputs and the --spawn fallback."""
 
 from __future__ import annotations
 
@@ -227,10 +227,10 @@ def test_overwrite_never_deletes_a_folder_vlab_did_not_write_nor_a_parent_of_the
 
 
 def test_an_experiment_whose_loop_is_predicted_unstable_exits_1_unless_allowed(tmp_path):
-    """A delay of 1e5 samples (50 s, longer than a 20 s record) makes the analysis predict negative damping: the
+    """A delay of 1e5 sampling periods (50 s, longer than a 20 s record) makes the analysis predict negative damping: the
     premise of the comparison fails, so the run says why and exits 1; --allow-unstable exits 0 (outputs kept)."""
     out = tmp_path / "out"
-    args = ["experiment", "bcc", "--plant", "linear", "--delay-samples", "1e5", "--out", str(out)]
+    args = ["experiment", "bcc", "--plant", "linear", "--delay-periods", "1e5", "--out", str(out)]
     res = runner.invoke(app, args)
     flat = _flat(res.output)
     assert res.exit_code == 1, res.output
