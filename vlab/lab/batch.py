@@ -283,29 +283,42 @@ def run_batch(
     n_ticks = int(math.floor(duration_s / period + 1e-9))
     if n_ticks < 2:
         raise ModelError(f"duration {duration_s} s is shorter than two controller periods")
+    exc = _batch_excitation(excitation, n, n_ticks)
+    ctl = _batch_controller(engines, n, n_act, n_fb)
+    seeds = [seeds] * n if isinstance(seeds, (int, np.integer)) else list(seeds)
+    if len(seeds) != n:
+        raise ModelError(f"seeds: expected {n} seeds (one per simulation), got {len(seeds)}")
+    chain_run = ChainRun(hw, n_fb=n_fb, seeds=seeds, n_ticks=n_ticks)
+    x = _initial_states(ctl, n, initial_states)
+    vel, cmds, disp, done, failures = run_batch_ticks(plant, hw, chain_run, ctl, x, exc, exc_ch, sensors=sensors,
+                                                      meas=meas, shape=shape, n_fb=n_fb, n_act=n_act)
+    return BatchResult(period, excitation_point, np.array(exc), vel, cmds, disp, meas, shape, done, failures)
+
+
+def _batch_excitation(excitation, n: int, n_ticks: int) -> np.ndarray:
+    """The excitation as (n, n_ticks): one record for all simulations broadcast, or one per simulation."""
     exc = np.asarray(excitation, dtype=float)
     if exc.shape == (n_ticks,):
         exc = np.broadcast_to(exc, (n, n_ticks))
     if exc.shape != (n, n_ticks):
         raise ModelError(f"excitation must have one value per tick: expected ({n_ticks},) or ({n}, {n_ticks}), "
                          f"found {exc.shape}")
-    ctl = None
-    if engines is not None:
-        ctl = BatchController.of(engines, n)
-        if ctl.f11.shape[1:] != (n_act, n_fb):
-            raise ModelError(f"controller engine has {ctl.f11.shape[2]} inputs/{ctl.f11.shape[1]} outputs; "
-                             f"loop has {n_fb} feedback sensors and {n_act} actuators")
-    seeds = [seeds] * n if isinstance(seeds, (int, np.integer)) else list(seeds)
-    if len(seeds) != n:
-        raise ModelError(f"seeds: expected {n} seeds (one per simulation), got {len(seeds)}")
-    chain_run = ChainRun(hw, n_fb=n_fb, seeds=seeds, n_ticks=n_ticks)
-    meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
-    all_sensors = np.array_equal(meas_idx, np.arange(n_sens))  # then the sensors' signals are the recording's
-    # the records, tick-major while running (a tick's rows are contiguous; written in place)
-    vel = np.zeros((n_ticks, n, len(meas)))
-    disp = np.zeros((n_ticks, n, len(shape)))
-    cmds = np.zeros((n_ticks, n, n_act))
-    y_buf = np.zeros((n, n_sens))
+    return exc
+
+
+def _batch_controller(engines, n: int, n_act: int, n_fb: int) -> BatchController | None:
+    """The engines stacked (None open loop), their sizes checked against the loop's."""
+    if engines is None:
+        return None
+    ctl = BatchController.of(engines, n)
+    if ctl.f11.shape[1:] != (n_act, n_fb):
+        raise ModelError(f"controller engine has {ctl.f11.shape[2]} inputs/{ctl.f11.shape[1]} outputs; "
+                         f"loop has {n_fb} feedback sensors and {n_act} actuators")
+    return ctl
+
+
+def _initial_states(ctl: BatchController | None, n: int, initial_states) -> np.ndarray | None:
+    """Controller states x_0, shape (n, n_x): zeros or ``initial_states`` checked; None open loop."""
     x = np.zeros((n, ctl.f22.shape[1])) if ctl is not None else None
     if initial_states is not None:
         x0 = np.asarray(initial_states, dtype=float)
@@ -313,6 +326,58 @@ def run_batch(
             raise ModelError(f"initial_states: expected finite controller states of shape "
                              f"{None if x is None else x.shape}, found {x0.shape}")
         x = x0.copy()
+    return x
+
+
+def run_batch_ticks(plant, hw: BatchChain, chain_run: ChainRun, ctl: BatchController | None, x: np.ndarray | None,
+                    exc: np.ndarray, exc_ch: int, *, sensors: tuple[int, ...], meas: tuple[int, ...],
+                    shape: tuple[int, ...], n_fb: int, n_act: int):
+    """The ticks of :func:`run_batch`: every simulation sampled, sensed, controlled and stepped at once.
+
+    Per tick: the velocities of ``sensors`` (a diverged simulation is stopped,
+    its tick and reason recorded), the chain's sensing, Eq. (5.1) as stacked
+    matrix products, the DAC push and ``hw.n_sub`` physics steps with the
+    chain's force.
+
+    Parameters
+    ----------
+    plant : BatchPlant
+        The N plants.
+    hw : BatchChain
+        The hardware of the N simulations.
+    chain_run : ChainRun
+        Its state for this run.
+    ctl : BatchController or None
+        The stacked engines; None open loop.
+    x : ndarray, shape (N, n_x), or None
+        Controller states at the start.
+    exc : ndarray, shape (N, n_ticks)
+        Excitation [N] per simulation and tick.
+    exc_ch : int
+        Actuator channel of the excitation.
+    sensors, meas, shape : tuple of int
+        Sensor points (feedback first), recorded velocity points, displacement points.
+    n_fb, n_act : int
+        Feedback sensors and actuator channels.
+
+    Returns
+    -------
+    vel, cmds, disp : ndarray, shape (N, n_ticks, k)
+        Measured velocities [m/s], commands, displacements [m].
+    done : ndarray of int, shape (N,)
+        Ticks each simulation ran.
+    failures : dict
+        Simulation index -> the reason it stopped.
+    """
+    n, n_ticks = exc.shape
+    n_sens, period = len(sensors), hw.period_s
+    meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
+    all_sensors = np.array_equal(meas_idx, np.arange(n_sens))  # then the sensors' signals are the recording's
+    # the records, tick-major while running (a tick's rows are contiguous; written in place)
+    vel = np.zeros((n_ticks, n, len(meas)))
+    disp = np.zeros((n_ticks, n, len(shape)))
+    cmds = np.zeros((n_ticks, n, n_act))
+    y_buf = np.zeros((n, n_sens))
     dynamic = ctl is not None and ctl.f22.shape[1] > 0
     e_mat = np.zeros((n, n_act))
     exc_t = np.ascontiguousarray(exc.T)
@@ -351,5 +416,5 @@ def run_batch(
             plant.set_forces(chain_run.force(s, e_mat))
             plant.step(sample=s == last)
     vel, cmds, disp = (np.ascontiguousarray(a.transpose(1, 0, 2)) for a in (vel, cmds, disp))
-    return BatchResult(period, excitation_point, np.array(exc), vel, cmds, disp, meas, shape, done, failures)
+    return vel, cmds, disp, done, failures
 

@@ -428,17 +428,42 @@ def run_loop(
 
     Notes
     -----
-    Source: Fig. 21, Sec. 5.3 (chain), Eq. (5.1) (engine). Per tick the loop
-    reads the sensors, runs :meth:`ChainRun.sense <vlab.lab.batch_chain.ChainRun.sense>`,
-    the engine's :meth:`~vlab.lab.engine.ControllerEngine.step_trusted` (its ``step``
-    without the input check: the loop checked the velocities; a subclass that
-    overrides ``step`` is called through it), :meth:`ChainRun.push_one
-    <vlab.lab.batch_chain.ChainRun.push_one>` and, per physics step,
-    :meth:`ChainRun.force_one <vlab.lab.batch_chain.ChainRun.force_one>` (the
-    chain's arithmetic on floats, the same operations as the batch's arrays)
-    and the plant's step; the time per tick against MuJoCo's own loop is in
-    docs/validation/data/batch_speed.txt (``benchmarks/batch_speed.py``).
+    Source: Fig. 21, Sec. 5.3 (chain), Eq. (5.1) (engine); one tick's work: :func:`run_ticks`.
     """
+    fb, meas = tuple(feedback_points), tuple(measured_points)
+    h, n_sub, acts, exc, exc_ch = _checked_run(plant, engine, chain, fb, excitation_point, excitation, duration_s)
+    # the sensors: feedback points, then the other measured points; one signal each
+    sensors = fb + tuple(dict.fromkeys(p for p in meas if p not in fb))
+    shape = tuple(shape_points) if shape_points is not None else meas
+    # the chain of Fig. 21 as the batch runs it, one simulation; coefficients made once for the run
+    hw = BatchChain.from_chains([chain], timestep_s=h, actuators=acts, feedback=fb, n_sensors=len(sensors))
+    run = ChainRun(hw, n_fb=len(fb), seeds=[seed], n_ticks=len(exc))
+    io = _plant_io(plant, sensors, shape)
+    ys, cmds, disp, done, failure = run_ticks(io, run, _stepper(engine), exc, exc_ch, n_sub=n_sub, n_fb=len(fb),
+                                              n_act=len(acts), sensors=sensors, shape=shape, period_s=chain.period_s,
+                                              progress=progress)
+    result = LoopResult(_recording(chain.period_s, excitation_point, exc[:done], meas, sensors, ys[:done], metadata),
+                        cmds[:done], disp[:done], shape)
+    if failure is not None:
+        failure.partial = result  # type: ignore[attr-defined]
+        raise failure
+    if progress is not None:
+        progress(1.0)
+    return result
+
+
+def _recording(period_s: float, excitation_point: int, exc: np.ndarray, meas: tuple[int, ...],
+               sensors: tuple[int, ...], ys: np.ndarray, metadata: dict | None) -> Recording:
+    """The run's recording: the excitation force and the measured points' velocities (columns of ``ys``)."""
+    signals = {f"force{excitation_point}": exc}
+    for p in meas:
+        signals[f"vel{p}"] = ys[:, sensors.index(p)]
+    return Recording.from_signals(period_s, signals, metadata=dict(metadata or {}))
+
+
+def _checked_run(plant: Plant, engine: ControllerEngine | None, chain: HardwareChain, fb: tuple[int, ...],
+                 excitation_point: int, excitation, duration_s: float):
+    """The checks of :func:`run_loop` before its first tick, in its order; ``(h, n_sub, acts, exc, exc_ch)``."""
     period = chain.period_s
     h = plant.timestep_s
     n_sub = int(round(period / h))
@@ -458,8 +483,6 @@ def run_loop(
         raise ModelError(f"excitation must have one value per tick: expected ({n_ticks},), found {exc.shape}")
     if not np.all(np.isfinite(exc)):
         raise ModelError(f"excitation is not finite at tick {int(np.flatnonzero(~np.isfinite(exc))[0])}")
-
-    fb = tuple(feedback_points)
     n_fb = len(fb)
     if engine is not None and (engine.n_inputs != n_fb or engine.n_outputs != n_act):
         raise ModelError(
@@ -467,16 +490,68 @@ def run_loop(
             f"loop has {n_fb} feedback sensors and {n_act} actuators"
         )
     _check_channels(chain, acts, fb)
-    meas = tuple(measured_points)
-    # the sensors: feedback points, then the other measured points; one signal each
-    sensors = fb + tuple(dict.fromkeys(p for p in meas if p not in fb))
-    meas_idx = np.array([sensors.index(p) for p in meas], dtype=int)
-    shape = tuple(shape_points) if shape_points is not None else meas
-    # the chain of Fig. 21 as the batch runs it, one simulation; coefficients made once for the run
-    hw = BatchChain.from_chains([chain], timestep_s=h, actuators=acts, feedback=fb, n_sensors=len(sensors))
-    run = ChainRun(hw, n_fb=n_fb, seeds=[seed], n_ticks=n_ticks)
-    io = _plant_io(plant, sensors, shape)
+    return h, n_sub, acts, exc, exc_ch
 
+
+def run_ticks(io, run: ChainRun, step_u, exc: np.ndarray, exc_ch: int, *, n_sub: int, n_fb: int, n_act: int,
+              sensors: tuple[int, ...], shape: tuple[int, ...], period_s: float,
+              progress: Callable[[float], None] | None):
+    """The ticks of :func:`run_loop`: sample, sense, control, push, and step the plant ``n_sub`` times.
+
+    Parameters
+    ----------
+    io : plant I/O
+        The plant's per-tick access (``sample``, ``drive``, ``displacements``; see ``_plant_io``).
+    run : ChainRun
+        The hardware chain of the run (one simulation).
+    step_u : callable or None
+        ``f(y, out) -> out``, the engine's tick; None open loop.
+    exc : ndarray, shape (n_ticks,)
+        Excitation [N] per tick, finite.
+    exc_ch : int
+        Actuator channel of the excitation.
+    n_sub : int
+        Physics steps per tick.
+    n_fb : int
+        Feedback sensors (the first ``n_fb`` of ``sensors``).
+    n_act : int
+        Actuator channels.
+    sensors : tuple of int
+        Every sensor point, feedback points first.
+    shape : tuple of int
+        Points whose displacement is sampled each tick (may be empty).
+    period_s : float
+        Controller period [s] (for the divergence message).
+    progress : callable or None
+        Called with the fraction done about every 1 % of the run.
+
+    Returns
+    -------
+    ys : ndarray, shape (n_ticks, n_sensors)
+        Every sensor's measured velocity [m/s].
+    cmds : ndarray, shape (n_ticks, n_act)
+        Controller commands.
+    disp : ndarray, shape (n_ticks, len(shape))
+        Displacements [m].
+    done : int
+        Ticks run (fewer than ``n_ticks`` when the plant diverged).
+    failure : SimulationError or None
+        The divergence, not raised.
+
+    Notes
+    -----
+    Source: Fig. 21, Sec. 5.3 (chain), Eq. (5.1) (engine). Per tick the loop
+    reads the sensors, runs :meth:`ChainRun.sense <vlab.lab.batch_chain.ChainRun.sense>`,
+    the engine's :meth:`~vlab.lab.engine.ControllerEngine.step_trusted` (its ``step``
+    without the input check: the loop checked the velocities; a subclass that
+    overrides ``step`` is called through it), :meth:`ChainRun.push_one
+    <vlab.lab.batch_chain.ChainRun.push_one>` and, per physics step,
+    :meth:`ChainRun.force_one <vlab.lab.batch_chain.ChainRun.force_one>` (the
+    chain's arithmetic on floats, the same operations as the batch's arrays)
+    and the plant's step; the time per tick against MuJoCo's own loop is in
+    docs/validation/data/batch_speed.txt (``benchmarks/batch_speed.py``).
+    """
+    n_ticks = len(exc)
     ys = np.zeros((n_ticks, len(sensors)))  # every sensor's signal; the measured points' columns are recorded
     disp = np.zeros((n_ticks, len(shape)))
     cmds = np.zeros((n_ticks, n_act))
@@ -484,7 +559,7 @@ def run_loop(
     e_list = [0.0] * n_act
     exc_list = exc.tolist()
     report_every = max(1, n_ticks // 100)
-    sample, drive, step_u = io.sample, io.drive, _stepper(engine)
+    sample, drive = io.sample, io.drive
     sense, push, force = run.sense, run.push_one, run.force_one
     subs, dot = range(n_sub), np.dot
     done = n_ticks
@@ -494,7 +569,7 @@ def run_loop(
         # diverged: a velocity above 1e3 m/s or NaN; |v|^2 <= 1e6 rules both out with one product
         if not dot(v, v) <= 1e6 and not np.abs(v).max(initial=0.0) <= 1e3:
             failure = SimulationError(
-                f"simulation diverged at t = {k * period:.4f} s (velocity {np.max(np.abs(v)):.3g} m/s at "
+                f"simulation diverged at t = {k * period_s:.4f} s (velocity {np.max(np.abs(v)):.3g} m/s at "
                 f"points {sensors}): controller unstable on this plant or timestep too large"
             )
             done = k
@@ -509,15 +584,4 @@ def run_loop(
             drive(force(s, e_list))
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
-
-    signals = {f"force{excitation_point}": exc[:done]}
-    for j, p in enumerate(meas):
-        signals[f"vel{p}"] = ys[:done, meas_idx[j]]
-    rec = Recording.from_signals(period, signals, metadata=dict(metadata or {}))
-    result = LoopResult(rec, cmds[:done], disp[:done], shape)
-    if failure is not None:
-        failure.partial = result  # type: ignore[attr-defined]
-        raise failure
-    if progress is not None:
-        progress(1.0)
-    return result
+    return ys, cmds, disp, done, failure
