@@ -65,6 +65,52 @@ def _value(setting, point):
     return setting
 
 
+def _reader(name: str, default, channel_field: str | None = None):
+    """``read(chain, point)``: a chain setting at one channel, ``default`` where it is None (off).
+
+    HardwareChain's per-channel dict (``channel_*``, keyed by point id; None there switches a lag or
+    limit off) wins over the chain-wide setting for its points.
+    """
+    def read(c, p):
+        ch = getattr(c, channel_field, None) or {} if channel_field else {}
+        v = ch[p] if p in ch else _value(getattr(c, name), p)
+        return default if v is None else v
+    return read
+
+
+def _delay_and_filter(chains, acts: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Whole and fractional delay [periods] and RC time constant [s] (0: no filter), each (N, n_act); checked."""
+    delay = _per_channel(chains, acts, _reader("delay_periods", 0.0, "channel_delay_periods"), "delay_periods")
+    if np.any(delay < 0) or not np.all(np.isfinite(delay)):
+        raise ModelError(f"hardware chain: delay_periods must be finite and >= 0, got {delay.ravel().tolist()}")
+    delay = np.where(np.abs(delay - np.round(delay)) < 1e-9, np.round(delay), delay)
+    m = np.floor(delay).astype(int)
+    frac = delay - m
+    corner = _per_channel(chains, acts, _reader("filter_hz", math.inf), "filter_hz")
+    if np.any(corner < 0):
+        raise ModelError(f"hardware chain: filter_hz must be >= 0 (0 or None: no filter), got "
+                         f"{corner.ravel().tolist()}")
+    corner[corner == 0] = math.inf  # 0: no filter, as None
+    tau = np.where(np.isfinite(corner), 1.0 / (2.0 * math.pi * np.where(np.isfinite(corner), corner, 1.0)), 0.0)
+    return m, frac, tau
+
+
+def _hold_steps(frac: np.ndarray, tau: np.ndarray, n_sub: int, period: float, h: float):
+    """Per physics step: time on the older and newer DAC sample [s] and the RC decay over each (module notes)."""
+    d_old = np.empty((n_sub, *frac.shape))
+    for s in range(n_sub):
+        a, b = s / n_sub, (s + 1) / n_sub
+        d_old[s] = np.clip(frac - a, 0.0, b - a) * period
+    d_new = h - d_old
+
+    def decay(d):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e = np.where(tau > 0, np.exp(-d / np.where(tau > 0, tau, 1.0)), 0.0)
+        return np.where(d == 0, 1.0, e)
+
+    return d_old, d_new, decay(d_old), decay(d_new)
+
+
 @dataclass(frozen=True)
 class BatchChain:
     """Per-simulation, per-channel hardware settings and the step coefficients derived from them.
@@ -173,50 +219,20 @@ class BatchChain:
         if n_sub < 1 or abs(n_sub * h - period) > 1e-9 * period:
             raise ModelError(f"physics step {h:g} s must divide the controller period {period:g} s")
         acts, fb = tuple(actuators), tuple(feedback)
-
-        def pick(name, default, channel_field=None):
-            # HardwareChain's per-channel dict (``channel_*``, keyed by point id; None there switches a lag or
-            # limit off) wins over the chain-wide setting for its points
-            def read(c, p):
-                ch = getattr(c, channel_field, None) or {} if channel_field else {}
-                v = ch[p] if p in ch else _value(getattr(c, name), p)
-                return default if v is None else v
-            return read
-
-        delay = _per_channel(chains, acts, pick("delay_periods", 0.0, "channel_delay_periods"), "delay_periods")
-        if np.any(delay < 0) or not np.all(np.isfinite(delay)):
-            raise ModelError(f"hardware chain: delay_periods must be finite and >= 0, got {delay.ravel().tolist()}")
-        delay = np.where(np.abs(delay - np.round(delay)) < 1e-9, np.round(delay), delay)
-        m = np.floor(delay).astype(int)
-        frac = delay - m
-        corner = _per_channel(chains, acts, pick("filter_hz", math.inf), "filter_hz")
-        if np.any(corner < 0):
-            raise ModelError(f"hardware chain: filter_hz must be >= 0 (0 or None: no filter), got "
-                             f"{corner.ravel().tolist()}")
-        corner[corner == 0] = math.inf  # 0: no filter, as None
-        tau = np.where(np.isfinite(corner), 1.0 / (2.0 * math.pi * np.where(np.isfinite(corner), corner, 1.0)), 0.0)
-        d_old = np.empty((n_sub, *delay.shape))
-        for s in range(n_sub):
-            a, b = s / n_sub, (s + 1) / n_sub
-            d_old[s] = np.clip(frac - a, 0.0, b - a) * period
-        d_new = h - d_old
-
-        def decay(d):
-            with np.errstate(divide="ignore", invalid="ignore"):
-                e = np.where(tau > 0, np.exp(-d / np.where(tau > 0, tau, 1.0)), 0.0)
-            return np.where(d == 0, 1.0, e)
-
-        e_old, e_new = decay(d_old), decay(d_new)
-        limit = _per_channel(chains, acts, pick("amplifier_limit_n", math.inf, "channel_limit_n"), "amplifier_limit_n")
+        m, frac, tau = _delay_and_filter(chains, acts)
+        d_old, d_new, e_old, e_new = _hold_steps(frac, tau, n_sub, period, h)
+        limit = _per_channel(chains, acts, _reader("amplifier_limit_n", math.inf, "channel_limit_n"),
+                             "amplifier_limit_n")
         if np.any(limit <= 0):
             raise ModelError(f"hardware chain: amplifier_limit_n must be > 0, got {limit.ravel().tolist()}")
-        lag_a = _per_channel(chains, acts, pick("actuator_lag_hz", 0.0, "channel_actuator_lag_hz"), "actuator_lag_hz")
-        lag_s = _per_channel(chains, fb, pick("sensor_lag_hz", 0.0, "channel_sensor_lag_hz"), "sensor_lag_hz")
+        lag_a = _per_channel(chains, acts, _reader("actuator_lag_hz", 0.0, "channel_actuator_lag_hz"),
+                             "actuator_lag_hz")
+        lag_s = _per_channel(chains, fb, _reader("sensor_lag_hz", 0.0, "channel_sensor_lag_hz"), "sensor_lag_hz")
         noise = np.array([[c.noise_m_s] * n_sensors for c in chains], dtype=float).reshape(len(chains), n_sensors)
         if np.any(noise < 0) or not np.all(np.isfinite(noise)):
             raise ModelError(f"hardware chain: noise_m_s must be finite and >= 0, got {noise[:, 0].tolist()}")
         gains = {name: _per_channel(chains, points, read, name) for name, points, read in (
-            ("amplifier_gain", acts, pick("amplifier_gain", 1.0)),
+            ("amplifier_gain", acts, _reader("amplifier_gain", 1.0)),
             ("actuator_gain", acts, lambda c, p: c.actuator_gain.get(p, 1.0)),
             ("sensor_gain", fb, lambda c, p: c.sensor_gain.get(p, 1.0)))}
         for name, g in gains.items():
