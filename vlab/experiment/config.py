@@ -167,7 +167,8 @@ def default_chain(
     actuator_lag_hz, sensor_lag_hz : float, optional
         First-order actuator and sensor lags [Hz], as :class:`~vlab.lab.loop.HardwareChain`; None = none.
     channel_delay_periods, channel_actuator_lag_hz, channel_sensor_lag_hz, channel_limit_n : dict, optional
-        Per-channel delay [periods], lags [Hz] and force limit [N], as :class:`~vlab.lab.loop.HardwareChain`; None = none.
+        Per-channel delay [periods], lags [Hz] and force limit [N], as
+        :class:`~vlab.lab.loop.HardwareChain`; None = none.
 
     Returns
     -------

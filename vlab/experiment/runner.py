@@ -399,8 +399,8 @@ def run_experiment(
         h_cont, h_samp = h_cont / iw, h_samp / iw
     modes = compare_modes(f, h_samp, m.measured, fm, zm, response=test.response_quantity)
     rec = m.loop.recording
-    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + self_excited_oscillation(np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:],
-                                        rec.dt_s, band_hz=test.band_hz)
+    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + self_excited_oscillation(
+        np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:], rec.dt_s, band_hz=test.band_hz)
     for mc in modes:
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
             warnings.append(f"mode {mc.mode} could not be identified (no resonance peak: overdamped or not "

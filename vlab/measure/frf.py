@@ -66,6 +66,22 @@ def required_duration_s(resolution_hz: float, *, n_averages: int = 1, overlap: f
     return (1 + (n_averages - 1) * (1 - overlap)) / resolution_hz
 
 
+def _time_histories(x, y, input_name: str, output_name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Force and response as float arrays: 1-D, finite, of one length (MeasurementError naming the channel)."""
+    xa = np.asarray(x, dtype=float)
+    ya = np.asarray(y, dtype=float)
+    for arr, nm in ((xa, input_name), (ya, output_name)):
+        if arr.ndim != 1:
+            raise MeasurementError(f"channel {nm}: expected a 1-D time history, got shape {arr.shape}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise MeasurementError(f"channel {nm}: non-finite sample at index {bad[0]}")
+    if xa.size != ya.size:
+        raise MeasurementError(f"FRF {output_name}/{input_name}: channel {input_name} has {xa.size} samples, "
+                               f"channel {output_name} has {ya.size}")
+    return xa, ya
+
+
 def h1(x, y, *, dt_s: float, resolution_hz: float, overlap: float = 0.5, window: str = "hann",
        response: str = "velocity", f_max_hz: float | None = None,
        input_name: str = "input", output_name: str = "output",
@@ -122,17 +138,7 @@ def h1(x, y, *, dt_s: float, resolution_hz: float, overlap: float = 0.5, window:
     by construction: use several averages.
     """
     pair = f"{output_name}/{input_name}"
-    xa = np.asarray(x, dtype=float)
-    ya = np.asarray(y, dtype=float)
-    for arr, nm in ((xa, input_name), (ya, output_name)):
-        if arr.ndim != 1:
-            raise MeasurementError(f"channel {nm}: expected a 1-D time history, got shape {arr.shape}")
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            raise MeasurementError(f"channel {nm}: non-finite sample at index {bad[0]}")
-    if xa.size != ya.size:
-        raise MeasurementError(f"FRF {pair}: channel {input_name} has {xa.size} samples, "
-                               f"channel {output_name} has {ya.size}")
+    xa, ya = _time_histories(x, y, input_name, output_name)
     if window not in _WINDOWS:
         raise MeasurementError(f"window must be one of {_WINDOWS}, got {window!r}")
     if not 0 <= overlap < 1:
