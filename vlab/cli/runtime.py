@@ -51,20 +51,35 @@ def _untyped_help_option(option):
 
 
 class VlabCommand(TyperCommand):
-    """A command whose ``--help`` option is shown without a type and without the hidden aliases."""
+    """A command whose ``--help`` option is shown without a type.
+
+    An option name of :data:`HIDDEN_ALIASES` is taken off its option (so that no help, generated
+    documentation or error message shows it) and given back to the parser only, which still reads it.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.hidden_aliases: dict[str, list[str]] = {}
+        for p in self.params:
+            aliases = [o for o in p.opts if o in HIDDEN_ALIASES]
+            if aliases:
+                p.opts = [o for o in p.opts if o not in HIDDEN_ALIASES]
+                self.hidden_aliases[p.name] = aliases
 
     def get_help_option(self, ctx):
         return _untyped_help_option(super().get_help_option(ctx))
 
-    def format_help(self, ctx, formatter):
-        shown = [(p, p.opts) for p in self.params if HIDDEN_ALIASES.intersection(p.opts)]
-        for p, opts in shown:
-            p.opts = [o for o in opts if o not in HIDDEN_ALIASES]
-        try:
-            return super().format_help(ctx, formatter)
-        finally:
-            for p, opts in shown:
-                p.opts = opts
+    def make_parser(self, ctx):
+        parser = super().make_parser(ctx)
+        for p in self.get_params(ctx):
+            aliases = self.hidden_aliases.get(p.name)
+            if aliases:
+                shown, p.opts = p.opts, aliases
+                try:
+                    p.add_to_parser(parser, ctx)
+                finally:
+                    p.opts = shown
+        return parser
 
 
 class VlabGroup(TyperGroup):
