@@ -11,7 +11,6 @@ dissertation computed and the sampled-data FRF with hold, delay and filter.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Callable
 
 import numpy as np

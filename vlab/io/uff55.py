@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
-from .uff_files import _RECORD_RE, _check_target, _ids, _label, _read_uff, _write_uff
+from .uff_files import RECORD_RE, check_target, id_lines, record_label, read_uff, write_uff
 
 # --------------------------------------------------------------------------- mode shapes
 @dataclass(frozen=True, eq=False)
@@ -102,7 +102,7 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
         Target exists and ``overwrite`` is False, description too long, pyuff failure.
     """
     p = Path(path)
-    _check_target(p, overwrite)
+    check_target(p, overwrite)
     cplx = np.iscomplexobj(modes.shapes)
     desc = modes.description or "NONE"
     dsets = []
@@ -119,9 +119,9 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
         else:
             d.update(analysis_type=2, freq=modes.freq_hz[r], modal_m=0.0,
                      modal_damp_vis=modes.damping_ratio[r], modal_damp_his=0.0)
-        d.update(_ids(desc, "vlab ModeShapes", r + 1, modes.n_modes))
+        d.update(id_lines(desc, "vlab ModeShapes", r + 1, modes.n_modes))
         dsets.append(d)
-    _write_uff(p, dsets)
+    write_uff(p, dsets)
     return p
 
 
@@ -149,11 +149,11 @@ def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = 
         positive and finite; a damping ratio outside [0, 1); a repeated mode
         number. The message names the file, the record and the value.
     """
-    p, sets = _read_uff(path)
+    p, sets = read_uff(path)
     recs = [s for s in sets if s.get("type") == 55 and s.get("analysis_type") in (2, 3)]
     if not recs:
         raise DataFileError(f"{p}: no dataset-55 normal or complex mode record")
-    counts = {int(m.group(2)) for s in recs if (m := _RECORD_RE.match(str(s.get("id5", "")).strip()))}
+    counts = {int(m.group(2)) for s in recs if (m := RECORD_RE.match(str(s.get("id5", "")).strip()))}
     if counts and counts != {len(recs)}:
         raise DataFileError(f"{p}: truncated UFF: {len(recs)} mode record(s), ID lines announce {counts}")
     if "node_nums" not in recs[0]:
@@ -207,7 +207,7 @@ def read_mode_shapes(path: str | os.PathLike, *, points: Sequence[int] | None = 
         freqs.append(fr)
         zetas.append(zeta)
         cols.append(z)
-    desc = _label(recs[0], "")
+    desc = record_label(recs[0], "")
     try:
         return ModeShapes(freq_hz=np.array(freqs), shapes=np.column_stack(cols), point_ids=nodes,
                           damping_ratio=np.array(zetas), description=desc)

@@ -1,7 +1,7 @@
 """UFF files: reading and writing whole files, and the header checks shared by vlab's UFF readers.
 
-Used by :mod:`vlab.io.uff` (datasets 58) and :mod:`vlab.io.uff55` (dataset
-55): existence and truncation checks, atomic writes, ID lines, and checks of
+Used by :mod:`vlab.io.uff_time` and :mod:`vlab.io.uff_frf` (datasets 58) and
+:mod:`vlab.io.uff55` (dataset 55): existence and truncation checks, atomic writes, ID lines, and checks of
 the integer fields (node, direction) and unit labels of a record.
 
 Source: UFF dataset descriptions (SDRC/I-DEAS, https://www.ceas3.uc.edu/sdrluff/);
@@ -21,13 +21,23 @@ import pyuff
 from ..errors import DataFileError
 from .uff_units import check_units_records
 
-_RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
+#: vlab's ID line 5 of every record: ``record i of n`` (a truncated file is detected by it).
+RECORD_RE = re.compile(r"^record (\d+) of (\d+)$")
 #: Unit labels accepted for each quantity (compared case-insensitively; ``NONE`` or empty = not given).
 _UNIT_LABELS = {"displacement": {"m"}, "velocity": {"m/s"}, "acceleration": {"m/s^2", "m/s2", "m/s**2"},
                 "force": {"n"}}
 #: UFF direction codes of a translation (1..3 = X, Y, Z; negative = opposite sense).
 _TRANSLATIONS = (-3, -2, -1, 1, 2, 3)
-_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+#: SI unit of each quantity, as vlab labels it.
+UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+#: UFF specific data type code of each quantity.
+SPEC_DATA_TYPE = {"displacement": 8, "velocity": 11, "acceleration": 12, "force": 13}
+#: Quantity of each specific data type code vlab reads (9 and 13: force).
+CODE_QUANTITY = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force", 9: "force"}
+#: (length exponent, force exponent) of each quantity's unit.
+UNIT_EXPONENTS = {"displacement": (1, 0), "velocity": (1, 0), "acceleration": (1, 0), "force": (0, 1)}
+#: A conventional channel name: quantity prefix and point id (``vel4``).
+CONVENTIONAL_NAME_RE = re.compile(r"^(force|disp|vel|acc)\d+$")
 
 
 # --------------------------------------------------------------------------- files
@@ -37,7 +47,23 @@ def sidecar_path(path: str | os.PathLike) -> Path:
     return p.with_name(p.name + ".json")
 
 
-def _check_target(path: Path, overwrite: bool, *others: Path) -> None:
+def check_target(path: Path, overwrite: bool, *others: Path) -> None:
+    """Refuse to write ``path`` (and its companion files ``others``) over existing files or into a missing folder.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write.
+    overwrite : bool
+        Replace existing files.
+    *others : Path
+        Files written with it (a sidecar).
+
+    Raises
+    ------
+    DataFileError
+        A file exists and ``overwrite`` is False, or the folder does not exist.
+    """
     for p in (path, *others):
         if p.exists() and not overwrite:
             raise DataFileError(f"{p}: file exists; pass overwrite=True to replace it")
@@ -50,11 +76,23 @@ def _tmp_path(path: Path) -> str:
     return str(path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp"))
 
 
-def _write_uff(path: Path, dsets: list[dict]) -> None:
+def write_uff(path: Path, dsets: list[dict]) -> None:
     """Write datasets to a fresh temporary file and move it to ``path``.
 
     pyuff's 'overwrite' mode truncates the header of a binary first record,
     so the records are always appended ('add') to the new temporary file.
+
+    Parameters
+    ----------
+    path : Path
+        Target file (replaced if it exists).
+    dsets : list of dict
+        pyuff datasets.
+
+    Raises
+    ------
+    DataFileError
+        pyuff failed to write.
     """
     tmp = _tmp_path(path)
     try:
@@ -67,7 +105,16 @@ def _write_uff(path: Path, dsets: list[dict]) -> None:
             os.unlink(tmp)
 
 
-def _write_text(path: Path, text: str) -> None:
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to a fresh temporary file and move it to ``path``.
+
+    Parameters
+    ----------
+    path : Path
+        Target file (replaced if it exists).
+    text : str
+        Content.
+    """
     tmp = _tmp_path(path)
     try:
         with open(tmp, "x", encoding="utf-8") as fh:
@@ -78,8 +125,25 @@ def _write_text(path: Path, text: str) -> None:
             os.unlink(tmp)
 
 
-def _read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
-    """All datasets of a UFF file, after checks for existence and truncation."""
+def read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
+    """All datasets of a UFF file, after checks for existence, truncation and units.
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF file.
+
+    Returns
+    -------
+    (Path, list of dict)
+        The path and its non-empty pyuff datasets.
+
+    Raises
+    ------
+    DataFileError
+        Missing, empty, truncated or malformed file; records missing by vlab's
+        ID line 5; a units record that is not SI (:func:`vlab.io.uff_units.check_units_records`).
+    """
     p = Path(path)
     if not p.is_file():
         raise DataFileError(f"{p}: no such file")
@@ -108,7 +172,7 @@ def _check_record_count(path: Path, sets: list[dict]) -> None:
     """Use vlab's ``id5 = 'record i of n'`` to detect missing records."""
     counts = set()
     for s in sets:
-        m = _RECORD_RE.match(str(s.get("id5", "")).strip())
+        m = RECORD_RE.match(str(s.get("id5", "")).strip())
         if m:
             counts.add(int(m.group(2)))
     if counts and (len(counts) > 1 or counts.pop() != len(sets)):
@@ -116,20 +180,77 @@ def _check_record_count(path: Path, sets: list[dict]) -> None:
                             "the ID lines announce a different number")
 
 
-def _ids(name: str, kind: str, i: int, n: int, id3: str = "NONE", id4: str = "NONE") -> dict:
+def id_lines(name: str, kind: str, i: int, n: int, id3: str = "NONE", id4: str = "NONE") -> dict:
+    """The five ID lines of record ``i`` of ``n``: name, kind, two free lines and ``record i of n``.
+
+    Parameters
+    ----------
+    name : str
+        ID line 1 (channel name or ``output/input``).
+    kind : str
+        ID line 2 (what wrote it).
+    i, n : int
+        Record number (1-based) and record count, for ID line 5.
+    id3, id4 : str
+        ID lines 3 and 4.
+
+    Returns
+    -------
+    dict
+        ``id1`` .. ``id5`` for a pyuff dataset.
+
+    Raises
+    ------
+    DataFileError
+        A line longer than the 80 characters UFF allows.
+    """
     for line in (name, kind, id3, id4):
         if len(line) > 80:
             raise DataFileError(f"UFF ID line longer than 80 characters: {line!r}")
     return {"id1": name, "id2": kind, "id3": id3, "id4": id4, "id5": f"record {i} of {n}"}
 
 
-def _label(dset: dict, fallback: str) -> str:
+def record_label(dset: dict, fallback: str) -> str:
+    """ID line 1 of a record, or ``fallback`` where it is empty or ``NONE``.
+
+    Parameters
+    ----------
+    dset : dict
+        A pyuff dataset.
+    fallback : str
+        The label to use without one.
+
+    Returns
+    -------
+    str
+    """
     name = str(dset.get("id1", "")).strip()
     return name if name and name.upper() != "NONE" else fallback
 
 
-def _get_int(p: Path, s: dict, key: str, where: str) -> int:
-    """Integer header field ``key`` of a record (``where`` names the record in the error)."""
+def get_int(p: Path, s: dict, key: str, where: str) -> int:
+    """Integer header field ``key`` of a record.
+
+    Parameters
+    ----------
+    p : Path
+        The file, for the message.
+    s : dict
+        The pyuff dataset.
+    key : str
+        Header field.
+    where : str
+        The record, for the message (``"record 2"``).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    DataFileError
+        The field is missing, not a number or not an integer.
+    """
     if key not in s:
         raise DataFileError(f"{p}: {where}: header field {key!r} is missing")
     try:
@@ -141,24 +262,85 @@ def _get_int(p: Path, s: dict, key: str, where: str) -> int:
     return int(v)
 
 
-def _check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
-    """Refuse an ordinate unit label that contradicts the specific data type (``in/s`` on a velocity)."""
+def check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
+    """Refuse an ordinate unit label that contradicts the specific data type (``in/s`` on a velocity).
+
+    Parameters
+    ----------
+    p : Path
+        The file, for the message.
+    s : dict
+        The pyuff dataset.
+    quantity : str
+        The record's quantity (from its specific data type).
+    where : str
+        The record, for the message.
+
+    Raises
+    ------
+    DataFileError
+        A label that is neither empty, ``NONE`` nor the quantity's SI unit.
+    """
     lab = str(s.get("ordinate_axis_units_lab", "") or "").strip()
     if lab and lab.upper() != "NONE" and lab.lower() not in _UNIT_LABELS[quantity]:
         raise DataFileError(f"{p}: {where}: ordinate unit label {lab!r} does not match its data type "
-                            f"{quantity} (SI {_UNITS[quantity]!r} expected; vlab reads SI only)")
+                            f"{quantity} (SI {UNITS[quantity]!r} expected; vlab reads SI only)")
 
 
-def _check_direction(p: Path, s: dict, key: str, where: str) -> int:
-    d = _get_int(p, s, key, where)
+def check_direction(p: Path, s: dict, key: str, where: str) -> int:
+    """A direction field (``rsp_dir``, ``ref_dir``) that must be a translation code (+-1..3).
+
+    Parameters
+    ----------
+    p : Path
+        The file, for the message.
+    s : dict
+        The pyuff dataset.
+    key : str
+        The field.
+    where : str
+        The record, for the message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    DataFileError
+        Missing, not an integer, or not a translation.
+    """
+    d = get_int(p, s, key, where)
     if d not in _TRANSLATIONS:
         raise DataFileError(f"{p}: {where}: {key} = {d} is not a translation direction code "
                             f"(expected one of {list(_TRANSLATIONS)}; 3 = out of plane)")
     return d
 
 
-def _check_node(p: Path, s: dict, key: str, where: str) -> int:
-    n = _get_int(p, s, key, where)
+def check_node(p: Path, s: dict, key: str, where: str) -> int:
+    """A node field (``rsp_node``, ``ref_node``) that must be a point id (a positive integer).
+
+    Parameters
+    ----------
+    p : Path
+        The file, for the message.
+    s : dict
+        The pyuff dataset.
+    key : str
+        The field.
+    where : str
+        The record, for the message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    DataFileError
+        Missing, not an integer, or below 1.
+    """
+    n = get_int(p, s, key, where)
     if n < 1:
         raise DataFileError(f"{p}: {where}: {key} = {n} is not a point id (positive integers)")
     return n
