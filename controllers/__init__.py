@@ -1,7 +1,10 @@
 """controllers: the dissertation's control design module (Chapter 4, Sec. 5.3).
 
-Depends on numpy, scipy, python-control and osqp only -- never on mujoco or
-vlab -- and takes plain matrices (m, c, k, U, sensor selection).
+Depends on numpy, scipy and python-control only -- never on mujoco or
+vlab -- and takes plain matrices (m, c, k, U, sensor selection). No design is
+a quadratic programme (the DRF designs constrain closed-loop damping ratios,
+eigenvalue functions of the gain: :mod:`controllers.drf` solves them with
+SLSQP), so no QP solver is used.
 
 Modules (import them directly; nothing is imported here, so importing the
 package has no side effects and costs nothing):
@@ -13,5 +16,6 @@ package has no side effects and costs nothing):
 * :mod:`controllers.drf`         -- MFDRF, LQDRF (coupled, diagonal, LQR-normalised)
 * :mod:`controllers.performance` -- performance index by Lyapunov equations, damping ratios
 * :mod:`controllers.realization` -- discrete F11/F12/F21/F22 (Eqs. 5.1-5.13)
+* :mod:`controllers.pycontrol`   -- the plant, controllers and loops as python-control ``StateSpace``
 * :mod:`controllers.errors`      -- exceptions (all subclass ValueError) and input checks
 """
