@@ -267,14 +267,10 @@ def check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
 
     Parameters
     ----------
-    p : Path
-        The file, for the message.
-    s : dict
-        The pyuff dataset.
+    p, s, where
+        As :func:`get_int`.
     quantity : str
         The record's quantity (from its specific data type).
-    where : str
-        The record, for the message.
 
     Raises
     ------
@@ -292,14 +288,8 @@ def check_direction(p: Path, s: dict, key: str, where: str) -> int:
 
     Parameters
     ----------
-    p : Path
-        The file, for the message.
-    s : dict
-        The pyuff dataset.
-    key : str
-        The field.
-    where : str
-        The record, for the message.
+    p, s, key, where
+        As :func:`get_int`.
 
     Returns
     -------
@@ -322,14 +312,8 @@ def check_node(p: Path, s: dict, key: str, where: str) -> int:
 
     Parameters
     ----------
-    p : Path
-        The file, for the message.
-    s : dict
-        The pyuff dataset.
-    key : str
-        The field.
-    where : str
-        The record, for the message.
+    p, s, key, where
+        As :func:`get_int`.
 
     Returns
     -------
