@@ -1,6 +1,6 @@
 """`vlab update`: the structure file with what a diagnosis found, and the design on it run on the changed plant.
 
-Checked against independent references: the change tables of a structure file (vlab.spec_changes) against
+Checked against independent references: the change tables of a structure file (vlab.spec.changes) against
 the diagnosis's own edits of a spec (vlab.diagnose.effects.specedit, a separate implementation) by the FE
 natural frequencies; the written file keeps the original text byte for byte; a concealed added mass of known
 size (0.04 kg) comes back in the written file; the design on the updated file predicts the experiment on

@@ -11,7 +11,7 @@ effect (location)             entry appended
 ``added_mass`` (point[s])     ``[[masses]]`` at each point, ``added = true``
 ``support_stiffness``         ``[[springs]]`` at each point, ``added = true``; ``replaces_support =
                               true`` where a support fixed that DOF (a support of finite stiffness)
-``joint_flexibility``         ``[[joint_flexibility]]`` (:mod:`vlab.spec_changes`)
+``joint_flexibility``         ``[[joint_flexibility]]`` (:mod:`vlab.spec.changes`)
 ``member_stiffness``          ``[[member_stiffness]]`` (the member, or one segment)
 ``damping`` (mode)            ``[[mode_damping]]``
 ============================  ==============================================================
@@ -20,7 +20,7 @@ The written file is read back (:func:`vlab.spec.spec_from_dict`) and checked aga
 diagnosis itself evaluated (the original changed by :mod:`vlab.diagnose.effects.specedit`): the same
 natural frequencies and damping matrix (relative difference below :data:`CHECK_RTOL`). A physical change
 keeps the damping matrix of the structure before it, in the file as in the diagnosis
-(:mod:`vlab.spec_changes`).
+(:mod:`vlab.spec.changes`).
 
 Refused, with the reason: a diagnosis with nothing selected, one whose best effect is outside the library
 (``outside_library``), one made for another structure (its ``structure_sha256``,
