@@ -1,5 +1,7 @@
 """The experiment runner: run the loop on a plant, measure like a modal test, compare with the analysis.
 
+With its results writer and its estimate of a run's memory and time.
+
 Modules
 -------
 config
@@ -14,6 +16,8 @@ settling
     How many records the start-up transient needs to settle (Sec. 5.4.1).
 checks
     Warnings about a finished run: under-resolved peaks, self-excited oscillations.
+estimate
+    The memory and time of a run, estimated before it starts, and the memory available for it.
 results
     The experiment's output folder: ``results.json``, ``report.md``, UFF files, figures.
 """
