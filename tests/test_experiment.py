@@ -12,10 +12,27 @@ from vlab.cli import app
 from vlab.errors import MeasurementError, ModelError
 from vlab.experiment.results import write_outputs
 from vlab.io.uff import read_frfs, read_recording
-from vlab.experiment.config import ExperimentConfig
+from vlab.experiment.config import ExperimentConfig, default_chain
 from vlab.experiment.runner import run_experiment
+from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 from vlab.viz.rerun_log import rrd_entity_paths
+
+
+def test_default_chain_takes_exactly_the_hardware_chain_settings():
+    """Every HardwareChain field by name, nothing else: a misspelt setting is a TypeError, not ignored."""
+    import dataclasses
+    import inspect
+
+    fields = {f.name for f in dataclasses.fields(HardwareChain)}
+    assert set(inspect.signature(default_chain).parameters) - {"controller"} == fields
+    assert default_chain("lqg") == HardwareChain(period_s=1e-3)  # the thesis's LQG period (Sec. 5.3)
+    assert default_chain("mfdrf", noise_m_s=1e-6) == HardwareChain(period_s=0.5e-3, noise_m_s=1e-6)
+    assert default_chain("lqg", period_s=0.5e-3, channel_limit_n={5: 2.0}).channel_limit_n == {5: 2.0}
+    with pytest.raises(TypeError):
+        default_chain("mfdrf", noise=1e-6)
+    with pytest.raises(ModelError, match="unknown controller"):
+        default_chain("nope", period_s=1e-3)
 
 
 @pytest.fixture(scope="module")
