@@ -16,7 +16,7 @@ from ..errors import ModelError, SimulationError
 
 
 def positive(value: float, *, what: str) -> float:
-    """``value`` as a float, checked to be positive and finite (a period, step or corner frequency).
+    """``value`` as a float, checked to be positive and finite (a period, step, corner frequency or level).
 
     Parameters
     ----------

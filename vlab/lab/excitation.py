@@ -22,6 +22,7 @@ import numpy as np
 from scipy import signal
 
 from ..errors import ModelError
+from .block import positive
 
 _UNIFORM_RTOL = 1e-9
 
@@ -34,19 +35,12 @@ def time_grid(*, dt_s: float, duration_s: float) -> np.ndarray:
     ModelError
         Non-positive ``dt_s`` or ``duration_s < dt_s``.
     """
-    dt = _positive(dt_s, "dt_s")
-    dur = _positive(duration_s, "duration_s")
+    dt = positive(dt_s, what="dt_s")
+    dur = positive(duration_s, what="duration_s")
     n = int(round(dur / dt))
     if n < 1:
         raise ModelError(f"duration_s={duration_s} is shorter than one step dt_s={dt_s}")
     return np.arange(n) * dt
-
-
-def _positive(value: float, what: str) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v <= 0:
-        raise ModelError(f"{what} must be a positive finite number, got {value!r}")
-    return v
 
 
 def _time(t_s, *, uniform: bool = False) -> tuple[np.ndarray, float | None]:
@@ -114,7 +108,7 @@ def multisine_lines_hz(band_hz: tuple[float, float], resolution_hz: float) -> np
         Bad band or resolution, or no line in the band.
     """
     lo, hi = _band(band_hz)
-    df = _positive(resolution_hz, "resolution_hz")
+    df = positive(resolution_hz, what="resolution_hz")
     k0 = max(1, math.ceil(lo / df - 1e-9))
     k1 = math.floor(hi / df + 1e-9)
     if k1 < k0:
@@ -172,7 +166,7 @@ def pseudo_random(t_s, *, band_hz: tuple[float, float], resolution_hz: float, rm
     t, dt = _time(t_s)
     lines = multisine_lines_hz(band_hz, resolution_hz)
     df = float(resolution_hz)
-    rms = _positive(rms_n, "rms_n")
+    rms = positive(rms_n, what="rms_n")
     K = lines.size
     if phases == "random":
         if seed is None:
@@ -239,7 +233,7 @@ def filtered_random(t_s, *, band_hz: tuple[float, float], rms_n: float, seed,
     """
     t, dt = _time(t_s, uniform=True)
     lo, hi = _band(band_hz)
-    rms = _positive(rms_n, "rms_n")
+    rms = positive(rms_n, what="rms_n")
     if isinstance(order, bool) or int(order) != order or order < 1:
         raise ModelError(f"order must be a positive integer, got {order!r}")
     _below_nyquist(hi, dt)
@@ -283,7 +277,7 @@ def sine_sweep(t_s, *, f_start_hz: float, f_stop_hz: float, amplitude_n: float,
     t, _ = _time(t_s)
     if t.size < 2:
         raise ModelError("sine_sweep needs at least two time samples")
-    amp = _positive(amplitude_n, "amplitude_n")
+    amp = positive(amplitude_n, what="amplitude_n")
     f0, f1 = float(f_start_hz), float(f_stop_hz)
     if method not in ("linear", "logarithmic"):
         raise ModelError(f"method must be 'linear' or 'logarithmic', got {method!r}")
@@ -339,8 +333,8 @@ def stepped_sine(t_s, *, freqs_hz: Sequence[float], dwell_s: float, amplitude_n:
     f = np.asarray(freqs_hz, dtype=float)
     if f.ndim != 1 or f.size < 1 or not np.all(np.isfinite(f)) or np.any(f <= 0):
         raise ModelError(f"freqs_hz must be a non-empty 1-D array of positive frequencies, got {freqs_hz!r}")
-    dwell = _positive(dwell_s, "dwell_s")
-    amp = _positive(amplitude_n, "amplitude_n")
+    dwell = positive(dwell_s, what="dwell_s")
+    amp = positive(amplitude_n, what="amplitude_n")
     t0 = float(t[0] if start_s is None else start_s)
     tau = t - t0
     i = np.floor(tau / dwell).astype(int)
@@ -403,7 +397,7 @@ def half_sine_pulse(t_s, *, peak_n: float, duration_s: float, start_s: float = 0
     Source: Ewins, *Modal Testing*, 2nd ed., Sec. 3.9 (impact excitation).
     """
     t, _ = _time(t_s)
-    dur = _positive(duration_s, "duration_s")
+    dur = positive(duration_s, what="duration_s")
     p = _finite_peak(peak_n, start_s)
     tau = t - float(start_s)
     return _half_sine(tau, (tau >= 0) & (tau <= dur), p, dur)
@@ -453,8 +447,8 @@ def periodic_chirp(t_s, *, band_hz: tuple[float, float], period_s: float, amplit
     """
     t, _ = _time(t_s)
     f0, f1 = _band(band_hz)
-    period = _positive(period_s, "period_s")
-    amp = _positive(amplitude_n, "amplitude_n")
+    period = positive(period_s, what="period_s")
+    amp = positive(amplitude_n, what="amplitude_n")
     tau = np.mod(t, period)
     return amp * np.cos(2.0 * np.pi * (f0 * tau + 0.5 * (f1 - f0) * tau**2 / period))
 
@@ -504,8 +498,8 @@ def pulse_train(t_s, *, peak_n: float, duration_s: float, period_s: float, start
     Sec. 5.4.1 of the dissertation (decay measurements).
     """
     t, _ = _time(t_s)
-    dur = _positive(duration_s, "duration_s")
-    period = _positive(period_s, "period_s")
+    dur = positive(duration_s, what="duration_s")
+    period = positive(period_s, what="period_s")
     if period < dur:
         raise ModelError(f"period_s={period_s} is shorter than the pulse duration_s={duration_s}")
     p = _finite_peak(peak_n, start_s)
