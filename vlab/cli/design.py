@@ -9,7 +9,7 @@ from rich.markup import escape
 
 from ..errors import OptionError
 from . import checks
-from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, format_opt, json_flag, opt
+from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, flag, format_opt, json_flag, opt
 from .output import console, err_console, print_json, print_rows
 
 
@@ -35,6 +35,13 @@ def design(
     period_ms: float = opt(None, "--period-ms",
                            help="sampling period of the realization [ms], > 0 (default: the thesis's, "
                                 "Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
+    margins: bool = flag("--margins", help="also analyse the lab's sampled-data loop on the FE model (delay 1.35 "
+                                           "periods, hold, 677 Hz RC filter): loop-at-a-time gain and phase margins "
+                                           "per channel and the peak sensitivity M_s (a second table; JSON key loop; "
+                                           "with --format csv the margins' rows instead of the modes')"),
+    figure: str = opt(None, "--figure", help="also draw the loop into this file (.png, .svg or .pdf): Bode and "
+                                             "Nyquist of each loop-at-a-time gain, sigma_max of the sensitivity"),
+    overwrite: bool = flag("--overwrite", help="replace an existing --figure file"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag("the tables"),
 ) -> None:
@@ -53,6 +60,7 @@ def design(
         raise OptionError("--modes is read only with --reduction corrected-guyan "
                           f"(got --reduction {reduction.value if reduction else 'default'})")
     checks.input_file("--modes", modes_file)
+    fig_path = _figure_path(figure, overwrite)
     spec = checks.load_structure(structure)
     fe = checks.fe_model_of(spec)
     measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
@@ -61,8 +69,13 @@ def design(
         bar.add_task(f"designing {controller.value} for {spec.name}", total=None)
         d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
                               measured_modes=measured, seed=seed, period_s=period_s)
+    loop = _loop(fe, d, fig_path, overwrite) if (margins or fig_path is not None) else None
     if out == "json":
-        print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s)})
+        extra = {"loop": _loop_json(loop)} if margins else {}
+        print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s), **extra})
+        return
+    if margins and out == "csv":
+        _print_margins(loop, out)
         return
     n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
     rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
@@ -84,6 +97,61 @@ def design(
         console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
         console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
     print_rows(out, rows, cols, "closed loop on the design model")
+    if margins:
+        _print_margins(loop, out)
+
+
+def _figure_path(figure: str | None, overwrite: bool):
+    """``--figure`` checked before any work (suffix .png/.svg/.pdf, writable folder, no silent replacement)."""
+    from ..io.atomic import check_output_file
+
+    if figure is None:
+        return None
+    if not str(figure).lower().endswith((".png", ".svg", ".pdf")):
+        raise OptionError(f"--figure {figure}: give a .png, .svg or .pdf file")
+    return check_output_file(figure, overwrite=overwrite, option="--figure")
+
+
+def _loop(fe, d, fig_path, overwrite: bool):
+    """:func:`vlab.design.loop.analyse_loop` of the design; its figure written to ``fig_path`` when given."""
+    from ..design.loop import analyse_loop
+
+    loop = analyse_loop(fe, d)
+    if fig_path is not None:
+        from ..io.atomic import atomic_file
+        from ..viz.loop_figures import loop_figure
+
+        labels = [f"point {p}" for p in loop.points]
+        cross = {lb: (m.crossover_hz, m.phase_crossover_hz) for lb, m in zip(labels, loop.margins)}
+        with atomic_file(fig_path, overwrite=overwrite) as tmp:
+            loop_figure(loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross,
+                        title=f"{fe.spec.name} {d.controller}: loop-at-a-time gains L = K G "
+                              f"(T = {d.period_s * 1e3:g} ms, delay {loop.delay_periods:g} T, hold, RC)")
+    return loop
+
+
+def _loop_json(loop) -> dict:
+    from ..design.loop import loop_summary
+
+    return loop_summary(loop)
+
+
+def _print_margins(loop, out: str) -> None:
+    """The loop-at-a-time margins, one row per channel, and the peak sensitivity."""
+    from ..design.loop import loop_summary
+    from ..io.tabular import Column
+
+    rows = loop_summary(loop)["channels"]
+    cols = [Column("point", "channel (point)"), Column("gain_margin_db", "gain margin [dB]", ".2f"),
+            Column("phase_crossover_hz", "at [Hz]", ".2f"), Column("phase_margin_deg", "phase margin [deg]", ".1f"),
+            Column("crossover_hz", "crossover [Hz]", ".3f")]
+    if out == "csv":
+        print_rows(out, rows, cols)
+        return
+    print_rows(out, rows, cols, "loop-at-a-time margins of the sampled-data loop on the FE model (others closed)")
+    console.print(f"peak sensitivity M_s = {loop.peak_sensitivity:.3f} at {loop.peak_sensitivity_hz:.3f} Hz "
+                  f"(max sigma_max of S = (I + K G)^-1; no crossing on {loop.freq_hz[0]:g}-{loop.freq_hz[-1]:.0f} "
+                  "Hz: blank)")
 
 
 def _measured_modes(fe, modes_file: str | None):
