@@ -183,3 +183,22 @@ def test_quantiser_range_and_step():
     assert full == 1.0
     q = quantise(x, full, 16)
     assert np.max(np.abs(q - x)) <= full / 2**16
+
+
+def test_lab_accelerations_agree_with_the_controller_rate_velocities(params):
+    exc = {"kind": "multisine", "rms_n": 0.5, "band_hz": [1.0, 25.0], "period_s": 1.0,
+           "periods": 1, "settle_periods": 1}
+    quiet = Settings(elements_per_segment=2, arm_elements=2,
+                     frontend=Frontend(velocity_noise=0.0, force_noise=0.0, accel_noise=0.0))
+    res = simulate(Case(excitation=exc, seed=5, mode="both"), Controller.zero(3), params, quiet)
+    assert res["dt_s"]["lab"] == pytest.approx(2e-4) and len(res["lab"]) == 10
+    acc, f_lab = res["lab"]["acc6"][2], res["lab"]["force9"][2]
+    step = 2 * res["ranges"]["acc6"] / 2**16
+    assert np.allclose(acc / step, np.round(acc / step))
+    vel, f_c = res["compat"]["vel6"][2], res["compat"]["force9"][2]
+    lines = np.arange(1, 26)
+    h_lab = np.fft.rfft(acc)[lines] / np.fft.rfft(f_lab)[lines]
+    h_vel = np.fft.rfft(vel)[lines] / np.fft.rfft(f_c)[lines]
+    w = 2 * np.pi * lines
+    zoh = np.exp(-0.5j * w * 5e-4) * np.sinc(lines * 5e-4)
+    assert np.max(np.abs(h_lab / (1j * w) * zoh / h_vel - 1)) < 0.005
