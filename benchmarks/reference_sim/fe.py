@@ -105,7 +105,7 @@ def beam_element(ei: float, mu: float, length: float, tension) -> tuple:
     Returns
     -------
     k, m : ndarray, shape (4, 4)
-        DOFs (w_a, rx_a, w_b, rx_b). k = bending (Przemieniecki Eq. 5.95) plus
+        DOFs (w_a, rx_a, w_b, rx_b). k = bending (Przemieniecki 1968, Ch. 5) plus
         geometric int N N'^T N' ds; m = mu int N^T N ds (consistent mass).
     """
     L = length
