@@ -9,6 +9,7 @@ from rich.markup import escape
 
 from ..errors import OptionError
 from . import checks
+from .figure_option import figure_path, write_figure
 from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, flag, format_opt, json_flag, opt
 from .output import console, err_console, print_json, print_rows
 
@@ -40,7 +41,8 @@ def design(
                                            "per channel and the peak sensitivity M_s (a second table; JSON key loop; "
                                            "with --format csv the margins' rows instead of the modes')"),
     figure: str = opt(None, "--figure", help="also draw the loop into this file (.png, .svg or .pdf): Bode and "
-                                             "Nyquist of each loop-at-a-time gain, sigma_max of the sensitivity"),
+                                             "Nyquist of each loop-at-a-time gain, sigma_max of the sensitivity "
+                                             "(default: no figure)"),
     overwrite: bool = flag("--overwrite", help="replace an existing --figure file"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag("the tables"),
@@ -60,7 +62,7 @@ def design(
         raise OptionError("--modes is read only with --reduction corrected-guyan "
                           f"(got --reduction {reduction.value if reduction else 'default'})")
     checks.input_file("--modes", modes_file)
-    fig_path = _figure_path(figure, overwrite)
+    fig_path = figure_path(figure, overwrite)
     spec = checks.load_structure(structure)
     fe = checks.fe_model_of(spec)
     measured = _measured_modes(fe, modes_file) if reduction is DesignReduction.corrected_guyan else None
@@ -101,32 +103,20 @@ def design(
         _print_margins(loop, out)
 
 
-def _figure_path(figure: str | None, overwrite: bool):
-    """``--figure`` checked before any work (suffix .png/.svg/.pdf, writable folder, no silent replacement)."""
-    from ..io.atomic import check_output_file
-
-    if figure is None:
-        return None
-    if not str(figure).lower().endswith((".png", ".svg", ".pdf")):
-        raise OptionError(f"--figure {figure}: give a .png, .svg or .pdf file")
-    return check_output_file(figure, overwrite=overwrite, option="--figure")
-
-
 def _loop(fe, d, fig_path, overwrite: bool):
     """:func:`vlab.design.loop.analyse_loop` of the design; its figure written to ``fig_path`` when given."""
     from ..design.loop import analyse_loop
 
     loop = analyse_loop(fe, d)
     if fig_path is not None:
-        from ..io.atomic import atomic_file
         from ..viz.loop_figures import loop_figure
 
         labels = [f"point {p}" for p in loop.points]
         cross = {lb: (m.crossover_hz, m.phase_crossover_hz) for lb, m in zip(labels, loop.margins)}
-        with atomic_file(fig_path, overwrite=overwrite) as tmp:
-            loop_figure(loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross,
-                        title=f"{fe.spec.name} {d.controller}: loop-at-a-time gains L = K G "
-                              f"(T = {d.period_s * 1e3:g} ms, delay {loop.delay_periods:g} T, hold, RC)")
+        title = (f"{fe.spec.name} {d.controller}: loop-at-a-time gains L = K G "
+                 f"(T = {d.period_s * 1e3:g} ms, delay {loop.delay_periods:g} T, hold, RC)")
+        write_figure(fig_path, overwrite, lambda tmp: loop_figure(
+            loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross, title=title))
     return loop
 
 

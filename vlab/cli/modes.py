@@ -8,6 +8,7 @@ import numpy as np
 
 from ..errors import OptionError
 from . import checks
+from .figure_option import figure_path, write_figure
 from .options import OutputFormat, arg_structure, flag, format_opt, json_flag, opt
 from .output import print_json, print_rows
 
@@ -31,9 +32,10 @@ def modes(
                                help="model: the full FE model, its exact reduction or Guyan reduction"),
     n: int = opt(12, "--n", min=1, help="number of modes listed, >= 1 (at most the model's degrees of freedom)"),
     shapes: bool = flag("--shapes", help="also give the mode shapes: the out-of-plane displacement w at each point, "
-                                         "largest +1 per mode (a second table; JSON key shapes; CSV columns w_at_<point>)"),
+                                         "largest +1 per mode (a second table; JSON key shapes; CSV columns "
+                                         "w_at_<point>)"),
     figure: str = opt(None, "--figure", help="also draw the mode shapes on the structure into this file "
-                                             "(.png, .svg or .pdf)"),
+                                             "(.png, .svg or .pdf; default: no figure)"),
     overwrite: bool = flag("--overwrite", help="replace an existing --figure file"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
@@ -47,7 +49,7 @@ def modes(
     fe = checks.fe_model_of(spec)
     if n > fe.m.shape[0]:
         raise OptionError(f"--n {n} exceeds the model's {fe.m.shape[0]} degrees of freedom")
-    fig_path = _figure_path(figure, overwrite)
+    fig_path = figure_path(figure, overwrite)
     f, pts = _modes_at_points(fe, reduction, n, shapes or fig_path is not None)
     if fig_path is not None:
         _write_figure(spec, pts, f, fig_path, reduction, overwrite)
@@ -125,24 +127,11 @@ def _print_shapes_table(pts, f: np.ndarray, reduction: Reduction) -> None:
     print_rows("table", rows, cols, f"mode shapes w at the points ({reduction.value} model; largest +1 per mode)")
 
 
-def _figure_path(figure: str | None, overwrite: bool):
-    """``--figure`` checked before any work (suffix .png/.svg/.pdf, writable folder, no silent replacement)."""
-    from ..io.atomic import check_output_file
-
-    if figure is None:
-        return None
-    if not str(figure).lower().endswith((".png", ".svg", ".pdf")):
-        raise OptionError(f"--figure {figure}: give a .png, .svg or .pdf file")
-    return check_output_file(figure, overwrite=overwrite, option="--figure")
-
-
 def _write_figure(spec, pts, f: np.ndarray, path, reduction: Reduction, overwrite: bool) -> None:
     """Draw the shapes on the structure (:func:`vlab.viz.mode_figures.mode_shapes_figure`), atomically."""
-    from ..io.atomic import atomic_file
     from ..viz.mode_figures import mode_shapes_figure
     from ..viz.rerun_structure import structure_geometry
 
     points, members = structure_geometry(spec)
-    with atomic_file(path, overwrite=overwrite) as tmp:
-        mode_shapes_figure(points, members, pts.point_ids, pts.w, f, tmp,
-                           title=f"{spec.title}: mode shapes ({reduction.value} model)")
+    write_figure(path, overwrite, lambda tmp: mode_shapes_figure(
+        points, members, pts.point_ids, pts.w, f, tmp, title=f"{spec.title}: mode shapes ({reduction.value} model)"))

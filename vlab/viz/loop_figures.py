@@ -159,28 +159,11 @@ def _decorate(mag, pha, nyq, lg: np.ndarray) -> None:
 def loop_figure(freq_hz: Any, channel_gain: Any, labels: Sequence[str], sigma_max_s: Any, path: str | Path, *,
                 crossovers: Mapping[str, tuple[float, float]] | None = None, title: str = "",
                 dpi: float = 120.0) -> Path:
-    """Write the loop figure (:func:`loop_axes`) to ``path``.
+    """Write the loop figure (:func:`loop_axes`) to ``path`` (``.png``, ``.svg`` or ``.pdf``) and return ``path``.
 
-    Parameters
-    ----------
-    freq_hz, channel_gain, labels, sigma_max_s, crossovers, title
-        As :func:`loop_axes`.
-    path : str or Path
-        Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
-    dpi : float
-        Resolution [dots per inch].
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    MeasurementError
-        As :func:`loop_axes`.
-    DataFileError
-        Unsupported file suffix.
+    ``freq_hz``, ``channel_gain``, ``labels``, ``sigma_max_s``, ``crossovers``, ``title`` and ``dpi`` are those of
+    :func:`loop_axes`; parent folders of ``path`` are created. Raises MeasurementError as :func:`loop_axes`,
+    DataFileError for another file suffix.
     """
     fig = loop_axes(freq_hz, channel_gain, labels, sigma_max_s, crossovers=crossovers, title=title, dpi=dpi)
     return _save(fig, path, dpi)

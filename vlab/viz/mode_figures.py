@@ -153,28 +153,11 @@ def _draw_3d(ax, xy: np.ndarray, rows: list[np.ndarray], w: np.ndarray, r: int) 
 def mode_shapes_figure(structure_points: Mapping[int, Sequence[float]], members: Sequence[Any],
                        point_ids: Sequence[int], w: Any, freq_hz: Any, path: str | Path, *, title: str = "",
                        dpi: float = 120.0) -> Path:
-    """Write the mode shapes drawn on the structure (:func:`mode_shapes_axes`) to ``path``.
+    """Write the mode shapes drawn on the structure (:func:`mode_shapes_axes`) to ``path`` and return ``path``.
 
-    Parameters
-    ----------
-    structure_points, members, point_ids, w, freq_hz, title
-        As :func:`mode_shapes_axes`.
-    path : str or Path
-        Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
-    dpi : float
-        Resolution [dots per inch].
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    ModelError
-        As :func:`mode_shapes_axes`.
-    DataFileError
-        Unsupported file suffix.
+    ``structure_points``, ``members``, ``point_ids``, ``w``, ``freq_hz``, ``title`` and ``dpi`` are those of
+    :func:`mode_shapes_axes`; ``path`` ends in ``.png``, ``.svg`` or ``.pdf`` (parent folders are created).
+    Raises ModelError as :func:`mode_shapes_axes`, DataFileError for another file suffix.
     """
     fig = mode_shapes_axes(structure_points, members, point_ids, w, freq_hz, title=title, dpi=dpi)
     return _save(fig, path, dpi)
