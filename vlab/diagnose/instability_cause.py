@@ -340,7 +340,6 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
 
     Source: module notes.
     """
-    data = problem.data
     model, on = None, "the FE model"
     if on_plant:
         try:
@@ -384,22 +383,31 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             if z == 0:
                 out.stable.append(h.label)
                 continue
-        try:
-            v = validate(problem, nominal, problem.state_for(h, h.params_), plant=plant,
-                         spec_level=h.spec_level, seed=seed, key=rerun_key(h), whole_record=True)
-        except (VlabError, ImportError) as exc:
-            out.tried.append({"effect": h.effect, "label": h.label, "unstable_poles": z, "rerun_frequencies_hz": [],
-                              "reproduced": False, "error": str(exc)})
-            continue
-        check = rerun_oscillation(v, data.recording, data.excitation_point, loops)
-        ok = reproduces_oscillation(frequency_hz, check, natural_hz=natural, same_mode=out.above_band,
-                                    tolerance=problem.policy.oscillation_tolerance)
-        freqs = [] if check is None or not check.unstable else \
-            list(dict.fromkeys(round(o.frequency_hz, 2) for o in check.oscillations))
-        out.tried.append({"effect": h.effect, "label": h.label, "unstable_poles": z, "rerun_frequencies_hz": freqs, "reproduced": ok})
-        if ok:
+        tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural,
+                                    same_mode=out.above_band, plant=plant, seed=seed)
+        out.tried.append(dict(tried, unstable_poles=z))
+        if tried["reproduced"]:
             out.chosen, out.validation = h, v
             break
     return out
+
+
+def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: float, loops, *, natural,
+                     same_mode: bool, plant: str, seed: int) -> tuple[dict, Validation | None]:
+    """Rerun the whole record with ``h`` and check its self-excited lines against the recording's: the entry of
+    :attr:`CauseSearch.tried` (without ``unstable_poles``) and the rerun (None when it failed)."""
+    data = problem.data
+    entry = {"effect": h.effect, "label": h.label, "rerun_frequencies_hz": [], "reproduced": False}
+    try:
+        v = validate(problem, nominal, problem.state_for(h, h.params_), plant=plant,
+                     spec_level=h.spec_level, seed=seed, key=rerun_key(h), whole_record=True)
+    except (VlabError, ImportError) as exc:
+        return dict(entry, error=str(exc)), None
+    check = rerun_oscillation(v, data.recording, data.excitation_point, loops)
+    entry["reproduced"] = reproduces_oscillation(frequency_hz, check, natural_hz=natural, same_mode=same_mode,
+                                                 tolerance=problem.policy.oscillation_tolerance)
+    if check is not None and check.unstable:
+        entry["rerun_frequencies_hz"] = list(dict.fromkeys(round(o.frequency_hz, 2) for o in check.oscillations))
+    return entry, v
 
 

@@ -158,10 +158,15 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     how = last_reruns_note(problem)  # both reruns made here: one mujoco.batch, or processes (and why)
     desc = ("linear FE plant" if kind == "linear" else "MuJoCo plant" if base.mjcf is None
             else f"MuJoCo plant of {base.mjcf}") + note + (f" ({how})" if how and kind == "mujoco" else "")
+    return _compared(problem, desc, kind, runs, pts)
+
+
+def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validation:
+    """The two reruns (nominal, modified) compared with the recording (:func:`validate`'s last step)."""
+    data: FrfData = problem.data
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask
     w = problem.weight_mag[mask]
-
     # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force was
     # replayed on as the reference -- is compared with what was recorded; a linear rerun with the data
     # referred to the model when a baseline was given (the model-form error removed)
@@ -174,6 +179,7 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     if mf is not None and mf.sigma.size:  # an exact model is also uncertain by the model form
         var_mag = np.sum(mf.sens[mask].real ** 2 * mf.sigma**2, axis=-1)
         floor_misfit = float(np.hypot(floor_misfit, np.sqrt(np.sum(w * var_mag) / np.sum(w)) / np.log(10.0)))
+    rec = data.recording
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
