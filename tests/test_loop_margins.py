@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from vlab.cli import app
 from vlab.design import design_controller
 from vlab.design.loop import (analyse_loop, channel_margins, loop_at_a_time, loop_frequencies, loop_summary,
-                              sensitivity_sigma_max)
+                              nyquist_encirclements, sensitivity_sigma_max)
 from vlab.errors import ModelError
 from vlab.models import nominal_fe_model
 from vlab.viz.loop_figures import loop_axes, unwrapped_phase_deg
@@ -127,6 +127,20 @@ def test_bcc_mfdrf_is_stable_with_margins_and_lqg_is_reported(bcc_loops):
     assert lqg["peak_sensitivity"] > a.peak_sensitivity                    # Sec. 7: LQG the less robust design
 
 
+@pytest.mark.parametrize("controller", ["mfdrf", "lqg"])
+def test_gain_margin_is_where_the_generalised_nyquist_criterion_flips(bcc_loops, controller):
+    """Raising one channel's gain just below its gain margin keeps det(I + L) clear of the origin; just above, not."""
+    _, loops = bcc_loops
+    a = loops[controller]
+    assert a.closed_loop_unstable_poles == 0 and a.open_loop_unstable_poles == 0
+    for i, m in enumerate(a.margins):
+        for factor, stable in ((0.97, True), (1.03, False)):
+            e = np.ones(len(a.points))
+            e[i] = factor * 10 ** (m.gain_margin_db / 20)
+            det = np.linalg.det(np.eye(len(a.points)) + (e[:, None] * a.controller) @ a.plant)
+            assert (nyquist_encirclements(det) == 0) is stable, (controller, m.point, factor)
+
+
 def test_grid_is_dense_at_every_mode_and_below_nyquist():
     fe = nominal_fe_model("bcc")
     f = loop_frequencies(fe, 0.5e-3)
@@ -140,7 +154,7 @@ def test_figure_plots_the_computed_arrays(bcc_loops):
     _, loops = bcc_loops
     a = loops["mfdrf"]
     labels = [f"point {p}" for p in a.points]
-    fig = loop_axes(a.freq_hz, a.channel_gain, labels, a.sigma_max_s)
+    fig = loop_axes(a.freq_hz, a.channel_gain, labels, a.sigma_max_s, det_return_difference=a.return_difference_det)
     lines = {ln.get_gid(): ln for ax in fig.axes for ln in ax.get_lines() if ln.get_gid()}
     for i, lb in enumerate(labels):
         l = a.channel_gain[:, i]
@@ -150,6 +164,7 @@ def test_figure_plots_the_computed_arrays(bcc_loops):
         np.testing.assert_allclose(lines[f"nyquist:{lb}"].get_xdata(), l.real)
         np.testing.assert_allclose(lines[f"nyquist:{lb}"].get_ydata(), l.imag)
     np.testing.assert_allclose(lines["sigma-max-s"].get_ydata(), 20 * np.log10(a.sigma_max_s))
+    np.testing.assert_allclose(lines["nyquist:det(I+L)-1"].get_xdata(), a.return_difference_det.real - 1)
     ph = unwrapped_phase_deg(a.channel_gain[:, 0])
     assert abs(np.angle(np.exp(1j * np.radians(ph)) / a.channel_gain[:, 0] * np.abs(a.channel_gain[:, 0]))).max() < 1e-9
 
@@ -160,10 +175,10 @@ def test_cli_margins_json_table_and_figure(tmp_path):
     res = runner.invoke(app, ["design", "bcc", "--margins", "--json"])
     assert res.exit_code == 0, res.output
     loop = json.loads(res.stdout)["loop"]
-    assert loop["delay_periods"] == 1.35 and loop["peak_sensitivity"] > 1
+    assert loop["delay_periods"] == 1.35 and loop["peak_sensitivity"] > 1 and loop["nyquist"]["stable"] is True
     assert {"gain_margin_db", "phase_margin_deg", "crossover_hz", "phase_crossover_hz"} <= set(loop["channels"][0])
     table = runner.invoke(app, ["design", "bcc", "--margins"]).stdout
-    assert "gain margin [dB]" in table and "M_s" in table
+    assert "gain margin [dB]" in table and "M_s" in table and "stable" in table
     target = tmp_path / "loop.png"
     assert runner.invoke(app, ["design", "bcc", "--figure", str(target)]).exit_code == 0
     assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -116,7 +116,8 @@ def _loop(fe, d, fig_path, overwrite: bool):
         title = (f"{fe.spec.name} {d.controller}: loop-at-a-time gains L = K G "
                  f"(T = {d.period_s * 1e3:g} ms, delay {loop.delay_periods:g} T, hold, RC)")
         write_figure(fig_path, overwrite, lambda tmp: loop_figure(
-            loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross, title=title))
+            loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross,
+            det_return_difference=loop.return_difference_det, title=title))
     return loop
 
 
@@ -142,6 +143,10 @@ def _print_margins(loop, out: str) -> None:
     console.print(f"peak sensitivity M_s = {loop.peak_sensitivity:.3f} at {loop.peak_sensitivity_hz:.3f} Hz "
                   f"(max sigma_max of S = (I + K G)^-1; no crossing on {loop.freq_hz[0]:g}-{loop.freq_hz[-1]:.0f} "
                   "Hz: blank)")
+    verdict = "stable" if loop.closed_loop_unstable_poles == 0 else \
+        f"UNSTABLE ({loop.closed_loop_unstable_poles} closed-loop poles in the right half-plane)"
+    console.print(f"Nyquist of det(I + L): {loop.encirclements} encirclements of the origin, "
+                  f"{loop.open_loop_unstable_poles} unstable open-loop poles: {verdict}")
 
 
 def _measured_modes(fe, modes_file: str | None):

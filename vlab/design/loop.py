@@ -21,6 +21,10 @@ by this module's own search on the frequency grid (linear interpolation between 
 against ``log f`` for ``|l| = 1``, the complex ``l`` against ``f`` for ``Im l = 0``), so the grid of
 :func:`loop_frequencies` resolves every lightly damped mode.
 
+Closed-loop stability is read off the Nyquist plot of ``det(I + L)`` (the generalised Nyquist theorem,
+Skogestad & Postlethwaite 2005, Sec. 4.9.2): the loop is stable when ``det(I + L)`` encircles the origin
+anti-clockwise as often as ``L`` has unstable poles (the controller's; the damped structure has none).
+
 The margins are those of the loop on the FE model with the equivalent continuous controller, below the
 Nyquist frequency (aliasing neglected, as in :func:`vlab.analysis.sampled_data_controller_frf`).
 """
@@ -37,7 +41,7 @@ from ..fe import FEModel, modal_analysis
 from ..fe.damping import open_loop_ratios, structural_damping
 
 __all__ = ["ChannelMargins", "LoopAnalysis", "analyse_loop", "channel_margins", "loop_at_a_time", "loop_summary",
-           "loop_frequencies", "sensitivity_sigma_max"]
+           "loop_frequencies", "nyquist_encirclements", "sensitivity_sigma_max"]
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,14 @@ class LoopAnalysis:
         Sampling period [s] and computation delay [periods] of the controller.
     filter_hz : float or None
         RC corner [Hz] (None: no filter).
+    encirclements : int
+        Counter-clockwise encirclements of the origin by ``det(I + L)`` over the band, both signs of frequency
+        (:func:`nyquist_encirclements`).
+    open_loop_unstable_poles : int
+        Unstable poles of ``L``: the controller's (eigenvalues of ``F22`` outside the unit circle); the damped
+        structure has none.
+    closed_loop_unstable_poles : int
+        ``open_loop_unstable_poles - encirclements`` (the generalised Nyquist criterion): 0 for a stable loop.
     """
 
     freq_hz: np.ndarray
@@ -114,6 +126,38 @@ class LoopAnalysis:
     period_s: float
     delay_periods: float
     filter_hz: float | None
+    encirclements: int
+    open_loop_unstable_poles: int
+    closed_loop_unstable_poles: int
+
+
+def nyquist_encirclements(return_difference_det: np.ndarray) -> int:
+    """Counter-clockwise encirclements of the origin by ``det(I + L(jw))`` for ``w`` from -w_max to w_max.
+
+    Parameters
+    ----------
+    return_difference_det : ndarray, complex, shape (n_f,)
+        ``det(I + L)`` on an increasing positive frequency grid, fine enough that its phase changes by less
+        than pi between neighbours, from near zero frequency (where ``L`` of velocity feedback vanishes) to the
+        end of the band (where ``L`` is small): the curve closes near 1.
+
+    Returns
+    -------
+    int
+        ``round(2 * (change of arg over the grid) / (2 pi))`` (the negative frequencies mirror the positive ones).
+
+    Raises
+    ------
+    ModelError
+        Non-finite values, or a zero on the grid (the loop is on the stability boundary).
+
+    Source: Skogestad & Postlethwaite (2005), Sec. 4.9.2 (generalised Nyquist theorem).
+    """
+    d = np.asarray(return_difference_det, dtype=complex)
+    if not np.all(np.isfinite(d)) or np.any(d == 0):
+        raise ModelError("det(I + L) must be finite and non-zero on the grid")
+    turns = (np.unwrap(np.angle(d))[-1] - np.angle(d[0])) / (2 * np.pi)
+    return int(np.round(2 * turns))
 
 
 def loop_frequencies(fe: FEModel, period_s: float, *, f_min_hz: float = 0.05, n_log: int = 3000,
@@ -331,8 +375,10 @@ def analyse_loop(fe: FEModel, design, *, freq_hz: np.ndarray | None = None,
     j = int(np.argmax(sig))
     det = np.linalg.det(np.eye(len(acts)) + lg)
     margins = tuple(channel_margins(f, li[:, i], p) for i, p in enumerate(acts))
+    n_enc = nyquist_encirclements(det)
+    p_ol = int(np.sum(np.abs(np.linalg.eigvals(design.f22)) > 1.0)) if design.f22.size else 0
     return LoopAnalysis(f, acts, g, k, lg, li, det, sig, float(sig[j]), float(f[j]), margins, period,
-                        float(delay_periods), filter_hz)
+                        float(delay_periods), filter_hz, n_enc, p_ol, p_ol - n_enc)
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -351,7 +397,8 @@ def loop_summary(analysis: LoopAnalysis) -> dict:
     -------
     dict
         ``peak_sensitivity``, ``peak_sensitivity_hz``, the chain (``period_s``, ``delay_periods``,
-        ``filter_hz``), ``margins`` (``"loop-at-a-time"``, the method) and ``channels``: one dict per channel
+        ``filter_hz``), ``nyquist`` (the generalised Nyquist criterion on ``det(I + L)``: encirclements,
+        open- and closed-loop unstable poles, ``stable``), ``margins`` (the method) and ``channels``: one dict per channel
         with ``point``, ``gain_margin_db``, ``phase_crossover_hz``, ``phase_margin_deg`` and ``crossover_hz``
         (None where the loop gain has no such crossing on the grid, ``freq_range_hz``).
     """
@@ -363,6 +410,9 @@ def loop_summary(analysis: LoopAnalysis) -> dict:
         "delay_periods": a.delay_periods,
         "filter_hz": a.filter_hz,
         "freq_range_hz": [float(a.freq_hz[0]), float(a.freq_hz[-1])],
+        "nyquist": {"encirclements_ccw": a.encirclements, "open_loop_unstable_poles": a.open_loop_unstable_poles,
+                    "closed_loop_unstable_poles": a.closed_loop_unstable_poles,
+                    "stable": a.closed_loop_unstable_poles == 0},
         "margins": "loop-at-a-time (each channel opened, the others closed)",
         "channels": [{"point": m.point, "gain_margin_db": _finite_or_none(m.gain_margin_db),
                       "phase_crossover_hz": _finite_or_none(m.phase_crossover_hz),

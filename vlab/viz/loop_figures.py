@@ -2,7 +2,7 @@
 
 Four panels: the Bode magnitude [dB] and phase [deg] of each loop-at-a-time gain ``l_i(jw)`` on a
 logarithmic frequency axis (0 dB and -180 deg drawn; the gain and phase crossovers marked), the Nyquist
-plot of each ``l_i`` around the critical point -1 (with the unit circle), and ``sigma_max(S(jw))`` of the
+plot of each ``l_i`` around the critical point -1 (with the unit circle; optionally ``det(I + L) - 1``), and ``sigma_max(S(jw))`` of the
 sensitivity ``S = (I + L)^-1`` [dB] with its peak ``M_s`` marked. The phase is unwrapped along frequency,
 starting in (-180, 180].
 
@@ -55,8 +55,8 @@ def _gains(freq_hz: np.ndarray, channel_gain: Any, labels: Sequence[str]) -> np.
 
 
 def loop_axes(freq_hz: Any, channel_gain: Any, labels: Sequence[str], sigma_max_s: Any, *,
-              crossovers: Mapping[str, tuple[float, float]] | None = None, title: str = "",
-              figsize: tuple[float, float] = (11.0, 7.5), dpi: float = 120.0):
+              crossovers: Mapping[str, tuple[float, float]] | None = None, det_return_difference: Any = None,
+              title: str = "", figsize: tuple[float, float] = (11.0, 7.5), dpi: float = 120.0):
     """Build the loop figure (Bode, Nyquist, ``sigma_max(S)``).
 
     Parameters
@@ -71,6 +71,9 @@ def loop_axes(freq_hz: Any, channel_gain: Any, labels: Sequence[str], sigma_max_
         Largest singular value of the sensitivity [1].
     crossovers : mapping of str to (float, float), optional
         Label -> (gain crossover [Hz], phase crossover [Hz]) to mark (NaN: none).
+    det_return_difference : array_like, complex, shape (n_f,), optional
+        ``det(I + L)``; drawn in the Nyquist panel as ``det(I + L) - 1`` (dashed black, ``gid``
+        ``"nyquist:det(I+L)-1"``), whose encirclements of -1 are those of the origin by ``det(I + L)``.
     title : str
         Figure title.
     figsize : (float, float)
@@ -115,6 +118,12 @@ def loop_axes(freq_hz: Any, channel_gain: Any, labels: Sequence[str], sigma_max_
             mag.plot([fc], [0.0], marker="o", ms=5, color=c, ls="none")
         if np.isfinite(fp):
             pha.axvline(fp, color=c, ls=":", lw=1.0)
+    if det_return_difference is not None:
+        dd = np.asarray(det_return_difference, dtype=complex)
+        if dd.shape != f.shape or not np.all(np.isfinite(dd)):
+            raise MeasurementError(f"det_return_difference: expected finite values of shape {f.shape}, got {dd.shape}")
+        nyq.plot(dd.real - 1, dd.imag, color="0.25", ls="--", lw=0.7, label="det(I+L) - 1", gid="nyquist:det(I+L)-1")
+        nyq.legend(fontsize="x-small", loc="upper left")
     _decorate(mag, pha, nyq, lg)
     sen.semilogx(f, 20 * np.log10(sig), color="k", lw=1.2, gid="sigma-max-s")
     j = int(np.argmax(sig))
@@ -157,13 +166,15 @@ def _decorate(mag, pha, nyq, lg: np.ndarray) -> None:
 
 
 def loop_figure(freq_hz: Any, channel_gain: Any, labels: Sequence[str], sigma_max_s: Any, path: str | Path, *,
-                crossovers: Mapping[str, tuple[float, float]] | None = None, title: str = "",
-                dpi: float = 120.0) -> Path:
+                crossovers: Mapping[str, tuple[float, float]] | None = None, det_return_difference: Any = None,
+                title: str = "", dpi: float = 120.0) -> Path:
     """Write the loop figure (:func:`loop_axes`) to ``path`` (``.png``, ``.svg`` or ``.pdf``) and return ``path``.
 
-    ``freq_hz``, ``channel_gain``, ``labels``, ``sigma_max_s``, ``crossovers``, ``title`` and ``dpi`` are those of
+    ``freq_hz``, ``channel_gain``, ``labels``, ``sigma_max_s``, ``crossovers``, ``det_return_difference``, ``title``
+    and ``dpi`` are those of
     :func:`loop_axes`; parent folders of ``path`` are created. Raises MeasurementError as :func:`loop_axes`,
     DataFileError for another file suffix.
     """
-    fig = loop_axes(freq_hz, channel_gain, labels, sigma_max_s, crossovers=crossovers, title=title, dpi=dpi)
+    fig = loop_axes(freq_hz, channel_gain, labels, sigma_max_s, crossovers=crossovers,
+                    det_return_difference=det_return_difference, title=title, dpi=dpi)
     return _save(fig, path, dpi)
