@@ -398,9 +398,9 @@ def loop_summary(analysis: LoopAnalysis) -> dict:
     dict
         ``peak_sensitivity``, ``peak_sensitivity_hz``, the chain (``period_s``, ``delay_periods``,
         ``filter_hz``), ``nyquist`` (the generalised Nyquist criterion on ``det(I + L)``: encirclements,
-        open- and closed-loop unstable poles, ``stable``), ``margins`` (the method) and ``channels``: one dict per channel
-        with ``point``, ``gain_margin_db``, ``phase_crossover_hz``, ``phase_margin_deg`` and ``crossover_hz``
-        (None where the loop gain has no such crossing on the grid, ``freq_range_hz``).
+        open- and closed-loop unstable poles, ``stable``), ``margins`` (the method), ``freq_range_hz`` (the grid)
+        and ``channels``: one dict per channel with ``point``, ``gain_margin_db``, ``phase_crossover_hz``,
+        ``phase_margin_deg`` and ``crossover_hz`` (None where the loop gain has no such crossing on the grid).
     """
     a = analysis
     return {

@@ -2,9 +2,9 @@
 
 Four panels: the Bode magnitude [dB] and phase [deg] of each loop-at-a-time gain ``l_i(jw)`` on a
 logarithmic frequency axis (0 dB and -180 deg drawn; the gain and phase crossovers marked), the Nyquist
-plot of each ``l_i`` around the critical point -1 (with the unit circle; optionally ``det(I + L) - 1``), and ``sigma_max(S(jw))`` of the
-sensitivity ``S = (I + L)^-1`` [dB] with its peak ``M_s`` marked. The phase is unwrapped along frequency,
-starting in (-180, 180].
+plot of each ``l_i`` around the critical point -1 (with the unit circle; optionally ``det(I + L) - 1``),
+and ``sigma_max(S(jw))`` of the sensitivity ``S = (I + L)^-1`` [dB] with its peak ``M_s`` marked. The
+phase is unwrapped along frequency, starting in (-180, 180].
 
 Like :mod:`vlab.viz.figures`, the figure is built on :class:`matplotlib.figure.Figure` with the Agg canvas
 (no pyplot, no window). :func:`loop_axes` builds it and returns it; its data lines carry ``gid``
