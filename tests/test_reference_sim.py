@@ -202,3 +202,22 @@ def test_lab_accelerations_agree_with_the_controller_rate_velocities(params):
     w = 2 * np.pi * lines
     zoh = np.exp(-0.5j * w * 5e-4) * np.sinc(lines * 5e-4)
     assert np.max(np.abs(h_lab / (1j * w) * zoh / h_vel - 1)) < 0.005
+
+
+def test_case_files_are_checked(tmp_path):
+    from benchmarks.reference_sim.__main__ import main
+    from benchmarks.reference_sim.cases import load_case
+
+    good = tmp_path / "c.json"
+    good.write_text('{"controller": "none", "effects": [{"type": "support_spring", "point": 7, '
+                    '"dof": "w", "stiffness": 100.0}], "excitation": {"period_s": 2}}')
+    case = load_case(good)
+    assert case.effects[0]["stiffness"] == 100.0 and case.excitation["period_s"] == 2
+    bad = tmp_path / "b.json"
+    bad.write_text('{"controller": "none", "effects": [{"type": "added_mass", "point": 6}]}')
+    with pytest.raises(CaseError, match="mass_kg"):
+        load_case(bad)
+    bad.write_text('{"controler": "none"}')
+    with pytest.raises(CaseError, match="controler"):
+        load_case(bad)
+    assert main(["--case", str(bad), "--out", str(tmp_path / "o")]) == 2
