@@ -398,7 +398,7 @@ def loop_summary(analysis: LoopAnalysis) -> dict:
     dict
         ``peak_sensitivity``, ``peak_sensitivity_hz``, the chain (``period_s``, ``delay_periods``,
         ``filter_hz``), ``nyquist`` (the generalised Nyquist criterion on ``det(I + L)``: encirclements,
-        open- and closed-loop unstable poles, ``stable``), ``margins`` (the method), ``freq_range_hz`` (the grid)
+        open- and closed-loop unstable poles, ``stable``), ``margin_method``, ``freq_range_hz`` (the grid)
         and ``channels``: one dict per channel with ``point``, ``gain_margin_db``, ``phase_crossover_hz``,
         ``phase_margin_deg`` and ``crossover_hz`` (None where the loop gain has no such crossing on the grid).
     """
@@ -413,7 +413,7 @@ def loop_summary(analysis: LoopAnalysis) -> dict:
         "nyquist": {"encirclements_ccw": a.encirclements, "open_loop_unstable_poles": a.open_loop_unstable_poles,
                     "closed_loop_unstable_poles": a.closed_loop_unstable_poles,
                     "stable": a.closed_loop_unstable_poles == 0},
-        "margins": "loop-at-a-time (each channel opened, the others closed)",
+        "margin_method": "loop-at-a-time (each channel opened, the others closed), own crossing search",
         "channels": [{"point": m.point, "gain_margin_db": _finite_or_none(m.gain_margin_db),
                       "phase_crossover_hz": _finite_or_none(m.phase_crossover_hz),
                       "phase_margin_deg": _finite_or_none(m.phase_margin_deg),
