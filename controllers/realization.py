@@ -58,6 +58,7 @@ from .errors import (
 )
 
 __all__ = [
+    "Eq51Sizes",
     "DiscreteRealization",
     "output_feedback_realization",
     "state_feedback_realization",
@@ -68,8 +69,31 @@ __all__ = [
 ]
 
 
+class Eq51Sizes:
+    """The sizes of an Eq. (5.1) engine, read off its ``F11`` and ``F22`` (a mixin).
+
+    A class that has ``F11`` (shape (n_u, n_y)) and ``F22`` (shape
+    (n_x, n_x)) gets ``n_inputs``, ``n_outputs`` and ``n_states``.
+    """
+
+    @property
+    def n_inputs(self) -> int:
+        """``n_y``: number of sensor signals."""
+        return self.F11.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        """``n_u``: number of actuator commands."""
+        return self.F11.shape[0]
+
+    @property
+    def n_states(self) -> int:
+        """``n_x``: number of internal states."""
+        return self.F22.shape[0]
+
+
 @dataclass(frozen=True, eq=False)
-class DiscreteRealization:
+class DiscreteRealization(Eq51Sizes):
     """Coefficients of the controller engine of Eq. (5.1).
 
     ``u_k = F11 y_k + F12 x_k``, ``x_{k+1} = F21 y_k + F22 x_k``.
@@ -98,21 +122,6 @@ class DiscreteRealization:
     dt_s: float
     continuous_matrix_s: np.ndarray
     transform: np.ndarray | None = None
-
-    @property
-    def n_inputs(self) -> int:
-        """``n_y``: number of sensor signals."""
-        return self.F11.shape[1]
-
-    @property
-    def n_outputs(self) -> int:
-        """``n_u``: number of actuator commands."""
-        return self.F11.shape[0]
-
-    @property
-    def n_states(self) -> int:
-        """``n_x``: number of internal states."""
-        return self.F22.shape[0]
 
     def initial_state(self) -> np.ndarray:
         """Zero controller state, shape (n_x,) (Eq. 4.22: ``x_est,0 = 0``)."""

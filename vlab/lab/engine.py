@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from controllers.realization import Eq51Sizes
 
 from ..errors import ModelError, SimulationError
 
@@ -36,7 +37,7 @@ def _matrix(name: str, value, shape: tuple[int, int]) -> np.ndarray:
     return arr
 
 
-class ControllerEngine:
+class ControllerEngine(Eq51Sizes):
     """Discrete-time controller ``u_k = F11 y_k + F12 x_k``, ``x_{k+1} = F21 y_k + F22 x_k``.
 
     Eq. (5.1) of Sec. 5.3, executed once per sampling period ``period_s``.
@@ -135,22 +136,7 @@ class ControllerEngine:
             raise ModelError(f"D: expected a 2-D (n_u, n_y) matrix, found shape {d.shape}")
         return cls(-d, period_s=period_s)
 
-    # -- sizes --------------------------------------------------------------
-    @property
-    def n_inputs(self) -> int:
-        """Number of sensor inputs ``n_y``."""
-        return self.F11.shape[1]
-
-    @property
-    def n_outputs(self) -> int:
-        """Number of actuator outputs ``n_u``."""
-        return self.F11.shape[0]
-
-    @property
-    def n_states(self) -> int:
-        """Number of internal states ``n_x``."""
-        return self.F22.shape[0]
-
+    # -- sizes (n_inputs, n_outputs, n_states: Eq51Sizes) ---------------------
     @property
     def sample_rate_hz(self) -> float:
         """``1 / period_s`` [Hz]."""

@@ -149,7 +149,7 @@ def pseudo_random(t_s, *, band_hz: tuple[float, float], resolution_hz: float, rm
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The multisine force [N] at each instant of ``t_s``.
 
     Raises
     ------
@@ -219,7 +219,7 @@ def filtered_random(t_s, *, band_hz: tuple[float, float], rms_n: float, seed,
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The filtered-noise force [N], of RMS ``rms_n`` over the record.
 
     Raises
     ------
@@ -267,7 +267,7 @@ def sine_sweep(t_s, *, f_start_hz: float, f_stop_hz: float, amplitude_n: float,
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The swept force [N] at each instant of ``t_s``.
 
     Raises
     ------
@@ -317,7 +317,7 @@ def stepped_sine(t_s, *, freqs_hz: Sequence[float], dwell_s: float, amplitude_n:
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The stepped-sine force [N]; zero before ``start_s`` and after the last dwell.
 
     Raises
     ------
@@ -385,7 +385,7 @@ def half_sine_pulse(t_s, *, peak_n: float, duration_s: float, start_s: float = 0
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The pulse force [N]; zero outside the pulse.
 
     Raises
     ------
@@ -432,7 +432,7 @@ def periodic_chirp(t_s, *, band_hz: tuple[float, float], period_s: float, amplit
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The periodic-chirp force [N], of period ``period_s``.
 
     Raises
     ------
@@ -484,7 +484,7 @@ def pulse_train(t_s, *, peak_n: float, duration_s: float, period_s: float, start
     Returns
     -------
     ndarray, shape (n,)
-        Force [N].
+        The pulse-train force [N]; zero between the pulses.
 
     Raises
     ------

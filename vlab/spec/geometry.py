@@ -188,8 +188,7 @@ def read_members(top: TableReader, points: dict, sections: dict) -> list[Member]
         ``elements_per_segment`` outside [1, :data:`vlab.spec.MAX_ELEMENTS_PER_SEGMENT`], an insert off the member.
     """
     members = []
-    for i, t in enumerate(top.raw("members", types=(list,))):
-        r = TableReader(top.file, t, f"members[{i}]")
+    for _, r in top.entries("members"):
         pts = r.raw("points", types=(list,))
         if len(pts) < 2:
             r.fail("points", "a member needs at least two points")
@@ -204,15 +203,12 @@ def read_members(top: TableReader, points: dict, sections: dict) -> list[Member]
         if not 1 <= n <= MAX_ELEMENTS_PER_SEGMENT:
             r.fail("elements_per_segment", f"must be between 1 and {MAX_ELEMENTS_PER_SEGMENT}, got {n}")
         inserts = []
-        for j, ins in enumerate(r.raw("rigid_inserts", [], types=(list,))):
-            ri = TableReader(top.file, ins, f"{r.path}.rigid_inserts[{j}]")
+        for _, ri in r.entries("rigid_inserts", []):
             pid = read_point(ri, "point", points)
             if pid not in pts:
                 ri.fail("point", f"point {pid} is not on this member")
             inserts.append(RigidInsert(pid, ri.quantity("length", "length")))
-            ri.done()
         members.append(Member(r.str("id"), tuple(pts), sec, n, tuple(inserts)))
-        r.done()
     return members
 
 
@@ -232,12 +228,7 @@ def _mass_per_length(r: TableReader) -> Quantity:
 def read_strings(top: TableReader, points: dict) -> list[StringElement]:
     """The ``[[strings]]`` array: strings in tension to ground (``tension = "reaction"``: from the statics).
 
-    Parameters
-    ----------
-    top : TableReader
-        Reader of the whole document.
-    points : dict
-        Point id -> (x, y) [m].
+    Parameters ``top``, ``points``: as :func:`read_members`.
 
     Returns
     -------
@@ -245,8 +236,7 @@ def read_strings(top: TableReader, points: dict) -> list[StringElement]:
         Mass per length ``count * density * pi d^2 / 4``.
     """
     strings = []
-    for i, t in enumerate(top.raw("strings", [], types=(list,))):
-        r = TableReader(top.file, t, f"strings[{i}]")
+    for _, r in top.entries("strings", []):
         tension = None
         if r.has("tension") and r.table["tension"] == "reaction":
             r.raw("tension")
@@ -255,19 +245,13 @@ def read_strings(top: TableReader, points: dict) -> list[StringElement]:
         strings.append(StringElement(id=r.str("id"), point=read_point(r, "point", points),
                                      direction=read_direction(r, "direction"), length=r.quantity("length", "length"),
                                      tension=tension, rho_a=_mass_per_length(r)))
-        r.done()
     return strings
 
 
 def read_masses(top: TableReader, points: dict) -> tuple[list[LumpedMass], set[int]]:
     """The ``[[masses]]`` array, and the indices of those marked ``added = true``.
 
-    Parameters
-    ----------
-    top : TableReader
-        Reader of the whole document.
-    points : dict
-        Point id -> (x, y) [m].
+    Parameters ``top``, ``points``: as :func:`read_members`.
 
     Returns
     -------
@@ -276,54 +260,38 @@ def read_masses(top: TableReader, points: dict) -> tuple[list[LumpedMass], set[i
         Indices of the entries marked ``added`` (elements a diagnosis attached).
     """
     masses, added = [], set()
-    for i, t in enumerate(top.raw("masses", [], types=(list,))):
-        r = TableReader(top.file, t, f"masses[{i}]")
+    for i, r in top.entries("masses", []):
         if r.raw("added", False, types=(bool,)):
             added.add(i)
         masses.append(LumpedMass(id=r.str("id"), point=read_point(r, "point", points), mass=r.quantity("mass", "mass"),
                                  inertia_rx=r.quantity("inertia_rx", "inertia", optional=True),
                                  inertia_ry=r.quantity("inertia_ry", "inertia", optional=True)))
-        r.done()
     return masses, added
 
 
 def read_crosspieces(top: TableReader, points: dict, sections: dict) -> list[Crosspiece]:
     """The ``[[crosspieces]]`` array: symmetric cantilever arms with tip masses (BCC, Sec. 2.1).
 
-    Parameters
-    ----------
-    top : TableReader
-        Reader of the whole document.
-    points : dict
-        Point id -> (x, y) [m].
-    sections : dict
-        Section name -> :class:`vlab.spec.Section`.
+    Parameters ``top``, ``points``, ``sections``: as :func:`read_members`.
 
     Returns
     -------
     list of Crosspiece
     """
     crosspieces = []
-    for i, t in enumerate(top.raw("crosspieces", [], types=(list,))):
-        r = TableReader(top.file, t, f"crosspieces[{i}]")
+    for _, r in top.entries("crosspieces", []):
         sec = _section_name(r, sections)
         crosspieces.append(Crosspiece(id=r.str("id"), point=read_point(r, "point", points),
                                       arm_length=r.quantity("arm_length", "length"), section=sec,
                                       tip_mass=r.quantity("tip_mass", "mass"),
                                       clamp_mass=r.quantity("clamp_mass", "mass", positive=False)))
-        r.done()
     return crosspieces
 
 
 def read_springs(top: TableReader, points: dict) -> tuple[list[Spring], set[int], list]:
     """The ``[[springs]]`` array, the indices marked ``added``, and the supports they replace.
 
-    Parameters
-    ----------
-    top : TableReader
-        Reader of the whole document.
-    points : dict
-        Point id -> (x, y) [m].
+    Parameters ``top``, ``points``: as :func:`read_members`.
 
     Returns
     -------
@@ -335,8 +303,7 @@ def read_springs(top: TableReader, points: dict) -> tuple[list[Spring], set[int]
         ``(index, (point, dof))`` of the entries marked ``replaces_support = true``.
     """
     springs, added, released = [], set(), []
-    for i, t in enumerate(top.raw("springs", [], types=(list,))):
-        r = TableReader(top.file, t, f"springs[{i}]")
+    for i, r in top.entries("springs", []):
         if r.raw("added", False, types=(bool,)):
             added.add(i)
         dof = read_dof(r, "dof", r.str("dof"))
@@ -344,19 +311,13 @@ def read_springs(top: TableReader, points: dict) -> tuple[list[Spring], set[int]
         springs.append(Spring(r.str("id"), read_point(r, "point", points), dof, r.quantity("stiffness", kind)))
         if r.raw("replaces_support", False, types=(bool,)):
             released.append((i, (springs[-1].point, dof)))
-        r.done()
     return springs, added, released
 
 
 def read_supports(top: TableReader, points: dict) -> tuple[Support, ...]:
     """The ``[[supports]]`` array: fixed out-of-plane DOFs and the in-plane restraint of a point.
 
-    Parameters
-    ----------
-    top : TableReader
-        Reader of the whole document.
-    points : dict
-        Point id -> (x, y) [m].
+    Parameters ``top``, ``points``: as :func:`read_members`.
 
     Returns
     -------
@@ -364,13 +325,11 @@ def read_supports(top: TableReader, points: dict) -> tuple[Support, ...]:
         ``inplane`` true/false read as ``"pinned"``/``"free"``.
     """
     supports = []
-    for i, t in enumerate(top.raw("supports", [], types=(list,))):
-        r = TableReader(top.file, t, f"supports[{i}]")
+    for _, r in top.entries("supports", []):
         fixed = tuple(read_dof(r, "fixed", d) for d in r.raw("fixed", types=(list,)))
         inplane = r.raw("inplane", "free", types=(bool, str))
         inplane = {True: "pinned", False: "free"}.get(inplane, inplane)
         if inplane not in ("free", "pinned", "clamped"):
             r.fail("inplane", f"expected true/false or 'free', 'pinned', 'clamped', got {inplane!r}")
         supports.append(Support(read_point(r, "point", points), fixed, inplane))
-        r.done()
     return tuple(supports)

@@ -216,6 +216,29 @@ class TableReader:
                             "(a unit or exponent slip?)")
         return Quantity(si, source)
 
+    def entries(self, key: str, default: Any = ...):
+        """The readers of the tables of array ``key`` (``[[key]]``), each checked by :meth:`done` after its turn.
+
+        Parameters
+        ----------
+        key : str
+            Field name of the array of tables.
+        default : optional
+            Value when absent, as in :meth:`raw` (``[]``: the array is optional).
+
+        Yields
+        ------
+        i : int
+            Index of the entry in the array.
+        r : TableReader
+            Its reader (path ``<key>[<i>]`` below this table); its unknown fields
+            raise SpecError when the loop moves on to the next entry.
+        """
+        for i, t in enumerate(self.raw(key, default, types=(list,))):
+            r = TableReader(self.file, t, f"{self.path}.{key}[{i}]" if self.path else f"{key}[{i}]")
+            yield i, r
+            r.done()
+
     def done(self) -> None:
         """Raise SpecError naming the first field of the table that was never read (an unknown field)."""
         extra = set(self.table) - self._used
@@ -317,11 +340,8 @@ def read_points_list(r: TableReader, key: str, points: dict, default: Any = ...)
 
     Parameters
     ----------
-    r : TableReader
-    key : str
-        Field name.
-    points : dict
-        Point id -> coordinates of the structure.
+    r, key, points
+        As :func:`read_point`.
     default : optional
         Ids when absent (omitted: required), taken as they are.
     """
