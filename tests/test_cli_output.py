@@ -165,3 +165,18 @@ def test_unbounded_interval_is_said_not_printed():
     assert format_parameter("c_n_s_m", 3e-5, [None, None]).endswith("[not bounded by the data]")
     assert format_parameter("c_n_s_m", 3e-5, [float("nan"), float("nan")]).endswith("[not bounded by the data]")
     assert format_parameter("mass_kg", 0.1182, [0.1179, 0.1184]) == "0.1182 kg [0.1179, 0.1184]"
+
+
+def test_stages_are_one_line_each_when_piped_and_nothing_when_quiet(capsys):
+    """A long command shows where it is: piped stderr gets one line per stage with the elapsed time."""
+    from vlab.cli.output import err_console, stages
+
+    assert not err_console.is_terminal  # pytest captures stderr
+    with stages("diagnose", "reading the recording") as say:
+        say("fitting")
+    err = capsys.readouterr().err.splitlines()
+    assert [e.rsplit(" (", 1)[0] for e in err] == ["diagnose: reading the recording", "diagnose: fitting"]
+    assert all(e.endswith(" s)") for e in err)
+    with stages("diagnose", "reading the recording", quiet=True) as say:
+        say("fitting")
+    assert capsys.readouterr().err == ""

@@ -18,7 +18,7 @@ from ..errors import OptionError
 from . import checks
 from .options import (STRUCTURE_HELP, STRUCTURE_METAVAR, ExpController, OutputFormat, arg_structure, flag,
                       format_opt, json_flag, opt)
-from .output import console, err_console, print_json, print_rows
+from .output import console, print_json, print_rows, stages
 from .runtime import expect_output
 
 DIAGNOSE_OUT = "out/diagnose"
@@ -62,10 +62,10 @@ def diagnose(
                                        "(chi-square and single-line limits, the likelihood-ratio test)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
+    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
+                                       "when piped)"),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
     from ..diagnose import diagnose as run_diagnose
     from ..diagnose.policy import DecisionPolicy
     from ..io.atomic import atomic_dir
@@ -80,15 +80,12 @@ def diagnose(
     checks.input_file("--baseline", baseline)
     checks.mjcf_input(mjcf)
     expect_output(out_path)
-    with Progress(SpinnerColumn(), TextColumn("diagnose: {task.description}"), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=out_fmt != "table") as bar:
-        task = bar.add_task("reading the recording", total=None)
+    with stages("diagnose", "reading the recording", quiet=quiet or out_fmt != "table") as say:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
             res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
-                               false_alarm_rate=false_alarm_rate,
-                               progress=lambda stage: bar.update(task, description=escape(str(stage))))
+                               false_alarm_rate=false_alarm_rate, progress=say)
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":
         print_json(res.as_dict())
@@ -161,10 +158,10 @@ def detectability(
                                      "look-alikes (every one-parameter effect of the library; minutes)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
+    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
+                                       "when piped)"),
 ) -> None:
     """Smallest size of each effect of the library, at each location, that the diagnosis detects and names."""
-    from contextlib import nullcontext
-
     from ..diagnose.detectability import detectability as run, figure
     from ..diagnose.effects.hypotheses import EFFECTS
     from ..experiment.results import jsonable
@@ -179,10 +176,9 @@ def detectability(
     spec = checks.load_structure(structure)
     checks.seed(seed)
     out_path = checks.out_dir(out, DETECT_OUT, overwrite) if out is not None else None
-    with err_console.status("detectability: recording the nominal test and searching the thresholds",
-                            spinner="dots") if out_fmt == "table" else nullcontext():
+    with stages("detectability", "recording the nominal test", quiet=quiet or out_fmt != "table") as say:
         res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed,
-                  model_form=model_form, naming=naming)
+                  model_form=model_form, naming=naming, progress=say)
     d = res.as_dict()
     if out_path is not None:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:

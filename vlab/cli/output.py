@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import sys
+import time
+from contextlib import contextmanager
 from typing import Any, Iterable
 
 import numpy as np
@@ -69,3 +71,41 @@ def print_rows(fmt: str, rows: list[dict], columns, title: str | None = None) ->
         write_csv(rows, columns, sys.stdout)
     else:
         console.print(rich_table(rows, columns, title=title))
+
+
+@contextmanager
+def stages(label: str, first: str, *, quiet: bool = False):
+    """Show the stages of a long command on stderr, yielding a callable that takes the next stage's name.
+
+    On a terminal: a spinner with the current stage and the elapsed time (cleared at the end); when stderr is
+    piped or redirected: one line per stage, ``"<label>: <stage> (<t> s)"``, so that a log shows where a long
+    run is; with ``quiet``: nothing.
+
+    Parameters
+    ----------
+    label : str
+        The command, e.g. ``"diagnose"``.
+    first : str
+        The first stage's name.
+    quiet : bool
+        Print nothing (``--quiet``, or an output format that owns stdout and stderr).
+    """
+    if quiet:
+        yield lambda stage: None
+        return
+    if err_console.is_terminal:
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+        with Progress(SpinnerColumn(), TextColumn(f"{escape(label)}: {{task.description}}"), TimeElapsedColumn(),
+                      console=err_console, transient=True) as bar:
+            task = bar.add_task(escape(first), total=None)
+            yield lambda stage: bar.update(task, description=escape(str(stage)))
+        return
+    t0 = time.perf_counter()
+
+    def line(stage) -> None:
+        sys.stderr.write(f"{label}: {stage} ({time.perf_counter() - t0:.0f} s)\n")
+        sys.stderr.flush()
+
+    line(first)
+    yield line
