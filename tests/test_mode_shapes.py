@@ -1,4 +1,4 @@
-"""Mode shapes at the structure's points (``vlab modes --shapes``, ``--figure``), against the FE shapes they come from."""
+"""Mode shapes at the structure's points (``vlab modes --shapes/--figure/--rerun``) against the FE shapes."""
 
 from __future__ import annotations
 
@@ -141,3 +141,49 @@ def test_cli_figure_written_and_not_replaced_silently(tmp_path):
     assert runner.invoke(app, ["modes", "bcc", "--n", "2", "--figure", str(target), "--overwrite"]).exit_code == 0
     bad = runner.invoke(app, ["modes", "bcc", "--figure", str(tmp_path / "modes.gif")])
     assert bad.exit_code != 0 and ".png" in bad.output
+
+
+class _Recorder:
+    """A stand-in for rerun.RecordingStream that keeps the timeline of each log call."""
+
+    def __init__(self):
+        self.calls, self.time = [], None
+
+    def set_time(self, timeline, duration):
+        self.time = (timeline, duration)
+
+    def reset_time(self):
+        self.time = None
+
+    def log(self, entity, archetype, static=False):
+        self.calls.append((entity, None if static else self.time))
+
+
+def test_rerun_each_mode_on_its_own_timeline_at_its_frequency(bcc):
+    from vlab.viz.rerun_modes import log_mode_shapes
+
+    fe, res = bcc
+    pts = point_mode_shapes(fe, res.shapes[:, :2])
+    points, members = structure_geometry(fe.spec)
+    rec = _Recorder()
+    written = log_mode_shapes(rec, points, members, pts.point_ids, pts.w, res.frequencies_hz[:2], cycles=2,
+                              frames_per_cycle=8)
+    assert written == ["modes/undeformed", "modes/mode_1/members", "modes/mode_1/points", "modes/mode_2/members",
+                       "modes/mode_2/points"]
+    for r in (1, 2):
+        times = [t for e, t in rec.calls if e == f"modes/mode_{r}/members"]
+        assert {tl for tl, _ in times} == {f"mode_{r}_time"}
+        d = np.array([dt for _, dt in times])
+        np.testing.assert_allclose(d, np.arange(16) / (8 * res.frequencies_hz[r - 1]))   # two periods of mode r
+
+
+def test_cli_rerun_file_has_one_timeline_per_mode(tmp_path):
+    from vlab.viz.rerun_log import rrd_entity_paths, rrd_row_counts
+
+    target = tmp_path / "modes.rrd"
+    res = runner.invoke(app, ["modes", "bcc", "--n", "2", "--rerun", str(target)])
+    assert res.exit_code == 0, res.output
+    assert "modes/mode_2/points" in rrd_entity_paths(target)
+    assert rrd_row_counts(target, timeline="mode_1_time") == {"modes/mode_1/members": 48, "modes/mode_1/points": 48}
+    bad = runner.invoke(app, ["modes", "bcc", "--rerun", str(tmp_path / "modes.png")])
+    assert bad.exit_code != 0 and ".rrd" in bad.output

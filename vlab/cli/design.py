@@ -9,7 +9,7 @@ from rich.markup import escape
 
 from ..errors import OptionError
 from . import checks
-from .figure_option import figure_path, write_figure
+from .figure_option import figure_path, write_atomically
 from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, flag, format_opt, json_flag, opt
 from .output import console, err_console, print_json, print_rows
 
@@ -115,7 +115,7 @@ def _loop(fe, d, fig_path, overwrite: bool):
         cross = {lb: (m.crossover_hz, m.phase_crossover_hz) for lb, m in zip(labels, loop.margins)}
         title = (f"{fe.spec.name} {d.controller}: loop-at-a-time gains L = K G "
                  f"(T = {d.period_s * 1e3:g} ms, delay {loop.delay_periods:g} T, hold, RC)")
-        write_figure(fig_path, overwrite, lambda tmp: loop_figure(
+        write_atomically(fig_path, overwrite, lambda tmp: loop_figure(
             loop.freq_hz, loop.channel_gain, labels, loop.sigma_max_s, tmp, crossovers=cross,
             det_return_difference=loop.return_difference_det, title=title))
     return loop

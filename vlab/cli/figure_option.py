@@ -1,4 +1,4 @@
-"""The ``--figure FILE`` option of ``vlab modes`` and ``vlab design``: checked before any work, written atomically."""
+"""The ``--figure FILE`` option of ``vlab modes`` and ``vlab design``: checked before any work; files written atomically."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def figure_path(figure: str | None, overwrite: bool) -> Path | None:
     return check_output_file(figure, overwrite=overwrite, option="--figure")
 
 
-def write_figure(path: Path, overwrite: bool, draw: Callable[[Path], object]) -> None:
+def write_atomically(path: Path, overwrite: bool, draw: Callable[[Path], object]) -> None:
     """Call ``draw(tmp)`` on a temporary sibling of ``path`` and move it into place when it succeeds."""
     from ..io.atomic import atomic_file
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import OptionError
 from . import checks
-from .figure_option import figure_path, write_figure
+from .figure_option import figure_path, write_atomically
 from .options import OutputFormat, arg_structure, flag, format_opt, json_flag, opt
 from .output import print_json, print_rows
 
@@ -36,7 +36,10 @@ def modes(
                                          "w_at_<point>)"),
     figure: str = opt(None, "--figure", help="also draw the mode shapes on the structure into this file "
                                              "(.png, .svg or .pdf; default: no figure)"),
-    overwrite: bool = flag("--overwrite", help="replace an existing --figure file"),
+    rerun: str = opt(None, "--rerun", help="also write a rerun recording (.rrd) of the mode shapes, each mode "
+                                           "animated at its frequency on its own timeline mode_<r>_time "
+                                           "(default: none)"),
+    overwrite: bool = flag("--overwrite", help="replace an existing --figure or --rerun file"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
 ) -> None:
@@ -50,9 +53,12 @@ def modes(
     if n > fe.m.shape[0]:
         raise OptionError(f"--n {n} exceeds the model's {fe.m.shape[0]} degrees of freedom")
     fig_path = figure_path(figure, overwrite)
-    f, pts = _modes_at_points(fe, reduction, n, shapes or fig_path is not None)
+    rrd_path = _rerun_path(rerun, overwrite)
+    f, pts = _modes_at_points(fe, reduction, n, shapes or fig_path is not None or rrd_path is not None)
     if fig_path is not None:
         _write_figure(spec, pts, f, fig_path, reduction, overwrite)
+    if rrd_path is not None:
+        _write_rerun(spec, pts, f, rrd_path, overwrite)
     table = spec.reference.get("frequencies")
     ref_a = column(table, "analytical_hz") if table else np.zeros(0)
     ref_e = column(table, "experimental_hz") if table else np.zeros(0)
@@ -133,5 +139,33 @@ def _write_figure(spec, pts, f: np.ndarray, path, reduction: Reduction, overwrit
     from ..viz.rerun_structure import structure_geometry
 
     points, members = structure_geometry(spec)
-    write_figure(path, overwrite, lambda tmp: mode_shapes_figure(
+    write_atomically(path, overwrite, lambda tmp: mode_shapes_figure(
         points, members, pts.point_ids, pts.w, f, tmp, title=f"{spec.title}: mode shapes ({reduction.value} model)"))
+
+
+def _rerun_path(rerun: str | None, overwrite: bool):
+    """``--rerun`` checked before any work: a ``.rrd`` file in a writable folder."""
+    from ..io.atomic import check_output_file
+
+    if rerun is None:
+        return None
+    return check_output_file(rerun, overwrite=overwrite, option="--rerun", suffix=".rrd")
+
+
+def _write_rerun(spec, pts, f: np.ndarray, path, overwrite: bool) -> None:
+    """The shapes animated, one timeline per mode (:func:`vlab.viz.rerun_modes.log_mode_shapes`), atomically."""
+    from ..viz.rerun_log import close_recording, open_recording
+    from ..viz.rerun_modes import log_mode_shapes, mode_blueprint
+    from ..viz.rerun_structure import structure_geometry
+
+    points, members = structure_geometry(spec)
+
+    def draw(tmp):
+        rec = open_recording(tmp, app_id=f"vlab-modes-{spec.name}", recording_id=f"modes-{spec.name}",
+                             blueprint=mode_blueprint(f))
+        try:
+            log_mode_shapes(rec, points, members, pts.point_ids, pts.w, f)
+        finally:
+            close_recording(rec)
+
+    write_atomically(path, overwrite, draw)
