@@ -87,7 +87,7 @@ def write_template(kind: str, path: str | Path, *, overwrite: bool = False) -> P
     Returns
     -------
     Path
-        ``path``.
+        ``path``, the template written.
 
     Raises
     ------

@@ -105,7 +105,7 @@ def check_output_dir(path: str | Path | None, *, overwrite: bool = False, option
     Returns
     -------
     Path
-        ``path``.
+        ``path`` as a Path: the folder, checked (and locked when ``lock``).
 
     Raises
     ------
@@ -164,7 +164,7 @@ def check_output_file(path: str | Path | None, *, overwrite: bool = False, optio
     Returns
     -------
     Path
-        ``path``.
+        ``path`` as a Path: the file, checked.
 
     Raises
     ------

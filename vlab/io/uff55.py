@@ -95,6 +95,7 @@ def write_mode_shapes(path: str | os.PathLike, modes: ModeShapes, *, overwrite: 
     Returns
     -------
     Path
+        ``path``, the UFF 55 file written.
 
     Raises
     ------

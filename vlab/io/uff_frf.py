@@ -57,6 +57,7 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
     Returns
     -------
     Path
+        ``path``, the UFF 58 file written.
 
     Raises
     ------
@@ -123,7 +124,7 @@ def read_frfs(path: str | os.PathLike) -> list[FRF]:
     Parameters
     ----------
     path : str or path-like
-        UFF file.
+        UFF file of FRF records (dataset 58, function type 4; coherence type 6).
 
     Returns
     -------

@@ -29,10 +29,7 @@ def _grid_gain_table(ctx: ReproContext, name: str, fn: str, model: str, flag: st
 def grid_exact_tables(ctx: ReproContext) -> list[TableResult]:
     """Tables 11-14: grid designs on the exact reduction (gains, damping, performance).
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -48,10 +45,7 @@ def grid_exact_tables(ctx: ReproContext) -> list[TableResult]:
 def grid_gains_exact_table(ctx: ReproContext) -> TableResult:
     """Table 11: DRF gains designed on the exact reduction.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -67,10 +61,7 @@ def grid_gains_exact_table(ctx: ReproContext) -> TableResult:
 def grid_damping_exact_table(ctx: ReproContext) -> TableResult:
     """Table 12: damping of the exact-reduction designs (and of the reduced LQG on the full model).
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -103,10 +94,7 @@ def grid_damping_exact_table(ctx: ReproContext) -> TableResult:
 def grid_performance_exact_table(ctx: ReproContext) -> TableResult:
     """Table 13: performance indices (Q = 0.01 I, R = 0.84 I) of full- and reduced-model controllers.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -201,10 +189,7 @@ def _energy_q_table(ctx: ReproContext) -> TableResult:
 def grid_corrected_tables(ctx: ReproContext) -> list[TableResult]:
     """Tables 15-18: designs on the corrected Guyan model; exact-reduction controllers applied to it.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -224,10 +209,7 @@ def _shapes_note(ctx: ReproContext) -> str:
 def grid_gains_corrected_table(ctx: ReproContext) -> TableResult:
     """Table 15: DRF gains designed on the corrected Guyan model.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -241,10 +223,7 @@ def grid_gains_corrected_table(ctx: ReproContext) -> TableResult:
 def grid_damping_corrected_table(ctx: ReproContext) -> TableResult:
     """Table 16: damping of the designs on the corrected Guyan model.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -265,10 +244,7 @@ def grid_damping_corrected_table(ctx: ReproContext) -> TableResult:
 def exact_on_corrected_tables(ctx: ReproContext) -> list[TableResult]:
     """Tables 17 and 18: exact-reduction controllers on the exact (EA) and corrected Guyan (CG) models.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------

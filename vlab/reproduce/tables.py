@@ -78,10 +78,7 @@ def frequency_tables(ctx: ReproContext) -> list[TableResult]:
 def reduced_frequency_table(ctx: ReproContext) -> list[TableResult]:
     """Table 5: full, exact-reduced and Guyan-reduced grid frequencies.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -119,10 +116,7 @@ def orthogonality_tables(ctx: ReproContext) -> list[TableResult]:
     off-diagonal term, the sequential correction of the Guyan model) is the
     dissertation's own yardstick.
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------
@@ -200,10 +194,7 @@ def bcc_design_tables(ctx: ReproContext) -> list[TableResult]:
     LQR on the full model, LQG on the exact reduction -- masters assumed) and
     also applies the published Table 7 gains (the calibration target).
 
-    Parameters
-    ----------
-    ctx : ReproContext
-        Models and designs of the run.
+    Parameters ``ctx``: as :func:`vlab.reproduce.tables.frequency_tables`.
 
     Returns
     -------

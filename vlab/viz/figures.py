@@ -144,7 +144,7 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
     Returns
     -------
     Path
-        ``path``.
+        ``path``, the FRF magnitude figure.
 
     Raises
     ------
@@ -217,15 +217,13 @@ def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *
         Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
     title : str
         Figure title.
-    figsize : (float, float)
-        Figure size [in]; the PNG is ``figsize * dpi`` pixels.
-    dpi : float
-        Resolution [dots per inch].
+    figsize, dpi
+        As :func:`frf_figure`.
 
     Returns
     -------
     Path
-        ``path``.
+        ``path``, the magnitude, phase and coherence figure.
 
     Raises
     ------
@@ -307,15 +305,13 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
         Legend labels of measured, before, after.
     xlim_hz : (float, float), optional
         Frequency band shown and used for the RMS [Hz].
-    figsize : (float, float)
-        Figure size [in].
-    dpi : float
-        Resolution.
+    figsize, dpi
+        As :func:`frf_figure`.
 
     Returns
     -------
     Path
-        ``path``.
+        ``path``, the overlay and misfit figure.
 
     Raises
     ------
@@ -383,15 +379,13 @@ def comparison_bar(labels: Sequence[str], before: Any, after: Any, *, title: str
         A third bar per item, e.g. the measured value.
     reference_name : str
         Legend name of ``reference``.
-    figsize : (float, float)
-        Figure size [in].
-    dpi : float
-        Resolution.
+    figsize, dpi
+        As :func:`frf_figure`.
 
     Returns
     -------
     Path
-        ``path``.
+        ``path``, the bar chart.
 
     Raises
     ------
@@ -448,13 +442,13 @@ def point_value_map(spec, values: Mapping[int, float], path: str | Path, *, labe
     label : str
         Colour-bar label (``log10`` of it is coloured).
     title : str
-    figsize : (float, float)
-        Inches.
-    dpi : float
+    figsize, dpi
+        As :func:`frf_figure`.
 
     Returns
     -------
     Path
+        ``path``, the map of the structure.
 
     Raises
     ------
