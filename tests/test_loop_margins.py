@@ -182,3 +182,11 @@ def test_cli_margins_json_table_and_figure(tmp_path):
     target = tmp_path / "loop.png"
     assert runner.invoke(app, ["design", "bcc", "--figure", str(target)]).exit_code == 0
     assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_lqr_has_no_sensor_loop():
+    fe = nominal_fe_model("bcc")
+    with pytest.raises(ModelError, match="LQR"):
+        analyse_loop(fe, design_controller(fe, "lqr"))
+    res = runner.invoke(app, ["design", "bcc", "--controller", "lqr", "--margins"])
+    assert res.exit_code != 0 and "LQR" in res.output

@@ -62,6 +62,9 @@ def design(
         raise OptionError("--modes is read only with --reduction corrected-guyan "
                           f"(got --reduction {reduction.value if reduction else 'default'})")
     checks.input_file("--modes", modes_file)
+    if controller is ControllerName.lqr and (margins or figure is not None):
+        raise OptionError("--margins and --figure analyse the sensor loop; LQR feeds back every state "
+                          "(use --controller lqg, mfdrf, lqdrf or lqdrf-diag)")
     fig_path = figure_path(figure, overwrite)
     spec = checks.load_structure(structure)
     fe = checks.fe_model_of(spec)

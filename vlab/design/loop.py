@@ -351,13 +351,16 @@ def analyse_loop(fe: FEModel, design, *, freq_hz: np.ndarray | None = None,
     Raises
     ------
     ModelError
-        A design whose channels are not the spec's actuators, frequencies not increasing or at/above the
-        Nyquist frequency.
+        An LQR design (full-state feedback, no sensor loop), a design whose channels are not the spec's
+        actuators, frequencies not increasing or at/above the Nyquist frequency.
 
     Source: Fig. 21 and Sec. 5.3 (the loop and its chain), Eq. (5.1); Skogestad & Postlethwaite (2005),
     Secs. 2.4.3, 3.3, 9.2.
     """
     acts = tuple(fe.spec.instrumentation.actuators)
+    if design.controller == "lqr":
+        raise ModelError("LQR feeds back every state, not the sensors: it has no loop through the lab's chain "
+                         "(analyse lqg, mfdrf, lqdrf or lqdrf-diag)")
     if design.f11.shape != (len(acts), len(acts)):
         raise ModelError(f"{fe.spec.name}: design {design.controller} maps {design.f11.shape[1]} sensors to "
                          f"{design.f11.shape[0]} actuators; the structure has {len(acts)} collocated pairs {acts}")
