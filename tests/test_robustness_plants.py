@@ -198,7 +198,7 @@ def test_ctrl_c_on_a_dask_run_prints_one_line(tmp_path):
 
     cmd = [sys.executable, "-c", "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
            "from vlab.cli import app; app()", "robustness", "bcc", "--samples", "4000", "--workers", "2",
-           "--simulate", "0", "--simulate-random", "0", "--out", str(tmp_path / "o")]
+           "--simulate", "0", "--simulate-random", "0", "--quiet", "--out", str(tmp_path / "o")]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                          env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

@@ -11,7 +11,7 @@ from rich.table import Table
 from ..errors import OptionError
 from . import checks
 from .options import flag, opt
-from .output import console, print_json
+from .output import console, print_json, stages
 from .runtime import expect_output
 
 ROBUSTNESS_OUT = "out/robustness"
@@ -53,6 +53,8 @@ def robustness(
     markdown_copy: str = opt(None, "--markdown", help="also write robustness.md to this file; an existing file is "
                                                        "replaced only with --overwrite (default: none)"),
     as_json: bool = flag("--json", help="print robustness.json to stdout instead of the table"),
+    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
+                                       "when piped)"),
 ) -> None:
     """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (Sec. 7).
 
@@ -95,8 +97,9 @@ def robustness(
     cfg = StudyConfig(structure=structure, n_samples=n_samples, seed=seed, uncertainties=uncs,
                       chunk_size=chunk_size, controllers=cfg_controllers)
     expect_output(out_path)
-    nominal, res, summary, study_checks, timings, extras = run_pipeline(
-        cfg, scheduler=sched, workers=workers, n_worst=simulate, n_random=simulate_random)
+    with stages("robustness", "starting", quiet=quiet or as_json) as say:
+        nominal, res, summary, study_checks, timings, extras = run_pipeline(
+            cfg, scheduler=sched, workers=workers, n_worst=simulate, n_random=simulate_random, progress=say)
     command = _command_line(cfg, uncertainty=uncertainty, controllers=controllers, simulate=simulate,
                             simulate_random=simulate_random)
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:

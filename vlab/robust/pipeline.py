@@ -25,7 +25,8 @@ DEFAULT_RANDOM = {"bcc": 100, "grid": 10}
 
 
 def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: int | None = None,
-                 n_worst: int = DEFAULT_WORST, n_random: int | None = None, limit_cycle: bool = True):
+                 n_worst: int = DEFAULT_WORST, n_random: int | None = None, limit_cycle: bool = True,
+                 progress=None):
     """Run the study and its checks; return what :func:`vlab.robust.report.write_outputs` takes.
 
     Parameters
@@ -41,6 +42,8 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
     limit_cycle : bool
         Run :func:`vlab.robust.limit_cycle.limit_cycle_sensitivity` for the
         controllers unstable on MuJoCo at nominal.
+    progress : callable, optional
+        Called with a short text at each stage.
 
     Returns
     -------
@@ -70,18 +73,23 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
     where = ("this process" if scheduler is None else
              f"a Dask LocalCluster of {n_proc} processes" if scheduler == "local"
              else f"the Dask scheduler {scheduler}")
+    say = progress or (lambda s: None)
     t0 = time.perf_counter()
     with (dask_client(scheduler, n_proc) if scheduler else contextlib.nullcontext()) as client:
+        say("designing the controllers")
         nominal = nominal_analysis(cfg)
         t1 = time.perf_counter()
+        say(f"{cfg.n_samples} perturbed plants on {where}")
         nominal, res = run_study(cfg, nominal=nominal, client=client)
     t2 = time.perf_counter()
     checks, lc = [], {}
     if n_worst or n_random:
         for c in cfg.controllers:
             idx, w, r = choose_samples(res, nominal, c, n_worst, n_random, seed=cfg.seed)
+            say(f"time simulation on MuJoCo: {c}, {len(idx)} samples")
             checks.append(simulate_samples(cfg, nominal, c, idx, worst=w, random=r, seed=cfg.seed))
         if limit_cycle:
+            say("what moves the limit cycle")
             lc = {ch.controller: limit_cycle_sensitivity(cfg, nominal, ch.controller, seed=cfg.seed)
                   for ch in checks if ch.nominal.unstable}
     fe_modes = {ch.controller: fe_loop_mode_near(cfg, nominal, ch.controller, ch.nominal.frequency_hz)
