@@ -195,22 +195,13 @@ class DrfDesign:
         """Engine coefficients of Eq. (5.1): ``F11 = -T D``, no state (Sec. 5.3).
 
         ``y_k`` in length per second, ``u_k`` actuator force; see
-        :func:`controllers.realization.output_feedback_realization`.
-
-        Parameters
-        ----------
-        dt_s : float
-            Sampling period [s].
+        :func:`controllers.realization.output_feedback_realization`, which
+        documents ``dt_s`` [s] and the errors (a non-positive ``dt_s``).
 
         Returns
         -------
         DiscreteRealization
             ``F11 (n_c, n_c)``, no internal state.
-
-        Raises
-        ------
-        MatrixPropertyError
-            Non-positive ``dt_s``.
         """
         return output_feedback_realization(self.gain, dt_s, time_unit_s=self.time_unit_s)
 

@@ -177,9 +177,8 @@ def check_positive_definite(name: str, a: np.ndarray, *, rtol: float = 1e-12) ->
 
     Parameters
     ----------
-    name : str
-        Name of the matrix for the message.
-    a : ndarray, shape (N, N)
+    name, a
+        As :func:`check_symmetric`.
     rtol : float
         ``min eig(a)`` must exceed ``rtol * max |eig(a)|``.
 
@@ -202,9 +201,8 @@ def check_positive_semidefinite(name: str, a: np.ndarray, *, rtol: float = 1e-10
 
     Parameters
     ----------
-    name : str
-        Name of the matrix for the message.
-    a : ndarray, shape (N, N)
+    name, a
+        As :func:`check_symmetric`.
     rtol : float
         ``min eig(a)`` may be as low as ``-rtol * max |eig(a)|`` (round-off).
 

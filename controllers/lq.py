@@ -198,10 +198,12 @@ class LqrDesign:
         Parameters
         ----------
         initial_states : array_like, shape (2n, n_f)
+            Initial states ``x0_i``, one per column.
 
         Returns
         -------
         ndarray, shape (n_f,)
+            ``J_min,i`` of the regulator, one per initial state.
 
         Raises
         ------
@@ -215,22 +217,13 @@ class LqrDesign:
 
         ``y_k`` must be the whole structural state ``[q'; q]`` with velocities
         per *second* (``S = diag(T I, I)``, ``T = time_unit_s``); see
-        :func:`controllers.realization.state_feedback_realization`.
-
-        Parameters
-        ----------
-        dt_s : float
-            Sampling period [s].
+        :func:`controllers.realization.state_feedback_realization`, which
+        documents ``dt_s`` [s] and the errors (a non-positive ``dt_s``).
 
         Returns
         -------
         DiscreteRealization
             ``F11 (n_c, 2n)``, no internal state.
-
-        Raises
-        ------
-        MatrixPropertyError
-            Non-positive ``dt_s``.
         """
         return state_feedback_realization(self.gain, dt_s, time_unit_s=self.time_unit_s)
 
@@ -547,10 +540,13 @@ class LqgDesign:
         Parameters
         ----------
         initial_states : array_like, shape (2n, n_f)
+            Structural initial states ``x0_i``, one per column; the estimate
+            starts at the same state.
 
         Returns
         -------
         ndarray, shape (n_f,)
+            ``J_i`` of the closed loop with the estimator, one per initial state.
 
         Raises
         ------

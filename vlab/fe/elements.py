@@ -158,15 +158,28 @@ def torsion_mass(rho_ip: float, length: float) -> np.ndarray:
     ModelError
         If ``rho_ip`` or ``length`` is not a positive finite number.
 
-    Source: linear shape functions, Sec. 2.2.1 (Ref. 53, Przemieniecki 1968).
+    Source: consistent mass of the linear shape functions of :func:`torsion_stiffness`.
     """
     _check_positive("polar inertia per length", rho_ip)
     _check_positive("element length", length)
     return rho_ip * length / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
 
 
-def _hermite_slopes(xi: float, length: float) -> np.ndarray:
-    """d/ds of the cubic Hermite shape functions at ``s = xi*L``, shape (4,)."""
+def hermite_slopes(xi: float, length: float) -> np.ndarray:
+    """dw/ds of the cubic Hermite shape functions on ``[w1, b1, w2, b2]`` at ``s = xi L``.
+
+    Parameters
+    ----------
+    xi : float
+        Position along the element as a fraction of its length, in [0, 1].
+    length : float
+        Element length ``L`` [m].
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        Slopes [1/m on ``w1``, ``w2``; 1 on ``b1``, ``b2``].
+    """
     L = length
     return np.array(
         [
@@ -208,7 +221,7 @@ def axial_geometric_stiffness(n1: float, n2: float, length: float) -> np.ndarray
     _check_positive("element length", length)
     kg = np.zeros((4, 4))
     for xi, wt in zip(_GAUSS_X, _GAUSS_W):
-        g = _hermite_slopes(xi, length)
+        g = hermite_slopes(xi, length)
         force = n1 + (n2 - n1) * xi
         kg += wt * length * force * np.outer(g, g)
     return kg

@@ -53,6 +53,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
+from .elements import hermite_slopes
 
 # 3-point Gauss-Legendre rule on [0, 1]: exact to degree 5.
 _GAUSS_X = 0.5 + 0.5 * np.array([-np.sqrt(3.0 / 5.0), 0.0, np.sqrt(3.0 / 5.0)])
@@ -88,19 +89,6 @@ def polar_radius_sq(width: float, thickness: float) -> float:
         if not np.isfinite(v) or v <= 0.0:
             raise ModelError(f"{name} must be a positive finite number, got {v!r}")
     return (width**2 + thickness**2) / 12.0
-
-
-def _slopes(xi: float, length: float) -> np.ndarray:
-    """dw/ds of the cubic Hermite functions at ``s = xi L`` on ``[w1, b1, w2, b2]``."""
-    L = length
-    return np.array(
-        [
-            (-6.0 * xi + 6.0 * xi**2) / L,
-            1.0 - 4.0 * xi + 3.0 * xi**2,
-            (6.0 * xi - 6.0 * xi**2) / L,
-            -2.0 * xi + 3.0 * xi**2,
-        ]
-    )
 
 
 def _curvatures(xi: float, length: float) -> np.ndarray:
@@ -191,7 +179,7 @@ def geometric_stiffness(
     kbt = np.zeros((4, 2))
     ktt = polar_radius_sq * 0.5 * (n1 + n2) * L * np.outer(hp, hp)
     for xi, wt in zip(_GAUSS_X, _GAUSS_W):
-        g = _slopes(xi, L)
+        g = hermite_slopes(xi, L)
         c = _curvatures(xi, L)
         h = np.array([1.0 - xi, xi])
         n = n1 + (n2 - n1) * xi

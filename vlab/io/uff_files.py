@@ -10,6 +10,7 @@ pyuff (Slavic et al., https://github.com/ladisk/pyuff).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -45,6 +46,61 @@ def sidecar_path(path: str | os.PathLike) -> Path:
     """Path of the JSON metadata sidecar of a UFF file: ``<path>.json``."""
     p = Path(path)
     return p.with_name(p.name + ".json")
+
+
+def sidecar_text(side: Path, metadata) -> str:
+    """The JSON text of a sidecar holding ``metadata`` (sorted keys, no NaN).
+
+    Parameters
+    ----------
+    side : Path
+        The sidecar's path (for the message).
+    metadata : mapping
+        JSON-serialisable values.
+
+    Raises
+    ------
+    DataFileError
+        A value that is not JSON-serialisable (names the keys).
+    """
+    try:
+        return json.dumps(dict(metadata), sort_keys=True, indent=2, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as exc:
+        bad = [k for k, v in dict(metadata).items() if not _jsonable(v)]
+        raise DataFileError(f"{side}: metadata key(s) {bad} not JSON-serialisable: {exc}") from exc
+
+
+def _jsonable(v) -> bool:
+    try:
+        json.dumps(v, allow_nan=False)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def read_sidecar(path: Path) -> dict:
+    """The metadata of the JSON sidecar of the UFF file ``path`` (:func:`sidecar_path`), ``{}`` without one.
+
+    Parameters
+    ----------
+    path : Path
+        The UFF file.
+
+    Raises
+    ------
+    DataFileError
+        An unreadable sidecar or one that does not hold a JSON object.
+    """
+    side = sidecar_path(path)
+    meta: dict = {}
+    if side.is_file():
+        try:
+            meta = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise DataFileError(f"{side}: unreadable metadata sidecar: {exc}") from exc
+        if not isinstance(meta, dict):
+            raise DataFileError(f"{side}: metadata sidecar must hold a JSON object")
+    return meta
 
 
 def check_target(path: Path, overwrite: bool, *others: Path) -> None:
@@ -286,14 +342,12 @@ def check_unit_label(p: Path, s: dict, quantity: str, where: str) -> None:
 def check_direction(p: Path, s: dict, key: str, where: str) -> int:
     """A direction field (``rsp_dir``, ``ref_dir``) that must be a translation code (+-1..3).
 
-    Parameters
-    ----------
-    p, s, key, where
-        As :func:`get_int`.
+    Parameters ``p``, ``s``, ``key``, ``where``: as :func:`get_int`.
 
     Returns
     -------
     int
+        The direction code, one of +-1, +-2, +-3.
 
     Raises
     ------
@@ -310,14 +364,12 @@ def check_direction(p: Path, s: dict, key: str, where: str) -> int:
 def check_node(p: Path, s: dict, key: str, where: str) -> int:
     """A node field (``rsp_node``, ``ref_node``) that must be a point id (a positive integer).
 
-    Parameters
-    ----------
-    p, s, key, where
-        As :func:`get_int`.
+    Parameters ``p``, ``s``, ``key``, ``where``: as :func:`get_int`.
 
     Returns
     -------
     int
+        The point id.
 
     Raises
     ------

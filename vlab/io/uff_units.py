@@ -123,12 +123,8 @@ def frequency_factor(p: Path, s: dict, where: str) -> float:
 
     Parameters
     ----------
-    p : Path
-        The file.
-    s : dict
-        The FRF record.
-    where : str
-        Record name for messages.
+    p, s, where
+        As :func:`check_exponents`; ``s`` is the FRF record.
 
     Returns
     -------
@@ -153,12 +149,8 @@ def check_time_axis(p: Path, s: dict, where: str) -> None:
 
     Parameters
     ----------
-    p : Path
-        The file.
-    s : dict
-        The time-response record.
-    where : str
-        Record name for messages.
+    p, s, where
+        As :func:`check_exponents`; ``s`` is the time-response record.
 
     Raises
     ------
@@ -176,12 +168,8 @@ def check_force_denominator(p: Path, s: dict, where: str) -> None:
 
     Parameters
     ----------
-    p : Path
-        The file.
-    s : dict
-        The FRF record.
-    where : str
-        Record name for messages.
+    p, s, where
+        As :func:`check_exponents`; ``s`` is the FRF record.
 
     Raises
     ------

@@ -110,20 +110,11 @@ class _Reductor:
         )
 
     def reconstruct(self, q_r: Any) -> np.ndarray:
-        """Full-model displacements ``q = T q_R``.
+        """Full-model displacements ``q = T q_R``: :func:`vlab.reduction.model.reconstruct_from` with this reductor's basis.
 
-        Parameters
-        ----------
-        q_r : array_like, shape (n_R,) or (n_R, n_t)
-
-        Returns
-        -------
-        ndarray, shape (n,) or (n, n_t)
-
-        Raises
-        ------
-        ModelError
-            If the leading dimension of ``q_r`` is not ``n_R``.
+        Parameters ``q_r`` (reduced coordinates, the master displacements,
+        shape (n_R,) or (n_R, n_t)), the result and the errors: as
+        :func:`vlab.reduction.model.reconstruct_from`.
         """
         return reconstruct_from(self.basis, q_r)
 

@@ -63,6 +63,7 @@ def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict
     Returns
     -------
     Path
+        ``path``, the distribution plots.
 
     Raises
     ------
@@ -140,6 +141,7 @@ def time_history_plot(path: Path, result, *, title: str, response_point: int, ba
     Returns
     -------
     Path
+        ``path``, the time-history plot.
 
     Raises
     ------

@@ -187,17 +187,10 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
 
     Parameters
     ----------
-    cfg : StudyConfig
-    nominal : Nominal
-    summary : Summary
-    checks : list of SimCheck
-        Time-simulated samples (may be empty).
-    timings : dict
-        Seconds per stage (``"total"``, ``"study"``, ...) and ``"where"``.
+    cfg, nominal, summary, checks, timings, extras
+        As :func:`vlab.robust.report.results_dict`.
     command : str
         The command line that measured it (named in the text).
-    extras : dict, optional
-        As :func:`vlab.robust.report.results_dict`.
 
     Returns
     -------

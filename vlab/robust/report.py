@@ -168,19 +168,12 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
     Parameters
     ----------
     folder : Path
-    cfg : StudyConfig
-    nominal : Nominal
     res : dict
         Per-sample arrays of :func:`vlab.robust.study.run_study`.
-    summary : Summary
-    checks : list of SimCheck
-        Time-simulated samples (may be empty).
-    timings : dict
-        Seconds per stage (``"total"``, ``"study"``, ...) and ``"where"``.
+    cfg, nominal, summary, checks, timings, extras
+        As :func:`results_dict`.
     command : str
         The command line named in the Markdown.
-    extras : dict, optional
-        As :func:`results_dict`.
 
     Returns
     -------

@@ -330,11 +330,10 @@ def worst_samples(res: dict, nominal: Nominal, controller: str, k: int) -> np.nd
 
     Parameters
     ----------
-    res : dict
-        Per-sample arrays of :func:`vlab.robust.study.run_study`.
-    nominal : Nominal
-    controller : str
+    res, nominal, controller
+        As :func:`linear_error_db`.
     k : int
+        How many samples.
 
     Returns
     -------

@@ -204,7 +204,7 @@ def log_signals(rec, time_s: Any, signals: Mapping[str, Any], *,
     Returns
     -------
     list of str
-        The entity paths written.
+        The entity paths written, one per signal.
 
     Raises
     ------
@@ -249,7 +249,7 @@ def log_recording(rec, recording, *, extra_signals: Mapping[str, Any] | None = N
     Returns
     -------
     list of str
-        The entity paths written.
+        The entity paths written, one per channel and extra signal.
 
     Raises
     ------
@@ -333,7 +333,7 @@ def log_frfs(rec, frfs: Mapping[str, Any]) -> list[str]:
     Returns
     -------
     list of str
-        The entity paths written.
+        The entity paths written, ``frf/<name>/magnitude`` per FRF.
 
     Raises
     ------
