@@ -24,6 +24,7 @@ __all__ = [
     "RiccatiError",
     "InfeasibleDampingError",
     "check_matrix",
+    "check_square",
     "check_symmetric",
     "check_positive_definite",
     "check_positive_semidefinite",
@@ -131,6 +132,36 @@ def check_matrix(
     if not np.all(np.isfinite(arr)):
         raise MatrixPropertyError(f"{name}: contains non-finite entries (nan or inf)")
     return arr
+
+
+def check_square(name: str, value, symbol: str = "N") -> np.ndarray:
+    """:func:`check_matrix` for a square matrix of any size.
+
+    Parameters
+    ----------
+    name : str
+        Name of the matrix for the message.
+    value : array_like
+        The input.
+    symbol : str
+        Its size in symbols, e.g. ``"2n"``: the message shows ``(2n, 2n)``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, N)
+        A new float64 array, as :func:`check_matrix`.
+
+    Raises
+    ------
+    ShapeError
+        Not 2-D, or not square.
+    MatrixPropertyError
+        As :func:`check_matrix`.
+    """
+    a = check_matrix(name, value, (None, None), (symbol, symbol))
+    if a.shape[0] != a.shape[1]:
+        raise ShapeError(f"{name}: expected shape ({symbol}, {symbol}) (square), found {a.shape}")
+    return a
 
 
 def check_symmetric(name: str, a: np.ndarray, *, rtol: float = 1e-10) -> np.ndarray:

@@ -34,9 +34,10 @@ from .errors import (
     check_positive_definite,
     check_positive_scalar,
     check_positive_semidefinite,
+    check_square,
     readonly,
 )
-from .performance import SpilloverReport, _square, modes, performance_index, spillover
+from .performance import SpilloverReport, modes, performance_index, spillover
 from .realization import DiscreteRealization, estimator_realization, state_feedback_realization
 
 __all__ = [
@@ -101,7 +102,7 @@ def check_stabilizable(A, B, *, shift: float = 0.0, what: str = "(A, B)") -> Non
     others are stable already. Undamped structures have all eigenvalues on the
     imaginary axis, so every mode must be reachable.
     """
-    A = _square("A", A, "N")
+    A = check_square("A", A, "N")
     n = A.shape[0]
     B = check_matrix("B", B, (n, None), ("N", "m"))
     eigs = scipy.linalg.eigvals(A)
@@ -138,7 +139,7 @@ def check_detectable(A, C, *, shift: float = 0.0, what: str = "(A, C)") -> None:
     StabilizabilityError
         If an eigenvalue with ``Re + shift >= 0`` is unobservable; names it.
     """
-    A = _square("A", A, "N")
+    A = check_square("A", A, "N")
     C = check_matrix("C", C, (None, A.shape[0]), ("p", "N"))
     check_stabilizable(A.T, C.T, shift=shift, what=what)
 
@@ -264,7 +265,7 @@ def lqr(A, B, Q, R, *, time_unit_s: float = 1.0) -> LqrDesign:
     -----
     Source: Eqs. (4.4)-(4.7); solved by :func:`scipy.linalg.solve_continuous_are`.
     """
-    A = _square("A", A, "2n")
+    A = check_square("A", A, "2n")
     n = A.shape[0]
     B = check_matrix("B", B, (n, None), ("2n", "n_c"))
     Q, R = _riccati_weights(Q, R, n, B.shape[1])
@@ -367,7 +368,7 @@ def lqr_weight_for_damping(
     r_lo, r_hi = (check_positive_scalar("r_bounds", v) for v in r_bounds)
     if r_lo >= r_hi:
         raise MatrixPropertyError(f"r_bounds: expected r_lo < r_hi, found {r_bounds}")
-    A = _square("A", A, "2n")
+    A = check_square("A", A, "2n")
     B = check_matrix("B", B, (A.shape[0], None), ("2n", "n_c"))
     eye = np.eye(B.shape[1])
     count = [0]
@@ -479,7 +480,7 @@ def kalman_filter(A, C, V1, V2, *, alpha: float = 0.0, time_unit_s: float = 1.0)
     -----
     Source: Eqs. (4.8)-(4.10), Refs. 57-58 of the dissertation (alpha shift).
     """
-    A = _square("A", A, "2n")
+    A = check_square("A", A, "2n")
     n = A.shape[0]
     C = check_matrix("C", C, (None, n), ("n_s", "2n"))
     V1, V2 = _riccati_weights(V1, V2, n, C.shape[0], ("V1", "V2"), "n_s")
@@ -741,7 +742,7 @@ def reduced_on_full(A, B, C, Q, controller: LqgDesign) -> ReducedOnFull:
     -----
     Source: Eqs. (4.23)-(4.29); spillover as in Sec. 6.2.1.
     """
-    A = _square("A", A, "2n")
+    A = check_square("A", A, "2n")
     n = A.shape[0]
     nc = controller.B.shape[1]
     ns = controller.C.shape[0]

@@ -43,6 +43,7 @@ from .errors import (
     check_matrix,
     check_positive_scalar,
     check_positive_semidefinite,
+    check_square,
     readonly,
 )
 
@@ -59,13 +60,6 @@ __all__ = [
     "closed_loop_damping",
     "performance_gradient",
 ]
-
-
-def _square(name: str, a, symbol: str = "N") -> np.ndarray:
-    a = check_matrix(name, a, (None, None), (symbol, symbol))
-    if a.shape[0] != a.shape[1]:
-        raise ShapeError(f"{name}: expected shape ({symbol}, {symbol}) (square), found {a.shape}")
-    return a
 
 
 def _mode_order(eigs: np.ndarray) -> np.ndarray:
@@ -160,7 +154,7 @@ def modes(A, *, n_modes: int | None = None, time_unit_s: float = 1.0) -> Modes:
     ShapeError, MatrixPropertyError
         Non-square or non-finite ``A``; non-positive ``time_unit_s``.
     """
-    A = _square("A", A)
+    A = check_square("A", A)
     t = check_positive_scalar("time_unit_s", time_unit_s)
     eigs = scipy.linalg.eigvals(A)
     idx = select_modes(eigs, n_modes)
@@ -190,7 +184,7 @@ def lyapunov_cost_matrix(A_cl, Q_cl) -> np.ndarray:
     ShapeError, MatrixPropertyError
         Bad shapes, non-symmetric or indefinite ``Q_cl``.
     """
-    A_cl = _square("A_cl", A_cl)
+    A_cl = check_square("A_cl", A_cl)
     n = A_cl.shape[0]
     Q_cl = check_matrix("Q_cl", Q_cl, (n, n), ("N", "N"))
     Q_cl = check_positive_semidefinite("Q_cl", Q_cl)
@@ -225,7 +219,7 @@ def performance_index(A_cl, Q_cl, initial_states) -> np.ndarray:
     -----
     Source: Eqs. (4.20)-(4.21), (4.26)-(4.27), (4.33)-(4.34).
     """
-    A_cl = _square("A_cl", A_cl)
+    A_cl = check_square("A_cl", A_cl)
     n = A_cl.shape[0]
     X0 = check_matrix("initial_states", initial_states, (n, None), ("N", "n_f"))
     Q_cl = check_positive_semidefinite("Q_cl", check_matrix("Q_cl", Q_cl, (n, n), ("N", "N")))
@@ -262,7 +256,7 @@ def feedback_performance(A, B, F, Q, R, initial_states) -> np.ndarray:
     ------
     ShapeError, MatrixPropertyError
     """
-    A = _square("A", A, "2n")
+    A = check_square("A", A, "2n")
     n = A.shape[0]
     B = check_matrix("B", B, (n, None), ("2n", "n_c"))
     nc = B.shape[1]
@@ -378,8 +372,8 @@ def spillover(A_open, A_closed, *, time_unit_s: float = 1.0, rtol: float = 1e-6)
     Source: Sec. 4.1.3 and Sec. 6.2.1 (modes 25, 26, 33 of the grid were
     "partially destabilized" by the reduced-model LQG controller).
     """
-    Ao = _square("A_open", A_open)
-    Ac = _square("A_closed", A_closed, "N_cl")
+    Ao = check_square("A_open", A_open)
+    Ac = check_square("A_closed", A_closed, "N_cl")
     if Ac.shape[0] < Ao.shape[0]:
         raise ShapeError(f"A_closed: expected at least {Ao.shape[0]} states, found {Ac.shape[0]}")
     t = check_positive_scalar("time_unit_s", time_unit_s)
@@ -405,10 +399,8 @@ def spillover(A_open, A_closed, *, time_unit_s: float = 1.0, rtol: float = 1e-6)
 
 # --------------------------------------------------------------------------- sensitivities
 def _check_plant(A, B, C) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    A = check_matrix("A", A, (None, None), ("2n", "2n"))
+    A = check_square("A", A, "2n")
     n = A.shape[0]
-    if A.shape[1] != n:
-        raise ShapeError(f"A: expected shape (2n, 2n) (square), found {A.shape}")
     B = check_matrix("B", B, (n, None), ("2n", "n_c"))
     nc = B.shape[1]
     C = check_matrix("C", C, (nc, n), ("n_c", "2n"))
@@ -522,10 +514,8 @@ def performance_gradient(A, B, C, D, Q, R, initial_states) -> tuple[np.ndarray, 
 
     Parameters
     ----------
-    A : array_like, shape (2n, 2n)
-    B : array_like, shape (2n, n_c)
-    C : array_like, shape (n_c, 2n)
-    D : array_like, shape (n_c, n_c)
+    A, B, C, D
+        As :func:`closed_loop_damping`.
     Q : array_like, shape (2n, 2n)
     R : array_like, shape (n_c, n_c)
     initial_states : array_like, shape (2n, n_f)

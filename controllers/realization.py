@@ -54,6 +54,7 @@ from .errors import (
     ShapeError,
     check_matrix,
     check_positive_scalar,
+    check_square,
     readonly,
 )
 
@@ -257,10 +258,8 @@ def block_diagonal_transform(A_tilde) -> tuple[np.ndarray, np.ndarray]:
     -----
     Source: Eqs. (5.6)-(5.9).
     """
-    A = check_matrix("A_tilde", A_tilde, (None, None), ("N", "N"))
+    A = check_square("A_tilde", A_tilde, "N")
     n = A.shape[0]
-    if A.shape[1] != n:
-        raise ShapeError(f"A_tilde: expected shape (N, N) (square), found {A.shape}")
     lam, V = scipy.linalg.eig(A)
     keep = np.flatnonzero(lam.imag >= 0)
     keep = keep[np.lexsort((lam.real[keep], np.abs(lam[keep])))]
@@ -341,10 +340,8 @@ def estimator_realization(
     Source: Eqs. (5.1)-(5.13). The matrix exponential is
     :func:`scipy.linalg.expm` (Pade with scaling and squaring, as the thesis).
     """
-    At = check_matrix("A_tilde", A_tilde, (None, None), ("2n_R", "2n_R"))
+    At = check_square("A_tilde", A_tilde, "2n_R")
     nx = At.shape[0]
-    if At.shape[1] != nx:
-        raise ShapeError(f"A_tilde: expected shape (2n_R, 2n_R) (square), found {At.shape}")
     K = check_matrix("K", K, (nx, None), ("2n_R", "n_s"))
     F = check_matrix("F", F, (None, nx), ("n_c", "2n_R"))
     h = _dt(dt_s)

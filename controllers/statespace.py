@@ -45,6 +45,7 @@ from .errors import (
     check_positive_definite,
     check_positive_scalar,
     check_positive_semidefinite,
+    check_square,
     readonly,
 )
 
@@ -149,10 +150,8 @@ def state_space(
     -----
     Source: Eqs. (3.1)-(3.3) and Sec. 3 (time unit of 1e-2 s) of the dissertation.
     """
-    m = check_matrix("m", m, (None, None), ("n_dof", "n_dof"))
+    m = check_square("m", m, "n_dof")
     n = m.shape[0]
-    if m.shape[1] != n:
-        raise ShapeError(f"m: expected shape (n_dof, n_dof) (square), found {m.shape}")
     c = check_matrix("c", c, (n, n), ("n_dof", "n_dof"))
     k = check_matrix("k", k, (n, n), ("n_dof", "n_dof"))
     U = check_matrix("U", U, (n, None), ("n_dof", "n_c"))
@@ -282,10 +281,8 @@ def structural_modes(m, k) -> tuple[np.ndarray, np.ndarray]:
     ShapeError, MatrixPropertyError
         Non-square, mismatched, non-symmetric or indefinite matrices.
     """
-    m = check_matrix("m", m, (None, None), ("n_dof", "n_dof"))
+    m = check_square("m", m, "n_dof")
     n = m.shape[0]
-    if m.shape[1] != n:
-        raise ShapeError(f"m: expected shape (n_dof, n_dof) (square), found {m.shape}")
     k = check_matrix("k", k, (n, n), ("n_dof", "n_dof"))
     m = check_positive_definite("m", m)
     k = check_positive_semidefinite("k", k)

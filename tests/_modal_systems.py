@@ -6,6 +6,18 @@ import numpy as np
 from scipy import linalg
 
 
+def spring_mass_chain(masses, springs):
+    """Spring-mass chain, spring 0 to ground, spring i between masses i-1 and i: (m, k)."""
+    n = len(masses)
+    k = np.zeros((n, n))
+    for i, ki in enumerate(springs):
+        if i == 0:
+            k[0, 0] += ki
+        else:
+            k[np.ix_([i - 1, i], [i - 1, i])] += ki * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    return np.diag(np.asarray(masses, dtype=float)), k
+
+
 def two_dof(zetas=(0.02, 0.03), stiff_scale=4.0):
     """2-DOF chain with modal damping: (M, C, K, f_n [Hz], zeta). Modes near 4.5 and 9.0 Hz."""
     M = np.diag([1.0, 0.5])

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
+from _modal_systems import spring_mass_chain as chain
 from vlab.correction import (
     CorrectionHistory,
     baruch_correction,
@@ -34,18 +35,6 @@ MASSES = [1.0, 2.0, 1.5, 1.0, 3.0, 1.0, 0.8, 1.2]
 SPRINGS = [100.0, 200.0, 150.0, 300.0, 120.0, 80.0, 250.0, 90.0]
 MASTER = [0, 2, 4, 6, 7]
 N_R = len(MASTER)
-
-
-def chain(masses, springs):
-    """Spring-mass chain, spring 0 to ground, spring i between masses i-1 and i."""
-    n = len(masses)
-    k = np.zeros((n, n))
-    for i, ki in enumerate(springs):
-        if i == 0:
-            k[0, 0] += ki
-        else:
-            k[np.ix_([i - 1, i], [i - 1, i])] += ki * np.array([[1.0, -1.0], [-1.0, 1.0]])
-    return np.diag(np.asarray(masses, dtype=float)), k
 
 
 def measured(n_m):

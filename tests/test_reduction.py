@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
+from _modal_systems import spring_mass_chain
 from vlab.errors import ModelError, ReductionError
 from vlab.reduction import (
     ExactReduction,
@@ -29,16 +30,9 @@ from vlab.reduction import (
 
 
 def chain(masses, springs):
-    """Spring-mass chain, spring 0 to ground, spring i between masses i-1 and i."""
-    n = len(masses)
-    k = np.zeros((n, n))
-    for i, ki in enumerate(springs):
-        if i == 0:
-            k[0, 0] += ki
-        else:
-            k[np.ix_([i - 1, i], [i - 1, i])] += ki * np.array([[1.0, -1.0], [-1.0, 1.0]])
-    labels = [(i + 1, "w") for i in range(n)]
-    return np.diag(np.asarray(masses, dtype=float)), k, labels
+    """:func:`spring_mass_chain` with the DOF labels ``(i + 1, "w")``: (m, k, labels)."""
+    m, k = spring_mass_chain(masses, springs)
+    return m, k, [(i + 1, "w") for i in range(len(masses))]
 
 
 CHAIN = chain([1.0, 2.0, 1.5, 1.0, 3.0, 1.0, 0.8, 1.2], [100.0, 200.0, 150.0, 300.0, 120.0, 80.0, 250.0, 90.0])

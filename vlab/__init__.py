@@ -361,16 +361,10 @@ def verify_update(original: Any, updated: Any, mjcf: str | Path, *, controller: 
 
     Parameters
     ----------
-    original, updated : str, Path or StructureSpec
-        The structure before and after :func:`update`.
-    mjcf : str or Path
-        The plant both designs run on (an MJCF file, e.g. the changed structure from :func:`export_mjcf`).
-    controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg"}
-        The controller designed on each model.
-    seed : int
-        Seed of the excitation, noise and designs.
-    duration_s : float, optional
-        Run length [s]; None: the structure's default.
+    original, updated, mjcf, controller, seed, duration_s
+        As :func:`vlab.model_update.verify`: the structure before and after :func:`update`, the MJCF plant
+        both designs run on (e.g. the changed structure from :func:`export_mjcf`), the controller designed
+        on each model, the seed and the run length.
 
     Returns
     -------

@@ -123,10 +123,8 @@ def residuals(doc: dict[str, Any], values: dict[str, float], weight_guyan: float
 
     Parameters
     ----------
-    doc : dict
-        A grid TOML document.
-    values : dict of str to float
-        Parameters in thesis units.
+    doc, values
+        As :func:`evaluate`.
     weight_guyan : float
         Weight of the Table 5 residuals [-].
 
@@ -208,10 +206,8 @@ def summarize(doc: dict[str, Any], values: dict[str, float]) -> GridFit:
 
     Parameters
     ----------
-    doc : dict
-        A grid TOML document.
-    values : dict of str to float
-        Parameters in thesis units.
+    doc, values
+        As :func:`evaluate`.
 
     Returns
     -------

@@ -145,7 +145,7 @@ def foreign_entries(folder: str | Path) -> list[str] | None:
     Parameters
     ----------
     folder : str or Path
-        An existing folder.
+        As :func:`read_manifest`.
 
     Returns
     -------

@@ -216,10 +216,8 @@ def predicted_modes(m, c, k, u, design: ControllerDesign | None, structure: str)
 
     Parameters
     ----------
-    m, c, k : ndarray, shape (n, n)
-        Plant [SI].
-    u : ndarray, shape (n, n_c)
-        Actuator load distribution (sensors collocated).
+    m, c, k, u
+        The plant, as :func:`vlab.reproduce.sampled_modes.sampled_data_modes`.
     design : ControllerDesign or None
         Controller (continuous form); None: open loop.
     structure : str

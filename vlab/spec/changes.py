@@ -193,6 +193,7 @@ def apply_change_tables(spec, tables: dict[str, list], reader: Callable) -> Any:
     Returns
     -------
     StructureSpec
+        The structure after the changes.
 
     Raises
     ------

@@ -140,6 +140,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
     Returns
     -------
     StructureSpec
+        The structure in SI, the changes applied.
 
     Raises
     ------
