@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 from vlab.io.atomic import atomic_file
+
+
+def best_time(fn, repeats: int = 3) -> float:
+    """The shortest wall time [s] of ``repeats`` calls of ``fn()`` (the least disturbed run)."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
 
 
 def load_average() -> str:

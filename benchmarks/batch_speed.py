@@ -46,7 +46,6 @@ import os
 import platform
 import subprocess
 import sys
-import time
 
 import mujoco
 import mujoco.rollout
@@ -61,7 +60,7 @@ from vlab.sim.batch_plant import MujocoBatchPlant
 from vlab.sim.contract import sensor_rows
 from vlab.spec import load_spec
 
-from _listing import emit
+from _listing import best_time, emit
 
 ACTS = (5, 7, 9)
 MEAS = (5, 7, 9, 6)
@@ -84,15 +83,6 @@ def _autogroup() -> str:
         return "n/a"
 
 
-def _best(fn, repeats: int) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def _bcc(seconds: float):
     """The BCC plant, the MFDRF engine, the loop's keywords and the excitation records (N_max, n_ticks)."""
     plant = build_plant(load_spec("bcc"))
@@ -112,7 +102,7 @@ def _time_run_loop(seconds: float, repeats: int) -> float:
         sim.reset()
         run_loop(sim, eng, excitation=exc[0], seed=1, **kw)
 
-    return seconds / _best(single, repeats)
+    return seconds / best_time(single, repeats)
 
 
 def _time_baseline(src: str, seconds: float, repeats: int) -> float:
@@ -153,7 +143,7 @@ def main(argv=None) -> int:
     d = mujoco.MjData(m)
     d.qpos[:] = sim.data.qpos
     mujoco.mj_forward(m, d)
-    t = _best(lambda: mujoco.mj_step(m, d, nstep=n_steps), a.repeats)
+    t = best_time(lambda: mujoco.mj_step(m, d, nstep=n_steps), a.repeats)
     rt_c = n_steps * h / t
     rows.append(("C loop mj_step (1 thread)", rt_c))
 
@@ -162,7 +152,7 @@ def main(argv=None) -> int:
     mujoco.mj_getState(m, d, state0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     datas = [mujoco.MjData(m) for _ in range(a.threads)]
     ctrl = np.random.default_rng(0).standard_normal((n_roll, n_steps, m.nu)) * 0.1
-    t = _best(lambda: mujoco.rollout.rollout(m, datas, np.tile(state0, (n_roll, 1)), ctrl), a.repeats)
+    t = best_time(lambda: mujoco.rollout.rollout(m, datas, np.tile(state0, (n_roll, 1)), ctrl), a.repeats)
     rows.append((f"C rollout N={n_roll} ({a.threads} threads), aggregate", n_roll * n_steps * h / t))
     bare = MujocoBatchPlant(sim, n_roll, nthread=a.threads).batch
     vel_stage = int(mujoco.mjtStage.mjSTAGE_VEL)
@@ -172,7 +162,7 @@ def main(argv=None) -> int:
             bare.step(stage=vel_stage)
 
     rows.append((f"mujoco.batch step N={n_roll} ({a.threads} threads), aggregate",
-                 n_roll * n_steps * h / _best(batch_steps, a.repeats)))
+                 n_roll * n_steps * h / best_time(batch_steps, a.repeats)))
     del bare
     ceiling = MujocoBatchPlant(sim, n_roll, nthread=a.threads)
 
@@ -181,7 +171,7 @@ def main(argv=None) -> int:
         for _ in range(n_steps):
             ceiling.step(sample=True)
 
-    rows.append(("  + applied modal damping, aggregate", n_roll * n_steps * h / _best(damped_steps, a.repeats)))
+    rows.append(("  + applied modal damping, aggregate", n_roll * n_steps * h / best_time(damped_steps, a.repeats)))
     rows_v = np.array([sensor_rows(m)[p] for p in ACTS])  # the vel<ID> rows of sensordata
     coils = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"coil{p}") for p in ACTS]
     gain = np.ascontiguousarray(np.asarray(eng.F11).T)  # u = F11 y as rows: u = y F11^T, one product for all
@@ -198,7 +188,7 @@ def main(argv=None) -> int:
             ctrl[:, cols] = u
             ceiling.step(sample=True)
 
-    rows.append(("  + a bare feedback law u = F11 y, aggregate", n_roll * n_steps * h / _best(minimal_loop, a.repeats)))
+    rows.append(("  + a bare feedback law u = F11 y, aggregate", n_roll * n_steps * h / best_time(minimal_loop, a.repeats)))
     del ceiling
 
     if sim.modal_damping is not None:
@@ -208,7 +198,7 @@ def main(argv=None) -> int:
             for _ in range(n_steps):
                 sim.modal_damping.step(m, d)
 
-        rows.append(("Python mj_step + damping (plant only)", a.seconds / _best(plant_only, a.repeats)))
+        rows.append(("Python mj_step + damping (plant only)", a.seconds / best_time(plant_only, a.repeats)))
 
     if a.baseline:
         rows.append(("vlab run_loop, baseline tree", _time_baseline(a.baseline, a.seconds, a.repeats)))
@@ -225,7 +215,7 @@ def main(argv=None) -> int:
             bp.reset()
             return run_batch(bp, eng, excitation=exc[:n], seeds=list(range(n)), **kw)
 
-        t = _best(batch, a.repeats)
+        t = best_time(batch, a.repeats)
         if n == max(BATCH_SIZES):
             rss_per_sim = (_rss_bytes() - rss0) / n
         rows.append((f"vlab batch N={n} ({threads} thread{'s' if threads > 1 else ''}), aggregate",

@@ -47,16 +47,9 @@ from vlab.sim import MujocoPlant, SimOptions, build_plant
 from vlab.sim.timestep import LAB_PERIOD_S
 from vlab.spec import STRUCTURES_DIR, load_spec
 
+from _listing import best_time
+
 TARGET_RT = {"bcc": 20.0, "grid": 1.0}
-
-
-def _best_of(fn, repeats: int = 3) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def measure(name: str, sim_seconds: float) -> dict:
@@ -108,9 +101,9 @@ def measure_plant(plant, sim_seconds: float) -> dict:
                 sim.velocities(pts)
 
     c_loop()  # warm-up
-    t_c = _best_of(c_loop) / n
-    t_bare = _best_of(bare) / n
-    t_lab = _best_of(lab) / n
+    t_c = best_time(c_loop) / n
+    t_bare = best_time(bare) / n
+    t_lab = best_time(lab) / n
     out = {"structure": name, "timestep_s": dt, "nv": m.nv, "steps": n}
     for key, t in (("c_loop", t_c), ("bare_mj_step", t_bare), ("lab_step", t_lab)):
         out[key] = {"us_per_step": t * 1e6, "steps_per_s": 1.0 / t, "real_time_factor": dt / t,

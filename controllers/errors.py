@@ -139,10 +139,8 @@ def check_square(name: str, value, symbol: str = "N") -> np.ndarray:
 
     Parameters
     ----------
-    name : str
-        Name of the matrix for the message.
-    value : array_like
-        The input.
+    name, value
+        As :func:`check_matrix`.
     symbol : str
         Its size in symbols, e.g. ``"2n"``: the message shows ``(2n, 2n)``.
 

@@ -132,8 +132,7 @@ def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str 
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
-        on every call) or a spec from :func:`load_spec`.
+        As :func:`modes`.
     controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg", "lqr"}
         Controller type.
     reduction : {"full", "exact", "guyan", "corrected-guyan"}, optional
@@ -271,8 +270,7 @@ def diagnose(structure: Any, recording: str | Path, *, controller: str | None = 
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
-        on every call) or a spec from :func:`load_spec`.
+        As :func:`modes`.
     recording : str or Path
         UFF 58 time histories (as :func:`run_experiment` writes them), UFF 58
         FRFs, or a CSV modal table.
@@ -391,8 +389,7 @@ def export_mjcf(structure: Any, path: str | Path, *, overwrite: bool = False) ->
     Parameters
     ----------
     structure : str or StructureSpec
-        ``"bcc"``, ``"grid"``, the path of a ``.toml`` structure file (read afresh
-        on every call) or a spec from :func:`load_spec`.
+        As :func:`modes`.
     path : str or Path
         The ``.xml`` file to write; its folder must exist.
     overwrite : bool

@@ -108,14 +108,10 @@ def refine_peak(freq_hz, h, index: int, *, name: str = "frf") -> Peak:
 
     Parameters
     ----------
-    freq_hz : array_like, shape (n_freq,)
-        Frequencies [Hz].
-    h : array_like, shape (n_freq,)
-        FRF.
+    freq_hz, h, name
+        As :func:`frf_arrays`.
     index : int
         Line of the local maximum.
-    name : str
-        FRF name for messages.
 
     Returns
     -------
@@ -144,18 +140,14 @@ def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peak
 
     Parameters
     ----------
-    freq_hz : array_like, shape (n_freq,)
-        Frequencies [Hz].
-    h : array_like, shape (n_freq,)
-        FRF (complex or magnitude).
+    freq_hz, h, name
+        As :func:`frf_arrays`.
     band_hz : (float, float), optional
         Search band [Hz]; whole range by default.
     n_peaks : int, optional
         Keep the ``n_peaks`` most prominent.
     prominence_db : float
         Minimum prominence [dB].
-    name : str
-        FRF name for messages.
 
     Returns
     -------
@@ -290,16 +282,12 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
 
     Parameters
     ----------
-    freq_hz : array_like, shape (n_freq,)
-        Frequencies [Hz].
-    h : array_like, shape (n_freq,)
-        FRF.
+    freq_hz, h, name
+        As :func:`frf_arrays`.
     near_hz : sequence of float, shape (n_modes,)
         Natural frequencies [Hz] to look near.
     half_band_hz : float or sequence of float
         Search half width [Hz] (per mode or shared).
-    name : str
-        FRF name for messages.
 
     Returns
     -------
