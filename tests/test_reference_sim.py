@@ -224,3 +224,17 @@ def test_case_files_are_checked(tmp_path):
     with pytest.raises(CaseError, match="controler"):
         load_case(bad)
     assert main(["--case", str(bad), "--out", str(tmp_path / "o")]) == 2
+
+
+def test_tier3_scoring():
+    from benchmarks.reference_sim.tier3 import draw_effect, score
+
+    sel = {"mismatch": True, "selected": [{"effect": "added_mass", "location": {"point": 6},
+                                           "parameters": {"mass_kg": 0.134}, "ci95": {"mass_kg": [0.133, 0.135]}}]}
+    res = score(("added_mass", {"point": 6}, "mass_kg", 0.12), sel)
+    assert res["right"] and res["in_ci"] is False and res["error"] == pytest.approx(0.134 / 0.12 - 1)
+    assert not score(("added_mass", {"point": 5}, "mass_kg", 0.12), sel)["right"]
+    assert not score(None, sel)["right"] and score(None, {"mismatch": False, "selected": []})["right"]
+    rng = np.random.default_rng(0)
+    drawn = [draw_effect(rng, 26.0, 5e-4) for _ in range(40)]
+    assert any(e is None for e, _ in drawn) and any(e is not None for e, _ in drawn)
