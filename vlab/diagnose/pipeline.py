@@ -95,10 +95,13 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
                 notes: list) -> Problem:
     """Stage 2: the residuals of ``inp``'s data against its nominal lab, with one covariance (noise, floor and,
     where asked or where the data are of a real structure, the model form; ``model_form`` "auto": none for a
-    recording whose metadata names the vlab plant that made it and for a measured baseline)."""
+    recording whose metadata names the vlab plant that made it, when it is compared with that plant -- replayed
+    there, or the linear FE plant's compared with the FE model -- and for a measured baseline; FRFs of the MuJoCo
+    plant compared with the FE model carry the plant's model-form difference)."""
     data, nominal = inp.data, inp.nominal
     ctx = context_for(nominal, inp.band_hz, data)
-    made_by_vlab = isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
+    made_by_vlab = (isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
+                    and (inp.replayed is not None or inp.replay_plant == "linear" or inp.on_recording_plant))
     mf_mode = model_form
     if model_form == "auto":
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"

@@ -17,8 +17,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import FEModel, build_fe_model
+from ..io.uff_files import read_sidecar
 from ..experiment.config import test_definition
 from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
@@ -136,6 +139,9 @@ class Inputs:
         Referred to the model through the reference.
     replayed : object or None
         The nominal plant's replay of the recorded force (a Recording), when it is the reference.
+    on_recording_plant : bool
+        The data are compared with the vlab plant that made them (replayed there, referred through its
+        linearisation, or the linear FE plant's compared with the FE model): no model-form difference.
     same_record : bool
         The reference was excited by the recording's own force record.
     reference : str
@@ -172,6 +178,7 @@ class Inputs:
     guard_s: float | None
     notes: tuple = ()
     timing_s: dict = field(default_factory=dict)
+    on_recording_plant: bool = False
 
 
 def _check_options(opt: Options, path: Path) -> None:
@@ -234,11 +241,38 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
             inp.update(data=refer_to_model(data, base, h_nom), replayed=replayed, same_record=True,
                        reference=f"the nominal {kind}'s replay of the recorded force")
         timing["replay"] = time.perf_counter() - t
+    elif (inp["what"] == "frf" and opt.replay and inp["setup_plant"] == "mujoco" and isinstance(data, FrfData)):
+        _refer_through_plant(inp, notes, say)  # needs MuJoCo: plant_modes says so when it is missing
     elif inp["what"] == "modal" and opt.reference_column is not None:
         inp["reference"] = (f"the table's column {opt.reference_column!r} (a reference model's frequencies; vlab's FE "
                             "model predicts what an effect changes)")
     else:
         inp["reference"] = "the FE model"
+
+
+def _refer_through_plant(inp: dict, notes: list, say) -> None:
+    """FRFs the MuJoCo plant made, referred to the model through that plant's nominal linearisation
+    (``H_ref = H_file H_FE / H_plant``, :func:`~vlab.diagnose.data.measured.refer_to_model`): the FE/plant
+    difference present in the file is removed to first order, as a replay does for time histories."""
+    from dataclasses import replace as _replace
+
+    from .fit.plantfit import plant_modes
+
+    data, nominal = inp["data"], inp["nominal"]
+    say("linearising the nominal MuJoCo plant (the FRFs' reference)")
+    pts = tuple(dict.fromkeys(tuple(data.output_points) + nominal.actuators))
+    try:
+        on_plant = _replace(nominal, point_modes=plant_modes(nominal.spec, pts))
+    except ModelError as exc:
+        notes.append(f"the FRFs name the MuJoCo plant, whose linearisation failed ({exc}): compared with the FE "
+                     "model alone")
+        inp["reference"] = "the FE model (the plant's linearisation failed)"
+        return
+    kw = dict(excitation_point=data.excitation_point, output_points=data.output_points)
+    h_plant, h_nom = predict_frf(on_plant, data.freq_hz, **kw), predict_frf(nominal, data.freq_hz, **kw)
+    base = _replace(data, h=h_plant, var=np.zeros_like(data.var), source="the nominal MuJoCo plant's linearisation")
+    inp.update(data=refer_to_model(data, base, h_nom), on_recording_plant=True,
+               reference="the nominal MuJoCo plant's linearisation (the plant the FRFs name)")
 
 
 def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, period_s: float, on_plant: bool,
@@ -298,7 +332,7 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
         what, obj = "modal", read_modal_csv(path, spec, reference_column=opt.reference_column)
     else:
         what, obj = read_uff_any(path)
-    meta = dict(obj.metadata) if what == "recording" else {}
+    meta = dict(obj.metadata) if what == "recording" else read_sidecar(path) if what == "frf" else {}
     setup = recorded_setup(meta, str(path), controller=controller, seed=opt.seed,
                            plant=None if opt.plant == "auto" else opt.plant, force=opt.force)
     notes.extend(setup.notes)
@@ -335,7 +369,9 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
                controller=controller, plant=plant, replay_plant=replay_plant, nominal=nominal, data=data,
                instability=unstable, loops=loops,
                guard_s=settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None)
+    inp["setup_plant"] = setup.plant
     _refer(inp, opt, notes, timing, say)
+    del inp["setup_plant"]
     data = inp["data"]
     inp["on_plant"] = on_plant and isinstance(data, FrfData) and data.recording is not None
     timing["read"] = time.perf_counter() - t_start

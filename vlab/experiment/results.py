@@ -362,7 +362,8 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
 
     test = test_definition(spec)
     band = test.band_hz
-    write_frfs(files["frf"], result.frfs, overwrite=overwrite, band_hz=band)
+    write_frfs(files["frf"], result.frfs, overwrite=overwrite, band_hz=band,
+               metadata=result.loop.recording.metadata)
     summary = experiment_summary(result)
     summary["files"] = {k: p.name for k, p in files.items()}
     write_json(files["results"], summary)

@@ -24,7 +24,7 @@ from .frf import FRF
 from .recording import channel_name, parse_channel_name
 from .uff_files import (CODE_QUANTITY, CONVENTIONAL_NAME_RE, SPEC_DATA_TYPE, UNIT_EXPONENTS, UNITS, check_direction,
                         check_node, check_target, check_unit_label, get_int, id_lines, read_uff, record_label,
-                        write_uff)
+                        sidecar_path, sidecar_text, write_text, write_uff)
 from .uff_units import check_exponents, check_force_denominator, frequency_factor
 
 _FREQ = 18
@@ -34,7 +34,7 @@ _NAVG_RE = re.compile(r"^n_averages=(\d+)$")
 
 def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF], *,
                overwrite: bool = False, binary: bool = True,
-               band_hz: tuple[float, float] | None = None) -> Path:
+               band_hz: tuple[float, float] | None = None, metadata: Mapping | None = None) -> Path:
     """Write FRFs as UFF 58 function type 4 records (each followed by its coherence, type 6).
 
     ID line 4 of every record states the band: ``"excited band <lo>-<hi> Hz"``
@@ -53,6 +53,9 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
     band_hz : (float, float), optional
         The excited band [Hz]; every FRF's lines must lie in it (the lines
         outside an excited band carry no measured information).
+    metadata : mapping, optional
+        The test's setup (structure, controller, seed, chain, ... as a recording's), written to the JSON
+        sidecar ``<path>.json`` that a diagnosis reads as it reads a recording's.
 
     Returns
     -------
@@ -67,7 +70,9 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
         outside ``band_hz`` (names it and the line), pyuff failure.
     """
     p = Path(path)
-    check_target(p, overwrite)
+    side = sidecar_path(p)
+    check_target(p, overwrite, *([side] if metadata is not None else []))
+    meta_text = None if metadata is None else sidecar_text(side, metadata)
     items = list(frfs.values()) if isinstance(frfs, Mapping) else list(frfs)
     if not items:
         raise DataFileError(f"{p}: no FRF to write")
@@ -115,6 +120,8 @@ def write_frfs(path: str | os.PathLike, frfs: Sequence[FRF] | Mapping[str, FRF],
             c.update(id_lines(frf.name, "vlab coherence", i, n_rec, id3=navg, id4=band_line))
             dsets.append(c)
     write_uff(p, dsets)
+    if meta_text is not None:
+        write_text(side, meta_text)
     return p
 
 

@@ -13,12 +13,10 @@ pyuff (Slavič et al., https://github.com/ladisk/pyuff).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -26,8 +24,8 @@ from ..errors import DataFileError, MeasurementError
 from .recording import (CLIP_FRACTION, CLIP_RUN, MAX_PLAUSIBLE_RMS, Channel, Recording, channel_name, find_clipping,
                         parse_channel_name)
 from .uff_files import (CODE_QUANTITY, CONVENTIONAL_NAME_RE, SPEC_DATA_TYPE, UNIT_EXPONENTS, UNITS, check_direction,
-                        check_node, check_target, check_unit_label, get_int, id_lines, read_uff, record_label,
-                        sidecar_path, write_text, write_uff)
+                        check_node, check_target, check_unit_label, get_int, id_lines, read_sidecar, read_uff,
+                        record_label, sidecar_path, sidecar_text, write_text, write_uff)
 from .uff_units import check_exponents, check_time_axis
 
 _TIME = 17
@@ -67,11 +65,7 @@ def write_recording(path: str | os.PathLike, recording: Recording, *, overwrite:
     p = Path(path)
     side = sidecar_path(p)
     check_target(p, overwrite, side)
-    try:
-        meta_text = json.dumps(dict(recording.metadata), sort_keys=True, indent=2, allow_nan=False)
-    except (TypeError, ValueError) as exc:
-        bad = [k for k, v in recording.metadata.items() if not _jsonable(v)]
-        raise DataFileError(f"{side}: metadata key(s) {bad} not JSON-serialisable: {exc}") from exc
+    meta_text = sidecar_text(side, recording.metadata)
     n = recording.n_samples
     x = np.arange(n) * recording.dt_s
     dsets = []
@@ -89,16 +83,8 @@ def write_recording(path: str | os.PathLike, recording: Recording, *, overwrite:
                       id4=f"dt_s={recording.dt_s!r}"))
         dsets.append(d)
     write_uff(p, dsets)
-    write_text(side, meta_text + "\n")
+    write_text(side, meta_text)
     return p
-
-
-def _jsonable(v: Any) -> bool:
-    try:
-        json.dumps(v, allow_nan=False)
-        return True
-    except (TypeError, ValueError):
-        return False
 
 
 def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
@@ -169,7 +155,7 @@ def read_recording(path: str | os.PathLike, *, allow_clipped: bool = False,
     recs = [s for s in sets if s.get("type") == 58 and s.get("func_type") == _FUNC_TIME]
     if not recs:
         raise DataFileError(f"{p}: no dataset-58 time-response (function type 1) record")
-    metadata = _read_sidecar(p)
+    metadata = read_sidecar(p)
     channels = []
     keys: dict[tuple[int, str, int], str] = {}
     dt_ref = ref_name = None
@@ -321,14 +307,3 @@ def _time_step(p: Path, name: str, s: dict) -> float:
     return inc
 
 
-def _read_sidecar(p: Path) -> dict:
-    side = sidecar_path(p)
-    meta: dict = {}
-    if side.is_file():
-        try:
-            meta = json.loads(side.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise DataFileError(f"{side}: unreadable metadata sidecar: {exc}") from exc
-        if not isinstance(meta, dict):
-            raise DataFileError(f"{side}: metadata sidecar must hold a JSON object")
-    return meta
