@@ -46,9 +46,9 @@ def draw_effect(rng: np.random.Generator, beam_ei: float, period_s: float):
     expected : tuple or None
         (vlab effect name, location dict, parameter name, true value).
     """
-    kind = rng.choice(["null", "added_mass", "member_stiffness", "support_spring",
+    kind = str(rng.choice(["null", "added_mass", "member_stiffness", "support_spring",
                        "modal_damping", "actuator_gain", "loop_delay"],
-                      p=[0.25, 0.2, 0.15, 0.1, 0.1, 0.1, 0.1])
+                      p=[0.25, 0.2, 0.15, 0.1, 0.1, 0.1, 0.1]))
     if kind == "null":
         return None, None
     if kind == "added_mass":
