@@ -40,7 +40,8 @@ def _controller(case, design, out: Path) -> Controller:
 
 def main(argv=None) -> int:
     """Run the command; return the exit status (0 ok, 2 bad input)."""
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.reference_sim", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.reference_sim",
+                                 description="Record a BCC test with the independent reference simulator.")
     ap.add_argument("--structure", default="bcc", choices=["bcc"], help="structure (only bcc)")
     ap.add_argument("--case", required=True, help="case description (.json or .toml)")
     ap.add_argument("--out", required=True, help="output folder")
