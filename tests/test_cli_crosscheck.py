@@ -8,21 +8,11 @@ import math
 import pytest
 from typer.testing import CliRunner
 
+from _json_numbers import json_numbers
+
 from vlab.cli import app
 
 runner = CliRunner()
-
-
-def _numbers(obj, key=""):
-    """(key, value) of every number in a JSON object, with the key of the innermost dict holding it."""
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            yield from _numbers(v, k)
-    elif isinstance(obj, list):
-        for v in obj:
-            yield from _numbers(v, key)
-    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
-        yield key, obj
 
 
 def test_crosscheck_json_shows_both_references_and_the_unpaired_mode():
@@ -51,6 +41,6 @@ def test_crosscheck_json_shows_both_references_and_the_unpaired_mode():
     # every number's key names its unit, or is a dimensionless ratio / a mode or element count
     dimensionless = {"relative_error", "mac", "best_mac", "min_mac", "free_decay_mode1_damping", "fe_mode",
                      "mujoco_mode", "best_fe_mode", "beam"}
-    for key, v in _numbers(out):
+    for key, v in json_numbers(out, ""):
         assert math.isfinite(v)
         assert key in dimensionless or key.endswith(("_hz", "_pct", "_s")) or key in ("fe", "mujoco"), key

@@ -104,12 +104,17 @@ def _tree(folder: Path) -> dict[str, str]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
-    out = tmp_path / "out"
+def _old_output(out: Path) -> Path:
+    """``out`` made a previous vlab output folder (files and manifest): the only kind --overwrite replaces."""
     out.mkdir()
     (out / "old.txt").write_text("old")
     (out / "results.json").write_text("{}")
-    write_manifest(out)  # a previous vlab output folder: the only kind --overwrite replaces
+    write_manifest(out)
+    return out
+
+
+def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
+    out = _old_output(tmp_path / "out")
     before = _tree(out)
     with pytest.raises(KeyboardInterrupt):
         with atomic_dir(out, overwrite=True) as tmp:
@@ -119,11 +124,7 @@ def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
 
 
 def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "old.txt").write_text("old")
-    (out / "results.json").write_text("{}")
-    write_manifest(out)  # a previous vlab output folder: the only kind --overwrite replaces
+    out = _old_output(tmp_path / "out")
     with pytest.raises(OutputError, match="--overwrite"):
         with atomic_dir(out) as tmp:
             pass

@@ -18,16 +18,17 @@ MODULES = ["errors", "statespace", "performance", "lq", "drf", "realization"]
 PKG_DIR = pathlib.Path(controllers.__file__).parent
 
 
-def _public_functions():
+def _public(kind):
+    """``("<module>.<name>", object)`` of each name in the modules' ``__all__`` for which ``kind(object)`` holds."""
     for name in MODULES:
         mod = importlib.import_module(f"controllers.{name}")
         for attr in mod.__all__:
             obj = getattr(mod, attr)
-            if inspect.isfunction(obj):
+            if kind(obj):
                 yield f"{name}.{attr}", obj
 
 
-@pytest.mark.parametrize("qualname, func", list(_public_functions()))
+@pytest.mark.parametrize("qualname, func", list(_public(inspect.isfunction)))
 def test_every_public_function_documents_its_parameters(qualname, func):
     """numpydoc: every parameter named in the docstring; errors and returns documented."""
     doc = inspect.getdoc(func)
@@ -40,16 +41,12 @@ def test_every_public_function_documents_its_parameters(qualname, func):
 
 
 def test_every_public_class_and_method_has_a_docstring():
-    for name in MODULES:
-        mod = importlib.import_module(f"controllers.{name}")
-        for attr in mod.__all__:
-            obj = getattr(mod, attr)
-            if inspect.isclass(obj):
-                assert inspect.getdoc(obj), f"{name}.{attr}"
-                for mname, meth in vars(obj).items():
-                    if mname.startswith("_") or not callable(meth) and not isinstance(meth, property):
-                        continue
-                    assert inspect.getdoc(meth), f"{name}.{attr}.{mname}"
+    for qualname, cls in _public(inspect.isclass):
+        assert inspect.getdoc(cls), qualname
+        for mname, meth in vars(cls).items():
+            if mname.startswith("_") or not callable(meth) and not isinstance(meth, property):
+                continue
+            assert inspect.getdoc(meth), f"{qualname}.{mname}"
 
 
 def test_errors_subclass_value_error():

@@ -21,6 +21,8 @@ import pytest
 import scipy.linalg
 from typer.testing import CliRunner
 
+from _json_numbers import json_numbers
+
 from vlab.cli import app
 from vlab.design import THESIS_SETTINGS, design_model
 from vlab.models import nominal_fe_model
@@ -140,15 +142,8 @@ _UNIT_SUFFIX = re.compile(r"_(hz|s|per_s|n_s_per_m|lb_s_per_in|n_per_si_state|lb
                           r"periods|n|m_s|m_per_n|m_s_per_n|n_per_n)$")
 
 
-def _numeric_keys(obj, key=None):
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            yield from _numeric_keys(v, k)
-    elif isinstance(obj, list):
-        for v in obj:
-            yield from _numeric_keys(v, key)
-    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
-        yield key
+def _numeric_keys(obj):
+    return (key for key, _ in json_numbers(obj))
 
 
 @pytest.mark.parametrize("args", [

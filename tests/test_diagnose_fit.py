@@ -3,6 +3,8 @@ replacement (Miller 2002, Sec. 3.3) corrects it. Modal data of the linear BCC mo
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -20,7 +22,7 @@ from vlab.experiment.config import TESTS
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
-from _grid_frfs import grid_problem
+from _grid_frfs import grid_frf_data, grid_problem
 
 
 @pytest.fixture(scope="module")
@@ -131,22 +133,12 @@ def test_coarse_scan_finds_the_narrow_chi2_well(softened_grid_joint):
 @pytest.fixture(scope="module")
 def grid_frf_problem():
     """Exact FRFs of the nominal linear grid with 1 % noise variance: a problem builder for edited data."""
-    import numpy as np
-
-    from vlab.diagnose.data.measured import FrfData
-    from vlab.diagnose.model.labmodel import predict_frf
-
-    fe = nominal_fe_model("grid")
-    nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    test = TESTS["grid"]
-    freq = np.arange(6, 200) * 0.05
-    exc = fe.spec.instrumentation.excitation
-    outs = tuple(test.measured_points)
-    h = predict_frf(nominal, freq, excitation_point=exc, output_points=outs)
+    nominal, band_hz, exact = grid_frf_data(np.arange(6, 200) * 0.05)
+    h = exact.h
 
     def problem(h_data):
-        data = FrfData("grid.uff", "frf", freq, h_data, (0.01 * np.abs(h)) ** 2, exc, outs)
-        return Problem(data, nominal, context_for(nominal, test.band_hz, data))
+        data = dataclasses.replace(exact, h=h_data)
+        return Problem(data, nominal, context_for(nominal, band_hz, data))
 
     return nominal, h, problem
 
@@ -360,19 +352,11 @@ def test_prune_leaves_nothing_out_and_gives_the_ranking_s_estimates():
 def test_a_dashpot_or_friction_at_a_point_stops_at_the_critical_dashpot():
     """A dashpot beyond critical for the mode it damps most holds the point still (a support, not damping): the
     grid's top-beam point 15, 22 mm from the bearing, was given 6.1e11 N s/m (critical there: about 1.5e5)."""
-    from vlab.diagnose.data.measured import FrfData
     from vlab.diagnose.effects.beyond_spec import critical_dashpot
     from vlab.diagnose.effects.hypotheses import PointDamping
-    from vlab.diagnose.model.labmodel import predict_frf
 
-    fe = nominal_fe_model("grid")
-    nominal = LabState(fe.spec, fe, HardwareChain(), None)
-    test = TESTS["grid"]
-    freq = np.arange(4, 201) * 0.05
-    exc = fe.spec.instrumentation.excitation
-    outs = tuple(test.measured_points)
-    h = predict_frf(nominal, freq, excitation_point=exc, output_points=outs)
-    ctx = context_for(nominal, test.band_hz, FrfData("grid.uff", "frf", freq, h, (0.01 * np.abs(h)) ** 2, exc, outs))
+    nominal, band_hz, data = grid_frf_data(np.arange(4, 201) * 0.05)
+    ctx = context_for(nominal, band_hz, data)
     for p in (3, 15):
         c_crit = critical_dashpot(nominal, ctx, p)
         trials, lo, hi = PointDamping(point=p).space(nominal, ctx)

@@ -37,12 +37,22 @@ def mass6(tmp_path_factory):
     return tmp, nominal, edited, exp / "recording.uff"
 
 
+def _diagnose(rec, mjcf, out, *options):
+    """``vlab diagnose`` of the BCC recording ``rec`` against the nominal plant file ``mjcf``, into ``out``."""
+    return runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--mjcf", str(mjcf),
+                               *options, "--out", str(out)])
+
+
+def _diagnose_json(rec, mjcf, out):
+    """:func:`_diagnose` with ``--json``, which must succeed: the JSON printed."""
+    res = _diagnose(rec, mjcf, out, "--json")
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout)
+
+
 def test_the_recordings_own_plant_as_nominal_leaves_no_mismatch(mass6):
     tmp, _nominal, edited, rec = mass6
-    res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--mjcf", str(edited),
-                              "--out", str(tmp / "d1"), "--json"])
-    assert res.exit_code == 0, res.output
-    d = json.loads(res.stdout)
+    d = _diagnose_json(rec, edited, tmp / "d1")
     assert d["mismatch"] is False, d["notes"]
     assert str(edited) in d["reference"]
     assert any("the nominal plant is" in n for n in d["notes"])
@@ -50,8 +60,7 @@ def test_the_recordings_own_plant_as_nominal_leaves_no_mismatch(mass6):
 
 def test_mjcf_with_the_linear_plant_is_refused(mass6):
     tmp, nominal, _edited, rec = mass6
-    res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--mjcf", str(nominal),
-                              "--plant", "linear", "--force", "--out", str(tmp / "d2")])
+    res = _diagnose(rec, nominal, tmp / "d2", "--plant", "linear", "--force")
     assert res.exit_code == 2
     assert "--mjcf" in res.output and "linear" in res.output
 
@@ -62,18 +71,14 @@ def test_an_mjcf_that_breaks_the_naming_contract_is_named(mass6):
     text = nominal.read_text()
     assert 'name="coil5"' in text
     broken.write_text(text.replace('name="coil5"', 'name="motor5"'))
-    res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--mjcf", str(broken),
-                              "--out", str(tmp / "d3")])
+    res = _diagnose(rec, broken, tmp / "d3")
     assert res.exit_code == 2
     assert "no_coil5.xml" in res.output and "coil5" in res.output
 
 
 def test_a_structural_effect_against_an_mjcf_nominal_is_validated_on_the_spec_plant(mass6):
     tmp, nominal, _edited, rec = mass6
-    res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(rec), "--mjcf", str(nominal),
-                              "--out", str(tmp / "d4"), "--json"])
-    assert res.exit_code == 0, res.output
-    d = json.loads(res.stdout)
+    d = _diagnose_json(rec, nominal, tmp / "d4")
     assert d["mismatch"] is True
     (sel,) = d["selected"]
     assert sel["effect"] == "added_mass" and sel["location"] == {"point": 6}
