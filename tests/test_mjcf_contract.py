@@ -46,6 +46,12 @@ def _edit(src: Path, dst: Path, edit) -> Path:
     return dst
 
 
+def _assert_refused(spec, path: Path, match: str, error=ModelError) -> None:
+    """Loading the MJCF ``path`` for an experiment on ``spec`` raises ``error`` matching ``match``."""
+    with pytest.raises(error, match=match):
+        load_plant_for_experiment(spec, mjcf=path)
+
+
 def _named(parent, name):
     return next(e for e in parent if e.get("name") == name)
 
@@ -74,14 +80,12 @@ def _drive(sim: MujocoPlant, steps: int = 40) -> None:
 
 def test_removed_sensor_is_refused(spec, exported, tmp_path):
     path = _edit(exported, tmp_path / "no_vel6.xml", lambda s, a: s.remove(_named(s, "vel6")))
-    with pytest.raises(ModelError, match=r"no_vel6\.xml.*sensor vel6 .*missing"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"no_vel6\.xml.*sensor vel6 .*missing")
 
 
 def test_renamed_sensor_is_refused_and_the_new_name_reported(spec, exported, tmp_path):
     path = _edit(exported, tmp_path / "renamed.xml", lambda s, a: _named(s, "vel6").set("name", "velocity6"))
-    with pytest.raises(ModelError, match=r"renamed\.xml.*sensor vel6 .*missing.*velocity6"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"renamed\.xml.*sensor vel6 .*missing.*velocity6")
 
 
 def test_renamed_actuator_is_refused(spec, exported, tmp_path):
@@ -90,14 +94,12 @@ def test_renamed_actuator_is_refused(spec, exported, tmp_path):
         _named(s, "vel7").set("actuator", "shaker7")
 
     path = _edit(exported, tmp_path / "shaker.xml", edit)
-    with pytest.raises(ModelError, match=r"shaker\.xml.*actuator coil7 .*missing.*shaker7"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"shaker\.xml.*actuator coil7 .*missing.*shaker7")
 
 
 def test_sensor_noise_is_refused_naming_the_attribute_and_the_lab_option(spec, exported, tmp_path):
     path = _edit(exported, tmp_path / "noisy.xml", lambda s, a: _named(s, "vel6").set("noise", "0.1"))
-    with pytest.raises(ModelError, match=r"noisy\.xml.*sensor vel6 has noise=\"0\.1\".*--noise"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"noisy\.xml.*sensor vel6 has noise=\"0\.1\".*--noise")
 
 
 def test_sensor_delay_is_refused(spec, exported, tmp_path):
@@ -106,8 +108,7 @@ def test_sensor_delay_is_refused(spec, exported, tmp_path):
         _named(s, "vel5").set("delay", "0.001")
 
     path = _edit(exported, tmp_path / "late.xml", edit)
-    with pytest.raises(ModelError, match=r"late\.xml.*sensor vel5 has delay.*sensor vel5 has nsample"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"late\.xml.*sensor vel5 has delay.*sensor vel5 has nsample")
 
 
 def test_sensor_of_another_type_is_refused(spec, exported, tmp_path):
@@ -116,15 +117,13 @@ def test_sensor_of_another_type_is_refused(spec, exported, tmp_path):
         e.tag = "framepos"
 
     path = _edit(exported, tmp_path / "pos6.xml", edit)
-    with pytest.raises(ModelError, match=r"pos6\.xml.*sensor vel6 has type mjSENS_FRAMEPOS"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"pos6\.xml.*sensor vel6 has type mjSENS_FRAMEPOS")
 
 
 def test_a_sensor_gain_attribute_does_not_exist_and_is_refused(spec, exported, tmp_path):
     """MuJoCo sensors have no gain; such an edit is refused when the file is read, naming it."""
     path = _edit(exported, tmp_path / "gain.xml", lambda s, a: _named(s, "vel6").set("gain", "2"))
-    with pytest.raises(DataFileError, match=r"gain\.xml"):
-        load_plant_for_experiment(spec, mjcf=path)
+    _assert_refused(spec, path, r"gain\.xml", DataFileError)
 
 
 def test_sensor_moved_to_another_site_measures_there(spec, exported, tmp_path):
