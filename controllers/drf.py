@@ -456,6 +456,19 @@ def _validate_common(A, B, C, zeta_min, n_modes, min_eig, n_starts, time_unit_s)
     return A, B, C, zl, nm, t
 
 
+def _start_vectors(prob, rng, d_base, diagonal, n_starts, n_var, c, fill):
+    """SLSQP start vectors ``x = [d / c, ...]``: ``d_base`` first, then random starts (:func:`_random_start`);
+    ``fill(x, d)`` sets the variables after the ``p`` gains."""
+    x0s = []
+    for s in range(int(n_starts)):
+        d = d_base if s == 0 else _random_start(prob, rng, d_base, diagonal)
+        x = np.zeros(n_var)
+        x[:prob.p] = d / c
+        fill(x, d)
+        x0s.append(x)
+    return x0s
+
+
 def _solve(x0s, fun, cons, bounds, maxiter, ftol):
     """Run SLSQP from every start; return [(start, OptimizeResult)]."""
     records = []
@@ -705,14 +718,11 @@ def mfdrf(
     if note:
         design = _infeasible_design(prob, "MFDRF", d_base, eps, c, t, t0, note, active, gamma_of)
     else:
-        x0s = []
-        for s in range(int(n_starts)):
-            d = d_base if s == 0 else _random_start(prob, rng, d_base, False)
-            x = np.zeros(n_var)
-            x[:p] = d / c
+        def fill(x, d):
             x[p:p + n_off] = np.abs(d[off]) / c
             x[ig] = gamma_of(prob.D(d)) / c
-            x0s.append(x)
+
+        x0s = _start_vectors(prob, rng, d_base, False, n_starts, n_var, c, fill)
         records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
         design = _finish(prob, "MFDRF", records, lambda x: prob.D(c * x[:p]), gamma_of, eps, c, t,
                          t0, active)
@@ -857,14 +867,11 @@ def lqdrf(
     if note:
         design = _infeasible_design(prob, kind, d_base, eps, c, t, t0, note, active, objective_of)
     else:
-        x0s = []
-        for s in range(int(n_starts)):
-            d = d_base if s == 0 else _random_start(prob, rng, d_base, diagonal)
-            x = np.zeros(n_var)
-            x[:p] = d / c
+        def fill(x, d):
             J = prob.perf(d)["J"]
             x[ib] = float(np.max(J / ref)) if np.all(np.isfinite(J)) else 10.0
-            x0s.append(x)
+
+        x0s = _start_vectors(prob, rng, d_base, diagonal, n_starts, n_var, c, fill)
         records = _solve(x0s, fun, cons, bounds, maxiter, ftol)
         design = _finish(prob, kind, records, lambda x: prob.D(c * x[:p]), objective_of, eps, c,
                          t, t0, active)
