@@ -1,7 +1,7 @@
 """The modal damping targets and the virtual modal test pair modes one-to-one over a band (issue 25, item 4).
 
 Both used to pair the first n FE modes against more plant modes
-(:func:`vlab.sim.crosscheck.pair_modes` on FE modes 1..n only): a plant mode
+(:func:`vlab.sim.pairing.pair_modes` on FE modes 1..n only): a plant mode
 whose own FE partner is mode n+1, lying just above, could then be taken by
 FE mode n. The synthetic trap is the one of ``tests/test_crosscheck_pairing.py``
 (FE modes 2 and 3 16 degrees apart at the points, plant mode 3 between them);

@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parent.parent / "vlab"
 #: Module-name prefixes and their rank; the longest matching prefix decides.
 RANKS: dict[str, int] = {
     "vlab.errors": 0, "vlab.units": 0, "vlab.io.atomic": 0, "vlab.io.confine": 0, "vlab.io.manifest": 0,
-    "vlab.spec": 1, "vlab.spec_changes": 1, "vlab.reference": 1,
+    "vlab.spec": 1, "vlab.reference": 1,
     "vlab.io": 2, "vlab.viz": 2,
     "vlab.fe": 3, "vlab.reduction": 3, "vlab.correction": 3, "vlab.models": 3, "vlab.calibration": 3,
     "vlab.grid_fit": 3,

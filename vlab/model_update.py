@@ -443,7 +443,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
     ----------
     original, updated : str, Path or StructureSpec
         The structure before and after ``vlab update`` (they must share points, coils and sensors with the
-        plant: :func:`vlab.sim.runtime.check_plant_contract`).
+        plant: :func:`vlab.sim.contract.check_plant_contract`).
     mjcf : str or Path
         The plant both designs run on (e.g. the changed structure exported with ``vlab export-mjcf``).
     controller : {"mfdrf", "lqdrf", "lqdrf-diag", "lqg"}

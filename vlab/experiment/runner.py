@@ -130,7 +130,7 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
         Unknown plant kind; an MJCF file with the linear plant (``--mjcf``
         with ``--plant linear``: the linear plant is the FE model, it cannot
         run an MJCF); an MJCF that breaks the naming contract
-        (:func:`vlab.sim.runtime.check_plant_contract`: its ``coil<ID>`` /
+        (:func:`vlab.sim.contract.check_plant_contract`: its ``coil<ID>`` /
         ``vel<ID>`` at the spec's instrumentation and the test's measured
         points). DataFileError / SimulationError from the MuJoCo side.
     """

@@ -23,7 +23,7 @@ The plant is anything with the :class:`Plant` protocol: the MuJoCo plant of
 are checked once, before the first tick; the loop then trusts what it
 produced itself. A plant may offer its own per-tick access, ``loop_io``
 (see :class:`Plant`); the MuJoCo plant's computes the state at the sampling
-instant once per tick (:class:`vlab.sim.runtime.LoopIO`). A diverging plant
+instant once per tick (:class:`vlab.sim.loopio.LoopIO`). A diverging plant
 stops the run with :class:`vlab.errors.SimulationError` saying when; the
 recording made so far is attached to the error (``exc.partial``).
 """

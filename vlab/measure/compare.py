@@ -2,7 +2,7 @@
 
 Both FRFs -- the analytical one and the measured one -- are treated alike:
 the modal parameters of each mode are identified from each FRF with the same
-curve fit (:func:`vlab.measure.modal.fit_modes`) near the predicted closed-loop
+curve fit (:func:`vlab.measure.modal_fit.fit_modes`) near the predicted closed-loop
 frequency, and the peak levels are read the same way
 (:func:`vlab.measure.modal.peak_levels`). The peak level ratio is
 analysis / experiment; the average error is ``mean |1 - ratio|`` (Tables 10,

@@ -145,7 +145,7 @@ def check_plant_contract(model: mujoco.MjModel, *, actuators, sensors, source: s
                             "(HardwareChain.noise_m_s)")
         if float(model.sensor_delay[i]) != 0.0:
             problems.append(f"sensor vel{p} has delay=\"{float(model.sensor_delay[i]):g}\", which vlab does not "
-                            "support; use --delay-samples (HardwareChain.delay_periods) or sensor_lag_hz")
+                            "support; use --delay-periods (HardwareChain.delay_periods) or sensor_lag_hz")
         if float(model.sensor_interval[i][0]) != 0.0:
             problems.append(f"sensor vel{p} has interval=\"{float(model.sensor_interval[i][0]):g}\", which vlab "
                             "does not support (the loop samples every sensor each tick)")

@@ -424,7 +424,7 @@ class StructureSpec:
         ``(point, dof)`` pairs (grid: Sec. 3.3).
     mujoco : dict[str, Any]
         The ``[mujoco]`` table as read: options of the MuJoCo plant builder
-        (segments, timestep, ...; see :class:`vlab.sim.builder.SimOptions`).
+        (segments, timestep, ...; see :class:`vlab.sim.options.SimOptions`).
     test : StructureTest or None
         The ``[test]`` table (band, resolution, points of the modal test,
         Sec. 5.4); None = the shipped test of a structure of that name, if any

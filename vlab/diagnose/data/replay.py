@@ -133,7 +133,7 @@ def mujoco_plant(state: LabState, sensors=()):
     ModelError
         When the state carries changes a spec cannot express (dashpots, an
         edited FE stiffness), the simulation package cannot build it, or the
-        MJCF breaks the naming contract (:func:`vlab.sim.runtime.check_plant_contract`).
+        MJCF breaks the naming contract (:func:`vlab.sim.contract.check_plant_contract`).
     DataFileError
         The MJCF cannot be loaded.
     """
