@@ -1,4 +1,4 @@
-"""An independent reference simulator of the Beam Cross-Cable (issue 43, item 3).
+"""An independent reference simulator of the Beam Cross-Cable.
 
 It builds its own FE model from ``assets/structures/bcc.toml`` (numpy and scipy
 only, never vlab), runs the 2 kHz digital loop of Sec. 5.3 (delay, zero-order hold,
