@@ -13,6 +13,7 @@ import re
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -72,6 +73,34 @@ def test_a_choice_stands_only_if_it_fits_better_and_its_validation_confirms_it(c
     # fitting worse than the nominal lab is never accepted
     worse, _ = improves_on_nominal(_chosen(chi2_0 * 1.01), chi2_0, c_hat, None, policy)
     assert not worse
+
+
+def test_the_validation_is_judged_with_phase_where_the_fit_used_it():
+    """A lag turns the phase and hardly the magnitude: its rerun lowers the misfit with phase while the
+    log-magnitude misfit rises within the resolution; the choice stands on the fit's footing, and falls
+    when the misfit with phase rises."""
+    h = _chosen(10.0)
+    lag = SimpleNamespace(misfit_before=0.00398, misfit_after=0.00411, noise_misfit=0.00585,
+                          phase_misfit_before=0.0400, phase_misfit_after=0.0060)
+    assert improves_on_nominal(h, 1e4, 1.0, lag) == (True, "")
+    wrong = SimpleNamespace(**{**vars(lag), "phase_misfit_after": 0.0410})
+    ok, why = improves_on_nominal(h, 1e4, 1.0, wrong)
+    assert not ok and "with phase" in why and "0.04 -> 0.041" in why
+    # without the phase misfits (a fit on magnitudes only) the magnitude decides
+    mag = SimpleNamespace(misfit_before=0.00398, misfit_after=0.00411, noise_misfit=0.00585)
+    assert not improves_on_nominal(h, 1e4, 1.0, mag)[0]
+
+
+def test_the_complex_log_misfit_holds_the_phase():
+    from vlab.diagnose.problem.misfits import complex_log_misfit, log_misfit
+
+    h = np.array([1.0 + 0.0j, 2.0j, -3.0])
+    w = np.ones(3)
+    turned = h * np.exp(1j * 0.1)                    # phase only: 0.1 rad everywhere
+    assert log_misfit(turned, h, w) < 1e-15
+    assert complex_log_misfit(turned, h, w) == pytest.approx(0.1 / np.log(10.0), rel=1e-12)
+    scaled = h * 10.0 ** 0.02                        # magnitude only: both give 0.02 decades
+    assert complex_log_misfit(scaled, h, w) == pytest.approx(log_misfit(scaled, h, w), rel=1e-12)
 
 
 @settings(max_examples=300, deadline=None)

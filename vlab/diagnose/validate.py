@@ -31,7 +31,7 @@ from .data.measured import FrfData
 from .data.replay import frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns
 from .model.labmodel import LabState
-from .problem.misfits import log_misfit, noise_misfit
+from .problem.misfits import complex_log_misfit, log_misfit, noise_misfit
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,9 @@ class Validation:
     v_before, v_after : dict
         Point -> rerun velocity [m/s] on the recording's time axis, shape (n_samples,)
         (NaN before a warm-started rerun begins).
+    phase_misfit_before, phase_misfit_after : float
+        The same FRFs' misfit with their phase (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`)
+        [decades]: the footing of a fit that uses the phase (NaN where it did not).
     """
 
     plant: str
@@ -68,12 +71,16 @@ class Validation:
     h_after: np.ndarray
     v_before: dict
     v_after: dict
+    phase_misfit_before: float = float("nan")
+    phase_misfit_after: float = float("nan")
 
     def as_dict(self) -> dict:
         """JSON-ready summary."""
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
-                "noise_misfit": self.noise_misfit}
+                "noise_misfit": self.noise_misfit,
+                **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after}
+                   if np.isfinite(self.phase_misfit_before) else {})}
 
 
 def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "auto", spec_level: bool = True,
@@ -183,7 +190,9 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts})
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts},
+                      *((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
+                        if problem.use_phase else ()))
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

@@ -530,7 +530,8 @@ def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, v
     c_hat : float
         Overdispersion of the choice's fit (>= 1).
     validation : Validation or None
-        Its validation rerun (None: none was made): its FRF misfit must fall. The size of the fall is not
+        Its validation rerun (None: none was made): its FRF misfit must fall -- with the phase where the
+        fit used it (``phase_misfit_*``), the footing of the choice's own chi-square. The size of the fall is not
         judged against the misfit an exact model leaves: that misfit is a root mean square over every line,
         and a local mismatch (one line out of the noise) changes it by less than the noise's share while the
         change itself is far out of it; a rise beyond the resolution is rule 7's veto.
@@ -550,9 +551,15 @@ def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, v
         return False, (f"its chi-square {chosen.chi2_:.4g} is not below the nominal lab's {chi2_nominal:.4g} by the "
                        f"likelihood-ratio limit {policy.lr_limit(chosen.n_params, c_hat):.4g}")
     v = validation
-    if v is not None and not v.misfit_after < v.misfit_before:
-        return False, (f"its validation rerun does not lower the FRF misfit ({v.misfit_before:.3g} -> "
-                       f"{v.misfit_after:.3g} decades)")
+    if v is None:
+        return True, ""
+    # on the fit's footing: with the phase where the fit used it (a lag turns the phase, hardly the magnitude)
+    pb, pa = getattr(v, "phase_misfit_before", np.nan), getattr(v, "phase_misfit_after", np.nan)
+    with_phase = bool(np.isfinite(pb) and np.isfinite(pa))
+    before, after = (pb, pa) if with_phase else (v.misfit_before, v.misfit_after)
+    if not after < before:
+        return False, (f"its validation rerun does not lower the FRF misfit{' with phase' if with_phase else ''} "
+                       f"({before:.3g} -> {after:.3g} decades)")
     return True, ""
 
 

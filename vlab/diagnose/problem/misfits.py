@@ -33,6 +33,33 @@ def log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
     return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
 
 
+def complex_log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
+    """Weighted RMS of ``|log10(h / h_ref)|`` of the complex ratio [decades]: magnitude and phase together.
+
+    ``ln(h / h_ref) = ln|h / h_ref| + j arg(h / h_ref)``: the squared distance is the squared log magnitude
+    plus the squared phase [rad], the two parts a fit with phase weighs equally
+    (:class:`vlab.diagnose.problem.residuals.Problem`, ``use_phase``). A change that turns the phase more
+    than the magnitude (a lag, a delay) shows here and hardly in :func:`log_misfit`.
+
+    Parameters
+    ----------
+    h, h_ref : ndarray, complex, shape (n,)
+        Compared FRF values on the same lines [(m/s)/N].
+    weight : ndarray, shape (n,)
+        Line weights.
+
+    Returns
+    -------
+    float
+        [decades]; NaN for no lines.
+    """
+    if np.size(h) == 0:
+        return float("nan")
+    e = np.abs(np.log(np.asarray(h, dtype=complex) / np.asarray(h_ref, dtype=complex))) / np.log(10.0)
+    w = np.asarray(weight, dtype=float)
+    return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+
+
 def noise_misfit(h: np.ndarray, var: np.ndarray, weight: np.ndarray) -> float:
     """Expected :func:`log_misfit` of an exact model against measured FRFs, from their noise alone [decades].
 

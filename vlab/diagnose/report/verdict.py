@@ -177,6 +177,9 @@ def _verdict_body(res: dict, s: dict, n) -> str:
     if ratio:
         text += (f" Validation ({v.get('plant', 'model')}): misfit {_fmt(v['misfit_before'], 3)} -> "
                  f"{_fmt(v['misfit_after'], 3)} {misfit_unit(res)}, {ratio}")
+        if v.get("phase_misfit_before") is not None:
+            text += (f" (with phase {_fmt(v['phase_misfit_before'], 3)} -> {_fmt(v['phase_misfit_after'], 3)}, "
+                     f"{ratio_text(v['phase_misfit_before'], v['phase_misfit_after'])})")
         if v.get("noise_misfit") is not None:
             carried = (res.get("uncertainty") or {}).get("model_form") == "derived"
             text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
