@@ -302,7 +302,7 @@ def channel_margins(freq_hz: np.ndarray, gain: np.ndarray, point: int = 0) -> Ch
     ModelError
         Shapes that differ, frequencies not increasing, non-finite or zero gains.
 
-    Source: Skogestad & Postlethwaite (2005), Sec. 2.4.3 (GM = 1 / |L(j w_180)|, PM = angle L(j w_c) + 180 deg).
+    Source: Skogestad & Postlethwaite (2005), Sec. 2.4.3 (``GM = 1 / |L(j w_180)|``, ``PM = angle L(j w_c) + 180 deg``).
     """
     f = np.asarray(freq_hz, dtype=float)
     l = np.asarray(gain, dtype=complex)
