@@ -17,7 +17,7 @@ from rich.table import Table
 from ..errors import OptionError
 from . import checks
 from .options import (STRUCTURE_HELP, STRUCTURE_METAVAR, ExpController, OutputFormat, arg_structure, flag,
-                      format_opt, json_flag, opt)
+                      format_opt, json_flag, opt, quiet_flag)
 from .output import console, print_json, print_rows, stages
 from .runtime import expect_output
 
@@ -62,8 +62,7 @@ def diagnose(
                                        "(chi-square and single-line limits, the likelihood-ratio test)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
-    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
-                                       "when piped)"),
+    quiet: bool = quiet_flag(),
 ) -> None:
     """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
     from ..diagnose import diagnose as run_diagnose
@@ -158,8 +157,7 @@ def detectability(
                                      "look-alikes (every one-parameter effect of the library; minutes)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
-    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
-                                       "when piped)"),
+    quiet: bool = quiet_flag(),
 ) -> None:
     """Smallest size of each effect of the library, at each location, that the diagnosis detects and names."""
     from ..diagnose.detectability import detectability as run, figure

@@ -76,6 +76,11 @@ def format_opt() -> Any:
                     "one line per row) or one JSON object (keys with units)")
 
 
+def quiet_flag() -> Any:
+    """The ``--quiet`` flag of a long command: no stages on stderr (:func:`vlab.cli.output.stages`)."""
+    return flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage when piped)")
+
+
 def json_flag(what: str = "the table") -> Any:
     """The ``--json`` flag (= ``--format json``), printing one JSON object instead of ``what``."""
     return flag("--json", help=f"print one JSON object instead of {what} (= --format json)")

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from ..errors import OptionError
 from . import checks
-from .options import flag, opt
+from .options import flag, opt, quiet_flag
 from .output import console, print_json, stages
 from .runtime import expect_output
 
@@ -53,8 +53,7 @@ def robustness(
     markdown_copy: str = opt(None, "--markdown", help="also write robustness.md to this file; an existing file is "
                                                        "replaced only with --overwrite (default: none)"),
     as_json: bool = flag("--json", help="print robustness.json to stdout instead of the table"),
-    quiet: bool = flag("--quiet", help="print no stages on stderr (a spinner on a terminal, one line per stage "
-                                       "when piped)"),
+    quiet: bool = quiet_flag(),
 ) -> None:
     """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (Sec. 7).
 

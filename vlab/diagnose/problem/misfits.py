@@ -28,9 +28,13 @@ def log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
     """
     if np.size(h) == 0:
         return float("nan")
-    e = np.log10(np.abs(np.asarray(h) / np.asarray(h_ref)))
+    return _weighted_rms(np.log10(np.abs(np.asarray(h) / np.asarray(h_ref))), weight)
+
+
+def _weighted_rms(e: np.ndarray, weight: np.ndarray) -> float:
+    """``sqrt(sum w e^2 / sum w)`` of the per-line distances ``e`` [decades]."""
     w = np.asarray(weight, dtype=float)
-    return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+    return float(np.sqrt(np.sum(w * np.asarray(e) ** 2) / np.sum(w)))
 
 
 def complex_log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
@@ -55,9 +59,8 @@ def complex_log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> 
     """
     if np.size(h) == 0:
         return float("nan")
-    e = np.abs(np.log(np.asarray(h, dtype=complex) / np.asarray(h_ref, dtype=complex))) / np.log(10.0)
-    w = np.asarray(weight, dtype=float)
-    return float(np.sqrt(np.sum(w * e**2) / np.sum(w)))
+    return _weighted_rms(np.abs(np.log(np.asarray(h, dtype=complex) / np.asarray(h_ref, dtype=complex)))
+                         / np.log(10.0), weight)
 
 
 def noise_misfit(h: np.ndarray, var: np.ndarray, weight: np.ndarray) -> float:
