@@ -3,7 +3,7 @@
 ``vlab experiment --plant linear --controller none`` runs in a subprocess;
 SIGINT is sent after a random delay (seeded) while it simulates and writes.
 The folder is then compared with a byte snapshot of the old folder (a
-hand-made one, so that old and new differ) or checked to hold exactly the six
+hand-made one, so that old and new differ) or checked to hold exactly the
 outputs of a complete run; no temporary folder may be left beside it; the
 exit status is 0 (finished first) or 130 (interrupted, with the message and
 no traceback), or death by SIGINT when the signal lands while the interpreter
@@ -33,8 +33,8 @@ import pytest
 from vlab.io.manifest import write_manifest
 
 ROOT = Path(__file__).resolve().parents[1]
-NEW_FILES = {"recording.uff", "recording.uff.json", "frf.uff", "results.json", "report.md", "frf.png", "run.rrd",
-             "vlab-manifest.json"}
+NEW_FILES = {"recording.uff", "recording.uff.json", "frf.uff", "frf.uff.json", "results.json", "report.md", "frf.png",
+             "run.rrd", "vlab-manifest.json"}
 ARGS = ["experiment", "bcc", "--plant", "linear", "--controller", "none", "--duration", "40", "--overwrite"]
 
 DRIVER = """
