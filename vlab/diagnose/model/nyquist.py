@@ -80,7 +80,8 @@ class LoopStability:
 
     @property
     def unstable(self) -> bool:
-        """Whether the closed loop has a pole in the right half-plane."""
+        """Whether the closed loop has a pole right of the contour: in the right half-plane, or growing faster
+        than ``e^{sigma t}`` for a shifted contour (``sigma_1_s > 0``)."""
         return self.unstable_poles > 0
 
     @property
