@@ -18,7 +18,18 @@ PIPED_WIDTH = 10_000
 
 
 class StdoutConsole(Console):
-    """Console of stdout: the terminal's width on a terminal; when piped, :data:`PIPED_WIDTH` (no cut cells)."""
+    """Console of stdout: the terminal's width on a terminal; when piped, :data:`PIPED_WIDTH` (no cut cells).
+
+    ``COLUMNS`` is read when printing, not when the console is made: rich fixes the width it finds in the
+    environment at construction, so a module imported while ``COLUMNS`` happened to be set would keep that
+    width for the whole process.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        explicit = kwargs.get("width")
+        super().__init__(*args, **kwargs)
+        if explicit is None:
+            self._width = None
 
     @property
     def size(self):
