@@ -421,3 +421,38 @@ def test_a_pair_is_reduced_where_one_part_alone_is_within_the_models_accuracy(mo
     assert plantchoice.reduce_pair_on_plant(model(object()), pair, [spring, joint])[0] is pair
     monkeypatch.setattr(plantchoice, "within_model_accuracy", accurate)
     assert plantchoice.reduce_pair_on_plant(model(None), pair, [spring, joint])[0] is pair  # no model form
+
+
+# ---------------------------------------------------------------- a small gain between the screening trials
+
+
+def test_the_screening_finds_a_gain_change_smaller_than_its_trial_spacing():
+    """A 1 % gain of the excitation coil lies between the screening trials 0.97 and 1.03, where the chi-square
+    is higher than the nominal lab's; the parabolic step through the best trial, its neighbours and the null
+    value lands on it. Closed form: the data are ``g`` times the nominal FRFs, so the chi-square is a parabola
+    in ``log g`` (log-magnitude residuals) with its minimum, zero, at the drawn gain."""
+    from vlab.diagnose.effects.hypotheses import ActuatorGain
+    from vlab.diagnose.fit.estimate import screen
+    from vlab.diagnose.model.labmodel import predict_frf
+    from vlab.diagnose.data.measured import FrfData
+
+    fe = nominal_fe_model("bcc")
+    nominal = LabState(fe.spec, fe, HardwareChain(), None)
+    test = TESTS["bcc"]
+    exc = fe.spec.instrumentation.excitation
+    outs = tuple(test.measured_points)
+    gain = 1.0096
+    truth = dataclasses.replace(nominal, chain=dataclasses.replace(nominal.chain, actuator_gain={exc: gain}))
+    freq = np.linspace(test.band_hz[0], test.band_hz[1], 200)
+    h = predict_frf(truth, freq, excitation_point=exc, output_points=outs)
+    data = FrfData("gain.uff", "frf", freq, h, (1e-3 * np.abs(h)) ** 2, exc, outs)
+    problem = Problem(data, nominal, context_for(nominal, test.band_hz, data))
+    hyp = ActuatorGain(channel=exc)
+    trials, _, _ = hyp.space(nominal, problem.ctx)
+    near = trials[np.abs(np.log(trials[:, 0])) < 0.05]
+    assert len(near) == 2 and np.all(np.abs(np.log(near[:, 0] / gain)) > 2 * np.log(gain))  # the trials miss it
+    nominal_chi2 = problem.scores(nominal)[0]
+    assert all(problem.scores(problem.state_for(hyp, x))[0] > nominal_chi2 for x in near)
+    chi2, x = screen(hyp, problem)[0]
+    assert x[0] == pytest.approx(gain, rel=2e-4)
+    assert chi2 < 1e-3 * nominal_chi2

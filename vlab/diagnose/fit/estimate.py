@@ -117,19 +117,72 @@ def screen(h: Hypothesis, problem: Problem, trials: np.ndarray | None = None) ->
         trials = trials_for(h, problem)
     out = []
     smooth = []
-    for x in trials:
+
+    def evaluate(x) -> None:
         try:
             c, sm = problem.scores(problem.state_for(h, x))
         except ModelError:
             c, sm = math.inf, math.inf
         out.append((c, np.asarray(x, dtype=float)))
         smooth.append(sm)
+
+    for x in trials:
+        evaluate(x)
     if not np.isfinite(min(c for c, _ in out)):
         raise ModelError(f"{h.label}: no trial value gives a model the structure can carry")
+    vertex = _parabolic_step(h, problem, out)
+    if vertex is not None:
+        evaluate(vertex)
     i = int(np.argmin(smooth))
     h.coarse_, h.coarse_error_ = out[i][1], float(smooth[i])
     out.sort(key=lambda t: t[0])
     return out
+
+
+def _parabolic_step(h: Hypothesis, problem: Problem, scored: list[tuple[float, np.ndarray]]) -> np.ndarray | None:
+    """One step of successive parabolic interpolation on the screened chi-square of a one-parameter ``h``.
+
+    A trial grid can step over a chi-square well narrower than its spacing: a channel gain changed by 1 %
+    between trials at 0.97 and 1.03 scores worse there than the nominal lab does. For a small change the
+    residuals are linear in the parameter, so the chi-square is a parabola in it; its vertex through the
+    best value and its two neighbours (the effect's null value counting as one, scored as the nominal lab,
+    :meth:`~vlab.diagnose.problem.residuals.Problem.base_scores`) is where Gauss-Newton's first step would go
+    (Press et al., *Numerical Recipes*, 3rd ed., 2007, Sec. 10.3; Brent, *Algorithms for Minimization
+    without Derivatives*, 1973, Ch. 5).
+
+    Parameters
+    ----------
+    h : Hypothesis
+    problem : Problem
+    scored : list of (chi2, x)
+        The trials scored so far, ``x`` [SI] of shape (k,).
+
+    Returns
+    -------
+    ndarray of shape (1,) or None
+        The vertex [SI] when the best point is bracketed and the parabola opens upward; None for a
+        hypothesis with more than one parameter or without a bracket.
+    """
+    if h.n_params != 1:
+        return None
+    log = tuple(h.log_scale)
+    pts = [(float(_z(x, log)[0]), c) for c, x in scored if np.isfinite(c) and (not log[0] or x[0] > 0)]
+    null = h.null(problem.base, problem.ctx)
+    if null is not None and np.all(np.isfinite(null)) and (not log[0] or null[0] > 0):
+        pts.append((float(_z(np.asarray(null, dtype=float), log)[0]), problem.base_scores()[0]))
+    pts = sorted(set(pts))
+    i = int(np.argmin([c for _, c in pts]))
+    if i == 0 or i == len(pts) - 1:
+        return None
+    (za, ca), (zb, cb), (zc, cc) = pts[i - 1], pts[i], pts[i + 1]
+    den = (zb - za) * (cb - cc) - (zb - zc) * (cb - ca)
+    if not np.isfinite(den) or den >= 0.0:  # negative for three points bracketing a minimum
+        return None
+    zv = zb - 0.5 * ((zb - za) ** 2 * (cb - cc) - (zb - zc) ** 2 * (cb - ca)) / den
+    if not (za < zv < zc) or zv in (za, zb, zc):
+        return None
+    _, lo, hi = h.space(problem.base, problem.ctx)
+    return np.clip(_x(np.array([zv]), log), lo, hi)
 
 
 def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None = None,

@@ -137,6 +137,7 @@ class Problem:
         self.model_form_frf, self.model_var, self._whiten = None, None, None
         self.profile_nominal, self._profile = bool(profile_nominal), None
         self.model_form = None  # the ModelFormUncertainty behind model_var (set by whoever computed it)
+        self._base_scores: tuple[float, float] | None = None  # scores of the nominal lab (:meth:`base_scores`)
         self._smooth = None  # kernel of the smoothed error, made on first use (:meth:`_smoother`)
         if isinstance(data, FrfData):
             srel = data.sigma_rel
@@ -459,6 +460,12 @@ class Problem:
             norm = np.maximum(w @ m, 1e-300)
             self._smooth = (w, norm, (w @ (m * self.data.h)) / norm)
         return self._smooth
+
+    def base_scores(self) -> tuple[float, float]:
+        """:meth:`scores` of the nominal lab ``base``, computed once."""
+        if self._base_scores is None:
+            self._base_scores = self.scores(self.base)
+        return self._base_scores
 
     def scores(self, state: LabState) -> tuple[float, float]:
         """``(chi2, smoothed error)`` of the lab ``state`` from one prediction.

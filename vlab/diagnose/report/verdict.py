@@ -3,6 +3,8 @@ JSON's (mismatch tests, selection, validation, remainder, detection threshold)."
 
 from __future__ import annotations
 
+import math
+
 from .text import _fmt, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text
 
 
@@ -194,6 +196,20 @@ def _verdict_body(res: dict, s: dict, n) -> str:
     thr = res.get("detection_threshold") or {}
     if thr.get("threshold") is not None:
         q, unit = parameter_unit(thr["parameter"])
-        text += (f" The smallest {thr['effect']} there that these data would show: {q} {_fmt(thr['threshold'], 3)}"
+        text += (f" The smallest {thr['effect']} there that these data would show: {q} "
+                 f"{_fmt(thr['threshold'], _digits_beside(thr['threshold'], thr.get('null')))}"
                  + (f" {unit}" if unit else "") + " (vlab detectability).")
     return text
+
+
+def _digits_beside(value, null, least: int = 3) -> int:
+    """Significant digits that show ``value`` apart from ``null`` with two digits of their difference (a gain
+    threshold of 1.0031 beside its null 1 is not printed as "1"); ``least`` when there is no null."""
+    try:
+        value, null = float(value), float(null)
+    except (TypeError, ValueError):
+        return least
+    if not (math.isfinite(value) and math.isfinite(null)) or value == null:
+        return least
+    scale = max(abs(value), abs(null))
+    return max(least, math.ceil(math.log10(scale / abs(value - null))) + 2)
