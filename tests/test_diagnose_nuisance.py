@@ -84,3 +84,21 @@ def test_the_policy_limits_follow_from_the_false_alarm_rate():
     assert 1 - (1 - np.exp(-p.line_limit(n, 2) / 2)) ** n == pytest.approx(p.test_rate, rel=1e-9)
     with pytest.raises(Exception, match="false-alarm rate"):
         DecisionPolicy(false_alarm_rate=0.7)
+
+
+@pytest.mark.parametrize("moved, inside", [(2.0, True), (10.0, False)])
+def test_a_lab_without_its_own_modes_is_judged_as_the_mismatch_test_judged_the_nominal(moved, inside):
+    """A chosen lab that carries no modes of its own (a chain effect on the FE model) is compared within the
+    model form when the mismatch test profiled the nominal lab (``profile_nominal``): the moves are found back
+    on the modes the model form was derived on, and a move of 10 standard uncertainties is beyond it."""
+    from vlab.diagnose.problem.nuisance import profile_state, profiled
+
+    problem, st = _problem(moved)
+    bare = replace(st, point_modes=None)
+    assert not profiled(problem, bare)  # a problem that did not profile the nominal: the noise test alone
+    assert within_model_accuracy(problem, bare) is problem.within_noise(bare) is False
+    problem.profile_nominal = True
+    assert profiled(problem, bare)
+    _r, x, k = profile_state(problem, bare)
+    assert k == 1 and x[0] == pytest.approx(moved, rel=0.02)
+    assert within_model_accuracy(problem, bare) is inside

@@ -28,7 +28,7 @@ from .data.measured import FrfData
 from .fit.locate import locate
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
-from .problem.nuisance import profile
+from .problem.nuisance import profile_state, profiled
 from .problem.misfits import noise_misfit
 from .problem.residuals import Problem
 from .report.text import ratio_text
@@ -211,12 +211,11 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     if any(p.effect in NONLINEAR for p in res.selected_parts):
         return None
     state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
-    profiled = problem.model_form_frf is not None and state.point_modes is not None
     r = problem.residual(state)
-    if profiled:  # its modes moved within their model form, as the nominal lab's are for the mismatch test
-        rp, x = profile(problem, state, state.point_modes)
+    if profiled(problem, state):  # modes moved within their model form, as for the mismatch test
+        rp, x, k = profile_state(problem, state)
         inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()
-                  and float(x @ x) <= problem.policy.nuisance_limit(len(x)))
+                  and float(x @ x) <= problem.policy.nuisance_limit(k))
     else:
         inside = float(r @ r) <= problem.noise_chi2()
     if inside:

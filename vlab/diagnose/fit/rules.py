@@ -101,6 +101,7 @@ from ..effects.hypotheses import Combination, Hypothesis, PointDamping
 from ..model.labmodel import LabState
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from ..problem.residuals import Problem, without_floor
+from ..problem.nuisance import within_model_accuracy
 
 
 #: Effects whose frequency-domain model is a describing function: their FRF
@@ -250,8 +251,9 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
 
 def needs_pairs(best: Hypothesis | None, problem: Problem) -> bool:
     """Rule 2: whether pairs are fitted: the best single effect ``best`` (fitted) leaves the data of
-    ``problem`` out of the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`)."""
-    return best is not None and not problem.within_noise(problem.state_for(best, best.params_))
+    ``problem`` beyond the tests that declared the mismatch -- the noise, and where the nominal lab's modes
+    were profiled the model form too (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`)."""
+    return best is not None and not within_model_accuracy(problem, problem.state_for(best, best.params_))
 
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,

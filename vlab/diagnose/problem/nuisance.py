@@ -115,25 +115,85 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     return plain(sol.x), x
 
 
-def within_model_accuracy(problem, state: LabState) -> bool:
-    """Whether ``state`` explains ``problem``'s data within the noise and the model's own uncertainty: after
-    its modes (``state.point_modes``) are moved within their model form (:func:`profile`), the chi-square and
-    the largest line are within the problem's limits and the moves within the policy's
-    :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit`.
+def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
+    """The modes of ``state`` that the model form of ``problem`` moves, and the scale of :func:`profile`.
+
+    A lab carrying its modes (``state.point_modes``, a refit on the plant's linearisation) moves those,
+    unscaled. Otherwise the modes are the reference modes the model form was derived on (``mf.modes``) for a
+    lab with the nominal structure (a chain effect), else the lab's own FE modes at the measured points and
+    actuators; the scale is the lab's FE prediction over its prediction with those modes on the used lines,
+    so that the moves change the prediction as they change the modes.
 
     Parameters
     ----------
     problem : Problem
-        FRF data; without ``model_form_frf`` this is :meth:`Problem.within_noise`.
+        FRF data with ``model_form_frf``.
+    state : LabState
+
+    Returns
+    -------
+    pm0 : PointModes
+    scale : ndarray, complex, shape (n_used,), or None
+    """
+    if state.point_modes is not None:
+        return state.point_modes, None
+    from ..model.labmodel import natural_frequencies
+
+    pm0 = problem.model_form_frf.modes if state.fe is problem.base.fe else None
+    if pm0 is None:
+        fr, zeta, phi = natural_frequencies(state)
+        pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
+        pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float), phi[state.fe.dofs.indices(pts, "w"), :],
+                         pts, "the lab's FE model")
+    mask = problem.mask
+    return pm0, problem.predict(state)[mask] / problem.predict(replace(state, point_modes=pm0))[mask]
+
+
+def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int]:
+    """:func:`profile` of ``state`` on its own modes (:func:`own_modes`).
+
+    Returns
+    -------
+    r : ndarray, shape (n_obs,)
+        The residual at the optimum (not whitened).
+    x : ndarray, shape (k_all,)
+        The parameters in units of their standard uncertainty.
+    k : int
+        The parameters that have a mode to move (the degrees of freedom of ``|x|^2``).
+    """
+    pm0, scale = own_modes(problem, state)
+    k = sum(r is not None for _kind, r, _j in parameters(problem.model_form_frf, pm0))
+    r, x = profile(problem, state, pm0, scale)
+    return r, x, k
+
+
+def profiled(problem, state: LabState) -> bool:
+    """Whether ``state`` is compared with the data of ``problem`` with its modes profiled: the problem carries
+    a model form, and the lab carries its own modes or the problem's mismatch test profiled the nominal lab's
+    (``profile_nominal``): a choice is then judged by the statistic that declared the mismatch."""
+    mf = problem.model_form_frf
+    return (mf is not None and mf.sigma.size > 0
+            and (state.point_modes is not None or bool(getattr(problem, "profile_nominal", False))))
+
+
+def within_model_accuracy(problem, state: LabState) -> bool:
+    """Whether ``state`` explains ``problem``'s data within the noise and the model's own uncertainty: after
+    its modes (:func:`own_modes`) are moved within their model form (:func:`profile`), the chi-square and
+    the largest line are within the problem's limits and the moves within the policy's
+    :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` -- the three tests of the mismatch.
+
+    Parameters
+    ----------
+    problem : Problem
+        FRF data; where the lab is not profiled (:func:`profiled`) this is :meth:`Problem.within_noise`.
     state : LabState
 
     Returns
     -------
     bool
     """
-    if problem.model_form_frf is None or problem.model_form_frf.sigma.size == 0 or state.point_modes is None:
+    if not profiled(problem, state):
         return problem.within_noise(state)
-    k = sum(r is not None for _kind, r, _j in parameters(problem.model_form_frf, state.point_modes))
-    r, x = profile(problem, state, state.point_modes)
+    r, x, k = profile_state(problem, state)
     return (float(r @ r + x @ x) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
             and float(x @ x) <= problem.policy.nuisance_limit(k))

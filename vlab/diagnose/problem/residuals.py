@@ -426,20 +426,11 @@ class Problem:
         """
         if self._profile is not None:
             return self._profile
-        from ..model.labmodel import PointModes
-        from .nuisance import profile
+        from .nuisance import own_modes, profile
 
-        base = self.base
-        d: FrfData = self.data
-        pm0 = self.model_form_frf.modes
-        if pm0 is None:
-            fr, zeta, phi = natural_frequencies(base)
-            pts = tuple(dict.fromkeys(tuple(d.output_points) + base.actuators))
-            pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float), phi[base.fe.dofs.indices(pts, "w"), :],
-                             pts, "the nominal FE model")
         # the nominal prediction changed as the perturbed modes change theirs
-        scale = self.predict(base)[self.mask] / self.predict(replace(base, point_modes=pm0))[self.mask]
-        self._profile = profile(self, base, pm0, scale)
+        pm0, scale = own_modes(self, self.base)
+        self._profile = profile(self, self.base, pm0, scale)
         return self._profile
 
     def log_residual(self, h_used: np.ndarray) -> np.ndarray:
