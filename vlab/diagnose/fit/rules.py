@@ -24,7 +24,7 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    first-order size as an extra trial); the best by chi-square, the best
    mode-moving ones by smoothed error and the best of every family are
    fitted (:func:`shortlisted`); pairs are fitted when the best single effect
-   leaves more than noise (:func:`needs_pairs`;
+   still fails a test of the mismatch (:func:`needs_pairs`;
    :func:`vlab.diagnose.fit.estimate.fit_pairs`). A dashpot or friction at a
    point is fitted up to the critical dashpot of the mode it damps most
    (:func:`vlab.diagnose.effects.beyond_spec.critical_dashpot`).
