@@ -29,6 +29,7 @@ __all__ = [
     "check_positive_definite",
     "check_positive_semidefinite",
     "check_positive_scalar",
+    "check_damping_bound",
     "readonly",
 ]
 
@@ -273,6 +274,28 @@ def check_positive_scalar(name: str, value, *, allow_zero: bool = False) -> floa
         rel = ">= 0" if allow_zero else "> 0"
         raise MatrixPropertyError(f"{name}: expected a finite number {rel}, found {value!r}")
     return v
+
+
+def check_damping_bound(name: str, value) -> float:
+    """Return a prescribed damping ratio ``zeta_L`` as a float after checking ``0 < zeta_L < 1``.
+
+    Parameters
+    ----------
+    name : str
+        Name of the parameter for the message.
+    value : float
+        ``zeta_L`` [-], the lower bound on the closed-loop damping ratios
+        (Sec. 4.1.1; Eqs. 4.32, 4.38).
+
+    Raises
+    ------
+    MatrixPropertyError
+        If not a finite number in (0, 1).
+    """
+    z = check_positive_scalar(name, value)
+    if z >= 1.0:
+        raise MatrixPropertyError(f"{name}: expected 0 < zeta_L < 1, found {value}")
+    return z
 
 
 def readonly(a: np.ndarray) -> np.ndarray:

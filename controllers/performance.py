@@ -62,6 +62,35 @@ __all__ = [
 ]
 
 
+# --------------------------------------------------------------------------- input checks
+def _check_state_input(A, B) -> tuple[np.ndarray, np.ndarray]:
+    """``A`` (2n, 2n) and ``B`` (2n, n_c) checked (:func:`controllers.errors.check_matrix`) as float arrays."""
+    A = check_square("A", A, "2n")
+    B = check_matrix("B", B, (A.shape[0], None), ("2n", "n_c"))
+    return A, B
+
+
+def _check_plant(A, B, C) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``A`` (2n, 2n), ``B`` (2n, n_c) and ``C`` (n_c, 2n) of a DRF loop ``u = -D C x``, checked."""
+    A, B = _check_state_input(A, B)
+    n, nc = B.shape
+    C = check_matrix("C", C, (nc, n), ("n_c", "2n"))
+    return A, B, C
+
+
+def _cost_weights(Q, R, n: int, nc: int) -> tuple[np.ndarray, np.ndarray]:
+    """``Q`` (2n, 2n) and ``R`` (n_c, n_c) of a performance index (Eq. 4.33), checked symmetric PSD; ``n`` is 2n."""
+    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
+    R = check_positive_semidefinite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
+    return Q, R
+
+
+def _initial_states(initial_states, n_states: int, symbol: str = "2n") -> np.ndarray:
+    """The initial states ``x0_i`` of the performance indices as columns: shape (n_states, n_f)."""
+    return check_matrix("initial_states", initial_states, (n_states, None), (symbol, "n_f"))
+
+
+# --------------------------------------------------------------------------- modes
 def _mode_order(eigs: np.ndarray) -> np.ndarray:
     """Indices of the mode entries of ``eigs`` (Im > 0 or Im == 0), sorted by |lambda|."""
     eigs = np.asarray(eigs)
@@ -221,7 +250,7 @@ def performance_index(A_cl, Q_cl, initial_states) -> np.ndarray:
     """
     A_cl = check_square("A_cl", A_cl)
     n = A_cl.shape[0]
-    X0 = check_matrix("initial_states", initial_states, (n, None), ("N", "n_f"))
+    X0 = _initial_states(initial_states, n, "N")
     Q_cl = check_positive_semidefinite("Q_cl", check_matrix("Q_cl", Q_cl, (n, n), ("N", "N")))
     if np.max(scipy.linalg.eigvals(A_cl).real) >= 0.0:
         return np.full(X0.shape[1], np.inf)
@@ -256,13 +285,10 @@ def feedback_performance(A, B, F, Q, R, initial_states) -> np.ndarray:
     ------
     ShapeError, MatrixPropertyError
     """
-    A = check_square("A", A, "2n")
-    n = A.shape[0]
-    B = check_matrix("B", B, (n, None), ("2n", "n_c"))
-    nc = B.shape[1]
+    A, B = _check_state_input(A, B)
+    n, nc = B.shape
     F = check_matrix("F", F, (nc, n), ("n_c", "2n"))
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_semidefinite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
+    Q, R = _cost_weights(Q, R, n, nc)
     return performance_index(A - B @ F, Q + F.T @ R @ F, initial_states)
 
 
@@ -398,15 +424,6 @@ def spillover(A_open, A_closed, *, time_unit_s: float = 1.0, rtol: float = 1e-6)
 
 
 # --------------------------------------------------------------------------- sensitivities
-def _check_plant(A, B, C) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    A = check_square("A", A, "2n")
-    n = A.shape[0]
-    B = check_matrix("B", B, (n, None), ("2n", "n_c"))
-    nc = B.shape[1]
-    C = check_matrix("C", C, (nc, n), ("n_c", "2n"))
-    return A, B, C
-
-
 def _damping_and_gradient(A, B, C, D, n_modes):
     """zeta (n_m,), dzeta/dD (n_m, n_c, n_s), eigenvalues (n_m,) of the first n_m modes of A - B D C.
 
@@ -533,9 +550,8 @@ def performance_gradient(A, B, C, D, Q, R, initial_states) -> tuple[np.ndarray, 
     A, B, C = _check_plant(A, B, C)
     n, nc = B.shape
     D = check_matrix("D", D, (nc, nc), ("n_c", "n_c"))
-    Q = check_positive_semidefinite("Q", check_matrix("Q", Q, (n, n), ("2n", "2n")))
-    R = check_positive_semidefinite("R", check_matrix("R", R, (nc, nc), ("n_c", "n_c")))
-    X0 = check_matrix("initial_states", initial_states, (n, None), ("2n", "n_f"))
+    Q, R = _cost_weights(Q, R, n, nc)
+    X0 = _initial_states(initial_states, n)
     if np.max(scipy.linalg.eigvals(A - B @ D @ C).real) >= 0:
         raise MatrixPropertyError("A - B D C is not asymptotically stable; J is infinite")
     return _perf_and_gradient(A, B, C, D, Q, R, X0)

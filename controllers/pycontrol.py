@@ -29,8 +29,16 @@ import control
 import numpy as np
 
 from .errors import check_matrix, check_positive_scalar
-from .lq import LqgDesign
+from .lqg import LqgDesign
 from .statespace import rescale_time
+
+__all__ = [
+    "plant",
+    "lqg_controller",
+    "output_feedback",
+    "discrete_controller",
+    "closed_loop",
+]
 
 
 def plant(A, B, C, *, time_unit_s: float = 1.0) -> control.StateSpace:

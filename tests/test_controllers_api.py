@@ -14,8 +14,13 @@ import pytest
 import controllers
 from controllers import errors
 
-MODULES = ["errors", "statespace", "performance", "lq", "drf", "realization"]
 PKG_DIR = pathlib.Path(controllers.__file__).parent
+#: Every module of the package (each declares ``__all__``, empty where it has no public names).
+MODULES = sorted(p.stem for p in PKG_DIR.glob("*.py") if p.stem != "__init__")
+
+
+def test_modules_are_found():
+    assert {"errors", "statespace", "performance", "lq", "drf", "realization", "pycontrol"} <= set(MODULES)
 
 
 def _public(kind):

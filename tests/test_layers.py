@@ -15,8 +15,9 @@ import counts: module level, inside functions and under ``TYPE_CHECKING``):
 9. diagnose, robust, reproduce, update
 10. the command line and the package's own ``__init__`` (its public names)
 
-The same order is drawn in DESIGN.md. Within ``vlab.sim`` the import graph has no cycle. Modules stay
-under :data:`MAX_MODULE_LINES` lines and functions under :data:`MAX_FUNCTION_LINES` (docstring included).
+The same order is drawn in DESIGN.md. Within ``vlab.sim`` the import graph has no cycle. Modules of vlab and
+of the design package ``controllers/`` stay under :data:`MAX_MODULE_LINES` lines and functions under
+:data:`MAX_FUNCTION_LINES` (docstring included).
 The checks are also run on small made-up inputs so that they can fail.
 """
 
@@ -28,6 +29,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent / "vlab"
+#: The packages whose module and function sizes are checked: vlab and the controller design package.
+SIZED_ROOTS: tuple[Path, ...] = (ROOT, ROOT.parent / "controllers")
 
 #: Module-name prefixes and their rank; the longest matching prefix decides.
 RANKS: dict[str, int] = {
@@ -145,10 +148,11 @@ def cycle_in(edges: dict[str, set[str]], prefix: str) -> list[str] | None:
     return None
 
 
-def long_code(root: Path = ROOT) -> tuple[set[str], set[str]]:
-    """Modules over :data:`MAX_MODULE_LINES` and functions ("module:function") over :data:`MAX_FUNCTION_LINES`."""
+def long_code(roots: tuple[Path, ...] = SIZED_ROOTS) -> tuple[set[str], set[str]]:
+    """Modules over :data:`MAX_MODULE_LINES` and functions ("module:function") over :data:`MAX_FUNCTION_LINES`
+    in the packages ``roots``."""
     modules, functions = set(), set()
-    for path in sorted(root.rglob("*.py")):
+    for root, path in sorted((root, path) for root in roots for path in root.rglob("*.py")):
         text = path.read_text(encoding="utf-8")
         name = module_name(path, root)
         if len(text.splitlines()) > MAX_MODULE_LINES:
@@ -215,12 +219,17 @@ def test_checks_find_upward_imports_cycles_and_long_code(tmp_path):
         "lab/__init__.py": "",
         "lab/loop.py": "def run():\n" + "    x = 1\n" * 120,
     })
+    design = _write(tmp_path / "controllers", {
+        "__init__.py": "",
+        "lq.py": "x = 1\n" * 601,
+    })
     e = graph(root)
     assert upward(e) == {("vlab.sim.b", "vlab.lab.loop")}
     assert cycle_in(e, "vlab.sim") in (["vlab.sim.a", "vlab.sim.b", "vlab.sim.a"],
                                       ["vlab.sim.b", "vlab.sim.a", "vlab.sim.b"])
     assert cycle_in(e, "vlab.lab") is None
-    modules, functions = long_code(root)
+    modules, functions = long_code((root,))
     assert modules == set() and functions == {"vlab.lab.loop:run"}
+    assert long_code((root, design)) == ({"controllers.lq"}, {"vlab.lab.loop:run"})
     with pytest.raises(KeyError, match="no layer"):
         rank("vlab.newthing")
