@@ -27,6 +27,7 @@ from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, ModalData, refer_to_model
 from .data.modalcsv import read_modal_csv
+from .data.acquired import is_lab_recording
 from .data.readers import detect_kind, read_data, read_uff_any
 from .data.reference import recorded_chain, recorded_setup, replay_reference, shares_excitation_record
 from .data.warmstart import GUARD_DECAY
@@ -196,6 +197,8 @@ def _check_options(opt: Options, path: Path) -> None:
 
 def _period_note(controller: str, what: str, period_s: float, thesis_s: float) -> str:
     src = ("the recording's sample interval" if what == "recording" else
+           f"the thesis's period for {controller} (Sec. 5.3): an acquisition system's recording does not say at "
+           "which period the controller ran" if what == "acquired" else
            f"the thesis's period for {controller} (Sec. 5.3): FRF files do not say at which period the "
            "controller ran")
     if what == "recording" and abs(period_s - thesis_s) > 1e-9 * period_s:
@@ -215,12 +218,13 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
             raise DataFileError(f"{inp['path']}: a baseline needs FRF data (time histories or FRFs), not a modal table")
         bwhat, bobj = read_uff_any(Path(opt.baseline))
         base = read_data(spec, fe, Path(opt.baseline), bwhat, bobj, resolution_hz=opt.resolution_hz,
-                         band_hz=inp["band_hz"], settle_of=lambda: settling_time(nominal, inp["band_hz"]))
+                         band_hz=inp["band_hz"], settle_of=lambda: settling_time(nominal, inp["band_hz"]),
+                         period_s=nominal.chain.period_s)
         h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
                             output_points=data.output_points)
         inp["data"] = refer_to_model(data, base, h_nom)
         inp["reference"] = f"the measured baseline {opt.baseline}"
-        inp["same_record"] = shares_excitation_record(inp["data"], bobj if bwhat == "recording" else None)
+        inp["same_record"] = shares_excitation_record(inp["data"], base.recording if bwhat == "recording" else None)
         if not inp["same_record"]:
             notes.append(f"the baseline {opt.baseline} was not excited by the recording's own force record: the two "
                          "are compared within the model-error floor only (differences that depend on the "
@@ -340,16 +344,20 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
     has_mujoco = importlib.util.find_spec("mujoco") is not None
     replay_plant = setup.plant or ("mujoco" if has_mujoco else "linear")  # the plant that made the recording
     plant = "linear" if opt.plant == "auto" and setup.plant == "linear" else opt.plant
-    # the controller's sampling period: a recording's own sample interval, else the thesis's (Sec. 5.3)
-    period_s = float(obj.dt_s) if what == "recording" else thesis_period_s(controller)
+    # the controller's sampling period: a lab recording's own sample interval, else the thesis's (Sec. 5.3)
+    acquired = what == "recording" and not is_lab_recording(obj)
+    period_s = float(obj.dt_s) if what == "recording" and not acquired else thesis_period_s(controller)
     if controller != "none":
-        notes.append(_period_note(controller, what, period_s, thesis_period_s(controller)))
+        notes.append(_period_note(controller, "acquired" if acquired else what, period_s,
+                                  thesis_period_s(controller)))
     replaying = opt.replay and opt.baseline is None and what == "recording"
     on_plant = ((opt.validate_run or replaying) and what == "recording" and plant != "linear" and has_mujoco
                 and replay_plant == "mujoco")
     nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes)
     data = read_data(spec, fe, path, what, obj, resolution_hz=opt.resolution_hz, band_hz=band,
-                     settle_of=lambda: settling_time(nominal, band))
+                     settle_of=lambda: settling_time(nominal, band), period_s=period_s)
+    if acquired:  # from here on the recording is the acquired one on the controller's clock
+        obj = data.recording
     if opt.mjcf is not None:
         if what != "recording" or not has_mujoco or (setup.plant or "mujoco") != "mujoco":
             raise OptionError(f"--mjcf {opt.mjcf}: a nominal MJCF plant is replayed and rerun, which needs time "

@@ -181,13 +181,16 @@ def write_text(path: Path, text: str) -> None:
             os.unlink(tmp)
 
 
-def read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
+def read_uff(path: str | os.PathLike, *, si_only: bool = True) -> tuple[Path, list[dict]]:
     """All datasets of a UFF file, after checks for existence, truncation and units.
 
     Parameters
     ----------
     path : str or path-like
         UFF file.
+    si_only : bool
+        Refuse a units record that is not SI (vlab's own files); False: leave
+        the units record to the caller (:func:`vlab.io.uff_units.units_system`).
 
     Returns
     -------
@@ -198,7 +201,8 @@ def read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
     ------
     DataFileError
         Missing, empty, truncated or malformed file; records missing by vlab's
-        ID line 5; a units record that is not SI (:func:`vlab.io.uff_units.check_units_records`).
+        ID line 5; with ``si_only``, a units record that is not SI
+        (:func:`vlab.io.uff_units.check_units_records`).
     """
     p = Path(path)
     if not p.is_file():
@@ -220,7 +224,8 @@ def read_uff(path: str | os.PathLike) -> tuple[Path, list[dict]]:
         sets = [sets]
     sets = [s for s in sets if s]  # pyuff returns {} for unsupported datasets
     _check_record_count(p, [s for s in sets if s.get("type") == 58])
-    check_units_records(p, sets)
+    if si_only:
+        check_units_records(p, sets)
     return p, sets
 
 

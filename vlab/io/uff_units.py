@@ -87,6 +87,75 @@ def check_units_records(p: Path, sets: list[dict]) -> None:
                 + ": its data are not in SI; vlab reads SI files only (N, m, s): convert the file")
 
 
+def units_system(p: Path, sets: list[dict]) -> tuple[float, float, str] | None:
+    """The unit system a file's units record (dataset 164) states, as its factors to SI.
+
+    Record 2 of dataset 164 holds "unit factors for converting universal file
+    units to SI: to convert from universal file units to SI divide by the
+    appropriate factor": a value of length exponent ``a`` and force exponent
+    ``b`` is ``value / (length ** a * force ** b)`` in SI (time is in seconds
+    in every unit system of the format).
+
+    Parameters
+    ----------
+    p : Path
+        The file (for messages).
+    sets : list of dict
+        Every dataset pyuff read from it.
+
+    Returns
+    -------
+    (length, force, description) or None
+        The length and force factors [file unit per SI unit] and the units
+        description; None without a units record.
+
+    Raises
+    ------
+    DataFileError
+        A factor that is not a positive finite number, or two units records
+        that disagree (names the file and the factors).
+    """
+    found = None
+    for s in sets:
+        if s.get("type") != 164:
+            continue
+        desc = str(s.get("units_description", "") or "").strip()
+        vals = []
+        for k in ("length", "force"):
+            v = s.get(k)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+                raise DataFileError(f"{p}: units record (dataset 164) {desc!r}: {k} factor {v!r} is not a positive "
+                                    "number")
+            vals.append(float(v))
+        here = (vals[0], vals[1], desc)
+        if found is not None and not all(math.isclose(a, b, rel_tol=SI_TOLERANCE) for a, b in zip(found[:2], here[:2])):
+            raise DataFileError(f"{p}: two units records (dataset 164) disagree: {found[2]!r} (length factor "
+                                f"{found[0]!r}, force factor {found[1]!r}) and {desc!r} (length factor {vals[0]!r}, "
+                                f"force factor {vals[1]!r})")
+        found = found or here
+    return found
+
+
+def exponents(p: Path, s: dict, prefix: str, where: str) -> tuple[int, int]:
+    """The (length, force) unit exponents of one axis of a record (both 0: not given).
+
+    Parameters
+    ----------
+    p, s, prefix, where
+        As :func:`check_exponents`.
+
+    Returns
+    -------
+    (int, int)
+
+    Raises
+    ------
+    DataFileError
+        An exponent that is not an integer (names the field and value).
+    """
+    return _exponent(p, s, f"{prefix}_len_unit_exp", where), _exponent(p, s, f"{prefix}_force_unit_exp", where)
+
+
 def check_exponents(p: Path, s: dict, prefix: str, code: int, where: str) -> None:
     """Refuse length/force unit exponents that contradict the specific data type ``code``.
 
@@ -184,5 +253,5 @@ def check_force_denominator(p: Path, s: dict, where: str) -> None:
                             "(SI only): convert the file")
 
 
-__all__ = ["check_units_records", "check_exponents", "frequency_factor", "check_time_axis",
+__all__ = ["check_units_records", "units_system", "exponents", "check_exponents", "frequency_factor", "check_time_axis",
            "check_force_denominator"]

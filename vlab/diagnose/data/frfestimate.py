@@ -224,9 +224,18 @@ class _Estimate:
     t0: float
 
 
+#: A measured force's lines this far below its strongest line in the band are taken as not excited (its noise
+#: floor; 40 dB): a generated force's non-excited lines are exact zeros, found below 1e-6 of the strongest.
+MEASURED_LINE_FLOOR = 1e-2
+
+
 def _periodic_frfs(path: str, fch, vels: list, dt: float, n_per: int, band_hz: tuple, resolution_hz: float,
-                   settle_s: float, notes: list) -> _Estimate:
-    """Period-by-period FRFs of a periodic excitation, the transient left removed, noise from the scatter."""
+                   settle_s: float, notes: list, *, measured_force: bool = False) -> _Estimate:
+    """Period-by-period FRFs of a periodic excitation, the transient left removed, noise from the scatter.
+
+    ``measured_force``: the force channel is a measurement (noise, quantisation) rather than the generated
+    command: its periods are not checked for exact repetition, and lines below :data:`MEASURED_LINE_FLOOR`
+    of the strongest are not excited."""
     x = np.asarray(fch.samples)
     lo, hi = band_hz
     n_periods = x.size // n_per
@@ -242,13 +251,16 @@ def _periodic_frfs(path: str, fch, vels: list, dt: float, n_per: int, band_hz: t
             f"{path}: channel {fch.name}: record of {x.size * dt:g} s holds {n_periods} period(s) of the "
             f"{resolution_hz:g} Hz excitation; the analysis needs one to settle and one to measure "
             f"({2 * n_per * dt:g} s)")
-    check_force_repeats(path, fch.name, x[:n_periods * n_per].reshape(n_periods, n_per), 0)
+    if not measured_force:
+        check_force_repeats(path, fch.name, x[:n_periods * n_per].reshape(n_periods, n_per), 0)
     seg = slice(skip * n_per, (skip + m) * n_per)
     xp = x[seg].reshape(m, n_per)
     X = np.fft.rfft(xp, axis=1)
     f_all = np.fft.rfftfreq(n_per, dt)
     amp = np.abs(X[-1])
-    lines = np.flatnonzero((amp > 1e-6 * amp.max()) & (f_all >= lo - 1e-9) & (f_all <= hi + 1e-9))
+    in_band = (f_all >= lo - 1e-9) & (f_all <= hi + 1e-9)
+    floor = MEASURED_LINE_FLOOR * amp[in_band].max(initial=0.0) if measured_force else 1e-6 * amp.max()
+    lines = np.flatnonzero((amp > floor) & in_band)
     if lines.size < 3:
         raise MeasurementError(f"{path}: channel {fch.name}: fewer than three excited lines in {band_hz} Hz")
     hp = np.empty((m, lines.size, len(vels)), dtype=complex)

@@ -1,9 +1,14 @@
 """Reading a diagnosis's measured data: which kind a file holds, and what it becomes.
 
-A ``.csv`` file is a modal table (:mod:`vlab.diagnose.data.modalcsv`); any other file is read as UFF,
-first as time histories (a recording, dataset 58 function type 1), else as FRFs (function type 4).
-A recording becomes FRFs on the excited lines with their noise, FRF files are stacked
-(:mod:`vlab.diagnose.data.frfestimate`); a modal table is used as read.
+A ``.csv`` file is a modal table (:mod:`vlab.diagnose.data.modalcsv`) unless its header begins with
+``time [s]``: then it holds time histories (:mod:`vlab.io.csv_time`). Any other file is read as UFF, first
+as time histories (a recording, dataset 58 function type 1), else as FRFs (function type 4). A UFF
+recording with vlab's JSON sidecar is read as vlab writes it (:func:`vlab.io.uff.read_recording`: SI only);
+one without, as an acquisition system writes it (:func:`vlab.io.uff_acquired.read_acquired_uff`: units from
+its header, channels by node and direction). A recording becomes FRFs on the excited lines with their
+noise (:mod:`vlab.diagnose.data.frfestimate`; an acquisition system's recording -- another rate, other
+motion quantities -- through :mod:`vlab.diagnose.data.acquired`), FRF files are stacked; a modal table is
+used as read.
 """
 
 from __future__ import annotations
@@ -14,11 +19,13 @@ from ...errors import DataFileError, VlabError
 from ...fe import FEModel
 from ...experiment.config import test_definition
 from ...spec import StructureSpec
+from .acquired import frfs_from_acquired, is_lab_recording
 from .frfestimate import frfs_from_recording, frfs_from_uff
 
 
 def detect_kind(path: str | Path) -> str:
-    """``"modal"`` for a .csv file at ``path``, else ``"uff"`` (decided on reading).
+    """``"modal"`` for a .csv modal table at ``path``, else ``"uff"``: time histories (UFF or CSV) or FRFs,
+    decided on reading (:func:`read_uff_any`).
 
     Raises
     ------
@@ -28,11 +35,13 @@ def detect_kind(path: str | Path) -> str:
     p = Path(path)
     if not p.is_file():
         raise DataFileError(f"{p}: no such file")
-    return "modal" if p.suffix.lower() == ".csv" else "uff"
+    from ...io.csv_time import is_time_csv
+
+    return "modal" if p.suffix.lower() == ".csv" and not is_time_csv(p) else "uff"
 
 
 def read_uff_any(path: str | Path) -> tuple[str, object]:
-    """Read the UFF file at ``path`` as a recording (function type 1) or FRFs (type 4).
+    """Read the file at ``path`` as a recording (UFF function type 1, or CSV time histories) or FRFs (type 4).
 
     Returns
     -------
@@ -41,13 +50,19 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
     Raises
     ------
     DataFileError
-        Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`),
-        or one holding neither kind. Names the file and channel.
+        Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`,
+        :mod:`vlab.io.uff_acquired`, :mod:`vlab.io.csv_time`), or one holding
+        neither kind. Names the file and channel.
     """
-    from ...io.uff import read_frfs, read_recording
+    from ...io.csv_time import is_time_csv, read_time_csv
+    from ...io.uff import read_frfs, read_recording, sidecar_path
+    from ...io.uff_acquired import read_acquired_uff
 
+    if is_time_csv(path):
+        return "recording", read_time_csv(path)
+    reader = read_recording if sidecar_path(path).is_file() else read_acquired_uff
     try:
-        return "recording", read_recording(path)
+        return "recording", reader(path)
     except DataFileError as exc:
         if "no dataset-58 time-response" not in str(exc):
             raise
@@ -63,7 +78,7 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
 
 
 def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
-              resolution_hz: float | None, band_hz, settle_of):
+              resolution_hz: float | None, band_hz, settle_of, period_s: float | None = None):
     """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data.measured`).
 
     Parameters
@@ -82,6 +97,9 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
         Band analysed [Hz].
     settle_of : callable
         Returns the settling time [s] of the nominal lab (called for recordings only).
+    period_s : float, optional
+        The controller period [s] an acquisition system's recording is brought to
+        (:func:`vlab.diagnose.data.acquired.frfs_from_acquired`; default the thesis's 0.5 ms).
 
     Raises
     ------
@@ -91,10 +109,16 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
     if what == "modal":
         return obj
     if what == "recording":
+        from ...design import thesis_period_s
+
+        period_s = period_s or thesis_period_s("none")
         meta = dict(obj.metadata)
         if meta.get("structure") not in (None, spec.name):
             raise DataFileError(f"{path}: recorded on structure {meta['structure']!r}, diagnosed as {spec.name!r}")
         res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
+        if not is_lab_recording(obj):
+            return frfs_from_acquired(obj, spec, fe, path=str(path), period_s=period_s, resolution_hz=res,
+                                      band_hz=band_hz, settle_s=settle_of())
         return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
                                    settle_s=settle_of())
     return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)
