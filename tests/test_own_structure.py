@@ -226,4 +226,4 @@ def test_crosscheck_beyond_its_tolerance_says_so(tmp_path):
     for key, b in out["beyond_tolerance"].items():
         assert b["max_abs_error_pct"] == worst[key]
     table = " ".join(_cli("crosscheck", frame).split())
-    assert "BEYOND TOLERANCE (thesis mesh)" in table and f"{worst['thesis_mesh']:.2f} %" in table
+    assert "BEYOND TOLERANCE (file mesh)" in table and f"{worst['thesis_mesh']:.2f} %" in table

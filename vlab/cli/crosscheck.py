@@ -24,21 +24,31 @@ def crosscheck(
 ) -> None:
     """Cross-check the MuJoCo plant against the FE model: frequencies, MAC, free decay.
 
-    Modes are paired one-to-one by MAC over a common band, against the spec's (thesis) mesh and the spec
-    meshed at the plant's resolution; MuJoCo modes in the band without an FE partner are listed.
+    Modes are paired one-to-one by MAC over a common band, against the structure file's mesh (for the BCC
+    and the grid the thesis's) and the structure meshed at the plant's resolution; MuJoCo modes in the band
+    without an FE partner are listed. A reference beyond the tolerance is named in the output.
     """
     out = checks.output_format(fmt, as_json)
     spec = checks.load_structure(structure)
     n_modes = n or (12 if spec.name == "grid" else 6)
-    plant, refs, decay = _run(spec, segments, n_modes, quiet=out != "table")
-    verdict, verdict_lines = _crosscheck_tolerance(refs)
+    mesh = _mesh_label(spec)
+    plant, refs, decay = _run(spec, segments, n_modes, quiet=out != "table", mesh=mesh)
+    verdict, verdict_lines = _crosscheck_tolerance(refs, mesh)
     if out == "json":
         print_json(_as_json(spec, plant, refs, decay, verdict))
         return
-    _print_table(out, spec, plant, refs, decay, verdict_lines)
+    _print_table(out, spec, plant, refs, decay, verdict_lines, mesh)
 
 
-def _run(spec, segments: int | None, n_modes: int, *, quiet: bool):
+def _mesh_label(spec) -> str:
+    """The name of the structure file's own mesh in the output: ``"thesis mesh"`` for the dissertation's
+    structures, ``"file mesh"`` (the structure file's elements per segment) for any other."""
+    from ..experiment.config import dissertation_structure
+
+    return "thesis mesh" if dissertation_structure(spec) else "file mesh"
+
+
+def _run(spec, segments: int | None, n_modes: int, *, quiet: bool, mesh: str = "thesis mesh"):
     """Build the plant, pair its modes with both FE references, let mode 1 decay; a progress bar on stderr.
 
     Returns the plant, the cross-checks by reference name (``thesis_mesh``, ``plant_resolution``) and the free
@@ -50,7 +60,7 @@ def _run(spec, segments: int | None, n_modes: int, *, quiet: bool):
     from ..sim import crosscheck as run_crosscheck
     from ..sim import free_decay
 
-    stages = ("building the MuJoCo plant", "pairing with the FE model (thesis mesh)",
+    stages = ("building the MuJoCo plant", f"pairing with the FE model ({mesh})",
               "pairing with the FE model (plant resolution)", "free decay of mode 1")
     with Progress(TextColumn("crosscheck {task.fields[stage]}"), BarColumn(), TimeElapsedColumn(),
                   TextColumn("ETA"), TimeRemainingColumn(), console=err_console, transient=True,
@@ -104,7 +114,8 @@ def _as_json(spec, plant, refs: dict, decay, verdict: dict) -> dict:
     }
 
 
-def _print_table(out: str, spec, plant, refs: dict, decay, verdict_lines: list[str]) -> None:
+def _print_table(out: str, spec, plant, refs: dict, decay, verdict_lines: list[str],
+                 mesh: str = "thesis mesh") -> None:
     """The paired modes of both references side by side (table or CSV); with a table, the summary lines."""
     from ..io.tabular import Column
 
@@ -119,7 +130,7 @@ def _print_table(out: str, spec, plant, refs: dict, decay, verdict_lines: list[s
                      "mac_thesis_mesh": a.mac, "fe_plant_resolution_hz": b.fe_hz,
                      "error_plant_resolution_pct": _num(b.error_pct), "mac_plant_resolution": b.mac})
     cols = [Column("fe_mode", "FE mode"), Column("mujoco_mode", "MuJoCo mode"),
-            Column("mujoco_hz", "MuJoCo [Hz]", ".4f"), Column("fe_thesis_mesh_hz", "FE [Hz] thesis mesh", ".4f"),
+            Column("mujoco_hz", "MuJoCo [Hz]", ".4f"), Column("fe_thesis_mesh_hz", f"FE [Hz] {mesh}", ".4f"),
             Column("error_thesis_mesh_pct", "error [%]", "+.2f"), Column("mac_thesis_mesh", "MAC [-]", ".4f"),
             Column("fe_plant_resolution_hz", "FE [Hz] plant resolution", ".4f"),
             Column("error_plant_resolution_pct", "error [%]", "+.2f"),
@@ -135,9 +146,9 @@ def _print_table(out: str, spec, plant, refs: dict, decay, verdict_lines: list[s
     els = "; ".join(f"{v} in {', '.join(ks) if len(ks) <= 3 else f'{len(ks)} members'}"
                     for v, ks in sorted(by_count.items()))
     console.print(f"FE at the plant's resolution, elements per segment: {els}")
-    console.print(f"max |error|: {thesis.max_error_pct():.2f} % (thesis mesh), "
+    console.print(f"max |error|: {thesis.max_error_pct():.2f} % ({mesh}), "
                   f"{fine.max_error_pct():.2f} % (plant resolution)")
-    for label, r in (("thesis mesh", thesis), ("plant resolution", fine)):
+    for label, r in ((mesh, thesis), ("plant resolution", fine)):
         if not r.unpaired:
             console.print(f"{label}: every MuJoCo mode up to {r.band_hz:.4g} Hz has an FE partner")
         for u in r.unpaired:
@@ -148,7 +159,7 @@ def _print_table(out: str, spec, plant, refs: dict, decay, verdict_lines: list[s
         console.print(line, highlight=False)
 
 
-def _crosscheck_tolerance(refs: dict) -> tuple[dict, list[str]]:
+def _crosscheck_tolerance(refs: dict, mesh: str = "thesis mesh") -> tuple[dict, list[str]]:
     """The cross-check's verdict against :data:`vlab.sim.crosscheck.TOL_PCT` and ``MIN_MAC``: JSON fields, lines.
 
     ``within_tolerance`` is true when every FE mode of every reference (``refs``: name -> CrossCheck) is paired
@@ -165,7 +176,7 @@ def _crosscheck_tolerance(refs: dict) -> tuple[dict, list[str]]:
         worst = max(r.pairs, key=lambda p: abs(p.error_pct) if p.sim_mode is not None else math.inf)
         beyond[key] = {"max_abs_error_pct": err if math.isfinite(err) else None, "min_mac": mac,
                        "fe_mode": worst.fe_mode}
-        label = key.replace("_", " ")
+        label = mesh if key == "thesis_mesh" else key.replace("_", " ")
         err_text = f"{err:.2f} %" if math.isfinite(err) else "an unpaired FE mode"
         lines.append(f"BEYOND TOLERANCE ({label}): max |error| {err_text} (FE mode {worst.fe_mode}) against "
                      f"{TOL_PCT:g} %, min MAC {mac:.4f} against {MIN_MAC:g}")

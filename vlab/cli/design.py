@@ -50,10 +50,9 @@ def design(
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from ..design import design_controller
+    from ..design import design_controller, performance_index_si
+    from ..experiment.config import dissertation_structure, period_source
     from ..experiment.results import design_summary
-    from ..experiment.config import period_source
-    from ..io.tabular import Column
 
     out = checks.output_format(fmt, as_json)
     period_s = checks.period_s(period_ms)
@@ -75,35 +74,67 @@ def design(
         d = design_controller(fe, controller.value, model=reduction.value if reduction else None,
                               measured_modes=measured, seed=seed, period_s=period_s)
     loop = _loop(fe, d, fig_path, overwrite) if (margins or fig_path is not None) else None
+    thesis = dissertation_structure(spec)
+    source = period_source(d.controller, d.period_s, spec)
     if out == "json":
         extra = {"loop": _loop_json(loop)} if margins else {}
-        print_json({**design_summary(d), "period_source": period_source(d.controller, d.period_s), **extra})
+        print_json({**design_summary(d), "period_source": source,
+                    "performance_index_si_1m_ic_s": performance_index_si(d.performance_index),
+                    "beta_si_1m_ic_s": None if d.beta is None else float(performance_index_si(d.beta)), **extra})
         return
     if margins and out == "csv":
         _print_margins(loop, out)
         return
-    n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
-    rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
-             "performance_index_thesis_units": float(d.performance_index[i]) if i < len(d.performance_index) else None}
-            for i in range(n_rows)]
-    cols = [Column("mode", "mode"), Column("frequency_hz", "f [Hz]", ".3f"),
-            Column("damping_ratio", "zeta [-]", ".4f"),
-            Column("performance_index_thesis_units", "J (modal IC) [thesis units]", ".4g")]
+    rows, cols = _mode_rows(d, thesis)
     if out == "csv":
         print_rows(out, rows, cols)
         return
     console.print(f"[bold]{escape(spec.name)} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
                   f"({escape(str(d.message))})")
-    console.print(f"sampling period {d.period_s * 1e3:g} ms ({period_source(d.controller, d.period_s)})")
-    if d.gamma is not None:
-        console.print(f"gamma = {d.gamma:.4f} lb*s/in" + (f", beta = {d.beta:.4g}" if d.beta is not None else ""))
-    g = d.extra.get("gain_thesis_lb_s_per_in")
-    if g is not None:
-        console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
-        console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
+    console.print(f"sampling period {d.period_s * 1e3:g} ms ({source})")
+    _print_gains(d, thesis)
     print_rows(out, rows, cols, "closed loop on the design model")
     if margins:
         _print_margins(loop, out)
+
+
+def _mode_rows(d, thesis: bool) -> tuple[list[dict], list]:
+    """Rows (mode, frequency, damping, J) and columns of the closed-loop table: J in thesis units for the
+    dissertation's structures (its tables), else in SI (:func:`vlab.design.performance_index_si`)."""
+    from ..design import performance_index_si
+    from ..io.tabular import Column
+
+    n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
+    key = "performance_index_thesis_units" if thesis else "performance_index_si_1m_ic_s"
+    j = np.asarray(d.performance_index, dtype=float) if thesis else performance_index_si(d.performance_index)
+    rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
+             key: float(j[i]) if i < len(j) else None} for i in range(n_rows)]
+    cols = [Column("mode", "mode"), Column("frequency_hz", "f [Hz]", ".3f"),
+            Column("damping_ratio", "zeta [-]", ".4f"),
+            Column(key, "J (modal IC) [thesis units]" if thesis else "J (modal IC, 1 m peak) [s]", ".4g")]
+    return rows, cols
+
+
+def _print_gains(d, thesis: bool) -> None:
+    """The DRF objective and gain: in SI (N*s/m) and, for the dissertation's structures, as its tables print
+    them (lb*s/in); an LQ design's gain is in the JSON."""
+    from ..design import performance_index_si
+    from ..units import INCH_M, LBF_N
+
+    if d.gamma is not None:
+        beta = "" if d.beta is None else (f", beta = {d.beta:.4g} (thesis units)" if thesis else
+                                          f", beta = {float(performance_index_si(d.beta)):.4g} s (modal IC, 1 m peak)")
+        si = f"{d.gamma * LBF_N / INCH_M:.4g} N*s/m"
+        console.print((f"gamma = {d.gamma:.4f} lb*s/in ({si})" if thesis else f"gamma = {si}") + beta)
+    g = d.extra.get("gain_thesis_lb_s_per_in")
+    if g is None:
+        return
+    if thesis:
+        console.print("D in lb*s/in (thesis units, the form of Tables 7, 11, 15):")
+        console.print(np.array2string(np.asarray(g), precision=4, suppress_small=True))
+    else:
+        console.print("D in N*s/m (u = -D y, y the sensor velocities in m/s):")
+        console.print(np.array2string(np.asarray(d.gain), precision=4, suppress_small=True))
 
 
 def _loop(fe, d, fig_path, overwrite: bool):

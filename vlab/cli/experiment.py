@@ -187,8 +187,11 @@ def _report(result, files: dict, fe, controller: str, out_fmt: str) -> list[str]
         print_warnings(result.warnings)
         return blocking
     print_rows(out_fmt, rows, cols, f"{fe.spec.title}, {controller}: analysis vs experiment on the {summary['plant']}")
+    from ..experiment.config import period_source
+
+    source = period_source(controller, summary["period_s"], fe.spec)
     console.print(f"analysis: the sampled-data loop (hold, delay, RC filter); sampling period "
-                  f"{summary['period_s'] * 1e3:g} ms ({escape(summary['period_source'])})", highlight=False)
+                  f"{summary['period_s'] * 1e3:g} ms ({escape(source)})", highlight=False)
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: "
                   f"{escape(str(files['results'].parent))}/", highlight=False)
     print_warnings(result.warnings)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import typer
 from rich.markup import escape
@@ -18,11 +19,13 @@ ROBUSTNESS_OUT = "out/robustness"
 
 
 def robustness(
-    structure: str = typer.Argument(..., help="structure: bcc (Beam Cross-Cable) or grid (Hanging Grid)",
-                                    show_default=False),
+    structure: str = typer.Argument(..., help="structure: bcc (Beam Cross-Cable), grid (Hanging Grid) or a "
+                                              "structure file (TOML, with [instrumentation] and [test]; `vlab "
+                                              "init` writes one)", show_default=False),
     samples: str = opt("1000", "--samples", metavar="<integer>",
                        help="Monte Carlo samples, >= 1 (1e4 is read as 10000); a study estimated to take more "
-                            "than 30 min asks for --yes"),
+                            "than 30 min asks for --yes (a structure file's study is estimated after its designs, "
+                            "from one sample and a short MuJoCo run)"),
     seed: int = opt(0, "--seed", help="seed of the draws (sample i draws from default_rng([seed, i])) and of the "
                                       "designs' multi-start, an integer in [0, 2**32)"),
     uncertainty: str = opt(None, "--uncertainty",
@@ -46,7 +49,8 @@ def robustness(
     simulate_random: int = opt(None, "--simulate-random",
                                help="samples per controller drawn at random and run on the MuJoCo lab, >= 0: "
                                     "the MuJoCo plant's P(unstable) is estimated from them (default: 100 for the "
-                                    "BCC, 10 for the grid, whose 12 s runs take about 6 s each)"),
+                                    "BCC, 10 for the grid, whose 12 s runs take about 6 s each, and for a "
+                                    "structure file)"),
     yes: bool = flag("--yes", help="run a study estimated to take more than 30 min"),
     out: str = opt(ROBUSTNESS_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = flag("--overwrite", help="replace an existing non-empty output folder"),
@@ -58,47 +62,47 @@ def robustness(
     """Monte Carlo robustness of MFDRF, LQDRF, LQDRF-diag and LQG, designed on the nominal model (Sec. 7).
 
     Per controller and per plant: P(unstable) with its Wilson interval, the median analysis/experiment
-    peak-ratio error (Table 10) and the damping change with their intervals. Plants: the exact sampled-data
-    loop on every perturbed FE model, and the MuJoCo plant run in time for the worst and for randomly drawn
-    samples (a run that self-excites counts as unstable there and its peak ratios are not used). Outputs:
-    robustness.json, samples.npz, robustness.png, worst_time_history.png, robustness.md, worst.rrd.
+    peak-ratio error (Table 10) and the closed-loop damping change with their intervals. Plants: the exact
+    sampled-data loop on every perturbed FE model, and the MuJoCo plant run in time for the worst and for
+    randomly drawn samples (a run that self-excites counts as unstable there and its peak ratios are not
+    used; its damping comes from the sampled-data loop on that plant's linearisation). Progress and a
+    run-time estimate on stderr. Outputs: robustness.json, samples.npz, robustness.png,
+    worst_time_history.png, robustness.md, worst.rrd.
     """
     from ..io.atomic import atomic_dir
-    from ..robust.pipeline import DEFAULT_RANDOM, run_pipeline
+    from ..robust.pipeline import default_random, mujoco_runs, run_pipeline
     from ..robust.report import write_outputs
     from ..robust.scheduler import confirm_size, parse_samples, parse_scheduler
-    from ..robust.study import StudyConfig, default_workers
-    from ..robust.uncertainty import DEFAULTS, load_uncertainties
+    from ..robust.study import StudyConfig, default_workers, is_dissertation, study_spec
+    from ..robust.uncertainty import defaults_for, load_uncertainties
 
     checks.seed(seed)
-    if structure not in ("bcc", "grid"):
-        raise OptionError(f"robustness: structure {structure!r} is not one of bcc, grid (the study's "
-                          "uncertainties are stated for the dissertation's structures)")
+    checks.load_structure(structure)
     n_samples = parse_samples(samples)
     sched = parse_scheduler(scheduler)
-    if workers is not None and workers < 1:
-        raise OptionError(f"--workers must be >= 1, got {workers!r}")
-    simulate_random = DEFAULT_RANDOM[structure] if simulate_random is None else simulate_random
-    for name, value in (("--simulate", simulate), ("--simulate-random", simulate_random)):
-        if value < 0:
-            raise OptionError(f"{name} must be >= 0, got {value!r}")
+    simulate_random = _check_counts(workers, simulate, default_random(structure) if simulate_random is None
+                                    else simulate_random)
     cfg_controllers = tuple(c.strip() for c in controllers.split(",") if c.strip())
     confirm_size(samples, structure, n_samples, len(cfg_controllers),
                  1 if sched is None else (workers or default_workers()), yes,
-                 runs=len(cfg_controllers) * (min(simulate + simulate_random, n_samples) + 1))
+                 runs=mujoco_runs(len(cfg_controllers), n_samples, simulate, simulate_random))
     out_path = checks.out_dir(out, ROBUSTNESS_OUT, overwrite)
     if markdown_copy is not None:
         from ..io.atomic import check_output_file
 
         check_output_file(markdown_copy, overwrite=overwrite, option="--markdown")
     checks.input_file("--uncertainty", uncertainty)
-    uncs = load_uncertainties(uncertainty) if uncertainty else DEFAULTS
-    cfg = StudyConfig(structure=structure, n_samples=n_samples, seed=seed, uncertainties=uncs,
-                      chunk_size=chunk_size, controllers=cfg_controllers)
+    cfg = StudyConfig(structure=structure, n_samples=n_samples, seed=seed, chunk_size=chunk_size,
+                      controllers=cfg_controllers)
+    study_spec(cfg)  # a structure file without [test] or actuators is refused before anything runs
+    defaults = defaults_for(is_dissertation(cfg))
+    uncs = load_uncertainties(uncertainty, defaults) if uncertainty else defaults
+    cfg = replace(cfg, uncertainties=uncs)
     expect_output(out_path)
     with stages("robustness", "starting", quiet=quiet or as_json) as say:
         nominal, res, summary, study_checks, timings, extras = run_pipeline(
-            cfg, scheduler=sched, workers=workers, n_worst=simulate, n_random=simulate_random, progress=say)
+            cfg, scheduler=sched, workers=workers, n_worst=simulate, n_random=simulate_random, progress=say,
+            yes=yes, samples_text=samples)
     command = _command_line(cfg, uncertainty=uncertainty, controllers=controllers, simulate=simulate,
                             simulate_random=simulate_random)
     with atomic_dir(out_path, overwrite=overwrite, create_parent=out == ROBUSTNESS_OUT) as tmp:
@@ -116,35 +120,62 @@ def robustness(
                   highlight=False)
 
 
+def _check_counts(workers: int | None, simulate: int, simulate_random: int) -> int:
+    """``--workers`` (>= 1), ``--simulate`` and ``--simulate-random`` (>= 0) checked; ``simulate_random`` back.
+
+    Raises
+    ------
+    OptionError
+        A count out of range, naming the option and the value.
+    """
+    if workers is not None and workers < 1:
+        raise OptionError(f"--workers must be >= 1, got {workers!r}")
+    for name, value in (("--simulate", simulate), ("--simulate-random", simulate_random)):
+        if value < 0:
+            raise OptionError(f"{name} must be >= 0, got {value!r}")
+    return simulate_random
+
+
 def _command_line(cfg, *, uncertainty: str | None, controllers: str, simulate: int, simulate_random: int) -> str:
     """The ``vlab robustness`` command that reruns the study of ``cfg`` (options at their defaults left out)."""
-    from ..robust.pipeline import DEFAULT_RANDOM
+    from ..robust.pipeline import default_random
     from ..robust.study import CONTROLLERS as CONTROLLER_ORDER
 
     return f"vlab robustness {cfg.structure} --samples {cfg.n_samples} --seed {cfg.seed}" + (
         f" --uncertainty {uncertainty}" if uncertainty else "") + (
         f" --controllers {controllers}" if cfg.controllers != CONTROLLER_ORDER else "") + (
         f" --simulate {simulate}" if simulate != 4 else "") + (
-        f" --simulate-random {simulate_random}" if simulate_random != DEFAULT_RANDOM[cfg.structure] else "")
+        f" --simulate-random {simulate_random}" if simulate_random != default_random(cfg.structure) else "")
 
 
 def _print_robustness(data: dict, n_samples: int, structure: str) -> None:
     """The per-plant table of ``vlab robustness`` (probabilities with Wilson intervals) and Sec. 7 per plant."""
     names = {"fe_sampled_loop": "FE sampled loop", "mujoco_time_simulation": "MuJoCo, time simulation"}
-    t = Table(title=f"{structure}: {n_samples} samples, controllers designed on the nominal model")
-    for col in ("controller", "plant", "samples", "P(unstable) [95 %]", "peak-ratio error [dB]", "damping change",
-                "works at nominal"):
-        t.add_column(col, justify="right")
+    name = data.get("structure_title") or structure
+    t = Table(title=f"{name}: {n_samples} samples, controllers designed on the nominal model")
+    for col in ("controller", "plant", "samples", "P(unstable) [95 %]", "peak-ratio error [dB] [95 %]",
+                "damping change [95 %]", "works at nominal"):
+        t.add_column(escape(col), justify="right")
     for c in data["per_plant"]["fe_sampled_loop"]:
         for plant, per in data["per_plant"].items():
             v = per[c]
             p, ci = v["probability_unstable"], v["probability_unstable_ci95"]
             e, dz = v["peak_ratio_error_db_median"], v.get("damping_change_relative_median")
+            eci, dci = v.get("peak_ratio_error_db_median_ci95"), v.get("damping_change_relative_median_ci95")
             n = v.get("samples", v.get("simulated_random_samples"))
             t.add_row(c, names.get(plant, plant), str(n),
                       "n/a" if p is None else f"{100 * p:.1f} % [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]",
-                      "n/a" if e is None else f"{e:.3f}", "n/a" if dz is None else f"{100 * dz:.2f} %",
+                      _with_ci(e, eci, ".3f"), _with_ci(dz, dci, ".2f", 100, " %"),
                       {True: "yes", False: "no"}.get(v.get("working_loop_at_nominal"), ""))
     console.print(t)
+    lead = "Sec. 7" if data.get("dissertation_structure", True) else "The controllers"
     for plant, text in data["sec7_on_plants"].items():
-        console.print(f"Sec. 7 on the {names.get(plant, plant)}: {text}", highlight=False, soft_wrap=True)
+        console.print(f"{lead} on the {names.get(plant, plant)}: {text}", highlight=False, soft_wrap=True)
+
+
+def _with_ci(v, ci, fmt: str, scale: float = 1.0, unit: str = "") -> str:
+    """``v`` and its interval, e.g. ``"8.94 % [8.67, 9.39]"``; ``"n/a"`` for None."""
+    if v is None:
+        return "n/a"
+    text = f"{scale * v:{fmt}}{unit}"
+    return text + (f" [{scale * ci[0]:{fmt}}, {scale * ci[1]:{fmt}}]" if ci and ci[0] is not None else "")

@@ -22,12 +22,14 @@ unit system) and :mod:`vlab.design.controller` (the designs).
 """
 
 from .controller import ControllerDesign, design_controller
-from .model import DesignModel, design_model, state_labels, state_scaling, to_thesis_units
+from .model import (DesignModel, design_model, performance_index_si, state_labels, state_scaling,
+                    to_thesis_units)
 from .settings import (CONTROLLERS, DEFAULT_SETTINGS, DESIGN_MODELS, PERIOD_S, THESIS_PERIOD_S, THESIS_SETTINGS,
                        ThesisSettings, design_settings, thesis_period_s)
 
 __all__ = [
     "CONTROLLERS", "DEFAULT_SETTINGS", "DESIGN_MODELS", "PERIOD_S", "THESIS_PERIOD_S", "THESIS_SETTINGS",
     "ControllerDesign", "DesignModel", "ThesisSettings", "design_controller", "design_model", "design_settings",
+    "performance_index_si",
     "state_labels", "state_scaling", "thesis_period_s", "to_thesis_units",
 ]

@@ -88,6 +88,31 @@ def state_labels(labels) -> tuple[str, ...]:
     return vel + pos
 
 
+def performance_index_si(j_thesis) -> np.ndarray:
+    """A performance index of the thesis unit system in SI: initial conditions of 1 m peak deflection, time in s.
+
+    ``J_i`` of a design (Eqs. 4.7, 4.20, 4.33; :attr:`vlab.design.ControllerDesign.performance_index`) is
+    ``int (x^T Q x + u^T R u) dtau`` in the thesis states (in/cs, rad/cs, in, rad), lbf and centiseconds,
+    from ``x0 = [0; phi_i]`` with a peak deflection of 1 in. With the weights written in SI,
+    ``Q_SI = S^-1 Q S^-1`` (``S`` the SI value of one thesis state unit, :func:`state_scaling`) and
+    ``R_SI = R / lbf^2``, the integrand keeps its value and ``dtau = dt / 0.01 s``; scaling ``x0`` to a
+    peak of 1 m multiplies ``J`` by ``(1 / 0.0254)^2``::
+
+        J_SI = J_thesis * 0.01 s / 0.0254^2
+
+    Parameters
+    ----------
+    j_thesis : float or array_like
+        ``J`` (or the LQDRF bound ``beta``, the same quantity) in thesis units.
+
+    Returns
+    -------
+    ndarray
+        ``J`` [s] for modal initial conditions of 1 m peak deflection and the SI weights, same shape.
+    """
+    return np.asarray(j_thesis, dtype=float) * CS_S / INCH_M ** 2
+
+
 def to_thesis_units(a: np.ndarray, labels) -> np.ndarray:
     """Convert a SI mass/damping/stiffness matrix to in-lbf units: ``S a S / (lbf * in)``.
 

@@ -312,12 +312,12 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
                    var0=var0)
     out, skipped = [], []
     hyps = library(nominal, ctx, effects=effects)
-    say(f"thresholds of {len(hyps)} hypotheses")
-    for h in hyps:
-        if h.n_params != 1:
-            skipped.append(h.label)
-            continue
+    one = [h for h in hyps if h.n_params == 1]
+    skipped = [h.label for h in hyps if h.n_params != 1]
+    eta = Eta(say, len(one), "detection thresholds", "hypotheses", later="; the naming follows" if naming else "")
+    for i, h in enumerate(one):
         out.extend(effect_thresholds(tester, h))
+        eta.step(i, h.label)
     if naming:
         out = _with_naming(tester, hyps, out, look_alikes, say)
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
@@ -334,15 +334,74 @@ def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say)
     say(f"naming among {len(pool)} look-alikes")
     # the look-alikes serve as directions (their size scales them, the gap test does not depend on it): their
     # first-order thresholds suffice
-    extra = [t for h in pool if h.label not in have for t in effect_thresholds(tester, h, profiled=False)]
+    todo = [h for h in pool if h.label not in have]
+    eta, extra = Eta(say, len(todo), "look-alikes' first-order thresholds", "hypotheses"), []
+    for i, h in enumerate(todo):
+        extra.extend(effect_thresholds(tester, h, profiled=False))
+        eta.step(i, h.label)
     pooled = {h.label for h in pool}
     directions = LookAlikes(tester, pool + [h for h in hyps if h.label not in pooled], out + extra)
     named = []
-    for t in out:
+    eta = Eta(say, len(out), "naming thresholds", "thresholds")
+    for i, t in enumerate(out):
         h = next(x for x in hyps if x.effect == t.effect and x.location == t.location)
         n = naming_threshold(directions, h, t)
         named.append(replace(t, named_at=n.threshold, look_alike=n.look_alike, look_alike_chi2=n.gap_chi2))
+        eta.step(i, h.label)
     return named
+
+
+def duration_text(seconds: float) -> str:
+    """``seconds`` as ``"40 s"``, ``"3.5 min"`` or ``"1.2 h"`` (two significant figures)."""
+    for unit, size in (("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+class Eta:
+    """Progress of a loop of ``n`` items said through ``say``: after the first item an estimate of the whole
+    loop (from that item's time), then a line with the items done and the time left (from the mean time of
+    those done) whenever :attr:`EVERY_S` seconds have passed since the last line, and at the end.
+
+    Parameters
+    ----------
+    say : callable
+        Takes one line.
+    n : int
+        Items in the loop.
+    what : str
+        The loop, in words (``"detection thresholds"``).
+    items : str
+        Its items, in words (``"hypotheses"``).
+    later : str
+        Appended to the estimate (what comes after the loop).
+    """
+
+    #: Least time between two progress lines [s].
+    EVERY_S = 10.0
+
+    def __init__(self, say, n: int, what: str, items: str, later: str = ""):
+        import time
+
+        self._clock = time.perf_counter
+        self.say, self.n, self.what, self.later = say, int(n), what, later
+        self.t0 = self.last = self._clock()
+        say(f"{what}: {n} {items}")
+
+    def step(self, i: int, label: str) -> None:
+        """Item ``i`` (0-based) is done; ``label`` names it."""
+        now = self._clock()
+        done, spent = i + 1, now - self.t0
+        if done == 1 and self.n > 1:
+            self.say(f"estimate: about {duration_text(spent * self.n)} for the {self.what} (the first of "
+                     f"{self.n} took {spent:.2g} s){self.later}")
+        elif now - self.last >= self.EVERY_S or done == self.n:
+            self.say(f"{self.what}: {done} of {self.n} done ({label}), about "
+                     f"{duration_text(spent / done * (self.n - done))} left")
+        else:
+            return
+        self.last = now
 
 
 def figure(result: Detectability, spec: StructureSpec, path, *, effect: str = "added_mass"):

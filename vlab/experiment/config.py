@@ -195,8 +195,28 @@ def default_chain(
     )
 
 
-def period_source(controller: str, period_s: float) -> str:
-    """Where a run's sampling period comes from, for reports: the thesis's value or a user setting.
+def dissertation_structure(structure) -> bool:
+    """Whether ``structure`` is one of the dissertation's (the BCC or the grid), whose tables are compared.
+
+    Reports give a dissertation structure's numbers also in the thesis's units (in, lbf, cs) and name the
+    thesis's values and sections; any other structure gets SI and vlab's defaults only.
+
+    Parameters
+    ----------
+    structure : str or StructureSpec
+        A name (``"bcc"``, ``"grid"``), a TOML path, or a spec (its ``name``).
+
+    Returns
+    -------
+    bool
+        True for a name or a spec named like a shipped test (:data:`TESTS`); a path or any other name: False.
+    """
+    name = getattr(structure, "name", structure)
+    return isinstance(name, str) and name in TESTS
+
+
+def period_source(controller: str, period_s: float, structure=None) -> str:
+    """Where a run's sampling period comes from, for reports: the default value or a user setting.
 
     Parameters
     ----------
@@ -204,11 +224,15 @@ def period_source(controller: str, period_s: float) -> str:
         ``"none"`` or one of :data:`vlab.design.CONTROLLERS`.
     period_s : float
         The period used [s].
+    structure : str or StructureSpec, optional
+        The structure; one that is not the dissertation's (:func:`dissertation_structure`) gets vlab's
+        default named without the thesis (default None: the dissertation's wording).
 
     Returns
     -------
     str
-        E.g. ``"thesis value for lqg (Sec. 5.3)"`` or ``"set by the user (thesis value for lqg: 1 ms)"``.
+        E.g. ``"thesis value for lqg (Sec. 5.3)"``, ``"set by the user (thesis value for lqg: 1 ms)"``, or for
+        a structure of one's own ``"default for lqg"`` / ``"set by the user (default for lqg: 1 ms)"``.
 
     Raises
     ------
@@ -218,9 +242,11 @@ def period_source(controller: str, period_s: float) -> str:
     from ..design import thesis_period_s
 
     ref = thesis_period_s(controller)
+    own = structure is not None and not dissertation_structure(structure)
+    name = "the open loop" if own and controller == "none" else controller
     if abs(period_s - ref) <= 1e-12 * ref:
-        return f"thesis value for {controller} (Sec. 5.3)"
-    return f"set by the user (thesis value for {controller}: {ref * 1e3:g} ms)"
+        return f"default for {name}" if own else f"thesis value for {controller} (Sec. 5.3)"
+    return f"set by the user ({'default' if own else 'thesis value'} for {name}: {ref * 1e3:g} ms)"
 
 
 def test_of(fe: FEModel) -> tuple[StructureTest, tuple[int, ...], int]:

@@ -82,7 +82,8 @@ def distribution_plots(path: Path, cfg: StudyConfig, nominal: Nominal, res: dict
         _violin_panel(axes[1, r], [d[np.isfinite(d)] for d in db], f"mode {r + 1}: peak ratio [dB]", labels,
                       zero_line=True)
     axes[0, 0].legend(fontsize=7)
-    e = [res[f"{c}/energy_j_s"] / nominal.energy_j_s[c] for c in ctl]
+    with np.errstate(invalid="ignore"):  # an unstable nominal loop: inf / inf (NaN, not drawn)
+        e = [res[f"{c}/energy_j_s"] / nominal.energy_j_s[c] for c in ctl]
     _violin_panel(axes[2, 0], [x[np.isfinite(x)] for x in e], "energy index / nominal", labels)
     ax = axes[2, 1] if nm > 1 else axes[2, 0]
     _probability_panel(ax, ctl, labels, plants)

@@ -28,10 +28,9 @@ import numpy as np
 from ..fe import build_fe_model
 from ..fe.modal import modal_analysis
 from ..lab.loop import HardwareChain
-from ..models import nominal_fe_model
 from ..spec import with_quantity
 from .simulate import CHECK_NOISE_M_S, run_cases
-from .study import Nominal, StudyConfig
+from .study import Nominal, StudyConfig, nominal_spec
 
 #: The changes tried: (quantity, value, unit); ``None`` is the unchanged loop.
 CHANGES = (
@@ -70,7 +69,7 @@ def fe_loop_mode_near(cfg: StudyConfig, nominal: Nominal, controller: str, frequ
     """
     from .simulate import _linear_loop
 
-    spec0 = nominal_fe_model(cfg.structure).spec
+    spec0 = nominal_spec(cfg, nominal)
     chain0 = nominal.chains[controller]
     ones = np.ones(len(nominal.actuators))
     loop = _linear_loop(spec0, nominal, controller, nominal.response_point, delay_periods=chain0.delay_periods,
@@ -110,7 +109,7 @@ def limit_cycle_sensitivity(cfg: StudyConfig, nominal: Nominal, controller: str,
     SpecError
         From the changed specs.
     """
-    spec0 = nominal_fe_model(cfg.structure).spec
+    spec0 = nominal_spec(cfg, nominal)
     chain0 = nominal.chains[controller]
     base = HardwareChain(period_s=chain0.period_s, delay_periods=chain0.delay_periods, filter_hz=chain0.filter_hz,
                          noise_m_s=CHECK_NOISE_M_S)

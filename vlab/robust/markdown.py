@@ -78,13 +78,12 @@ def plant_table(plants: dict, sim: dict, n_modes: int) -> list[str]:
                         f"{sim.get('resolution_hz', '?')} Hz line)")
             lines.append(f"| {LABELS[c]} | {where} | {_pct(v['probability_unstable'], v['probability_unstable_ci95'])} "
                          f"| {err} | "
-                         + ("not measured (4 s records)" if damp is None and plant != "fe_sampled_loop" else
-                            _num(damp, v.get("damping_change_relative_median_ci95"), ".2f", 100, " %"))
+                         + _num(damp, v.get("damping_change_relative_median_ci95"), ".2f", 100, " %")
                          + f" | {nominal} |")
     return lines
 
 
-def _not_working(plants: dict, fe_modes: dict) -> list[str]:
+def _not_working(plants: dict, fe_modes: dict, dissertation: bool = True) -> list[str]:
     """Sentences for the controllers whose unperturbed loop is unstable on the MuJoCo plant (Sec. 6.1 compared)."""
     lines = []
     for c, v in plants.get("mujoco_time_simulation", {}).items():
@@ -100,11 +99,12 @@ def _not_working(plants: dict, fe_modes: dict) -> list[str]:
                   f"{fe['peak_ratio_error_db_median']:.3f} dB) are those of a loop that works on the FE model, "
                   f"residual modes included{near}, and not on the MuJoCo plant: "
                   f"{v['unstable_random_samples']} of {v['simulated_random_samples']} random samples self-excite "
-                  "there. The dissertation's LQG ended in a limit cycle too, at about 41 Hz (Sec. 6.1)."]
+                  "there." + (" The dissertation's LQG ended in a limit cycle too, at about 41 Hz (Sec. 6.1)."
+                              if dissertation and c == "lqg" else "")]
     return lines
 
 
-def _fe_lines(cfg: StudyConfig, nominal: Nominal, summary: Summary) -> list[str]:
+def _fe_lines(cfg: StudyConfig, nominal: Nominal, summary: Summary, dissertation: bool = True) -> list[str]:
     pc = summary.per_controller
     lines = ["", "## The sampled-data loop on the perturbed FE model (all samples)", "",
              "| controller | P(unstable) | median peak-ratio error [dB] | median relative damping change | "
@@ -120,9 +120,10 @@ def _fe_lines(cfg: StudyConfig, nominal: Nominal, summary: Summary) -> list[str]
     peaks = [(c, ["n/a" if q["median"] is None else f"{q['median']:.3f} [{q['p5']:.3f}, {q['p95']:.3f}]"
                   for q in pc[c]["peak_ratio_analysis_over_experiment_by_mode"]]) for c in cfg.controllers]
     lines += _per_mode_table("Damping ratio per mode (median [5 %, 95 %]; nominal):", nominal.n_modes, damping)
-    lines += _per_mode_table("Peak level ratio analysis/experiment per mode (median [5 %, 95 %], as Table 10):",
-                             nominal.n_modes, peaks)
-    lines += ["", "Sec. 7's ordering on this plant, per metric (most to least robust):", ""]
+    lines += _per_mode_table("Peak level ratio analysis/experiment per mode (median [5 %, 95 %]"
+                             + (", as Table 10):" if dissertation else "):"), nominal.n_modes, peaks)
+    lines += ["", ("Sec. 7's ordering" if dissertation else "The dissertation's ordering (Sec. 7: LQG least, "
+                   "LQDRF-diag most robust)") + " on this plant, per metric (most to least robust):", ""]
     for m, order in summary.ranking.items():
         tc = summary.thesis_conclusion.get(m, {})
         note = ""
@@ -198,34 +199,63 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
     """
     from .plants import per_plant, sec7_on_plants
 
+    from .study import is_dissertation, nominal_spec
+
     extras = extras or {}
     sim = extras.get("time_simulation", {})
     plants = per_plant(summary, checks, cfg.n_samples, cfg.seed)
+    diss = is_dissertation(cfg)
+    spec = nominal_spec(cfg, nominal)
     lines = [
-        f"# Robustness of the controllers to modelling errors: {cfg.structure.upper()}", "",
+        f"# Robustness of the controllers to modelling errors: {cfg.structure.upper() if diss else spec.title}", "",
         f"Written by `{command}` ({cfg.n_samples} Monte Carlo samples, seed {cfg.seed}, "
         f"{timings.get('total', float('nan')):.0f} s on this machine; the samples ran in "
         f"{timings.get('study', float('nan')):.0f} s on {timings.get('where', '?')}, the MuJoCo runs took "
         f"{timings.get('time_simulation', float('nan')):.0f} s).", "",
-        "Each controller is designed once on the nominal FE model with the thesis settings and run, unchanged, "
-        "on every perturbed model (the dissertation's situation: design on the analysis model, test on the "
-        "structure). Two plants answer: the exact sampled-data loop on each perturbed FE model (zero-order hold, "
-        "computation delay, 677 Hz RC filter, Eq. 5.1 engine; `vlab.robust.sampled_loop`), and the MuJoCo plant "
-        "built from the same perturbed spec, run in time (hinge chain, residual modes above the design model's).",
+        "Each controller is designed once on the nominal FE model with "
+        + ("the thesis settings" if diss else "the structure file's [design] settings")
+        + " and run, unchanged, on every perturbed model (the dissertation's situation: design on the analysis "
+        "model, test on the structure). Two plants answer: the exact sampled-data loop on each perturbed FE model "
+        f"(zero-order hold, computation delay, {_filter_text(nominal)}, Eq. 5.1 engine; "
+        "`vlab.robust.sampled_loop`), and the MuJoCo plant built from the same perturbed spec, run in time "
+        "(hinge chain, residual modes above the design model's).",
         "", "## Distributions", "", "| group | kind | spread | source |", "|---|---|---|---|"]
     for u in cfg.uncertainties:
         sp = f"{u.spread:g} periods" if u.group == "delay_periods" else f"{100 * u.spread:g} %"
         lines.append(f"| {u.group} | {u.kind} | {sp} | {u.source} |")
-    lines += ["", "## Sec. 7 restated: each controller on each plant", "",
+    lines += ["", "## " + ("Sec. 7 restated: each" if diss else "Each") + " controller on each plant", "",
               "Probabilities with the Wilson 95 % interval, medians with a 95 % bootstrap interval; the peak-ratio "
-              "error is each sample's mean over modes of |20 log10(analysis/experiment)| (Table 10's ratio), over "
-              "the samples stable on that plant.", ""]
+              "error is each sample's mean over modes of |20 log10(analysis/experiment)| "
+              + ("(Table 10's ratio), " if diss else "") + "over the samples stable on that plant; the damping "
+              "change each sample's mean over modes of |zeta / zeta_nominal - 1| against the nominal FE loop's "
+              "damping (on the MuJoCo plant: the sampled-data loop on the linearisation of each simulated sample's "
+              "plant, `vlab.robust.plant_loop` -- the 4 s records' line spacing is wider than the controlled "
+              "modes' half-power bands).", ""]
     lines += plant_table(plants, sim, nominal.n_modes)
     lines += [""] + [f"- **{p}**: {text}" for p, text in sec7_on_plants(plants).items()]
-    lines += _not_working(plants, extras.get("fe_loop_mode_near_limit_cycle", {}))
-    lines += _fe_lines(cfg, nominal, summary)
+    lines += _model_part(plants)
+    lines += _not_working(plants, extras.get("fe_loop_mode_near_limit_cycle", {}), diss)
+    lines += _fe_lines(cfg, nominal, summary, diss)
     if checks:
         lines += _sim_lines(checks, sim)
     lines += _limit_cycle_lines(extras.get("limit_cycle_sensitivity", {}))
     lines.append("")
     return "\n".join(lines)
+
+
+def _filter_text(nominal: Nominal) -> str:
+    """The RC filter of the controllers' chains in words (``"677 Hz RC filter"``, or ``"no RC filter"``)."""
+    corners = {ch.filter_hz for ch in nominal.chains.values()}
+    return ", ".join("no RC filter" if f is None else f"{f:g} Hz RC filter" for f in sorted(corners, key=str))
+
+
+def _model_part(plants: dict) -> list[str]:
+    """A sentence on the MuJoCo plant's damping change at nominal (the model's part), per controller."""
+    rows = {c: v.get("nominal_plant_damping_change_relative")
+            for c, v in plants.get("mujoco_time_simulation", {}).items()}
+    rows = {c: v for c, v in rows.items() if v is not None}
+    if not rows:
+        return []
+    return ["", "The unperturbed MuJoCo plant's damping change from the nominal FE loop (the model's own part of "
+            "the MuJoCo plant's numbers): " + ", ".join(f"{LABELS[c]} {100 * v:.2f} %" for c, v in rows.items())
+            + "."]

@@ -59,8 +59,14 @@ def check_dict(ch) -> dict:
             "verdicts": list(ch.summaries),
             "peak_measured_over_linear_by_mode": rows(ch.peak_sim_over_linear),
             "peak_analysis_over_experiment_by_mode": rows(ch.peak_analysis_over_experiment),
+            "damping_ratio_linearised_mujoco_by_mode": ([] if ch.damping_ratio is None else rows(ch.damping_ratio)),
+            "spectral_radius_linearised_mujoco": ([] if ch.linear_spectral_radius is None
+                                                  else [_f(v) for v in ch.linear_spectral_radius]),
             "nominal_plant": {"unstable": ch.nominal.unstable, "frequency_hz": _f(ch.nominal.frequency_hz),
-                              "growth_rate_1_s": _f(ch.nominal.growth_rate_1_s), "summary": ch.nominal.summary}}
+                              "growth_rate_1_s": _f(ch.nominal.growth_rate_1_s), "summary": ch.nominal.summary,
+                              "damping_ratio_linearised_by_mode": (None if ch.nominal_damping_ratio is None else
+                                                                   [_f(v) for v in ch.nominal_damping_ratio]),
+                              "spectral_radius_linearised": _f(ch.nominal_linear_spectral_radius)}}
 
 
 def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timings: dict, *,
@@ -86,8 +92,14 @@ def results_dict(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, t
 
     plants = per_plant(summary, checks, cfg.n_samples, cfg.seed)
     extras = extras or {}
+    from .study import is_dissertation, nominal_spec
+
+    spec = nominal_spec(cfg, nominal)
     out = {
         "structure": cfg.structure,
+        "structure_name": spec.name,
+        "structure_title": spec.title,
+        "dissertation_structure": is_dissertation(cfg),
         "samples": cfg.n_samples,
         "seed": cfg.seed,
         "chunk_size_samples": cfg.chunk_size,
@@ -185,10 +197,11 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
     OSError
         From writing.
     """
-    from ..experiment.config import TESTS
+    from ..experiment.config import test_definition
     from .figures import distribution_plots, time_history_plot
     from .markdown import markdown
     from .plants import per_plant
+    from .study import nominal_spec
 
     folder = Path(folder)
     files = {"json": folder / "robustness.json", "samples": folder / "samples.npz",
@@ -210,12 +223,13 @@ def write_outputs(folder: Path, cfg: StudyConfig, nominal: Nominal, res: dict, s
                  f"{100 * ch.power_above_band[row]:.1f} % of the power above the band"
                  if ch.unstable_on_plant[row] else "stable on MuJoCo")
         state += f"; FE sampled loop: {'unstable' if ch.predicted_unstable[row] else 'stable'}"
-        test = TESTS[cfg.structure]
+        spec = nominal_spec(cfg, nominal)
+        test, test_name = test_definition(spec), spec.name
         files["time_history"] = time_history_plot(
             folder / "worst_time_history.png", rec, response_point=test.response_point, band_hz=test.band_hz,
             title=f"{_LABELS[ch.controller]}, sample {int(ch.indices[row])}: {state}")
         files["rerun"] = log_experiment(folder / "worst.rrd", recording=rec.recording,
-                                        metadata={"structure": cfg.structure, "controller": ch.controller,
+                                        metadata={"structure": test_name, "controller": ch.controller,
                                                   "sample": int(ch.indices[row])})
     return files
 

@@ -142,29 +142,40 @@ def parse_samples(value) -> int:
     return int(x)
 
 
-def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers: int, runs: int = 0) -> float:
-    """Rough run time of a study [s]: :data:`SECONDS_PER_SAMPLE` scaled to the controllers and workers, plus
-    ``runs`` MuJoCo runs of :data:`SECONDS_PER_RUN`.
+def estimate_seconds(structure: str, n_samples: int, n_controllers: int, workers: int, runs: int = 0, *,
+                     per_sample_s: float | None = None, per_run_s: float | None = None) -> float:
+    """Rough run time of a study [s]: the samples spread over the workers, plus ``runs`` MuJoCo runs.
 
     Parameters
     ----------
     structure : str
-        ``"bcc"`` or ``"grid"``.
+        ``"bcc"`` or ``"grid"`` (costs :data:`SECONDS_PER_SAMPLE`, :data:`SECONDS_PER_RUN`), or any structure
+        with both costs given.
     n_samples, n_controllers, workers : int
         ``workers`` >= 1 processes.
     runs : int
         MuJoCo runs of the time check, all controllers together.
+    per_sample_s, per_run_s : float, optional
+        Measured costs [s] (:func:`vlab.robust.estimate.measure_costs`): one sample with every controller of
+        the study, one run; they replace the tables.
 
     Returns
     -------
     float
+        NaN for a structure without tabled costs and none given.
     """
-    return (SECONDS_PER_SAMPLE[structure] * n_samples * n_controllers / 4 / max(workers, 1)
-            + SECONDS_PER_RUN[structure] * runs)
+    if per_sample_s is None:
+        if structure not in SECONDS_PER_SAMPLE:
+            return math.nan
+        per_sample_s = SECONDS_PER_SAMPLE[structure] * n_controllers / 4
+    if per_run_s is None:
+        per_run_s = SECONDS_PER_RUN.get(structure, math.nan)
+    return per_sample_s * n_samples / max(workers, 1) + (per_run_s * runs if runs else 0.0)
 
 
 def confirm_size(samples_text: str, structure: str, n_samples: int, n_controllers: int, workers: int,
-                 yes: bool, runs: int = 0) -> float:
+                 yes: bool, runs: int = 0, *, per_sample_s: float | None = None,
+                 per_run_s: float | None = None) -> float:
     """Refuse a study estimated (:func:`estimate_seconds`) to run longer than :data:`CONFIRM_ABOVE_S` unless ``yes``.
 
     Parameters
@@ -177,21 +188,25 @@ def confirm_size(samples_text: str, structure: str, n_samples: int, n_controller
         ``--yes``.
     runs : int
         MuJoCo runs of the time check (:func:`estimate_seconds`).
+    per_sample_s, per_run_s : float, optional
+        Measured costs [s], as :func:`estimate_seconds`.
 
     Returns
     -------
     float
-        The estimate [s].
+        The estimate [s] (NaN where it cannot be made before the designs: a structure without tabled costs).
 
     Raises
     ------
     OptionError
         Over the limit without ``yes``: the message gives the estimate.
     """
-    est = estimate_seconds(structure, n_samples, max(n_controllers, 1), workers, runs)
+    est = estimate_seconds(structure, n_samples, max(n_controllers, 1), workers, runs, per_sample_s=per_sample_s,
+                           per_run_s=per_run_s)
     if est > CONFIRM_ABOVE_S and not yes:
         raise OptionError(f"--samples {samples_text}: about {format_duration(est)} on {workers} process(es) "
-                          f"({n_samples} samples); pass --yes to run it, or fewer samples")
+                          f"({n_samples} samples, {runs} MuJoCo runs); pass --yes to run it, or fewer samples "
+                          "(or fewer --simulate-random)")
     return est
 
 

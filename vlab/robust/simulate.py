@@ -42,16 +42,17 @@ from ..fe import build_fe_model
 from ..lab.batch import run_batch
 from ..lab.engine import ControllerEngine
 from ..lab.excitation import pseudo_random
+from ..errors import SimulationError
 from ..experiment.checks import self_excited_oscillation
-from ..experiment.config import TESTS
+from ..experiment.config import test_definition
 from ..lab.loop import HardwareChain
 from ..measure.frf import h1
 from ..measure.instability import find_instability
-from ..models import nominal_fe_model
 from ..sim import MujocoPlant, SimOptions, build_plant
 from ..sim.batch_plant import MujocoBatchPlant, layout
+from .plant_loop import plant_loop_damping
 from .sampled_loop import modal_plant, peak_windows, sampled_loop
-from .study import PEAK_HALF_WIDTH, Nominal, StudyConfig
+from .study import PEAK_HALF_WIDTH, Nominal, StudyConfig, nominal_spec
 from .uncertainty import apply_sample, draw_sample
 
 #: Frequency resolution of the check [Hz]: records of 4 s (the full test's 0.05 Hz needs 20 s records).
@@ -169,8 +170,31 @@ def judge_run(result, *, n_ticks: int, feedback_points, response_point: int, ban
     return PlantVerdict(False, False, False, nan, nan, nan, share, check.summary())
 
 
+def build_plants(spec0, specs) -> list:
+    """The MuJoCo plants of ``specs``, each built as ``build_plant`` builds it with the physics step of ``spec0``'s.
+
+    Parameters
+    ----------
+    spec0 : StructureSpec
+        The nominal structure (its plant's step is used for every plant).
+    specs : sequence of StructureSpec
+
+    Returns
+    -------
+    list of vlab.sim.Plant
+
+    Raises
+    ------
+    SimulationError, SpecError
+        From :func:`vlab.sim.build_plant`.
+    """
+    opts = SimOptions(timestep_s=build_plant(spec0).timestep_s)
+    return [build_plant(sp, opts) for sp in specs]
+
+
 def run_cases(cfg: StudyConfig, nominal: Nominal, controller: str, specs, chains, seeds, *, seed: int = 0,
-              nthread: int = 0, resolution_hz: float = CHECK_RESOLUTION_HZ, records: int = CHECK_RECORDS):
+              nthread: int = 0, resolution_hz: float = CHECK_RESOLUTION_HZ, records: int = CHECK_RECORDS,
+              plants=None):
     """Run ``controller`` on the MuJoCo plants of ``specs`` with ``chains``, batched by model layout.
 
     Parameters
@@ -191,6 +215,8 @@ def run_cases(cfg: StudyConfig, nominal: Nominal, controller: str, specs, chains
     resolution_hz : float
         [Hz]; ``records`` periods run.
     records : int
+    plants : list of vlab.sim.Plant, optional
+        The plants of ``specs`` already built (:func:`build_plants`; default: built here).
 
     Returns
     -------
@@ -203,12 +229,11 @@ def run_cases(cfg: StudyConfig, nominal: Nominal, controller: str, specs, chains
     batches : int
         ``mujoco.batch`` runs (one per model layout).
     """
-    spec0 = nominal_fe_model(cfg.structure).spec
-    test = TESTS[cfg.structure]
+    spec0 = nominal_spec(cfg, nominal)
+    test = test_definition(spec0)
     acts = nominal.actuators
     design, chain0 = nominal.designs[controller], nominal.chains[controller]
-    opts = SimOptions(timestep_s=build_plant(spec0).timestep_s)
-    plants = [build_plant(sp, opts) for sp in specs]
+    plants = build_plants(spec0, specs) if plants is None else plants
     record_s = 1.0 / resolution_hz
     dur = records * record_s
     t = np.arange(int(round(dur / chain0.period_s))) * chain0.period_s
@@ -226,7 +251,7 @@ def run_cases(cfg: StudyConfig, nominal: Nominal, controller: str, specs, chains
                         excitation_point=acts[nominal.excitation], excitation=exc, duration_s=dur,
                         chain=[chains[r] for r in rows], seeds=[int(seeds[r]) for r in rows])
         for g, r in enumerate(rows):
-            results[r] = out.result(g, metadata={"structure": cfg.structure, "controller": controller})
+            results[r] = out.result(g, metadata={"structure": spec0.name, "controller": controller})
     verdicts = [judge_run(r, n_ticks=t.size, feedback_points=acts, response_point=test.response_point,
                           band_hz=test.band_hz, settle_s=record_s) for r in results]
     return results, exc, verdicts, len(groups)
@@ -285,6 +310,15 @@ class SimCheck:
     nominal : PlantVerdict
         The unperturbed plant with the thesis chain.
     nominal_recording : LoopResult
+    damping_ratio : ndarray, shape (k, n_modes)
+        Closed-loop damping ratio [-] of each compared mode on the sample's MuJoCo plant, from the sampled-data
+        loop on its linearisation (:mod:`vlab.robust.plant_loop`); NaN where the run is unstable on the plant
+        or a mode is not paired.
+    linear_spectral_radius : ndarray, shape (k,)
+        ``max |z|`` of that loop [-] (NaN where the plant could not be linearised).
+    nominal_damping_ratio : ndarray, shape (n_modes,)
+        The same for the unperturbed plant with the thesis chain [-].
+    nominal_linear_spectral_radius : float
     """
 
     controller: str
@@ -304,6 +338,10 @@ class SimCheck:
     batches: int
     nominal: PlantVerdict
     nominal_recording: object
+    damping_ratio: np.ndarray | None = None
+    linear_spectral_radius: np.ndarray | None = None
+    nominal_damping_ratio: np.ndarray | None = None
+    nominal_linear_spectral_radius: float = math.nan
 
 
 def linear_error_db(res: dict, nominal: Nominal, controller: str) -> np.ndarray:
@@ -378,7 +416,7 @@ def choose_samples(res: dict, nominal: Nominal, controller: str, n_worst: int, n
 
 def _peak_ratios(cfg, nominal, controller, loop, rec, exc, skip, resolution_hz, nominal_loop):
     """(measured/linear, nominal linear/measured) peak ratios near each mode, shapes (n_modes,) each."""
-    test = TESTS[cfg.structure]
+    test = test_definition(nominal_spec(cfg, nominal))
     frf = h1(exc[skip:], rec[f"vel{test.response_point}"][skip:], dt_s=nominal.chains[controller].period_s,
              resolution_hz=resolution_hz, window="boxcar", f_max_hz=test.band_hz[1]).band(*test.band_hz)
     lin, nom = loop.frf(frf.freq_hz), nominal_loop.frf(frf.freq_hz)
@@ -445,8 +483,7 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     ``12 EI / (kGA L^2)``, which the bending stiffness moves). Plants that
     share a layout run as one batch; each layout gets its own.
     """
-    fe0 = nominal_fe_model(cfg.structure)
-    spec0, acts = fe0.spec, nominal.actuators
+    spec0, acts = nominal_spec(cfg, nominal), nominal.actuators
     idx = np.asarray(indices, dtype=int)
     wst = np.ones(idx.size, dtype=bool) if worst is None else np.asarray(worst, dtype=bool)
     rnd = np.zeros(idx.size, dtype=bool) if random is None else np.asarray(random, dtype=bool)
@@ -458,9 +495,11 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
     chains.append(HardwareChain(period_s=chain0.period_s, delay_periods=chain0.delay_periods,
                                 filter_hz=chain0.filter_hz, noise_m_s=CHECK_NOISE_M_S))
     seeds = [seed + 1 + int(i) for i in idx] + [seed]
+    plants = build_plants(spec0, specs)
     results, exc, verdicts, batches = run_cases(cfg, nominal, controller, specs, chains, seeds, seed=seed,
-                                                nthread=nthread, resolution_hz=resolution_hz, records=records)
-    resp = TESTS[cfg.structure].response_point
+                                                nthread=nthread, resolution_hz=resolution_hz, records=records,
+                                                plants=plants)
+    resp = nominal.response_point
     ones = np.ones(len(acts))
     nominal_loop = _linear_loop(spec0, nominal, controller, resp, delay_periods=chain0.delay_periods,
                                 actuator_gain=ones, sensor_gain=ones)
@@ -475,9 +514,33 @@ def simulate_samples(cfg: StudyConfig, nominal: Nominal, controller: str, indice
         if not verdicts[row].unstable:
             sim_lin[row], ana_exp[row] = _peak_ratios(cfg, nominal, controller, loop, results[row].recording, exc,
                                                       skip, resolution_hz, nominal_loop)
+    damp, rho = _plant_damping(nominal, controller, plants, samples + [None], verdicts)
     v = verdicts[:k]
     return SimCheck(controller, idx, wst, rnd, predicted, np.array([x.diverged for x in v], dtype=bool),
                     np.array([x.unstable for x in v], dtype=bool), np.array([x.frequency_hz for x in v]),
                     np.array([x.growth_rate_1_s for x in v]), np.array([x.power_above_band for x in v]),
                     tuple(x.summary for x in v), sim_lin, ana_exp,
-                    tuple(r if w else None for r, w in zip(results[:k], wst)), batches, verdicts[k], results[k])
+                    tuple(r if w else None for r, w in zip(results[:k], wst)), batches, verdicts[k], results[k],
+                    damp[:k], rho[:k], damp[k], float(rho[k]))
+
+
+def _plant_damping(nominal: Nominal, controller: str, plants, samples, verdicts):
+    """Closed-loop damping (shape (len(plants), n_modes) [-]) and spectral radius (shape (len(plants),) [-]) of
+    ``controller`` on each plant's linearisation (:func:`vlab.robust.plant_loop.plant_loop_damping`) with its
+    sample's chain (None: the thesis chain); damping NaN where the run was unstable on the plant."""
+    n_act = len(nominal.actuators)
+    damp = np.full((len(plants), nominal.n_modes), np.nan)
+    rho = np.full(len(plants), np.nan)
+    for row, (plant, s, verdict) in enumerate(zip(plants, samples, verdicts)):
+        ones = np.ones(n_act)
+        try:
+            pl = plant_loop_damping(plant, nominal, controller,
+                                    delay_periods=nominal.chains[controller].delay_periods if s is None
+                                    else s.delay_periods, actuator_gain=ones if s is None else s.actuator_gain,
+                                    sensor_gain=ones if s is None else s.sensor_gain)
+        except SimulationError:
+            continue
+        rho[row] = pl.spectral_radius
+        if not verdict.unstable:
+            damp[row] = pl.damping_ratio
+    return damp, rho

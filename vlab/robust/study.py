@@ -36,8 +36,9 @@ import numpy as np
 from ..fe.damping import open_loop_ratios
 from ..errors import OptionError
 from ..fe import build_fe_model
-from ..experiment.config import TESTS, default_chain
-from ..models import nominal_fe_model
+from ..experiment.config import default_chain, dissertation_structure, test_definition
+from ..models import check_fe_model, nominal_fe_model
+from ..spec import StructureSpec, load_spec
 from .sampled_loop import mode_damping, modal_plant, peak_levels, sampled_loop
 from .uncertainty import DEFAULTS, apply_sample, draw_sample
 
@@ -56,7 +57,8 @@ class StudyConfig:
     Attributes
     ----------
     structure : str
-        ``"bcc"`` or ``"grid"``.
+        ``"bcc"``, ``"grid"`` or the path of a structure file (TOML) with a ``[test]`` table and
+        ``[instrumentation]``.
     n_samples : int
         Monte Carlo samples (>= 1).
     seed : int
@@ -77,8 +79,8 @@ class StudyConfig:
     chunk_size: int = 25
 
     def __post_init__(self) -> None:
-        if self.structure not in TESTS:
-            raise OptionError(f"structure {self.structure!r}: use one of {', '.join(TESTS)}")
+        if not isinstance(self.structure, str) or not self.structure:
+            raise OptionError(f"structure {self.structure!r}: give bcc, grid or the path of a structure file")
         if isinstance(self.n_samples, bool) or int(self.n_samples) != self.n_samples or self.n_samples < 1:
             raise OptionError(f"--samples must be a positive integer, got {self.n_samples!r}")
         if isinstance(self.chunk_size, bool) or int(self.chunk_size) != self.chunk_size or self.chunk_size < 1:
@@ -109,6 +111,8 @@ class Nominal:
         Whether the compared FRF is displacement (BCC) or velocity (grid).
     spectral_radius : dict of str to float
         Nominal sampled loop's ``max |z|`` [-] (< 1: a working loop on the nominal FE model).
+    spec : StructureSpec or None
+        The nominal structure (carried to the workers, so that a structure file need not be readable there).
     """
 
     designs: dict
@@ -123,6 +127,45 @@ class Nominal:
     response_point: int
     displacement: bool
     spectral_radius: dict = field(default_factory=dict)
+    spec: StructureSpec | None = None
+
+
+def study_spec(cfg: StudyConfig) -> StructureSpec:
+    """The nominal structure of a study: a shipped one by name, or a structure file.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+
+    Returns
+    -------
+    StructureSpec
+
+    Raises
+    ------
+    SpecError
+        An unknown name, an unreadable or invalid file, or a structure without a modal test (no ``[test]``
+        table; :func:`vlab.experiment.config.test_definition` names the fields) or without actuators.
+    """
+    spec = load_spec(cfg.structure)
+    test_definition(spec)
+    if not spec.instrumentation.actuators:
+        from ..errors import SpecError
+
+        raise SpecError(f"{spec._file()}: [instrumentation] actuators is empty; the robustness study needs the "
+                        "controllers' actuator/sensor channels")
+    return spec
+
+
+def is_dissertation(cfg: StudyConfig) -> bool:
+    """Whether the study is on one of the dissertation's structures (its tables and sections are compared).
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+        Its ``structure`` (:func:`vlab.experiment.config.dissertation_structure`).
+    """
+    return dissertation_structure(cfg.structure)
 
 
 def _evaluate(fe, design, chain, nominal: Nominal, *, delay_periods, actuator_gain, sensor_gain, centres):
@@ -159,8 +202,9 @@ def nominal_analysis(cfg: StudyConfig) -> Nominal:
     """
     from ..design import design_controller
 
-    fe = nominal_fe_model(cfg.structure)
-    test = TESTS[cfg.structure]
+    spec = study_spec(cfg)
+    fe = nominal_fe_model(cfg.structure) if is_dissertation(cfg) else check_fe_model(build_fe_model(spec))
+    test = test_definition(spec)
     acts = tuple(fe.spec.instrumentation.actuators)
     exc = acts.index(fe.spec.instrumentation.excitation)
     designs, chains = {}, {}
@@ -177,7 +221,7 @@ def nominal_analysis(cfg: StudyConfig) -> Nominal:
         out["zeta"][c], out["freq_hz"][c], out["peaks"][c], out["energy_j_s"][c] = z, f, pk, j
         out["rho"][c] = float(rho)
     return Nominal(designs, chains, out["zeta"], out["freq_hz"], out["peaks"], out["energy_j_s"], test.n_modes,
-                   acts, exc, test.response_point, test.response_quantity == "displacement", out["rho"])
+                   acts, exc, test.response_point, test.response_quantity == "displacement", out["rho"], fe.spec)
 
 
 def run_chunk(cfg: StudyConfig, nominal: Nominal, indices) -> dict:
@@ -199,7 +243,7 @@ def run_chunk(cfg: StudyConfig, nominal: Nominal, indices) -> dict:
         ``f"{c}/energy_j_s"`` (n,) [J*s], ``f"{c}/peaks"`` (n, n_modes); and
         ``"delay_periods"`` (n,).
     """
-    spec0 = nominal_fe_model(cfg.structure).spec
+    spec0 = nominal_spec(cfg, nominal)
     n_act = len(nominal.actuators)
     idx = np.asarray(list(indices), dtype=int)
     n, nm = idx.size, nominal.n_modes
@@ -221,6 +265,23 @@ def run_chunk(cfg: StudyConfig, nominal: Nominal, indices) -> dict:
             out[f"{c}/spectral_radius"][row], out[f"{c}/energy_j_s"][row] = rho, j
             out[f"{c}/peaks"][row] = pk
     return out
+
+
+def nominal_spec(cfg: StudyConfig, nominal: Nominal) -> StructureSpec:
+    """The study's nominal structure: the one the nominal analysis carries, else loaded (:func:`study_spec`).
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+    nominal : Nominal
+        Of :func:`nominal_analysis` (its ``spec``).
+
+    Raises
+    ------
+    SpecError
+        As :func:`study_spec`, where ``nominal`` carries no spec.
+    """
+    return nominal.spec if nominal.spec is not None else study_spec(cfg)
 
 
 def _merge(parts: list[dict]) -> dict:
@@ -369,7 +430,8 @@ def summarize(cfg: StudyConfig, nominal: Nominal, res: dict) -> Summary:
         ratio = nominal.peaks[c][None, :] / res[f"{c}/peaks"]
         db = np.abs(20 * np.log10(ratio))
         dz = np.abs(res[f"{c}/zeta"] / nominal.zeta[c][None, :] - 1.0)
-        e_ratio = res[f"{c}/energy_j_s"] / nominal.energy_j_s[c]
+        with np.errstate(invalid="ignore"):  # an unstable nominal loop: inf / inf, left out below as NaN
+            e_ratio = res[f"{c}/energy_j_s"] / nominal.energy_j_s[c]
         p_unst = float(1.0 - stable.mean())
         per_sample_db = np.where(stable, db.mean(axis=1), np.nan)
         score["probability_unstable"][c] = p_unst

@@ -105,6 +105,27 @@ DEFAULTS: tuple[Uncertainty, ...] = (
 )
 #: Parameter groups, in draw order.
 GROUPS = tuple(u.group for u in DEFAULTS)
+#: Sources of the default spreads for a structure of one's own (the dissertation's tables do not apply).
+_OWN_SOURCES = {"delay_periods": "assumed around the default hardware chain's 1.35 periods"}
+
+
+def defaults_for(dissertation: bool) -> tuple[Uncertainty, ...]:
+    """The default distributions: :data:`DEFAULTS` for the dissertation's structures; the same spreads with
+    sources that name no table of the dissertation for any other structure.
+
+    Parameters
+    ----------
+    dissertation : bool
+        The study's structure is the BCC or the grid.
+
+    Returns
+    -------
+    tuple of Uncertainty
+    """
+    if dissertation:
+        return DEFAULTS
+    return tuple(dataclasses.replace(u, source=_OWN_SOURCES.get(
+        u.group, "assumed (vlab's default spread; the structure file states no tolerance)")) for u in DEFAULTS)
 #: How each group reads in a sentence.
 GROUP_WORDS = {"member_ei": "EI", "member_mass": "section mass", "cable_tension": "cable tension",
                "tip_mass": "lumped masses", "coil_mass": "coil masses", "support_stiffness": "support springs",
@@ -139,13 +160,15 @@ def describe(uncertainties=DEFAULTS, nominal_delay_periods: float = PC1000_DELAY
     return ", ".join(parts)
 
 
-def load_uncertainties(path: str | Path) -> tuple[Uncertainty, ...]:
+def load_uncertainties(path: str | Path, defaults: tuple[Uncertainty, ...] = DEFAULTS) -> tuple[Uncertainty, ...]:
     """The defaults with the groups of a TOML file replaced (module notes).
 
     Parameters
     ----------
     path : str or Path
         The TOML file.
+    defaults : tuple of Uncertainty
+        The groups the file does not name (:func:`defaults_for`).
 
     Returns
     -------
@@ -166,7 +189,7 @@ def load_uncertainties(path: str | Path) -> tuple[Uncertainty, ...]:
     params = data.get("parameters")
     if not isinstance(params, dict) or set(data) - {"parameters"}:
         raise DataFileError(f"{p}: expected only [parameters.<group>] tables (groups: {', '.join(GROUPS)})")
-    out = {u.group: u for u in DEFAULTS}
+    out = {u.group: u for u in defaults}
     given: set[str] = set()
     for name, entry in params.items():
         where = f"{p}: parameters.{name}"
