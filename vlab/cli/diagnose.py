@@ -29,8 +29,13 @@ DETECT_OUT = "out/detectability"
 def diagnose(
     structure: str = opt(..., "--structure", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
     recording: str = opt(..., "--recording",
-                         help="the recording: UFF 58 time histories (as `vlab experiment` writes) or FRFs, "
+                         help="the recording: UFF 58 time histories (as `vlab experiment` writes, or from an "
+                              "acquisition system: any motion quantity, unit and rate), CSV time histories "
+                              "(header 'time [s]', then '<node><+|-><X|Y|Z> <quantity> [<unit>]'), UFF 58 FRFs, "
                               "or a CSV modal table"),
+    resolution: float = opt(None, "--resolution", metavar="<Hz>",
+                            help="line spacing of the excitation [Hz] = 1 / its period (default: the recording's "
+                                 "metadata, else the structure's test resolution)"),
     controller: ExpController = opt(None, "--controller",
                                     help="controller that was running during the recording (none = open loop; "
                                          "default: the recording's metadata, else none)"),
@@ -75,6 +80,8 @@ def diagnose(
     out_path = checks.out_dir(out, DIAGNOSE_OUT, overwrite)
     if plant not in DIAGNOSE_PLANTS:
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
+    if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
+        raise OptionError(f"--resolution must be a positive number of Hz, got {resolution!r}")
     checks.input_file("--recording", recording)
     checks.input_file("--baseline", baseline)
     checks.mjcf_input(mjcf)
@@ -82,6 +89,7 @@ def diagnose(
     with stages("diagnose", "reading the recording", quiet=quiet or out_fmt != "table") as say:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=out == DIAGNOSE_OUT) as tmp:
             res = run_diagnose(spec, Path(recording), out_dir=tmp, plant=plant, baseline=baseline, mjcf=mjcf,
+                               resolution_hz=resolution,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
                                false_alarm_rate=false_alarm_rate, progress=say)

@@ -16,10 +16,11 @@ velocities from an acquisition system at its own rate, sensors mounted in -Z
 2. **Resampling to the loop's clock** (:func:`resample`). Every channel is
    resampled to twice the controller rate by a polyphase FIR filter
    (:func:`scipy.signal.resample_poly`; a Kaiser-windowed sinc, beta
-   :data:`KAISER_BETA`, :data:`HALF_LENGTH` x max(up, down) taps each side,
-   cut off at the lower of the two Nyquist frequencies: linear phase, its
-   delay removed, passband error :data:`PASSBAND_ERROR` at most in the
-   structure's band, :func:`passband_error`). A record of whole excitation
+   :data:`KAISER_BETA`, :data:`HALF_LENGTH` x max(up, 2 down) taps each
+   side, cut off at the lower of the input's and the controller's Nyquist
+   frequencies: linear phase, its delay removed, passband error
+   :data:`PASSBAND_ERROR` at most in the structure's band,
+   :func:`passband_error`). A record of whole excitation
    periods is extended periodically for the filter, other records by a line
    (:func:`scipy.signal.resample_poly`'s ``padtype="line"``). The motion
    channels are kept at the controller's instants ``k T``; the force at the
@@ -30,10 +31,10 @@ velocities from an acquisition system at its own rate, sensors mounted in -Z
    structure felt.
 3. **FRFs, converted to velocity at the FRF level** (:func:`frf_conversion`).
    The FRFs of each motion channel are estimated by the estimators of
-   :mod:`vlab.diagnose.data.frfestimate` (period by period when the force
+   :mod:`vlab.diagnose.data.frfestimate`: period by period when the force
    repeats within :data:`PERIODIC_NOISE` of its RMS from one period to the
-   next -- a periodic excitation measured with noise --, else H1 with a Hann
-   window) and then converted: ``H_v = H_a / (j w)`` for accelerations,
+   next (a periodic excitation measured with noise), else H1 with a Hann
+   window (:func:`frfs_from_acquired`), and then converted: ``H_v = H_a / (j w)`` for accelerations,
    ``H_v = j w H_d`` for displacements, each times ``sinc(f T)``, which with
    the force's half-step ``e^{-j w T / 2}`` makes the hold
    ``(1 - e^{-j w T}) / (j w T)`` of the lab's command-to-velocity FRF.
@@ -68,7 +69,7 @@ from ...errors import DataFileError
 from ...fe import FEModel
 from ...io.recording import Channel, Recording
 from ...spec import StructureSpec
-from .frfestimate import PC1000_RATE_HZ, _check_points, _h1_frfs, _periodic_frfs, check_channel_samples
+from .frfestimate import PC1000_RATE_HZ, _check_points, _h1_frfs, _is_periodic, _periodic_frfs, check_channel_samples
 from .measured import FrfData
 
 #: Kaiser window parameter of the resampling filter.
@@ -123,8 +124,13 @@ def resampling_ratio(rate_in_hz: float, rate_out_hz: float, path: str = "") -> t
 
 def resampling_filter(up: int, down: int) -> np.ndarray:
     """The FIR low-pass of :func:`resample` at the rate ``up`` times the input rate, shape (2 L + 1,),
-    ``L = HALF_LENGTH max(up, down)``, unit gain at DC (:func:`scipy.signal.firwin`, Kaiser window)."""
-    m = max(up, down)
+    ``L = HALF_LENGTH max(up, 2 down)``, unit gain at DC (:func:`scipy.signal.firwin`, Kaiser window).
+
+    Cut off at the lower of the input's Nyquist frequency and half the output's: the output (at twice the
+    controller rate) is split into every other sample, the force and the motion at the controller rate,
+    which then alias nothing (a held command's images at the controller rate +- f, strong in an
+    acceleration, would otherwise fold onto the band's lines)."""
+    m = max(up, 2 * down)
     return scipy.signal.firwin(2 * HALF_LENGTH * m + 1, 1.0 / m, window=("kaiser", KAISER_BETA))
 
 
@@ -356,8 +362,28 @@ def periodic_within_noise(x: np.ndarray, n_per: int) -> bool:
     return rms > 0 and float(np.sqrt(np.mean((a - b) ** 2))) <= PERIODIC_NOISE * rms
 
 
+#: FRF estimators of an acquired recording (:func:`frfs_from_acquired`).
+ESTIMATORS = ("auto", "periodic", "h1")
+
+
+def _estimate(args: tuple, x: np.ndarray, n_per: int, estimator: str, settle_s: float, notes: list):
+    """The FRF estimate of :func:`frfs_from_acquired` by the estimator asked for."""
+    path, fch = args[0], args[1]
+    if estimator not in ESTIMATORS:
+        raise DataFileError(f"{path}: FRF estimator {estimator!r}: use one of {', '.join(ESTIMATORS)}")
+    exact = _is_periodic(x, n_per)
+    periodic = exact or periodic_within_noise(x, n_per)
+    if estimator == "periodic" and not periodic:
+        raise DataFileError(f"{path}: channel {fch.name}: the force does not repeat within {PERIODIC_NOISE:g} of its "
+                            "RMS from one period to the next: not a periodic excitation (use the H1 estimator)")
+    if periodic and estimator != "h1":  # a resampled force: lines below 1 % of the strongest are not excited
+        return _periodic_frfs(*args, settle_s, notes, measured_force=True)
+    return _h1_frfs(*args, notes)
+
+
 def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path: str, period_s: float,
-                       resolution_hz: float, band_hz: tuple[float, float], settle_s: float = 0.0) -> FrfData:
+                       resolution_hz: float, band_hz: tuple[float, float], settle_s: float = 0.0,
+                       estimator: str = "auto") -> FrfData:
     """Velocity FRFs per excitation command, their noise, and the recording on the controller's clock, from an
     acquisition system's recording (the module's steps 1-4).
 
@@ -377,6 +403,12 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
         Band analysed [Hz].
     settle_s : float
         Time for the transient to decay [s] (periodic excitation: whole periods covering it are dropped).
+    estimator : {"auto", "periodic", "h1"}
+        "auto": period by period when the force repeats from one period to the next, exactly or within
+        :data:`PERIODIC_NOISE` of its RMS (a periodic excitation measured with noise:
+        :func:`periodic_within_noise`), else H1 with a Hann window. "periodic": period by period, refused
+        for a force that does not repeat. "h1": H1 always (as the lab's own recordings with a noisy force
+        channel are analysed; its noise estimate, from the coherence, is about a hundred times larger).
 
     Returns
     -------
@@ -387,7 +419,8 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
     Raises
     ------
     DataFileError, MeasurementError
-        As :func:`to_lab_rate`; a record too short for the resolution.
+        As :func:`to_lab_rate`; a record too short for the resolution; an unknown estimator, or "periodic"
+        for a force that does not repeat.
     """
     lr = to_lab_rate(rec, spec, fe, path=path, period_s=period_s, band_hz=band_hz, resolution_hz=resolution_hz)
     lab = lr.recording
@@ -396,10 +429,7 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
     x = np.asarray(fch.samples)
     n_per = int(round(1.0 / (resolution_hz * period_s)))
     args = (path, fch, list(lr.motion), period_s, n_per, band_hz, resolution_hz)
-    if periodic_within_noise(x, n_per):
-        e = _periodic_frfs(*args, settle_s, notes, measured_force=True)
-    else:
-        e = _h1_frfs(*args, notes)
+    e = _estimate(args, x, n_per, estimator, settle_s, notes)
     conv = np.stack([frf_conversion(c.quantity, e.freq, period_s) for c in lr.motion], axis=1)
     h, var = e.h * conv, e.var * np.abs(conv) ** 2
     var_steady = None if e.var_steady is None else e.var_steady * np.abs(conv) ** 2
@@ -415,4 +445,4 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
 
 __all__ = ["is_lab_recording", "resampling_ratio", "resampling_filter", "passband_error", "resample",
            "velocity_history", "frf_conversion", "LabRate", "to_lab_rate", "periodic_within_noise",
-           "frfs_from_acquired", "KAISER_BETA", "HALF_LENGTH", "PASSBAND_ERROR", "PERIODIC_NOISE"]
+           "frfs_from_acquired", "ESTIMATORS", "KAISER_BETA", "HALF_LENGTH", "PASSBAND_ERROR", "PERIODIC_NOISE"]
