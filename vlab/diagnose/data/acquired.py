@@ -109,6 +109,17 @@ def is_lab_recording(rec: Recording) -> bool:
 def resampling_ratio(rate_in_hz: float, rate_out_hz: float, path: str = "") -> tuple[int, int]:
     """``(up, down)`` with ``rate_in * up / down == rate_out`` (relative 1e-9), the smallest such integers.
 
+    Parameters
+    ----------
+    rate_in_hz, rate_out_hz : float
+        Sampling rates [Hz] of the recording and of the resampled signal.
+    path : str
+        The file (for messages).
+
+    Returns
+    -------
+    (int, int)
+
     Raises
     ------
     DataFileError
@@ -126,6 +137,8 @@ def resampling_filter(up: int, down: int) -> np.ndarray:
     """The FIR low-pass of :func:`resample` at the rate ``up`` times the input rate, shape (2 L + 1,),
     ``L = HALF_LENGTH max(up, 2 down)``, unit gain at DC (:func:`scipy.signal.firwin`, Kaiser window).
 
+    Parameters ``up``, ``down``: the resampling ratio (:func:`resampling_ratio`).
+
     Cut off at the lower of the input's Nyquist frequency and half the output's: the output (at twice the
     controller rate) is split into every other sample, the force and the motion at the controller rate,
     which then alias nothing (a held command's images at the controller rate +- f, strong in an
@@ -135,8 +148,22 @@ def resampling_filter(up: int, down: int) -> np.ndarray:
 
 
 def passband_error(up: int, down: int, rate_in_hz: float, freq_hz) -> float:
-    """Largest relative amplitude error ``| |H(f)| - 1 |`` of :func:`resampling_filter` at ``freq_hz`` [Hz]
-    (the filter runs at ``up * rate_in_hz``; its phase is linear and removed exactly)."""
+    """Largest relative amplitude error ``| |H(f)| - 1 |`` of :func:`resampling_filter` at ``freq_hz``.
+
+    Parameters
+    ----------
+    up, down : int
+        The resampling ratio (:func:`resampling_ratio`).
+    rate_in_hz : float
+        The recording's rate [Hz]; the filter runs at ``up * rate_in_hz``.
+    freq_hz : array_like, shape (n_f,)
+        Frequencies [Hz].
+
+    Returns
+    -------
+    float
+        The largest error [1] (the filter's phase is linear and removed exactly).
+    """
     _, h = scipy.signal.freqz(resampling_filter(up, down), worN=np.asarray(freq_hz, dtype=float), fs=up * rate_in_hz)
     return float(np.max(np.abs(np.abs(h) - 1.0)))
 
