@@ -175,7 +175,7 @@ def _print_robustness(data: dict, n_samples: int, structure: str) -> None:
 
 def _with_ci(v, ci, fmt: str, scale: float = 1.0, unit: str = "") -> str:
     """``v`` and its interval, e.g. ``"8.94 % [8.67, 9.39]"``; ``"n/a"`` for None."""
-    if v is None:
+    if v is None or v != v or v in (float("inf"), float("-inf")):
         return "n/a"
     text = f"{scale * v:{fmt}}{unit}"
     return text + (f" [{scale * ci[0]:{fmt}}, {scale * ci[1]:{fmt}}]" if ci and ci[0] is not None else "")

@@ -30,6 +30,8 @@ def _pct(p, ci) -> str:
 def _num(v, ci, fmt: str, scale: float = 1.0, unit: str = "") -> str:
     if v is None:
         return "n/a"
+    if not np.isfinite(v):
+        return "n/a (no stable sample)"
     text = f"{scale * v:{fmt}}{unit}"
     return text + (f" [{scale * ci[0]:{fmt}}, {scale * ci[1]:{fmt}}]" if ci and ci[0] is not None else "")
 
@@ -93,11 +95,15 @@ def _not_working(plants: dict, fe_modes: dict, dissertation: bool = True) -> lis
         m = fe_modes.get(c)
         near = ("" if m is None else f" (its closed-loop mode nearest the line, {m['frequency_hz']:.2f} Hz, keeps "
                 f"a damping ratio of {m['damping_ratio']:+.4f} there)")
+        if fe.get("working_loop_at_nominal") is False:
+            on_fe = (f"It is not a working loop on the FE model either (unstable at nominal, P(unstable) "
+                     f"{100 * fe['probability_unstable']:.1f} %)")
+        else:
+            on_fe = (f"Its numbers on the FE model (P(unstable) {100 * fe['probability_unstable']:.1f} %, peak-ratio "
+                     f"error {_num(fe['peak_ratio_error_db_median'], None, '.3f')} dB) are those of a loop that "
+                     f"works on the FE model, residual modes included{near}, and not on the MuJoCo plant")
         lines += ["", f"**{LABELS[c]} is not a working loop on the MuJoCo plant**, already at nominal: "
-                  f"{v['nominal_plant']['summary']}. Its numbers on the FE model (P(unstable) "
-                  f"{100 * fe['probability_unstable']:.1f} %, peak-ratio error "
-                  f"{fe['peak_ratio_error_db_median']:.3f} dB) are those of a loop that works on the FE model, "
-                  f"residual modes included{near}, and not on the MuJoCo plant: "
+                  f"{v['nominal_plant']['summary']}. {on_fe}: "
                   f"{v['unstable_random_samples']} of {v['simulated_random_samples']} random samples self-excite "
                   "there." + (" The dissertation's LQG ended in a limit cycle too, at about 41 Hz (Sec. 6.1)."
                               if dissertation and c == "lqg" else "")]
@@ -113,7 +119,8 @@ def _fe_lines(cfg: StudyConfig, nominal: Nominal, summary: Summary, dissertation
         v = pc[c]
         e = v["energy_index_ratio_to_nominal"]["median"]
         lines.append(f"| {LABELS[c]} | {100 * v['probability_unstable']:.1f} % | "
-                     f"{v['peak_ratio_error_db_median']:.3f} | {100 * v['damping_change_relative_median']:.2f} % | "
+                     f"{_num(v['peak_ratio_error_db_median'], None, '.3f')} | "
+                     f"{_num(v['damping_change_relative_median'], None, '.2f', 100, ' %')} | "
                      f"{'n/a' if e is None else f'{e:.3f}'} | {v['spectral_radius_max']:.5f} |")
     damping = [(c, [f"{q['median']:.4f} [{q['p5']:.4f}, {q['p95']:.4f}]; {pc[c]['nominal_damping_ratio'][r]:.4f}"
                     for r, q in enumerate(pc[c]["damping_ratio_by_mode"])]) for c in cfg.controllers]
@@ -214,8 +221,8 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
         f"{timings.get('time_simulation', float('nan')):.0f} s).", "",
         "Each controller is designed once on the nominal FE model with "
         + ("the thesis settings" if diss else "the structure file's [design] settings")
-        + " and run, unchanged, on every perturbed model (the dissertation's situation: design on the analysis "
-        "model, test on the structure). Two plants answer: the exact sampled-data loop on each perturbed FE model "
+        + " and run, unchanged, on every perturbed model (" + ("the dissertation's situation: " if diss else "")
+        + "design on the analysis model, test on the structure). Two plants answer: the exact sampled-data loop on each perturbed FE model "
         f"(zero-order hold, computation delay, {_filter_text(nominal)}, Eq. 5.1 engine; "
         "`vlab.robust.sampled_loop`), and the MuJoCo plant built from the same perturbed spec, run in time "
         "(hinge chain, residual modes above the design model's).",

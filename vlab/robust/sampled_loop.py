@@ -298,7 +298,8 @@ def mode_damping(loop: SampledLoop, plant: Plant, design, n_modes: int, *, actua
 
     Each mode is the sampled-loop eigenvalue nearest in the s-plane to that
     mode of the continuous closed loop (:func:`vlab.analysis.closed_loop_modes`
-    on the same plant and gains).
+    on the same plant and gains); real eigenvalues count (an over-damped mode,
+    damping ratio 1).
 
     Parameters
     ----------
@@ -320,8 +321,9 @@ def mode_damping(loop: SampledLoop, plant: Plant, design, n_modes: int, *, actua
     f_c, z_c = closed_loop_modes(plant.m, plant.c, plant.k, u, y, ctrl)
     w_c = 2 * np.pi * f_c[:n_modes]
     s_c = w_c * (-z_c[:n_modes] + 1j * np.sqrt(np.clip(1 - z_c[:n_modes] ** 2, 0.0, None)))
-    z = loop.poles[(np.abs(loop.poles) > 1e-12) & (loop.poles.imag > 0)]
-    s = np.log(z) / loop.period_s
+    # the upper half-plane and the real axis: an over-damped mode (continuous damping ratio 1) is a real pole
+    z = loop.poles[(np.abs(loop.poles) > 1e-12) & (loop.poles.imag >= 0)]
+    s = np.log(z.astype(complex)) / loop.period_s
     zeta = np.empty(n_modes)
     freq = np.empty(n_modes)
     for r in range(n_modes):
