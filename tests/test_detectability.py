@@ -140,13 +140,12 @@ def test_the_threshold_map_is_drawn_and_bad_values_are_refused(tmp_path):
     assert not (tmp_path / "bad.png").exists()
 
 
-def test_the_models_own_uncertainty_raises_the_thresholds():
+def test_the_models_own_uncertainty_raises_the_thresholds(mass_threshold):
     """A real recording (model form derived) shows no more than a recording of the model itself."""
-    from vlab.diagnose.detectability import detectability
-
-    kw = {"effects": ("added_mass",)}
-    real = {repr(t.location): t.threshold for t in detectability("bcc", "none", model_form="derived", **kw).thresholds}
-    own = {repr(t.location): t.threshold for t in detectability("bcc", "none", model_form="none", **kw).thresholds}
+    spec, det_own, _t = mass_threshold  # the same effects, model_form="none"
+    real = {repr(t.location): t.threshold
+            for t in detectability(spec, "none", effects=("added_mass",), model_form="derived").thresholds}
+    own = {repr(t.location): t.threshold for t in det_own.thresholds}
     both = [k for k in real if real[k] is not None and own.get(k) is not None]
     assert both and all(real[k] >= own[k] * (1 - 1e-6) for k in both) and any(real[k] > 1.1 * own[k] for k in both)
 
