@@ -387,7 +387,8 @@ class Eta:
         self._clock = time.perf_counter
         self.say, self.n, self.what, self.later = say, int(n), what, later
         self.t0 = self.last = self._clock()
-        say(f"{what}: {n} {items}")
+        if n:
+            say(f"{what}: {n} {items}")
 
     def step(self, i: int, label: str) -> None:
         """Item ``i`` (0-based) is done; ``label`` names it."""
