@@ -51,6 +51,8 @@ def _cli(*args) -> str:
 def _structure(source: str, folder: Path) -> str:
     """A structure argument for the CLI: a shipped name, a fresh `vlab init` file or an example path."""
     kind, _, name = source.partition(":")
+    if kind == "init" and name == "beam-along-x":
+        return str(_beam_along_x(folder))
     if kind == "init":
         path = folder / f"{name}.toml"
         _cli("init", name, path)
@@ -58,6 +60,21 @@ def _structure(source: str, folder: Path) -> str:
     if kind == "example":
         return str(ROOT / "examples" / name)
     return source
+
+
+def _beam_along_x(folder: Path) -> Path:
+    """The beam of `vlab init beam` turned to lie along x, its bending rotation ``ry`` (the template's comments
+    say which rotation bends a member along x)."""
+    along_y = folder / "along_y.toml"
+    _cli("init", "beam", along_y)
+    text = along_y.read_text()
+    coords = re.search(r"coordinates = \{.*\}", text).group(0)
+    turned = (text.replace(coords, re.sub(r"\[0, (\d+)\]", r"[\1, 0]", coords))
+              .replace('dofs = ["w", "rx"]', 'dofs = ["w", "ry"]').replace('fixed = ["w", "rx"]', 'fixed = ["w", "ry"]'))
+    assert turned.count('dofs = ["w", "ry"]') == 1 and turned.count('fixed = ["w", "ry"]') >= 1
+    path = folder / "beam_along_x.toml"
+    path.write_text(turned)
+    return path
 
 
 def _export(source: str, folder: Path) -> tuple[str, Path]:
@@ -225,6 +242,8 @@ def test_the_unedited_file_runs_and_matches_its_structure(tmp_path):
 ROUND_TRIPS = [pytest.param(s, e, marks=[pytest.mark.slow] if s in ("bcc", "grid") else [])
                for s in ("bcc", "grid", "init:beam", "init:frame", *(f"example:{p.name}" for p in EXAMPLES))
                for e in ("none", "mass", "spring", "gainprm")]
+#: The beam along x (bending rotation ry) through design, experiment, export, edit and diagnose.
+ROUND_TRIPS += [pytest.param("init:beam-along-x", e) for e in ("none", "mass", "gainprm")]
 
 
 @pytest.mark.parametrize(("source", "edit"), ROUND_TRIPS)
