@@ -170,7 +170,10 @@ def _parabolic_step(h: Hypothesis, problem: Problem, scored: list[tuple[float, n
     null = h.null(problem.base, problem.ctx)
     if null is not None and np.all(np.isfinite(null)) and (not log[0] or null[0] > 0):
         pts.append((float(_z(np.asarray(null, dtype=float), log)[0]), problem.base_scores()[0]))
-    pts = sorted(set(pts))
+    best_at: dict[float, float] = {}
+    for z, c in pts:  # one point per value (the null may be a trial too)
+        best_at[z] = min(c, best_at.get(z, math.inf))
+    pts = sorted(best_at.items())
     i = int(np.argmin([c for _, c in pts]))
     if i == 0 or i == len(pts) - 1:
         return None
