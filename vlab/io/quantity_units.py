@@ -20,12 +20,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from types import MappingProxyType
 
-#: Standard acceleration of gravity [m/s^2] (``g`` as a unit of acceleration).
-STANDARD_GRAVITY_M_S2 = 9.80665
-#: The international inch [m].
-INCH_M = 0.0254
-#: The pound-force [N].
-POUND_FORCE_N = 4.4482216152605
+from ..units import G_SI as STANDARD_GRAVITY_M_S2
+from ..units import INCH_M
+from ..units import LBF_N as POUND_FORCE_N
 
 _LENGTHS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6, "µm": 1e-6, "in": INCH_M, "ft": 0.3048}
 
