@@ -453,7 +453,13 @@ class Problem:
         return self._smooth
 
     def base_scores(self) -> tuple[float, float]:
-        """:meth:`scores` of the nominal lab ``base``, computed once."""
+        """:meth:`scores` of the nominal lab ``base``, computed once (the screening's value at an effect's null).
+
+        Returns
+        -------
+        (float, float)
+            Its chi-square [1] and smoothed error (as :meth:`scores`).
+        """
         if self._base_scores is None:
             self._base_scores = self.scores(self.base)
         return self._base_scores
