@@ -142,13 +142,6 @@ def test_update_refuses_a_diagnosis_it_cannot_apply(tmp_path, change, message):
     assert not (tmp_path / "u.toml").exists()
 
 
-def test_update_refuses_an_effect_of_the_hardware_chain(tmp_path):
-    cant = load_spec(EXAMPLE)
-    folder = _diagnosis(tmp_path, cant, [_sel("loop_delay", {"channel": 4}, "delay_s", 0.003, 0.002, 0.004)])
-    res = runner.invoke(app, ["update", str(EXAMPLE), "--diagnosis", str(folder), "--out", str(tmp_path / "u.toml")])
-    assert res.exit_code == 2 and "loop_delay (channel 4) cannot be written into a structure file" in res.stderr
-
-
 def test_concealed_mass_is_written_back_and_the_redesign_predicts_the_changed_plant(tmp_path):
     from vlab.design import design_controller
     from vlab.io.uff import write_recording

@@ -14,19 +14,29 @@ effect (location)             entry appended
 ``joint_flexibility``         ``[[joint_flexibility]]`` (:mod:`vlab.spec.changes`)
 ``member_stiffness``          ``[[member_stiffness]]`` (the member, or one segment)
 ``damping`` (mode)            ``[[mode_damping]]``
+``actuator_gain`` (channel)   ``[[hardware.actuator_gain]]``: the coil's force per command (in the plant:
+                              the FE input matrix and the MuJoCo coil's ``gainprm``)
+``sensor_gain`` (channel)     ``[[hardware.sensor_gain]]`` (the hardware chain)
+``loop_delay`` (channel)      ``[[hardware.loop_delay]]``, the delay [s] (the hardware chain)
+``actuator_lag``,             ``[[hardware.actuator_lag]]``, ``[[hardware.sensor_lag]]``, the corner [Hz]
+``sensor_lag`` (channel)      (the hardware chain)
 ============================  ==============================================================
+
+The ``[hardware]`` entries (:mod:`vlab.spec.hardware`) combine as the diagnosis applied its effects: a gain
+multiplies the file's own gain of that channel, a delay or a corner replaces it.
 
 The written file is read back (:func:`vlab.spec.spec_from_dict`) and checked against the structure the
 diagnosis itself evaluated (the original changed by :mod:`vlab.diagnose.effects.specedit`): the same
-natural frequencies and damping matrix (relative difference below :data:`CHECK_RTOL`). A physical change
+natural frequencies and damping matrix (relative difference below :data:`CHECK_RTOL`), and the same
+per-channel hardware settings (:func:`check_hardware`). A physical change
 keeps the damping matrix of the structure before it, in the file as in the diagnosis
 (:mod:`vlab.spec.changes`).
 
 Refused, with the reason: a diagnosis with nothing selected, one whose best effect is outside the library
 (``outside_library``), one made for another structure (its ``structure_sha256``,
 :func:`vlab.spec.structure_identity`), and effects a structure file cannot express (damping at a point,
-friction, gravity pre-stress, the hardware chain's delay, lags, gains and saturation: they belong to the
-lab's settings, not to the structure).
+friction, gravity pre-stress, an amplifier's saturation: they belong to the lab's settings, not to the
+structure file).
 
 :func:`verify` closes the loop: the controller designed on the original and on the updated structure, each
 run on the same plant and compared with its own prediction as in Table 10 (average peak level error) and
@@ -56,7 +66,11 @@ DIGITS = 7
 
 #: Effects a structure file can hold, with the unit of their parameter.
 WRITABLE = {"added_mass": "kg", "support_stiffness": None, "joint_flexibility": "N*m/rad",
-            "member_stiffness": "N*m^2", "damping": "1"}
+            "member_stiffness": "N*m^2", "damping": "1", "actuator_gain": "1", "sensor_gain": "1",
+            "loop_delay": "s", "actuator_lag": "Hz", "sensor_lag": "Hz"}
+
+#: The effects written into the structure file's ``[hardware]`` table (:mod:`vlab.spec.hardware`).
+CHAIN_EFFECTS = ("actuator_gain", "sensor_gain", "loop_delay", "actuator_lag", "sensor_lag")
 
 
 @dataclass(frozen=True)
@@ -167,11 +181,13 @@ def check_diagnosis(d: dict, spec: StructureSpec, file: Path | str) -> list[dict
         raise DataFileError(f"{file}: nothing selected ({why}): there is nothing to write into the structure")
     for e in sel:
         eff, loc = e.get("effect"), e.get("location") or {}
-        if eff not in WRITABLE or (eff == "damping" and "mode" not in loc):
+        if eff not in WRITABLE or (eff == "damping" and "mode" not in loc) or (eff in CHAIN_EFFECTS
+                                                                              and "channel" not in loc):
             where = ", ".join(f"{k} {v}" for k, v in loc.items())
             raise ModelError(f"{file}: the selected effect {eff} ({where}) cannot be written into a structure file: "
-                             f"a structure file holds {', '.join(sorted(WRITABLE))} (damping of a mode); "
-                             "the hardware chain's settings are options of `vlab experiment`")
+                             f"a structure file holds {', '.join(sorted(WRITABLE))} (damping of a mode; the "
+                             "chain's effects of a channel or of all); an amplifier's saturation is an option "
+                             "of the lab, not of the structure")
     return sel
 
 
@@ -230,10 +246,24 @@ def _blocks(spec: StructureSpec, e: dict, recording: str) -> list[tuple[str, str
         seg = f'segment = [{", ".join(str(int(p)) for p in loc["segment"])}]\n' if loc.get("segment") else ""
         out.append(("member_stiffness", f'[[member_stiffness]]\nmember = "{loc["member"]}"\n{seg}'
                     f'ei = {_q(x, unit, src)}\n', info))
+    elif eff in CHAIN_EFFECTS:
+        out.append(_hardware_block(eff, loc, x, unit, src, info))
     else:  # damping of a mode
         out.append(("mode_damping", f'[[mode_damping]]\nmode = {int(loc["mode"])}\nratio = {_num(x)}\n'
                     f'source = "{src}"\n', info))
     return out
+
+
+def _hardware_block(eff: str, loc: dict, x: float, unit: str, src: str, info: dict) -> tuple[str, str, dict]:
+    """The ``[[hardware.<effect>]]`` entry of one chain effect (:mod:`vlab.spec.hardware`)."""
+    ch = loc["channel"]
+    channel = '"all"' if ch == "all" else str(int(ch))
+    head = f'[[hardware.{eff}]]\nchannel = {channel}\n'
+    if eff.endswith("gain"):
+        body = f'gain = {_num(x)}\nsource = "{src}"\n'
+    else:
+        body = f'{"delay" if eff == "loop_delay" else "corner"} = {_q(x, unit, src)}\n'
+    return f"hardware.{eff}", head + body, info
 
 
 def _fresh(ids: set, base: str) -> str:
@@ -306,6 +336,8 @@ def intended_spec(spec: StructureSpec, selected: list[dict]) -> StructureSpec:
                 out = specedit.add_spring(out, p, loc.get("dof", "w"), x)
         elif eff == "joint_flexibility":
             out = specedit.soften_joint(out, int(loc["point"]), x)
+        elif eff in CHAIN_EFFECTS:
+            continue  # the structure is unchanged: intended_hardware
         elif eff == "member_stiffness":
             segs = ([tuple(loc["segment"])] if loc.get("segment")
                     else specedit.member_segment_points(out, loc["member"]))
@@ -314,6 +346,37 @@ def intended_spec(spec: StructureSpec, selected: list[dict]) -> StructureSpec:
         else:
             out = specedit.set_modal_damping(out, int(loc["mode"]), x)
     return out
+
+
+def check_hardware(written: StructureSpec, original: StructureSpec, selected: list[dict], file: str) -> None:
+    """Compare the ``[hardware]`` settings read back from the written file with the original's changed by the
+    selected chain effects as the diagnosis applied them (:func:`vlab.spec.hardware.with_entries`: a gain
+    multiplies the channel's gain, a delay or a lag's corner replaces it; ``"all"``: every channel).
+
+    Parameters
+    ----------
+    written, original : StructureSpec
+        Read back from the written text; the structure before the update.
+    selected : list of dict
+        ``diagnosis.json``'s ``selected`` entries.
+    file : str
+        Named in errors.
+
+    Raises
+    ------
+    ModelError
+        A setting that differs by more than :data:`CHECK_RTOL` (relative), naming ``file`` and the setting.
+    """
+    from .spec.hardware import Hardware, SETTING_ATTRIBUTES, with_entries
+
+    acts = tuple(original.instrumentation.actuators) if original.instrumentation else ()
+    want = with_entries(original.hardware, acts, [(e["effect"], e["location"]["channel"], _one_param(e)[1])
+                                                  for e in selected if e["effect"] in CHAIN_EFFECTS])
+    hw = written.hardware or Hardware()
+    for name in SETTING_ATTRIBUTES.values():
+        got, exp = getattr(hw, name), getattr(want, name)
+        if set(got) != set(exp) or any(abs(got[p] - v) > CHECK_RTOL * abs(v) for p, v in exp.items()):
+            raise ModelError(f"{file}: the written [hardware] {name} {got} differs from the diagnosis's {exp}")
 
 
 def _frequencies_hz(spec: StructureSpec, n: int) -> np.ndarray:
@@ -422,6 +485,7 @@ def update(structure: str | Path | StructureSpec, diagnosis: str | Path, *, out:
                          "hand from `vlab update --json`") from None
     written = spec_from_dict(doc, path=target.absolute() if target is not None else spec.path)
     freqs = check_written(written, intended_spec(spec, selected), where)
+    check_hardware(written, spec, selected, where)
     freqs["original"] = _frequencies_hz(spec, len(freqs["updated"])).tolist()
     if target is not None:
         with atomic_file(target, overwrite=overwrite) as tmp:
@@ -431,11 +495,13 @@ def update(structure: str | Path | StructureSpec, diagnosis: str | Path, *, out:
 
 def verify(original: str | Path | StructureSpec, updated: str | Path | StructureSpec, mjcf: str | Path, *,
            controller: str = "mfdrf", seed: int = 0, duration_s: float | None = None, delay_periods: float = 1.35,
-           noise_m_s: float = 1e-6, progress=None) -> dict:
+           noise_m_s: float = 1e-6, progress=None, lab_chain=None) -> dict:
     """Design on the original and on the updated structure, run both against the same plant, compare.
 
-    Each design is predicted with its own model's analysis (the sampled-data loop) and run on the MJCF
-    plant ``mjcf`` with the same excitation, seed and hardware chain; the comparison is Table 10's:
+    Each design is predicted with its own model's analysis (the sampled-data loop, with its file's
+    ``[hardware]`` settings) and run on the MJCF plant ``mjcf`` with the same excitation and seed; the chain
+    of each run is the thesis chain with its file's settings, or ``lab_chain`` (a chain effect concealed
+    from both models) where it sets its own; the comparison is Table 10's:
     the average peak level error ``mean |1 - r|`` (``r`` the analytical / experimental peak level ratio)
     and the closed-loop damping ratios predicted and measured.
 
@@ -458,6 +524,10 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         Velocity-sensor noise standard deviation [m/s].
     progress : callable, optional
         ``progress(label, fraction)`` during each run.
+    lab_chain : HardwareChain, optional
+        The chain both runs really have, where it differs from what the models know (an effect of the chain
+        concealed from them; :func:`vlab.experiment.runner.run_experiment`). None: the chain of each
+        model (the thesis chain with its structure file's ``[hardware]`` settings).
 
     Returns
     -------
@@ -491,7 +561,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
                                chain=default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s),
                                plant="mujoco", mjcf=Path(mjcf))
         cb = None if progress is None else (lambda x, label=label: progress(label, x))
-        r = run_experiment(cfg, check_fe_model(build_fe_model(spec)), progress=cb)
+        r = run_experiment(cfg, check_fe_model(build_fe_model(spec)), progress=cb, lab_chain=lab_chain)
         out[label] = {
             "structure_file": None if spec.path is None else str(spec.path),
             "average_peak_level_error": float(r.avg_peak_error),

@@ -42,8 +42,10 @@ def experiment(
         None, "--duration", help="run length [s], at least 2 records of 1/resolution (BCC: 2 x 20 s = 40 s; "
                                  "grid: 2 x 50 s = 100 s) (default: the records the slowest mode needs to settle "
                                  "+ 2 measured)"),
-    delay_periods: float = opt(1.35, "--delay-periods", "--delay-samples",
-                               help="computation delay [sampling periods], >= 0 (Sec. 5.3)"),
+    delay_periods: float = opt(None, "--delay-periods", "--delay-samples",
+                               help="computation delay [sampling periods], >= 0 (Sec. 5.3; default 1.35); given, "
+                                    "it also replaces the per-channel delays of the structure file's [hardware] "
+                                    "table, whose other settings the run always uses"),
     period_ms: float = opt(None, "--period-ms",
                            help="controller sampling period [ms], > 0 (default: the thesis's for the "
                                 "controller, Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
@@ -76,9 +78,11 @@ def experiment(
     out_fmt = checks.output_format(fmt, as_json)
     spec = checks.load_structure(structure)
     out_path = checks.out_dir(out, EXPERIMENT_OUT, overwrite)
+    file_delays = () if delay_periods is None or spec.hardware is None else tuple(spec.hardware.delay_s)
+    delay_periods = 1.35 if delay_periods is None else delay_periods
     cfg = _config(spec, controller=controller, reduction=reduction, excitation=excitation, duration=duration,
                   delay_periods=delay_periods, period_ms=period_ms, noise=noise, seed=seed, mjcf=mjcf, plant=plant,
-                  spawn=spawn)
+                  spawn=spawn, file_delays=file_delays)
     fe = checks.fe_model_of(spec)
     _guard_experiment(fe, plant=plant.value, period_s=cfg.chain.period_s, duration_s=duration,
                       delay_periods=delay_periods, quiet=out_fmt != "table")
@@ -97,8 +101,9 @@ def experiment(
 
 def _config(spec, *, controller: ExpController, reduction: DesignReduction | None, excitation: Excitation,
             duration: float | None, delay_periods: float, period_ms: float | None, noise: float, seed: int,
-            mjcf: str | None, plant: PlantKind, spawn: bool):
-    """The run's :class:`~vlab.experiment.config.ExperimentConfig`, every option checked (OptionError: exit 2)."""
+            mjcf: str | None, plant: PlantKind, spawn: bool, file_delays: tuple = ()):
+    """The run's :class:`~vlab.experiment.config.ExperimentConfig`, every option checked (OptionError: exit 2);
+    ``file_delays``: channels of the file's per-channel delays that the given ``--delay-periods`` replaces."""
     from ..experiment.config import ExperimentConfig, default_chain, test_definition
 
     checks.number("--noise", noise, low=0.0, what="sensor noise sigma [m/s]")
@@ -120,6 +125,7 @@ def _config(spec, *, controller: ExpController, reduction: DesignReduction | Non
             raise OptionError(f"--spawn: the rerun viewer cannot be started here ({why}); run without --spawn "
                               "and open run.rrd with `rerun` where there is a display")
     chain = default_chain(controller.value, delay_periods=delay_periods, noise_m_s=noise,
+                          channel_delay_periods={p: delay_periods for p in file_delays},
                           **({} if period_s is None else {"period_s": period_s}))
     test = test_definition(spec)
     if duration is not None and duration < 2.0 / test.resolution_hz - 1e-9:

@@ -15,6 +15,7 @@ from controllers.statespace import modal_initial_states, state_space
 
 from ..errors import ModelError
 from ..fe import FEModel
+from ..spec import input_gains
 from ..units import CS_S, INCH_M, LBF_N
 from .model import DesignModel, design_model, state_labels, state_scaling, to_thesis_units
 from .settings import CONTROLLERS, PERIOD_S, ThesisSettings, design_settings, thesis_period_s
@@ -182,6 +183,21 @@ class _Problem:
     period: float
 
 
+def _input_output(spec, dm: DesignModel, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Input matrix ``U`` (Eq. 3.1) and velocity output matrix ``Cv`` of the collocated pairs, shape (n, n_c)
+    and (n_c, n): ones at the actuators' rows times the coils' gains (``U``) and the sensors' gains (``Cv``)
+    of the structure file's ``[hardware]`` table (:mod:`vlab.spec.hardware`; ones without one)."""
+    acts = spec.instrumentation.actuators
+    hw = getattr(spec, "hardware", None)
+    gi = input_gains(spec, acts)
+    go = np.ones(len(acts)) if hw is None else hw.output_gains(acts)
+    u = np.zeros((n, len(dm.actuator_rows)))
+    cv = np.zeros((len(dm.actuator_rows), n))
+    for j, r in enumerate(dm.actuator_rows):
+        u[r, j], cv[j, r] = gi[j], go[j]
+    return u, cv
+
+
 def _problem(fe: FEModel, controller: str, model: str | None, measured_modes, period_s: float | None) -> _Problem:
     """The design problem of :func:`design_controller` (settings, period and model checked)."""
     name = fe.spec.name
@@ -197,10 +213,8 @@ def _problem(fe: FEModel, controller: str, model: str | None, measured_modes, pe
     m, c, k = (to_thesis_units(a, dm.labels) for a in (dm.m, dm.c, dm.k))
     n = m.shape[0]
     st = design_settings(fe.spec, n, model)
-    u = np.zeros((n, len(dm.actuator_rows)))
-    for j, r in enumerate(dm.actuator_rows):
-        u[r, j] = 1.0
-    ss = state_space(m, c, k, u, time_unit_s=CS_S)
+    u, cv = _input_output(fe.spec, dm, n)
+    ss = state_space(m, c, k, u, Cv=cv, time_unit_s=CS_S)
     q = st.q_scale * np.eye(2 * n)
     r_val = st.r_corrected if (model == "corrected-guyan" and st.r_corrected) else st.r
     r = r_val * np.eye(len(dm.actuator_rows))
@@ -275,10 +289,8 @@ def _lqg_design(fe: FEModel, p: _Problem) -> ControllerDesign:
         # the reduced controller closed around the full model (Eqs. 4.23-4.29), as Tables 8 and 12 report
         full = design_model(fe, "full")
         mf, cf, kf = (to_thesis_units(x, full.labels) for x in (full.m, full.c, full.k))
-        uf = np.zeros((mf.shape[0], len(full.actuator_rows)))
-        for j, rr in enumerate(full.actuator_rows):
-            uf[rr, j] = 1.0
-        sf = state_space(mf, cf, kf, uf, time_unit_s=CS_S)
+        uf, cvf = _input_output(fe.spec, full, mf.shape[0])
+        sf = state_space(mf, cf, kf, uf, Cv=cvf, time_unit_s=CS_S)
         rof = reduced_on_full(sf.A, sf.B, sf.C, np.eye(sf.A.shape[0]) * st.q_scale, des)
         sp = rof.spillover
         damping = sp.closed_loop_damping

@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import FEModel, build_fe_model
 from ..io.uff_files import read_sidecar
-from ..experiment.config import test_definition
+from ..experiment.config import test_definition, with_hardware
 from ..measure.instability import find_instability
 from ..spec import StructureSpec, load_spec
 from .data.measured import FrfData, ModalData, refer_to_model
@@ -290,7 +290,7 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
                      f"({PLANT_RESOLUTION_ELEMENTS} elements per segment of a shear-flexible member, "
                      f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
                      "mesh")
-    chain = recorded_chain(setup, period_s)
+    chain = with_hardware(recorded_chain(setup, period_s), spec)  # the structure file's [hardware] settings
     design = nominal_design(fe, controller, setup.seed, period_s=chain.period_s, reduction=setup.reduction)
     return LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
 

@@ -5,12 +5,13 @@ force level, points; Sec. 5.4.2, Tables 10 and 19-21) and
 :func:`test_definition` picks a structure's own ``[test]`` table or the
 shipped one. :class:`ExperimentConfig` gathers the options of ``vlab
 experiment``; :func:`default_chain` is the hardware chain of Sec. 5.3 at the
-thesis's sampling period for a controller.
+thesis's sampling period for a controller, :func:`with_hardware` that chain with
+a structure file's ``[hardware]`` settings.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import SpecError
@@ -193,6 +194,41 @@ def default_chain(
         channel_actuator_lag_hz=dict(channel_actuator_lag_hz or {}),
         channel_sensor_lag_hz=dict(channel_sensor_lag_hz or {}), channel_limit_n=dict(channel_limit_n or {}),
     )
+
+
+def with_hardware(chain: HardwareChain, spec: StructureSpec) -> HardwareChain:
+    """``chain`` with the hardware-chain settings of the structure file's ``[hardware]`` table.
+
+    The table's sensor gains, per-channel delays (converted to periods of ``chain.period_s``) and
+    actuator and sensor lags (:mod:`vlab.spec.hardware`) fill the chain's per-channel entries; an entry
+    the chain already has for a channel (set on the command line or by a diagnosis hypothesis) is kept.
+    Applying it twice changes nothing. The table's actuator gains are not put into the chain: they live in
+    the plant (the FE input matrix and the MuJoCo coils' ``gainprm``), where an MJCF plant carries its own.
+
+    Parameters
+    ----------
+    chain : HardwareChain
+        The run's chain (Sec. 5.3).
+    spec : StructureSpec
+        The structure; without a ``[hardware]`` table ``chain`` is returned as it is.
+
+    Returns
+    -------
+    HardwareChain
+
+    Raises
+    ------
+    ModelError
+        A setting :class:`~vlab.lab.loop.HardwareChain` refuses.
+    """
+    hw = getattr(spec, "hardware", None)
+    if hw is None or not hw.chain_settings:
+        return chain
+    delays = {p: d / chain.period_s for p, d in hw.delay_s.items()}
+    return replace(chain, sensor_gain={**hw.sensor_gain, **chain.sensor_gain},
+                   channel_delay_periods={**delays, **chain.channel_delay_periods},
+                   channel_actuator_lag_hz={**hw.actuator_lag_hz, **chain.channel_actuator_lag_hz},
+                   channel_sensor_lag_hz={**hw.sensor_lag_hz, **chain.channel_sensor_lag_hz})
 
 
 def dissertation_structure(structure) -> bool:

@@ -28,13 +28,14 @@ from ..io.frf import FRF
 from ..io.recording import Recording
 from ..lab.engine import ControllerEngine
 from ..lab.excitation import periodic_chirp, pseudo_random, pulse_train
+from ..lab.chain_frf import chain_closed_loop_frf, sensor_path
 from ..lab.linear_plant import LinearPlant
 from ..lab.loop import LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import h1
-from ..spec import StructureTest
+from ..spec import StructureTest, input_gains
 from .checks import self_excited_oscillation, under_resolved_peaks
-from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of
+from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of, with_hardware
 from .settling import SETTLE_TOLERANCE, predicted_modes, settle_records, slowest_decay_rate
 
 
@@ -141,7 +142,8 @@ def make_plant(cfg: ExperimentConfig, fe: FEModel, actuators: tuple[int, ...], t
         c = structural_damping(fe)
         pidx = {p: fe.dofs.index(p, "w") for p in fe.spec.points if (p, "w") in fe.dofs}
         h = timestep_s or cfg.chain.period_s / 2
-        return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=actuators, timestep_s=h), {
+        return LinearPlant(fe.m, c, fe.k, point_index=pidx, actuator_points=actuators, timestep_s=h,
+                           input_gain=input_gains(fe.spec, actuators)), {
             "kind": "linear FE model", "timestep_s": h}
     if cfg.plant == "mujoco":
         from ..sim import load_plant_for_experiment
@@ -255,6 +257,7 @@ def measure(
         The plant diverged (the message says when; the partial recording is kept).
     """
     test, acts, exc_point = test_of(fe)
+    cfg = replace(cfg, chain=with_hardware(cfg.chain, fe.spec))
     res_hz = cfg.resolution_hz or test.resolution_hz
     duration, n_settle, warnings = _run_length(cfg, res_hz, decay_rate_1_s)
     plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
@@ -330,14 +333,40 @@ def _velocity_frfs(rec: Recording, skip: int, exc_point: int, points: tuple[int,
     return frfs
 
 
+def _predicted_frfs(chain, design, g_fb, g_out, acts, ex, f, response_point, step_s):
+    """The continuous and the sampled-data closed-loop FRFs at the response point, shape (n_f,) each.
+
+    The sampled-data one runs through the whole chain (:func:`vlab.lab.chain_frf.chain_closed_loop_frf`:
+    gains, per-channel delays, lags, RC filter); at a response point that is a feedback sensor the
+    recorded signal is that sensor's (its gain and lag, :func:`vlab.lab.chain_frf.sensor_path`).
+    """
+    if design is None:
+        k_cont = np.zeros((len(f), len(acts), len(acts)), dtype=complex)
+        k_core = None
+    else:
+        k_cont = continuous_controller_frf(f, **design.continuous)
+        k_core = sampled_data_controller_frf(f, design.f11, design.f12, design.f21, design.f22, chain.period_s,
+                                             delay_periods=0.0, filter_hz=None)
+    h_cont = closed_loop_frf(g_fb, g_out, k_cont, ex)[:, 0]
+    h_samp = chain_closed_loop_frf(g_fb, g_out, k_core, chain, acts, ex, f, step_s)[:, 0]
+    if response_point in acts:
+        h_samp = h_samp * sensor_path(chain, acts, f)[:, acts.index(response_point)]
+    return h_cont, h_samp
+
+
 def run_experiment(
     cfg: ExperimentConfig,
     fe: FEModel,
     *,
     design=None,
     progress: Callable[[float], None] | None = None,
+    lab_chain=None,
 ) -> ExperimentResult:
     """Run one experiment (:func:`measure`) and compare it with the analysis.
+
+    The analysis uses ``cfg.chain`` with the structure file's ``[hardware]`` settings
+    (:func:`~vlab.experiment.config.with_hardware`) and the coils' gains in the input matrix; the run uses
+    ``lab_chain`` (default ``cfg.chain``) with the same settings where it sets none of its own.
 
     Parameters
     ----------
@@ -351,6 +380,10 @@ def run_experiment(
         "none"`` runs open loop.
     progress : callable, optional
         Receives the fraction of the run done.
+    lab_chain : HardwareChain, optional
+        The chain the lab really has where it differs from what the analysis knows (an effect concealed from
+        the model, e.g. a sensor gain; its per-channel entries win over the structure file's); same period
+        as ``cfg.chain``. None: ``cfg.chain``.
 
     Returns
     -------
@@ -374,25 +407,19 @@ def run_experiment(
         design = design_controller(fe, cfg.controller, model=cfg.reduction, seed=cfg.seed,
                                    period_s=cfg.chain.period_s)
     check_design_period(design, cfg.chain)
+    cfg = replace(cfg, chain=with_hardware(cfg.chain, fe.spec))
     c = structural_damping(fe)
-    u = fe.force_input(acts)
-    fm, zm = predicted_modes(fe, design)
-    m = measure(cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
+    u = fe.force_input(acts) * input_gains(fe.spec, acts)  # the coils' gains live in the plant (Eq. 3.1's U)
+    fm, zm = predicted_modes(fe, design, cfg.chain)
+    run_cfg = cfg if lab_chain is None else replace(cfg, chain=lab_chain)
+    check_design_period(design, run_cfg.chain)
+    m = measure(run_cfg, fe, design, progress=progress, decay_rate_1_s=slowest_decay_rate(fe, design))
     f = m.freq_hz
     g = velocity_frf(fe.m, c, fe.k, u, fe.force_input(acts + (test.response_point,)).T, f)
     g_fb, g_out = g[:, : len(acts), :], g[:, len(acts):, :]
     ex = acts.index(exc_point)
-    chain = cfg.chain
-    if design is None:
-        k_cont = np.zeros((len(f), len(acts), len(acts)), dtype=complex)
-        k_samp = k_cont
-    else:
-        k_cont = continuous_controller_frf(f, **design.continuous)
-        k_samp = sampled_data_controller_frf(
-            f, design.f11, design.f12, design.f21, design.f22, chain.period_s,
-            delay_periods=chain.delay_periods, filter_hz=chain.filter_hz)
-    h_cont = closed_loop_frf(g_fb, g_out, k_cont, ex)[:, 0]
-    h_samp = closed_loop_frf(g_fb, g_out, k_samp, ex)[:, 0]
+    h_cont, h_samp = _predicted_frfs(cfg.chain, design, g_fb, g_out, acts, ex, f, test.response_point,
+                                     m.plant_info.get("timestep_s") or cfg.chain.period_s / 2)
     if test.response_quantity == "displacement":
         iw = 2j * np.pi * f
         h_cont, h_samp = h_cont / iw, h_samp / iw

@@ -15,6 +15,7 @@ from ..analysis import closed_loop_modes
 from ..errors import ModelError
 from ..fe import FEModel
 from ..fe.damping import structural_damping
+from ..spec import input_gains
 from .config import test_of
 
 #: Remaining share of the start-up transient (relative to its initial amplitude) allowed when the
@@ -62,8 +63,12 @@ def settle_records(decay_rate_1_s: float | None, record_s: float, *, tolerance: 
     return max(1, int(np.ceil(np.log(1.0 / tolerance) / (decay_rate_1_s * record_s) - 1e-9)))
 
 
-def predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
+def predicted_modes(fe: FEModel, design=None, chain=None) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies and damping ratios of the continuous closed loop's first test modes in the test's band.
+
+    The coils' gains of the structure file's ``[hardware]`` table scale the input matrix ``U`` (Eq. 3.1);
+    with ``chain``, its amplifier and actuator gains scale ``U`` too and its sensor gains the outputs
+    (its delays and lags are not part of the continuous loop).
 
     Parameters
     ----------
@@ -71,6 +76,8 @@ def predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
         The nominal FE model with the spec's open-loop modal damping (its spec selects the test).
     design : ControllerDesign, optional
         The controller (its ``continuous`` form); None = open loop.
+    chain : HardwareChain, optional
+        The run's chain (:class:`vlab.lab.loop.HardwareChain`); None = ideal gains.
 
     Returns
     -------
@@ -86,7 +93,11 @@ def predicted_modes(fe: FEModel, design=None) -> tuple[np.ndarray, np.ndarray]:
     test, acts, _ = test_of(fe)
     c = structural_damping(fe)
     u = fe.force_input(acts)
-    fm, zm = closed_loop_modes(fe.m, c, fe.k, u, u.T, None if design is None else design.continuous)
+    gi, go = input_gains(fe.spec, acts), np.ones(len(acts))
+    if chain is not None:
+        gi = gi * chain.amplifier_gain * np.array([chain.actuator_gain.get(p, 1.0) for p in acts])
+        go = np.array([chain.sensor_gain.get(p, 1.0) for p in acts])
+    fm, zm = closed_loop_modes(fe.m, c, fe.k, u * gi, (u * go).T, None if design is None else design.continuous)
     in_band = (fm >= test.band_hz[0]) & (fm <= test.band_hz[1])
     return fm[in_band][: test.n_modes], zm[in_band][: test.n_modes]
 

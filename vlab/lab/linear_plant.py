@@ -28,14 +28,19 @@ class LinearPlant:
         Points where ``set_forces`` applies forces [N], in order.
     timestep_s : float
         Physics step h [s].
+    input_gain : array_like, shape (n_act,), optional
+        Force per command [1] of each actuator (the coils' gains of a structure file's ``[hardware]``
+        table, :meth:`vlab.spec.Hardware.input_gains`): column j of ``U`` is ``input_gain[j]`` at its
+        point's DOF. None: ones.
 
     Raises
     ------
     ModelError
-        For inconsistent shapes or an actuator point without a DOF.
+        For inconsistent shapes, an actuator point without a DOF, or ``input_gain`` of another length.
     """
 
-    def __init__(self, m, c, k, *, point_index: dict[int, int], actuator_points, timestep_s: float):
+    def __init__(self, m, c, k, *, point_index: dict[int, int], actuator_points, timestep_s: float,
+                 input_gain=None):
         m, c, k = (np.asarray(a, dtype=float) for a in (m, c, k))
         n = m.shape[0]
         if m.shape != (n, n) or c.shape != (n, n) or k.shape != (n, n):
@@ -45,11 +50,14 @@ class LinearPlant:
             if p not in point_index:
                 raise ModelError(f"LinearPlant: actuator point {p} has no DOF (points: {sorted(point_index)})")
         self.timestep_s = float(timestep_s)
+        if input_gain is not None and np.shape(input_gain) != (len(self.actuator_points),):
+            raise ModelError(f"LinearPlant: input_gain must have shape ({len(self.actuator_points)},), "
+                             f"got {np.shape(input_gain)}")
         self._pidx = dict(point_index)
         self._index_cache: dict[tuple, np.ndarray] = {}
         u = np.zeros((n, len(self.actuator_points)))
         for j, p in enumerate(self.actuator_points):
-            u[point_index[p], j] = 1.0
+            u[point_index[p], j] = 1.0 if input_gain is None else float(input_gain[j])
         minv = np.linalg.inv(m)
         a = np.block([[-minv @ c, -minv @ k], [np.eye(n), np.zeros((n, n))]])
         b = np.vstack([minv @ u, np.zeros((n, u.shape[1]))])

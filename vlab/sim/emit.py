@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
-from ..spec import StructureSpec
+from ..spec import StructureSpec, input_gains
 from ..units import G_SI
 from .options import INTEGRATORS, SimOptions
 from .plan import Plan, combine_items
@@ -135,15 +135,18 @@ def _actuators_and_sensors(ms: mujoco.MjSpec, spec: StructureSpec, plan: Plan) -
     """The voice coils ``coil<ID>``, the constant ``prestress*`` loads, then the velocity sensors ``vel<ID>``."""
     ins = spec.instrumentation
     if ins is not None:
-        for p in ins.actuators:
+        gains = input_gains(spec, ins.actuators)  # the [hardware] table's coil gains: force per command
+        for p, gain in zip(ins.actuators, gains):
             a = ms.add_actuator(name=f"coil{p}", trntype=mujoco.mjtTrn.mjTRN_SITE, target=f"coil{p}",
                                 refsite=f"coil{p}_ref")
             a.gear = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
             a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-            a.gainprm[0] = 1.0
+            a.gainprm[0] = float(gain)
             a.biastype = mujoco.mjtBias.mjBIAS_NONE
             a.dyntype = mujoco.mjtDyn.mjDYN_NONE
-            a.info = f"spec: voice-coil actuator at point {p}: ctrl = force [N] along world +z"
+            a.info = (f"spec: voice-coil actuator at point {p}: ctrl = force [N] along world +z" if gain == 1.0 else
+                      f"spec: voice-coil actuator at point {p}: force = {gain:.7g} x ctrl [N] along world +z "
+                      "([hardware] actuator_gain)")
     for name, site, ref, wrench, info in plan.prestress:
         mag = float(np.linalg.norm(wrench))
         a = ms.add_actuator(name=name, trntype=mujoco.mjtTrn.mjTRN_SITE, target=site, refsite=ref)

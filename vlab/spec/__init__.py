@@ -19,12 +19,14 @@ The package's modules:
 - :mod:`vlab.spec.geometry` -- the tables of the structure (points, sections, members, strings, masses, ...)
 - :mod:`vlab.spec.settings` -- the tables of its test, damping, references, reduction and design
 - :mod:`vlab.spec.changes` -- the change tables a diagnosis appends (``vlab update``)
+- :mod:`vlab.spec.hardware` -- the ``[hardware]`` table: per-channel gains, delays and lags of coils and sensors
 - :mod:`vlab.spec.load` -- :func:`vlab.spec.load_spec` and :func:`vlab.spec.spec_from_dict`
 - :mod:`vlab.spec.edit` -- :func:`vlab.spec.structure_identity` and :func:`vlab.spec.with_quantity`
 """
 
 from .changes import CHANGE_TABLES, apply_change_tables, damping_of, release_supports, split_segments
 from .edit import structure_identity, with_quantity
+from .hardware import HARDWARE_TABLES, Hardware, input_gains
 from .geometry import MAX_COORDINATE_M, MAX_ELEMENTS_PER_SEGMENT
 from .load import load_spec, spec_from_dict
 from .reader import PLAUSIBLE_RANGES
@@ -34,10 +36,10 @@ from .structure import (ASSETS_DIR, DATA_DIR, DOF_NAMES, STRUCTURES_DIR, Crosspi
                         StructureSpec, StructureTest, Support)
 
 __all__ = [
-    "ASSETS_DIR", "CHANGE_TABLES", "DATA_DIR", "DESIGN_FIELDS", "DOF_NAMES", "MAX_COORDINATE_M",
+    "ASSETS_DIR", "CHANGE_TABLES", "HARDWARE_TABLES", "Hardware", "DATA_DIR", "DESIGN_FIELDS", "DOF_NAMES", "MAX_COORDINATE_M",
     "MAX_ELEMENTS_PER_SEGMENT", "MAX_TEST_BAND_HZ", "PLAUSIBLE_RANGES", "RESPONSE_QUANTITIES", "STRUCTURES_DIR",
     "Crosspiece", "Damping", "Instrumentation", "LumpedMass", "Member", "ModelFormDeclared", "Quantity",
     "RigidInsert", "Section", "Spring", "StringElement", "StructureSpec", "StructureTest", "Support",
-    "apply_change_tables", "damping_of", "load_spec", "release_supports", "spec_from_dict", "split_segments",
+    "apply_change_tables", "damping_of", "input_gains", "load_spec", "release_supports", "spec_from_dict", "split_segments",
     "structure_identity", "with_quantity",
 ]

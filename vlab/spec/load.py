@@ -14,6 +14,7 @@ from typing import Any, Callable
 
 from ..errors import SpecError
 from .changes import CHANGE_TABLES, apply_change_tables, damping_of, release_supports
+from .hardware import read_hardware
 from .geometry import (read_crosspieces, read_masses, read_members, read_points, read_sections, read_springs,
                        read_strings, read_structure, read_supports)
 from .reader import TableReader
@@ -173,6 +174,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
     top.raw("calibration", {}, types=(dict,))
     test = read_test(top.sub("test", None), instr, points)
     design = read_design(top.sub("design", None))
+    hardware = read_hardware(top.sub("hardware", None), instr)
     changes = {name: top.raw(name, [], types=(list,)) for name in CHANGE_TABLES}
     top.done()
 
@@ -184,7 +186,7 @@ def spec_from_dict(doc: dict[str, Any], *, path: Path | None = None,
         sections=sections, members=tuple(el.members), strings=tuple(el.strings), masses=tuple(el.masses),
         crosspieces=tuple(el.crosspieces), springs=tuple(el.springs), supports=tuple(el.supports),
         instrumentation=instr, damping=damping, model_form=model_form, reference=reference, master_dofs=masters,
-        mujoco=mj, test=test, design_settings=design, raw=doc)
+        mujoco=mj, test=test, design_settings=design, hardware=hardware, raw=doc)
     base = None
     if el.added or changes["member_stiffness"] or changes["joint_flexibility"]:  # the structure before them
         base = _before_changes(spec, el)

@@ -29,6 +29,8 @@ _KIND_UNITS = {
     "inertia": {"kg*m^2", "lbf*s^2*in"},
     "shear_force": {"N", "lbf"},
     "ratio": {"1"},
+    "time": {"s"},
+    "frequency": {"Hz"},
 }
 
 #: Plausible range [SI] of each kind of value in a structure definition. The lab's
@@ -39,7 +41,8 @@ _KIND_UNITS = {
 #: moduli 1 kPa .. 10 TPa (diamond: 1.2 TPa); densities 1e-3 .. 1e5 kg/m^3 (osmium:
 #: 22 600); masses 1 ug .. 1000 t; rigidities 1e-15 .. 1e10 N m^2 (BCC beam: 26,
 #: grid top beam: 8.4e3); springs 1e-9 .. 1e12 N/m or N m/rad; tensions and shear
-#: stiffnesses 1 uN .. 100 MN (kGA up to 1e12 N); inertias 1e-15 .. 1e6 kg m^2.
+#: stiffnesses 1 uN .. 100 MN (kGA up to 1e12 N); inertias 1e-15 .. 1e6 kg m^2; times (the hardware's
+#: delays) 1 ns .. 1000 s; frequencies (its lags' corners) 1 mHz .. 10 MHz.
 PLAUSIBLE_RANGES: dict[str, tuple[float, float, str]] = {
     "length": (1e-6, 1e3, "m"),
     "force": (1e-6, 1e8, "N"),
@@ -52,6 +55,8 @@ PLAUSIBLE_RANGES: dict[str, tuple[float, float, str]] = {
     "inertia": (1e-15, 1e6, "kg*m^2"),
     "shear_force": (1e-6, 1e12, "N"),
     "ratio": (0.0, 1.0, "1"),
+    "time": (1e-9, 1e3, "s"),
+    "frequency": (1e-3, 1e7, "Hz"),
 }
 
 

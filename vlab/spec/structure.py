@@ -433,6 +433,9 @@ class StructureSpec:
         The ``[design]`` table: controller-design settings (keys of
         :data:`vlab.spec.DESIGN_FIELDS`), checked for type and range;
         :func:`vlab.design.design_settings` fills the rest with defaults.
+    hardware : Hardware or None
+        The ``[hardware]`` table: per-channel actuator and sensor gains, delays and lags
+        (:mod:`vlab.spec.hardware`); None = the ideal channels.
     raw : dict[str, Any]
         The parsed TOML document (not compared, not shown in ``repr``).
     """
@@ -458,6 +461,7 @@ class StructureSpec:
     mujoco: dict[str, Any] = field(default_factory=dict)
     test: StructureTest | None = None
     design_settings: dict[str, Any] = field(default_factory=dict)
+    hardware: Any = None
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def replace(self, **changes: Any) -> "StructureSpec":

@@ -39,8 +39,9 @@ from ...analysis import sampled_data_controller_frf
 from ...fe.damping import structural_damping, structural_ratios
 from ...errors import ModelError
 from ...fe import FEModel, Modes, build_fe_model, modal_analysis
+from ...lab.chain_frf import actuator_path as chain_actuator_path, output_delay, sensor_path as chain_sensor_path
 from ...lab.loop import HardwareChain, check_design_period
-from ...spec import StructureSpec
+from ...spec import StructureSpec, input_gains
 
 
 @dataclass(frozen=True)
@@ -344,21 +345,9 @@ def controller_frf(state: LabState, freq_hz: np.ndarray) -> np.ndarray | None:
     d = state.design
     if d is None:
         return None
-    ch = state.chain
     f = frequencies(freq_hz)
-    core = _controller_core(d, ch.period_s, f)
-    w = 2 * np.pi * f
-    if ch.channel_delay_periods:  # a delay per output channel: the rows of K
-        d = np.array([ch.delay_of(p) for p in state.actuators])
-        factor = np.exp(-1j * w[:, None] * d[None, :] * ch.period_s)
-        if ch.filter_hz is not None:
-            factor = factor / (1 + 1j * f / ch.filter_hz)[:, None]
-        return core * factor[:, :, None]
-    factor = np.exp(-1j * w * ch.delay_periods * ch.period_s)
-    if ch.filter_hz is not None:
-        # the loop applies the filter's exact average over each physics step (no lead)
-        factor = factor / (1 + 1j * f / ch.filter_hz)
-    return core * factor[:, None, None]
+    core = _controller_core(d, state.chain.period_s, f)
+    return core * output_delay(state.chain, state.actuators, f)[:, :, None]
 
 
 def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
@@ -371,46 +360,17 @@ def zoh(freq_hz: np.ndarray, period_s: float) -> np.ndarray:
 
 
 def actuator_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
-    """Diagonal of ``A(w)`` of ``state`` at ``freq_hz`` [Hz]: amplifier gain x channel gain x lag x
-    saturation gain, shape (n_f, n_act)."""
-    ch = state.chain
-    f = frequencies(freq_hz)
-    g = np.array([ch.amplifier_gain * ch.actuator_gain.get(p, 1.0) * _saturation_gain(state, p)
-                  for p in state.actuators], dtype=complex)
-    a = np.broadcast_to(g, (len(f), len(g))).copy()
-    if ch.channel_actuator_lag_hz:
-        return a * _lags([ch.actuator_lag_of(p) for p in state.actuators], f, state.h_s)
-    if ch.actuator_lag_hz:
-        h = state.h_s
-        c = math.exp(-2 * math.pi * ch.actuator_lag_hz * h)
-        a = a * ((1 - c) / (1 - c * np.exp(-2j * np.pi * f * h)))[:, None]
-    return a
-
-
-def _lags(corners_hz, f: np.ndarray, step_s: float) -> np.ndarray:
-    """Discrete first-order lags ``(1 - c) / (1 - c e^{-jw step})``, ``c = e^{-2 pi f_c step}``, one column per
-    channel (corner None: 1), shape (n_f, n_channels)."""
-    out = np.ones((len(f), len(corners_hz)), dtype=complex)
-    for i, fc in enumerate(corners_hz):
-        if fc:
-            c = math.exp(-2 * math.pi * fc * step_s)
-            out[:, i] = (1 - c) / (1 - c * np.exp(-2j * np.pi * f * step_s))
-    return out
+    """Diagonal of ``A(w)`` of ``state`` at ``freq_hz`` [Hz]: amplifier gain x channel gain x lag
+    (:func:`vlab.lab.chain_frf.actuator_path`) x saturation gain x the coil's own gain of the structure
+    file (:func:`vlab.spec.input_gains`, part of the plant), shape (n_f, n_act)."""
+    sat = np.array([_saturation_gain(state, p) for p in state.actuators]) * input_gains(state.spec, state.actuators)
+    return chain_actuator_path(state.chain, state.actuators, frequencies(freq_hz), state.h_s) * sat[None, :]
 
 
 def sensor_path(state: LabState, freq_hz: np.ndarray) -> np.ndarray:
-    """Diagonal of ``S(w)`` of ``state`` at ``freq_hz`` [Hz]: sensor gain x discrete first-order lag,
-    shape (n_f, n_act)."""
-    ch = state.chain
-    f = frequencies(freq_hz)
-    g = np.array([ch.sensor_gain.get(p, 1.0) for p in state.actuators], dtype=complex)
-    s = np.broadcast_to(g, (len(f), len(g))).copy()
-    if ch.channel_sensor_lag_hz:
-        return s * _lags([ch.sensor_lag_of(p) for p in state.actuators], f, ch.period_s)
-    if ch.sensor_lag_hz:
-        a = math.exp(-2 * math.pi * ch.sensor_lag_hz * ch.period_s)
-        s = s * ((1 - a) / (1 - a * np.exp(-2j * np.pi * f * ch.period_s)))[:, None]
-    return s
+    """Diagonal of ``S(w)`` of ``state`` at ``freq_hz`` [Hz]: sensor gain x discrete first-order lag
+    (:func:`vlab.lab.chain_frf.sensor_path`), shape (n_f, n_act)."""
+    return chain_sensor_path(state.chain, state.actuators, frequencies(freq_hz))
 
 
 def _saturation_gain(state: LabState, point: int) -> float:
