@@ -95,8 +95,26 @@ def _populate(root: Path) -> None:
     points = load_spec("bcc").points
     (root / "all_clamped.toml").write_text(bcc + "".join(
         f'\n[[supports]]\npoint = {k}\nfixed = ["w"]\ninplane = "free"\n' for k in points))
+    (root / "huge_member.toml").write_text(_long_beam(10000))   # a member through 10 000 points
+    (root / "deep_chain.toml").write_text(_long_beam(1100))     # a plant deeper than MuJoCo compiles
     (root / "include_abs.xml").write_text('<mujoco><include file="/etc/passwd"/></mujoco>\n')
     (root / "include_rel.xml").write_text(f'<mujoco><include file="{"../" * 12}etc/hostname"/></mujoco>\n')
+
+
+def _long_beam(n: int) -> str:
+    """``vlab init beam``'s structure with its strip through ``n`` points 0.1 mm apart (coils at 5 and ``n``)."""
+    from vlab.templates import template_text
+
+    text = template_text("beam")
+    coords = ", ".join(f"{i} = [0, {0.1 * (i - 1):.1f}]" for i in range(1, n + 1))
+    text = re.sub(r"coordinates = \{.*\}", "coordinates = { " + coords + " }", text)
+    text = text.replace("points = [1, 2, 3, 4, 5, 6, 7, 8, 9]", f"points = {list(range(1, n + 1))}")
+    for old, new in (("point = 9\n", f"point = {n}\n"), ("actuators = [9, 5]", f"actuators = [{n}, 5]"),
+                     ("sensors = [9, 5, 7]", f"sensors = [{n}, 5, 7]"), ("excitation = 9 ", f"excitation = {n} "),
+                     ("measured_points = [3, 5, 7, 9]", f"measured_points = [3, 5, 7, {n}]")):
+        assert old in text, old
+        text = text.replace(old, new)
+    return text
 
 
 def _snapshot(root: Path) -> dict[str, str]:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 from . import checks
-from .options import OutputFormat, arg_structure, format_opt, json_flag, opt
-from .output import console, err_console, print_json, print_rows
+from .options import OutputFormat, arg_structure, flag, format_opt, json_flag, opt
+from .output import console, err_console, print_json, print_rows, stages
 
 #: Largest ``crosscheck --segments`` accepted (the plant's bodies grow linearly with it).
 MAX_SEGMENTS = 64
@@ -21,23 +21,49 @@ def crosscheck(
                                           "otherwise)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
+    yes: bool = flag("--yes", help="run a cross-check estimated to take more than 30 min"),
 ) -> None:
     """Cross-check the MuJoCo plant against the FE model: frequencies, MAC, free decay.
 
     Modes are paired one-to-one by MAC over a common band, against the structure file's mesh (for the BCC
     and the grid the thesis's) and the structure meshed at the plant's resolution; MuJoCo modes in the band
-    without an FE partner are listed. A reference beyond the tolerance is named in the output.
+    without an FE partner are listed. A reference beyond the tolerance is named in the output. The plant's
+    size, time and memory are estimated before it is built (on stderr); beyond 30 min it asks for --yes.
     """
     out = checks.output_format(fmt, as_json)
     spec = checks.load_structure(structure)
     n_modes = n or (12 if spec.name == "grid" else 6)
     mesh = _mesh_label(spec)
+    _confirm_size(spec, segments, yes, quiet=out != "table")
     plant, refs, decay = _run(spec, segments, n_modes, quiet=out != "table", mesh=mesh)
     verdict, verdict_lines = _crosscheck_tolerance(refs, mesh)
     if out == "json":
         print_json(_as_json(spec, plant, refs, decay, verdict))
         return
     _print_table(out, spec, plant, refs, decay, verdict_lines, mesh)
+
+
+def _confirm_size(spec, segments: int | None, yes: bool, *, quiet: bool) -> None:
+    """Plan the plant (its size checks), print the estimate on stderr and refuse a run beyond 30 min unless
+    ``yes`` (:func:`vlab.sim.estimate.plant_estimate`)."""
+    from ..errors import OptionError
+    from ..robust.scheduler import CONFIRM_ABOVE_S, format_duration
+    from ..sim import SimOptions
+    from ..sim.estimate import plant_estimate
+    from ..sim.planner import plan_structure
+
+    plan, _ = plan_structure(spec, SimOptions(segments_per_element=segments).resolved(spec))
+    n_joints = sum(len(b.joints) for b in plan.bodies.values())
+    est = plant_estimate(n_joints, crosscheck=True)
+    what = f"{len(plan.bodies)} bodies, {n_joints} joint DOFs"
+    if est["time_s"] > CONFIRM_ABOVE_S and not yes:
+        given = f"--segments {segments}" if segments is not None else f"{spec.name}'s segments_per_element"
+        raise OptionError(f"{given}: the cross-check would take about {format_duration(est['time_s'])} "
+                          f"({what}; dense linear algebra on {est['states']:.0f} states, about "
+                          f"{est['memory_bytes'] / 1e9:.2g} GB); pass --yes to run it, or fewer --segments")
+    if not quiet:
+        err_console.print(f"estimate: {what}, about {format_duration(est['time_s'])}, "
+                          f"{est['memory_bytes'] / 1e9:.2g} GB", highlight=False)
 
 
 def _mesh_label(spec) -> str:
@@ -49,36 +75,24 @@ def _mesh_label(spec) -> str:
 
 
 def _run(spec, segments: int | None, n_modes: int, *, quiet: bool, mesh: str = "thesis mesh"):
-    """Build the plant, pair its modes with both FE references, let mode 1 decay; a progress bar on stderr.
+    """Build the plant, pair its modes with both FE references, let mode 1 decay; the stages on stderr.
 
     Returns the plant, the cross-checks by reference name (``thesis_mesh``, ``plant_resolution``) and the free
     decay of mode 1 (None where mode 1 has no MuJoCo partner).
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
     from ..sim import SimOptions, build_plant
     from ..sim import crosscheck as run_crosscheck
     from ..sim import free_decay
 
-    stages = ("building the MuJoCo plant", f"pairing with the FE model ({mesh})",
-              "pairing with the FE model (plant resolution)", "free decay of mode 1")
-    with Progress(TextColumn("crosscheck {task.fields[stage]}"), BarColumn(), TimeElapsedColumn(),
-                  TextColumn("ETA"), TimeRemainingColumn(), console=err_console, transient=True,
-                  disable=quiet) as bar:
-        task = bar.add_task("crosscheck", total=len(stages), stage=stages[0])
-
-        def step(i: int) -> None:
-            bar.update(task, completed=i, stage=stages[min(i, len(stages) - 1)])
-
+    with stages("crosscheck", "building the MuJoCo plant", quiet=quiet) as say:
         plant = build_plant(spec, SimOptions(segments_per_element=segments))
-        step(1)
+        say(f"pairing with the FE model ({mesh}; {plant.model.nv} plant DOFs)")
         refs = {"thesis_mesh": run_crosscheck(plant, n_modes)}
-        step(2)
+        say("pairing with the FE model (plant resolution)")
         refs["plant_resolution"] = run_crosscheck(plant, n_modes, mesh="plant")
-        step(3)
         first = refs["thesis_mesh"].pairs[0]
+        say("free decay of mode 1")
         decay = free_decay(plant, first.sim_mode, sim_modes=refs["thesis_mesh"].sim_modes) if first.sim_mode else None
-        step(4)
     return plant, refs, decay
 
 

@@ -13,7 +13,7 @@ from rich.markup import escape
 from ..errors import OptionError, ResourceError, VlabError
 from . import checks
 from .options import (REDUCTION_HELP, STRUCTURE_HELP, DesignReduction, ExpController, OutputFormat, PlantKind,
-                      arg_structure, flag, format_opt, opt)
+                      arg, arg_structure, flag, format_opt, opt)
 from .output import console, err_console, error_line, print_json, print_rows, print_warnings
 from .runtime import expect_output
 
@@ -30,7 +30,7 @@ EXPERIMENT_OUT = "out/experiment"
 
 
 def experiment(
-    structure: str = typer.Argument("bcc", help=STRUCTURE_HELP),
+    structure: str = arg("bcc", help=STRUCTURE_HELP),
     controller: ExpController = opt(ExpController.mfdrf, "--controller",
                                     help="controller in the loop: none (open loop), LQG, MFDRF, LQDRF or LQDRF "
                                          "with a diagonal gain (LQR needs the full state: run it as LQG)"),

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from enum import Enum
 
-import typer
 from rich.markup import escape
 
-from .options import flag
+from .options import arg, flag
 from .output import console
 
 
@@ -21,10 +20,10 @@ class TemplateKind(str, Enum):
 
 
 def init_cmd(
-    kind: TemplateKind = typer.Argument(..., help="template: beam (clamped-free beam, two coils), frame (planar "
+    kind: TemplateKind = arg(..., help="template: beam (clamped-free beam, two coils), frame (planar "
                                                   "portal frame, two coils), or a copy of bcc or grid",
                                         show_default=False),
-    path: str = typer.Argument(..., help="structure file to write, ending in .toml; its folder must exist",
+    path: str = arg(..., help="structure file to write, ending in .toml; its folder must exist",
                                show_default=False),
     overwrite: bool = flag("--overwrite", help="replace an existing file"),
 ) -> None:

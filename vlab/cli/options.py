@@ -58,6 +58,11 @@ def opt(default: Any, *decls: str, help: str, **kwargs: Any) -> Any:
     return typer.Option(default, *decls, help=escape(help), **kwargs)
 
 
+def arg(default: Any, *, help: str, **kwargs: Any) -> Any:
+    """``typer.Argument`` whose help is plain text: brackets such as ``[test]`` are escaped, not read as rich markup."""
+    return typer.Argument(default, help=escape(help), **kwargs)
+
+
 def flag(*decls: str, help: str) -> Any:
     """An on/off option: off by default, shown without a type (no ``<bool>``) in ``--help``."""
     return typer.Option(False, *decls, help=escape(help) + " (a flag; default: off)", metavar="",
@@ -66,7 +71,7 @@ def flag(*decls: str, help: str) -> Any:
 
 def arg_structure() -> Any:
     """The required ``structure`` argument (a shipped name or a ``.toml`` path)."""
-    return typer.Argument(..., help=STRUCTURE_HELP, show_default=False)
+    return arg(..., help=STRUCTURE_HELP, show_default=False)
 
 
 def format_opt() -> Any:

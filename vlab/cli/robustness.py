@@ -5,13 +5,12 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-import typer
 from rich.markup import escape
 from rich.table import Table
 
 from ..errors import OptionError
 from . import checks
-from .options import flag, opt, quiet_flag
+from .options import arg, flag, opt, quiet_flag
 from .output import console, print_json, stages
 from .runtime import expect_output
 
@@ -19,7 +18,7 @@ ROBUSTNESS_OUT = "out/robustness"
 
 
 def robustness(
-    structure: str = typer.Argument(..., help="structure: bcc (Beam Cross-Cable), grid (Hanging Grid) or a "
+    structure: str = arg(..., help="structure: bcc (Beam Cross-Cable), grid (Hanging Grid) or a "
                                               "structure file (TOML, with [instrumentation] and [test]; `vlab "
                                               "init` writes one)", show_default=False),
     samples: str = opt("1000", "--samples", metavar="<integer>",

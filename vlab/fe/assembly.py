@@ -25,13 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError, ResourceError
+from ..errors import ModelError
 from ..spec import StructureSpec
 from .dofmap import DofMap, Node
 from .crosspiece import cantilever_tip_mass_sdof
 from .elements import beam_matrices, local_to_global, rigid_offset
 from .geometric import geometric_stiffness, polar_radius_sq
 from .mesh import Mesh, build_mesh
+from .size import check_model_size
 from ..units import G_SI
 from .statics import GravityState, solve_gravity
 
@@ -156,35 +157,6 @@ def check_bending_dofs(spec: StructureSpec) -> None:
                     f"along y bends with 'rx', one along x with 'ry', and the other rotation is its torsion)")
 
 
-#: Most degrees of freedom of an FE model. Its dense mass and stiffness matrices and their eigen-solution
-#: hold about six ``n x n`` float64 arrays (48 n^2 bytes): 6000 degrees of freedom need 1.7 GB, the memory of
-#: a small machine, and a dense eigen-solution of that size takes minutes on two cores. A chosen limit.
-MAX_DOFS = 6000
-
-
-def check_model_size(spec: StructureSpec, n_nodes: int) -> None:
-    """Refuse a mesh whose FE model would exceed :data:`MAX_DOFS` degrees of freedom.
-
-    Parameters
-    ----------
-    spec : StructureSpec
-        The structure (its active DOFs per node).
-    n_nodes : int
-        Nodes of its mesh (points and interior nodes).
-
-    Raises
-    ------
-    ResourceError
-        Naming the node and DOF counts and the memory the dense model would need.
-    """
-    n = n_nodes * len(spec.active_dofs)
-    if n > MAX_DOFS:
-        raise ResourceError(
-            f"{spec.name}: the FE model would have about {n} degrees of freedom ({n_nodes} nodes x "
-            f"{len(spec.active_dofs)} DOFs), more than {MAX_DOFS}: its dense matrices and eigen-solution need "
-            f"about {48 * n * n / 1e9:.1f} GB; use fewer points or a smaller elements_per_segment")
-
-
 def build_fe_model(spec: StructureSpec) -> FEModel:
     """Assemble the FE model of ``spec``.
 
@@ -205,7 +177,7 @@ def build_fe_model(spec: StructureSpec) -> FEModel:
         a structure not held in its plane, or an assembled matrix that is not
         symmetric positive (semi)definite.
     ResourceError
-        A model beyond :data:`MAX_DOFS` degrees of freedom (:func:`check_model_size`).
+        A model beyond :data:`vlab.fe.size.MAX_DOFS` degrees of freedom (:func:`vlab.fe.size.check_model_size`).
     """
     check_bending_dofs(spec)
     mesh = build_mesh(spec)

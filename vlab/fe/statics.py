@@ -28,6 +28,7 @@ from ..errors import ModelError
 from ..spec import StructureSpec
 from ..units import G_SI
 from .mesh import Element, Mesh
+from .size import check_model_size
 
 
 @dataclass(frozen=True)
@@ -145,7 +146,11 @@ def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
     ModelError
         If the structure is not held in its plane (loads not in equilibrium with
         the supports: a rigid-body motion would be loaded).
+    ResourceError
+        A mesh beyond :data:`vlab.fe.size.MAX_DOFS` in-plane degrees of freedom
+        (:func:`vlab.fe.size.check_model_size`).
     """
+    check_model_size(spec, len(mesh.nodes), dofs_per_node=3, what="the in-plane gravity statics")
     key = _inputs(spec, mesh)
     hit = _CACHE.get(key)
     if hit is None:
@@ -154,6 +159,26 @@ def solve_gravity(spec: StructureSpec, mesh: Mesh) -> GravityState:
             _CACHE.clear()
         _CACHE[key] = hit
     return hit
+
+
+def _solve_symmetric(k: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``k x = f`` for the in-plane stiffness: an LU solve of the equilibrated system ``(D k D) y = D f``,
+    ``x = D y`` with ``D = |diag k|^(-1/2)`` (translations and rotations on one scale) where it is regular --
+    its reciprocal condition number (LAPACK's ``dgecon`` estimate) above machine epsilon, the usual test of
+    a matrix "singular to working precision" -- else the minimum-norm least-squares solution (a mechanism
+    whose loads may still balance; the caller checks the residual)."""
+    from scipy.linalg import lapack, lu_factor, lu_solve
+
+    n = k.shape[0]
+    diag = np.abs(np.diag(k))
+    if n and np.all(diag > 0):
+        d = 1.0 / np.sqrt(diag)
+        ks = d[:, None] * k * d[None, :]
+        lu, piv = lu_factor(ks, check_finite=False)
+        rcond, info = lapack.dgecon(lu, float(np.linalg.norm(ks, 1)), norm="1")
+        if info == 0 and rcond > np.finfo(float).eps:
+            return d * lu_solve((lu, piv), d * f, check_finite=False)
+    return np.linalg.lstsq(k, f, rcond=None)[0]
 
 
 def _solve(spec: StructureSpec, mesh: Mesh) -> GravityState:
@@ -204,7 +229,7 @@ def _solve(spec: StructureSpec, mesh: Mesh) -> GravityState:
         )
     kff = k[np.ix_(free, free)]
     u = np.zeros(ndof)
-    sol, *_ = np.linalg.lstsq(kff, f[free], rcond=None)
+    sol = _solve_symmetric(kff, f[free])
     resid = np.linalg.norm(kff @ sol - f[free])
     if resid > 1e-6 * max(np.linalg.norm(f), 1.0):
         raise ModelError(
