@@ -354,15 +354,16 @@ def update(structure: Any, diagnosis: str | Path, *, out: str | Path | None = No
 
 
 def verify_update(original: Any, updated: Any, mjcf: str | Path, *, controller: str = "mfdrf", seed: int = 0,
-                  duration_s: float | None = None) -> dict:
+                  duration_s: float | None = None, lab_chain=None) -> dict:
     """Design on the original and on the updated structure, run both on the same plant (``vlab update --verify``).
 
     Parameters
     ----------
-    original, updated, mjcf, controller, seed, duration_s
+    original, updated, mjcf, controller, seed, duration_s, lab_chain
         As :func:`vlab.model_update.verify`: the structure before and after :func:`update`, the MJCF plant
         both designs run on (e.g. the changed structure from :func:`export_mjcf`), the controller designed
-        on each model, the seed and the run length.
+        on each model, the seed, the run length and the hardware chain both runs really have where it
+        differs from what the models know (a :class:`vlab.lab.loop.HardwareChain`; None: each model's).
 
     Returns
     -------
@@ -380,7 +381,8 @@ def verify_update(original: Any, updated: Any, mjcf: str | Path, *, controller: 
     """
     from .model_update import verify
 
-    return verify(original, updated, mjcf, controller=controller, seed=seed, duration_s=duration_s)
+    return verify(original, updated, mjcf, controller=controller, seed=seed, duration_s=duration_s,
+                  lab_chain=lab_chain)
 
 
 def export_mjcf(structure: Any, path: str | Path, *, overwrite: bool = False) -> Path:
