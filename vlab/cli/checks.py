@@ -115,3 +115,33 @@ def fe_model_of(spec):
     if spec.path is not None and spec.path.resolve() == (STRUCTURES_DIR / f"{spec.name}.toml").resolve():
         return nominal_fe_model(spec.name)
     return check_fe_model(build_fe_model(spec))
+
+
+def plant_estimate(spec, segments: int | None = None, *, crosscheck: bool = False) -> dict:
+    """Plan the MuJoCo plant of ``spec`` (its size checks: ResourceError, exit 2) and estimate its build.
+
+    Returns :func:`vlab.sim.estimate.plant_estimate`'s ``states``, ``time_s`` [s], ``memory_bytes`` [bytes]
+    with ``what`` (``"N bodies, M joint DOFs"``).
+    """
+    from ..sim import SimOptions
+    from ..sim.estimate import plant_estimate as estimate
+    from ..sim.planner import plan_structure
+
+    plan, _ = plan_structure(spec, SimOptions(segments_per_element=segments).resolved(spec))
+    n_joints = sum(len(b.joints) for b in plan.bodies.values())
+    return {**estimate(n_joints, crosscheck=crosscheck), "what": f"{len(plan.bodies)} bodies, {n_joints} joint DOFs"}
+
+
+def confirm_long_run(option: str, seconds: float, what: str, yes: bool, hint: str) -> None:
+    """Refuse a run estimated to take longer than :data:`vlab.robust.scheduler.CONFIRM_ABOVE_S` unless ``yes``.
+
+    Raises
+    ------
+    OptionError
+        Naming ``option``, the estimate, ``what`` it is made of and ``hint``.
+    """
+    from ..robust.scheduler import CONFIRM_ABOVE_S, format_duration
+
+    if seconds > CONFIRM_ABOVE_S and not yes:
+        raise OptionError(f"{option}: the run would take about {format_duration(seconds)} ({what}); pass --yes "
+                          f"to run it, or {hint}")

@@ -46,23 +46,14 @@ def crosscheck(
 def _confirm_size(spec, segments: int | None, yes: bool, *, quiet: bool) -> None:
     """Plan the plant (its size checks), print the estimate on stderr and refuse a run beyond 30 min unless
     ``yes`` (:func:`vlab.sim.estimate.plant_estimate`)."""
-    from ..errors import OptionError
-    from ..robust.scheduler import CONFIRM_ABOVE_S, format_duration
-    from ..sim import SimOptions
-    from ..sim.estimate import plant_estimate
-    from ..sim.planner import plan_structure
+    from ..robust.scheduler import format_duration
 
-    plan, _ = plan_structure(spec, SimOptions(segments_per_element=segments).resolved(spec))
-    n_joints = sum(len(b.joints) for b in plan.bodies.values())
-    est = plant_estimate(n_joints, crosscheck=True)
-    what = f"{len(plan.bodies)} bodies, {n_joints} joint DOFs"
-    if est["time_s"] > CONFIRM_ABOVE_S and not yes:
-        given = f"--segments {segments}" if segments is not None else f"{spec.name}'s segments_per_element"
-        raise OptionError(f"{given}: the cross-check would take about {format_duration(est['time_s'])} "
-                          f"({what}; dense linear algebra on {est['states']:.0f} states, about "
-                          f"{est['memory_bytes'] / 1e9:.2g} GB); pass --yes to run it, or fewer --segments")
+    est = checks.plant_estimate(spec, segments, crosscheck=True)
+    given = f"--segments {segments}" if segments is not None else f"{spec.name}'s segments_per_element"
+    checks.confirm_long_run(given, est["time_s"], f"{est['what']}; dense linear algebra on {est['states']:.0f} "
+                            f"states, about {est['memory_bytes'] / 1e9:.2g} GB", yes, "fewer --segments")
     if not quiet:
-        err_console.print(f"estimate: {what}, about {format_duration(est['time_s'])}, "
+        err_console.print(f"estimate: {est['what']}, about {format_duration(est['time_s'])}, "
                           f"{est['memory_bytes'] / 1e9:.2g} GB", highlight=False)
 
 

@@ -64,11 +64,13 @@ def experiment(
     allow_unstable: bool = flag("--allow-unstable",
                                 help="exit 0 even when the comparison is not meaningful: a warning says so, "
                                      "the loop is predicted unstable or the delay is at least one record"),
+    yes: bool = flag("--yes", help="run an experiment estimated to take more than 30 min (plant build and loop)"),
 ) -> None:
     """Run a closed-loop experiment (DRF at 2 kHz, LQG at 1 kHz as Sec. 5.3), measure it like a modal test.
 
     Every option is checked before the run starts; the run's memory and time are estimated and a run that
-    does not fit in the available memory is refused. The outputs are written atomically; a run whose own
+    does not fit in the available memory is refused, one estimated beyond 30 min asks for --yes. The
+    outputs are written atomically; a run whose own
     warning calls the comparison not meaningful (self-excited oscillation, limit cycle), whose loop the analysis
     predicts unstable (a negative predicted damping ratio) or whose delay is at least one record exits with
     status 1 unless --allow-unstable.
@@ -85,7 +87,8 @@ def experiment(
                   spawn=spawn, file_delays=file_delays)
     fe = checks.fe_model_of(spec)
     _guard_experiment(fe, plant=plant.value, period_s=cfg.chain.period_s, duration_s=duration,
-                      delay_periods=delay_periods, quiet=out_fmt != "table")
+                      delay_periods=delay_periods, quiet=out_fmt != "table", yes=yes,
+                      build=None if plant.value != "mujoco" or mjcf else checks.plant_estimate(spec))
     expect_output(out_path)
     result = _run(cfg, fe, out_path, overwrite=overwrite, create_parent=out == EXPERIMENT_OUT,
                   quiet=out_fmt != "table")
@@ -223,8 +226,10 @@ def _human_s(t: float) -> str:
 
 
 def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | None, delay_periods: float,
-                      quiet: bool) -> dict[str, float]:
-    """Refuse a run that cannot fit in memory or whose delay exceeds it; print the estimate."""
+                      quiet: bool, yes: bool = False, build: dict | None = None) -> dict[str, float]:
+    """Refuse a run that cannot fit in memory, whose delay exceeds it or that would take more than 30 min
+    without ``yes`` (the loop and, with ``build`` from :func:`checks.plant_estimate`, the plant's build);
+    print the estimate."""
     from ..experiment.estimate import available_memory_bytes, estimate_experiment
 
     est = estimate_experiment(fe, plant=plant, period_s=period_s, duration_s=duration_s, delay_periods=delay_periods)
@@ -238,11 +243,17 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
             f"the run ({est['duration_s']:g} s, {est['n_ticks']:.3g} ticks, delay line {delay_periods:g} "
             f"periods) would need about {_human_bytes(est['memory_bytes'])} of memory; "
             f"{_human_bytes(avail)} is available: shorten --duration or --delay-periods")
+    build_s = 0.0 if build is None else build["time_s"]
+    what = f"{est['n_ticks']:.3g} ticks" + ("" if build is None else f", a plant of {build['what']}")
+    checks.confirm_long_run("--duration" if duration_s is not None else "the run", est["time_s"] + build_s, what,
+                            yes, "a shorter --duration" + ("" if build is None else
+                                                           " or a coarser plant ([mujoco] segments_per_element)"))
     if not quiet:
         bound = "at most " if duration_s is None else ""  # the open loop's settling: a controller settles sooner
+        built = "" if build is None else f", ~{_human_s(build_s)} to build the plant ({build['what']})"
         err_console.print(f"estimate: {bound}{est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
                           f"~{_human_bytes(est['memory_bytes'])} memory, {bound}~{_human_s(est['time_s'])} for the "
-                          "loop (plus design and outputs)", highlight=False, soft_wrap=True)
+                          f"loop{built} (plus design and outputs)", highlight=False, soft_wrap=True)
     return est
 
 
@@ -251,13 +262,20 @@ def export_mjcf_cmd(
     output: str = opt(None, "-o", "--output",
                       help="MJCF file to write, ending in .xml; its folder must exist (default: <structure>.xml)"),
     overwrite: bool = flag("--overwrite", help="replace an existing file"),
+    yes: bool = flag("--yes", help="build a plant estimated to take more than 30 min"),
 ) -> None:
-    """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`."""
+    """Write the complete MuJoCo plant as MJCF, to edit and run with `vlab experiment --mjcf`.
+
+    The plant's size is checked and its build time estimated first; beyond 30 min it asks for --yes.
+    """
     from ..io.atomic import check_output_file
     from ..sim import build_plant, export_mjcf
 
     spec = checks.load_structure(structure)
     path = check_output_file(f"{spec.name}.xml" if output is None else output, overwrite=overwrite,
                              option="--output", suffix=".xml")
+    build = checks.plant_estimate(spec)
+    checks.confirm_long_run(structure, build["time_s"], f"a plant of {build['what']}", yes,
+                            "a coarser plant ([mujoco] segments_per_element)")
     written = export_mjcf(build_plant(spec), path, overwrite=overwrite)
     console.print(f"wrote {escape(str(written))}", highlight=False)

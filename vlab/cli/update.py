@@ -34,9 +34,13 @@ def update_cmd(
     seed: int = opt(0, "--seed", help="with --verify: seed of the excitation, noise and designs"),
     duration: float = opt(None, "--duration", help="with --verify: run length [s] (default: the structure's)"),
     fmt: OutputFormat = format_opt(),
+    yes: bool = flag("--yes", help="with --verify: run two experiments estimated to take more than 30 min"),
 ) -> None:
-    """Write the structure file with the physics a diagnosis found, as commented entries; --verify checks it."""
-    from ..model_update import read_diagnosis, update, verify as run_verify
+    """Write the structure file with the physics a diagnosis found, as commented entries; --verify checks it.
+
+    With --verify the two runs are estimated before the file is written; beyond 30 min they ask for --yes.
+    """
+    from ..model_update import update, verify as run_verify
 
     out_fmt = checks.output_format(fmt, False)
     spec = checks.load_structure(structure)
@@ -48,20 +52,36 @@ def update_cmd(
         checks.seed(seed)
     elif mjcf is not None or controller is not None or duration is not None:
         raise OptionError("--mjcf, --controller and --duration belong to --verify: add --verify or drop them")
+    ctrl = _verify_controller(spec, diagnosis, controller, duration, yes) if verify else None
     res = update(spec, diagnosis, out=out, overwrite=overwrite)
     obj: dict[str, Any] = res.as_dict()
     if verify:
-        ctrl = controller.value if controller is not None else None
-        if ctrl is None:
-            d, _ = read_diagnosis(diagnosis)
-            ctrl = d.get("controller") if d.get("controller") not in (None, "none", "lqr") else "mfdrf"
-        if ctrl == "none":
-            raise OptionError("--controller none: --verify compares designs; choose a controller")
         obj["verify"] = run_verify(spec, res.path, mjcf, controller=ctrl, seed=seed, duration_s=duration)
     if out_fmt == "json":
         print_json(obj)
         return
     _print_update(out_fmt, obj)
+
+
+def _verify_controller(spec, diagnosis: str, controller: ExpController | None, duration: float | None,
+                       yes: bool) -> str:
+    """The controller --verify designs (the option, else the diagnosis's, else MFDRF); refuses ``none`` and two
+    runs estimated beyond 30 min without ``yes`` (:func:`vlab.experiment.estimate.estimate_experiment`)."""
+    from ..experiment.config import default_chain
+    from ..experiment.estimate import estimate_experiment
+    from ..model_update import read_diagnosis
+
+    ctrl = controller.value if controller is not None else None
+    if ctrl is None:
+        d, _ = read_diagnosis(diagnosis)
+        ctrl = d.get("controller") if d.get("controller") not in (None, "none", "lqr") else "mfdrf"
+    if ctrl == "none":
+        raise OptionError("--controller none: --verify compares designs; choose a controller")
+    est = estimate_experiment(checks.fe_model_of(spec), plant="mujoco", period_s=default_chain(ctrl).period_s,
+                              duration_s=duration, delay_periods=1.35)
+    checks.confirm_long_run("--duration" if duration is not None else "--verify", 2 * est["time_s"],
+                            f"two runs of {est['n_ticks']:.3g} ticks", yes, "a shorter --duration")
+    return ctrl
 
 
 def _print_update(out_fmt: str, obj: dict[str, Any]) -> None:
