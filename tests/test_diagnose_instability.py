@@ -18,12 +18,14 @@ from vlab.experiment.runner import measure
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
+from _designs import bcc_design
+
 NOMINAL_CHAIN = {"delay_periods": 1.35, "filter_hz": 677.0, "amplifier_gain": 1.0, "amplifier_limit_n": None}
 
 
 def _record(tmp_path, name, chain):
     fe = nominal_fe_model("bcc")
-    design = vlab.design("bcc", "mfdrf")
+    design = bcc_design("mfdrf")  # the nominal design, made once for both recordings
     cfg = ExperimentConfig(structure="bcc", controller="mfdrf", plant="linear", chain=chain)
     meta = {"structure": "bcc", "controller": "mfdrf", "reduction": None, "excitation": "random", "seed": 0,
             "plant": "linear FE model", "chain": NOMINAL_CHAIN}

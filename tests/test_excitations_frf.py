@@ -20,6 +20,8 @@ from vlab.experiment.runner import run_experiment
 from vlab.experiment.settling import settle_records
 from vlab.models import nominal_fe_model
 
+from _designs import bcc_design
+
 RES_HZ = 0.25  # 4 s records
 
 
@@ -30,9 +32,7 @@ def bcc():
 
 @pytest.fixture(scope="module")
 def mfdrf(bcc):
-    from vlab.design import design_controller
-
-    return design_controller(bcc, "mfdrf", seed=0)
+    return bcc_design("mfdrf")  # design_controller(bcc, "mfdrf", seed=0), shared with other test files
 
 
 def _mode_lines(result):

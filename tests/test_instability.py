@@ -18,6 +18,8 @@ from vlab.errors import MeasurementError
 from vlab.io.recording import Recording
 from vlab.measure.instability import ENVELOPE_CV_RAYLEIGH, find_instability, force_period
 
+from _designs import bcc_design
+
 FS = 2000.0
 PERIOD = 20000  # 10 s
 N = 3 * PERIOD
@@ -120,11 +122,10 @@ def bcc_fe():
 
 
 def _bcc_recording(fe, controller):
-    import vlab
     from vlab.experiment.config import ExperimentConfig
     from vlab.experiment.runner import measure
 
-    design = vlab.design("bcc", controller)
+    design = bcc_design(controller)  # = vlab.design("bcc", controller), made once per test process
     cfg = ExperimentConfig(structure="bcc", controller=controller)
     return measure(cfg, fe, design).loop.recording
 

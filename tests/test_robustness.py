@@ -24,6 +24,8 @@ from vlab.robust.sampled_loop import modal_plant, peak_windows, sampled_loop
 from vlab.robust.study import StudyConfig, nominal_analysis, run_study, summarize
 from vlab.robust.uncertainty import DEFAULTS, apply_sample, draw_sample, load_uncertainties
 
+from _designs import bcc_design
+
 ACTS = (5, 7, 9)
 
 
@@ -55,7 +57,7 @@ def test_sampled_loop_frf_matches_the_frequency_domain_analysis(bcc, lqg):
     u = fe.force_input(ACTS)
     g = velocity_frf(fe.m, c, fe.k, u * ga, fe.force_input(ACTS + (6,)).T, f)
     g_fb, g_out = gs[None, :, None] * g[:, :3, :], g[:, 3:, :]
-    for d in (lqg, design_controller(fe, "mfdrf")):
+    for d in (lqg, bcc_design("mfdrf")):
         loop = sampled_loop(plant, d, period_s=d.period_s, delay_periods=1.2, filter_hz=677.0, actuator_gain=ga,
                             sensor_gain=gs, excitation=2)
         k = sampled_data_controller_frf(f, d.f11, d.f12, d.f21, d.f22, d.period_s, delay_periods=1.2,
