@@ -117,7 +117,7 @@ def grid_performance_exact_table(ctx: ReproContext) -> TableResult:
         cols["full_lqg"] = performance_indices(pf, thesis_controller(ctx.design("grid", "lqg", "full")), qf, r, 12)
     except ControllerError as exc:  # reported in the table's notes
         cols["full_lqg"] = np.full(12, np.nan)
-        extra_notes.append(f"Full-model LQG not computed: the Kalman filter design on the 64-DOF model was refused "
+        extra_notes.append(f"Full-model LQG not computed: its design or its cost on the 64-DOF model was refused "
                            f"({exc}).")
     for c in ("lqr", "lqg", "mfdrf", "lqdrf", "lqdrf_diag"):
         cols[c] = performance_indices(pe, thesis_controller(ctx.design("grid", CONTROLLER_OF[c], "exact")), qe, r, 12)
