@@ -97,6 +97,10 @@ def _populate(root: Path) -> None:
         f'\n[[supports]]\npoint = {k}\nfixed = ["w"]\ninplane = "free"\n' for k in points))
     (root / "huge_member.toml").write_text(_long_beam(10000))   # a member through 10 000 points
     (root / "deep_chain.toml").write_text(_long_beam(1100))     # a plant deeper than MuJoCo compiles
+    from vlab.templates import template_text
+
+    (root / "with_hardware.toml").write_text(template_text("beam") + '\n[[hardware.sensor_gain]]\nchannel = 5\n'
+                                             'gain = 0.9\nsource = "a calibration"\n')
     (root / "include_abs.xml").write_text('<mujoco><include file="/etc/passwd"/></mujoco>\n')
     (root / "include_rel.xml").write_text(f'<mujoco><include file="{"../" * 12}etc/hostname"/></mujoco>\n')
 

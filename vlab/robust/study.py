@@ -145,7 +145,8 @@ def study_spec(cfg: StudyConfig) -> StructureSpec:
     ------
     SpecError
         An unknown name, an unreadable or invalid file, or a structure without a modal test (no ``[test]``
-        table; :func:`vlab.experiment.config.test_definition` names the fields) or without actuators.
+        table; :func:`vlab.experiment.config.test_definition` names the fields), without actuators, or with
+        a ``[hardware]`` table (not modelled by the study).
     """
     spec = load_spec(cfg.structure)
     test_definition(spec)
@@ -154,6 +155,12 @@ def study_spec(cfg: StudyConfig) -> StructureSpec:
 
         raise SpecError(f"{spec._file()}: [instrumentation] actuators is empty; the robustness study needs the "
                         "controllers' actuator/sensor channels")
+    if spec.hardware is not None:
+        from ..errors import SpecError
+
+        raise SpecError(f"{spec._file()}: [hardware]: the robustness study perturbs the default hardware chain and "
+                        "does not model a structure file's own channel gains, delays and lags; remove the table "
+                        "for the study (its values can be given as --uncertainty spreads)")
     return spec
 
 
