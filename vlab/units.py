@@ -10,6 +10,8 @@ standard gravity g = 9.80665 m/s^2).
 
 from __future__ import annotations
 
+import math
+
 from .errors import SpecError
 
 INCH_M = 0.0254                     #: [m] per inch
@@ -76,3 +78,11 @@ def factor(unit: str, *, where: str = "") -> float:
 def weight_to_mass(weight_n: float) -> float:
     """Mass [kg] of a body whose weight is ``weight_n`` [N] under standard gravity."""
     return weight_n / G_SI
+
+
+def format_duration(seconds: float) -> str:
+    """``seconds`` as ``"N s"``, ``"N min"``, ``"N h"`` or ``"N days"`` (two significant figures); ``"unknown"`` if not finite."""
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s" if math.isfinite(seconds) else "unknown"

@@ -140,7 +140,8 @@ def confirm_long_run(option: str, seconds: float, what: str, yes: bool, hint: st
     OptionError
         Naming ``option``, the estimate, ``what`` it is made of and ``hint``.
     """
-    from ..robust.scheduler import CONFIRM_ABOVE_S, format_duration
+    from ..robust.scheduler import CONFIRM_ABOVE_S
+    from ..units import format_duration
 
     if seconds > CONFIRM_ABOVE_S and not yes:
         raise OptionError(f"{option}: the run would take about {format_duration(seconds)} ({what}); pass --yes "

@@ -46,7 +46,7 @@ def crosscheck(
 def _confirm_size(spec, segments: int | None, yes: bool, *, quiet: bool) -> None:
     """Plan the plant (its size checks), print the estimate on stderr and refuse a run beyond 30 min unless
     ``yes`` (:func:`vlab.sim.estimate.plant_estimate`)."""
-    from ..robust.scheduler import format_duration
+    from ..units import format_duration
 
     est = checks.plant_estimate(spec, segments, crosscheck=True)
     given = f"--segments {segments}" if segments is not None else f"{spec.name}'s segments_per_element"

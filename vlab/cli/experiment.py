@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 
 from ..errors import OptionError, ResourceError, VlabError
+from ..units import format_duration
 from . import checks
 from .options import (REDUCTION_HELP, STRUCTURE_HELP, DesignReduction, ExpController, OutputFormat, PlantKind,
                       arg, arg_structure, flag, format_opt, opt)
@@ -215,16 +216,6 @@ def _human_bytes(n: float) -> str:
     return f"{n:.3g} PB"
 
 
-def _human_s(t: float) -> str:
-    if t < 120:
-        return f"{t:.0f} s"
-    if t < 7200:
-        return f"{t / 60:.0f} min"
-    if t < 48 * 3600:
-        return f"{t / 3600:.1f} h"
-    return f"{t / 86400:.3g} days"
-
-
 def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | None, delay_periods: float,
                       quiet: bool, yes: bool = False, build: dict | None = None) -> dict[str, float]:
     """Refuse a run that cannot fit in memory, whose delay exceeds it or that would take more than 30 min
@@ -250,9 +241,9 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
                                                            " or a coarser plant ([mujoco] segments_per_element)"))
     if not quiet:
         bound = "at most " if duration_s is None else ""  # the open loop's settling: a controller settles sooner
-        built = "" if build is None else f", ~{_human_s(build_s)} to build the plant ({build['what']})"
+        built = "" if build is None else f", ~{format_duration(build_s)} to build the plant ({build['what']})"
         err_console.print(f"estimate: {bound}{est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
-                          f"~{_human_bytes(est['memory_bytes'])} memory, {bound}~{_human_s(est['time_s'])} for the "
+                          f"~{_human_bytes(est['memory_bytes'])} memory, {bound}~{format_duration(est['time_s'])} for the "
                           f"loop{built} (plus design and outputs)", highlight=False, soft_wrap=True)
     return est
 

@@ -56,6 +56,7 @@ from ..fe import build_fe_model
 from ..experiment.config import ExperimentConfig, default_chain, test_definition
 from ..experiment.runner import measure
 from ..spec import StructureSpec, load_spec
+from ..units import format_duration
 from .data.measured import FrfData, refer_to_model
 from .data.readers import read_data
 from .data.reference import replay_reference
@@ -351,14 +352,6 @@ def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say)
     return named
 
 
-def duration_text(seconds: float) -> str:
-    """``seconds`` as ``"40 s"``, ``"3.5 min"`` or ``"1.2 h"`` (two significant figures)."""
-    for unit, size in (("h", 3600.0), ("min", 60.0)):
-        if seconds >= size:
-            return f"{seconds / size:.2g} {unit}"
-    return f"{seconds:.2g} s"
-
-
 class Eta:
     """Progress of a loop of ``n`` items said through ``say``: after the first item an estimate of the whole
     loop (from that item's time), then a line with the items done and the time left (from the mean time of
@@ -395,11 +388,11 @@ class Eta:
         now = self._clock()
         done, spent = i + 1, now - self.t0
         if done == 1 and self.n > 1:
-            self.say(f"estimate: about {duration_text(spent * self.n)} for the {self.what} (the first of "
+            self.say(f"estimate: about {format_duration(spent * self.n)} for the {self.what} (the first of "
                      f"{self.n} took {spent:.2g} s){self.later}")
         elif now - self.last >= self.EVERY_S or done == self.n:
             self.say(f"{self.what}: {done} of {self.n} done ({label}), about "
-                     f"{duration_text(spent / done * (self.n - done))} left")
+                     f"{format_duration(spent / done * (self.n - done))} left")
         else:
             return
         self.last = now

@@ -15,7 +15,8 @@ import time
 
 from .estimate import measure_costs
 from .limit_cycle import CHANGES, fe_loop_mode_near, limit_cycle_sensitivity
-from .scheduler import check_scheduler, confirm_size, dask_client, format_duration, parse_scheduler
+from ..units import format_duration
+from .scheduler import check_scheduler, confirm_size, dask_client, parse_scheduler
 from .simulate import CHECK_RECORDS, CHECK_RESOLUTION_HZ, choose_samples, simulate_samples
 from .study import StudyConfig, default_workers, is_dissertation, nominal_analysis, run_study, summarize
 

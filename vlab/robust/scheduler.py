@@ -22,6 +22,7 @@ import math
 from urllib.parse import urlsplit
 
 from ..errors import OptionError, VlabError
+from ..units import format_duration
 
 #: The most a scheduler may take to answer its identity [s].
 CONNECT_TIMEOUT_S = 8.0
@@ -210,13 +211,6 @@ def confirm_size(samples_text: str, structure: str, n_samples: int, n_controller
     return est
 
 
-def format_duration(seconds: float) -> str:
-    """``seconds`` as ``"N s"``, ``"N min"``, ``"N h"`` or ``"N days"`` (two significant figures)."""
-    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        if seconds >= size:
-            return f"{seconds / size:.2g} {unit}"
-    return f"{seconds:.2g} s" if math.isfinite(seconds) else "unknown"
-
 
 #: Environment variable of Dask's log level for ``distributed`` (read by each worker process at its start).
 _WORKER_LOG_ENV = "DASK_LOGGING__DISTRIBUTED"
@@ -255,9 +249,10 @@ def _workers_ignore_sigint():
 def dask_client(scheduler: str, n_workers: int):
     """A ``dask.distributed.Client`` on a new LocalCluster (``"local"``) or the scheduler at ``scheduler``.
 
-    Dask's own log lines below ERROR are silenced while it runs, and an
-    interrupt closes the cluster without its shutdown chatter: Ctrl-C leaves
-    the command's one line.
+    Dask's own log lines below CRITICAL are silenced while it runs, and an
+    interrupt or a failure closes the cluster with all of them silenced (its
+    scheduler reports the client's closed connection as CRITICAL): Ctrl-C
+    leaves the command's one line.
 
     Parameters
     ----------
@@ -287,7 +282,12 @@ def dask_client(scheduler: str, n_workers: int):
                 cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                        dashboard_address=None)
             with cluster, Client(cluster) as client:
-                yield client
+                try:
+                    yield client
+                except BaseException:  # an interrupt or a failure: the shutdown's closed-comm lines are chatter
+                    for lg in loggers:
+                        lg.setLevel(logging.CRITICAL + 1)
+                    raise
         else:
             try:
                 client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
