@@ -281,7 +281,8 @@ def performance_index(A_cl, Q_cl, initial_states) -> np.ndarray:
     Raises
     ------
     ShapeError, MatrixPropertyError
-        Bad shapes or weights.
+        Bad shapes or weights; a stable loop so close to marginal that its Lyapunov equation cannot be
+        solved to :data:`LYAPUNOV_RESIDUAL` (:func:`lyapunov_cost_matrix`).
 
     Notes
     -----

@@ -15,7 +15,7 @@ from controllers.statespace import modal_initial_states, state_space
 
 from ..errors import ModelError
 from ..fe import FEModel
-from ..spec import input_gains
+from ..spec import input_gains, output_gains
 from ..units import CS_S, INCH_M, LBF_N
 from .model import DesignModel, design_model, state_labels, state_scaling, to_thesis_units
 from .settings import CONTROLLERS, PERIOD_S, ThesisSettings, design_settings, thesis_period_s
@@ -188,9 +188,7 @@ def _input_output(spec, dm: DesignModel, n: int) -> tuple[np.ndarray, np.ndarray
     and (n_c, n): ones at the actuators' rows times the coils' gains (``U``) and the sensors' gains (``Cv``)
     of the structure file's ``[hardware]`` table (:mod:`vlab.spec.hardware`; ones without one)."""
     acts = spec.instrumentation.actuators
-    hw = getattr(spec, "hardware", None)
-    gi = input_gains(spec, acts)
-    go = np.ones(len(acts)) if hw is None else hw.output_gains(acts)
+    gi, go = input_gains(spec, acts), output_gains(spec, acts)
     u = np.zeros((n, len(dm.actuator_rows)))
     cv = np.zeros((len(dm.actuator_rows), n))
     for j, r in enumerate(dm.actuator_rows):

@@ -39,7 +39,7 @@ from ..analysis import PC1000_DELAY_PERIODS, RC_CORNER_HZ, sampled_data_controll
 from ..errors import ModelError
 from ..fe import FEModel, modal_analysis
 from ..fe.damping import open_loop_ratios, structural_damping
-from ..spec import input_gains
+from ..spec import input_gains, output_gains
 
 __all__ = ["ChannelMargins", "LoopAnalysis", "analyse_loop", "channel_margins", "loop_at_a_time", "loop_summary",
            "loop_frequencies", "nyquist_encirclements", "sensitivity_sigma_max"]
@@ -370,9 +370,9 @@ def analyse_loop(fe: FEModel, design, *, freq_hz: np.ndarray | None = None,
     if f.ndim != 1 or f.size < 2 or np.any(np.diff(f) <= 0) or f[0] <= 0 or f[-1] >= 0.5 / period:
         raise ModelError(f"freq_hz must increase within (0, {0.5 / period:g}) Hz (the Nyquist frequency)")
     u = fe.force_input(acts)
-    hw = fe.spec.hardware  # the coils' and sensors' gains of the structure file, if any
-    go = np.ones(len(acts)) if hw is None else hw.output_gains(acts)
-    g = velocity_frf(fe.m, structural_damping(fe), fe.k, u * input_gains(fe.spec, acts), (u * go).T, f)
+    # the coils' and sensors' gains of the structure file's [hardware] table, if any
+    g = velocity_frf(fe.m, structural_damping(fe), fe.k, u * input_gains(fe.spec, acts),
+                     (u * output_gains(fe.spec, acts)).T, f)
     k = sampled_data_controller_frf(f, design.f11, design.f12, design.f21, design.f22, period,
                                     delay_periods=delay_periods, filter_hz=filter_hz)
     lg = k @ g

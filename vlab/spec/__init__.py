@@ -26,7 +26,7 @@ The package's modules:
 
 from .changes import CHANGE_TABLES, apply_change_tables, damping_of, release_supports, split_segments
 from .edit import structure_identity, with_quantity
-from .hardware import HARDWARE_TABLES, Hardware, input_gains
+from .hardware import HARDWARE_TABLES, Hardware, input_gains, output_gains
 from .geometry import MAX_COORDINATE_M, MAX_ELEMENTS_PER_SEGMENT
 from .load import load_spec, spec_from_dict
 from .reader import PLAUSIBLE_RANGES
@@ -40,6 +40,6 @@ __all__ = [
     "MAX_ELEMENTS_PER_SEGMENT", "MAX_TEST_BAND_HZ", "PLAUSIBLE_RANGES", "RESPONSE_QUANTITIES", "STRUCTURES_DIR",
     "Crosspiece", "Damping", "Instrumentation", "LumpedMass", "Member", "ModelFormDeclared", "Quantity",
     "RigidInsert", "Section", "Spring", "StringElement", "StructureSpec", "StructureTest", "Support",
-    "apply_change_tables", "damping_of", "input_gains", "load_spec", "release_supports", "spec_from_dict", "split_segments",
+    "apply_change_tables", "damping_of", "input_gains", "load_spec", "output_gains", "release_supports", "spec_from_dict", "split_segments",
     "structure_identity", "with_quantity",
 ]

@@ -171,6 +171,23 @@ def input_gains(spec, points) -> np.ndarray:
     return np.ones(len(tuple(points))) if hw is None else hw.input_gains(points)
 
 
+def output_gains(spec, points) -> np.ndarray:
+    """The sensor gains of a structure's ``[hardware]`` table at ``points`` (ones without a table).
+
+    Parameters
+    ----------
+    spec : StructureSpec
+    points : sequence of int
+        Sensor point ids, in row order of the velocity output matrix.
+
+    Returns
+    -------
+    ndarray, shape (n_points,) [1]
+    """
+    hw = getattr(spec, "hardware", None)
+    return np.ones(len(tuple(points))) if hw is None else hw.output_gains(points)
+
+
 def _channels(r, channels: tuple[int, ...]) -> tuple:
     """The channels of one entry: its ``channel`` (an actuator point) or every channel for ``"all"``."""
     ch = r.raw("channel", types=(int, str))
