@@ -2,6 +2,7 @@
 
 Layers, lowest first (a module may import its own layer and the layers below it, never one above):
 
+0. ``cost``     -- the time and memory of a diagnosis, estimated from its sizes (``cost.py``)
 0. ``policy``   -- the decision policy: every threshold, from the false-alarm rate (``policy.py``)
 0. ``model``    -- the lab in the frequency domain and the nominal lab (``model/``)
 1. ``data``     -- recordings, their replay on a plant, the reference (``data/``)
@@ -34,7 +35,7 @@ from pathlib import Path
 PACKAGE = "vlab.diagnose"
 ROOT = Path(__file__).resolve().parent.parent / "vlab" / "diagnose"
 
-LAYERS = ("policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "thresholds", "naming", "detectability", "report", "decision", "reading", "explain", "pipeline")
+LAYERS = ("cost", "policy", "model", "data", "problem", "effects", "fit", "validate", "instability_cause", "thresholds", "naming", "detectability", "report", "decision", "reading", "explain", "pipeline")
 #: Rank of the package's own ``__init__`` (above every layer: it re-exports the public names).
 TOP = len(LAYERS)
 

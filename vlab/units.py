@@ -86,3 +86,12 @@ def format_duration(seconds: float) -> str:
         if seconds >= size:
             return f"{seconds / size:.2g} {unit}"
     return f"{seconds:.2g} s" if math.isfinite(seconds) else "unknown"
+
+
+def format_bytes(n: float) -> str:
+    """``n`` bytes as ``"N B"``, ``"N kB"``, ... ``"N PB"`` (decimal prefixes, three significant figures)."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if abs(n) < 1000:
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"

@@ -65,11 +65,16 @@ def diagnose(
                                   help="probability [1], in (0, 0.5), of reporting a mismatch on a recording of "
                                        "the nominal structure; every threshold of the decision follows from it "
                                        "(chi-square and single-line limits, the likelihood-ratio test)"),
+    yes: bool = flag("--yes", help="run a diagnosis estimated to take more than 30 min"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
     quiet: bool = quiet_flag(),
 ) -> None:
-    """Locate a mismatch between a recording and the simulation, name and fit the missing physics."""
+    """Locate a mismatch between a recording and the simulation, name and fit the missing physics.
+
+    Once the recording is read, the run's time and memory are estimated (on stderr); a run estimated beyond
+    30 min asks for --yes.
+    """
     from ..diagnose import diagnose as run_diagnose
     from ..diagnose.policy import DecisionPolicy
     from ..io.atomic import atomic_dir
@@ -92,7 +97,8 @@ def diagnose(
                                resolution_hz=resolution,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
-                               false_alarm_rate=false_alarm_rate, progress=say)
+                               false_alarm_rate=false_alarm_rate, progress=say,
+                               confirm=_confirm(yes, quiet or out_fmt != "table"))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":
         print_json(res.as_dict())
@@ -102,6 +108,24 @@ def diagnose(
         diagnosis_csv(d)
         return
     _print_diagnosis(d, out_path)
+
+
+def _confirm(yes: bool, quiet: bool):
+    """The diagnosis's estimate printed on stderr (unless ``quiet``); a run beyond 30 min refused without ``yes``
+    (:func:`vlab.diagnose.cost.estimate_diagnosis`)."""
+    from ..units import format_bytes, format_duration
+    from .output import err_console
+
+    def confirm(est: dict) -> None:
+        checks.confirm_long_run("vlab diagnose", est["time_s"], est["what"], yes,
+                                "diagnose fewer effects (the Python API's effects=...) or a coarser plant "
+                                "([mujoco] segments_per_element)")
+        if not quiet:
+            err_console.print(f"estimate: at most ~{format_duration(est['time_s'])} (a mismatch found: "
+                              f"{est['what']}), ~{format_bytes(est['memory_bytes'])} memory", highlight=False,
+                              soft_wrap=True)
+
+    return confirm
 
 
 def diagnosis_csv(d: dict[str, Any], out=None) -> None:
@@ -163,11 +187,16 @@ def detectability(
     naming: bool = typer.Option(True, "--naming/--no-naming",
                                 help="also the smallest size at which the diagnosis names the effect among its "
                                      "look-alikes (every one-parameter effect of the library; minutes)"),
+    yes: bool = flag("--yes", help="go on with a loop estimated (from its first item) to take more than 30 min"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
     quiet: bool = quiet_flag(),
 ) -> None:
-    """Smallest size of each effect of the library, at each location, that the diagnosis detects and names."""
+    """Smallest size of each effect of the library, at each location, that the diagnosis detects and names.
+
+    Each loop (the thresholds, the look-alikes, the naming) is estimated from its first item (on stderr); a loop
+    estimated beyond 30 min stops there unless --yes.
+    """
     from ..diagnose.detectability import detectability as run, figure
     from ..diagnose.effects.hypotheses import EFFECTS
     from ..experiment.results import jsonable
@@ -184,7 +213,9 @@ def detectability(
     out_path = checks.out_dir(out, DETECT_OUT, overwrite) if out is not None else None
     with stages("detectability", "recording the nominal test", quiet=quiet or out_fmt != "table") as say:
         res = run(spec, controller.value, effects=tuple(effect) if effect else None, noise_m_s=noise, seed=seed,
-                  model_form=model_form, naming=naming, progress=say)
+                  model_form=model_form, naming=naming, progress=say,
+                  confirm=lambda seconds, what: checks.confirm_long_run(
+                      "vlab detectability", seconds, what, yes, "fewer effects (--effect) or --no-naming"))
     d = res.as_dict()
     if out_path is not None:
         with atomic_dir(out_path, overwrite=overwrite, create_parent=False) as tmp:

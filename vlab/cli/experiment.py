@@ -11,7 +11,7 @@ import typer
 from rich.markup import escape
 
 from ..errors import OptionError, ResourceError, VlabError
-from ..units import format_duration
+from ..units import format_bytes, format_duration
 from . import checks
 from .options import (REDUCTION_HELP, STRUCTURE_HELP, DesignReduction, ExpController, OutputFormat, PlantKind,
                       arg, arg_structure, flag, format_opt, opt)
@@ -208,14 +208,6 @@ def _report(result, files: dict, fe, controller: str, out_fmt: str) -> list[str]
     return blocking
 
 
-def _human_bytes(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if abs(n) < 1000 or unit == "PB":
-            return f"{n:.3g} {unit}"
-        n /= 1000.0
-    return f"{n:.3g} PB"
-
-
 def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | None, delay_periods: float,
                       quiet: bool, yes: bool = False, build: dict | None = None) -> dict[str, float]:
     """Refuse a run that cannot fit in memory, whose delay exceeds it or that would take more than 30 min
@@ -232,8 +224,8 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
     if avail is not None and est["memory_bytes"] > 0.8 * avail:
         raise ResourceError(
             f"the run ({est['duration_s']:g} s, {est['n_ticks']:.3g} ticks, delay line {delay_periods:g} "
-            f"periods) would need about {_human_bytes(est['memory_bytes'])} of memory; "
-            f"{_human_bytes(avail)} is available: shorten --duration or --delay-periods")
+            f"periods) would need about {format_bytes(est['memory_bytes'])} of memory; "
+            f"{format_bytes(avail)} is available: shorten --duration or --delay-periods")
     build_s = 0.0 if build is None else build["time_s"]
     what = f"{est['n_ticks']:.3g} ticks" + ("" if build is None else f", a plant of {build['what']}")
     checks.confirm_long_run("--duration" if duration_s is not None else "the run", est["time_s"] + build_s, what,
@@ -243,7 +235,7 @@ def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | No
         bound = "at most " if duration_s is None else ""  # the open loop's settling: a controller settles sooner
         built = "" if build is None else f", ~{format_duration(build_s)} to build the plant ({build['what']})"
         err_console.print(f"estimate: {bound}{est['duration_s']:g} s simulated, {est['n_ticks']:.0f} ticks, "
-                          f"~{_human_bytes(est['memory_bytes'])} memory, {bound}~{format_duration(est['time_s'])} for the "
+                          f"~{format_bytes(est['memory_bytes'])} memory, {bound}~{format_duration(est['time_s'])} for the "
                           f"loop{built} (plus design and outputs)", highlight=False, soft_wrap=True)
     return est
 

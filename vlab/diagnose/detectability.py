@@ -248,7 +248,7 @@ def nominal_test(structure: str | StructureSpec, controller: str, *, noise_m_s: 
 def detectability(structure: str | StructureSpec = "bcc", controller: str = "none", *,
                   effects: tuple[str, ...] | None = None, noise_m_s: float = 1e-6, seed: int = 0,
                   floor: float = 0.005, model_form: str = "derived", naming: bool = False,
-                  look_alikes: tuple[str, ...] | None = None, progress=None) -> Detectability:
+                  look_alikes: tuple[str, ...] | None = None, progress=None, confirm=None) -> Detectability:
     """Detection thresholds of the library's one-parameter effects for the lab's test of ``structure``.
 
     Parameters
@@ -278,6 +278,9 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         library; fewer only for a quick check -- the thresholds are then lower bounds).
     progress : callable, optional
         Called with a short string per stage.
+    confirm : callable, optional
+        Called after the first item of each loop with that loop's estimate [s] and the loop in words
+        (:class:`Eta`); what it raises stops the run.
 
     Returns
     -------
@@ -315,17 +318,18 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     hyps = library(nominal, ctx, effects=effects)
     one = [h for h in hyps if h.n_params == 1]
     skipped = [h.label for h in hyps if h.n_params != 1]
-    eta = Eta(say, len(one), "detection thresholds", "hypotheses", later="; the naming follows" if naming else "")
+    eta = Eta(say, len(one), "detection thresholds", "hypotheses", later="; the naming follows" if naming else "",
+              confirm=confirm)
     for i, h in enumerate(one):
         out.extend(effect_thresholds(tester, h))
         eta.step(i, h.label)
     if naming:
-        out = _with_naming(tester, hyps, out, look_alikes, say)
+        out = _with_naming(tester, hyps, out, look_alikes, say, confirm)
     return Detectability(spec.name, controller, float(noise_m_s), float(tester.chi2_noise), float(tester.limit),
                          float(tester.peak_limit), int(tester.problem.n_obs), tuple(out), tuple(skipped), model_form)
 
 
-def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say) -> list:
+def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say, confirm=None) -> list:
     """``out`` with the naming thresholds (:mod:`vlab.diagnose.naming`); the look-alikes' detection thresholds
     are computed where ``out`` lacks them."""
     from .naming import LookAlikes, naming_threshold
@@ -336,14 +340,14 @@ def _with_naming(tester: DetectionTest, hyps: list, out: list, look_alikes, say)
     # the look-alikes serve as directions (their size scales them, the gap test does not depend on it): their
     # first-order thresholds suffice
     todo = [h for h in pool if h.label not in have]
-    eta, extra = Eta(say, len(todo), "look-alikes' first-order thresholds", "hypotheses"), []
+    eta, extra = Eta(say, len(todo), "look-alikes' first-order thresholds", "hypotheses", confirm=confirm), []
     for i, h in enumerate(todo):
         extra.extend(effect_thresholds(tester, h, profiled=False))
         eta.step(i, h.label)
     pooled = {h.label for h in pool}
     directions = LookAlikes(tester, pool + [h for h in hyps if h.label not in pooled], out + extra)
     named = []
-    eta = Eta(say, len(out), "naming thresholds", "thresholds")
+    eta = Eta(say, len(out), "naming thresholds", "thresholds", confirm=confirm)
     for i, t in enumerate(out):
         h = next(x for x in hyps if x.effect == t.effect and x.location == t.location)
         n = naming_threshold(directions, h, t)
@@ -369,16 +373,19 @@ class Eta:
         Its items, in words (``"hypotheses"``).
     later : str
         Appended to the estimate (what comes after the loop).
+    confirm : callable, optional
+        Called after the first item with the loop's estimate [s] and the loop in words; what it raises stops
+        the loop there (the command line refuses a long run without ``--yes``).
     """
 
     #: Least time between two progress lines [s].
     EVERY_S = 10.0
 
-    def __init__(self, say, n: int, what: str, items: str, later: str = ""):
+    def __init__(self, say, n: int, what: str, items: str, later: str = "", confirm=None):
         import time
 
         self._clock = time.perf_counter
-        self.say, self.n, self.what, self.later = say, int(n), what, later
+        self.say, self.n, self.what, self.later, self.confirm = say, int(n), what, later, confirm
         self.t0 = self.last = self._clock()
         if n:
             say(f"{what}: {n} {items}")
@@ -388,6 +395,8 @@ class Eta:
         now = self._clock()
         done, spent = i + 1, now - self.t0
         if done == 1 and self.n > 1:
+            if self.confirm is not None:
+                self.confirm(spent * self.n, f"{self.n} {self.what}, the first took {spent:.2g} s")
             self.say(f"estimate: about {format_duration(spent * self.n)} for the {self.what} (the first of "
                      f"{self.n} took {spent:.2g} s){self.later}")
         elif now - self.last >= self.EVERY_S or done == self.n:

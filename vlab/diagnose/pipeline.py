@@ -194,7 +194,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
              reference_column: str | None = None, model_form: str = "auto",
-             false_alarm_rate: float = 0.01) -> DiagnosisResult:
+             false_alarm_rate: float = 0.01, confirm=None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -224,6 +224,9 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     false_alarm_rate : float
         The probability [1], in (0, 0.5), of reporting a mismatch on data of the nominal structure; every
         threshold of the decision follows from it (:class:`vlab.diagnose.policy.DecisionPolicy`).
+    confirm : callable, optional
+        Called with the run's estimate (:func:`vlab.diagnose.cost.estimate_diagnosis`) once the data are read,
+        before the first simulation; what it raises stops the run (see :class:`~vlab.diagnose.reading.Options`).
 
     Returns
     -------
@@ -248,7 +251,7 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     policy = DecisionPolicy(false_alarm_rate=false_alarm_rate)  # checked before any work
     opt = Options(controller=controller, plant=plant, resolution_hz=resolution_hz, seed=seed, baseline=baseline,
                   replay=replay, force=force, mjcf=mjcf, reference_column=reference_column, model_form=model_form,
-                  validate_run=validate_run)
+                  validate_run=validate_run, confirm=confirm)
     search = Search(effects, shortlist, pairs, validate_run, False, False, ())
     with one_blas_thread():
         res = _run(structure, recording_path, opt, search, floor=floor, policy=policy, progress=progress)

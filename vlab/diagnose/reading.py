@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import importlib.util
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -94,6 +95,10 @@ class Options:
         change: its own model-form difference cancels); "derived" otherwise.
     validate_run : bool
         Rerun the experiment for validation (time-history input only).
+    confirm : callable, optional
+        Called once the data are read and before the first simulation with the run's estimate
+        (:func:`vlab.diagnose.cost.estimate_diagnosis`'s dict); it may raise to stop the run there (the command
+        line refuses a long run without ``--yes``).
     """
 
     controller: str | None = None
@@ -107,6 +112,7 @@ class Options:
     reference_column: str | None = None
     model_form: str = "auto"
     validate_run: bool = True
+    confirm: Callable[[dict], None] | None = None
 
 
 @dataclass(frozen=True)
@@ -295,6 +301,26 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
     return LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
 
 
+def _estimate(nominal: LabState, data, band_hz, *, simulated: bool) -> dict:
+    """The run's time and memory (:func:`vlab.diagnose.cost.estimate_diagnosis`) from the nominal lab, the
+    library's size and the recording; ``simulated``: the recording is replayed and rerun on the MuJoCo plant."""
+    from ..sim import SimOptions
+    from ..sim.planner import plan_structure
+    from .cost import estimate_diagnosis
+    from .effects.hypotheses import library
+    from .problem.context import context_for
+
+    rec = getattr(data, "recording", None)
+    n_ticks = rec.n_samples if rec is not None else 0
+    n_joints = None
+    if simulated and rec is not None:
+        plan, _ = plan_structure(nominal.spec, SimOptions().resolved(nominal.spec))
+        n_joints = sum(len(b.joints) for b in plan.bodies.values())
+    return estimate_diagnosis(n_fe_dofs=nominal.fe.n, n_hypotheses=len(library(nominal, context_for(nominal, band_hz,
+                                                                                                   data))),
+                              n_ticks=n_ticks, n_channels=rec.n_channels if rec is not None else 0, n_joints=n_joints)
+
+
 def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt: Options, say=None) -> Inputs:
     """Stage 1: read the recording, find its setup, build the nominal lab and refer the data to it.
 
@@ -378,6 +404,8 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
                instability=unstable, loops=loops,
                guard_s=settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None)
     inp["setup_plant"] = setup.plant
+    if opt.confirm is not None:
+        opt.confirm(_estimate(nominal, data, band, simulated=replaying and replay_plant == "mujoco"))
     _refer(inp, opt, notes, timing, say)
     del inp["setup_plant"]
     data = inp["data"]

@@ -52,11 +52,16 @@ FIG_NUMBERS_CG = {"mfdrf": 28, "lqdrf": 29, "lqdrf-diag": 30, "lqg": 31}
 
 
 class _Bars:
-    """Rich progress bars (or nothing): one overall bar and one per simulation."""
+    """Progress of a reproduction: rich bars on a terminal (one overall bar and one per simulation); when
+    stderr is piped or redirected, one line per finished step with the time spent and, after the first
+    simulation, the time left (:meth:`left`); nothing without ``progress``."""
 
     def __init__(self, progress) -> None:
+        import sys
+
         self._own = None
-        if progress is True:
+        self.lines = progress is True and not sys.stderr.isatty()
+        if progress is True and not self.lines:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -64,8 +69,10 @@ class _Bars:
                                  TimeElapsedColumn(), console=Console(stderr=True), transient=False)
             self.p = self._own
         else:
-            self.p = progress or None
-        self.main = None
+            self.p = None if progress is True else (progress or None)
+        self.main, self.total, self.done = None, 0, 0
+        self.t0 = time.perf_counter()
+        self.sim_s = {"planned": 0.0, "done": 0.0, "spent": 0.0}
 
     def __enter__(self):
         if self._own is not None:
@@ -77,24 +84,58 @@ class _Bars:
             self._own.__exit__(*exc)
         return False
 
-    def start(self, total: int) -> None:
-        if self.p is not None:
+    def _line(self, text: str) -> None:
+        import sys
+
+        sys.stderr.write(f"reproduce: {text} ({time.perf_counter() - self.t0:.0f} s)\n")
+        sys.stderr.flush()
+
+    def start(self, total: int, simulated_s: float) -> None:
+        """``total`` steps, of which the simulations cover ``simulated_s`` [s] of simulated time (at least)."""
+        self.total, self.sim_s["planned"] = total, float(simulated_s)
+        if self.lines:
+            self._line(f"{total} steps, at least {simulated_s:.0f} s simulated in all")
+        elif self.p is not None:
             self.main = self.p.add_task("reproduce", total=total)
 
     def step(self, text: str) -> None:
-        if self.p is not None and self.main is not None:
+        self.done += 1
+        if self.lines:
+            self._line(f"{self.done} of {self.total} steps done ({text}){self.left()}")
+        elif self.p is not None and self.main is not None:
             self.p.update(self.main, advance=1, description=f"reproduce: {text}")
 
-    def sub(self, text: str):
-        """A callback taking the fraction done of a sub-task, and a finisher."""
+    def left(self) -> str:
+        """The simulations' time left, from the wall time per simulated second of those done (empty before
+        the first)."""
+        s = self.sim_s
+        if s["done"] <= 0 or s["planned"] <= s["done"]:
+            return ""
+        from ..units import format_duration
+
+        return f"; the simulations left: about {format_duration(s['spent'] / s['done'] * (s['planned'] - s['done']))}"
+
+    def sub(self, text: str, simulated_s: float):
+        """A callback taking the fraction done of a simulation of ``simulated_s`` [s], and a finisher."""
+        t = time.perf_counter()
+
+        def finish(remove=None) -> None:
+            self.sim_s["done"] += simulated_s
+            self.sim_s["spent"] += time.perf_counter() - t
+            if remove is not None:
+                remove()
+
         if self.p is None:
-            return None, lambda: None
+            if self.lines:
+                self._line(f"{text} ...")
+            return None, finish
         task = self.p.add_task(f"  {text}", total=1.0)
-        return (lambda x: self.p.update(task, completed=x)), (lambda: self.p.remove_task(task))
+        return (lambda x: self.p.update(task, completed=x)), (lambda: finish(lambda: self.p.remove_task(task)))
 
 
 def _run(spec: RunSpec, ctx: ReproContext, plant: str, bars: _Bars) -> VirtualRun:
-    cb, done = bars.sub(f"{spec.key} ({1 / spec.resolution_hz * spec.periods:.0f} s simulated)")
+    sim_s = spec.periods / spec.resolution_hz
+    cb, done = bars.sub(f"{spec.key} ({sim_s:.0f} s simulated, and the settling)", sim_s)
     try:
         return run_virtual_experiment(spec, ctx=ctx, plant=plant, progress=cb)
     finally:
@@ -280,7 +321,9 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
     n_grid_runs = 9 if "grid-experiments" in groups else 0
     total = len(groups) + n_bcc_runs + n_grid_runs
     with _Bars(progress) as bars:
-        bars.start(total)
+        bars.start(total, cfg["periods"] * (n_bcc_runs / cfg["bcc_resolution_hz"]
+                                            + n_grid_runs / cfg["grid_resolution_hz"])
+                   + (cfg["limit_cycle_s"] + cfg["limit_cycle_saturated_s"] if "limit-cycle" in groups else 0.0))
         analytic = {"frequencies": lambda: frequency_tables(ctx),
                     "reduction": lambda: reduced_frequency_table(ctx) + orthogonality_tables(ctx),
                     "bcc-designs": lambda: bcc_design_tables(ctx),
@@ -301,7 +344,8 @@ def _reproduce_into(out_dir: Path, *, fast: bool, plant: str, lab: str | None, g
             figures += figs
             bars.step("grid-experiments")
         if "limit-cycle" in groups:
-            cb, done = bars.sub(f"limit cycle ({cfg['limit_cycle_s'] + cfg['limit_cycle_saturated_s']:.0f} s simulated)")
+            lc_s = cfg["limit_cycle_s"] + cfg["limit_cycle_saturated_s"]
+            cb, done = bars.sub(f"limit cycle ({lc_s:.0f} s simulated)", lc_s)
             try:
                 lc = limit_cycle_study(ctx, duration_s=cfg["limit_cycle_s"],
                                        saturated_duration_s=cfg["limit_cycle_saturated_s"], progress=cb)
