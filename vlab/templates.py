@@ -5,7 +5,8 @@ beam with two coils; a U-shaped portal frame clamped at both feet), each
 with a ``[test]`` and a ``[design]`` table. ``bcc`` and ``grid`` copy a
 shipped structure file and append its test (:data:`vlab.experiment.config.TESTS`,
 Sec. 5.4.2) and design settings (:data:`vlab.design.THESIS_SETTINGS`,
-Secs. 6.1, 6.2) as tables, so that the copy keeps them when it is renamed.
+Secs. 6.1, 6.2) as tables, so that the copy keeps them when it is renamed; its weights stay in the
+thesis units (``units = "thesis"``), the templates' are in SI (``units = "SI"``, :mod:`vlab.design.weights`).
 Every template loads as written (:func:`vlab.spec.load_spec`).
 """
 
@@ -64,7 +65,9 @@ def _shipped_copy(name: str) -> str:
             f"measured_points = [{', '.join(str(p) for p in t.measured_points)}]\n"
             f"response_quantity = \"{t.response_quantity}\"\n")
     design = (f"\n[design]\nsource = \"Sec. 6.{1 if name == 'bcc' else 2} (vlab.design.THESIS_SETTINGS['{name}'])\"\n"
-              f"zeta_min = {d.zeta_min!r}\nn_modes = {d.n_modes}\nn_f = {d.n_f}\nq_scale = {d.q_scale!r}\n"
+              f"zeta_min = {d.zeta_min!r}\nn_modes = {d.n_modes}\nn_f = {d.n_f}\n"
+              "units = \"thesis\"                   # the weights below in the dissertation's units (in, lbf, cs)\n"
+              f"q_scale = {d.q_scale!r}\n"
               f"r = {d.r!r}\nv1 = {d.v1!r}\nv2 = {d.v2!r}\nalpha = {d.alpha!r}\n"
               + (f"r_corrected = {d.r_corrected!r}\n" if d.r_corrected is not None else "")
               + ("# default_model: the thesis designs DRF on the full model and LQG on the exact reduction\n"

@@ -78,7 +78,7 @@ def design(
     source = period_source(d.controller, d.period_s, spec)
     if out == "json":
         extra = {"loop": _loop_json(loop)} if margins else {}
-        print_json({**design_summary(d), "period_source": source,
+        print_json({**design_summary(d), "period_source": source, "weights": _weights_json(spec),
                     "performance_index_si_1m_ic_s": performance_index_si(d.performance_index),
                     "beta_si_1m_ic_s": None if d.beta is None else float(performance_index_si(d.beta)), **extra})
         return
@@ -92,10 +92,44 @@ def design(
     console.print(f"[bold]{escape(spec.name)} {d.controller}[/] on the {d.model} model — converged: {d.converged} "
                   f"({escape(str(d.message))})")
     console.print(f"sampling period {d.period_s * 1e3:g} ms ({source})")
+    console.print(escape(_weights_line(spec, thesis)))
     _print_gains(d, thesis)
     print_rows(out, rows, cols, "closed loop on the design model")
     if margins:
         _print_margins(loop, out)
+
+
+def _weights_json(spec) -> dict:
+    """The JSON key ``weights``: ``units_read`` (``"SI"``, ``"thesis"``: the ``units`` of the file's ``[design]``
+    table; None: no weight given, the defaults) and ``si``, the weights used in SI (:func:`vlab.design.weights.
+    weights_si`), each key ending in its unit (``q_displacement_per_m2``, ..., ``alpha_per_s``)."""
+    from ..design import design_settings
+    from ..design.weights import weights_si
+
+    st = design_settings(spec)
+    return {"units_read": st.weights_units,
+            "si": {f"{k}_{_SI_SUFFIX[k]}": v for k, v in weights_si(st).items()}}
+
+
+#: The unit of each SI weight as the JSON key's suffix (:data:`vlab.spec.DESIGN_WEIGHTS_SI`).
+_SI_SUFFIX = {"q_displacement": "per_m2", "q_velocity": "s2_per_m2", "q_rotation": "per_rad2",
+              "q_rotation_rate": "s2_per_rad2", "r": "per_n2", "r_corrected": "per_n2",
+              "v1_displacement": "m2_per_s", "v1_velocity": "m2_per_s3", "v1_rotation": "rad2_per_s",
+              "v1_rotation_rate": "rad2_per_s3", "v2": "m2_per_s", "alpha": "per_s"}
+
+
+def _weights_line(spec, thesis: bool) -> str:
+    """The text line saying in which units the LQ and Kalman weights were read (``[design] units``)."""
+    from ..design import design_settings
+
+    units = design_settings(spec).weights_units
+    if units == "SI":
+        return "weights read in SI (m, N, s) from the [design] table"
+    if units == "thesis":
+        return "weights read in the dissertation's units (in, lbf, cs) from the [design] table"
+    if thesis:
+        return "weights: the dissertation's (Secs. 6.1, 6.2; in, lbf, cs)"
+    return "weights: the defaults (the BCC's, Sec. 6.1; the file's [design] table gives none)"
 
 
 def _mode_rows(d, thesis: bool) -> tuple[list[dict], list]:

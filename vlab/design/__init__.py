@@ -16,9 +16,13 @@ Thesis settings (Sec. 6.1, 6.2):
   reduction) or 1.387 I (corrected Guyan); V1 = 1e-10 I, V2 = 0.5 I,
   alpha = 0.05; n_f = 5.
 
+A structure file's ``[design]`` table gives its weights in SI (``units = "SI"``:
+one LQ weight and one noise intensity per kind of state, :mod:`vlab.design.weights`
+converts them) or in the thesis units (``units = "thesis"``).
+
 The package's modules: :mod:`vlab.design.settings` (the thesis's settings and
-sampling periods), :mod:`vlab.design.model` (the design model and the thesis
-unit system) and :mod:`vlab.design.controller` (the designs).
+sampling periods), :mod:`vlab.design.weights` (SI weights), :mod:`vlab.design.model`
+(the design model and the thesis unit system) and :mod:`vlab.design.controller` (the designs).
 """
 
 from .controller import ControllerDesign, design_controller

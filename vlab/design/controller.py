@@ -19,6 +19,7 @@ from ..spec import input_gains, output_gains
 from ..units import CS_S, INCH_M, LBF_N
 from .model import DesignModel, design_model, state_labels, state_scaling, to_thesis_units
 from .settings import CONTROLLERS, PERIOD_S, ThesisSettings, design_settings, thesis_period_s
+from .weights import process_noise, state_weight
 
 
 @dataclass(frozen=True)
@@ -213,7 +214,7 @@ def _problem(fe: FEModel, controller: str, model: str | None, measured_modes, pe
     st = design_settings(fe.spec, n, model)
     u, cv = _input_output(fe.spec, dm, n)
     ss = state_space(m, c, k, u, Cv=cv, time_unit_s=CS_S)
-    q = st.q_scale * np.eye(2 * n)
+    q = state_weight(st, dm.labels)
     r_val = st.r_corrected if (model == "corrected-guyan" and st.r_corrected) else st.r
     r = r_val * np.eye(len(dm.actuator_rows))
     length_dofs = [i for i, (_n, d) in enumerate(dm.labels) if d == "w"]
@@ -265,9 +266,9 @@ def _lqr_design(p: _Problem) -> ControllerDesign:
 def _lqg_design(fe: FEModel, p: _Problem) -> ControllerDesign:
     """The LQG (Eqs. 4.8-4.22) realised at ``p.period`` (Eqs. 5.2-5.5); on a reduced model, its damping and
     frequencies with the controller closed around the full model (Eqs. 4.23-4.29, Tables 8 and 12)."""
-    st, n = p.st, p.n
+    st = p.st
     sx = state_scaling(p.dm.labels)
-    des = lqg(p.a, p.b, p.cm, p.q, p.r, st.v1 * np.eye(2 * n), st.v2 * np.eye(len(p.dm.actuator_rows)),
+    des = lqg(p.a, p.b, p.cm, p.q, p.r, process_noise(st, p.dm.labels), st.v2 * np.eye(len(p.dm.actuator_rows)),
               alpha=st.alpha, time_unit_s=CS_S)
     real = des.realize(p.period)
     perf = des.performance_index(p.x0)
@@ -289,7 +290,7 @@ def _lqg_design(fe: FEModel, p: _Problem) -> ControllerDesign:
         mf, cf, kf = (to_thesis_units(x, full.labels) for x in (full.m, full.c, full.k))
         uf, cvf = _input_output(fe.spec, full, mf.shape[0])
         sf = state_space(mf, cf, kf, uf, Cv=cvf, time_unit_s=CS_S)
-        rof = reduced_on_full(sf.A, sf.B, sf.C, np.eye(sf.A.shape[0]) * st.q_scale, des)
+        rof = reduced_on_full(sf.A, sf.B, sf.C, state_weight(st, full.labels), des)
         sp = rof.spillover
         damping = sp.closed_loop_damping
         freqs = np.abs(sp.closed_loop_eigenvalues) / (2 * np.pi * CS_S)  # eigenvalues in 1/cs

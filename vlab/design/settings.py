@@ -7,6 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import ModelError, SpecError
+from ..spec import DESIGN_OPTIONS
+from .weights import thesis_weights
 
 CONTROLLERS = ("lqr", "lqg", "mfdrf", "lqdrf", "lqdrf-diag")
 DESIGN_MODELS = ("full", "exact", "guyan", "corrected-guyan")
@@ -80,6 +82,13 @@ class ThesisSettings:
     r_corrected : float or None
         Control weight for designs on the corrected Guyan model (grid: 1.387,
         Table 15); None = use ``r``.
+    q_by_state, v1_by_state : tuple of 4 float or None
+        Per kind of state (:data:`vlab.design.weights.STATE_KINDS`: translational velocity and
+        displacement, rotation rate and angle), the diagonal of ``Q`` and ``V1`` in thesis units, from a
+        ``units = "SI"`` ``[design]`` table (:mod:`vlab.design.weights`); None = ``q_scale I``, ``v1 I``.
+    weights_units : str or None
+        The unit system the structure file's ``[design]`` weights were written in (``"SI"``,
+        ``"thesis"``); None = the file gives none (the defaults above).
     """
 
     zeta_min: float
@@ -92,6 +101,9 @@ class ThesisSettings:
     alpha: float
     default_model: str
     r_corrected: float | None = None
+    q_by_state: tuple[float, float, float, float] | None = None
+    v1_by_state: tuple[float, float, float, float] | None = None
+    weights_units: str | None = None
 
 
 THESIS_SETTINGS = {
@@ -110,8 +122,9 @@ def design_settings(spec, n_dof: int | None = None, model: str | None = None) ->
     """Controller-design settings of a structure: its ``[design]`` table over the defaults.
 
     A structure file's ``[design]`` values (``zeta_min``, ``n_modes``, ``n_f``,
-    ``q_scale``, ``r``, ``v1``, ``v2``, ``alpha``, ``default_model``,
-    ``r_corrected``; :data:`vlab.spec.DESIGN_FIELDS`) override, per field, the
+    ``default_model`` and the weights, in the unit system its ``units`` names:
+    :data:`vlab.spec.DESIGN_WEIGHTS_THESIS` as they are, :data:`vlab.spec.DESIGN_WEIGHTS_SI`
+    converted by :func:`vlab.design.weights.thesis_weights`) override, per field, the
     thesis's settings of a shipped structure of that name (Secs. 6.1, 6.2:
     :data:`THESIS_SETTINGS`), else :data:`DEFAULT_SETTINGS` with the full FE
     model as design model where the file gives no ``[reduction]`` masters.
@@ -150,7 +163,10 @@ def design_settings(spec, n_dof: int | None = None, model: str | None = None) ->
     base = THESIS_SETTINGS.get(spec.name)
     if base is None:
         base = dataclasses.replace(DEFAULT_SETTINGS, default_model="exact" if spec.master_dofs.get("exact") else "full")
-    st = dataclasses.replace(base, **spec.design_settings)
+    given = dict(spec.design_settings)
+    units = given.pop("units", None)
+    options = {k: given.pop(k) for k in DESIGN_OPTIONS if k in given}
+    st = dataclasses.replace(base, **options, **thesis_weights(given, units, base))
     if n_dof is None:
         return st
     counts = {}

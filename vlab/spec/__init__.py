@@ -30,13 +30,15 @@ from .hardware import HARDWARE_TABLES, Hardware, input_gains, output_gains
 from .geometry import MAX_COORDINATE_M, MAX_ELEMENTS_PER_SEGMENT
 from .load import load_spec, spec_from_dict
 from .reader import PLAUSIBLE_RANGES
-from .settings import DESIGN_FIELDS, MAX_TEST_BAND_HZ, RESPONSE_QUANTITIES
+from .settings import (DESIGN_FIELDS, DESIGN_OPTIONS, DESIGN_UNITS, DESIGN_WEIGHTS_SI, DESIGN_WEIGHTS_THESIS,
+                       MAX_TEST_BAND_HZ, RESPONSE_QUANTITIES)
 from .structure import (ASSETS_DIR, DATA_DIR, DOF_NAMES, STRUCTURES_DIR, Crosspiece, Damping, Instrumentation,
                         LumpedMass, Member, ModelFormDeclared, Quantity, RigidInsert, Section, Spring, StringElement,
                         StructureSpec, StructureTest, Support)
 
 __all__ = [
-    "ASSETS_DIR", "CHANGE_TABLES", "HARDWARE_TABLES", "Hardware", "DATA_DIR", "DESIGN_FIELDS", "DOF_NAMES", "MAX_COORDINATE_M",
+    "ASSETS_DIR", "CHANGE_TABLES", "HARDWARE_TABLES", "Hardware", "DATA_DIR", "DESIGN_FIELDS", "DESIGN_OPTIONS",
+    "DESIGN_UNITS", "DESIGN_WEIGHTS_SI", "DESIGN_WEIGHTS_THESIS", "DOF_NAMES", "MAX_COORDINATE_M",
     "MAX_ELEMENTS_PER_SEGMENT", "MAX_TEST_BAND_HZ", "PLAUSIBLE_RANGES", "RESPONSE_QUANTITIES", "STRUCTURES_DIR",
     "Crosspiece", "Damping", "Instrumentation", "LumpedMass", "Member", "ModelFormDeclared", "Quantity",
     "RigidInsert", "Section", "Spring", "StringElement", "StructureSpec", "StructureTest", "Support",

@@ -24,12 +24,38 @@ RESPONSE_QUANTITIES = ("displacement", "velocity")
 #: by a factor four, so that the digital controller, hold and RC filter act as modelled.
 MAX_TEST_BAND_HZ = 250.0
 
-#: Fields of a ``[design]`` table and their types: the controller-design settings of
-#: :class:`vlab.design.ThesisSettings` (weights in the thesis unit system: in, lbf, cs, Sec. 3).
+#: Unit systems a ``[design]`` table's ``units`` key may name for its weights.
+DESIGN_UNITS = ("SI", "thesis")
+
+#: Fields of a ``[design]`` table that carry no unit (the damping constraint, the counts, the design model).
+DESIGN_OPTIONS: dict[str, type | tuple[type, ...]] = {
+    "zeta_min": (int, float), "n_modes": int, "n_f": int, "default_model": str,
+}
+
+#: Weights of a ``[design]`` table with ``units = "thesis"`` (Secs. 3.1, 6.1, 6.2: in, lbf, cs), key -> unit:
+#: ``Q = q_scale I`` on the states in/cs, rad/cs, in, rad; ``R = r I`` on lbf; ``V1 = v1 I`` (the same
+#: states per cs), ``V2 = v2 I`` (the velocity outputs in in/cs); ``alpha`` in 1/cs (Eqs. 4.1-4.10).
+DESIGN_WEIGHTS_THESIS: dict[str, str] = {
+    "q_scale": "1/x^2 for x in in/cs, rad/cs, in, rad", "r": "1/lbf^2", "v1": "(x/cs)^2 cs for the same x",
+    "v2": "(in/cs)^2 cs", "alpha": "1/cs", "r_corrected": "1/lbf^2",
+}
+
+#: Weights of a ``[design]`` table with ``units = "SI"`` (m, N, s), key -> unit: one LQ weight per kind of
+#: state (``Q`` diagonal on ``[q'; q]``) and per kind of state excitation noise (``V1`` diagonal), the
+#: control weight on N, the measurement noise on the sensors' m/s, alpha in 1/s
+#: (:mod:`vlab.design.weights` converts them to the thesis units in which the design is made).
+DESIGN_WEIGHTS_SI: dict[str, str] = {
+    "q_displacement": "1/m^2", "q_velocity": "s^2/m^2", "q_rotation": "1/rad^2", "q_rotation_rate": "s^2/rad^2",
+    "r": "1/N^2", "r_corrected": "1/N^2",
+    "v1_displacement": "m^2/s", "v1_velocity": "m^2/s^3", "v1_rotation": "rad^2/s", "v1_rotation_rate": "rad^2/s^3",
+    "v2": "m^2/s", "alpha": "1/s",
+}
+
+#: Every field a ``[design]`` table may have (the ``units`` key, the unit-free options and the weights of
+#: both unit systems) and its type: the controller-design settings of :class:`vlab.design.ThesisSettings`.
 DESIGN_FIELDS: dict[str, type | tuple[type, ...]] = {
-    "zeta_min": (int, float), "n_modes": int, "n_f": int, "q_scale": (int, float), "r": (int, float),
-    "v1": (int, float), "v2": (int, float), "alpha": (int, float), "default_model": str,
-    "r_corrected": (int, float),
+    "units": str, **DESIGN_OPTIONS,
+    **{k: (int, float) for k in [*DESIGN_WEIGHTS_THESIS, *DESIGN_WEIGHTS_SI]},
 }
 
 
@@ -264,7 +290,11 @@ def read_test(r: TableReader | None, instr: Instrumentation | None, points: dict
 
 
 def read_design(r: TableReader | None) -> dict[str, Any]:
-    """The ``[design]`` table: the keys of :data:`vlab.spec.DESIGN_FIELDS`, type- and range-checked (all optional).
+    """The ``[design]`` table: its options and weights, type- and range-checked (all optional; Secs. 4, 6).
+
+    Weights (:data:`DESIGN_WEIGHTS_THESIS` or :data:`DESIGN_WEIGHTS_SI`) are read only with a ``units``
+    key, ``"SI"`` or ``"thesis"``: a table that sets a weight without it is refused, not reinterpreted,
+    and so is a weight of the other unit system. A table that sets no weight needs no ``units``.
 
     Parameters
     ----------
@@ -274,29 +304,56 @@ def read_design(r: TableReader | None) -> dict[str, Any]:
     Returns
     -------
     dict[str, Any]
-        The fields given (empty when there is no table).
+        The fields given (empty when there is no table), the weights in the unit system of ``"units"``
+        (converted by :func:`vlab.design.design_settings`).
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the field ``design.<key>``: a weight without ``units`` (the message names the
+        two values), an unknown ``units``, a weight of the other unit system, a value out of range.
     """
     if r is None:
         return {}
     r.str("source")
     out: dict[str, Any] = {}
-    for key, types in DESIGN_FIELDS.items():
-        if not r.has(key):
-            continue
-        if types is int:
-            v = r.int(key)
-            if v < 1:
-                r.fail(key, f"must be >= 1, got {v}")
-        elif types is str:
-            v = r.str(key)
-            if v not in ("full", "exact", "guyan"):
-                r.fail(key, f"{v!r} is not one of full, exact, guyan")
-        elif key == "zeta_min":
-            v = read_number(r, key, high=1.0, high_open=True)
-        elif key == "alpha":
-            v = read_number(r, key, low_open=False)
-        else:
-            v = read_number(r, key)
-        out[key] = v
+    units = r.str("units", None)
+    if units is not None and units not in DESIGN_UNITS:
+        r.fail("units", f"{units!r} is not one of \"SI\", \"thesis\" (the unit system of the weights)")
+    weights = DESIGN_WEIGHTS_SI if units == "SI" else DESIGN_WEIGHTS_THESIS
+    for key in [k for k in r.table if k in DESIGN_WEIGHTS_THESIS or k in DESIGN_WEIGHTS_SI]:
+        if units is None:
+            r.fail(key, "a weight needs the unit system of the [design] table: add units = \"SI\" (m, N, s) "
+                        "or units = \"thesis\" (the dissertation's in, lbf, cs); the weights are not "
+                        "reinterpreted silently")
+        if key not in weights:
+            other = "thesis" if units == "SI" else "SI"
+            r.fail(key, f"a weight of units = \"{other}\", not of units = \"{units}\"; with \"{units}\" the "
+                        f"weights are {', '.join(weights)}")
+    for key, types in {**DESIGN_OPTIONS, **{k: (int, float) for k in weights}}.items():
+        if r.has(key):
+            out[key] = _design_value(r, key, types)
+    if units is not None:
+        out["units"] = units
     r.done()
     return out
+
+
+def _design_value(r: TableReader, key: str, types) -> Any:
+    """One ``[design]`` value checked: counts >= 1, a known design model, zeta_min in (0, 1), alpha >= 0,
+    the other weights > 0."""
+    if types is int:
+        v = r.int(key)
+        if v < 1:
+            r.fail(key, f"must be >= 1, got {v}")
+    elif types is str:
+        v = r.str(key)
+        if v not in ("full", "exact", "guyan"):
+            r.fail(key, f"{v!r} is not one of full, exact, guyan")
+    elif key == "zeta_min":
+        v = read_number(r, key, high=1.0, high_open=True)
+    elif key == "alpha":
+        v = read_number(r, key, low_open=False)
+    else:
+        v = read_number(r, key)
+    return v
