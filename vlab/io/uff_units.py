@@ -94,14 +94,7 @@ def units_system(p: Path, sets: list[dict]) -> tuple[float, float, str] | None:
     units to SI: to convert from universal file units to SI divide by the
     appropriate factor": a value of length exponent ``a`` and force exponent
     ``b`` is ``value / (length ** a * force ** b)`` in SI (time is in seconds
-    in every unit system of the format).
-
-    Parameters
-    ----------
-    p : Path
-        The file (for messages).
-    sets : list of dict
-        Every dataset pyuff read from it.
+    in every unit system of the format). ``p`` and ``sets`` as in :func:`check_units_records`.
 
     Returns
     -------
@@ -214,12 +207,7 @@ def frequency_factor(p: Path, s: dict, where: str) -> float:
 
 
 def check_time_axis(p: Path, s: dict, where: str) -> None:
-    """Refuse a time abscissa not in seconds.
-
-    Parameters
-    ----------
-    p, s, where
-        As :func:`check_exponents`; ``s`` is the time-response record.
+    """Refuse a time abscissa not in seconds. ``p``, ``s`` (the time-response record) and ``where`` as in :func:`check_exponents`.
 
     Raises
     ------
@@ -233,12 +221,7 @@ def check_time_axis(p: Path, s: dict, where: str) -> None:
 
 
 def check_force_denominator(p: Path, s: dict, where: str) -> None:
-    """Refuse an FRF whose force denominator is not in newtons.
-
-    Parameters
-    ----------
-    p, s, where
-        As :func:`check_exponents`; ``s`` is the FRF record.
+    """Refuse an FRF whose force denominator is not in newtons. ``p``, ``s`` (the FRF record) and ``where`` as in :func:`check_exponents`.
 
     Raises
     ------

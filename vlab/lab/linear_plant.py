@@ -81,14 +81,11 @@ class LinearPlant:
         ``(k - w_k^2 m + j w_k c) Q_k = U F_k`` (Eq. 3.1 in the frequency domain);
         the state is set to ``q(0)``, ``q'(0)`` and the time to 0. The discrete
         stepping differs from it by the hold over a physics step, a transient
-        that decays within the lab's settling time.
+        that decays within the lab's settling time. ``freq_hz`` and ``forces`` (per input) as in
+        :meth:`vlab.sim.runtime.MujocoPlant.set_periodic_state`.
 
         Parameters
         ----------
-        freq_hz : ndarray, shape (n_f,)
-            Frequencies of the force lines [Hz].
-        forces : ndarray, complex, shape (n_f, n_act)
-            Phasors ``F_k`` per input, order :attr:`actuator_points` [N].
         extra_damping : dict of int to float, optional
             Point -> dashpot [N*s/m] added to ``c`` for the steady state only
             (the equivalent damping of a nonlinear force the inputs carry:

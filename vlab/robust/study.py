@@ -131,15 +131,7 @@ class Nominal:
 
 
 def study_spec(cfg: StudyConfig) -> StructureSpec:
-    """The nominal structure of a study: a shipped one by name, or a structure file.
-
-    Parameters
-    ----------
-    cfg : StudyConfig
-
-    Returns
-    -------
-    StructureSpec
+    """The nominal structure of the study ``cfg``: a shipped one by name, or a structure file.
 
     Raises
     ------

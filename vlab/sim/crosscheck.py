@@ -275,25 +275,12 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
 
 
 def fe_reference(spec: StructureSpec):
-    """The FE model used as cross-check reference (:func:`vlab.fe.build_fe_model`).
+    """The FE model of ``spec`` (the structure the plant was built from) used as cross-check reference:
+    :func:`vlab.fe.build_fe_model`, whose :class:`~vlab.errors.ModelError` it raises.
 
     Its crosspiece single-DOF model carries the arms' exact participating mass
     (:func:`vlab.fe.crosspiece.cantilever_tip_mass_sdof`), which the plant's
     flexible arms converge to.
-
-    Parameters
-    ----------
-    spec : StructureSpec
-        The structure the plant was built from.
-
-    Returns
-    -------
-    FEModel
-
-    Raises
-    ------
-    ModelError
-        If the FE model cannot be assembled.
     """
     from ..fe import build_fe_model
 

@@ -354,16 +354,8 @@ class MujocoPlant:
         """Out-of-plane displacements [m] from the settled state at ``points``, shape (len(points),).
 
         Site positions at the current state, time :attr:`time_s` (see the
-        module notes on the sampling instant).
-
-        Parameters
-        ----------
-        points : sequence of int
-
-        Raises
-        ------
-        SimulationError
-            For an unknown point id.
+        module notes on the sampling instant). ``points`` as in :meth:`velocities`;
+        an unknown point id raises :class:`SimulationError`.
         """
         self._sync()
         try:

@@ -385,17 +385,10 @@ def frfs_from_uff(frfs: list, spec: StructureSpec, fe: FEModel, *, path: str,
     ----------
     frfs : list of FRF
         As read by :func:`vlab.io.uff.read_frfs`.
-    spec : StructureSpec
-    fe : FEModel
-        The structure (point ids are checked against it).
-    path : str
-        File name for messages.
+    spec, fe, path
+        As :func:`frfs_from_recording`.
     band_hz : (float, float)
         Band kept [Hz].
-
-    Returns
-    -------
-    FrfData
 
     Raises
     ------

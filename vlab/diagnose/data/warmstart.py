@@ -117,18 +117,12 @@ def rerun_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS
     """``(start, period, stop)`` ticks of a rerun of ``data``'s test: a warm start one guard period before
     the analysed part where the test is periodic (:func:`start_tick`; else from
     rest, ``start = period = 0``), and the end after ``periods`` analysed periods (None, or a rerun from
-    rest: the whole record).
+    rest: the whole record). ``data``, ``dt_s`` and ``guard_s`` as in :func:`start_tick`.
 
     Parameters
     ----------
-    data : FrfData
-        With a recording.
-    dt_s : float
-        Controller period [s].
     periods : int or None
         Analysed periods to rerun (default :data:`RERUN_PERIODS`; None: to the end of the record).
-    guard_s : float, optional
-        As :func:`guard_ticks`.
     """
     k0 = start_tick(data, dt_s, guard_s)
     n_per = period_ticks(data, dt_s) if data.periodic else 0

@@ -26,13 +26,13 @@ def log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> float:
     float
         [decades]; NaN for no lines.
     """
-    if np.size(h) == 0:
-        return float("nan")
     return _weighted_rms(np.log10(np.abs(np.asarray(h) / np.asarray(h_ref))), weight)
 
 
 def _weighted_rms(e: np.ndarray, weight: np.ndarray) -> float:
-    """``sqrt(sum w e^2 / sum w)`` of the per-line distances ``e`` [decades]."""
+    """``sqrt(sum w e^2 / sum w)`` of the per-line distances ``e`` [decades]; NaN for no lines."""
+    if np.size(e) == 0:
+        return float("nan")
     w = np.asarray(weight, dtype=float)
     return float(np.sqrt(np.sum(w * np.asarray(e) ** 2) / np.sum(w)))
 
@@ -43,22 +43,9 @@ def complex_log_misfit(h: np.ndarray, h_ref: np.ndarray, weight: np.ndarray) -> 
     ``ln(h / h_ref) = ln|h / h_ref| + j arg(h / h_ref)``: the squared distance is the squared log magnitude
     plus the squared phase [rad], the two parts a fit with phase weighs equally
     (:class:`vlab.diagnose.problem.residuals.Problem`, ``use_phase``). A change that turns the phase more
-    than the magnitude (a lag, a delay) shows here and hardly in :func:`log_misfit`.
-
-    Parameters
-    ----------
-    h, h_ref : ndarray, complex, shape (n,)
-        Compared FRF values on the same lines [(m/s)/N].
-    weight : ndarray, shape (n,)
-        Line weights.
-
-    Returns
-    -------
-    float
-        [decades]; NaN for no lines.
+    than the magnitude (a lag, a delay) shows here and hardly in :func:`log_misfit`. ``h``, ``h_ref`` and
+    ``weight`` and the result as in :func:`log_misfit`.
     """
-    if np.size(h) == 0:
-        return float("nan")
     return _weighted_rms(np.abs(np.log(np.asarray(h, dtype=complex) / np.asarray(h_ref, dtype=complex)))
                          / np.log(10.0), weight)
 

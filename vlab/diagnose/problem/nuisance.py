@@ -150,13 +150,7 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
 
 
 def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int]:
-    """:func:`profile` of ``state`` on its own modes (:func:`own_modes`).
-
-    Parameters
-    ----------
-    problem : Problem
-        FRF data with ``model_form_frf``.
-    state : LabState
+    """:func:`profile` of ``state`` on its own modes (:func:`own_modes`, which takes ``problem`` and ``state``).
 
     Returns
     -------

@@ -162,17 +162,8 @@ def format_location(loc: dict | None) -> str:
 
 
 def misfit_unit(res: dict) -> str:
-    """What the misfits of a diagnosis measure: ``"decades"`` (FRF data) or ``"rel. freq. error"`` (modal data).
-
-    Parameters
-    ----------
-    res : dict
-        :meth:`DiagnosisResult.as_dict`.
-
-    Returns
-    -------
-    str
-    """
+    """What the misfits of a diagnosis ``res`` (:meth:`DiagnosisResult.as_dict`) measure: ``"decades"`` (FRF
+    data) or ``"rel. freq. error"`` (modal data)."""
     return "rel. freq. error" if res["data"]["kind"] == "modal" else "decades"
 
 
