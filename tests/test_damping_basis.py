@@ -145,6 +145,23 @@ def test_the_coupled_receptance_equals_a_direct_solve():
     np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
 
 
+def test_the_classical_receptance_equals_a_direct_solve():
+    """The classical modal sum of ``_receptance`` against ``Phi_p (Omega^2 - w^2 I + i w diag(2 zeta omega))^-1
+    Phi_p^T`` solved at each frequency, on the real axis and at complex frequencies (a shifted contour)."""
+    from vlab.diagnose.model.labmodel import _receptance
+
+    rng = np.random.default_rng(4)
+    n, n_p = 12, 5
+    om = np.sort(rng.uniform(5.0, 80.0, n))
+    zeta = rng.uniform(0.002, 0.05, n)
+    ph = rng.standard_normal((n_p, n))
+    for w in (np.linspace(1.0, 90.0, 150), np.linspace(1.0, 90.0, 150) - 0.3j):
+        got = _receptance(om, zeta, ph, w)
+        cm = np.diag(2.0 * zeta * om)
+        ref = np.array([ph @ np.linalg.solve(np.diag(om**2) - wk**2 * np.eye(n) + 1j * wk * cm, ph.T) for wk in w])
+        np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+
+
 def test_the_carried_damping_matrix_is_cached_read_only():
     """The unchanged structure's matrix carried to a changed one is computed once and cannot be edited in place
     (a caller adding dashpots copies it)."""

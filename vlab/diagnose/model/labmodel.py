@@ -195,7 +195,9 @@ def _coupled_block(omega, zeta, ph, w, coupling, idx) -> np.ndarray:
     left = ph[:, idx] @ v[:n, :]                                         # (n_p, 2n): displacement rows
     right = np.linalg.solve(v, b)                                        # (2n, n_p)
     g = 1.0 / (1j * w[:, None] - lam[None, :])                           # (n_f, 2n)
-    return (left[None, :, :] * g[:, None, :]) @ right                     # sum over k of left g right
+    n_p = ph.shape[0]
+    lr = (left.T[:, :, None] * right[:, None, :]).reshape(2 * n, n_p * n_p)  # left[a, k] right[k, b]
+    return (g @ lr).reshape(w.size, n_p, n_p)                            # one product: sum over k
 
 
 def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
@@ -211,7 +213,11 @@ def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
         if idx.size < 2:
             idx = np.array([], dtype=int)
         r[:, idx] = 0.0
-    alpha = (ph[None] * r.real[:, None, :]) @ ph.T + 1j * ((ph[None] * r.imag[:, None, :]) @ ph.T)
+    n_p = ph.shape[0]
+    pp = (ph[:, None, :] * ph[None, :, :]).reshape(n_p * n_p, -1).T     # (n, n_p^2): ph[a, k] ph[b, k]
+    alpha = np.empty((w.size, n_p * n_p), dtype=complex)
+    alpha.real, alpha.imag = r.real @ pp, r.imag @ pp                    # two real products over the modes
+    alpha = alpha.reshape(w.size, n_p, n_p)
     if idx.size:
         alpha = alpha + _coupled_block(omega, zeta, ph, w, coupling, idx)
     return alpha
