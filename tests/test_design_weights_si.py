@@ -17,11 +17,13 @@ import scipy.linalg
 from typer.testing import CliRunner
 
 from vlab.cli import app
-from vlab.design import design_controller, design_model, design_settings
+from vlab.design import design_controller, design_settings
 from vlab.errors import SpecError
 from vlab.fe import build_fe_model
 from vlab.spec import load_spec
 from vlab.templates import write_template
+
+from _si_models import si_state_space
 
 IN_M, LBF_N, CS_S = 0.0254, 4.4482216152605, 0.01
 runner = CliRunner()
@@ -55,15 +57,7 @@ def _beam(tmp_path, name: str, units: str | None, weights: dict) -> str:
 
 def _si_model(fe):
     """A, B, C (velocity outputs) of the full design model in SI (states [q'; q] in m/s, rad/s, m, rad)."""
-    dm = design_model(fe, "full")
-    n = dm.m.shape[0]
-    u = np.zeros((n, len(dm.actuator_rows)))
-    u[list(dm.actuator_rows), range(len(dm.actuator_rows))] = 1.0
-    mi = np.linalg.inv(dm.m)
-    a = np.block([[-mi @ dm.c, -mi @ dm.k], [np.eye(n), np.zeros((n, n))]])
-    b = np.vstack([mi @ u, np.zeros_like(u)])
-    c = np.hstack([u.T, np.zeros_like(u.T)])
-    return dm, a, b, c
+    return si_state_space(fe)
 
 
 def _diag(w: dict, name: str, labels) -> np.ndarray:

@@ -20,6 +20,8 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 
+from _si_models import si_state_space
+
 runner = CliRunner()
 Z95 = 1.959963984540054   # two-sided 95 % normal quantile
 IN_M = 0.0254             # 1 in [m]
@@ -164,7 +166,7 @@ def _modal_ic_si(m, k, n_f, w_rows):
 def test_design_of_a_structure_file_prints_si(beam):
     """`vlab design FILE` prints gamma and D in N*s/m (D the JSON's SI gain) and J [s] for modal initial
     conditions of 1 m peak deflection, equal to the Lyapunov solution in SI computed here; no thesis unit."""
-    from vlab.design import design_model, design_settings
+    from vlab.design import design_settings
     from vlab.fe import build_fe_model
     from vlab.spec import load_spec
 
@@ -177,19 +179,12 @@ def test_design_of_a_structure_file_prints_si(beam):
     printed = np.array([float(x) for x in re.findall(r"-?\d+\.\d*", text.split("m/s):")[1].split("closed")[0])])
     assert printed == pytest.approx(d.ravel(), abs=1e-4)
     fe = build_fe_model(load_spec(beam))
-    dm = design_model(fe, "full")
+    dm, a, b, cv = si_state_space(fe)
     st = design_settings(fe.spec)
-    n = dm.m.shape[0]
-    u = np.zeros((n, len(dm.actuator_rows)))
-    u[list(dm.actuator_rows), range(len(dm.actuator_rows))] = 1.0
-    mi = np.linalg.inv(dm.m)
-    a = np.block([[-mi @ dm.c, -mi @ dm.k], [np.eye(n), np.zeros((n, n))]])
-    b = np.vstack([mi @ u, np.zeros_like(u)])
-    cv = np.hstack([u.T, np.zeros_like(u.T)])
     s = np.array([IN_M if dof == "w" else 1.0 for _p, dof in dm.labels])
     sx = np.concatenate([s / CS_S, s])                       # SI value of one thesis state unit
     q_si = np.diag(st.q_scale / sx ** 2)
-    r_si = st.r / LBF_N ** 2 * np.eye(u.shape[1])
+    r_si = st.r / LBF_N ** 2 * np.eye(b.shape[1])
     a_cl = a - b @ d @ cv
     p = scipy.linalg.solve_continuous_lyapunov(a_cl.T, -(q_si + cv.T @ d.T @ r_si @ d @ cv))
     x0 = _modal_ic_si(dm.m, dm.k, st.n_f, np.array([i for i, (_p, dof) in enumerate(dm.labels) if dof == "w"]))
