@@ -12,11 +12,13 @@ A diagnosis of time histories costs, in order (:mod:`vlab.diagnose.pipeline`):
   search;
 - the **validation**: the modified plant built and the recorded force replayed once more.
 
-The constants are calibrated (measured on the development machine, two cores shared with other work, load
-2-3) on two diagnoses of a concealed added mass: the BCC under MFDRF (19 FE DOFs, 22 joint DOFs, a library
+The constants are calibrated (measured on the development machine, two cores shared with up to two other
+jobs) on two diagnoses of a concealed added mass: the BCC under MFDRF (19 FE DOFs, 22 joint DOFs, a library
 of 85 hypotheses: 20 s in all, 11.8 s of search, 5.1 s of plant refit) and the grid (91 FE DOFs, 165 joint
 DOFs, 184 hypotheses: 311 s, 167 s of search, 54 s of refit, replay and validation 40 s and 45 s). The
-exponent 1.25 of the search is the one that fits both (its constant within 9 %; 1.5 and 1 leave 60 % and 40 %). The estimate is a guide to the order of
+exponent 1.25 of the search is the one that fits both (its constant within 9 %; 1.5 and 1 leave 60 % and 40 %).
+The search was timed before the modal sum became one product over the modes (``benchmarks/receptance_speed.py``:
+1.9x faster on the grid), so its constant is now an upper bound. The estimate is a guide to the order of
 magnitude, shown before the run and used to ask for ``--yes`` beyond a limit, not a prediction to the second.
 """
 
