@@ -262,6 +262,7 @@ def measure(
     duration, n_settle, warnings = _run_length(cfg, res_hz, decay_rate_1_s)
     plant, info = plant if plant is not None else make_plant(cfg, fe, acts)
     info = {**info, "actuators": acts}
+    warnings = list(warnings) + list(info.get("notes", ()))  # e.g. an MJCF's added masses given their weight
     engine = None
     if design is not None:
         engine = ControllerEngine(design.f11, design.f12, design.f21, design.f22, period_s=cfg.chain.period_s)

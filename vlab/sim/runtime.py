@@ -43,8 +43,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..errors import SimulationError
+from ..errors import ModelError, SimulationError
 from ..spec import StructureSpec
+from .body_weights import carry_weights
 from .builder import build_plant
 from .contract import check_plant_contract, check_plant_values, numbered, sensor_rows
 from .damping_matrix import load_modal_damping
@@ -396,7 +397,8 @@ def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = 
     info : dict
         ``kind``, ``source`` (spec file or MJCF path), ``timestep_s``, ``nv``,
         ``segments_per_element`` and ``stiffness_damping_s`` (built plants only),
-        ``damping_ratios`` (targets of the modal tendons, built plants only).
+        ``damping_ratios`` (targets of the modal tendons, built plants only), ``notes`` (MJCF only: the
+        added masses whose weight was carried into the in-plane statics, :mod:`vlab.sim.body_weights`).
 
     Raises
     ------
@@ -418,9 +420,13 @@ def load_plant_for_experiment(spec: StructureSpec, *, mjcf: str | Path | None = 
         spec_sens = tuple(ins.sensors) if ins is not None else ()
         check_plant_contract(model, actuators=spec_acts + tuple(actuators or ()),
                              sensors=spec_acts + spec_sens + tuple(sensors), source=str(mjcf))
+        try:
+            notes = carry_weights(model, spec)  # added masses weigh (vlab.sim.body_weights)
+        except ModelError as exc:
+            raise ModelError(f"{mjcf}: {exc}") from None
         sim = MujocoPlant(model, actuators=actuators)
         return sim, {"kind": "MuJoCo plant (MJCF)", "source": str(mjcf), "timestep_s": sim.timestep_s,
-                     "nv": int(model.nv)}
+                     "nv": int(model.nv), "notes": notes}
     plant = build_plant(spec, options)
     sim = MujocoPlant(plant, actuators=actuators)
     info = {"kind": "MuJoCo plant", "source": str(spec.path) if spec.path else spec.name,
