@@ -21,12 +21,49 @@ reported as such, not dropped):
 
 Usage::
 
-    python benchmarks/update_benchmark.py [--cases cantilever|bcc|grid|all] [--controller mfdrf|lqdrf] [--out DIR]
+    python benchmarks/update_benchmark.py [--cases cantilever|bcc|grid|all|chain] [--controller mfdrf|lqdrf]
+                                          [--work DIR]
+    python benchmarks/update_benchmark.py --draw SEED [--structures bcc [grid]] [--limit N] [--out FILE] [--work DIR]
 
 The structures: ``examples/cantilever_tip_mass.toml`` (a few seconds a case), the BCC (minutes a case:
 its diagnosis dominates) and the grid (one case, longer). The sizes are fixed, chosen by hand well above the detection threshold (the
 diagnosis names the cantilever's 0.3 g mass at point 3; the cases add 10-40 g), not drawn. ``--cases chain``
 runs the chain cases of all three structures.
+
+``--draw SEED`` draws the cases instead (:func:`draw_cases`, ``numpy.random.default_rng(SEED)``): on each
+structure asked (the BCC by default; the grid is slow), two of every kind of :data:`DRAW_KINDS` -- the
+structural ones (added mass, grounded spring at a free point, softened joint, member or segment EI, one mode's
+damping ratio) concealed in the plant with :mod:`vlab.diagnose.effects.specedit`, a coil's ``gainprm``, and a
+sensor gain, coil gain, delay, actuator lag or sensor lag of one channel or of all in the hidden lab chain --
+and two null cases (nothing concealed: the diagnosis should find no mismatch and ``vlab update`` refuse). Each
+at a location (and side of the null value) drawn uniformly among those where the effect is detectable, with a
+size ``k`` times its detection threshold, ``k`` log-uniform in [2, 5] (distance from the null value: the
+difference above it, the log ratio below it, the compliance for a joint or lag, :func:`_size`; ``--k LO HI``
+for other sizes), and its own seed for the recording's excitation and noise. The thresholds are vlab's own
+(:func:`vlab.diagnose.detectability.detectability`) for the closed-loop test with the benchmark's controller,
+``model_form="derived"`` (a MuJoCo recording as the diagnosis reads it), computed once (13 min for the BCC
+with MFDRF on two shared cores) and cached in
+``docs/validation/data/detectability_<structure>_<controller>.json``. They are not those of the shipped
+open-loop table (``detectability_bcc_open_loop.csv``): the closed loop moves and damps the peaks, and its
+per-channel chain effects exist only there. The cases run in rounds (one null case and one of every kind,
+kinds shuffled, then the rest) so that a run stopped early (``--limit N``) covers every kind once. Each case
+is printed as it ends (and written with ``--out``): what was concealed, ``k``, the two errors, the three
+criteria, the time, how the diagnosis compares (right / WRONG effect / WRONG place / missed / not named / for
+null cases a false alarm) with the fitted size over the concealed one, and what it selected; then a summary.
+
+Measured (BCC, MFDRF, 2 shared cores; docs/validation/data/update_benchmark_draw_*.txt), about 20 s a case:
+
+- ``--draw 7171`` (k 2-5, a seed not used while developing; 24 cases in 6.5 min): diagnosis right in 23
+  (21 of 22 effects at their place, both null cases no mismatch and the update refused), one missed (mode
+  1's damping 0.004 -> 0.0011, k 2.2: no mismatch found; the threshold is the profiled test's of a real
+  measurement, not the test a recording of vlab's own plant gets). Error halved in 2 of 21 updates: the
+  original errors are 0.007-0.048 (median 0.024), the updated ones at the BCC's floor (0.018-0.020 in 20; the
+  nominal design on the unchanged plant: 0.0181), and one worse (18 g at point 5: 0.0071 -> 0.0292). No
+  original error above 0.06 (the 0.03 criterion untested); damping within 10 % in 21 of 21.
+- ``--draw 7272 --k 5 20``: diagnosis right in 24 of 24; halved 15 of 22 (the 7 misses all started below
+  0.032, under twice the floor); <= 0.03 in 5 of 6 (a 15.5-period delay: 0.1225 -> 0.0598); damping within
+  10 % in 20 of 22 (the 11.8- and 15.5-period delays: 12 %, 22 %). Below the null, ``k`` near 20 drives a
+  mode's damping ratio to ~0 (log ratio); the fit then sits at the library's bound.
 """
 
 from __future__ import annotations
@@ -162,17 +199,331 @@ def run_case(structure, label: str, edit, duration_s, work: Path, controller: st
     return row
 
 
+#: The effect kinds ``--draw`` conceals: kind -> the library effect whose detection threshold sizes it
+DRAW_KINDS = {"added_mass": "added_mass", "support_stiffness": "support_stiffness",
+              "joint_flexibility": "joint_flexibility", "member_stiffness": "member_stiffness",
+              "modal_damping": "damping", "coil_gain": "actuator_gain", "sensor_gain": "sensor_gain",
+              "actuator_gain": "actuator_gain", "loop_delay": "loop_delay", "actuator_lag": "actuator_lag",
+              "sensor_lag": "sensor_lag"}
+
+#: The library effects whose thresholds ``--draw`` needs
+DRAW_EFFECTS = tuple(sorted(set(DRAW_KINDS.values())))
+
+
+def _key(location: dict) -> str:
+    """A location as a comparable string (a segment's tuple and list alike)."""
+    return str(sorted((k, list(v) if isinstance(v, (list, tuple)) else v) for k, v in location.items()))
+
+
+def _rel(path: Path) -> str:
+    """``path`` relative to the repository where it lies in it."""
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def draw_thresholds(structure: str, controller: str, cache: Path) -> dict:
+    """The detection thresholds of ``structure``'s closed-loop test with ``controller`` (cached as JSON).
+
+    :func:`vlab.diagnose.detectability.detectability` (``model_form="derived"``: a real recording referred
+    through the MuJoCo plant's replay, as the diagnosis reads the benchmark's recordings), restricted to
+    :data:`DRAW_EFFECTS`, no naming thresholds. Computed once and written to ``cache``."""
+    import json
+    if cache.exists():
+        return json.loads(cache.read_text())
+    from vlab.diagnose.detectability import detectability
+    t0 = time.perf_counter()
+    d = detectability(structure, controller, effects=DRAW_EFFECTS, model_form="derived", naming=False).as_dict()
+    d["seconds"] = time.perf_counter() - t0
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    cache.write_text(json.dumps(d, indent=1, default=float))
+    return d
+
+
+def _valid(kind: str, thresholds: list[dict]) -> list[dict]:
+    """The thresholds (location and side) at which ``kind`` can be concealed: detected within its range,
+    one point, coil or channel that the concealment can change."""
+    eff = DRAW_KINDS[kind]
+    out = []
+    for t in thresholds:
+        loc = t["location"]
+        if t["effect"] != eff or t["threshold"] is None:
+            continue
+        if "points" in loc:  # a group of points: not drawn
+            continue
+        if kind == "support_stiffness" and loc.get("dof") != "w":  # released supports: not drawn
+            continue
+        if kind == "modal_damping" and "mode" not in loc:  # point dashpots: no spec edit
+            continue
+        if kind == "coil_gain" and loc.get("channel") == "all":  # one coil's gainprm
+            continue
+        if kind == "loop_delay" and t["threshold"] < t["null"]:  # a delay below the chain's 1.35 periods: not drawn
+            continue
+        out.append(t)
+    return out
+
+
+def _size(t: dict, k: float) -> float:
+    """The value of ``t``'s parameter ``k`` times as far from its null value as the threshold.
+
+    Distance: the difference from the null value, where the null is 0 (mass, spring) or the size is above it
+    (gains, EI, damping ratios, the total delay above the chain's 1.35 periods); the log of the ratio to the null
+    below it (so that a smaller gain, EI or damping ratio stays positive); the compliance (1/value) where the
+    null is a limit (a rigid joint, a lag of infinite corner frequency)."""
+    null, thr = t["null"], t["threshold"]
+    if null is None:
+        return thr / k
+    if thr > null:
+        return null + k * (thr - null)
+    return null * (thr / null) ** k
+
+
+def draw_cases(seed: int, structure: str, controller: str, thresholds: dict, *, per_kind: int = 2,
+               nulls: int = 2, k_range: tuple[float, float] = (2.0, 5.0)) -> list[dict]:
+    """The concealed effects of ``--draw``: ``per_kind`` of each kind of :data:`DRAW_KINDS` and ``nulls`` null
+    cases, in rounds (each round: one null case, if left, and one case of every kind, kinds shuffled), so that
+    a run stopped early has covered every kind once before any twice.
+
+    Each case: a location and side drawn uniformly among :func:`_valid`'s, a size ``k`` times the threshold's
+    distance from the null value (:func:`_size`), ``k`` log-uniform in ``k_range``, and a seed for the recording's
+    excitation and noise."""
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    period_s = default_chain(controller).period_s
+    cases = []
+    for r in range(max(per_kind, nulls)):
+        kinds = [str(x) for x in rng.permutation(list(DRAW_KINDS))] if r < per_kind else []
+        if r < nulls:
+            cases.append({"structure": structure, "kind": "null", "label": "nothing concealed", "k": None,
+                          "edit": _same, "chain": {}, "expect": None, "seed": int(rng.integers(2**31))})
+        for kind in kinds:
+            valid = _valid(kind, thresholds["thresholds"])
+            locs = sorted({_key(t["location"]) for t in valid})
+            loc = locs[int(rng.integers(len(locs)))]
+            sides = [t for t in valid if _key(t["location"]) == loc]
+            t = sides[int(rng.integers(len(sides)))]
+            k = float(np.exp(rng.uniform(np.log(k_range[0]), np.log(k_range[1]))))
+            cases.append(_conceal(structure, kind, t, k, _size(t, k), period_s, int(rng.integers(2**31))))
+    return cases
+
+
+def _conceal(structure: str, kind: str, t: dict, k: float, x: float, period_s: float, seed: int) -> dict:
+    """One drawn case: the spec edit or the chain settings that conceal ``kind`` of size ``x`` at ``t``'s place."""
+    loc, edit, chain = t["location"], _same, {}
+    p, c = loc.get("point"), loc.get("channel")
+    if kind == "added_mass":
+        edit, what = (lambda s: specedit.add_mass(s, p, x)), f"{x:.4g} kg at point {p}"
+    elif kind == "support_stiffness":
+        edit, what = (lambda s: specedit.add_spring(s, p, "w", x)), f"{x:.4g} N/m at point {p}"
+    elif kind == "joint_flexibility":
+        edit, what = (lambda s: specedit.soften_joint(s, p, x)), f"{x:.4g} N*m/rad at point {p}"
+    elif kind == "member_stiffness":
+        f, seg = x / t["null"], loc.get("segment")
+        if seg:
+            edit = lambda s: specedit.scale_segments(s, {tuple(seg): f})  # noqa: E731
+            what = f"{loc['member']} {seg[0]}-{seg[1]} EI x {f:.4g}"
+        else:
+            edit, what = (lambda s: specedit.scale_member(s, loc["member"], f)), f"{loc['member']} EI x {f:.4g}"
+    elif kind == "modal_damping":
+        m = loc["mode"]
+        edit, what = (lambda s: specedit.set_modal_damping(s, m, x)), f"mode {m} ratio {t['null']:.4g} -> {x:.4g}"
+    elif kind == "coil_gain":
+        edit, what = _coil_gain(c, x), f"coil {c} gainprm {x:.4g} (plant)"
+    else:
+        # the channels the chain's dicts name: one, or every coil for "all"
+        chans = list(load_spec(structure).instrumentation.actuators) if c == "all" else [c]
+        key, val, unit = {"sensor_gain": ("sensor_gain", x, ""), "actuator_gain": ("actuator_gain", x, " (chain)"),
+                          "loop_delay": ("channel_delay_periods", x / period_s, " periods (total)"),
+                          "actuator_lag": ("channel_actuator_lag_hz", x, " Hz"),
+                          "sensor_lag": ("channel_sensor_lag_hz", x, " Hz")}[kind]
+        chain = {key: {ch: val for ch in chans}}
+        what = f"{val:.4g}{unit} on channel {c}"
+    expect = {"effect": DRAW_KINDS[kind], "location": loc}
+    return {"structure": structure, "kind": kind, "label": f"{kind} {what}", "k": k, "edit": edit,
+            "chain": chain, "expect": expect, "value": x, "seed": seed}
+
+
+def _verdict(case: dict, d: dict) -> str:
+    """How the diagnosis ``d`` (``DiagnosisResult.as_dict()``) compares with what ``case`` concealed."""
+    sel = d["selected"]
+    if case["expect"] is None:
+        return "right (no mismatch)" if not d["mismatch"] else ("WRONG: false alarm" if not sel else "WRONG: named one")
+    if not d["mismatch"]:
+        return "missed (no mismatch)"
+    if not sel:
+        return "not named"
+    e = case["expect"]
+    hit = [x for x in sel if x["effect"] == e["effect"] and _key(x["location"]) == _key(e["location"])]
+    if hit and len(sel) == 1:
+        return "right"
+    if hit:
+        return "right + other"
+    if any(x["effect"] == e["effect"] for x in sel):
+        return "WRONG place"
+    return "WRONG effect"
+
+
+def run_drawn(case: dict, work: Path, controller: str = "mfdrf") -> dict:
+    """One drawn case: conceal, record (with the case's seed), diagnose, update, verify. Returns the row."""
+    nominal = load_spec(case["structure"])
+    work.mkdir(parents=True)
+    t0 = time.perf_counter()
+    plant = export_mjcf(build_plant(case["edit"](nominal)), work / "plant.xml")
+    lab = default_chain(controller, noise_m_s=1e-6, **case["chain"])
+    fe = build_fe_model(nominal)
+    design = design_controller(fe, controller, seed=0, period_s=lab.period_s)
+    cfg = ExperimentConfig(structure=nominal.name, controller=controller, chain=lab, plant="mujoco", mjcf=plant,
+                           seed=case["seed"])
+    m = measure(cfg, fe, design, decay_rate_1_s=slowest_decay_rate(fe, design))
+    (work / "exp").mkdir()
+    rec = write_recording(work / "exp" / "recording.uff", m.loop.recording, overwrite=False)
+    res = vlab.diagnose(nominal, rec, out_dir=work / "diag")
+    d = res.as_dict()
+    sel = "; ".join(f"{e['effect']} {e['location']} {e['parameters']}" for e in d["selected"]) or "nothing"
+    row = {"case": case["label"], "selected": sel, "verdict": _verdict(case, d), "mismatch": d["mismatch"]}
+    if case["expect"] is not None:
+        hit = [x for x in d["selected"] if x["effect"] == case["expect"]["effect"]
+               and _key(x["location"]) == _key(case["expect"]["location"])]
+        if hit:  # the fitted size against the concealed one
+            row["fitted_over_concealed"] = float(next(iter(hit[0]["parameters"].values()))) / case["value"]
+    try:
+        upd = vlab.update(nominal, work / "diag", out=work / "updated.toml")
+    except VlabError as exc:
+        row.update(refused=str(exc).split(": ", 1)[-1][:100])
+        if case["expect"] is None:  # the floor: the design on the nominal model run on the unchanged plant
+            v = verify(nominal, nominal, plant, controller=controller)
+            row["e_floor"] = v["original"]["average_peak_level_error"]
+        row["seconds"] = time.perf_counter() - t0
+        return row
+    v = verify(nominal, upd.path, plant, controller=controller, lab_chain=lab if case["chain"] else None)
+    e0, e1 = v["original"]["average_peak_level_error"], v["updated"]["average_peak_level_error"]
+    dz = max(abs(m["damping_ratio_measured"] / m["damping_ratio_predicted"] - 1) for m in v["updated"]["modes"])
+    row.update(e_original=e0, e_updated=e1, damping_dev=dz, seconds=time.perf_counter() - t0,
+               half=e1 <= 0.5 * e0, below_003=(e1 <= 0.03) if e0 > 0.06 else None, damping_ok=dz <= 0.10)
+    return row
+
+
+def _draw_line(i: int, case: dict, row: dict) -> str:
+    """One listing line of a drawn case."""
+    b = {True: "pass", False: "FAIL", None: "-"}
+    k = f"{case['k']:.2f}" if case["k"] is not None else "-"
+    head = f"{i:3d} {case['label'][:52]:52s} {k:>5s} "
+    fit = f" fit/true {row['fitted_over_concealed']:.3f};" if "fitted_over_concealed" in row else ""
+    tail = f" {row.get('seconds', 0):5.0f}s  {row['verdict']};{fit} selected: {row['selected']}"
+    if "refused" in row:
+        ok = "pass" if case["expect"] is None else "-"
+        e0 = f"{row['e_floor']:9.4f}" if "e_floor" in row else f"{'':9s}"
+        return head + f"{e0} {'refused':>9s} {ok:>6s} {'':6s} {'':7s} {'':6s}" + tail + f" [{row['refused']}]"
+    return (head + f"{row['e_original']:9.4f} {row['e_updated']:9.4f} {b[row['half']]:>6s} {b[row['below_003']]:>6s} "
+            f"{row['damping_dev']:7.3f} {b[row['damping_ok']]:>6s}" + tail)
+
+
+def _draw_summary(done: list) -> list[str]:
+    """Counts per criterion over the drawn cases run."""
+    eff = [(c, r) for c, r in done if c["expect"] is not None]
+    nul = [(c, r) for c, r in done if c["expect"] is None]
+    ver = [r for _, r in done]
+    upd = [r for _, r in eff if "refused" not in r]
+    big = [r for r in upd if r["below_003"] is not None]
+    n = lambda rows, f: sum(1 for r in rows if f(r))  # noqa: E731
+    lines = [f"# summary: {len(done)} cases run ({len(eff)} with an effect, {len(nul)} null)",
+             f"# diagnosis: right {n(ver, lambda r: r['verdict'].startswith('right'))}, "
+             f"wrong {n(ver, lambda r: r['verdict'].startswith('WRONG'))}, "
+             f"missed or not named {n(ver, lambda r: r['verdict'] in ('missed (no mismatch)', 'not named'))}",
+             f"# null cases: update refused {n([r for _, r in nul], lambda r: 'refused' in r)} of {len(nul)}",
+             f"# effect cases updated {len(upd)} of {len(eff)} (refused: {len(eff) - len(upd)}); of those updated: "
+             f"error halved {n(upd, lambda r: r['half'])}/{len(upd)}, "
+             f"<= 0.03 where the original > 0.06: {n(big, lambda r: r['below_003'])}/{len(big)}, "
+             f"damping within 10 %: {n(upd, lambda r: r['damping_ok'])}/{len(upd)}"]
+    fl = [r["e_floor"] for _, r in nul if "e_floor" in r]
+    if fl:
+        lines.append("# floor (null cases: the nominal design run on the unchanged plant): average peak level error "
+                     + ", ".join(f"{x:.4f}" for x in fl))
+    if upd:
+        import numpy as np
+        e0, e1 = np.array([r["e_original"] for r in upd]), np.array([r["e_updated"] for r in upd])
+        lines.append(f"# err orig median {np.median(e0):.4f} (range {e0.min():.4f}-{e0.max():.4f}); err upd median "
+                     f"{np.median(e1):.4f} (range {e1.min():.4f}-{e1.max():.4f})")
+    return lines
+
+
+def main_draw(a) -> None:
+    """``--draw SEED``: the drawn cases, printed and (``--out``) written as they finish."""
+    base = Path(a.work) if a.work else Path(tempfile.mkdtemp(prefix="vlab-update-draw-"))
+    cases = []
+    thr_files = {}
+    for name in a.structures:
+        cache = Path(a.thresholds.format(structure=name, controller=a.controller))
+        thr_files[name] = cache
+        thr = draw_thresholds(name, a.controller, cache)
+        cases += draw_cases(a.draw, name, a.controller, thr, k_range=tuple(a.k))
+    todo = cases if a.limit is None else cases[:a.limit]
+    header = [f"# python benchmarks/update_benchmark.py --draw {a.draw} --structures {' '.join(a.structures)} "
+              f"--controller {a.controller} --k {a.k[0]:g} {a.k[1]:g}"
+              + (f" --limit {a.limit}" if a.limit is not None else "") + f"   ({time.strftime('%Y-%m-%d')})",
+              "# thresholds: " + ", ".join(f"{k}: {_rel(v)}" for k, v in thr_files.items()) + " (closed loop, "
+              f"{a.controller}, model_form derived)",
+              "# k: size / detection threshold (distance from the null value: _size); err: average peak level error "
+              "mean|1 - r| of the design on the original / updated model on the changed plant; dzeta: largest "
+              "relative difference of the updated design's closed-loop damping ratios, measured vs predicted; "
+              "a null case passes (<=half column) when the update is refused; its err orig: the nominal design on the "
+              "unchanged plant (the model-form floor)",
+              f"{'#':>3s} {'concealed':52s} {'k':>5s} {'err orig':>9s} {'err upd':>9s} {'<=half':>6s} {'<=0.03':>6s} "
+              f"{'dzeta':>7s} {'<=10%':>6s}  time  diagnosis"]
+    t_all = time.perf_counter()
+    done, lines = [], []
+
+    def write(final: bool) -> None:
+        run = f"# cases run {len(done)} / drawn {len(cases)}" + ("" if final else " (running)") + \
+              f"; {time.perf_counter() - t_all:.0f} s"
+        text = "\n".join(header[:2] + [run] + header[2:] + lines + (_draw_summary(done) if done else [])) + "\n"
+        if a.out:
+            Path(a.out).write_text(text)
+
+    for line in header:
+        print(line, flush=True)
+    for i, case in enumerate(todo):
+        try:
+            row = run_drawn(case, base / f"draw{a.draw}_{i}", a.controller)
+        except Exception as exc:  # noqa: BLE001 -- reported, not dropped
+            row = {"case": case["label"], "selected": "-", "verdict": f"ERROR {type(exc).__name__}: {exc}"[:160],
+                   "refused": "error", "mismatch": None}
+        done.append((case, row))
+        lines.append(_draw_line(i, case, row))
+        print(lines[-1], flush=True)
+        write(False)
+    for line in _draw_summary(done):
+        print(line)
+    write(True)
+    print(f"files in {base}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", choices=("cantilever", "bcc", "grid", "all", "chain"), default="cantilever")
     ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case numbers (0-based)")
     ap.add_argument("--controller", choices=("mfdrf", "lqdrf"), default="mfdrf",
                     help="the controller of the recording and of both designs")
-    ap.add_argument("--out", default=None, help="folder for the cases' files (default: a temporary folder)")
+    ap.add_argument("--work", default=None, help="folder for the cases' files (default: a temporary folder)")
+    ap.add_argument("--out", default=None, help="--draw: also write the listing to this file")
+    ap.add_argument("--draw", type=int, default=None, metavar="SEED",
+                    help="draw the cases with numpy.random.default_rng(SEED) instead of the fixed ones")
+    ap.add_argument("--structures", nargs="+", choices=("bcc", "grid"), default=["bcc"],
+                    help="--draw: the structures (grid: slow)")
+    ap.add_argument("--k", type=float, nargs=2, default=[2.0, 5.0], metavar=("LO", "HI"),
+                    help="--draw: sizes log-uniform between LO and HI times the detection threshold")
+    ap.add_argument("--limit", type=int, default=None, help="--draw: run only the first N cases drawn")
+    ap.add_argument("--thresholds", default=str(ROOT / "docs" / "validation" / "data" /
+                                                  "detectability_{structure}_{controller}.json"),
+                    help="--draw: the thresholds' cache file ({structure}, {controller} filled in)")
     a = ap.parse_args()
+    if a.draw is not None:
+        main_draw(a)
+        return
     names = ("cantilever", "bcc", "grid") if a.cases in ("all", "chain") else (a.cases,)
     table = CHAIN_CASES if a.cases == "chain" else {k: [c + (None,) for c in v] for k, v in CASES.items()}
-    base = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="vlab-update-bench-"))
+    base = Path(a.work) if a.work else Path(tempfile.mkdtemp(prefix="vlab-update-bench-"))
     print(f"{'case':44s} {'err orig':>9s} {'err upd':>9s} {'<=half':>7s} {'<=0.03':>7s} {'dzeta':>7s}  selected")
     n = 0
     for name in names:
