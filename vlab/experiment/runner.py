@@ -34,7 +34,7 @@ from ..lab.loop import LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import h1
 from ..spec import StructureTest, input_gains
-from .checks import self_excited_oscillation, under_resolved_peaks
+from .checks import oscillation_above_band, oscillation_cause, self_excited_oscillation, under_resolved_peaks
 from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of, with_hardware
 from .settling import SETTLE_TOLERANCE, predicted_modes, settle_records, slowest_decay_rate
 
@@ -426,8 +426,15 @@ def run_experiment(
         h_cont, h_samp = h_cont / iw, h_samp / iw
     modes = compare_modes(f, h_samp, m.measured, fm, zm, response=test.response_quantity)
     rec = m.loop.recording
-    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + self_excited_oscillation(
-        np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:], rec.dt_s, band_hz=test.band_hz)
+    v_resp = np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:]
+    oscillation = self_excited_oscillation(v_resp, rec.dt_s, band_hz=test.band_hz)
+    if oscillation and design is not None:
+        f_osc = oscillation_above_band(v_resp, rec.dt_s, band_hz=test.band_hz)[0]
+        cause = oscillation_cause(fe, design, cfg.chain, f_osc,
+                                  mujoco_plant=cfg.plant == "mujoco" and cfg.mjcf is None and lab_chain is None)
+        if cause:
+            oscillation = [oscillation[0] + "; " + cause]
+    warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + oscillation
     for mc in modes:
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
             warnings.append(f"mode {mc.mode} could not be identified (no resonance peak: overdamped or not "
