@@ -280,3 +280,15 @@ def round_trip(source: str, edit: str, tmp_path: Path) -> None:
         "gainprm": ("actuator_gain", {"channel": coil}, "gain", GAIN, 0.01)}[edit]
     assert (first["effect"], first["location"]) == (effect, location), d["selected"]
     assert first["parameters"][key] == pytest.approx(value, rel=rel)
+
+
+def test_the_beam_along_x_designs_as_the_beam_along_y(tmp_path):
+    """`vlab design` of the beam turned along x (bending rotation ry), with the loop's margins: the same
+    closed loop and gains as the template along y (issue 44, 'Prove it': a member along x through design)."""
+    along_x = _beam_along_x(tmp_path)
+    along_y = tmp_path / "along_y.toml"  # written by _beam_along_x
+    x, y = (json.loads(_cli("design", p, "--margins", "--format", "json")) for p in (along_x, along_y))
+    assert np.allclose(x["frequencies_hz"], y["frequencies_hz"], rtol=1e-9)
+    assert np.allclose(x["gain_n_s_per_m"], y["gain_n_s_per_m"], rtol=1e-6)
+    assert x["loop"]["nyquist"] == y["loop"]["nyquist"]
+    assert x["loop"]["peak_sensitivity"] == pytest.approx(y["loop"]["peak_sensitivity"], rel=1e-6)
