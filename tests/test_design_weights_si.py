@@ -206,3 +206,16 @@ def test_init_bcc_and_grid_write_thesis_units(tmp_path):
         assert (st.q_scale, st.r, st.v1, st.v2, st.alpha) == (THESIS_SETTINGS[name].q_scale, THESIS_SETTINGS[name].r,
                                                               THESIS_SETTINGS[name].v1, THESIS_SETTINGS[name].v2,
                                                               THESIS_SETTINGS[name].alpha)
+
+
+
+def test_gamma_in_si_is_the_largest_row_sum_of_the_si_gain(tmp_path):
+    """``ControllerDesign.gamma_n_s_per_m``: the DRF objective in N*s/m beside ``gamma`` in lbf*s/in (issue 44)."""
+    from vlab.fe import build_fe_model
+    from vlab.spec import load_spec
+    from vlab.templates import write_template
+
+    fe = build_fe_model(load_spec(write_template("beam", tmp_path / "b.toml")))
+    d = design_controller(fe, "mfdrf", seed=0)
+    assert d.gamma_n_s_per_m == pytest.approx(d.gamma * 4.4482216152605 / 0.0254, rel=1e-12)
+    assert d.gamma_n_s_per_m == pytest.approx(float(np.max(np.sum(np.abs(d.gain), axis=1))), rel=1e-4)

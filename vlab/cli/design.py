@@ -153,12 +153,11 @@ def _print_gains(d, thesis: bool) -> None:
     """The DRF objective and gain: in SI (N*s/m) and, for the dissertation's structures, as its tables print
     them (lb*s/in); an LQ design's gain is in the JSON."""
     from ..design import performance_index_si
-    from ..units import INCH_M, LBF_N
 
     if d.gamma is not None:
         beta = "" if d.beta is None else (f", beta = {d.beta:.4g} (thesis units)" if thesis else
                                           f", beta = {float(performance_index_si(d.beta)):.4g} s (modal IC, 1 m peak)")
-        si = f"{d.gamma * LBF_N / INCH_M:.4g} N*s/m"
+        si = f"{d.gamma_n_s_per_m:.4g} N*s/m"
         console.print((f"gamma = {d.gamma:.4f} lb*s/in ({si})" if thesis else f"gamma = {si}") + beta)
     g = d.extra.get("gain_thesis_lb_s_per_in")
     if g is None:

@@ -47,8 +47,8 @@ class ControllerDesign:
         in the thesis states and lbf, Eqs. 4.7, 4.20, 4.33) for modal initial
         conditions.
     gamma, beta : float or None
-        MFDRF objective ``gamma`` [lbf*s/in] (max row sum of ``|D|``, Table 7)
-        and LQDRF objective ``beta`` (thesis units, like ``performance_index``).
+        MFDRF objective ``gamma`` [lbf*s/in] (max row sum of ``|D|``, Table 7;
+        in SI: :attr:`gamma_n_s_per_m`) and LQDRF objective ``beta`` (thesis units, like ``performance_index``).
     converged : bool
         Whether the design's optimiser converged (always True for LQR/LQG).
     message : str
@@ -99,6 +99,14 @@ class ControllerDesign:
     extra: dict = field(default_factory=dict)
     state_labels: tuple = ()
     period_s: float = PERIOD_S
+
+    @property
+    def gamma_n_s_per_m(self) -> float | None:
+        """The DRF objective ``gamma`` in SI [N*s/m] (the largest row sum of ``|D|``); ``gamma`` itself is in
+        lbf*s/in, as Table 7 gives it. None where ``gamma`` is."""
+        from ..units import INCH_M, LBF_N
+
+        return None if self.gamma is None else float(self.gamma) * LBF_N / INCH_M
 
 
 def design_controller(

@@ -124,8 +124,6 @@ def design_summary(d) -> dict:
         LQ designs); ``beta_thesis_units`` (LQDRF); ``converged``,
         ``message``; ``extra`` (the design's further numbers, keys with units).
     """
-    from ..units import INCH_M, LBF_N
-
     drf = d.controller in DRF_CONTROLLERS
     out: dict = {"structure": d.structure, "controller": d.controller, "reduction": d.model,
                  "period_s": d.period_s}
@@ -142,7 +140,7 @@ def design_summary(d) -> dict:
         "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
         "performance_index_thesis_units": d.performance_index,
         "gamma_lb_s_per_in": d.gamma,
-        "gamma_n_s_per_m": None if d.gamma is None else d.gamma * LBF_N / INCH_M,
+        "gamma_n_s_per_m": d.gamma_n_s_per_m,
         "beta_thesis_units": d.beta, "converged": d.converged, "message": d.message,
         "extra": {k: v for k, v in extra.items() if not isinstance(v, np.ndarray) or v.ndim < 3},
     })
