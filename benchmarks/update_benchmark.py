@@ -42,7 +42,7 @@ difference above it, the log ratio below it, the compliance for a joint or lag, 
 for other sizes), and its own seed for the recording's excitation and noise. The thresholds are vlab's own
 (:func:`vlab.diagnose.detectability.detectability`) for the closed-loop test with the benchmark's controller,
 ``model_form="derived"`` (a MuJoCo recording as the diagnosis reads it), computed once (13 min for the BCC
-with MFDRF on two shared cores) and cached in
+with MFDRF, 33 min with LQDRF, on two shared cores) and cached in
 ``docs/validation/data/detectability_<structure>_<controller>.json``. They are not those of the shipped
 open-loop table (``detectability_bcc_open_loop.csv``): the closed loop moves and damps the peaks, and its
 per-channel chain effects exist only there. The cases run in rounds (one null case and one of every kind,
@@ -64,6 +64,10 @@ Measured (BCC, MFDRF, 2 shared cores; docs/validation/data/update_benchmark_draw
   0.032, under twice the floor); <= 0.03 in 5 of 6 (a 15.5-period delay: 0.1225 -> 0.0598); damping within
   10 % in 20 of 22 (the 11.8- and 15.5-period delays: 12 %, 22 %). Below the null, ``k`` near 20 drives a
   mode's damping ratio to ~0 (log ratio); the fit then sits at the library's bound.
+- ``--draw 7171 --controller lqdrf`` (its own thresholds, 33 min; 24 cases in 5.6 min): diagnosis right in
+  21 of 24, three missed (coil gain 1.017, chain gain 0.980, mode 1 damping 0.004 -> 0.00018); halved 2 of 19
+  (original 0.008-0.028, updated 0.011-0.018, the floor 0.0114); damping within 10 % in 17 of 19 (the two
+  sensor-lag cases: nan).
 """
 
 from __future__ import annotations
