@@ -18,7 +18,8 @@ from vlab.diagnose.fit.plantfit import plant_modes
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.model.nyquist import loop_stability
-from vlab.experiment.checks import oscillation_above_band, oscillation_cause
+from vlab.diagnose.instability_cause import oscillation_cause
+from vlab.experiment.checks import oscillation_above_band
 from vlab.fe import build_fe_model
 from vlab.lab.loop import HardwareChain
 from vlab.spec import load_spec

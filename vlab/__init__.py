@@ -255,7 +255,9 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
         from .io.atomic import check_output_dir
 
         out_path = check_output_dir(str(out_dir), overwrite=overwrite, option="out_dir", create_parent=False)
-    result = _run(cfg, fe, progress=progress)
+    from .diagnose.instability_cause import oscillation_cause
+
+    result = _run(cfg, fe, progress=progress, explain_oscillation=oscillation_cause)
     if out_path is not None:
         from .experiment.results import write_outputs
 

@@ -548,6 +548,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
     """
     from .fe import build_fe_model
     from .experiment.config import ExperimentConfig, default_chain
+    from .diagnose.instability_cause import oscillation_cause
     from .experiment.runner import run_experiment
     from .models import check_fe_model
 
@@ -561,7 +562,8 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
                                chain=default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s),
                                plant="mujoco", mjcf=Path(mjcf))
         cb = None if progress is None else (lambda x, label=label: progress(label, x))
-        r = run_experiment(cfg, check_fe_model(build_fe_model(spec)), progress=cb, lab_chain=lab_chain)
+        r = run_experiment(cfg, check_fe_model(build_fe_model(spec)), progress=cb, lab_chain=lab_chain,
+                           explain_oscillation=oscillation_cause)
         out[label] = {
             "structure_file": None if spec.path is None else str(spec.path),
             "average_peak_level_error": float(r.avg_peak_error),

@@ -148,6 +148,7 @@ def _run(cfg, fe, out_path: Path, *, overwrite: bool, create_parent: bool, quiet
     """The run with a progress bar on stderr; after a failure, the recording up to it is kept in ``out_path``."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+    from ..diagnose.instability_cause import oscillation_cause
     from ..experiment.runner import run_experiment
     from ..io.atomic import atomic_dir
 
@@ -156,7 +157,8 @@ def _run(cfg, fe, out_path: Path, *, overwrite: bool, create_parent: bool, quiet
                       TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                       console=err_console, transient=True, disable=quiet) as bar:
             task = bar.add_task(f"{cfg.structure} {cfg.controller}: simulating", total=1.0)
-            return run_experiment(cfg, fe, progress=lambda x: bar.update(task, completed=x))
+            return run_experiment(cfg, fe, progress=lambda x: bar.update(task, completed=x),
+                                  explain_oscillation=oscillation_cause)
     except VlabError as exc:
         partial = getattr(exc, "partial", None)
         if partial is not None:

@@ -411,3 +411,65 @@ def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: fl
     return entry, v
 
 
+def oscillation_cause(fe, design, chain, frequency_hz: float, *, mujoco_plant: bool) -> str:
+    """What vlab's sampled-data loop analysis says about a self-excited oscillation at ``frequency_hz``.
+
+    The loop (delay, hold, RC filter; :func:`vlab.diagnose.model.nyquist.loop_stability`) is analysed on
+    the FE model and, for a MuJoCo plant built from the structure, on the plant's own linearisation
+    (:func:`vlab.diagnose.fit.plantfit.plant_modes`). Where the FE model's loop is stable and the plant's is
+    not, the sentence names the plant mode nearest the oscillation and its damping ratio against the FE
+    model's: the MuJoCo plant gives the structure's modal damping only to the modes up to 1.25 times the
+    highest mode of ``[damping] modal_ratios`` (:mod:`vlab.sim.damping`); higher modes keep the hinge
+    damping alone, lighter than the FE model's ``default_ratio``, and a controller whose phase lag (delay,
+    hold, filter) turns its collocated velocity feedback into negative damping there destabilises them.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The structure's FE model (its spec builds the MuJoCo plant).
+    design : ControllerDesign
+        The controller in the loop.
+    chain : HardwareChain
+        The loop's hardware chain (the design's period).
+    frequency_hz : float
+        Frequency of the oscillation [Hz].
+    mujoco_plant : bool
+        Whether the run's plant is the MuJoCo plant built from ``fe.spec`` (also analysed).
+
+    Returns
+    -------
+    str
+        One sentence, or "" where the analysis cannot be made (it never raises).
+    """
+    from dataclasses import replace
+
+    try:
+        from ..fe import modal_analysis
+        from ..fe.damping import open_loop_ratios
+
+        state = LabState(fe.spec, fe, replace(chain, noise_m_s=0.0), design)
+        n_fe = loop_stability(state).unstable_poles
+        text = (f"vlab's sampled-data loop analysis on the FE model finds {n_fe} unstable closed-loop "
+                f"pole{'s' if n_fe != 1 else ''}" + (" (the design is unstable on its own model)" if n_fe else
+                                                    " (stable: see `vlab design --margins`)"))
+        if not mujoco_plant:
+            return text
+        from .fit.plantfit import plant_modes
+
+        pm = plant_modes(fe.spec, tuple(fe.spec.instrumentation.actuators))
+        n_mj = loop_stability(replace(state, point_modes=pm)).unstable_poles
+        f_mj = pm.omega / (2 * np.pi)
+        k = int(np.argmin(np.abs(f_mj - frequency_hz)))
+        f_fe = modal_analysis(fe.m, fe.k).frequencies_hz
+        j = int(np.argmin(np.abs(f_fe - f_mj[k])))
+        z_fe = float(open_loop_ratios(fe.spec, j + 1)[j])
+        text += (f"; on the MuJoCo plant's linearisation {n_mj}: its mode {k + 1} at {f_mj[k]:.1f} Hz has damping "
+                 f"ratio {float(pm.zeta[k]):.4f}, the FE model's mode {j + 1} at {f_fe[j]:.1f} Hz {z_fe:.4f}")
+        if n_mj > n_fe:
+            text += (" -- the plant damps modes above 1.25x the highest [damping] modal_ratios mode with its hinge "
+                     "damping alone (docs/plants.md), and the loop's phase lag (delay, hold, filter) turns the "
+                     "velocity feedback into negative damping there: list that mode's ratio in [damping] "
+                     "modal_ratios if the real structure has it, or lower the gain")
+        return text
+    except Exception:  # noqa: BLE001 - an explanation must not break a finished run
+        return ""

@@ -34,7 +34,7 @@ from ..lab.loop import LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import h1
 from ..spec import StructureTest, input_gains
-from .checks import oscillation_above_band, oscillation_cause, self_excited_oscillation, under_resolved_peaks
+from .checks import oscillation_above_band, self_excited_oscillation, under_resolved_peaks
 from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of, with_hardware
 from .settling import SETTLE_TOLERANCE, predicted_modes, settle_records, slowest_decay_rate
 
@@ -362,6 +362,7 @@ def run_experiment(
     design=None,
     progress: Callable[[float], None] | None = None,
     lab_chain=None,
+    explain_oscillation: Callable[..., str] | None = None,
 ) -> ExperimentResult:
     """Run one experiment (:func:`measure`) and compare it with the analysis.
 
@@ -385,6 +386,11 @@ def run_experiment(
         The chain the lab really has where it differs from what the analysis knows (an effect concealed from
         the model, e.g. a sensor gain; its per-channel entries win over the structure file's); same period
         as ``cfg.chain``. None: ``cfg.chain``.
+    explain_oscillation : callable, optional
+        ``f(fe, design, chain, frequency_hz, mujoco_plant=...) -> str``: a sentence on the cause of a
+        self-excited oscillation above the band, appended to its warning (the command line passes
+        :func:`vlab.diagnose.instability_cause.oscillation_cause`, the loop analysed on the FE model and the
+        plant's linearisation). None: the warning alone.
 
     Returns
     -------
@@ -428,10 +434,10 @@ def run_experiment(
     rec = m.loop.recording
     v_resp = np.asarray(rec[f"vel{test.response_point}"])[m.settle_samples:]
     oscillation = self_excited_oscillation(v_resp, rec.dt_s, band_hz=test.band_hz)
-    if oscillation and design is not None:
+    if oscillation and design is not None and explain_oscillation is not None:
         f_osc = oscillation_above_band(v_resp, rec.dt_s, band_hz=test.band_hz)[0]
-        cause = oscillation_cause(fe, design, cfg.chain, f_osc,
-                                  mujoco_plant=cfg.plant == "mujoco" and cfg.mjcf is None and lab_chain is None)
+        cause = explain_oscillation(fe, design, cfg.chain, f_osc,
+                                    mujoco_plant=cfg.plant == "mujoco" and cfg.mjcf is None and lab_chain is None)
         if cause:
             oscillation = [oscillation[0] + "; " + cause]
     warnings = list(m.warnings) + under_resolved_peaks(fm, zm, m.config.resolution_hz) + oscillation

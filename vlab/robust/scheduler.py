@@ -219,7 +219,9 @@ _WORKER_LOG_ENV = "DASK_LOGGING__DISTRIBUTED"
 @contextlib.contextmanager
 def _workers_ignore_sigint():
     """SIGINT ignored in this process while the local workers start, so that they inherit the ignored state;
-    their Dask log level set to ERROR through the environment they inherit.
+    their Dask log level set to CRITICAL through the environment they inherit (a task's error reaches the
+    client as the task's exception; what a worker logs by itself is its own housekeeping, e.g. the ERROR
+    "failed to communicate with scheduler during heartbeat" of a worker whose client was interrupted).
 
     A terminal's Ctrl-C reaches every process of the foreground group; a worker process that has Python's
     default handler prints its own KeyboardInterrupt traceback. Workers started while SIGINT is ignored keep
@@ -231,7 +233,7 @@ def _workers_ignore_sigint():
     import threading
 
     env = os.environ.get(_WORKER_LOG_ENV)
-    os.environ[_WORKER_LOG_ENV] = "error"  # the workers' own log lines below ERROR ("event loop unresponsive")
+    os.environ[_WORKER_LOG_ENV] = "critical"  # the workers' own log lines ("event loop unresponsive", heartbeats)
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
