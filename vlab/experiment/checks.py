@@ -93,19 +93,8 @@ def not_meaningful(warnings) -> list[str]:
 def oscillation_above_band(v: np.ndarray, dt_s: float, *, band_hz: tuple[float, float]):
     """The dominant frequency above ``1.2 band_hz[1]`` and its share of the RMS, or None below half the power.
 
-    Parameters
-    ----------
-    v : ndarray, shape (n,)
-        Response velocity [m/s].
-    dt_s : float
-        Sampling interval [s].
-    band_hz : (float, float)
-        Excitation band [Hz].
-
-    Returns
-    -------
-    (float, float) or None
-        ``(frequency [Hz], RMS share [-])``. Source: as :func:`self_excited_oscillation`.
+    ``v`` (shape (n,), [m/s]) sampled every ``dt_s`` [s], ``band_hz`` the excitation band [Hz], as in
+    :func:`self_excited_oscillation`. Returns ``(frequency [Hz], RMS share [-])`` or None.
     """
     spec = np.abs(np.fft.rfft(v - np.mean(v))) ** 2
     f = np.fft.rfftfreq(len(v), dt_s)
