@@ -7,11 +7,14 @@ shipped structure file and append its test (:data:`vlab.experiment.config.TESTS`
 Sec. 5.4.2) and design settings (:data:`vlab.design.THESIS_SETTINGS`,
 Secs. 6.1, 6.2) as tables, so that the copy keeps them when it is renamed; its weights stay in the
 thesis units (``units = "thesis"``), the templates' are in SI (``units = "SI"``, :mod:`vlab.design.weights`).
-Every template loads as written (:func:`vlab.spec.load_spec`).
+Every template loads as written (:func:`vlab.spec.load_spec`). ``test`` writes
+the setup of a test instead (:func:`write_test_setup`, a ``test.toml`` for
+``vlab diagnose --test``).
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from .errors import OptionError
@@ -108,4 +111,56 @@ def write_template(kind: str, path: str | Path, *, overwrite: bool = False) -> P
     with atomic_file(p, overwrite=overwrite) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
         load_spec(tmp)  # same suffix (.toml): a template that does not load is never written
+    return p
+
+
+def write_test_setup(path: str | Path, structure: str, *, recording: str | Path | None = None,
+                     overwrite: bool = False) -> Path:
+    """Write a commented ``test.toml`` (:func:`vlab.io.setup_file.setup_text`), checked to read as written.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.toml`` file; its folder must exist.
+    structure : str
+        A shipped structure's name or a structure file; its ``[instrumentation]`` excitation point is written.
+    recording : str or Path, optional
+        A recording of ``vlab experiment``: the metadata of its JSON sidecar (controller, reduction, seed,
+        plant, resolution, chain) are written as the values.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    DataFileError
+        ``recording`` has no sidecar, or an unreadable one.
+    OutputError
+        ``path`` exists without ``overwrite``, is a folder, does not end in ``.toml``, or its folder is missing.
+    SpecError
+        An unknown structure.
+    """
+    from .errors import DataFileError
+    from .io.atomic import atomic_file, check_output_file
+    from .io.setup_file import read_setup, setup_text
+    from .io.uff_files import read_sidecar, sidecar_path
+    from .spec import load_spec
+
+    spec = load_spec(structure)
+    meta = {}
+    if recording is not None:
+        meta = read_sidecar(Path(recording))
+        if not meta:
+            raise DataFileError(f"{recording}: no metadata sidecar {sidecar_path(recording)} to take the test from")
+    instr = spec.instrumentation
+    p = check_output_file(path, overwrite=overwrite, option="PATH", suffix=".toml")
+    if str(structure).endswith(".toml"):  # read relative to the test file's folder
+        structure = os.path.relpath(Path(structure).resolve(), p.resolve().parent)
+    text = setup_text(structure, meta, excitation_point=None if instr is None else instr.excitation)
+    with atomic_file(p, overwrite=overwrite) as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
+        read_setup(tmp)  # a setup that does not read back is never written
     return p

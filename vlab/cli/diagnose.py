@@ -27,12 +27,17 @@ DETECT_OUT = "out/detectability"
 
 
 def diagnose(
-    structure: str = opt(..., "--structure", help=STRUCTURE_HELP, metavar=STRUCTURE_METAVAR),
+    structure: str = opt(None, "--structure", help=STRUCTURE_HELP + " (default: the --test file's structure)",
+                         metavar=STRUCTURE_METAVAR),
     recording: str = opt(..., "--recording",
                          help="the recording: UFF 58 time histories (as `vlab experiment` writes, or from an "
                               "acquisition system: any motion quantity, unit and rate), CSV time histories "
                               "(header 'time [s]', then '<node><+|-><X|Y|Z> <quantity> [<unit>]'), UFF 58 FRFs, "
                               "or a CSV modal table"),
+    test: str = opt(None, "--test", metavar="<test.toml>",
+                    help="the test that made the recording (written by `vlab init test`): structure, controller, "
+                         "hardware chain, excitation point and period, sensors, node map -- what a recording "
+                         "without vlab's sidecar leaves unsaid"),
     resolution: float = opt(None, "--resolution", metavar="<Hz>",
                             help="line spacing of the excitation [Hz] = 1 / its period (default: the recording's "
                                  "metadata, else the structure's test resolution)"),
@@ -79,9 +84,15 @@ def diagnose(
     from ..diagnose.policy import DecisionPolicy
     from ..io.atomic import atomic_dir
 
+    from ..diagnose.reading import structure_of
+    from ..io.setup_file import read_setup
+
     out_fmt = checks.output_format(fmt, as_json)
     DecisionPolicy(false_alarm_rate=false_alarm_rate)  # a bad rate is refused before any work
-    spec = checks.load_structure(structure)
+    setup = read_setup(checks.input_file("--test", test)) if test is not None else None
+    if structure is None and setup is None:
+        raise OptionError("--structure is missing: name the structure, or give --test with a test setup that does")
+    spec = structure_of(checks.load_structure(structure if structure is not None else setup.structure), setup)
     out_path = checks.out_dir(out, DIAGNOSE_OUT, overwrite)
     if plant not in DIAGNOSE_PLANTS:
         raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
@@ -97,7 +108,7 @@ def diagnose(
                                resolution_hz=resolution,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
-                               false_alarm_rate=false_alarm_rate, progress=say,
+                               false_alarm_rate=false_alarm_rate, progress=say, test=setup,
                                confirm=_confirm(yes, quiet or out_fmt != "table"))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from enum import Enum
+from pathlib import Path
 
 from rich.markup import escape
 
-from .options import arg, flag
+from . import checks
+from .options import arg, flag, opt
 from .output import console
 
 
@@ -17,18 +19,38 @@ class TemplateKind(str, Enum):
     frame = "frame"
     bcc = "bcc"
     grid = "grid"
+    test = "test"
 
 
 def init_cmd(
     kind: TemplateKind = arg(..., help="template: beam (clamped-free beam, two coils), frame (planar "
-                                                  "portal frame, two coils), or a copy of bcc or grid",
+                                                  "portal frame, two coils), a copy of bcc or grid, or test (the "
+                                                  "setup of a test, for `vlab diagnose --test`)",
                                         show_default=False),
     path: str = arg(..., help="structure file to write, ending in .toml; its folder must exist",
                                show_default=False),
     overwrite: bool = flag("--overwrite", help="replace an existing file"),
+    structure: str = opt(None, "--structure", metavar="<bcc|grid|FILE.toml>",
+                         help="test: the structure tested (default: the --from recording's, else bcc)"),
+    recording: str = opt(None, "--from", metavar="<recording.uff>",
+                         help="test: take the values from a vlab recording's metadata sidecar"),
 ) -> None:
-    """Write a commented structure file (with its test and design tables) to edit and run like bcc or grid."""
-    from ..templates import write_template
+    """Write a commented structure file (with its test and design tables) to edit and run like bcc or grid,
+    or the setup of a test (``test``): a recording without vlab's sidecar diagnosed with ``--test``."""
+    from ..errors import OptionError
+    from ..templates import write_template, write_test_setup
 
-    written = write_template(kind.value, path, overwrite=overwrite)
-    console.print(f"wrote {escape(str(written))}; try `vlab modes {escape(str(written))}`", highlight=False)
+    if kind is not TemplateKind.test:
+        if structure is not None or recording is not None:
+            raise OptionError("--structure and --from belong to `vlab init test`")
+        written = write_template(kind.value, path, overwrite=overwrite)
+        console.print(f"wrote {escape(str(written))}; try `vlab modes {escape(str(written))}`", highlight=False)
+        return
+    checks.input_file("--from", recording)
+    if structure is None and recording is not None:
+        from ..io.uff_files import read_sidecar
+
+        structure = read_sidecar(Path(recording)).get("structure")
+    written = write_test_setup(path, structure or "bcc", recording=recording, overwrite=overwrite)
+    console.print(f"wrote {escape(str(written))}; edit it, then `vlab diagnose --test {escape(str(written))} "
+                  "--recording FILE`", highlight=False)

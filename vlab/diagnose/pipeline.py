@@ -36,6 +36,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..errors import VlabError
+from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
 from ..spec import StructureSpec
 from .data.measured import FrfData
@@ -187,23 +188,28 @@ def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> Di
     return res
 
 
-def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, controller: str | None = None,
+def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, *, controller: str | None = None,
              out_dir: str | Path | None = None, plant: str = "auto", resolution_hz: float | None = None,
              seed: int | None = None, effects: tuple[str, ...] | None = None, floor: float = 0.005,
              shortlist: int = 10, pairs: bool = True, validate_run: bool = True, overwrite: bool = True,
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
              reference_column: str | None = None, model_form: str = "auto",
-             false_alarm_rate: float = 0.01, confirm=None) -> DiagnosisResult:
+             false_alarm_rate: float = 0.01, confirm=None, test=None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
     ----------
-    structure : {"bcc", "grid"} or StructureSpec
-        The structure (a spec for tests and benchmarks).
+    structure : str, StructureSpec or None
+        The structure: a shipped one's name, a structure file, or a spec (tests and benchmarks); None: the
+        structure ``test`` names.
     recording_path : str or Path
         UFF 58 time histories (force + velocities, as ``vlab experiment``
-        writes them), UFF 58 FRFs, or a CSV modal table (``.csv``).
+        writes them, or from an acquisition system), CSV time histories, UFF 58 FRFs, or a CSV modal table.
+    test : str, Path or RecordingSetup, optional
+        The test that made the recording, a ``test.toml`` (:func:`vlab.io.setup_file.read_setup`): what a
+        recording without vlab's sidecar leaves unsaid (controller, chain, excitation point and period, node
+        map, sensors); see :class:`~vlab.diagnose.reading.Options`.
     controller, plant, resolution_hz, seed, baseline, replay, force, mjcf, reference_column, model_form, validate_run
         What was recorded, what it is compared with and whether it is rerun: each as the attribute of the
         same name of :class:`~vlab.diagnose.reading.Options` (defaults as there).
@@ -243,15 +249,17 @@ def diagnose(structure: str | StructureSpec, recording_path: str | Path, *, cont
     ModelError
         Unknown controller or effect name.
     OptionError
-        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``);
-        ``mjcf`` with the linear plant; ``false_alarm_rate`` outside (0, 0.5).
+        ``controller``, ``seed`` or ``plant`` contradicts the recording's metadata (without ``force``), or the
+        test setup does; ``structure`` contradicts the test setup's, or neither names one; ``mjcf`` with the
+        linear plant; ``false_alarm_rate`` outside (0, 0.5).
     SpecError
-        Unknown structure.
+        Unknown structure; a test setup's field of the wrong type or an unknown one (names the file and field).
     """
     policy = DecisionPolicy(false_alarm_rate=false_alarm_rate)  # checked before any work
     opt = Options(controller=controller, plant=plant, resolution_hz=resolution_hz, seed=seed, baseline=baseline,
                   replay=replay, force=force, mjcf=mjcf, reference_column=reference_column, model_form=model_form,
-                  validate_run=validate_run, confirm=confirm)
+                  validate_run=validate_run, confirm=confirm,
+                  test=read_setup(test) if isinstance(test, (str, Path)) else test)
     search = Search(effects, shortlist, pairs, validate_run, False, False, ())
     with one_blas_thread():
         res = _run(structure, recording_path, opt, search, floor=floor, policy=policy, progress=progress)

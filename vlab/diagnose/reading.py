@@ -22,6 +22,8 @@ import numpy as np
 
 from ..errors import DataFileError, ModelError, OptionError, VlabError
 from ..fe import FEModel, build_fe_model
+from ..io.setup_file import RecordingSetup, apply_setup
+from ..io.recording import Recording
 from ..io.uff_files import read_sidecar
 from ..experiment.config import test_definition, with_hardware
 from ..measure.instability import find_instability
@@ -30,7 +32,8 @@ from .data.measured import FrfData, ModalData, refer_to_model
 from .data.modalcsv import read_modal_csv
 from .data.acquired import is_lab_recording
 from .data.readers import detect_kind, read_data, read_uff_any
-from .data.reference import recorded_chain, recorded_setup, replay_reference, shares_excitation_record
+from .data.reference import (recorded_chain, recorded_setup, replay_reference, shares_excitation_record,
+                             with_test_setup)
 from .data.warmstart import GUARD_DECAY
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
@@ -99,6 +102,11 @@ class Options:
         Called once the data are read and before the first simulation with the run's estimate
         (:func:`vlab.diagnose.cost.estimate_diagnosis`'s dict); it may raise to stop the run there (the command
         line refuses a long run without ``--yes``).
+    test : RecordingSetup, optional
+        The test that made the recording (a ``test.toml``, :func:`vlab.io.setup_file.read_setup`): its fields
+        complete the recording's metadata (:func:`vlab.diagnose.data.reference.with_test_setup`; a field both
+        give differently is refused unless ``force``), its node map, excitation point and sensors select the
+        channels of time histories, the baseline's too (:func:`vlab.io.setup_file.apply_setup`).
     """
 
     controller: str | None = None
@@ -113,6 +121,7 @@ class Options:
     model_form: str = "auto"
     validate_run: bool = True
     confirm: Callable[[dict], None] | None = None
+    test: RecordingSetup | None = None
 
 
 @dataclass(frozen=True)
@@ -223,6 +232,8 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
         if not isinstance(data, FrfData):
             raise DataFileError(f"{inp['path']}: a baseline needs FRF data (time histories or FRFs), not a modal table")
         bwhat, bobj = read_uff_any(Path(opt.baseline))
+        bmeta = dict(bobj.metadata) if bwhat == "recording" else {}
+        bobj, _ = _through_test_setup(bwhat, bobj, bmeta, opt, Path(opt.baseline), notes)
         base = read_data(spec, fe, Path(opt.baseline), bwhat, bobj, resolution_hz=opt.resolution_hz,
                          band_hz=inp["band_hz"], settle_of=lambda: settling_time(nominal, inp["band_hz"]),
                          period_s=nominal.chain.period_s)
@@ -321,12 +332,65 @@ def _estimate(nominal: LabState, data, band_hz, *, simulated: bool) -> dict:
                               n_ticks=n_ticks, n_channels=rec.n_channels if rec is not None else 0, n_joints=n_joints)
 
 
-def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt: Options, say=None) -> Inputs:
+def _through_test_setup(what: str, obj, meta: dict, opt: Options, path: Path, notes: list) -> tuple:
+    """The data and metadata of a recording completed by the test setup ``opt.test`` (unchanged without one):
+    the metadata merged (:func:`~vlab.diagnose.data.reference.with_test_setup`), a time history's channels
+    selected and renumbered (:func:`~vlab.io.setup_file.apply_setup`) and its metadata replaced by the merged."""
+    if opt.test is None or what == "modal":
+        return obj, meta
+    meta, merged = with_test_setup(meta, opt.test.metadata, str(path), str(opt.test.path), force=opt.force)
+    notes.extend(merged)
+    if what == "recording":
+        obj, applied = apply_setup(obj, opt.test, str(path))
+        notes.extend(applied)
+        obj = Recording(obj.dt_s, obj.channels, meta)
+    elif opt.test.nodes or opt.test.sensor_points or opt.test.excitation_point is not None:
+        notes.append(f"{path}: FRFs are taken as they are: the test setup's nodes, excitation point and sensors "
+                     "select the channels of time histories")
+    return obj, meta
+
+
+def structure_of(structure: str | StructureSpec | None, test: RecordingSetup | None) -> StructureSpec:
+    """The structure a diagnosis runs on: ``structure``, else the test setup's; both must name the same.
+
+    Parameters
+    ----------
+    structure : str, StructureSpec or None
+        A shipped structure's name, a structure file, or a spec (None: the test setup's).
+    test : RecordingSetup or None
+
+    Returns
+    -------
+    StructureSpec
+
+    Raises
+    ------
+    OptionError
+        Neither gives a structure, or the two name different structures (spec names compared).
+    SpecError
+        An unknown structure or a structure file that does not load.
+    """
+    if structure is None:
+        if test is None:
+            raise OptionError("no structure: give one, or a test setup whose 'structure' names it")
+        return load_spec(test.structure)
+    spec = load_spec(structure) if isinstance(structure, str) else structure
+    if test is not None:
+        named = load_spec(test.structure)
+        if named.name != spec.name:
+            raise OptionError(f"the structure {spec.name!r} contradicts the test setup {test.path}: its structure "
+                              f"{test.structure!r} is {named.name!r}")
+    return spec
+
+
+def read_inputs(structure: str | StructureSpec | None, recording_path: str | Path, opt: Options,
+                say=None) -> Inputs:
     """Stage 1: read the recording, find its setup, build the nominal lab and refer the data to it.
 
     Parameters
     ----------
-    structure : str or StructureSpec
+    structure : str, StructureSpec or None
+        None: the structure of the test setup ``opt.test`` (:func:`structure_of`).
     recording_path : str or Path
     opt : Options
     say : callable, optional
@@ -343,7 +407,7 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
     """
     t_start = time.perf_counter()
     say = say or (lambda s: None)
-    spec = load_spec(structure) if isinstance(structure, str) else structure
+    spec = structure_of(structure, opt.test)
     fe = build_fe_model(spec)
     band = test_definition(spec).band_hz
     path = Path(recording_path)
@@ -363,6 +427,7 @@ def read_inputs(structure: str | StructureSpec, recording_path: str | Path, opt:
     else:
         what, obj = read_uff_any(path)
     meta = dict(obj.metadata) if what == "recording" else read_sidecar(path) if what == "frf" else {}
+    obj, meta = _through_test_setup(what, obj, meta, opt, path, notes)
     setup = recorded_setup(meta, str(path), controller=controller, seed=opt.seed,
                            plant=None if opt.plant == "auto" else opt.plant, force=opt.force)
     notes.extend(setup.notes)

@@ -71,6 +71,62 @@ class RecordedSetup:
     notes: tuple[str, ...] = ()
 
 
+def _same(key: str, a, b) -> bool:
+    """Whether two metadata values say the same (plants by the plant they name, numbers to 1e-9)."""
+    if key == "plant":
+        return RECORDED_PLANTS.get(a, a) == RECORDED_PLANTS.get(b, b)
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return abs(float(a) - float(b)) <= 1e-9 * max(abs(float(a)), abs(float(b)), 1.0)
+    return a == b
+
+
+def with_test_setup(meta: dict, setup_meta: dict, source: str, setup_file: str, *,
+                    force: bool = False) -> tuple[dict, tuple[str, ...]]:
+    """A recording's metadata completed by its test setup (``vlab diagnose --test``).
+
+    Parameters
+    ----------
+    meta : dict
+        The recording's own metadata (its sidecar; empty for an acquisition system's file).
+    setup_meta : dict
+        The test setup's fields in the sidecar's form (:attr:`vlab.io.setup_file.RecordingSetup.metadata`).
+    source, setup_file : str
+        The recording's and the test setup's files (for messages).
+    force : bool
+        Where both say a field and disagree, take the test setup's (said in a note).
+
+    Returns
+    -------
+    metadata : dict
+        The union; a ``chain`` merged field by field.
+    notes : tuple of str
+        The fields taken from the test setup over the recording's.
+
+    Raises
+    ------
+    OptionError
+        A field both give with different values, without ``force`` (names both files, the field and values).
+    """
+    out, notes = dict(meta), []
+    flat_rec = {**{k: v for k, v in meta.items() if k != "chain"},
+                **{f"chain.{k}": v for k, v in dict(meta.get("chain") or {}).items()}}
+    flat_set = {**{k: v for k, v in setup_meta.items() if k != "chain"},
+                **{f"chain.{k}": v for k, v in dict(setup_meta.get("chain") or {}).items()}}
+    for key, v in flat_set.items():
+        rec = flat_rec.get(key)
+        if rec is not None and not _same(key, rec, v):
+            if not force:
+                raise OptionError(f"{setup_file}: {key} {v!r} contradicts {source}: its metadata says {rec!r} "
+                                  "(correct the test setup, or add --force to use its value)")
+            notes.append(f"{key} {v!r} from the test setup {setup_file} as forced, although the recording's "
+                         f"metadata says {rec!r}")
+        if key.startswith("chain."):
+            out["chain"] = {**dict(out.get("chain") or {}), key[len("chain."):]: v}
+        else:
+            out[key] = v
+    return out, tuple(notes)
+
+
 def recorded_setup(meta: dict, source: str, *, controller: str | None, seed: int | None,
                    plant: str | None, force: bool = False) -> RecordedSetup:
     """Reconcile the diagnosis options with a recording's metadata.
