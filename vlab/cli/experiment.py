@@ -206,8 +206,25 @@ def _report(result, files: dict, fe, controller: str, out_fmt: str) -> list[str]
                   f"{summary['period_s'] * 1e3:g} ms ({escape(source)})", highlight=False)
     console.print(f"average peak level error: {result.avg_peak_error:.3f}   outputs: "
                   f"{escape(str(files['results'].parent))}/", highlight=False)
+    _print_shapes(result, files, fe)
     print_warnings(result.warnings)
     return blocking
+
+
+def _print_shapes(result, files: dict, fe) -> None:
+    """The identified mode shapes' table (frequency, damping, MPC, paired FE mode, MAC); the shapes
+    themselves are in shapes.csv."""
+    from ..experiment.shape_results import shape_rows
+
+    if result.shapes is None:
+        return
+    rows, cols = shape_rows(result)
+    sh = result.shapes
+    print_rows("table", rows, cols[:8],
+               f"mode shapes identified at points {', '.join(map(str, sh.point_ids))} (excitation at "
+               f"{sh.reference_point}) vs the FE model, paired by MAC")
+    console.print(f"shapes at the points: {escape(files['shapes'].name)}, figure: "
+                  f"{escape(files['shapes_figure'].name)}", highlight=False)
 
 
 def _guard_experiment(fe, *, plant: str, period_s: float, duration_s: float | None, delay_periods: float,

@@ -12,6 +12,8 @@
   damping_predicted, damping_measured, peak_predicted_m_per_n and peak_measured_m_per_n (BCC,
   displacement FRF; ``_m_s_per_n`` for the grid's velocity FRF), peak_level_ratio, response}
 - ``avg_peak_error``: mean ``|1 - ratio|`` (Tables 10, 19-21)
+- ``mode_shapes``: :func:`shapes_summary` (the shapes identified from the H1 FRFs of all measured points,
+  their MAC against the FE model's) or null
 - ``files``: names of the other outputs
 """
 
@@ -23,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .shape_results import shapes_report_lines, shapes_summary, write_shape_outputs
 
 
 def jsonable(o: Any) -> Any:
@@ -184,6 +187,7 @@ def experiment_summary(result) -> dict:
         "design": None if d is None else design_summary(d),
         "modes": [m.as_dict() for m in result.modes],
         "avg_peak_error": result.avg_peak_error,
+        "mode_shapes": shapes_summary(result),
         "warnings": list(result.warnings) + failed_premises(result),
     }
 
@@ -244,7 +248,8 @@ def report_markdown(summary: dict) -> str:
     str
         The report: settings, one row per mode (frequencies [Hz], damping
         ratios, their errors, peak level ratio) and the average peak level
-        error (Tables 10, 19-21), then any warnings.
+        error (Tables 10, 19-21), the identified mode shapes' table (:func:`shapes_report_lines`), then any
+        warnings.
 
     Raises
     ------
@@ -278,6 +283,7 @@ def report_markdown(summary: dict) -> str:
             f"{ratio if ratio is None else f'{ratio:.3f}'} |"
         )
     lines += ["", f"Average peak level error mean|1 - ratio|: {summary['avg_peak_error']:.3f}", ""]
+    lines += shapes_report_lines(summary)
     for w in summary.get("warnings", []):
         lines += [f"**Warning:** {w}", ""]
     return "\n".join(lines)
@@ -289,8 +295,10 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     Files: ``recording.uff`` (UFF 58 time histories), ``frf.uff`` (UFF 58 FRFs),
     ``results.json``, ``report.md``, ``frf.png`` (the response point's velocity
     FRF of ``frf.uff`` [(m/s)/N] over the excited band: magnitude with the
-    analysis dashed over it as Figs. 22-31, phase, coherence) and ``run.rrd``
-    (rerun). ``frf.uff`` holds only the excited band's lines.
+    analysis dashed over it as Figs. 22-31, phase, coherence), ``shapes.csv`` and
+    ``shapes.png`` (the identified mode shapes and their MAC against the FE model's,
+    :func:`~vlab.experiment.shape_results.write_shape_outputs`; only when a mode was
+    identified) and ``run.rrd`` (rerun). ``frf.uff`` holds only the excited band's lines.
 
     The folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
     every file goes into a temporary folder beside ``out_dir`` that is
@@ -318,7 +326,8 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     -------
     dict[str, Path]
         Output kind (``"recording"``, ``"frf"``, ``"results"``, ``"report"``,
-        ``"figure"``, ``"rerun"``) -> file path in ``out_dir``; plus
+        ``"figure"``, ``"rerun"``, and ``"shapes"``, ``"shapes_figure"`` when a mode shape
+        was identified) -> file path in ``out_dir``; plus
         ``"warnings"`` (list of str, possibly empty).
 
     Raises
@@ -362,6 +371,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
     band = test.band_hz
     write_frfs(files["frf"], result.frfs, overwrite=overwrite, band_hz=band,
                metadata=result.loop.recording.metadata)
+    files.update(write_shape_outputs(result, spec, out))
     summary = experiment_summary(result)
     summary["files"] = {k: p.name for k, p in files.items()}
     write_json(files["results"], summary)

@@ -33,6 +33,7 @@ from ..lab.linear_plant import LinearPlant
 from ..lab.loop import LoopResult, check_design_period, run_loop
 from ..measure.compare import ModeComparison, average_error, compare_modes
 from ..measure.frf import h1
+from ..measure.shapes import IdentifiedShapes, ShapeComparison, compare_shapes, identify_shapes
 from ..spec import StructureTest, input_gains
 from .checks import oscillation_above_band, self_excited_oscillation, under_resolved_peaks
 from .config import EXCITATIONS, ExperimentConfig, test_definition, test_of, with_hardware
@@ -63,6 +64,16 @@ class ExperimentResult:
     warnings : tuple of str
         Warnings of the run (a run too short to settle the slowest mode, self-excited
         oscillation, modes not identified); see :func:`~vlab.experiment.checks.not_meaningful`.
+    shapes : IdentifiedShapes or None
+        Mode shapes identified from the H1 FRFs of all measured points
+        (:func:`vlab.measure.shapes.identify_shapes`; closed-loop shapes when a controller runs); None when
+        no mode was found.
+    shape_comparison : ShapeComparison or None
+        ``shapes`` against the FE model's normal modes in the band at the same points (MAC matrix, modes
+        paired by MAC, frequency and damping; :func:`vlab.measure.shapes.compare_shapes`).
+    model_shapes : ndarray, shape (n_points, n_model) or None
+        The FE model's mass-normalised shapes ``w`` at ``shapes.point_ids`` [1/sqrt(kg)], its modes up to
+        the band's upper edge.
     """
 
     config: ExperimentConfig
@@ -77,6 +88,9 @@ class ExperimentResult:
     design: object | None
     plant_info: dict
     warnings: tuple[str, ...] = ()
+    shapes: IdentifiedShapes | None = None
+    shape_comparison: ShapeComparison | None = None
+    model_shapes: np.ndarray | None = None
 
 
 def _excitation(cfg: ExperimentConfig, test: StructureTest, resolution_hz: float, duration_s: float) -> Callable:
@@ -445,7 +459,33 @@ def run_experiment(
         if not np.isfinite(mc.frequency_measured_hz) or not np.isfinite(mc.frequency_predicted_hz):
             warnings.append(f"mode {mc.mode} could not be identified (no resonance peak: overdamped or not "
                             f"observable at point {test.response_point})")
+    shapes, comparison, phi = _shapes_of(m, fe, c, fm, zm, exc_point, test.band_hz, warnings)
     return ExperimentResult(
         m.config, m.loop, m.frfs, f, h_cont, h_samp, m.measured, modes, average_error(modes), design,
-        m.plant_info, tuple(warnings),
+        m.plant_info, tuple(warnings), shapes, comparison, phi,
     )
+
+
+def _shapes_of(m: Measurement, fe: FEModel, c: np.ndarray, fm, zm, exc_point: int, band_hz, warnings: list):
+    """The shapes identified from the measured points' H1 FRFs (coherence-weighted), compared with the FE
+    model's normal modes up to the band's upper edge at the same points (mass-normalised ``w``, damping
+    ratios ``phi^T c phi / (2 omega)``): (IdentifiedShapes, ShapeComparison, model shapes) or three None,
+    with a warning, when no mode is found."""
+    from ..fe import modal_analysis
+
+    points = tuple(int(k[3:]) for k in m.frfs)
+    h = np.array([m.frfs[f"vel{p}"].h for p in points])
+    coh = np.array([np.nan_to_num(m.frfs[f"vel{p}"].coherence, nan=0.0) for p in points])
+    try:
+        shapes = identify_shapes(m.freq_hz, h, points, fm, reference_point=exc_point, damping_hint=zm,
+                                 response="velocity", weights=coh)
+    except MeasurementError as exc:
+        warnings.append(f"no mode shape identified ({exc})")
+        return None, None, None
+    modes = modal_analysis(fe.m, fe.k)
+    keep = modes.frequencies_hz <= band_hz[1]
+    phi = modes.shapes[:, keep]
+    at = np.array([phi[fe.dofs.index(p, "w")] if (p, "w") in fe.dofs else np.zeros(phi.shape[1])
+                   for p in points])  # a point without w (a support) does not move
+    zeta = np.einsum("ir,ij,jr->r", phi, c, phi) / (4 * np.pi * modes.frequencies_hz[keep])
+    return shapes, compare_shapes(shapes, at, modes.frequencies_hz[keep], zeta), at

@@ -13,6 +13,8 @@ decay
     Damping of a free decay (logarithmic decrement of the Hilbert envelope).
 mac
     MAC matrix, COMAC, mode pairing.
+shapes
+    Mode shapes identified from the FRFs of one excitation point (residues by LSFD), MAC against a model.
 instability
     Self-excited oscillations and growth in a recording (the loop went unstable).
 transient
@@ -27,10 +29,12 @@ from .transient import PeriodicSpectra, periodic_spectra
 from .decay import decay_damping
 from .modal import average_peak_error, find_peaks, half_power_damping, peak_level_ratios, peak_levels
 from .modal_fit import fit_modes
+from .shapes import IdentifiedShapes, ShapeComparison, compare_shapes, identify_shapes
 
 __all__ = [
     "FRF", "h1", "measure_frfs", "mac", "comac", "pair_modes", "find_peaks",
     "half_power_damping", "fit_modes", "decay_damping", "peak_levels",
     "peak_level_ratios", "average_peak_error", "find_instability", "InstabilityCheck",
-    "periodic_spectra", "PeriodicSpectra",
+    "periodic_spectra", "PeriodicSpectra", "identify_shapes", "compare_shapes", "IdentifiedShapes",
+    "ShapeComparison",
 ]

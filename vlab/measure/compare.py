@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import MeasurementError
 from .modal import average_peak_error, peak_levels
-from .modal_fit import fit_modes
+from .modal_fit import fit_each_mode, fit_half_bands
 
 
 @dataclass(frozen=True)
@@ -105,18 +105,11 @@ def compare_modes(
     """
     df = float(np.median(np.diff(freq_hz)))
     modes_hz = np.asarray(modes_hz, dtype=float)
-    halves = np.maximum(3.0 * modes_hz * np.maximum(np.minimum(damping_hint, 0.3), 0.002), 4 * df)
+    halves = fit_half_bands(freq_hz, modes_hz, damping_hint)
     results = []
     for h in (h_analysis, h_experiment):
-        try:  # all modes at once: overlapping bands (close modes) are fitted together
-            fits = fit_modes(freq_hz, h, list(modes_hz), response=response, half_band_hz=list(halves))
-        except MeasurementError:
-            fits = []
-            for fm, half in zip(modes_hz, halves):
-                try:
-                    fits.append(fit_modes(freq_hz, h, [fm], response=response, half_band_hz=half)[0])
-                except MeasurementError:
-                    fits.append(None)
+        # all modes at once (overlapping bands of close modes fitted together), else one by one
+        fits = fit_each_mode(freq_hz, h, modes_hz, halves, response=response)
         vals = []
         for fit, fm, half in zip(fits, modes_hz, halves):
             if fit is None:

@@ -143,8 +143,24 @@ def _half_bands(f: np.ndarray, hh: np.ndarray, peaks: np.ndarray, half_band_hz, 
     return hbs
 
 
-def _overlapping(peaks: np.ndarray, hbs: np.ndarray) -> list[list[int]]:
-    """The peaks (indices) in groups whose bands ``peak +- hbs`` overlap, in frequency order."""
+def overlapping_bands(peaks, hbs) -> list[list[int]]:
+    """The peaks (indices) in groups whose bands ``peak +- hbs`` overlap, in frequency order.
+
+    Parameters
+    ----------
+    peaks : array_like, shape (n_peaks,)
+        Peak frequencies [Hz].
+    hbs : array_like, shape (n_peaks,)
+        Half width of each peak's band [Hz].
+
+    Returns
+    -------
+    list of list of int
+        Indices into ``peaks``; each group's bands overlap in a chain, groups in frequency order. Modes of
+        one group are fitted together (MDOF, Ewins 2000, Sec. 4.7).
+    """
+    peaks = np.asarray(peaks, dtype=float)
+    hbs = np.asarray(hbs, dtype=float)
     order = np.argsort(peaks)
     groups: list[list[int]] = []
     for i in order:
@@ -156,16 +172,40 @@ def _overlapping(peaks: np.ndarray, hbs: np.ndarray) -> list[list[int]]:
     return groups
 
 
+def band_lines(f: np.ndarray, lo_hz: float, hi_hz: float, need: int) -> np.ndarray:
+    """Indices of the positive lines of ``f`` [Hz] in ``[lo_hz, hi_hz]``, widened a line at a time on both
+    sides until there are ``need`` (or the FRF ends), shape (n_sel,).
+
+    Parameters
+    ----------
+    f : ndarray, shape (n_freq,)
+        Increasing frequency lines [Hz].
+    lo_hz, hi_hz : float
+        The band [Hz].
+    need : int
+        Lines wanted at least.
+
+    Returns
+    -------
+    ndarray of int
+        Consecutive line indices; fewer than ``need`` only when the FRF has no more positive lines.
+    """
+    lo = max(f[0], lo_hz)
+    hi = min(f[-1], hi_hz)
+    sel = np.flatnonzero((f >= lo) & (f <= hi) & (f > 0))
+    if sel.size == 0:
+        sel = np.array([int(np.argmin(np.abs(f - 0.5 * (lo + hi))))])
+    while sel.size < need and (sel[0] > 0 or sel[-1] < f.size - 1):
+        sel = np.arange(max(sel[0] - 1, 0 if f[0] > 0 else 1), min(sel[-1] + 2, f.size))
+    return sel
+
+
 def _fit_group(f: np.ndarray, hh: np.ndarray, w: np.ndarray, peaks: np.ndarray, hbs: np.ndarray,
                g: list[int], name: str) -> dict[int, ModeFit]:
     """One rational-fraction fit (:func:`_rfp`) of the band covering the peaks ``g``: peak index -> its mode."""
-    lo = max(f[0], min(peaks[j] - hbs[j] for j in g))
-    hi = min(f[-1], max(peaks[j] + hbs[j] for j in g))
-    sel = np.flatnonzero((f >= lo) & (f <= hi) & (f > 0))
     n = len(g)
     need = 4 * n + 6
-    while sel.size < need and (sel[0] > 0 or sel[-1] < f.size - 1):
-        sel = np.arange(max(sel[0] - 1, 0 if f[0] > 0 else 1), min(sel[-1] + 2, f.size))
+    sel = band_lines(f, min(peaks[j] - hbs[j] for j in g), max(peaks[j] + hbs[j] for j in g), need)
     if sel.size < need or np.count_nonzero(w[sel]) < need:
         raise MeasurementError(f"{name}: only {sel.size} usable lines near {peaks[g]} Hz; "
                                f"need {need}")
@@ -262,6 +302,76 @@ def fit_modes(freq_hz, h, peaks_hz: Sequence[float], *, response: str = "velocit
     if method != "rfp":
         raise MeasurementError(f"{name}: method must be 'rfp' or 'lscf', got {method!r}")
     result: dict[int, ModeFit] = {}
-    for g in _overlapping(peaks, hbs):
+    for g in overlapping_bands(peaks, hbs):
         result.update(_fit_group(f, hh, w, peaks, hbs, g, name))
     return [result[j] for j in range(peaks.size)]
+
+
+def fit_half_bands(freq_hz, modes_hz, damping_hint) -> np.ndarray:
+    """Half width of the band fitted around each expected mode [Hz]: ``3 zeta f``, one and a half
+    half-power bandwidths ``2 zeta f`` of the expected damping (``zeta`` clipped to [0.002, 0.3]), at least
+    four lines.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,)
+        The FRF's lines [Hz] (their median spacing sets the four-line minimum).
+    modes_hz : array_like, shape (n_modes,)
+        Expected natural frequencies [Hz].
+    damping_hint : array_like, shape (n_modes,)
+        Expected damping ratios [-].
+
+    Returns
+    -------
+    ndarray, shape (n_modes,)
+        Half widths [Hz], to pass as ``half_band_hz`` of :func:`fit_modes`.
+
+    Source: Ewins (2000), Sec. 4.3 (the half-power bandwidth ``2 zeta f`` of a mode).
+    """
+    df = float(np.median(np.diff(np.asarray(freq_hz, dtype=float))))
+    f = np.asarray(modes_hz, dtype=float)
+    zeta = np.clip(np.asarray(damping_hint, dtype=float), 0.002, 0.3)
+    return np.maximum(3.0 * f * zeta, 4 * df)
+
+
+def fit_each_mode(freq_hz, h, modes_hz, half_band_hz, *, response: str = "velocity",
+                  weights=None, name: str = "frf") -> list[ModeFit | None]:
+    """:func:`fit_modes` of all expected modes at once, or, where that fails, of each mode alone.
+
+    Overlapping bands (close modes) are fitted together in the first attempt; when it fails (too few
+    lines or no pole near one peak), each mode is fitted on its own band and a mode that still fails is
+    None.
+
+    Parameters
+    ----------
+    freq_hz, h, response, weights, name
+        As :func:`fit_modes`.
+    modes_hz : array_like, shape (n_modes,)
+        Expected natural frequencies [Hz] (the peaks to fit).
+    half_band_hz : array_like, shape (n_modes,)
+        Half width of each mode's band [Hz] (:func:`fit_half_bands`).
+
+    Returns
+    -------
+    list of (ModeFit or None), length n_modes
+        In the order of ``modes_hz``.
+
+    Raises
+    ------
+    Nothing of its own: a fit that raises MeasurementError (bad or non-finite arrays included) gives None.
+    """
+    modes = [float(x) for x in np.atleast_1d(modes_hz)]
+    halves = [float(x) for x in np.atleast_1d(half_band_hz)]
+    try:
+        return list(fit_modes(freq_hz, h, modes, response=response, half_band_hz=halves, weights=weights,
+                              name=name))
+    except MeasurementError:
+        pass
+    fits: list[ModeFit | None] = []
+    for fm, half in zip(modes, halves):
+        try:
+            fits.append(fit_modes(freq_hz, h, [fm], response=response, half_band_hz=half, weights=weights,
+                                  name=name)[0])
+        except MeasurementError:
+            fits.append(None)
+    return fits

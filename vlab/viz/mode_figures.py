@@ -28,7 +28,7 @@ from ..errors import ModelError
 from .figures import _save
 from .rerun_structure import _member_rows, _points_table
 
-__all__ = ["mode_shapes_axes", "mode_shapes_figure"]
+__all__ = ["mode_shapes_axes", "mode_shapes_figure", "line_positions", "shape_comparison_figure"]
 
 
 def _line_axis(xy: np.ndarray) -> int | None:
@@ -160,4 +160,113 @@ def mode_shapes_figure(structure_points: Mapping[int, Sequence[float]], members:
     Raises ModelError as :func:`mode_shapes_axes`, DataFileError for another file suffix.
     """
     fig = mode_shapes_axes(structure_points, members, point_ids, w, freq_hz, title=title, dpi=dpi)
+    return _save(fig, path, dpi)
+
+
+def line_positions(structure_points: Mapping[int, Sequence[float]], point_ids: Sequence[int]) -> np.ndarray | None:
+    """Position of each point along the structure's line [m] when all its points lie on one vertical or
+    horizontal line (the BCC: the height), else None.
+
+    Parameters
+    ----------
+    structure_points : mapping of int to (float, float)
+        Point id -> (x, y) [m] of every point of the structure.
+    point_ids : sequence of int, length n_points
+        The points wanted.
+
+    Returns
+    -------
+    ndarray, shape (n_points,) or None
+
+    Raises
+    ------
+    ModelError
+        A point id not in ``structure_points``.
+    """
+    ids, xy = _points_table(structure_points, list(structure_points))
+    axis = _line_axis(xy)
+    if axis is None:
+        return None
+    missing = [p for p in point_ids if p not in ids]
+    if missing:
+        raise ModelError(f"point ids {missing} are not points of the structure {sorted(ids)}")
+    return np.array([xy[ids.index(p), axis] for p in point_ids], dtype=float)
+
+
+def shape_comparison_figure(point_ids: Sequence[int], w_identified: Any, freq_hz: Any, w_model: Any, mac: Any,
+                            path: str | Path, *, positions: Any = None, title: str = "", dpi: float = 120.0) -> Path:
+    """Identified mode shapes at the measured points beside the paired model shapes, one panel per mode.
+
+    Each panel draws the identified shape (markers, solid) and the model's (dashed), both scaled to a
+    largest displacement of +1, the model's sign turned to agree with the identified one (a shape's sign is
+    arbitrary), against the position of the points (or their order when no positions are given); its title
+    gives the identified frequency and the MAC of the pair.
+
+    Parameters
+    ----------
+    point_ids : sequence of int, length n_points
+        Measured points, in row order.
+    w_identified : array_like, shape (n_points, n_modes)
+        Identified shapes [-] (e.g. :attr:`vlab.measure.shapes.IdentifiedShapes.shapes`).
+    freq_hz : array_like, shape (n_modes,)
+        Identified natural frequencies [Hz].
+    w_model : array_like, shape (n_points, n_modes)
+        The paired model shape of each identified mode (any scale); a NaN column for an unpaired mode.
+    mac : array_like, shape (n_modes,)
+        MAC of each pair [-] (NaN when unpaired).
+    path : str or Path
+        ``.png``, ``.svg`` or ``.pdf`` file (parent folders are created).
+    positions : array_like, shape (n_points,), optional
+        Position of each point along the structure [m] (:func:`line_positions`); default the row order.
+    title : str
+        Figure title.
+    dpi : float
+        Resolution [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ModelError
+        Arrays of the wrong shape, a non-finite identified shape or frequency.
+    DataFileError
+        Another file suffix.
+
+    Source: Ewins, *Modal Testing* (2nd ed., 2000), Secs. 8.1-8.2 (display and correlation of shapes).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    ids = [int(p) for p in point_ids]
+    w, f = _check(ids, w_identified, freq_hz)
+    wm = np.asarray(w_model, dtype=float)
+    m = np.asarray(mac, dtype=float).reshape(-1)
+    x = np.arange(len(ids), dtype=float) if positions is None else np.asarray(positions, dtype=float)
+    if wm.shape != w.shape or m.size != f.size or x.shape != (len(ids),):
+        raise ModelError(f"shape comparison: w_model {wm.shape}, mac {m.shape} and positions {x.shape} must match "
+                         f"w_identified {w.shape}")
+    order = np.argsort(x, kind="stable")
+    nc = min(f.size, 4)
+    nr = math.ceil(f.size / nc)
+    fig = Figure(figsize=(3.2 * nc, 2.7 * nr + 0.5), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    for r in range(f.size):
+        ax = fig.add_subplot(nr, nc, r + 1)
+        ax.axhline(0.0, color="0.7", lw=0.8)
+        ax.plot(x[order], w[order, r], "o-", color="C0", label="identified")
+        col = wm[:, r]
+        if np.all(np.isfinite(col)) and np.any(col != 0):
+            col = col / col[np.argmax(np.abs(col))]
+            col = -col if col @ w[:, r] < 0 else col
+            ax.plot(x[order], col[order], "s--", color="C1", mfc="none", label="model")
+        ax.set_title(f"mode {r + 1}: {f[r]:.3f} Hz, MAC {m[r]:.3f}", fontsize="medium")
+        ax.set_xticks(x[order], [str(ids[i]) for i in order])
+        ax.set_xlabel("point" if positions is None else "point (at its position)")
+        if r == 0:
+            ax.legend(fontsize="small")
+    if title:
+        fig.suptitle(title)
     return _save(fig, path, dpi)
