@@ -102,12 +102,31 @@ def _curve_styles(labels: Sequence[str], dashed: set[str]) -> dict[str, dict[str
                      zorder=2 + z) for z, lb in enumerate(order)}
 
 
+def _frequency_axis(ax, f_lo: float, f_hi: float, log_freq: bool) -> None:
+    """Set the frequency axis to [f_lo, f_hi] Hz, logarithmic when ``log_freq`` (lines at 0 Hz or below
+    are left out of a log axis: its lower limit is the first positive frequency, given as ``f_lo``)."""
+    if log_freq:
+        ax.set_xscale("log")
+        ax.grid(True, which="minor", axis="x", alpha=0.15)
+    ax.set_xlim(f_lo, f_hi)
+
+
+def _x_range(f: np.ndarray, log_freq: bool) -> tuple[float, float]:
+    """The plotted frequency range [Hz] of lines ``f``: from the first positive line on a log axis."""
+    if log_freq:
+        pos = f[f > 0]
+        if pos.size < 2:
+            raise MeasurementError("log frequency axis: fewer than two lines above 0 Hz")
+        return float(pos[0]), float(f[-1])
+    return float(f[0]), float(f[-1])
+
+
 def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel: str = "|H|",
                path: str | Path = "frf.png", *, dashed: Sequence[str] | None = None,
                peaks_hz: Mapping[str, Sequence[float]] | None = None,
                xlim_hz: tuple[float, float] | None = None, ylim: tuple[float, float] | None = None,
                xlabel: str = "Frequency [Hz]", figsize: tuple[float, float] = (7.0, 4.5),
-               dpi: float = 120.0) -> Path:
+               dpi: float = 120.0, log_freq: bool = False) -> Path:
     """Log-magnitude FRF plot in the style of the dissertation's Figs. 22-31.
 
     Parameters
@@ -140,6 +159,8 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
         Figure size [in]; the PNG is ``figsize * dpi`` pixels.
     dpi : float
         Resolution [dots per inch].
+    log_freq : bool
+        Frequency on a logarithmic axis (lines at 0 Hz left out) instead of the dissertation's linear one.
 
     Returns
     -------
@@ -180,11 +201,10 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
     if title:
         ax.set_title(title)
     if xlim_hz is not None:
-        ax.set_xlim(*xlim_hz)
+        _frequency_axis(ax, *xlim_hz, log_freq)
     else:
-        lo = min(d[0][0] for d in data.values())
-        hi = max(d[0][-1] for d in data.values())
-        ax.set_xlim(lo, hi)
+        ranges = [_x_range(d[0], log_freq) for d in data.values()]
+        _frequency_axis(ax, min(r[0] for r in ranges), max(r[1] for r in ranges), log_freq)
     if ylim is not None:
         ax.set_ylim(*ylim)
     ax.grid(True, which="major", alpha=0.4)
@@ -195,7 +215,7 @@ def frf_figure(freq_hz: Any, curves: Mapping[str, Any], title: str = "", ylabel:
 
 def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *, unit: str,
                       path: str | Path = "frf.png", title: str = "",
-                      figsize: tuple[float, float] = (7.0, 7.5), dpi: float = 120.0) -> Path:
+                      figsize: tuple[float, float] = (7.0, 7.5), dpi: float = 120.0, log_freq: bool = False) -> Path:
     """FRF magnitude, phase and coherence in three panels sharing the frequency axis.
 
     The magnitude is drawn on a log axis as the dissertation's Figs. 22-31;
@@ -217,7 +237,7 @@ def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *
         Output file, ``.png``, ``.svg`` or ``.pdf``; parent folders are created.
     title : str
         Figure title.
-    figsize, dpi
+    figsize, dpi, log_freq
         As :func:`frf_figure`.
 
     Returns
@@ -264,7 +284,7 @@ def frf_panels_figure(freq_hz: Any, curves: Mapping[str, Any], coherence: Any, *
     ax_c.set_ylabel("coherence [-]")
     ax_c.set_ylim(0, 1.05)
     ax_c.set_xlabel("Frequency [Hz]")
-    ax_c.set_xlim(f[0], f[-1])
+    _frequency_axis(ax_c, *_x_range(f, log_freq), log_freq)
     for ax in (ax_m, ax_p, ax_c):
         ax.grid(True, which="major", alpha=0.4)
     ax_m.legend(loc="best", fontsize="small")
@@ -281,12 +301,13 @@ def _log_misfit(measured: np.ndarray, model: np.ndarray) -> np.ndarray:
 def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, title: str = "",
                    ylabel: str = "|H|", path: str | Path = "misfit.png",
                    labels: tuple[str, str, str] = ("measured", "model before", "model after"),
-                   xlim_hz: tuple[float, float] | None = None, figsize: tuple[float, float] = (7.0, 6.0),
-                   dpi: float = 120.0) -> Path:
+                   xlim_hz: tuple[float, float] | None = None, figsize: tuple[float, float] | None = None,
+                   dpi: float = 120.0, phase: bool = False, log_freq: bool = False) -> Path:
     """Measured FRF with the model before and after a fit, and their log-magnitude misfit.
 
     Top panel: ``|H|`` on a log axis, measured solid black, model before
-    dashed red, model after dashed blue. Bottom panel: the misfit
+    dashed red, model after dashed blue. With ``phase``, a second panel: the
+    phase ``angle(H)`` [deg] of the three in the same styles. Bottom panel: the misfit
     ``e(f) = log10|H_model(f)| - log10|H_measured(f)|`` (decades; 0.1 is
     26 %) before and after, with its root mean square over the plotted band
     in the legend.
@@ -296,7 +317,7 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
     freq_hz : array_like, shape (n_freq,)
         Frequency grid [Hz], strictly increasing, common to all three.
     measured, before, after : array_like, shape (n_freq,)
-        Complex FRFs or magnitudes in the same unit.
+        Complex FRFs or magnitudes in the same unit (complex with ``phase``).
     title, ylabel : str
         Title and y label of the top panel.
     path : str or Path
@@ -305,8 +326,12 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
         Legend labels of measured, before, after.
     xlim_hz : (float, float), optional
         Frequency band shown and used for the RMS [Hz].
-    figsize, dpi
+    figsize : (float, float), optional
+        Figure size [in]; default (7, 6), (7, 8) with ``phase``.
+    dpi, log_freq
         As :func:`frf_figure`.
+    phase : bool
+        Add the phase panel.
 
     Returns
     -------
@@ -317,7 +342,7 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
     ------
     MeasurementError
         An array whose shape is not ``(n_freq,)`` (named: ``measured``,
-        ``before`` or ``after``), non-finite values.
+        ``before`` or ``after``), non-finite values; with ``phase``, an array that is not complex.
     DataFileError
         Unsupported file suffix.
     """
@@ -332,11 +357,26 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
         v = e[band & np.isfinite(e)]
         return float(np.sqrt(np.mean(v**2))) if v.size else float("nan")
 
-    fig, (ax, ax2) = _new_figure(figsize, dpi, nrows=2, sharex=True,
-                                 gridspec_kw={"height_ratios": (2.0, 1.0)})
-    ax.semilogy(f, meas, "k-", lw=1.3, label=labels[0], zorder=2)
-    ax.semilogy(f, b, color="tab:red", ls="--", lw=1.3, label=labels[1], zorder=3)
-    ax.semilogy(f, a, color="tab:blue", ls="--", lw=1.5, label=labels[2], zorder=4)
+    styles = ({"color": "k", "ls": "-", "lw": 1.3, "zorder": 2}, {"color": "tab:red", "ls": "--", "lw": 1.3, "zorder": 3},
+              {"color": "tab:blue", "ls": "--", "lw": 1.5, "zorder": 4})
+    complex_h = [np.asarray(v) for v in (measured, before, after)]
+    if phase:
+        for name, v in zip(("measured", "before", "after"), complex_h):
+            if not np.iscomplexobj(v):
+                raise MeasurementError(f"{name}: the phase panel needs a complex FRF, got {v.dtype} values")
+    ratios = (2.0, 1.0, 1.0) if phase else (2.0, 1.0)
+    fig, axes = _new_figure(figsize or ((7.0, 8.0) if phase else (7.0, 6.0)), dpi, nrows=len(ratios), sharex=True,
+                            gridspec_kw={"height_ratios": ratios})
+    ax, ax2 = axes[0], axes[-1]
+    for mag, lb, st in zip((meas, b, a), labels, styles):
+        ax.semilogy(f, mag, label=lb, **st)
+    if phase:
+        for v, st in zip(complex_h, styles):
+            axes[1].plot(f, np.degrees(np.angle(v)), **st)
+        axes[1].set_ylabel("phase [deg]")
+        axes[1].set_ylim(-180, 180)
+        axes[1].set_yticks([-180, -90, 0, 90, 180])
+        axes[1].grid(True, alpha=0.4)
     ax.set_ylabel(ylabel)
     if title:
         ax.set_title(title)
@@ -349,7 +389,7 @@ def misfit_overlay(freq_hz: Any, measured: Any, before: Any, after: Any, *, titl
     ax2.set_xlabel("Frequency [Hz]")
     ax2.grid(True, alpha=0.4)
     ax2.legend(loc="best", fontsize="small")
-    ax2.set_xlim(*(xlim_hz if xlim_hz is not None else (f[0], f[-1])))
+    _frequency_axis(ax2, *(xlim_hz if xlim_hz is not None else _x_range(f, log_freq)), log_freq)
     return _save(fig, path, dpi)
 
 

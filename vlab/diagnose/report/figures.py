@@ -24,8 +24,26 @@ def _worst_channel(res) -> int:
     return list(res.data.output_points).index(p)
 
 
-def figures_for(res) -> dict:
-    """Name -> ``draw(path)`` for the report of ``res``, a :class:`~vlab.diagnose.pipeline.DiagnosisResult`."""
+def figures_for(res, *, log_freq: bool = False) -> dict:
+    """Name -> ``draw(path)`` for the report of ``res``, a :class:`~vlab.diagnose.pipeline.DiagnosisResult`.
+
+    For measured FRFs: ``overlay_<point>`` (the worst channel and the driving point: measured, nominal and
+    with the selected effect, magnitude [(m/s)/N], phase [deg] where all three are complex, and the
+    log-magnitude misfit; :func:`vlab.viz.figures.misfit_overlay`), ``modes`` (frequency errors before and
+    after) and ``time`` (the validation's time histories); for modal data ``modes``.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        The diagnosis.
+    log_freq : bool
+        Draw the overlays' frequency on a logarithmic axis (default linear, as the dissertation's Figs. 22-31).
+
+    Returns
+    -------
+    dict
+        Figure name -> callable ``draw(path)`` writing it.
+    """
     figs = {}
     data = res.data
     after_state = res.selected_state()
@@ -39,12 +57,14 @@ def figures_for(res) -> dict:
         chans = [_worst_channel(res)]
         if data.excitation_point in data.output_points:
             chans.append(list(data.output_points).index(data.excitation_point))
+        phase = all(np.iscomplexobj(x) for x in (data.h, hb, ha))
         for j in dict.fromkeys(chans):
             p = data.output_points[j]
             figs[f"overlay_{p}"] = partial(
                 misfit_overlay, data.freq_hz, data.h[:, j], hb[:, j], ha[:, j],
                 title=f"{res.structure}: velocity at {p} / force at {data.excitation_point} ({source})",
-                ylabel="|H| [(m/s)/N]", labels=("measured", "nominal lab", "with the selected effect"))
+                ylabel="|H| [(m/s)/N]", labels=("measured", "nominal lab", "with the selected effect"),
+                phase=phase, log_freq=log_freq)
         modes = res.location.modes
         if modes and res.selected is not None:
             after = {round(m.freq_measured_hz, 9): m for m in frf_modes(res.problem, after_state)}
