@@ -154,6 +154,11 @@ def test_open_loop_experiment_identifies_the_fe_model_shapes(open_loop_run, tmp_
     assert "w_at_6" in header and "phi_at_9_per_sqrt_kg" in header
     assert files["shapes_figure"].stat().st_size > 10_000
     assert "| 6 | 22.714 |" in files["report"].read_text()
+    from vlab.viz.rerun_log import rrd_entity_paths
+
+    paths = set(rrd_entity_paths(files["rerun"]))  # every channel's H1 FRF with phase and coherence
+    assert {f"frf/h1/vel{p}/{q}" for p in (5, 6, 7, 9) for q in ("magnitude", "phase", "coherence")} <= paths
+    assert {"frf/experiment/phase", "frf/analysis/phase"} <= paths
 
 
 def test_cli_prints_the_identified_shapes(tmp_path):

@@ -298,7 +298,11 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
     analysis dashed over it as Figs. 22-31, phase, coherence), ``shapes.csv`` and
     ``shapes.png`` (the identified mode shapes and their MAC against the FE model's,
     :func:`~vlab.experiment.shape_results.write_shape_outputs`; only when a mode was
-    identified) and ``run.rrd`` (rerun). ``frf.uff`` holds only the excited band's lines.
+    identified) and ``run.rrd`` (rerun: signals, the animated structure, and on the
+    ``frequency_mhz`` timeline the response point's measured and predicted FRF
+    (``frf/experiment``, ``frf/analysis``) and every measured channel's H1 FRF
+    (``frf/h1/vel<point>``), each with magnitude, phase and, for H1, coherence).
+    ``frf.uff`` holds only the excited band's lines.
 
     The folder is written atomically (:func:`vlab.io.atomic.atomic_dir`):
     every file goes into a temporary folder beside ``out_dir`` that is
@@ -353,6 +357,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
     from ..viz.figures import frf_panels_figure
     from ..viz.rerun_log import log_experiment
     from ..viz.rerun_structure import structure_geometry
+    from ..io.frf import FRF
     from ..io.uff import write_frfs, write_recording
 
     overwrite = False
@@ -399,7 +404,9 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
     rerun_args = dict(
         recording=loop.recording, structure_points=pts, members=members,
         displacement=disp, displacement_dt_s=loop.recording.dt_s, point_ids=all_points,
-        frfs={"experiment": (result.freq_hz, result.measured), "analysis": (result.freq_hz, result.analysis_sampled)},
+        frfs={"experiment": FRF(result.freq_hz, result.measured, test.response_quantity),
+              "analysis": FRF(result.freq_hz, result.analysis_sampled, test.response_quantity),
+              **{f"h1/{name}": frf for name, frf in result.frfs.items()}}, frf_phase=True,
         extra_signals={f"u{p}": loop.commands[:, j] for j, p in enumerate(result.plant_info.get("actuators", []))},
         metadata=summary)
     warnings: list[str] = []

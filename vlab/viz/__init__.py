@@ -8,6 +8,9 @@ rerun_log
     (``structure/members``, ``structure/points``) and FRFs
     (``frf/<name>/magnitude`` on ``frequency_mhz``) to a ``.rrd`` file;
     :func:`~vlab.viz.rerun_log.rrd_entity_paths` reads one back.
+rerun_frf
+    FRFs in a recording: ``frf/<name>/magnitude``, ``phase`` and ``coherence`` on ``frequency_mhz``, one
+    view per quantity.
 rerun_structure
     The structure at rest and its animated deformed shape in a recording.
 viewer
@@ -18,6 +21,9 @@ figures
     :func:`~vlab.viz.figures.frf_figure` (log-magnitude FRFs as in Figs.
     22-31), :func:`~vlab.viz.figures.misfit_overlay` and
     :func:`~vlab.viz.figures.comparison_bar` (before/after a fit).
+mode_figures
+    Mode shapes drawn on the structure; identified shapes beside a model's
+    (:func:`~vlab.viz.mode_figures.shape_comparison_figure`).
 
 Importing this package imports neither rerun nor matplotlib; both are
 loaded when a function first needs them.

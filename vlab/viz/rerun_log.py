@@ -13,7 +13,9 @@ entity path                       content
                                   per member polyline, on ``sim_time``
 ``structure/points``              animated structure points, labelled by id
 ``frf/<name>/magnitude``          ``log10 |H(f)|`` of one FRF on the
-                                  ``frequency_mhz`` timeline
+                                  ``frequency_mhz`` timeline; ``phase`` [deg]
+                                  and ``coherence`` beside it
+                                  (:mod:`vlab.viz.rerun_frf`)
 ``meta/run``                      the run's metadata as a JSON text document
 ================================  =============================================
 
@@ -65,8 +67,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataFileError, MeasurementError, ModelError
-from .rerun_common import (FREQUENCY_TIMELINE, FRF_ROOT, META_ENTITY, PALETTE, SIGNALS_ROOT, SIM_TIMELINE,
-                           check_name, finite_1d, rerun_module)
+from .rerun_common import FRF_ROOT, META_ENTITY, SIGNALS_ROOT, SIM_TIMELINE, check_name, finite_1d, rerun_module
+from .rerun_frf import frf_panels, frf_views, log_frfs
 from .rerun_structure import log_deformed_shapes, log_structure
 from .viewer import spawn_viewer
 
@@ -87,13 +89,18 @@ __all__ = [
 # -------------------------------------------------------------- recording ---
 
 
-def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: bool = True):
+def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: bool = True,
+                      frf_paths: Mapping[str, Sequence[str]] | None = None):
     """The viewer layout: 3-D structure left, signal and FRF plots right.
 
     Parameters
     ----------
     signals, structure, frfs : bool
         Which views to include (a view of an empty entity is just blank).
+    frf_paths : mapping of str to sequence of str, optional
+        Quantity -> entity paths (:func:`vlab.viz.rerun_frf.frf_panels`): the FRFs in one view per
+        quantity (magnitude, phase, coherence; :func:`vlab.viz.rerun_frf.frf_views`) instead of one view of
+        everything under ``frf/``.
 
     Returns
     -------
@@ -105,7 +112,9 @@ def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: boo
     plots = []
     if signals:
         plots.append(rrb.TimeSeriesView(origin=SIGNALS_ROOT, name="signals vs sim_time [s]"))
-    if frfs:
+    if frfs and frf_paths:
+        plots.extend(frf_views(frf_paths))
+    elif frfs:
         plots.append(rrb.TimeSeriesView(origin=FRF_ROOT,
                                         name="FRF log10|H| vs frequency_mhz (1 Hz = 1000)"))
     views = []
@@ -291,80 +300,23 @@ def log_metadata(rec, metadata: Mapping[str, Any], *, entity: str = META_ENTITY)
     return entity
 
 
-# -------------------------------------------------------------------- FRF ---
-
-
-def _frf_arrays(name: str, frf: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(freq_hz, h) from a ``(freq_hz, h)`` pair or an object with ``freq_hz`` and ``h``."""
-    if hasattr(frf, "freq_hz") and hasattr(frf, "h"):
-        f, h = frf.freq_hz, frf.h
-    elif isinstance(frf, (tuple, list)) and len(frf) == 2:
-        f, h = frf
-    else:
-        raise MeasurementError(
-            f"FRF {name!r}: expected a (freq_hz, h) pair or an object with freq_hz and h, "
-            f"got {type(frf).__name__}")
-    f = finite_1d(f, f"FRF {name!r} freq_hz")
-    h = np.asarray(h)
-    if h.ndim != 1 or h.size != f.size:
-        raise MeasurementError(f"FRF {name!r}: h has shape {h.shape}, freq_hz has shape {f.shape}")
-    if not np.all(np.isfinite(h)):
-        raise MeasurementError(f"FRF {name!r}: h has non-finite values")
-    if f.size and f[0] < 0.0:
-        raise MeasurementError(f"FRF {name!r}: negative frequency {f[0]} Hz")
-    return f, h
-
-
-def log_frfs(rec, frfs: Mapping[str, Any]) -> list[str]:
-    """Log FRF magnitudes as ``log10 |H|`` scalars on the ``frequency_mhz`` timeline.
-
-    Parameters
-    ----------
-    rec : rerun.RecordingStream
-        From :func:`open_recording`.
-    frfs : mapping of str to FRF
-        Name -> ``(freq_hz, h)`` with ``freq_hz`` shape (n_freq,) [Hz],
-        increasing, and ``h`` shape (n_freq,) complex or real (SI units,
-        e.g. (m/s)/N), or any object with ``freq_hz`` and ``h`` attributes
-        (:class:`vlab.io.frf.FRF`). Names become entity paths
-        ``frf/<name>/magnitude``; use e.g. ``"experiment/vel4_force4"`` and
-        ``"analysis/vel4_force4"``. Grids may differ between FRFs.
-
-    Returns
-    -------
-    list of str
-        The entity paths written, ``frf/<name>/magnitude`` per FRF.
-
-    Raises
-    ------
-    MeasurementError
-        Mismatched ``freq_hz``/``h`` shapes, non-finite values, negative
-        frequencies, or frequencies not strictly increasing after rounding
-        to 1 mHz (names the FRF); invalid names.
-    """
-    rr = rerun_module()
-    paths = []
-    for i, (name, frf) in enumerate(frfs.items()):
-        check_name(name, "FRF")
-        f, h = _frf_arrays(name, frf)
-        mhz = np.rint(f * 1000.0).astype(np.int64)
-        if np.any(np.diff(mhz) <= 0):
-            raise MeasurementError(
-                f"FRF {name!r}: frequencies must be strictly increasing and at least 1 mHz apart "
-                f"(timeline {FREQUENCY_TIMELINE!r})")
-        mag = np.abs(h).astype(float)
-        with np.errstate(divide="ignore"):
-            logmag = np.where(mag > 0.0, np.log10(np.where(mag > 0.0, mag, 1.0)), np.nan)
-        entity = f"{FRF_ROOT}/{name}/magnitude"
-        rec.log(entity, rr.SeriesLines(names=f"{name} log10|H|", colors=[PALETTE[i % len(PALETTE)]]),
-                static=True)
-        rec.send_columns(entity, indexes=[rr.TimeColumn(FREQUENCY_TIMELINE, sequence=mhz)],
-                         columns=rr.Scalars.columns(scalars=logmag))
-        paths.append(entity)
-    return paths
-
-
 # ------------------------------------------------------------------ entry ---
+
+
+def _frame_step(recording, structure_points, members, displacement, displacement_dt_s, extra_signals):
+    """The animation's frame interval [s] of :func:`log_experiment`, its arguments checked (see there)."""
+    if (structure_points is None) != (members is None):
+        raise ModelError("structure_points and members must be given together")
+    if displacement is not None:
+        if structure_points is None:
+            raise ModelError("displacement needs structure_points and members to be drawn")
+        if displacement_dt_s is None:
+            if recording is None:
+                raise MeasurementError("displacement needs displacement_dt_s (or a recording to take dt_s from)")
+            displacement_dt_s = recording.dt_s
+    if extra_signals and recording is None:
+        raise MeasurementError("extra_signals need a recording for their time base")
+    return displacement_dt_s
 
 
 def log_experiment(path: str | Path | None, *, recording=None,
@@ -374,7 +326,7 @@ def log_experiment(path: str | Path | None, *, recording=None,
                    frfs: Mapping[str, Any] | None = None, extra_signals: Mapping[str, Any] | None = None,
                    extra_units: Mapping[str, str] | None = None, metadata: Mapping[str, Any] | None = None,
                    fps: float = 50.0, scale: float | None = None, spawn: bool = False,
-                   app_id: str = "vlab", recording_id: str | None = None) -> Path | None:
+                   app_id: str = "vlab", recording_id: str | None = None, frf_phase: bool = False) -> Path | None:
     """Write one experiment (signals, animated structure, FRFs) to a ``.rrd`` file.
 
     Every part is optional; what is given is logged (see the module
@@ -401,7 +353,8 @@ def log_experiment(path: str | Path | None, *, recording=None,
         Point of each ``displacement`` column; default the order of
         ``structure_points``.
     frfs : mapping of str to FRF, optional
-        See :func:`log_frfs` -> ``frf/<name>/magnitude``.
+        See :func:`~vlab.viz.rerun_frf.log_frfs` -> ``frf/<name>/magnitude``, and ``frf/<name>/coherence``
+        for an FRF with a coherence (an H1 estimate).
     extra_signals, extra_units : mapping, optional
         Series on the recording's time base that are not channels, e.g.
         controller commands ``{"u5": ...}`` [N] -> ``signals/u5``.
@@ -415,6 +368,9 @@ def log_experiment(path: str | Path | None, *, recording=None,
         Also open a live rerun viewer.
     app_id, recording_id : str
         rerun application / recording id.
+    frf_phase : bool
+        Also log each FRF's phase, ``frf/<name>/phase`` [deg]; the layout then shows magnitude, phase and
+        coherence in views of their own.
 
     Returns
     -------
@@ -432,19 +388,10 @@ def log_experiment(path: str | Path | None, *, recording=None,
         Bad ``path``.
     """
     has_geom = structure_points is not None and members is not None
-    if (structure_points is None) != (members is None):
-        raise ModelError("structure_points and members must be given together")
-    if displacement is not None:
-        if not has_geom:
-            raise ModelError("displacement needs structure_points and members to be drawn")
-        if displacement_dt_s is None:
-            if recording is None:
-                raise MeasurementError("displacement needs displacement_dt_s (or a recording to take dt_s from)")
-            displacement_dt_s = recording.dt_s
-    if extra_signals and recording is None:
-        raise MeasurementError("extra_signals need a recording for their time base")
-
-    bp = default_blueprint(signals=recording is not None, structure=has_geom, frfs=bool(frfs))
+    displacement_dt_s = _frame_step(recording, structure_points, members, displacement, displacement_dt_s,
+                                    extra_signals)
+    bp = default_blueprint(signals=recording is not None, structure=has_geom, frfs=bool(frfs),
+                           frf_paths=frf_panels(frfs, phase=frf_phase) if frfs and frf_phase else None)
     rec = open_recording(path, app_id=app_id, recording_id=recording_id, spawn=spawn, blueprint=bp)
     try:
         meta = {}
@@ -461,7 +408,7 @@ def log_experiment(path: str | Path | None, *, recording=None,
         if recording is not None:
             log_recording(rec, recording, extra_signals=extra_signals, extra_units=extra_units)
         if frfs:
-            log_frfs(rec, frfs)
+            log_frfs(rec, frfs, phase=frf_phase)
     finally:
         close_recording(rec)
     return None if path is None else Path(path)
