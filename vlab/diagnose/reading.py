@@ -474,6 +474,10 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
     _refer(inp, opt, notes, timing, say)
     del inp["setup_plant"]
     data = inp["data"]
-    inp["on_plant"] = on_plant and isinstance(data, FrfData) and data.recording is not None
+    # the search's fits are refitted and compared on the MuJoCo plant only where the data were referred to the
+    # model through that plant (its replay): against a measured baseline or the FE model the plant takes no
+    # part in the comparison, and its own difference from the structure would enter the reported parameters
+    inp["on_plant"] = (on_plant and isinstance(data, FrfData) and data.recording is not None
+                       and inp["replayed"] is not None)
     timing["read"] = time.perf_counter() - t_start
     return Inputs(**inp, notes=tuple(getattr(data, "notes", [])) + tuple(notes), timing_s=timing)

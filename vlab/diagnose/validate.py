@@ -11,6 +11,10 @@ Misfits (before = nominal, after = with the effect):
 
 - FRF: weighted RMS of ``log10|H_rerun / H_recorded|`` over the lines of the
   diagnosis [decades] (:meth:`vlab.diagnose.problem.residuals.Problem.misfit` weights);
+  with a measured baseline, the reruns are referred through it as the data are
+  (``H_rerun * H_baseline / H_rerun,nominal``: the nominal rerun becomes the
+  baseline), so that the rerun plant's own difference from the structure,
+  present in the baseline too, cancels;
 - time domain: ``||v_rerun - v_recorded|| / ||v_recorded||`` over all
   velocity channels after the dropped transient [1].
 
@@ -52,7 +56,8 @@ class Validation:
         uncertainty's log-magnitude variance (first order), added in quadrature
         (:func:`vlab.diagnose.problem.misfits.noise_misfit` for the noise).
     h_before, h_after : ndarray, complex, shape (n_f, n_o)
-        FRFs of the reruns on the data's lines.
+        FRFs of the reruns on the data's lines (with a measured baseline: referred through it, the nominal
+        one then being the baseline's).
     v_before, v_after : dict
         Point -> rerun velocity [m/s] on the recording's time axis, shape (n_samples,)
         (NaN before a warm-started rerun begins).
@@ -174,12 +179,24 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask
     w = problem.weight_mag[mask]
-    # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force was
-    # replayed on as the reference -- is compared with what was recorded; a linear rerun with the data
-    # referred to the model when a baseline was given (the model-form error removed)
-    recorded = data.h_recorded is not None and (kind == "mujoco" or kind == problem.replay_plant)
-    target = data.h_recorded if recorded else data.h
-    target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
+    measured_base = problem.replay_plant is None and data.h_baseline is not None and data.h_recorded is not None
+    if measured_base:
+        # referred through the measured baseline as the data are: the reruns' change from the nominal rerun,
+        # applied to the baseline (H_b = H_baseline, H_a = H_rerun,modified H_baseline / H_rerun,nominal), is
+        # compared with the recording, so the rerun plant's own difference from the structure cancels as in
+        # the diagnosis
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(np.abs(hb) > 0, data.h_baseline / hb, 0.0)
+            gain = np.where(np.abs(data.h_baseline) > 0, np.abs(data.h_recorded / data.h_baseline) ** 2, 0.0)
+        hb, ha = hb * scale, ha * scale
+        target, target_var = data.h_recorded, data.var_recorded + data.var_baseline * gain
+    else:
+        # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force
+        # was replayed on as the reference -- is compared with what was recorded; a linear rerun with the data
+        # referred to the model
+        recorded = data.h_recorded is not None and (kind == "mujoco" or kind == problem.replay_plant)
+        target = data.h_recorded if recorded else data.h
+        target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit = noise_misfit(target[mask], target_var[mask], w)
     mf = problem.model_form_frf

@@ -64,6 +64,9 @@ class FrfData:
     var_baseline : ndarray, shape (n_f, n_o) or None
         The variance of the baseline's FRFs (its own noise) when ``h`` has been
         referred through a baseline [((m/s)/N)^2]; None otherwise.
+    h_baseline : ndarray, complex, shape (n_f, n_o) or None
+        The baseline's FRFs when ``h`` has been referred through one (a measured baseline or a replay);
+        None otherwise.
     var_dof : float or None
         Effective real degrees of freedom of ``var`` when it is estimated from
         the data (period-to-period scatter, pooled over neighbouring lines:
@@ -93,6 +96,7 @@ class FrfData:
     h_recorded: np.ndarray | None = None
     var_recorded: np.ndarray | None = None
     var_baseline: np.ndarray | None = None
+    h_baseline: np.ndarray | None = None
     var_dof: float | None = None
     var_steady: np.ndarray | None = None
     same_transient: bool = False
@@ -221,4 +225,4 @@ def refer_to_model(data: FrfData, baseline: FrfData, h_model: np.ndarray) -> Frf
     note = (f"referred to the model through the baseline {baseline.source}: H = H_recorded * H_model / "
             "H_baseline (the model-form error present in the baseline is removed to first order)")
     return replace(data, h=h, var=rel_var * np.abs(h) ** 2, h_recorded=data.h, var_recorded=own_var,
-                   var_baseline=baseline.var, var_steady=None, notes=list(data.notes) + [note])
+                   var_baseline=baseline.var, h_baseline=baseline.h, var_steady=None, notes=list(data.notes) + [note])

@@ -229,9 +229,9 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
 
     The replay starts warm the lab's settling time (``guard_s``) before the
     analysed part, as the validation reruns do
-    (:func:`vlab.diagnose.data.warmstart.rerun_window`). Where the recording dropped
+    (:func:`vlab.diagnose.data.warmstart.recorded_window`). Where the recording dropped
     less than that, the replay starts as the recording did
-    (:func:`starts_at_rest`): at rest, through all the analysed periods (their
+    (:func:`vlab.diagnose.data.warmstart.starts_at_rest`): at rest, through all the analysed periods (their
     transient is then in both and cancels), or warm at the first tick. It runs
     without sensor noise; its FRFs on the data's lines are those of
     :func:`vlab.diagnose.data.replay.frf_of`.
@@ -265,20 +265,12 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
         The replay diverged.
     """
     from .replay import frf_of, rerun, rerun_split
-    from .warmstart import RERUN_PERIODS, period_ticks, rerun_window
+    from .warmstart import recorded_window
 
     rec = data.recording
     force = np.asarray(rec[f"force{data.excitation_point}"])
-    start, period, stop = rerun_window(data, rec.dt_s, guard_s=guard_s)
+    start, period, stop = recorded_window(data, rec.dt_s, guard_s=guard_s)
     first = int(round(data.analysed_from_s / rec.dt_s))
-    if data.periodic and not period:  # the recording dropped less than the lab needs to settle
-        if starts_at_rest(rec, data.output_points):
-            # it began at rest, so its analysed periods carry the start's transient: the replay begins at rest
-            # too and runs through all of them, so that the transient is in both and cancels
-            start, period, stop = 0, 0, None
-        else:  # it began in the steady state (a warm start): so does the replay
-            period = period_ticks(data, rec.dt_s)
-            stop = first + RERUN_PERIODS * period
     if plant == "mujoco" and period and start < first:  # over both cores
         run = rerun_split(nominal, force, excitation_point=data.excitation_point,
                           measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
@@ -331,33 +323,3 @@ def shares_excitation_record(data: FrfData, baseline) -> bool:
         return False
     scale = float(np.sqrt(np.mean(a ** 2))) or 1.0
     return bool(np.max(np.abs(a - b)) <= 1e-9 * scale)
-
-
-def starts_at_rest(rec, points, *, head_s: float = 0.01, ratio: float = 0.2) -> bool:
-    """Whether a recording began with the structure at rest (as ``vlab experiment`` starts): the velocities'
-    RMS over its first ``head_s`` [s] is below ``ratio`` of their RMS over the whole record, on every channel
-    (a structure at rest has no velocity; one started in its periodic steady state moves at once).
-
-    Parameters
-    ----------
-    rec : Recording
-    points : sequence of int
-        Points whose ``vel<p>`` channels are looked at.
-    head_s : float
-        Length of the start looked at [s] (10 ms: a few samples, shorter than any mode's quarter period in
-        the lab's bands).
-    ratio : float
-        Largest RMS ratio of a start at rest (the recording's noise alone gives about its noise-to-signal
-        ratio, 1 % in the benchmark).
-
-    Returns
-    -------
-    bool
-    """
-    n = max(2, int(round(head_s / rec.dt_s)))
-    for p in points:
-        v = np.asarray(rec[f"vel{p}"])
-        whole = float(np.sqrt(np.mean(v ** 2)))
-        if whole > 0 and float(np.sqrt(np.mean(v[:n] ** 2))) >= ratio * whole:
-            return False
-    return True

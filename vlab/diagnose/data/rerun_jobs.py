@@ -21,7 +21,7 @@ from .batchrerun import batch_key, rerun_together, why_apart
 from ..model.labmodel import LabState
 from .measured import FrfData
 from .replay import mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
-from .warmstart import rerun_window
+from .warmstart import recorded_window
 
 #: Run several MuJoCo reruns of :func:`reruns` whose plants share one layout as one ``mujoco.batch``
 #: (:mod:`vlab.diagnose.data.batchrerun`) instead of one process each. The same recordings either way
@@ -82,7 +82,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s)
+    window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s)
     try:
         recv, send = multiprocessing.Pipe(duplex=False)
         proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
@@ -234,7 +234,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         False: processes only; None (default): as one batch when
         :data:`BATCH_RERUNS` and at least :data:`BATCH_MIN_RERUNS` are to be made.
     window : (int, int, int or None), optional
-        ``(start, period, stop)`` ticks of the reruns (default :func:`~vlab.diagnose.data.warmstart.rerun_window`:
+        ``(start, period, stop)`` ticks of the reruns (default :func:`~vlab.diagnose.data.warmstart.recorded_window`:
         a warm start before the analysed periods; ``(0, 0, None)``: the whole record from rest). The cache
         keys must name a window other than the default.
 
@@ -246,7 +246,7 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = rerun_window(data, data.recording.dt_s, guard_s=problem.guard_s) if window is None else window
+    window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s) if window is None else window
     pts = tuple(data.output_points)
     cache, pending = problem.run.reruns, problem.run.background
     _collect_background(problem, [k for k, (_proc, recv) in list(pending.items()) if recv.poll()])  # done: frees a core

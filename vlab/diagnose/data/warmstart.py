@@ -22,9 +22,12 @@ frequency domain.
 
 A rerun then simulates :data:`RERUN_PERIODS` analysed period: the grid's 100 s
 test (3 dropped, 2 analysed 20 s periods) is rerun in 40 s of simulated time.
-A test that drops only what the guard keeps is rerun from rest (to the end
-of its first analysed period); one not estimated period by period (H1 with a
-window) is rerun whole.
+A test that drops less than the guard keeps is rerun as it was recorded
+(:func:`recorded_window`): from rest through every analysed period when the
+recording began at rest (its transient is then in both), else from the
+steady state at its first tick (a recording taken once the excitation had
+run, as an acquisition system records); one not estimated period by period
+(H1 with a window) is rerun whole.
 """
 
 from __future__ import annotations
@@ -204,3 +207,70 @@ def warm_start(state: LabState, plant, engine, force: np.ndarray, *, excitation_
         xc = np.linalg.solve(z[:, None, None] * np.eye(n_x)[None] - engine.F22[None],
                              (engine.F21 @ y.T).T[:, :, None])[:, :, 0]
         engine.reset(np.sum(xc, axis=0).real)
+
+
+def starts_at_rest(rec, points, *, head_s: float = 0.01, ratio: float = 0.2) -> bool:
+    """Whether a recording began with the structure at rest (as ``vlab experiment`` starts): the velocities'
+    RMS over its first ``head_s`` [s] is below ``ratio`` of their RMS over the whole record, on every channel
+    (a structure at rest has no velocity; one started in its periodic steady state moves at once).
+
+    Parameters
+    ----------
+    rec : Recording
+    points : sequence of int
+        Points whose ``vel<p>`` channels are looked at.
+    head_s : float
+        Length of the start looked at [s] (10 ms: a few samples, shorter than any mode's quarter period in
+        the lab's bands).
+    ratio : float
+        Largest RMS ratio of a start at rest (the recording's noise alone gives about its noise-to-signal
+        ratio, 1 % in the benchmark).
+
+    Returns
+    -------
+    bool
+    """
+    n = max(2, int(round(head_s / rec.dt_s)))
+    for p in points:
+        v = np.asarray(rec[f"vel{p}"])
+        whole = float(np.sqrt(np.mean(v ** 2)))
+        if whole > 0 and float(np.sqrt(np.mean(v[:n] ** 2))) >= ratio * whole:
+            return False
+    return True
+
+
+def recorded_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERIODS,
+                    guard_s: float | None = None) -> tuple[int, int, int | None]:
+    """``(start, period, stop)`` ticks of a rerun that starts as the recording did.
+
+    :func:`rerun_window`, except where a periodic recording dropped less than the guard needs
+    (``rerun_window`` then reruns from rest): a recording that began at rest (:func:`starts_at_rest`) carries
+    the start's transient in its analysed periods, so the rerun starts at rest too and runs through all of
+    them (the transient is in both); one that began in the steady state -- the excitation already running, as
+    an acquisition system records -- is rerun from the steady state at its first tick (a rerun from rest would
+    add a transient the recording does not have).
+
+    Parameters
+    ----------
+    data : FrfData
+        With a recording.
+    dt_s : float
+        Controller period [s].
+    periods : int or None
+        Analysed periods to rerun (None: to the end of the record).
+    guard_s : float, optional
+        As :func:`guard_ticks`.
+
+    Returns
+    -------
+    (int, int, int or None)
+        Start tick, period in ticks (0: from rest), stop tick (None: the whole record).
+    """
+    start, period, stop = rerun_window(data, dt_s, periods, guard_s)
+    if not data.periodic or period or data.recording is None:
+        return start, period, stop
+    if starts_at_rest(data.recording, data.output_points):
+        return 0, 0, None
+    period = period_ticks(data, dt_s)
+    first = int(round(data.analysed_from_s / dt_s))
+    return 0, period, (None if periods is None else first + periods * period)
