@@ -13,8 +13,8 @@ the response points ``j`` is its shape, scaled by ``phi_kr``, and the driving-po
 :func:`identify_shapes` does this in two steps, as the global-pole, local-residue methods do:
 
 1. the poles: each response point's FRF is curve-fitted near the expected modes
-   (:func:`vlab.measure.modal_fit.fit_each_mode`); each mode takes the pole of the FRF in which its peak
-   ``|R| / sigma`` is highest;
+   (:func:`vlab.measure.modal_fit.fit_each_mode`); each mode takes the pole of the FRF whose measured
+   magnitude peaks highest in the mode's band (the best signal-to-noise ratio);
 2. the residues: with the poles fixed, each FRF is a linear least-squares fit in the residues (LSFD,
    least-squares frequency domain) over the bands around the modes, modes whose bands overlap fitted
    together, with the real residual terms ``s^-2, s^-1, 1, s`` (``s = i omega``) for the modes outside
@@ -104,15 +104,18 @@ def _receptance(freq_hz: np.ndarray, frfs: np.ndarray, response: str) -> np.ndar
 
 
 def _poles(f, hx, modes_hz, halves, weights, names) -> list[complex | None]:
-    """Each expected mode's pole [rad/s] from the point's fit where its peak ``|R| / sigma`` is highest."""
+    """Each expected mode's pole [rad/s] from the fit of the point whose measured ``|H|`` peaks highest
+    within the mode's band; a fit with a non-negative real part or a frequency outside the band is
+    not used."""
     best: list[tuple[float, complex] | None] = [None] * len(modes_hz)
     for j in range(hx.shape[0]):
         w = None if weights is None else weights[j]
         fits = fit_each_mode(f, hx[j], modes_hz, halves, response="displacement", weights=w, name=names[j])
         for r, fit in enumerate(fits):
-            if fit is None or not (fit.pole.real < 0) or not np.isfinite(fit.residue):
+            if fit is None or not (fit.pole.real < 0) or abs(fit.freq_hz - modes_hz[r]) > halves[r]:
                 continue
-            height = abs(fit.residue) / -fit.pole.real
+            near = np.abs(f - fit.freq_hz) <= halves[r]
+            height = float(np.max(np.abs(hx[j][near]))) if near.any() else 0.0
             if best[r] is None or height > best[r][0]:
                 best[r] = (height, fit.pole)
     return [None if b is None else b[1] for b in best]
@@ -194,7 +197,7 @@ def identify_shapes(freq_hz, frfs, point_ids, modes_hz, *, reference_point: int,
     """Identify the mode shapes at the response points from the FRFs of one excitation point.
 
     The poles come from a curve fit of every point's FRF near the expected modes (each mode from the
-    FRF where its peak is highest), the residues from a least-squares fit of every FRF with those poles
+    FRF whose measured magnitude peaks highest in its band), the residues from a least-squares fit of every FRF with those poles
     fixed (:func:`lsfd_residues`, modes whose bands overlap together); see the module docstring for the
     modal constants, their realisation and the mass normalisation.
 
