@@ -169,3 +169,30 @@ def test_cli_prints_the_identified_shapes(tmp_path):
     assert res.exit_code == 0, res.output
     assert "mode shapes identified at points 5, 6, 7, 9 (excitation at 9)" in res.output
     assert "shapes.csv" in res.output and (tmp_path / "exp" / "shapes.csv").is_file()
+
+
+def test_non_proportional_damping_gives_the_complex_modes_of_the_state_space():
+    """A 10 N*s/m dashpot between masses 2 and 3 of the chain (non-proportional damping): the poles are the
+    state matrix's eigenvalues (to 1e-3: the fit's residual terms approximate the other modes), the column
+    of modal constants is the complex eigenvector (complex MAC > 1 - 1e-4) and the MPC is the
+    eigenvector's own (to 2e-3; down to 0.89)."""
+    from vlab.measure.mac import mac
+
+    m, c, k, v, fn, z = _chain()
+    c = c.copy()
+    c[np.ix_([1, 2], [1, 2])] += 10.0 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    a = np.block([[np.zeros((3, 3)), np.eye(3)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
+    lam, psi = np.linalg.eig(a)
+    up = np.flatnonzero(lam.imag > 0)
+    up = up[np.argsort(lam[up].imag)]
+    f = np.arange(0.25, 30.0, 0.02)
+    h = np.array([receptance(f, m, c, k, j, 0) for j in range(3)])
+    ids = identify_shapes(f, h, [1, 2, 3], np.abs(lam[up]) / (2 * np.pi), reference_point=1,
+                          damping_hint=-lam[up].real / np.abs(lam[up]), response="displacement")
+    np.testing.assert_allclose(ids.pole_rad_s, lam[up], rtol=1e-3)
+    for r, i in enumerate(up):
+        x = psi[:3, i]
+        assert mac(x, ids.modal_constants_per_kg[:, r])[0, 0] > 1 - 1e-4
+        mpc = abs(np.sum(x**2)) ** 2 / np.sum(np.abs(x) ** 2) ** 2
+        assert ids.mpc[r] == pytest.approx(mpc, abs=2e-3)
+    assert ids.mpc.min() < 0.9  # the dashpot makes a mode clearly complex

@@ -6,6 +6,8 @@ model), runs the digital loop (2 kHz; LQG 1 kHz) with the hardware chain of Sec.
 excites it the way Sec. 5.4 describes, measures H1 FRFs and compares them
 mode by mode with the analysis: the continuous closed-loop FRF the
 dissertation computed and the sampled-data FRF with hold, delay and filter.
+From the H1 FRFs of all measured points it identifies the mode shapes at those
+points and compares them with the FE model's by the MAC (:mod:`vlab.measure.shapes`).
 """
 
 from __future__ import annotations
