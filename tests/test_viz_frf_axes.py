@@ -64,3 +64,18 @@ def test_frf_figures_take_a_log_frequency_axis(tmp_path, saved):
     assert [ax.get_xscale() for ax in panels.axes] == ["log"] * 3
     with pytest.raises(MeasurementError, match="fewer than two lines above 0 Hz"):
         figures.frf_figure(np.array([-1.0, 0.0, 1.0]), {"x": np.ones(3)}, path=tmp_path / "c.png", log_freq=True)
+
+
+def test_vlab_experiment_log_freq_draws_frf_png_on_a_log_axis(tmp_path, saved):
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from vlab.cli import app
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "cantilever_tip_mass.toml"
+    res = CliRunner().invoke(app, ["experiment", str(example), "--controller", "none", "--plant", "linear",
+                                   "--duration", "4", "--out", str(tmp_path / "exp"), "--log-freq"])
+    assert res.exit_code == 0, res.output
+    (frf,) = [f for f in saved if len(f.axes) == 3 and f.axes[1].get_ylabel() == "phase [deg]"]
+    assert [ax.get_xscale() for ax in frf.axes] == ["log"] * 3

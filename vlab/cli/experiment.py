@@ -60,6 +60,8 @@ def experiment(
     out: str = opt(EXPERIMENT_OUT, "--out", help="output folder (its parent must exist)"),
     overwrite: bool = flag("--overwrite", help="replace an existing non-empty output folder"),
     spawn: bool = flag("--spawn", help="open the rerun viewer live (needs a display)"),
+    log_freq: bool = flag("--log-freq", help="draw frf.png's frequency on a logarithmic axis (default linear, "
+                                             "as the dissertation's Figs. 22-31)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = flag("--json", help="print results.json to stdout instead of the table (= --format json)"),
     allow_unstable: bool = flag("--allow-unstable",
@@ -95,7 +97,7 @@ def experiment(
                   quiet=out_fmt != "table")
     if out == EXPERIMENT_OUT:
         out_path.absolute().parent.mkdir(parents=True, exist_ok=True)
-    files = write_outputs(result, fe.spec, out_path, spawn=spawn, overwrite=overwrite)
+    files = write_outputs(result, fe.spec, out_path, spawn=spawn, overwrite=overwrite, log_freq=log_freq)
     blocking = _report(result, files, fe, controller.value, out_fmt)
     if blocking and not allow_unstable:
         error_line(f"the comparison is not meaningful ({blocking[0]}); outputs written to "

@@ -289,7 +289,8 @@ def report_markdown(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite: bool = True) -> dict[str, Path]:
+def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite: bool = True,
+                  log_freq: bool = False) -> dict[str, Path]:
     """Write the output folder of an experiment.
 
     Files: ``recording.uff`` (UFF 58 time histories), ``frf.uff`` (UFF 58 FRFs),
@@ -325,6 +326,8 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
         Replace an existing non-empty ``out_dir`` whole (the old folder is
         deleted only after the new one is in place); with False such a
         folder is an error.
+    log_freq : bool
+        Draw ``frf.png``'s frequency on a logarithmic axis (default linear, as Figs. 22-31).
 
     Returns
     -------
@@ -346,13 +349,14 @@ def write_outputs(result, spec, out_dir: Path, *, spawn: bool = False, overwrite
 
     final = Path(out_dir)
     with atomic_dir(final, overwrite=overwrite) as tmp:
-        files, warnings = _write_outputs_into(result, spec, tmp, spawn=spawn)
+        files, warnings = _write_outputs_into(result, spec, tmp, spawn=spawn, log_freq=log_freq)
     out = {k: final / p.name for k, p in files.items()}
     out["warnings"] = warnings
     return out
 
 
-def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[str, Path], list[str]]:
+def _write_outputs_into(result, spec, out: Path, *, spawn: bool, log_freq: bool = False
+                        ) -> tuple[dict[str, Path], list[str]]:
     """Write the experiment's files into the (temporary, empty) folder ``out``."""
     from ..viz.figures import frf_panels_figure
     from ..viz.rerun_log import log_experiment
@@ -392,7 +396,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool) -> tuple[dict[s
         resp.coherence, unit=resp.unit,
         title=f"{cfg.structure} {cfg.controller}, {cfg.excitation}: {resp.name}, "
               f"excited band {band[0]:g}-{band[1]:g} Hz",
-        path=files["figure"],
+        path=files["figure"], log_freq=log_freq,
     )
     pts, members = structure_geometry(spec)
     loop = result.loop
