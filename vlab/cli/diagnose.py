@@ -37,7 +37,12 @@ def diagnose(
     test: str = opt(None, "--test", metavar="<test.toml>",
                     help="the test that made the recording (written by `vlab init test`): structure, controller, "
                          "hardware chain, excitation point and period, sensors, node map -- what a recording "
-                         "without vlab's sidecar leaves unsaid"),
+                         "without vlab's sidecar leaves unsaid (default: none, the sidecar's and the options' values)"),
+    estimator: str = opt("auto", "--estimator", metavar="<auto|periodic|h1|transient>",
+                         help="how the FRFs of time histories are estimated: periodic (period by period), h1 (H1 "
+                              "with a Hann window: random excitation), transient (impact hammer or burst random: "
+                              "one record of 1/--resolution s per event, a force window, the response decayed "
+                              "within it), auto (chosen by the force; the default)"),
     resolution: float = opt(None, "--resolution", metavar="<Hz>",
                             help="line spacing of the excitation [Hz] = 1 / its period (default: the recording's "
                                  "metadata, else the structure's test resolution)"),
@@ -84,20 +89,11 @@ def diagnose(
     from ..diagnose.policy import DecisionPolicy
     from ..io.atomic import atomic_dir
 
-    from ..diagnose.reading import structure_of
-    from ..io.setup_file import read_setup
-
     out_fmt = checks.output_format(fmt, as_json)
     DecisionPolicy(false_alarm_rate=false_alarm_rate)  # a bad rate is refused before any work
-    setup = read_setup(checks.input_file("--test", test)) if test is not None else None
-    if structure is None and setup is None:
-        raise OptionError("--structure is missing: name the structure, or give --test with a test setup that does")
-    spec = structure_of(checks.load_structure(structure if structure is not None else setup.structure), setup)
+    spec, setup = _structure_and_setup(structure, test)
     out_path = checks.out_dir(out, DIAGNOSE_OUT, overwrite)
-    if plant not in DIAGNOSE_PLANTS:
-        raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
-    if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
-        raise OptionError(f"--resolution must be a positive number of Hz, got {resolution!r}")
+    _check_choices(estimator, plant, resolution)
     checks.input_file("--recording", recording)
     checks.input_file("--baseline", baseline)
     checks.mjcf_input(mjcf)
@@ -108,7 +104,7 @@ def diagnose(
                                resolution_hz=resolution,
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
-                               false_alarm_rate=false_alarm_rate, progress=say, test=setup,
+                               false_alarm_rate=false_alarm_rate, progress=say, test=setup, estimator=estimator,
                                confirm=_confirm(yes, quiet or out_fmt != "table"))
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":
@@ -119,6 +115,30 @@ def diagnose(
         diagnosis_csv(d)
         return
     _print_diagnosis(d, out_path)
+
+
+def _structure_and_setup(structure: str | None, test: str | None):
+    """The structure's spec and the test setup of ``--structure`` and ``--test`` (one of them names the
+    structure; both must name the same)."""
+    from ..diagnose.reading import structure_of
+    from ..io.setup_file import read_setup
+
+    setup = read_setup(checks.input_file("--test", test)) if test is not None else None
+    if structure is None and setup is None:
+        raise OptionError("--structure is missing: name the structure, or give --test with a test setup that does")
+    return structure_of(checks.load_structure(structure if structure is not None else setup.structure), setup), setup
+
+
+def _check_choices(estimator: str, plant: str, resolution: float | None) -> None:
+    """Refuse an unknown ``--estimator`` or ``--plant`` and a ``--resolution`` that is not a positive number."""
+    from ..diagnose.data.frfestimate import ESTIMATORS
+
+    if estimator not in ESTIMATORS:
+        raise OptionError(f"--estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    if plant not in DIAGNOSE_PLANTS:
+        raise OptionError(f"--plant {plant!r} is not one of {', '.join(DIAGNOSE_PLANTS)}")
+    if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
+        raise OptionError(f"--resolution must be a positive number of Hz, got {resolution!r}")
 
 
 def _confirm(yes: bool, quiet: bool):

@@ -195,7 +195,7 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
              reference_column: str | None = None, model_form: str = "auto",
-             false_alarm_rate: float = 0.01, confirm=None, test=None) -> DiagnosisResult:
+             false_alarm_rate: float = 0.01, confirm=None, test=None, estimator: str = "auto") -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -206,6 +206,9 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
     recording_path : str or Path
         UFF 58 time histories (force + velocities, as ``vlab experiment``
         writes them, or from an acquisition system), CSV time histories, UFF 58 FRFs, or a CSV modal table.
+    estimator : {"auto", "periodic", "h1", "transient"}
+        How the FRFs of time histories are estimated (:func:`vlab.diagnose.data.frfestimate.choose_estimator`:
+        "transient" for an impact hammer or burst random, one record per event).
     test : str, Path or RecordingSetup, optional
         The test that made the recording, a ``test.toml`` (:func:`vlab.io.setup_file.read_setup`): what a
         recording without vlab's sidecar leaves unsaid (controller, chain, excitation point and period, node
@@ -259,7 +262,7 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
     opt = Options(controller=controller, plant=plant, resolution_hz=resolution_hz, seed=seed, baseline=baseline,
                   replay=replay, force=force, mjcf=mjcf, reference_column=reference_column, model_form=model_form,
                   validate_run=validate_run, confirm=confirm,
-                  test=read_setup(test) if isinstance(test, (str, Path)) else test)
+                  test=read_setup(test) if isinstance(test, (str, Path)) else test, estimator=estimator)
     search = Search(effects, shortlist, pairs, validate_run, False, False, ())
     with one_blas_thread():
         res = _run(structure, recording_path, opt, search, floor=floor, policy=policy, progress=progress)

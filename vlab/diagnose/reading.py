@@ -107,6 +107,9 @@ class Options:
         complete the recording's metadata (:func:`vlab.diagnose.data.reference.with_test_setup`; a field both
         give differently is refused unless ``force``), its node map, excitation point and sensors select the
         channels of time histories, the baseline's too (:func:`vlab.io.setup_file.apply_setup`).
+    estimator : {"auto", "periodic", "h1", "transient"}
+        How the FRFs of time histories are estimated, the baseline's too
+        (:func:`vlab.diagnose.data.frfestimate.choose_estimator`; ``auto`` chooses by the force).
     """
 
     controller: str | None = None
@@ -122,6 +125,7 @@ class Options:
     validate_run: bool = True
     confirm: Callable[[dict], None] | None = None
     test: RecordingSetup | None = None
+    estimator: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -236,7 +240,7 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
         bobj, _ = _through_test_setup(bwhat, bobj, bmeta, opt, Path(opt.baseline), notes)
         base = read_data(spec, fe, Path(opt.baseline), bwhat, bobj, resolution_hz=opt.resolution_hz,
                          band_hz=inp["band_hz"], settle_of=lambda: settling_time(nominal, inp["band_hz"]),
-                         period_s=nominal.chain.period_s)
+                         period_s=nominal.chain.period_s, estimator=opt.estimator)
         h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
                             output_points=data.output_points)
         inp["data"] = refer_to_model(data, base, h_nom)
@@ -446,7 +450,7 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
                 and replay_plant == "mujoco")
     nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes)
     data = read_data(spec, fe, path, what, obj, resolution_hz=opt.resolution_hz, band_hz=band,
-                     settle_of=lambda: settling_time(nominal, band), period_s=period_s)
+                     settle_of=lambda: settling_time(nominal, band), period_s=period_s, estimator=opt.estimator)
     if acquired:  # from here on the recording is the acquired one on the controller's clock
         obj = data.recording
     if opt.mjcf is not None:

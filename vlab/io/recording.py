@@ -84,7 +84,10 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
     ``min_run`` or more consecutive samples exactly at the channel's maximum
     (or minimum), or more than ``fraction`` of all samples (and at least
     ``min_run``) exactly at it. A constant signal (``max == min``) is not
-    reported here (it is a dead channel, not a clipped one).
+    reported here (it is a dead channel, not a clipped one); nor is an extreme
+    of exactly zero: a range's limit is not zero, and a one-sided signal that
+    rests at zero between events (an impact hammer's pulses, a burst's
+    silences, a generated command) is off there, not clipped.
 
     Parameters
     ----------
@@ -131,6 +134,8 @@ def find_clipping(x: Any, min_run: int = CLIP_RUN + 1,
     mean = float(arr.mean())
     best = None
     for ext, word in ((hi, "maximum"), (lo, "minimum")):
+        if ext == 0.0:
+            continue
         at = arr == ext
         count = int(at.sum())
         # samples a smooth (unclipped) peak of this height spends within one quantisation step q of it

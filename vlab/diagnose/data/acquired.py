@@ -69,7 +69,8 @@ from ...errors import DataFileError
 from ...fe import FEModel
 from ...io.recording import Channel, Recording
 from ...spec import StructureSpec
-from .frfestimate import PC1000_RATE_HZ, _check_points, _h1_frfs, _is_periodic, _periodic_frfs, check_channel_samples
+from .frfestimate import (ESTIMATORS, PC1000_RATE_HZ, _check_points, _h1_frfs, _is_periodic, _periodic_frfs,
+                          _transient_frfs, check_channel_samples, choose_estimator)
 from .measured import FrfData
 
 #: Kaiser window parameter of the resampling filter.
@@ -389,22 +390,16 @@ def periodic_within_noise(x: np.ndarray, n_per: int) -> bool:
     return rms > 0 and float(np.sqrt(np.mean((a - b) ** 2))) <= PERIODIC_NOISE * rms
 
 
-#: FRF estimators of an acquired recording (:func:`frfs_from_acquired`).
-ESTIMATORS = ("auto", "periodic", "h1")
-
-
 def _estimate(args: tuple, x: np.ndarray, n_per: int, estimator: str, settle_s: float, notes: list):
-    """The FRF estimate of :func:`frfs_from_acquired` by the estimator asked for."""
+    """The FRF estimate of :func:`frfs_from_acquired` by the estimator asked for
+    (:func:`~vlab.diagnose.data.frfestimate.choose_estimator`; a measured force repeats within its noise)."""
     path, fch = args[0], args[1]
-    if estimator not in ESTIMATORS:
-        raise DataFileError(f"{path}: FRF estimator {estimator!r}: use one of {', '.join(ESTIMATORS)}")
-    exact = _is_periodic(x, n_per)
-    periodic = exact or periodic_within_noise(x, n_per)
-    if estimator == "periodic" and not periodic:
-        raise DataFileError(f"{path}: channel {fch.name}: the force does not repeat within {PERIODIC_NOISE:g} of its "
-                            "RMS from one period to the next: not a periodic excitation (use the H1 estimator)")
-    if periodic and estimator != "h1":  # a resampled force: lines below 1 % of the strongest are not excited
+    periodic = _is_periodic(x, n_per) or periodic_within_noise(x, n_per)
+    how = choose_estimator(x, n_per, estimator, periodic=periodic, path=path, name=fch.name)
+    if how == "periodic":  # a resampled force: lines below 1 % of the strongest are not excited
         return _periodic_frfs(*args, settle_s, notes, measured_force=True)
+    if how == "transient":
+        return _transient_frfs(*args, notes)
     return _h1_frfs(*args, notes)
 
 
@@ -430,12 +425,14 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
         Band analysed [Hz].
     settle_s : float
         Time for the transient to decay [s] (periodic excitation: whole periods covering it are dropped).
-    estimator : {"auto", "periodic", "h1"}
+    estimator : {"auto", "periodic", "h1", "transient"}
         "auto": period by period when the force repeats from one period to the next, exactly or within
         :data:`PERIODIC_NOISE` of its RMS (a periodic excitation measured with noise:
-        :func:`periodic_within_noise`), else H1 with a Hann window. "periodic": period by period, refused
-        for a force that does not repeat. "h1": H1 always (as the lab's own recordings with a noisy force
-        channel are analysed; its noise estimate, from the coherence, is about a hundred times larger).
+        :func:`periodic_within_noise`), one record per event for an impact or burst force
+        (:func:`vlab.measure.impact.is_transient`), else H1 with a Hann window. "periodic": period by period,
+        refused for a force that does not repeat. "h1": H1 always (as the lab's own recordings with a noisy
+        force channel are analysed; its noise estimate, from the coherence, is about a hundred times larger).
+        "transient": one record per event (:func:`vlab.measure.impact.transient_h1`).
 
     Returns
     -------
@@ -467,7 +464,7 @@ def frfs_from_acquired(rec: Recording, spec: StructureSpec, fe: FEModel, *, path
     vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(lab[f"vel{c.point_id}"])[first:] ** 2))) for c in lr.motion}
     outs = tuple(c.point_id for c in lr.motion)
     return FrfData(path, "recording", e.freq, h, var, fch.point_id, outs, e.force_amp, vrms, lab, e.t0, notes,
-                   periodic=e.force_amp is not None, var_dof=e.var_dof, var_steady=var_steady)
+                   periodic=e.force_amp is not None, var_dof=e.var_dof, var_steady=var_steady, records=e.records)
 
 
 __all__ = ["is_lab_recording", "resampling_ratio", "resampling_filter", "passband_error", "resample",

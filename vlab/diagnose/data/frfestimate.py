@@ -222,6 +222,7 @@ class _Estimate:
     force_amp: np.ndarray | None
     vrms: dict
     t0: float
+    records: tuple | None = None
 
 
 #: A measured force's lines this far below its strongest line in the band are taken as not excited (its noise
@@ -318,8 +319,75 @@ def _h1_frfs(path: str, fch, vels: list, dt: float, n_per: int, band_hz: tuple, 
     return _Estimate(f_all[sel], h, var, None, None, None, vrms, 0.0)
 
 
+def _transient_frfs(path: str, fch, vels: list, dt: float, n_per: int, band_hz: tuple, resolution_hz: float,
+                    notes: list) -> _Estimate:
+    """H1 FRFs of an impact or burst excitation, one record per event (:func:`vlab.measure.impact.transient_h1`),
+    noise from the coherence."""
+    from ...measure.impact import transient_h1
+
+    try:
+        e = transient_h1(np.asarray(fch.samples), np.stack([np.asarray(c.samples) for c in vels], axis=1), dt_s=dt,
+                         resolution_hz=resolution_hz, names=tuple(c.name for c in vels))
+    except MeasurementError as exc:
+        raise MeasurementError(f"{path}: channel {fch.name}: {exc}") from None
+    lo, hi = band_hz
+    sel = (e.freq_hz >= lo) & (e.freq_hz <= hi) & (e.freq_hz > 0)
+    h, coh = e.h[sel], np.clip(e.coherence[sel], 1e-6, 1.0)
+    n_e = len(e.starts)
+    var = np.abs(h) ** 2 * (1 - coh) / (2 * n_e * coh)
+    vrms = {c.point_id: float(np.sqrt(np.mean(np.asarray(c.samples) ** 2))) for c in vels}
+    notes.append(f"transient excitation (impact or burst): H1 over {n_e} records of {n_per * dt:g} s, one per event "
+                 f"(force window {e.force_end * dt * 1e3:.3g} ms, responses decayed to {e.decay.max():.2g} of their "
+                 "RMS); noise from coherence")
+    return _Estimate(e.freq_hz[sel], h, var, None, None, None, vrms, 0.0, (e.starts, e.force_end))
+
+
+#: FRF estimators of a recording: ``auto`` chooses by the force (:func:`choose_estimator`).
+ESTIMATORS = ("auto", "periodic", "h1", "transient")
+
+
+def choose_estimator(x: np.ndarray, n_per: int, estimator: str, *, periodic: bool, path: str, name: str) -> str:
+    """The estimator of a recording's FRFs: the one asked for, or ``auto``'s choice -- ``periodic`` for a force
+    that repeats from period to period, ``transient`` for an impact or burst force (quiet most of the time,
+    :func:`vlab.measure.impact.is_transient`), else ``h1`` (H1 with a Hann window, random excitation).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        The force [N].
+    n_per : int
+        Samples per period (per record).
+    estimator : {"auto", "periodic", "h1", "transient"}
+    periodic : bool
+        The force repeats from one period to the next (exactly, or within its noise).
+    path, name : str
+        File and force channel (for messages).
+
+    Returns
+    -------
+    str
+        "periodic", "h1" or "transient".
+
+    Raises
+    ------
+    DataFileError
+        An unknown estimator; "periodic" for a force that does not repeat.
+    """
+    from ...measure.impact import is_transient
+
+    if estimator not in ESTIMATORS:
+        raise DataFileError(f"{path}: FRF estimator {estimator!r}: use one of {', '.join(ESTIMATORS)}")
+    if estimator == "periodic" and not periodic:
+        raise DataFileError(f"{path}: channel {name}: the force does not repeat from one period to the next: not a "
+                            "periodic excitation (use the h1 or transient estimator)")
+    if estimator != "auto":
+        return estimator
+    return "periodic" if periodic else "transient" if is_transient(x) else "h1"
+
+
 def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, path: str,
-                        resolution_hz: float, band_hz: tuple[float, float], settle_s: float = 0.0) -> FrfData:
+                        resolution_hz: float, band_hz: tuple[float, float], settle_s: float = 0.0,
+                        estimator: str = "auto") -> FrfData:
     """FRFs, their noise, force spectrum and velocity RMS from a recording.
 
     Parameters
@@ -338,6 +406,8 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
         Time for the transient to decay [s]; whole periods covering it are
         dropped (at least one), keeping two periods for the noise estimate
         when the record allows.
+    estimator : {"auto", "periodic", "h1", "transient"}
+        How the FRFs are estimated (:func:`choose_estimator`).
 
     Returns
     -------
@@ -361,14 +431,18 @@ def frfs_from_recording(rec: Recording, spec: StructureSpec, fe: FEModel, *, pat
     n_per = int(round(1.0 / (resolution_hz * dt)))
     notes = []
     outs = tuple(c.point_id for c in vels)
-    if not _is_periodic(x, n_per) and x.size >= 2 * n_per:
-        check_force_repeats(path, fch.name, x[:2 * n_per].reshape(2, n_per), 0, nearly_only=True)
-    if _is_periodic(x, n_per):
+    periodic = _is_periodic(x, n_per)
+    how = choose_estimator(x, n_per, estimator, periodic=periodic, path=path, name=fch.name)
+    if how == "periodic":
         e = _periodic_frfs(path, fch, vels, dt, n_per, band_hz, resolution_hz, settle_s, notes)
+    elif how == "transient":
+        e = _transient_frfs(path, fch, vels, dt, n_per, band_hz, resolution_hz, notes)
     else:
+        if x.size >= 2 * n_per:
+            check_force_repeats(path, fch.name, x[:2 * n_per].reshape(2, n_per), 0, nearly_only=True)
         e = _h1_frfs(path, fch, vels, dt, n_per, band_hz, resolution_hz, notes)
     return FrfData(path, "recording", e.freq, e.h, e.var, fch.point_id, outs, e.force_amp, e.vrms, rec, e.t0, notes,
-                   periodic=e.force_amp is not None, var_dof=e.var_dof, var_steady=e.var_steady)
+                   periodic=e.force_amp is not None, var_dof=e.var_dof, var_steady=e.var_steady, records=e.records)
 
 
 # ----------------------------------------------------------------------------- FRF files

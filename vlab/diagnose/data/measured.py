@@ -78,6 +78,10 @@ class FrfData:
     same_transient : bool
         This FrfData is a reference replayed from rest through the recording's own periods: it carries the
         recording's transient, which then cancels in :func:`refer_to_model`.
+    records : (tuple of int, int) or None
+        A transient excitation's records (their first samples on the recording's clock) and the samples the
+        force window keeps (:func:`vlab.measure.impact.transient_h1`), so that a simulation of the test is
+        analysed over the same records; None for other excitations.
     """
 
     source: str
@@ -100,6 +104,7 @@ class FrfData:
     var_dof: float | None = None
     var_steady: np.ndarray | None = None
     same_transient: bool = False
+    records: tuple | None = None
 
     @property
     def sigma_rel(self) -> np.ndarray:

@@ -78,7 +78,8 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
 
 
 def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
-              resolution_hz: float | None, band_hz, settle_of, period_s: float | None = None):
+              resolution_hz: float | None, band_hz, settle_of, period_s: float | None = None,
+              estimator: str = "auto"):
     """Turn what was read into FrfData or ModalData (see :mod:`vlab.diagnose.data.measured`).
 
     Parameters
@@ -100,11 +101,13 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
     period_s : float, optional
         The controller period [s] an acquisition system's recording is brought to
         (:func:`vlab.diagnose.data.acquired.frfs_from_acquired`; default the thesis's 0.5 ms).
+    estimator : {"auto", "periodic", "h1", "transient"}
+        How a recording's FRFs are estimated (:func:`vlab.diagnose.data.frfestimate.choose_estimator`).
 
     Raises
     ------
     DataFileError, MeasurementError
-        From :mod:`vlab.diagnose.data.frfestimate`; a recording of another structure.
+        From :mod:`vlab.diagnose.data.frfestimate`; a recording of another structure; an unknown estimator.
     """
     if what == "modal":
         return obj
@@ -118,7 +121,7 @@ def read_data(spec: StructureSpec, fe: FEModel, path: Path, what: str, obj, *,
         res = float(resolution_hz or meta.get("resolution_hz") or test_definition(spec).resolution_hz)
         if not is_lab_recording(obj):
             return frfs_from_acquired(obj, spec, fe, path=str(path), period_s=period_s, resolution_hz=res,
-                                      band_hz=band_hz, settle_s=settle_of())
+                                      band_hz=band_hz, settle_s=settle_of(), estimator=estimator)
         return frfs_from_recording(obj, spec, fe, path=str(path), resolution_hz=res, band_hz=band_hz,
-                                   settle_s=settle_of())
+                                   settle_s=settle_of(), estimator=estimator)
     return frfs_from_uff(obj, spec, fe, path=str(path), band_hz=band_hz)

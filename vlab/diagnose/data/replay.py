@@ -225,10 +225,19 @@ def _offset(rec: Recording, data: FrfData) -> tuple[int, int]:
 def frf_of(rec: Recording, data: FrfData) -> np.ndarray:
     """FRFs of the rerun ``rec`` on the lines of ``data``, the same periods analysed, shape (n_f, n_o); periodic
     excitation over two or more periods: the transient removed as for the recording
-    (:func:`vlab.measure.transient.periodic_spectra`)."""
+    (:func:`vlab.measure.transient.periodic_spectra`); a transient excitation over the recording's records with
+    its force window (:func:`vlab.measure.impact.transient_h1`)."""
     dt = rec.dt_s
     f0 = data.freq_hz
     df = float(np.min(np.diff(f0)))  # the lines are multiples of the resolution
+    if data.records is not None:  # a transient excitation: the recording's records and force window
+        from ...measure.impact import transient_h1
+
+        x = np.asarray(rec[f"force{data.excitation_point}"])
+        ys = np.stack([np.asarray(rec[f"vel{p}"]) for p in data.output_points], axis=1)
+        e = transient_h1(x, ys, dt_s=dt, resolution_hz=df, records=data.records)
+        k = np.rint(f0 / df).astype(int)
+        return e.h[k]
     if not data.periodic:
         x = np.asarray(rec[f"force{data.excitation_point}"])
         out = np.empty((f0.size, len(data.output_points)), dtype=complex)
