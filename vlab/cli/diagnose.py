@@ -32,8 +32,9 @@ def diagnose(
     recording: str = opt(..., "--recording",
                          help="the recording: UFF 58 time histories (as `vlab experiment` writes, or from an "
                               "acquisition system: any motion quantity, unit and rate), CSV time histories "
-                              "(header 'time [s]', then '<node><+|-><X|Y|Z> <quantity> [<unit>]'), UFF 58 FRFs, "
-                              "or a CSV modal table"),
+                              "(header 'time [s]', then '<node><+|-><X|Y|Z> <quantity> [<unit>]'), HDF5 time "
+                              "histories (.h5/.hdf5: a dataset per channel with attributes node, direction, "
+                              "quantity, unit; needs pip install \"vlab[hdf5]\"), UFF 58 FRFs, or a CSV modal table"),
     test: str = opt(None, "--test", metavar="<test.toml>",
                     help="the test that made the recording (written by `vlab init test`): structure, controller, "
                          "hardware chain, excitation point and period, sensors, node map -- what a recording "
