@@ -77,17 +77,68 @@ def is_time_csv(path: str | os.PathLike) -> bool:
     return False
 
 
-def parse_column(p: Path, k: int, text: str) -> tuple[int, int, str, float, str]:
-    """One channel column's header: ``<node><sign><axis> <quantity> [<unit>]``.
+def direction_code(sign: str, axis: str) -> int:
+    """The UFF direction code of ``sign`` (``"+"``, ``"-"`` or ``""`` for +) and ``axis`` (X, Y or Z, any case).
+
+    Returns
+    -------
+    int
+        +-1, +-2, +-3 (3 = +Z, out of the structure's plane).
+
+    Raises
+    ------
+    KeyError
+        An axis other than X, Y, Z.
+
+    Source: UFF dataset 58, record 6 (direction codes).
+    """
+    return _AXES[axis.upper()] * (-1 if sign == "-" else 1)
+
+
+def unit_to_si(p: Path, where: str, quantity: str, unit) -> float:
+    """The factor that turns ``quantity`` in the unit labelled ``unit`` into SI.
 
     Parameters
     ----------
     p : Path
         The file (for messages).
-    k : int
-        Column number (1-based).
+    where : str
+        Where the label is written, for messages (``"column 3 header '6+Z acceleration [g]'"``).
+    quantity : {"force", "displacement", "velocity", "acceleration"}
+    unit : str
+        The label as written (:mod:`vlab.io.quantity_units`).
+
+    Returns
+    -------
+    float
+        SI value = value x factor.
+
+    Raises
+    ------
+    DataFileError
+        A missing (empty or ``none``) or unknown unit; the message names the file, ``where`` and the labels
+        read for ``quantity``.
+    """
+    if normalise_label(unit) in NO_UNIT:
+        raise DataFileError(f"{p}: {where}: no unit; write one of {', '.join(known_labels(quantity))}")
+    try:
+        return float(unit_factor(quantity, unit))
+    except KeyError:
+        raise DataFileError(f"{p}: {where}: unit {str(unit).strip()!r} is not a unit of {quantity} vlab reads "
+                            f"(known: {', '.join(known_labels(quantity))})") from None
+
+
+def parse_channel_label(p: Path, where: str, text: str) -> tuple[int, int, str, float, str]:
+    """A channel's label ``<node><sign><axis> <quantity> [<unit>]`` (a CSV header cell, an HDF5 dataset's name).
+
+    Parameters
+    ----------
+    p : Path
+        The file (for messages).
+    where : str
+        What carries the label, for messages (``"column 3 header"``, ``"dataset '/9+Z force [N]': name"``).
     text : str
-        The header cell.
+        The label.
 
     Returns
     -------
@@ -98,28 +149,42 @@ def parse_column(p: Path, k: int, text: str) -> tuple[int, int, str, float, str]
     Raises
     ------
     DataFileError
-        A header that does not follow the pattern, a node below 1, a missing or
-        unknown unit (names the file, column and text).
+        A label that does not follow the pattern, a node below 1, a missing or
+        unknown unit (names the file, ``where`` and the text).
     """
     m = _COLUMN_RE.match(text)
     if m is None:
-        raise DataFileError(f"{p}: column {k} header {text.strip()!r} is not '<node><+|-><X|Y|Z> <quantity> "
+        raise DataFileError(f"{p}: {where} {text.strip()!r} is not '<node><+|-><X|Y|Z> <quantity> "
                             "[<unit>]' (e.g. '6+Z acceleration [m/s^2]'; quantity: force, displacement, velocity, "
                             "acceleration)")
     node = int(m.group(1))
     if node < 1:
-        raise DataFileError(f"{p}: column {k} header {text.strip()!r}: node {node} is not a point id")
-    direction = _AXES[m.group(3).upper()] * (-1 if m.group(2) == "-" else 1)
+        raise DataFileError(f"{p}: {where} {text.strip()!r}: node {node} is not a point id")
+    direction = direction_code(m.group(2), m.group(3))
     quantity, unit = m.group(4).lower(), m.group(5).strip()
-    if normalise_label(unit) in NO_UNIT:
-        raise DataFileError(f"{p}: column {k} header {text.strip()!r}: no unit; write one of "
-                            f"{', '.join(known_labels(quantity))}")
-    try:
-        factor = unit_factor(quantity, unit)
-    except KeyError:
-        raise DataFileError(f"{p}: column {k} header {text.strip()!r}: unit {unit!r} is not a unit of {quantity} "
-                            f"vlab reads (known: {', '.join(known_labels(quantity))})") from None
-    return node, direction, quantity, float(factor), unit
+    factor = unit_to_si(p, f"{where} {text.strip()!r}", quantity, unit)
+    return node, direction, quantity, factor, unit
+
+
+def parse_column(p: Path, k: int, text: str) -> tuple[int, int, str, float, str]:
+    """One CSV channel column's header: :func:`parse_channel_label` of column ``k`` (1-based).
+
+    Parameters
+    ----------
+    p, k, text : Path, int, str
+        The file (for messages), the column number (1-based) and its header cell.
+
+    Returns
+    -------
+    (node, direction, quantity, factor, unit)
+        As :func:`parse_channel_label`.
+
+    Raises
+    ------
+    DataFileError
+        As :func:`parse_channel_label`, naming the file and column.
+    """
+    return parse_channel_label(p, f"column {k} header", text)
 
 
 def _split(p: Path) -> tuple[int, list[str], list[str], list[int]]:
@@ -174,21 +239,46 @@ def _numbers(p: Path, rows: list[str], numbers: list[int], width: int) -> np.nda
     return data
 
 
-def _time_step(p: Path, t: np.ndarray, numbers: list[int]) -> float:
-    """The step of an evenly spaced time column [s]; DataFileError naming the first line off the grid.
+def even_time_step(p: Path, t: np.ndarray, where: str, at) -> float:
+    """The step of evenly spaced time instants [s], checked against the common grid.
 
     The step is the least-squares slope of the instants against their index; the rate ``1 / step`` is taken
     as the nearest whole number of samples per second where it lies within three standard errors of the
     slope (acquisition systems sample at whole rates; printed instants carry round-off), else as fitted.
+    Each instant must lie within :data:`TIME_JITTER` of a step of the grid ``t[0] + k step``.
+
+    Parameters
+    ----------
+    p : Path
+        The file (for messages).
+    t : ndarray, shape (n_samples,)
+        The instants [s], finite.
+    where : str
+        What holds them, for messages (``"time column"``, ``"dataset '/time'"``).
+    at : callable
+        ``at(j) -> str``: where instant ``j`` is written (``"line 12"``, ``"index 11"``).
+
+    Returns
+    -------
+    float
+        The step [s].
+
+    Raises
+    ------
+    DataFileError
+        Fewer than :data:`vlab.io.uff_time.MIN_SAMPLES` instants, a step that is not positive, or an instant
+        off the grid (names the file, ``where`` and the first instant off it).
+
+    Source: least-squares line through (k, t_k); standard error of its slope (e.g. Montgomery & Runger,
+    *Applied Statistics and Probability for Engineers*, Sec. 11-4).
     """
     n = t.size
     if n < MIN_SAMPLES:
-        raise DataFileError(f"{p}: {n} sample(s); a record needs at least {MIN_SAMPLES}")
+        raise DataFileError(f"{p}: {where}: {n} sample(s); a record needs at least {MIN_SAMPLES}")
     k = np.arange(n, dtype=float)
     slope, start = np.polyfit(k, t, 1)
     if not slope > 0:
-        raise DataFileError(f"{p}: time column: the step {float(slope)!r} s is not positive (line {numbers[0]} to "
-                            f"{numbers[-1]})")
+        raise DataFileError(f"{p}: {where}: the step {float(slope)!r} s is not positive ({at(0)} to {at(n - 1)})")
     resid = t - (start + slope * k)
     se = float(np.sqrt(np.sum(resid ** 2) / max(n - 2, 1) * 12.0 / (n * (n * n - 1.0))))
     rate, whole = 1.0 / slope, round(1.0 / slope)
@@ -196,7 +286,7 @@ def _time_step(p: Path, t: np.ndarray, numbers: list[int]) -> float:
     off = np.abs(t - (t[0] + dt * k)) / dt
     j = int(np.argmax(off))
     if off[j] > TIME_JITTER:
-        raise DataFileError(f"{p}: line {numbers[j]}: time {float(t[j])!r} s is {off[j]:.3g} steps off the evenly "
+        raise DataFileError(f"{p}: {where}, {at(j)}: time {float(t[j])!r} s is {off[j]:.3g} steps off the evenly "
                             f"spaced grid of step {dt:.6g} s (limit {TIME_JITTER:g}): unevenly sampled")
     return dt
 
@@ -233,7 +323,7 @@ def read_time_csv(path: str | os.PathLike, *, allow_clipped: bool = False,
     p = Path(path)
     _head, cells, rows, numbers = _split(p)
     data = _numbers(p, rows, numbers, len(cells))
-    dt = _time_step(p, data[:, 0], numbers)
+    dt = even_time_step(p, data[:, 0], "time column", lambda j: f"line {numbers[j]}")
     channels, labels, units, seen = [], {}, {}, {}
     for k, text in enumerate(cells[1:], start=2):
         node, direction, quantity, factor, unit = parse_column(p, k, text)
@@ -254,4 +344,5 @@ def read_time_csv(path: str | os.PathLike, *, allow_clipped: bool = False,
         raise DataFileError(f"{p}: {exc}") from exc
 
 
-__all__ = ["read_time_csv", "is_time_csv", "parse_column", "TIME_JITTER", "TIME_HEADER"]
+__all__ = ["read_time_csv", "is_time_csv", "parse_column", "parse_channel_label", "unit_to_si", "direction_code",
+           "even_time_step", "TIME_JITTER", "TIME_HEADER"]

@@ -1,7 +1,8 @@
 """Reading a diagnosis's measured data: which kind a file holds, and what it becomes.
 
 A ``.csv`` file is a modal table (:mod:`vlab.diagnose.data.modalcsv`) unless its header begins with
-``time [s]``: then it holds time histories (:mod:`vlab.io.csv_time`). Any other file is read as UFF, first
+``time [s]``: then it holds time histories (:mod:`vlab.io.csv_time`). A ``.h5`` or ``.hdf5`` file holds time
+histories in HDF5 (:mod:`vlab.io.hdf5_time`, the channels at the file's root). Any other file is read as UFF, first
 as time histories (a recording, dataset 58 function type 1), else as FRFs (function type 4). A UFF
 recording with vlab's JSON sidecar is read as vlab writes it (:func:`vlab.io.uff.read_recording`: SI only);
 one without, as an acquisition system writes it (:func:`vlab.io.uff_acquired.read_acquired_uff`: units from
@@ -24,8 +25,8 @@ from .frfestimate import frfs_from_recording, frfs_from_uff
 
 
 def detect_kind(path: str | Path) -> str:
-    """``"modal"`` for a .csv modal table at ``path``, else ``"uff"``: time histories (UFF or CSV) or FRFs,
-    decided on reading (:func:`read_uff_any`).
+    """``"modal"`` for a .csv modal table at ``path``, else ``"uff"``: time histories (UFF, CSV or HDF5) or
+    FRFs, decided on reading (:func:`read_uff_any`).
 
     Raises
     ------
@@ -41,7 +42,11 @@ def detect_kind(path: str | Path) -> str:
 
 
 def read_uff_any(path: str | Path) -> tuple[str, object]:
-    """Read the file at ``path`` as a recording (UFF function type 1, or CSV time histories) or FRFs (type 4).
+    """Read the file at ``path`` as a recording (UFF function type 1, CSV or HDF5 time histories) or FRFs
+    (UFF function type 4).
+
+    A ``.h5``/``.hdf5`` file is read by :func:`vlab.io.hdf5_time.read_time_hdf5` (its root group), a CSV
+    whose header begins ``time [s]`` by :func:`vlab.io.csv_time.read_time_csv`, any other file as UFF.
 
     Returns
     -------
@@ -51,13 +56,16 @@ def read_uff_any(path: str | Path) -> tuple[str, object]:
     ------
     DataFileError
         Malformed, truncated or unsupported file (from :mod:`vlab.io.uff`,
-        :mod:`vlab.io.uff_acquired`, :mod:`vlab.io.csv_time`), or one holding
-        neither kind. Names the file and channel.
+        :mod:`vlab.io.uff_acquired`, :mod:`vlab.io.csv_time`, :mod:`vlab.io.hdf5_time`: h5py missing
+        included), or one holding neither kind. Names the file and channel.
     """
     from ...io.csv_time import is_time_csv, read_time_csv
+    from ...io.hdf5_time import is_hdf5_path, read_time_hdf5
     from ...io.uff import read_frfs, read_recording, sidecar_path
     from ...io.uff_acquired import read_acquired_uff
 
+    if is_hdf5_path(path):
+        return "recording", read_time_hdf5(path)
     if is_time_csv(path):
         return "recording", read_time_csv(path)
     reader = read_recording if sidecar_path(path).is_file() else read_acquired_uff
