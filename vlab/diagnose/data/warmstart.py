@@ -252,14 +252,10 @@ def recorded_window(data: FrfData, dt_s: float, periods: int | None = RERUN_PERI
 
     Parameters
     ----------
-    data : FrfData
-        With a recording.
-    dt_s : float
-        Controller period [s].
+    data, dt_s, guard_s
+        As in :func:`start_tick`.
     periods : int or None
         Analysed periods to rerun (None: to the end of the record).
-    guard_s : float, optional
-        As :func:`guard_ticks`.
 
     Returns
     -------
