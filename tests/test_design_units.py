@@ -137,9 +137,12 @@ def test_mfdrf_gamma_in_both_units_and_gain_in_n_s_per_m():
 # keys of numbers that are dimensionless (ratios, counts, indices) or carry their unit as a suffix
 _DIMENSIONLESS = {"damping_ratios", "reduced_model_damping_ratios", "spillover_destabilised_modes",
                   "spillover_lowered_modes", "seed", "mode", "damping_predicted", "damping_measured",
-                  "peak_level_ratio", "avg_peak_error"}
+                  "peak_level_ratio", "avg_peak_error",
+                  # identified mode shapes: ratios, correlations and indices
+                  "damping_ratio", "damping_ratio_identified", "damping_ratio_model", "identified_mode", "model_mode",
+                  "mac", "mac_matrix", "mpc", "point_ids", "reference_point", "shape_normalised"}
 _UNIT_SUFFIX = re.compile(r"_(hz|s|per_s|n_s_per_m|lb_s_per_in|n_per_si_state|lbf_per_thesis_state|thesis_units|"
-                          r"periods|n|m_s|m_per_n|m_s_per_n|n_per_n|"
+                          r"periods|n|m_s|m_per_n|m_s_per_n|n_per_n|pct|per_sqrt_kg|"
                           # the SI weights of the design (vlab design --json: weights.si)
                           r"per_m2|s2_per_m2|per_rad2|s2_per_rad2|per_n2|m2_per_s|m2_per_s3|rad2_per_s|rad2_per_s3)$")
 
