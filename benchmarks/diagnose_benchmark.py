@@ -129,6 +129,14 @@ prediction by several per cent) -- the grid's calibration residual is a
 model-form error of its own, which EI and mass factors reach only as such
 large scatter.
 
+Tier 3 (``--tier 3``, :mod:`diagnose_tier3`): the recordings come from the independent reference
+simulator (``benchmarks/reference_sim``, which shares no code with vlab), written as an acquisition system
+writes them (5 kHz accelerations at points 1-9 through an anti-alias filter, 16 bit, noise, UFF 58 without
+a sidecar), and are diagnosed by ``vlab diagnose`` with the options a user without a sidecar gives; BCC only
+(the simulator has no grid); effects of the kinds the simulator conceals at 2-5x vlab's detection threshold
+for the loop used, every second case a null case (half of those closed loop); scored as tiers 1 and 2, with
+the passengers (effects selected beside the true one) counted.
+
 What it does not measure: real hardware.
 
 Usage::
@@ -138,6 +146,7 @@ Usage::
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline --keep DIR
     python benchmarks/diagnose_benchmark.py --kept DIR [--only 2 5] [--json out.json]
     python benchmarks/diagnose_benchmark.py --tier 2 --structures bcc --cases 12 --seed 7100
+    python benchmarks/diagnose_benchmark.py --tier 3 --cases 24 --seed S [--jobs 2] [--keep-recordings DIR]
 
 ``--keep DIR`` only generates: the recordings (and baselines) and each case's
 truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``;
@@ -920,11 +929,12 @@ def _same_location(a: dict, b: dict) -> bool:
 
 
 def score(case: dict) -> dict:
-    """Right effect and location, parameter errors, misfit ratios of one case."""
+    """Right effect and location, parameter errors, misfit ratios of one case; ``passengers``: the effects
+    selected beside the true ones found (0 where none was found)."""
     d = case["result"]
     truths = case["truth"]
     out = {"right": False, "lookalike": False, "false_alarm": False, "param_errors": [], "misfit_ratio": None, "time_ratio": None,
-           "noise_ratio": None, "refit_errors": []}
+           "noise_ratio": None, "refit_errors": [], "passengers": 0}
     if d is None:
         return out
     sel = d["selected"]
@@ -938,6 +948,9 @@ def score(case: dict) -> dict:
                    None)
         matched.append(hit)
     out["right"] = all(h is not None for h in matched) and len(sel) == len(truths)
+    # a passenger: an effect selected beside a true one found (an effect selected instead is just wrong)
+    found = [h for h in matched if h is not None]
+    out["passengers"] = len(sel) - len(found) if found else 0
     # the selection reported with look-alikes the data cannot tell from it (dBIC < 10): is the truth one?
     # (a pair's look-alikes are pairs, "a + b", matched in either order)
     looks = {frozenset(p.replace(" ", "") for p in a.split(" + ")) for a in d.get("alternatives", [])}
@@ -978,11 +991,15 @@ def _line(r: dict, s: dict) -> str:
         got = " + ".join(_label(x) for x in d["selected"]) or "mismatch, unexplained"
     truth = " + ".join(_label(t) for t in r["truth"]) or "none"
     tier2 = ""
-    if r.get("tier", 1) == 2:
+    if r.get("tier", 1) >= 2:
         ratios = ", ".join("n/a" if t.get("threshold_ratio") is None else f"{t['threshold_ratio']:.3g}x"
                            for t in r["truth"])
-        shift = max(abs(x) for x in r["perturbation"]["frequency_shift_fe"])
-        tier2 = (f" [threshold {ratios}; " if ratios else " [") + f"model-form shift up to {100 * shift:.2g} %]"
+        tier2 = f" [threshold {ratios}" if ratios else ""
+        if "perturbation" in r:  # tier 2
+            shift = max(abs(x) for x in r["perturbation"]["frequency_shift_fe"])
+            tier2 = (f"{tier2}; " if ratios else " [") + f"model-form shift up to {100 * shift:.2g} %]"
+        elif ratios:
+            tier2 += "]"
     return (f"case {r['index']:3d} {r['structure']:4s} {r['controller']:5s} truth {truth} -> {got}: "
             f"{'OK' if s['right'] else 'WRONG (the right one among its look-alikes)' if s['lookalike'] else 'WRONG'}"
             f" ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)" + tier2
@@ -997,9 +1014,11 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", type=float, default=0.01, help="measurement noise, fraction of each channel's RMS")
     ap.add_argument("--json", type=str, default=None, help="write all cases and scores to this file")
     ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case indices")
-    ap.add_argument("--tier", type=int, choices=(1, 2), default=1,
+    ap.add_argument("--tier", type=int, choices=(1, 2, 3), default=1,
                     help="1: recordings from the plant the diagnosis uses; 2: from the converged MuJoCo plant "
-                         "of a spec perturbed within its model-form uncertainty (module notes)")
+                         "of a spec perturbed within its model-form uncertainty (module notes); 3: from the "
+                         "independent reference simulator in lab mode (5 kHz accelerations, 16 bit, no sidecar; "
+                         "BCC only: the simulator has no grid; benchmarks/diagnose_tier3.py)")
     ap.add_argument("--plant", choices=("linear", "mujoco"), default=None,
                     help="plant that records the cases and reruns the validation (default linear; tier 2: mujoco)")
     ap.add_argument("--structures", nargs="+", choices=("bcc", "grid"), default=["bcc", "grid"])
@@ -1014,9 +1033,21 @@ def main(argv=None) -> int:
                     help="only generate: write the recordings and each case's truth (case<i>.json) to this folder")
     ap.add_argument("--kept", type=str, default=None,
                     help="diagnose and score the cases --keep left in this folder (all, or those of --only)")
+    ap.add_argument("--keep-recordings", type=str, default=None,
+                    help="--tier 3: keep each case's recording, truth and diagnosis in this folder")
     args = ap.parse_args(argv)
     if args.kept:
         return _run_kept(args)
+    if args.tier == 3:
+        if args.structures != ["bcc"] and "--structures" in (argv if argv is not None else sys.argv):
+            ap.error("--tier 3 records with the reference simulator, which models the BCC only: --structures bcc")
+        from diagnose_tier3 import NULL_EVERY, run_tier3
+
+        args.null_every = NULL_EVERY if args.null_every is None else args.null_every
+        if not 1 <= args.null_every <= 3:
+            ap.error(f"--tier 3 needs at least a third of null cases: --null-every 1, 2 or 3, got {args.null_every}")
+        results, wall = run_tier3(args.cases, args.seed, args.null_every, args.only, args.jobs, args.keep_recordings)
+        return _summarise(results, wall, args.json)
     if args.tier == 2:
         if args.plant == "linear":
             ap.error("--tier 2 records on the converged MuJoCo plant and diagnoses with the default one: "
@@ -1119,6 +1150,8 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
         "misfit_5x_or_noise_share": float(np.mean(at_noise)) if at_noise else None,
         "time_error_ratio_median": float(np.median(tr)) if tr else None,
         "false_alarms": sum(s["false_alarm"] for s in no_eff),
+        "passengers": sum(s.get("passengers", 0) for s in with_eff),
+        "right_param20_count": sum(s["right"] and all(e <= 0.20 for e in s["param_errors"]) for s in with_eff),
         "hidden_effect_cases": [r["index"] for r in results if r.get("hidden")],
         "diagnose_time_s_median": float(np.median(td)), "diagnose_time_s_max": float(np.max(td)),
         "case_time_s_max": float(np.max(np.array(td) + np.array(tg))),
@@ -1157,13 +1190,18 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     # one line: what issue 24 item 2 asks of each tier
     pe = (f"median {100 * summary['param_error_median']:.2f} %, max {100 * summary['param_error_max']:.1f} %, "
           f"within 20 %: {100 * summary['param_within_20pct_share']:.0f} %" if perr else "none")
-    thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their detect-and-name threshold"
-           if tier == 2 and ratios else "")
+    thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their "
+           f"{'detect-and-name' if tier == 2 else 'detection'} threshold" if tier >= 2 and ratios else "")
     print(f"tier {tier}: right effect and location {summary['right_count']}/{summary['with_effect']} effect cases"
           f"{thr}; false alarms {summary['false_alarms']}/{summary['no_effect']} null cases; parameter error {pe}; "
           f"time per case median {np.median(np.array(td) + np.array(tg)):.0f} s (diagnosis "
           f"{summary['diagnose_time_s_median']:.0f} s)"
           + ("   (targets: >= 85 % right, 0 false alarms, parameters within 20 %)" if tier == 2 else ""))
+    if tier == 3:
+        print(f"tier 3: right effect and place with the parameter within 20 %: {summary['right_param20_count']}/"
+              f"{summary['with_effect']} ({100 * summary['right_param20_count'] / max(summary['with_effect'], 1):.0f} "
+              f"%; target >= 90 %); passengers {summary['passengers']} (target 0); false alarms "
+              f"{summary['false_alarms']}/{summary['no_effect']} (target 0)")
     if json_path:
         with open(json_path, "w") as fh:
             json.dump({"summary": summary, "cases": results, "scores": scores}, fh, indent=1, default=str)

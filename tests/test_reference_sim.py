@@ -240,3 +240,20 @@ def test_tier3_scoring():
     rng = np.random.default_rng(0)
     drawn = [draw_effect(rng, 26.0, 5e-4) for _ in range(40)]
     assert any(e is None for e, _ in drawn) and any(e is not None for e, _ in drawn)
+
+
+def test_the_excitation_channel_gain_scales_the_excitation(params):
+    """The excitation enters at the amplifier input (Sec. 5.3): the gain of the coil at the excitation
+    point scales it as it scales that coil's control force; the other coils' gains do not."""
+    model = assemble(params, elements_per_segment=1, arm_elements=1)
+    c = modal_damping_matrix(model, params.damping_ratios, params.default_damping_ratio)
+    out = [(6, "vel")]
+    ref = build_plant(model, c, params.actuators, params.excitation, out)
+    k = list(params.actuators).index(params.excitation)
+    gains = [1.0] * len(params.actuators)
+    gains[k] = 0.8
+    at_exc = build_plant(model, c, params.actuators, params.excitation, out, amp_gains=gains)
+    np.testing.assert_allclose(at_exc.b[:, -1], 0.8 * ref.b[:, -1])
+    other = [0.8 if i != k else 1.0 for i in range(len(params.actuators))]
+    np.testing.assert_allclose(build_plant(model, c, params.actuators, params.excitation, out,
+                                           amp_gains=other).b[:, -1], ref.b[:, -1])

@@ -93,7 +93,8 @@ def build_plant(model: FEModel, c_damp: np.ndarray, actuators, excitation: int,
     rc_corner_hz : float
         RC-filter corner [Hz] (Sec. 5.3: 677 Hz); ``inf`` = no filter.
     amp_gains : sequence of float, optional
-        Amplifier gain of each actuator channel [N/N] (default 1).
+        Amplifier gain of each actuator channel [N/N] (default 1). The excitation enters at the
+        amplifier input (Sec. 5.3): where its point is an actuator's, that channel's gain scales it too.
 
     Returns
     -------
@@ -122,7 +123,8 @@ def build_plant(model: FEModel, c_damp: np.ndarray, actuators, excitation: int,
     a[n:2 * n, 2 * n:] = bq[:, :n_act] * gains
     a[n:2 * n, n:2 * n] = -cm
     b = np.zeros((2 * n + n_act, n_act + 1))
-    b[n:2 * n, n_act] = bq[:, n_act]
+    acts = list(actuators)
+    b[n:2 * n, n_act] = bq[:, n_act] * (gains[acts.index(excitation)] if excitation in acts else 1.0)
     if np.isfinite(wc):
         a[2 * n:, 2 * n:] = -wc * np.eye(n_act)
         b[2 * n:, :n_act] = wc * np.eye(n_act)
