@@ -34,7 +34,7 @@ from vlab.io.manifest import write_manifest
 
 ROOT = Path(__file__).resolve().parents[1]
 NEW_FILES = {"recording.uff", "recording.uff.json", "frf.uff", "frf.uff.json", "results.json", "report.md", "frf.png",
-             "run.rrd", "vlab-manifest.json"}
+             "run.rrd", "shapes.csv", "shapes.png", "vlab-manifest.json"}
 ARGS = ["experiment", "bcc", "--plant", "linear", "--controller", "none", "--duration", "40", "--overwrite"]
 
 DRIVER = """
