@@ -176,7 +176,7 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
                 notes.append(f"the replay plant's modes are not available ({exc}): the model form perturbs the FE "
                              "model's modes")
     if ref_modes is None:
-        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if reference_plant else "fe")
+        mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if reference_plant == "mujoco" else "fe")
         shape_rel = None
     else:
         f_ref = ref_modes.omega / (2 * np.pi)
