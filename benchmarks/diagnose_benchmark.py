@@ -146,7 +146,7 @@ Usage::
     python benchmarks/diagnose_benchmark.py --cases 24 --plant mujoco --structures bcc --baseline --keep DIR
     python benchmarks/diagnose_benchmark.py --kept DIR [--only 2 5] [--json out.json]
     python benchmarks/diagnose_benchmark.py --tier 2 --structures bcc --cases 12 --seed 7100
-    python benchmarks/diagnose_benchmark.py --tier 3 --cases 24 --seed S [--jobs 2] [--keep-recordings DIR]
+    python benchmarks/diagnose_benchmark.py --tier 3 --cases 24 --seed S [--jobs 2] [--keep-recordings DIR] [--baseline]
 
 ``--keep DIR`` only generates: the recordings (and baselines) and each case's
 truth (``case<i>.json``) are left in DIR, to diagnose with ``vlab diagnose``;
@@ -1028,7 +1028,8 @@ def main(argv=None) -> int:
     ap.add_argument("--closed-nulls", action="store_true",
                     help="record every null case in closed loop (MFDRF and LQDRF in turn)")
     ap.add_argument("--baseline", action="store_true",
-                    help="also record the unmodified plant and pass it to the diagnosis as its baseline")
+                    help="also record the unmodified plant and pass it to the diagnosis as its baseline (tier 3: "
+                         "another excitation realisation and noise)")
     ap.add_argument("--keep", type=str, default=None,
                     help="only generate: write the recordings and each case's truth (case<i>.json) to this folder")
     ap.add_argument("--kept", type=str, default=None,
@@ -1046,7 +1047,8 @@ def main(argv=None) -> int:
         args.null_every = NULL_EVERY if args.null_every is None else args.null_every
         if not 1 <= args.null_every <= 3:
             ap.error(f"--tier 3 needs at least a third of null cases: --null-every 1, 2 or 3, got {args.null_every}")
-        results, wall = run_tier3(args.cases, args.seed, args.null_every, args.only, args.jobs, args.keep_recordings)
+        results, wall = run_tier3(args.cases, args.seed, args.null_every, args.only, args.jobs, args.keep_recordings,
+                                  args.baseline)
         return _summarise(results, wall, args.json)
     if args.tier == 2:
         if args.plant == "linear":

@@ -223,10 +223,12 @@ def _vlab() -> str:
     return shutil.which("vlab") or "vlab"
 
 
-def diagnose_command(recording: Path, controller: str, out: Path) -> list:
-    """The ``vlab diagnose`` command of a user with the recording and no sidecar (module notes)."""
+def diagnose_command(recording: Path, controller: str, out: Path, baseline: Path | None = None) -> list:
+    """The ``vlab diagnose`` command of a user with the recording and no sidecar (module notes); with a
+    ``baseline`` recording of the structure before the change, that too (``--baseline``)."""
     return [_vlab(), "diagnose", "--structure", "bcc", "--recording", str(recording), "--controller", controller,
-            "--resolution", f"{RESOLUTION_HZ:g}", "--out", str(out), "--overwrite", "--quiet"]
+            "--resolution", f"{RESOLUTION_HZ:g}", "--out", str(out), "--overwrite", "--quiet"] + \
+        ([] if baseline is None else ["--baseline", str(baseline)])
 
 
 def record(case: dict, folder: Path) -> Path:
@@ -252,8 +254,12 @@ def record(case: dict, folder: Path) -> Path:
     return folder / "lab.uff"
 
 
-def run_case(case: dict, workdir: str, keep: bool = False) -> dict:
+def run_case(case: dict, workdir: str, keep: bool = False, baseline: bool = False) -> dict:
     """Record one tier-3 case and diagnose it blind with ``vlab diagnose`` (:func:`diagnose_command`).
+
+    With ``baseline``, the structure before the change is recorded too -- the same loop, no concealed effect,
+    another excitation realisation and noise (the simulator's seed + 1), as a lab records its structure
+    before a change -- and given as ``--baseline``.
 
     Returns the case with ``result`` (vlab's ``diagnosis.json``, or None), ``error`` (or None), ``command``
     (the diagnosis's arguments after the program name, the recording's path shortened) and the times
@@ -263,11 +269,14 @@ def run_case(case: dict, workdir: str, keep: bool = False) -> dict:
     rec = {**case, "result": None, "error": None, "time_diagnose_s": 0.0}
     try:
         lab = record(case, folder)
+        base = record({**case, "effects": [], "sim_seed": case["sim_seed"] + 1}, folder / "baseline") \
+            if baseline else None
     except (RuntimeError, OSError, subprocess.CalledProcessError) as exc:
         return {**rec, "error": f"{type(exc).__name__}: {exc}", "time_generate_s": time.perf_counter() - t0}
     rec["time_generate_s"] = time.perf_counter() - t0
-    cmd = diagnose_command(lab, case["controller"], folder / "diagnosis")
-    rec["command"] = " ".join(["vlab"] + [a if a != str(lab) else "lab.uff" for a in cmd[1:]])
+    cmd = diagnose_command(lab, case["controller"], folder / "diagnosis", base)
+    short = {str(lab): "lab.uff", str(base): "baseline/lab.uff"}
+    rec["command"] = " ".join(["vlab"] + [short.get(a, a) for a in cmd[1:]])
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     rec["time_diagnose_s"] = time.perf_counter() - t0
@@ -300,7 +309,7 @@ def case_line(r: dict, s: dict, line: str) -> str:
 
 
 def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, jobs: int = 1,
-              keep: str | None = None) -> tuple[list, float]:
+              keep: str | None = None, baseline: bool = False) -> tuple[list, float]:
     """Draw, record, diagnose and print the cases of tier 3 (one line each, as they finish).
 
     Parameters
@@ -314,6 +323,8 @@ def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, 
     keep : str, optional
         Folder that keeps every case's recording, case file, truth and diagnosis (default: a temporary one,
         recordings deleted).
+    baseline : bool
+        Record the structure before the change for each case and diagnose with it (:func:`run_case`).
 
     Returns
     -------
@@ -329,7 +340,8 @@ def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, 
     with tempfile.TemporaryDirectory(prefix="vlab-tier3-") as tmp:
         work = keep or tmp
         with ProcessPoolExecutor(max(jobs, 1)) as ex:
-            for r in ex.map(run_case, cases, [work] * len(cases), [bool(keep)] * len(cases)):
+            for r in ex.map(run_case, cases, [work] * len(cases), [bool(keep)] * len(cases),
+                            [baseline] * len(cases)):
                 results.append(r)
                 s = score(r)
                 print(case_line(r, s, _line(r, s)), flush=True)
