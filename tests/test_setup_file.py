@@ -132,11 +132,23 @@ def test_channels_checked_against_the_setup(recording, tmp_path):
     ('structure = "bcc"\n[sensors]\nquantity = "strain"\n', "sensors.quantity"),
     ('structure = "bcc"\n[nodes]\n101 = 1\n102 = 1\n', "nodes"),
     ('structure = "bcc"\n[nodes]\nA = 1\n', "nodes.A"),
+    ('structure = "nowhere/my.toml"\n', "structure"),
 ])
 def test_a_wrong_field_is_named(tmp_path, text, field):
     (tmp_path / "t.toml").write_text(text, encoding="utf-8")
     with pytest.raises(SpecError, match=rf"t.toml: field '{field}'"):
         read_setup(tmp_path / "t.toml")
+
+
+def test_a_structure_path_is_written_as_toml_reads_it(tmp_path):
+    """A path with backslashes and quotes survives the round trip through the written file."""
+    from vlab.io.setup_file import setup_text
+
+    (tmp_path / 'my "odd" dir\\').mkdir()
+    target = tmp_path / 'my "odd" dir\\' / "s.toml"
+    target.write_text("", encoding="utf-8")
+    (tmp_path / "t.toml").write_text(setup_text(str(target)), encoding="utf-8")
+    assert read_setup(tmp_path / "t.toml").structure == str(target)
 
 
 def test_unreadable_files_are_named(tmp_path):

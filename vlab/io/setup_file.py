@@ -31,6 +31,7 @@ never ignored).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import tomllib
@@ -99,7 +100,10 @@ def _structure(r: TableReader, path: Path) -> str:
         r.fail("structure", "empty: name a shipped structure (bcc, grid) or a structure file")
     if s.endswith(".toml"):
         p = Path(s).expanduser()
-        return str(p if p.is_absolute() else (path.parent / p))
+        p = p if p.is_absolute() else (path.parent / p)
+        if not p.is_file():
+            r.fail("structure", f"structure file {p} not found (a path is read relative to the test setup's folder)")
+        return str(p)
     return s
 
 
@@ -185,8 +189,8 @@ def read_setup(path: str | os.PathLike) -> RecordingSetup:
     DataFileError
         A missing or unreadable file, or text that is not TOML (names the file and the parser's line).
     SpecError
-        A missing ``structure``, a field of the wrong type or range, an unknown field or table (names the file
-        and the field).
+        A missing ``structure`` (or a structure file that does not exist), a field of the wrong type or range,
+        an unknown field or table (names the file and the field).
     """
     p = Path(path)
     try:
@@ -302,9 +306,9 @@ def apply_setup(rec: Recording, setup: RecordingSetup, source: str) -> tuple[Rec
 
 
 def _value(v: Any) -> str:
-    """A TOML value: a string quoted, a float in full precision."""
+    """A TOML value: a string as a basic string (JSON's escapes are TOML's), a float in full precision."""
     if isinstance(v, str):
-        return f'"{v}"'
+        return json.dumps(v)
     if isinstance(v, float) and math.isfinite(v):
         return repr(v)
     return str(v)
