@@ -161,21 +161,28 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     np.testing.assert_allclose(h, ref, rtol=1e-8)
 
 
-def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path):
+def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path, monkeypatch):
     """``vlab diagnose`` on a recording: the ranked table, the selected effect, the validation misfits and
-    the misfit the noise alone leaves; the report is written to --out."""
+    the misfit the noise alone leaves; the report is written to --out, its FRF overlays on a logarithmic
+    frequency axis with --log-freq."""
     from typer.testing import CliRunner
 
     from vlab.cli import app
+    from vlab.viz import figures
 
+    saved = []
+    orig = figures._save
+    monkeypatch.setattr(figures, "_save", lambda fig, path, dpi: (saved.append((path, fig)), orig(fig, path, dpi))[1])
     truth = nominal.with_spec(specedit.add_mass(nominal.spec, 6, 0.12))
     path = _record(truth, tmp_path / "rec.uff")
     res = CliRunner().invoke(app, ["diagnose", "--structure", "bcc", "--recording", path, "--controller", "mfdrf",
-                                   "--plant", "linear", "--out", str(tmp_path / "out")])
+                                   "--plant", "linear", "--out", str(tmp_path / "out"), "--log-freq"])
     assert res.exit_code == 0, res.output
     out = " ".join(res.output.split())  # rich wraps long lines
     assert "Selected: added_mass at point 6 (mass 0.12" in out and "the measured noise alone leaves" in out
     assert (tmp_path / "out" / "diagnosis.md").is_file()
+    overlays = [fig for p, fig in saved if "overlay_" in str(p)]
+    assert overlays and all(ax.get_xscale() == "log" for fig in overlays for ax in fig.axes)
 
 
 def test_background_rerun_equals_the_foreground_one(mass_run, monkeypatch):

@@ -159,6 +159,20 @@ def test_open_loop_experiment_identifies_the_fe_model_shapes(open_loop_run, tmp_
     paths = set(rrd_entity_paths(files["rerun"]))  # every channel's H1 FRF with phase and coherence
     assert {f"frf/h1/vel{p}/{q}" for p in (5, 6, 7, 9) for q in ("magnitude", "phase", "coherence")} <= paths
     assert {"frf/experiment/phase", "frf/analysis/phase"} <= paths
+    # each identified mode animated at its frequency on its own timeline, the paired FE shape beside it
+    from vlab.viz.rerun_log import rrd_row_counts
+
+    assert {f"modes/identified/mode_{m}/{k}" for m in range(1, 7) for k in ("measured", "model")} <= paths
+    assert rrd_row_counts(files["rerun"], timeline="identified_mode_3_time") == {
+        "modes/identified/mode_3/measured": 48, "modes/identified/mode_3/model": 48}
+
+
+def test_paired_model_shape_is_drawn_at_the_identified_scale_and_sign():
+    from vlab.viz.rerun_modes import _turned_to
+
+    w = np.array([1.0, -0.5, 0.25])
+    np.testing.assert_allclose(_turned_to(np.array([-2.0, 1.0, -0.4]), w), [1.0, -0.5, 0.2])
+    assert _turned_to(np.full(3, np.nan), w) is None and _turned_to(np.zeros(3), w) is None
 
 
 def test_cli_prints_the_identified_shapes(tmp_path):

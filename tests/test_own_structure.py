@@ -176,7 +176,9 @@ def test_design_without_a_design_table_takes_the_defaults_capped_at_the_model_s_
     out = json.loads(_cli("design", strip, "--controller", "mfdrf", "--format", "json"))
     assert out["reduction"] == "exact" and out["converged"]
     # three masters: three modes held to the default zeta_min = 0.03, three modal initial conditions
-    assert len(out["performance_index_thesis_units"]) == 3 and min(out["damping_ratios"][:3]) >= 0.03 - 1e-6
+    assert len(out["performance_index_si_1m_ic_s"]) == 3 and min(out["damping_ratios"][:3]) >= 0.03 - 1e-6
+    # a structure of one's own gets SI only: no key in the dissertation's units
+    assert not [k for k in out if "thesis" in k or "lb" in k.split("_")], sorted(out)
     # the same design as a [design] table with the defaults written out and the counts at the 3 masters
     explicit = tmp_path / "strip_explicit.toml"
     explicit.write_text(strip.read_text() + "\n[design]\nsource = \"test\"\nzeta_min = 0.03\nn_modes = 3\nn_f = 3\n")

@@ -50,7 +50,7 @@ def design(
     """Design a controller with the dissertation's settings; print gains, damping and performance."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from ..design import design_controller, performance_index_si
+    from ..design import design_controller
     from ..experiment.config import dissertation_structure, period_source
     from ..experiment.results import design_summary
 
@@ -78,9 +78,7 @@ def design(
     source = period_source(d.controller, d.period_s, spec)
     if out == "json":
         extra = {"loop": _loop_json(loop)} if margins else {}
-        print_json({**design_summary(d), "period_source": source, "weights": _weights_json(spec),
-                    "performance_index_si_1m_ic_s": performance_index_si(d.performance_index),
-                    "beta_si_1m_ic_s": None if d.beta is None else float(performance_index_si(d.beta)), **extra})
+        print_json({**design_summary(d), "period_source": source, "weights": _weights_json(spec), **extra})
         return
     if margins and out == "csv":
         _print_margins(loop, out)
@@ -135,12 +133,11 @@ def _weights_line(spec, thesis: bool) -> str:
 def _mode_rows(d, thesis: bool) -> tuple[list[dict], list]:
     """Rows (mode, frequency, damping, J) and columns of the closed-loop table: J in thesis units for the
     dissertation's structures (its tables), else in SI (:func:`vlab.design.performance_index_si`)."""
-    from ..design import performance_index_si
     from ..io.tabular import Column
 
-    n_rows = min(max(len(d.performance_index), 6), len(d.damping_ratios))
+    n_rows = min(max(len(d.performance_index_thesis_units), 6), len(d.damping_ratios))
     key = "performance_index_thesis_units" if thesis else "performance_index_si_1m_ic_s"
-    j = np.asarray(d.performance_index, dtype=float) if thesis else performance_index_si(d.performance_index)
+    j = np.asarray(d.performance_index_thesis_units, dtype=float) if thesis else d.performance_index_s
     rows = [{"mode": i + 1, "frequency_hz": float(d.frequencies_hz[i]), "damping_ratio": float(d.damping_ratios[i]),
              key: float(j[i]) if i < len(j) else None} for i in range(n_rows)]
     cols = [Column("mode", "mode"), Column("frequency_hz", "f [Hz]", ".3f"),
@@ -152,13 +149,11 @@ def _mode_rows(d, thesis: bool) -> tuple[list[dict], list]:
 def _print_gains(d, thesis: bool) -> None:
     """The DRF objective and gain: in SI (N*s/m) and, for the dissertation's structures, as its tables print
     them (lb*s/in); an LQ design's gain is in the JSON."""
-    from ..design import performance_index_si
-
-    if d.gamma is not None:
-        beta = "" if d.beta is None else (f", beta = {d.beta:.4g} (thesis units)" if thesis else
-                                          f", beta = {float(performance_index_si(d.beta)):.4g} s (modal IC, 1 m peak)")
+    if d.gamma_lb_s_per_in is not None:
+        beta = "" if d.beta_s is None else (f", beta = {d.beta_thesis_units:.4g} (thesis units)" if thesis else
+                                            f", beta = {d.beta_s:.4g} s (modal IC, 1 m peak)")
         si = f"{d.gamma_n_s_per_m:.4g} N*s/m"
-        console.print((f"gamma = {d.gamma:.4f} lb*s/in ({si})" if thesis else f"gamma = {si}") + beta)
+        console.print((f"gamma = {d.gamma_lb_s_per_in:.4f} lb*s/in ({si})" if thesis else f"gamma = {si}") + beta)
     g = d.extra.get("gain_thesis_lb_s_per_in")
     if g is None:
         return

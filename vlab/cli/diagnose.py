@@ -77,6 +77,8 @@ def diagnose(
                                        "the nominal structure; every threshold of the decision follows from it "
                                        "(chi-square and single-line limits, the likelihood-ratio test)"),
     yes: bool = flag("--yes", help="run a diagnosis estimated to take more than 30 min"),
+    log_freq: bool = flag("--log-freq", help="draw the report's FRF overlays on a logarithmic frequency axis "
+                                             "(default linear, as the dissertation's Figs. 22-31)"),
     fmt: OutputFormat = format_opt(),
     as_json: bool = json_flag(),
     quiet: bool = quiet_flag(),
@@ -106,7 +108,7 @@ def diagnose(
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
                                false_alarm_rate=false_alarm_rate, progress=say, test=setup, estimator=estimator,
-                               confirm=_confirm(yes, quiet or out_fmt != "table"))
+                               confirm=_confirm(yes, quiet or out_fmt != "table"), log_freq=log_freq)
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":
         print_json(res.as_dict())

@@ -17,7 +17,7 @@ from ..errors import ModelError
 from ..fe import FEModel
 from ..spec import input_gains, output_gains
 from ..units import CS_S, INCH_M, LBF_N
-from .model import DesignModel, design_model, state_labels, state_scaling, to_thesis_units
+from .model import DesignModel, design_model, performance_index_si, state_labels, state_scaling, to_thesis_units
 from .settings import CONTROLLERS, PERIOD_S, ThesisSettings, design_settings, thesis_period_s
 from .weights import process_noise, state_weight
 
@@ -42,13 +42,15 @@ class ControllerDesign:
         Closed loop on the design model (LQG on a reduced model: the reduced
         controller closed around the full model, as Tables 8 and 12).
         Damping ratios [-], frequencies [Hz].
-    performance_index : ndarray, shape (n_f,)
-        J_i (thesis units: the integral over time in cs of the quadratic form
-        in the thesis states and lbf, Eqs. 4.7, 4.20, 4.33) for modal initial
-        conditions.
-    gamma, beta : float or None
-        MFDRF objective ``gamma`` [lbf*s/in] (max row sum of ``|D|``, Table 7;
-        in SI: :attr:`gamma_n_s_per_m`) and LQDRF objective ``beta`` (thesis units, like ``performance_index``).
+    performance_index_thesis_units : ndarray, shape (n_f,)
+        J_i in the dissertation's units (the integral over time in cs of the
+        quadratic form in the thesis states and lbf, Eqs. 4.7, 4.20, 4.33) for
+        modal initial conditions of 1 in peak deflection; in SI:
+        :attr:`performance_index_s`.
+    gamma_lb_s_per_in, beta_thesis_units : float or None
+        MFDRF objective ``gamma`` [lbf*s/in] (max row sum of ``|D|``, as Table 7
+        gives it; in SI: :attr:`gamma_n_s_per_m`) and LQDRF objective ``beta``
+        (the units of ``performance_index_thesis_units``; in SI: :attr:`beta_s`).
     converged : bool
         Whether the design's optimiser converged (always True for LQR/LQG).
     message : str
@@ -86,9 +88,9 @@ class ControllerDesign:
     gain: np.ndarray
     damping_ratios: np.ndarray
     frequencies_hz: np.ndarray
-    performance_index: np.ndarray
-    gamma: float | None
-    beta: float | None
+    performance_index_thesis_units: np.ndarray
+    gamma_lb_s_per_in: float | None
+    beta_thesis_units: float | None
     converged: bool
     message: str
     f11: np.ndarray
@@ -102,11 +104,21 @@ class ControllerDesign:
 
     @property
     def gamma_n_s_per_m(self) -> float | None:
-        """The DRF objective ``gamma`` in SI [N*s/m] (the largest row sum of ``|D|``); ``gamma`` itself is in
-        lbf*s/in, as Table 7 gives it. None where ``gamma`` is."""
+        """The DRF objective ``gamma`` in SI [N*s/m] (the largest row sum of ``|D|``); None for LQ designs."""
         from ..units import INCH_M, LBF_N
 
-        return None if self.gamma is None else float(self.gamma) * LBF_N / INCH_M
+        return None if self.gamma_lb_s_per_in is None else float(self.gamma_lb_s_per_in) * LBF_N / INCH_M
+
+    @property
+    def performance_index_s(self) -> np.ndarray:
+        """``J_i`` in SI, shape (n_f,) [s]: modal initial conditions of 1 m peak deflection, the SI weights
+        (:func:`vlab.design.performance_index_si`)."""
+        return performance_index_si(self.performance_index_thesis_units)
+
+    @property
+    def beta_s(self) -> float | None:
+        """The LQDRF bound ``beta`` in SI [s] (as :attr:`performance_index_s`); None for other designs."""
+        return None if self.beta_thesis_units is None else float(performance_index_si(self.beta_thesis_units))
 
 
 def design_controller(

@@ -91,7 +91,7 @@ def state_labels(labels) -> tuple[str, ...]:
 def performance_index_si(j_thesis) -> np.ndarray:
     """A performance index of the thesis unit system in SI: initial conditions of 1 m peak deflection, time in s.
 
-    ``J_i`` of a design (Eqs. 4.7, 4.20, 4.33; :attr:`vlab.design.ControllerDesign.performance_index`) is
+    ``J_i`` of a design (Eqs. 4.7, 4.20, 4.33; :attr:`vlab.design.ControllerDesign.performance_index_thesis_units`) is
     ``int (x^T Q x + u^T R u) dtau`` in the thesis states (in/cs, rad/cs, in, rad), lbf and centiseconds,
     from ``x0 = [0; phi_i]`` with a peak deflection of 1 in. With the weights written in SI,
     ``Q_SI = S^-1 Q S^-1`` (``S`` the SI value of one thesis state unit, :func:`state_scaling`) and

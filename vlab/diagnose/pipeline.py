@@ -195,7 +195,8 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
              progress=None, baseline: str | Path | None = None, replay: bool = True,
              force: bool = False, mjcf: str | Path | None = None,
              reference_column: str | None = None, model_form: str = "auto",
-             false_alarm_rate: float = 0.01, confirm=None, test=None, estimator: str = "auto") -> DiagnosisResult:
+             false_alarm_rate: float = 0.01, confirm=None, test=None, estimator: str = "auto",
+             log_freq: bool = False) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -228,6 +229,8 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
         Consider pairs of effects when no single one explains the data.
     overwrite : bool
         Replace existing report files in ``out_dir``.
+    log_freq : bool
+        Draw the report's FRF overlays on a logarithmic frequency axis (default linear).
     progress : callable, optional
         Called with a short string at each stage.
     false_alarm_rate : float
@@ -271,7 +274,7 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
         from .report.markdown import write_report
 
         (progress or (lambda s: None))("writing the report")
-        res.files = write_report(out_dir, res.as_dict(), figures_for(res), overwrite=overwrite)
+        res.files = write_report(out_dir, res.as_dict(), figures_for(res, log_freq=log_freq), overwrite=overwrite)
     return res
 
 

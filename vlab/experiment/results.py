@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .shape_results import shapes_report_lines, shapes_summary, write_shape_outputs
+from .shape_results import paired_model_shapes, shapes_report_lines, shapes_summary, write_shape_outputs
 
 
 def jsonable(o: Any) -> Any:
@@ -101,9 +101,11 @@ def thesis_state_label(label: str) -> str:
 def design_summary(d) -> dict:
     """A controller design as a JSON object whose every number carries its unit in its key.
 
-    SI unless the key says otherwise (``_thesis_...``: the dissertation's
-    inch, lbf, centisecond system, Sec. 3.1). Used by ``vlab design --json``
-    and the ``design`` entry of results.json.
+    SI for every structure; the dissertation's structures (the BCC and the grid,
+    :func:`vlab.experiment.config.dissertation_structure`) also get the numbers
+    its tables print, in its inch, lbf, centisecond system (Sec. 3.1), under
+    keys with ``thesis`` in their names. Used by ``vlab design --json`` and the
+    ``design`` entry of results.json.
 
     Parameters
     ----------
@@ -115,38 +117,49 @@ def design_summary(d) -> dict:
     dict
         ``structure``, ``controller``, ``reduction``; ``period_s`` (sampling
         period of the Eq. (5.1) realization [s]); for DRF ``gain_n_s_per_m``
-        (D, shape (n_c, n_c), ``u = -D y``) and ``gain_thesis_lb_s_per_in``
-        (the form of Tables 7, 11, 15); for LQR/LQG ``gain_n_per_si_state``
-        (F, shape (n_c, 2n_d), ``u = -F x``), ``gain_state_labels`` (name
-        and SI unit of each column), ``gain_thesis_lbf_per_thesis_state``
-        (per in/cs, rad/cs, in, rad) and ``gain_thesis_state_labels`` (its
-        columns' names in those units, :func:`thesis_state_label`); ``damping_ratios`` [-] and
-        ``frequencies_hz`` of the closed loop; ``performance_index_thesis_units``
-        (J_i, Eqs. 4.7, 4.20, 4.33); ``gamma_lb_s_per_in`` and
-        ``gamma_n_s_per_m`` (MFDRF/LQDRF max row sum of ``|D|``, null for
-        LQ designs); ``beta_thesis_units`` (LQDRF); ``converged``,
-        ``message``; ``extra`` (the design's further numbers, keys with units).
+        (D, shape (n_c, n_c), ``u = -D y``); for LQR/LQG ``gain_n_per_si_state``
+        (F, shape (n_c, 2n_d), ``u = -F x``) and ``gain_state_labels`` (name
+        and SI unit of each column); ``damping_ratios`` [-] and
+        ``frequencies_hz`` of the closed loop; ``performance_index_si_1m_ic_s``
+        (J_i [s] for modal initial conditions of 1 m peak, Eqs. 4.7, 4.20,
+        4.33 with the SI weights); ``gamma_n_s_per_m`` (MFDRF/LQDRF max row
+        sum of ``|D|``, null for LQ designs); ``beta_si_1m_ic_s`` (LQDRF);
+        ``converged``, ``message``; ``extra`` (the design's further numbers,
+        keys with units). The dissertation's structures add
+        ``gain_thesis_lb_s_per_in`` (DRF, the form of Tables 7, 11, 15) or
+        ``gain_thesis_lbf_per_thesis_state`` and ``gain_thesis_state_labels``
+        (LQ, per in/cs, rad/cs, in, rad, :func:`thesis_state_label`),
+        ``performance_index_thesis_units``, ``gamma_lb_s_per_in`` and
+        ``beta_thesis_units``.
     """
+    from .config import dissertation_structure
+
     drf = d.controller in DRF_CONTROLLERS
+    thesis = dissertation_structure(d.structure)
     out: dict = {"structure": d.structure, "controller": d.controller, "reduction": d.model,
                  "period_s": d.period_s}
     extra = dict(d.extra)
+    gain_thesis = extra.pop("gain_thesis_lb_s_per_in" if drf else "gain_thesis_lbf_per_thesis_state", None)
     if drf:
         out["gain_n_s_per_m"] = d.gain
-        out["gain_thesis_lb_s_per_in"] = extra.pop("gain_thesis_lb_s_per_in", None)
     else:
         out["gain_n_per_si_state"] = d.gain
         out["gain_state_labels"] = list(d.state_labels)
-        out["gain_thesis_lbf_per_thesis_state"] = extra.pop("gain_thesis_lbf_per_thesis_state", None)
-        out["gain_thesis_state_labels"] = [thesis_state_label(x) for x in d.state_labels]
     out.update({
         "damping_ratios": d.damping_ratios, "frequencies_hz": d.frequencies_hz,
-        "performance_index_thesis_units": d.performance_index,
-        "gamma_lb_s_per_in": d.gamma,
-        "gamma_n_s_per_m": d.gamma_n_s_per_m,
-        "beta_thesis_units": d.beta, "converged": d.converged, "message": d.message,
+        "performance_index_si_1m_ic_s": d.performance_index_s,
+        "gamma_n_s_per_m": d.gamma_n_s_per_m, "beta_si_1m_ic_s": d.beta_s,
+        "converged": d.converged, "message": d.message,
         "extra": {k: v for k, v in extra.items() if not isinstance(v, np.ndarray) or v.ndim < 3},
     })
+    if thesis:
+        if drf:
+            out["gain_thesis_lb_s_per_in"] = gain_thesis
+        else:
+            out["gain_thesis_lbf_per_thesis_state"] = gain_thesis
+            out["gain_thesis_state_labels"] = [thesis_state_label(x) for x in d.state_labels]
+        out.update({"performance_index_thesis_units": d.performance_index_thesis_units,
+                    "gamma_lb_s_per_in": d.gamma_lb_s_per_in, "beta_thesis_units": d.beta_thesis_units})
     return out
 
 
@@ -412,7 +425,7 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool, log_freq: bool 
               "analysis": FRF(result.freq_hz, result.analysis_sampled, test.response_quantity),
               **{f"h1/{name}": frf for name, frf in result.frfs.items()}}, frf_phase=True,
         extra_signals={f"u{p}": loop.commands[:, j] for j, p in enumerate(result.plant_info.get("actuators", []))},
-        metadata=summary)
+        metadata=summary, identified_shapes=_identified_for_rerun(result))
     warnings: list[str] = []
     if spawn:
         try:
@@ -424,3 +437,13 @@ def _write_outputs_into(result, spec, out: Path, *, spawn: bool, log_freq: bool 
             files["rerun"].unlink(missing_ok=True)
     log_experiment(files["rerun"], spawn=False, **rerun_args)
     return files, warnings
+
+
+def _identified_for_rerun(result) -> dict | None:
+    """The identified shapes and their paired model shapes as :func:`vlab.viz.rerun_log.log_experiment` takes
+    them; None when none was identified."""
+    sh = result.shapes
+    if sh is None:
+        return None
+    return {"point_ids": list(sh.point_ids), "w": sh.shapes, "freq_hz": sh.freq_hz, "modes": list(sh.modes),
+            "w_model": paired_model_shapes(result)[0]}

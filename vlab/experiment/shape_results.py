@@ -101,6 +101,33 @@ def shape_rows(result) -> tuple[list[dict], list[Column]]:
     return rows, cols
 
 
+def paired_model_shapes(result) -> tuple[np.ndarray, np.ndarray]:
+    """The model shape paired with each identified mode, at the measured points, and the pair's MAC.
+
+    Parameters
+    ----------
+    result : ExperimentResult
+        An experiment with identified shapes (``result.shapes`` not None).
+
+    Returns
+    -------
+    w_model : ndarray, shape (n_points, n_identified)
+        The FE shape (mass-normalised, [1/sqrt(kg)]) of each identified mode's pair; a column of NaN where
+        the mode has none (:func:`vlab.measure.shapes.compare_shapes`).
+    mac : ndarray, shape (n_identified,)
+        The pair's MAC [-], NaN where unpaired.
+    """
+    sh = result.shapes
+    pairs = _paired(result)
+    w_model = np.full(sh.shapes.shape, np.nan)
+    macs = np.full(len(sh.modes), np.nan)
+    for r, mode in enumerate(sh.modes):
+        if mode in pairs:
+            w_model[:, r] = result.model_shapes[:, pairs[mode]["model_mode"] - 1]
+            macs[r] = pairs[mode]["mac"]
+    return w_model, macs
+
+
 def write_shape_outputs(result, spec, out: Path) -> dict[str, Path]:
     """Write ``shapes.csv`` (:func:`shape_rows`) and ``shapes.png`` (identified against paired FE shapes,
     :func:`vlab.viz.mode_figures.shape_comparison_figure`) into ``out``; nothing when no shape was identified.
@@ -134,13 +161,7 @@ def write_shape_outputs(result, spec, out: Path) -> dict[str, Path]:
     rows, cols = shape_rows(result)
     with files["shapes"].open("w", newline="") as fh:
         write_csv(rows, cols, fh)
-    pairs = _paired(result)
-    w_model = np.full(sh.shapes.shape, np.nan)
-    macs = np.full(len(sh.modes), np.nan)
-    for r, mode in enumerate(sh.modes):
-        if mode in pairs:
-            w_model[:, r] = result.model_shapes[:, pairs[mode]["model_mode"] - 1]
-            macs[r] = pairs[mode]["mac"]
+    w_model, macs = paired_model_shapes(result)
     points, _ = structure_geometry(spec)
     cfg = result.config
     shape_comparison_figure(sh.point_ids, sh.shapes, sh.freq_hz, w_model, macs, files["shapes_figure"],

@@ -16,6 +16,10 @@ entity path                       content
                                   ``frequency_mhz`` timeline; ``phase`` [deg]
                                   and ``coherence`` beside it
                                   (:mod:`vlab.viz.rerun_frf`)
+``modes/identified/mode_<m>``     an identified mode shape animated at its
+                                  frequency on ``identified_mode_<m>_time``,
+                                  the paired model shape beside it
+                                  (:mod:`vlab.viz.rerun_modes`)
 ``meta/run``                      the run's metadata as a JSON text document
 ================================  =============================================
 
@@ -69,6 +73,7 @@ import numpy as np
 from ..errors import DataFileError, MeasurementError, ModelError
 from .rerun_common import FRF_ROOT, META_ENTITY, SIGNALS_ROOT, SIM_TIMELINE, check_name, finite_1d, rerun_module
 from .rerun_frf import frf_panels, frf_views, log_frfs
+from .rerun_modes import identified_views, log_identified_shapes
 from .rerun_structure import log_deformed_shapes, log_structure
 from .viewer import spawn_viewer
 
@@ -90,7 +95,8 @@ __all__ = [
 
 
 def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: bool = True,
-                      frf_paths: Mapping[str, Sequence[str]] | None = None):
+                      frf_paths: Mapping[str, Sequence[str]] | None = None,
+                      identified: tuple[Sequence[int], Sequence[float]] | None = None):
     """The viewer layout: 3-D structure left, signal and FRF plots right.
 
     Parameters
@@ -101,6 +107,9 @@ def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: boo
         Quantity -> entity paths (:func:`vlab.viz.rerun_frf.frf_panels`): the FRFs in one view per
         quantity (magnitude, phase, coherence; :func:`vlab.viz.rerun_frf.frf_views`) instead of one view of
         everything under ``frf/``.
+    identified : (modes, freq_hz), optional
+        Identified mode shapes: one tab per mode beside the deformed shape
+        (:func:`vlab.viz.rerun_modes.identified_views`).
 
     Returns
     -------
@@ -120,6 +129,8 @@ def default_blueprint(*, signals: bool = True, structure: bool = True, frfs: boo
     views = []
     if structure:
         views.append(rrb.Spatial3DView(origin="structure", name="deformed shape"))
+    if identified is not None and len(identified[0]):
+        views.append(rrb.Tabs(*identified_views(*identified), name="identified mode shapes"))
     if plots:
         views.append(rrb.Vertical(*plots) if len(plots) > 1 else plots[0])
     if not views:
@@ -326,7 +337,8 @@ def log_experiment(path: str | Path | None, *, recording=None,
                    frfs: Mapping[str, Any] | None = None, extra_signals: Mapping[str, Any] | None = None,
                    extra_units: Mapping[str, str] | None = None, metadata: Mapping[str, Any] | None = None,
                    fps: float = 50.0, scale: float | None = None, spawn: bool = False,
-                   app_id: str = "vlab", recording_id: str | None = None, frf_phase: bool = False) -> Path | None:
+                   app_id: str = "vlab", recording_id: str | None = None, frf_phase: bool = False,
+                   identified_shapes: Mapping[str, Any] | None = None) -> Path | None:
     """Write one experiment (signals, animated structure, FRFs) to a ``.rrd`` file.
 
     Every part is optional; what is given is logged (see the module
@@ -371,6 +383,10 @@ def log_experiment(path: str | Path | None, *, recording=None,
     frf_phase : bool
         Also log each FRF's phase, ``frf/<name>/phase`` [deg]; the layout then shows magnitude, phase and
         coherence in views of their own.
+    identified_shapes : mapping, optional
+        Mode shapes identified from the test: the arguments ``point_ids``, ``w``, ``freq_hz``, ``modes`` and
+        ``w_model`` of :func:`vlab.viz.rerun_modes.log_identified_shapes` -> ``modes/identified/mode_<m>``
+        (needs ``structure_points``).
 
     Returns
     -------
@@ -383,15 +399,19 @@ def log_experiment(path: str | Path | None, *, recording=None,
         Shape mismatches (the message names the array), displacement
         without a time step, extra signals without a recording.
     ModelError
-        Displacement without geometry; unknown point ids in members.
+        Displacement or identified shapes without geometry; unknown point ids in members or shapes.
     DataFileError
         Bad ``path``.
     """
     has_geom = structure_points is not None and members is not None
     displacement_dt_s = _frame_step(recording, structure_points, members, displacement, displacement_dt_s,
                                     extra_signals)
+    if identified_shapes is not None and structure_points is None:
+        raise ModelError("log_experiment: identified_shapes need structure_points (their positions)")
+    ident = None if identified_shapes is None else (identified_shapes["modes"], identified_shapes["freq_hz"])
     bp = default_blueprint(signals=recording is not None, structure=has_geom, frfs=bool(frfs),
-                           frf_paths=frf_panels(frfs, phase=frf_phase) if frfs and frf_phase else None)
+                           frf_paths=frf_panels(frfs, phase=frf_phase) if frfs and frf_phase else None,
+                           identified=ident)
     rec = open_recording(path, app_id=app_id, recording_id=recording_id, spawn=spawn, blueprint=bp)
     try:
         meta = {}
@@ -409,6 +429,8 @@ def log_experiment(path: str | Path | None, *, recording=None,
             log_recording(rec, recording, extra_signals=extra_signals, extra_units=extra_units)
         if frfs:
             log_frfs(rec, frfs, phase=frf_phase)
+        if identified_shapes is not None:
+            log_identified_shapes(rec, structure_points, **identified_shapes)
     finally:
         close_recording(rec)
     return None if path is None else Path(path)
