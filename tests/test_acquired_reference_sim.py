@@ -107,3 +107,53 @@ def test_concealed_mass_is_named(lab):
     assert res.plant_refit is None
     v = d["validated"]
     assert v["plant"].startswith("MuJoCo plant") and v["misfit_after"] < 0.5 * v["misfit_before"], v
+
+
+def _write_csv(path, t, columns):
+    """CSV time histories as an acquisition system exports them: 'time [s]', then '<node>+Z <quantity> [<unit>]'."""
+    header = ",".join(["time [s]", *columns])
+    np.savetxt(path, np.column_stack([t, *columns.values()]), delimiter=",", header=header, comments="",
+               fmt="%.10g")
+    return path
+
+
+def test_the_same_recording_resampled_or_integrated_to_velocity_diagnoses_the_same(lab, tmp_path):
+    """The concealed-mass recording exported twice as another acquisition system might: accelerations in g
+    resampled from 5 to 4 kHz (a polyphase filter, scipy.signal.resample_poly), and velocities in mm/s
+    (trapezoidal integration, linear trend removed) with the force in lbf. Each read from CSV and diagnosed
+    against the original baseline: the same effect at the same point, the mass within 0.5 % of the
+    original's (the resampler's passband ripple and the integration's error are far below that at 25 Hz)."""
+    from scipy import integrate, signal
+
+    from vlab.diagnose import diagnose
+    from vlab.diagnose.data.readers import read_uff_any
+
+    _what, rec = read_uff_any(lab["mass"][0] / "lab.uff")
+    points = range(1, 10)
+    acc = {p: np.asarray(rec[f"acc{p}"]) for p in points}
+    force = np.asarray(rec["force9"])
+    fs = 1 / rec.dt_s
+    resampled = {f"{p}+Z acceleration [g]": signal.resample_poly(acc[p], 4, 5) / 9.80665 for p in points}
+    resampled["9+Z force [N]"] = signal.resample_poly(force, 4, 5)
+    n4 = len(resampled["9+Z force [N]"])
+    t = np.arange(len(force)) / fs
+
+    def velocity(a):
+        return signal.detrend(integrate.cumulative_trapezoid(a, t, initial=0.0), type="linear")
+
+    integrated = {f"{p}+Z velocity [mm/s]": 1e3 * velocity(acc[p]) for p in points}
+    integrated["9+Z force [lbf]"] = force / 4.4482216152605
+    files = {"original": lab["mass"][0] / "lab.uff",
+             "resampled": _write_csv(tmp_path / "acc_4khz.csv", np.arange(n4) / (0.8 * fs), resampled),
+             "velocity": _write_csv(tmp_path / "vel.csv", t, integrated)}
+    found = {}
+    for name, path in files.items():
+        d = diagnose("bcc", path, controller="none", resolution_hz=RESOLUTION_HZ,
+                     baseline=lab["base"][0] / "lab.uff", validate_run=False).as_dict()
+        assert d["mismatch"] and len(d["selected"]) == 1, (name, d["selected"])
+        sel = d["selected"][0]
+        found[name] = (sel["effect"], sel["location"], sel["parameters"]["mass_kg"])
+    assert {k: v[:2] for k, v in found.items()} == {k: ("added_mass", {"point": 6}) for k in files}
+    m0 = found["original"][2]
+    for name in ("resampled", "velocity"):
+        assert found[name][2] == pytest.approx(m0, rel=0.005), found
