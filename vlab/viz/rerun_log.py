@@ -406,18 +406,11 @@ def log_experiment(path: str | Path | None, *, recording=None,
     has_geom = structure_points is not None and members is not None
     displacement_dt_s = _frame_step(recording, structure_points, members, displacement, displacement_dt_s,
                                     extra_signals)
-    if identified_shapes is not None and structure_points is None:
-        raise ModelError("log_experiment: identified_shapes need structure_points (their positions)")
-    ident = None if identified_shapes is None else (identified_shapes["modes"], identified_shapes["freq_hz"])
-    bp = default_blueprint(signals=recording is not None, structure=has_geom, frfs=bool(frfs),
-                           frf_paths=frf_panels(frfs, phase=frf_phase) if frfs and frf_phase else None,
-                           identified=ident)
+    bp = _experiment_blueprint(recording is not None, has_geom, frfs, frf_phase, structure_points,
+                               identified_shapes)
     rec = open_recording(path, app_id=app_id, recording_id=recording_id, spawn=spawn, blueprint=bp)
     try:
-        meta = {}
-        if recording is not None:
-            meta.update(recording.metadata)
-        meta.update(metadata or {})
+        meta = {**(recording.metadata if recording is not None else {}), **(metadata or {})}
         if meta:
             log_metadata(rec, meta)
         if has_geom:
@@ -434,6 +427,18 @@ def log_experiment(path: str | Path | None, *, recording=None,
     finally:
         close_recording(rec)
     return None if path is None else Path(path)
+
+
+def _experiment_blueprint(signals: bool, structure: bool, frfs, frf_phase: bool, structure_points,
+                          identified_shapes):
+    """:func:`default_blueprint` of what :func:`log_experiment` is given (ModelError: identified shapes without
+    the points' positions)."""
+    if identified_shapes is not None and structure_points is None:
+        raise ModelError("log_experiment: identified_shapes need structure_points (their positions)")
+    ident = None if identified_shapes is None else (identified_shapes["modes"], identified_shapes["freq_hz"])
+    return default_blueprint(signals=signals, structure=structure, frfs=bool(frfs),
+                             frf_paths=frf_panels(frfs, phase=frf_phase) if frfs and frf_phase else None,
+                             identified=ident)
 
 
 # --------------------------------------------------------------- reading ---
