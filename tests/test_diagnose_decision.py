@@ -123,9 +123,9 @@ def test_a_lower_false_alarm_rate_never_lowers_a_limit(a, b, n, k):
 
 
 def test_the_chi2_limit_holds_the_rate_on_noise_only_residuals():
-    """Without the margin, the total chi-square of N standard normal residuals exceeds the limit in the
+    """With a known variance, the total chi-square of N standard normal residuals exceeds the limit in the
     test's rate of draws (Monte Carlo, 20000 draws of N = 200)."""
-    p = DecisionPolicy(false_alarm_rate=0.05, noise_margin=1.0)
+    p = DecisionPolicy(false_alarm_rate=0.05)
     rng = np.random.default_rng(3)
     chi2 = np.sum(rng.standard_normal((20000, 200)) ** 2, axis=1)
     rate = np.mean(chi2 > p.chi2_limit(200))

@@ -57,7 +57,7 @@ def test_peak_limit_holds_the_false_alarm_rate_when_the_noise_is_estimated():
     peak = np.max(z2 / est, axis=1)
     from vlab.diagnose.policy import DecisionPolicy
 
-    exact = DecisionPolicy(noise_margin=1.0)
+    exact = DecisionPolicy()
     p_f, p_chi = _problem(n, nu), _problem(n, None)
     p_f.policy = p_chi.policy = exact
     f_limit, chi_limit = p_f.peak_limit(), p_chi.peak_limit()

@@ -71,13 +71,13 @@ def test_the_policy_limits_follow_from_the_false_alarm_rate():
 
     from vlab.diagnose.policy import DecisionPolicy
 
-    p = DecisionPolicy(false_alarm_rate=0.01, noise_margin=1.0)
+    p = DecisionPolicy(false_alarm_rate=0.01)
     assert (1 - p.test_rate) ** 3 == pytest.approx(0.99, rel=1e-12)
     assert p.nuisance_limit(1) == pytest.approx(scipy.stats.norm.isf(p.test_rate / 2) ** 2, rel=1e-9)
     assert p.lr_limit(1) == pytest.approx(scipy.stats.norm.isf(0.005) ** 2, rel=1e-9)  # 6.635, tabulated
     assert p.lr_limit(1, c_hat=3.0) == pytest.approx(3 * p.lr_limit(1))
     # a lower false-alarm rate raises every limit
-    q = DecisionPolicy(false_alarm_rate=0.001, noise_margin=1.0)
+    q = DecisionPolicy(false_alarm_rate=0.001)
     assert q.chi2_limit(500) > p.chi2_limit(500) and q.line_limit(500, 2) > p.line_limit(500, 2)
     # the limit of the largest of n lines: P(max of n chi2(2) > L) = the test's rate (exact for chi2(2): exp(-L/2))
     n = 1000

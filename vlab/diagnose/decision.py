@@ -215,7 +215,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     if profiled(problem, state):  # modes moved within their model form, as for the mismatch test
         rp, x, k = profile_state(problem, state)
         inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()
-                  and float(x @ x) <= problem.policy.nuisance_limit(k))
+                  and float(x @ x) <= problem.nuisance_limit(k))
     else:
         inside = float(r @ r) <= problem.noise_chi2()
     if inside:

@@ -10,6 +10,18 @@ of the diagnosis follows from it:
   Each runs at the Šidák rate ``1 - (1 - alpha)^(1/3)``, so that the three together keep ``alpha``; the
   largest of ``n`` lines runs at ``1 - (1 - a)^(1/n)`` of its test's rate ``a`` (Šidák, J. Am. Stat. Assoc.
   62 (1967) 626-633).
+* **A noise variance estimated from the data** (``nu`` degrees of freedom, the periods' scatter) makes each
+  weighted residual heavier-tailed than a normal one: a squared residual of ``d`` real components over an
+  estimated variance follows ``d F(d, nu)`` (Student's argument; Johnson, Kotz & Balakrishnan,
+  *Continuous Univariate Distributions* vol. 2, 2nd ed., 1995, Ch. 27). The line limit uses that law. The
+  total chi-square sums groups of ``g`` residuals that share one variance estimate (a running pool of
+  lines), each group ``g F(g, nu)``; its limit is the quantile of the scaled chi-square with the sum's mean
+  and variance (Satterthwaite, Biometrics Bull. 2 (1946) 110-114):
+  ``M = n nu / (nu - 2)``, ``V = 2 n nu^2 (g + nu - 2) / ((nu - 2)^2 (nu - 4))``, limit ``= (V / 2M)
+  chi2.isf(a, 2 M^2 / V)``. The ``k`` profiled parameters' statistic is bounded the same way by
+  ``k F(k, nu)`` (every weight off by one common factor, the worst case). Treating a pool's lines as fully
+  sharing their estimate, and the weights' model-form and floor parts as estimated too, errs on the side of
+  fewer false alarms; without an estimated variance (``nu`` None) the laws are chi-square.
 * **Is an effect better than nothing, a pair better than its better part?** A nested likelihood-ratio test
   (Wilks, Ann. Math. Stat. 9 (1938) 60-62) at the rate ``alpha``: the fall of the chi-square, divided by
   the overdispersion ``c_hat`` of the larger model (Burnham & Anderson, *Model Selection and Multimodel
@@ -23,6 +35,9 @@ of the diagnosis follows from it:
   remainder when ``after^2 - noise^2`` exceeds ``noise^2`` (:meth:`DecisionPolicy.resolved`).
 
 Numbers without a statistical principle (yet) are stated as such in their attribute's text.
+
+Source of the heavier tail of an estimated variance: the F distribution of a normal sum of squares over an
+independent chi-square one (Johnson, Kotz & Balakrishnan 1995, Ch. 27, its moments Eqs. 27.7-27.8).
 """
 
 from __future__ import annotations
@@ -47,12 +62,6 @@ class DecisionPolicy:
     false_alarm_rate : float
         ``alpha`` in (0, 0.5): the probability of reporting a mismatch on data of the nominal structure
         [1]. Default 0.01.
-    noise_margin : float
-        Factor on the chi-square limits [1] (>= 1). No statistical principle: the noise variance is
-        estimated from a few excitation periods, and the total chi-square's limit carries no term for
-        that estimate's own scatter (the single-line limit uses the F distribution instead when the
-        estimate's degrees of freedom are known). 1.2 covers the scatter of a variance estimated from
-        about 25 degrees of freedom per line at one standard deviation.
     evidence : float
         Smallest quasi-BIC difference [1] for one candidate to be preferred to another (10: "very
         strong", Kass & Raftery 1995); the candidates within it of the choice are its look-alikes.
@@ -73,7 +82,6 @@ class DecisionPolicy:
     """
 
     false_alarm_rate: float = 0.01
-    noise_margin: float = 1.2
     evidence: float = 10.0
     explained_share: float = 0.5
     pair_misfit_gain: float = 1.5
@@ -83,17 +91,28 @@ class DecisionPolicy:
     def __post_init__(self) -> None:
         if not (0.0 < self.false_alarm_rate < 0.5) or not math.isfinite(self.false_alarm_rate):
             raise OptionError(f"false-alarm rate {self.false_alarm_rate!r} must lie in (0, 0.5)")
-        if not self.noise_margin >= 1.0:
-            raise OptionError(f"noise margin {self.noise_margin!r} must be at least 1")
 
     @property
     def test_rate(self) -> float:
         """Rate of each of the :data:`MISMATCH_TESTS` mismatch tests [1] (Šidák)."""
         return 1.0 - (1.0 - self.false_alarm_rate) ** (1.0 / MISMATCH_TESTS)
 
-    def chi2_limit(self, n: int) -> float:
-        """Largest total chi-square of ``n`` residuals under the null [1]: ``margin * chi2.isf(a, n)``."""
-        return float(self.noise_margin * scipy.stats.chi2.isf(self.test_rate, max(int(n), 1)))
+    def chi2_limit(self, n: int, nu: float | None = None, shared: int = 1) -> float:
+        """Largest total chi-square of ``n`` real residuals under the null [1].
+
+        ``nu`` None: the variances are known, ``chi2.isf(a, n)``. Else each weight's noise variance was
+        estimated with ``nu`` (> 4) degrees of freedom, one estimate shared by ``shared`` residuals: the
+        Satterthwaite quantile of the sum of ``n / shared`` groups ``g F(g, nu)`` (module text). Raises
+        ValueError for ``nu`` <= 4 (the sum's variance is infinite)."""
+        n = max(int(n), 1)
+        if nu is None or not math.isfinite(nu):
+            return float(scipy.stats.chi2.isf(self.test_rate, n))
+        if nu <= 4:
+            raise ValueError(f"chi2_limit needs nu > 4 degrees of freedom of the variance, got {nu!r}")
+        g = max(int(shared), 1)
+        mean = n * nu / (nu - 2.0)
+        var = 2.0 * n * nu**2 * (g + nu - 2.0) / ((nu - 2.0) ** 2 * (nu - 4.0))
+        return float(var / (2.0 * mean) * scipy.stats.chi2.isf(self.test_rate, 2.0 * mean**2 / var))
 
     def line_limit(self, n_lines: int, dof: int, nu: float | None = None) -> float:
         """Largest squared residual of one of ``n_lines`` lines, each with ``dof`` (1 or 2) degrees of
@@ -101,12 +120,17 @@ class DecisionPolicy:
         residual then follows ``dof F(dof, nu)``, whose tail is heavier). Šidák over the lines."""
         p = 1.0 - (1.0 - self.test_rate) ** (1.0 / max(int(n_lines), 1))
         if nu:
-            return float(self.noise_margin * dof * scipy.stats.f.isf(p, dof, nu))
-        return float(self.noise_margin * scipy.stats.chi2.isf(p, dof))
+            return float(dof * scipy.stats.f.isf(p, dof, nu))
+        return float(scipy.stats.chi2.isf(p, dof))
 
-    def nuisance_limit(self, k: int) -> float:
-        """Largest ``|x|^2`` of ``k`` profiled model-form parameters (standard normal under the null) [1]."""
-        return float(self.noise_margin * scipy.stats.chi2.isf(self.test_rate, max(int(k), 1)))
+    def nuisance_limit(self, k: int, nu: float | None = None) -> float:
+        """Largest ``|x|^2`` of ``k`` profiled model-form parameters under the null [1]: chi-square with ``k``
+        degrees of freedom (standard normal parameters), ``k F(k, nu)`` when the weights' noise variance was
+        estimated with ``nu`` degrees of freedom (module text)."""
+        k = max(int(k), 1)
+        if nu:
+            return float(k * scipy.stats.f.isf(self.test_rate, k, nu))
+        return float(scipy.stats.chi2.isf(self.test_rate, k))
 
     def lr_limit(self, k_added: int, c_hat: float = 1.0) -> float:
         """Smallest fall of the chi-square [1] that ``k_added`` more parameters must give to be needed:

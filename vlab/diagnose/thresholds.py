@@ -194,7 +194,7 @@ class DetectionTest:
             pm0 = mf.modes if mf.modes is not None else nominal.point_modes
             self.n_profiled = (len(mf.labels) if pm0 is None
                                else sum(r is not None for _k, r, _j in parameters(mf, pm0)))
-            self.nuisance_limit = self.problem.policy.nuisance_limit(self.n_profiled)
+            self.nuisance_limit = self.problem.nuisance_limit(self.n_profiled)
 
     def _expected(self, h, x: float, **kw) -> Problem | None:
         """The problem of the noise-free data of hypothesis ``h`` at size ``x`` (None: cannot be built)."""

@@ -196,4 +196,4 @@ def within_model_accuracy(problem, state: LabState) -> bool:
         return problem.within_noise(state)
     r, x, k = profile_state(problem, state)
     return (float(r @ r + x @ x) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
-            and float(x @ x) <= problem.policy.nuisance_limit(k))
+            and float(x @ x) <= problem.nuisance_limit(k))

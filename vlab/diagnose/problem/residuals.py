@@ -7,7 +7,11 @@ imaginary part: phase, wrapped), each part divided by its standard deviation
 noise of the line (:mod:`vlab.diagnose.data.measured`), ``floor`` a relative model
 error the linear model is allowed (the lab's time stepping and the
 frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
-report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used.
+report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used. To first
+order in the noise the log ratio is the relative complex error, whose parts
+over their standard deviations are normal; where the noise is not small its
+tail is heavier (``ln(1 + eps)`` as ``|eps|`` nears 1), which the mismatch
+tests' laws do not carry (:mod:`vlab.diagnose.policy`).
 
 Modal data: per measured mode ``ln(f_model / f_meas) / sigma_f``, and when
 given ``ln(zeta_model / zeta_meas) / sigma_zeta`` and ``(1 - MAC) / sigma_MAC``
@@ -40,6 +44,7 @@ import numpy as np
 
 from ...errors import ModelError, SpecError
 from ...measure.mac import mac, pair_modes
+from ..data.frfestimate import POOL_WIDTH
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..data.run import DiagnosisRun
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
@@ -397,7 +402,7 @@ class Problem:
             return None
         _r, x = self.nominal_profile()
         k = len(x)
-        lim = self.policy.nuisance_limit(k)
+        lim = self.nuisance_limit(k)
         j = int(np.argmax(np.abs(x)))
         c2 = float(x @ x)
         return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
@@ -506,10 +511,24 @@ class Problem:
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
             return float("nan")
 
+    def _noise_dof(self) -> tuple[float | None, int]:
+        """``(nu, shared)``: the degrees of freedom of the data's estimated noise variance (None: known or
+        none) and how many real residuals share one estimate (:data:`~vlab.diagnose.data.frfestimate.
+        POOL_WIDTH` lines, times 2 with phase)."""
+        nu = getattr(self.data, "var_dof", None) if isinstance(self.data, FrfData) else None
+        return nu, POOL_WIDTH * (2 if self.use_phase else 1)
+
     def noise_chi2(self) -> float:
         """Largest chi-square the nominal model may have for the data to count as 'within the noise' [1]:
-        the policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.chi2_limit` of :attr:`n_obs` residuals."""
-        return self.policy.chi2_limit(self.n_obs)
+        the policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.chi2_limit` of :attr:`n_obs` residuals,
+        with the degrees of freedom of an estimated noise variance (:attr:`FrfData.var_dof`)."""
+        nu, shared = self._noise_dof()
+        return self.policy.chi2_limit(self.n_obs, nu, shared)
+
+    def nuisance_limit(self, k: int) -> float:
+        """Largest ``|x|^2`` of ``k`` profiled model-form parameters under the null [1]
+        (:meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` with the data's ``nu``)."""
+        return self.policy.nuisance_limit(k, self._noise_dof()[0])
 
     def peak(self, state: LabState) -> float:
         """Largest squared residual of one observation of the lab ``state``: for FRF data the largest
