@@ -77,3 +77,28 @@ def test_a_problem_pickles_without_its_background_reruns():
     assert back.run.background == {} and back.run.reruns == {} and back.run.note == ""
     assert np.array_equal(back.data.h, problem.data.h) and back.n_obs == problem.n_obs
     assert ("nominal", "mujoco", 0) in problem.run.background  # the original keeps them
+
+
+def test_exact_time_error_is_the_time_domain_error_of_a_model_off_by_its_uncertainty():
+    """exact_time_error against a synthesis in the time domain: a multisine through an FRF, the model's FRF off
+    by a circular complex relative error of a known variance per line, the relative RMS of the two periodic
+    responses' difference averaged over draws (Parseval over whole periods)."""
+    from vlab.diagnose.problem.misfits import exact_time_error
+
+    rng = np.random.default_rng(8)
+    n, lines = 4096, np.arange(3, 200)
+    f = lines / 20.0
+    h = 1.0 / (1.0 - (f / 4.0) ** 2 + 0.02j * f / 4.0)
+    amp = rng.uniform(0.5, 1.5, lines.size)
+    s2 = rng.uniform(0.0, 0.01, lines.size)  # relative variance per line
+    spec = np.zeros(n // 2 + 1, complex)
+    spec[lines] = amp * h * np.exp(2j * np.pi * rng.random(lines.size))
+    y = np.fft.irfft(spec, n)
+    errs = []
+    for _ in range(400):
+        e = np.sqrt(s2 / 2) * (rng.standard_normal(lines.size) + 1j * rng.standard_normal(lines.size))
+        spec_m = spec.copy()
+        spec_m[lines] *= 1 + e
+        errs.append(np.sum((np.fft.irfft(spec_m, n) - y) ** 2) / np.sum(y**2))
+    assert exact_time_error(h, s2, amp) == pytest.approx(np.sqrt(np.mean(errs)), rel=0.03)
+    assert np.isnan(exact_time_error(h, s2, np.zeros_like(amp)))

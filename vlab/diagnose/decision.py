@@ -132,7 +132,9 @@ def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misf
         notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
                      f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
                      f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
-                     f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}): "
+                     f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}"
+                     + (f"; an exact model leaves {v.noise_time_error:.3g}" if np.isfinite(v.noise_time_error) else "")
+                     + "): "
                      "the library's best does not explain the mismatch, which lies outside the library; nothing "
                      "is selected")
         drop_selection(res, misfit_0, chi2_fit, outside=True)

@@ -35,7 +35,7 @@ from .data.measured import FrfData
 from .data.replay import frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns
 from .model.labmodel import LabState
-from .problem.misfits import complex_log_misfit, log_misfit, noise_misfit
+from .problem.misfits import complex_log_misfit, exact_time_error, log_misfit, noise_misfit
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,10 @@ class Validation:
     phase_misfit_before, phase_misfit_after : float
         The same FRFs' misfit with their phase (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`)
         [decades]: the footing of a fit that uses the phase (NaN where it did not).
+    noise_time_error : float
+        The time-domain error an exact model leaves [1], from the same noise and model form as
+        ``noise_misfit`` (:func:`vlab.diagnose.problem.misfits.exact_time_error`); NaN without the
+        excitation's line amplitudes.
     """
 
     plant: str
@@ -78,12 +82,13 @@ class Validation:
     v_after: dict
     phase_misfit_before: float = float("nan")
     phase_misfit_after: float = float("nan")
+    noise_time_error: float = float("nan")
 
     def as_dict(self) -> dict:
         """JSON-ready summary."""
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
-                "noise_misfit": self.noise_misfit,
+                "noise_misfit": self.noise_misfit, "noise_time_error": _finite_or_none(self.noise_time_error),
                 **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after}
                    if np.isfinite(self.phase_misfit_before) else {})}
 
@@ -199,17 +204,26 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit = noise_misfit(target[mask], target_var[mask], w)
+    rel_var = target_var[mask] / np.maximum(np.abs(target[mask]) ** 2, 1e-300)
     mf = problem.model_form_frf
     if mf is not None and mf.sigma.size:  # an exact model is also uncertain by the model form
         var_mag = np.sum(mf.sens[mask].real ** 2 * mf.sigma**2, axis=-1)
         floor_misfit = float(np.hypot(floor_misfit, np.sqrt(np.sum(w * var_mag) / np.sum(w)) / np.log(10.0)))
+        rel_var = rel_var + np.sum(np.abs(mf.sens[mask]) ** 2 * mf.sigma**2, axis=-1)
+    amp = data.force_amplitude
+    time_noise = (float("nan") if amp is None or not data.periodic else
+                  exact_time_error(target[mask], rel_var, np.broadcast_to(np.asarray(amp)[:, None], mask.shape)[mask]))
     rec = data.recording
+    phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
+              if problem.use_phase else (float("nan"), float("nan")))
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts},
-                      *((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
-                        if problem.use_phase else ()))
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise)
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

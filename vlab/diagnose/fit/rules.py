@@ -39,7 +39,7 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    rerun separates (:func:`needs_rerun_check`) and the data are time
    histories: the least time-domain error of a rerun wins, and a pair with a
    nonlinear part is kept only if its rerun error is below the policy's
-   ``parsimony`` times that of its nonlinear part alone
+   ``parsimony`` times that of the better of its parts alone
    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 5. **On the MuJoCo plant's linearisation**, for a spec-level choice on a
    recording of the MuJoCo plant: a pair must pass the pair rule again
@@ -349,12 +349,14 @@ def worsens(v, *, self_excited: bool = False) -> bool:
     Worse means worse beyond what the comparison resolves. The FRF comparison has a known resolution, the
     misfit an exact model leaves (``noise_misfit``: the recording's noise and the model's own uncertainty):
     the modified lab is worse when its misfit exceeds the nominal lab's by more than that, in quadrature
-    (``after^2 - before^2 > noise^2``; the misfits of independent parts add so). The time-domain error has
-    no such resolution: on a real structure it is dominated by the dephasing of lightly damped modes that
-    the model places a fraction of a bandwidth off (tier 2: 0.5 before and after an actuator gain fitted to
-    0.04 %, whose FRF misfit fell 5x), so a higher time-domain error rejects only where the FRF comparison
-    does not resolve an improvement (``before^2 - after^2 <= noise^2``). NaN errors (no overlap) count as
-    neither.
+    (``after^2 - before^2 > noise^2``; the misfits of independent parts add so). The time-domain error is
+    judged the same way against the error an exact model leaves (``noise_time_error``: the same noise and
+    model form, weighted by the response's power, :func:`vlab.diagnose.problem.misfits.exact_time_error`),
+    and only where the FRF comparison does not resolve an improvement (``before^2 - after^2 <= noise^2``): on
+    a real structure the time-domain error is dominated by the dephasing of lightly damped modes that the
+    model places a fraction of a bandwidth off, which the FRF comparison weighs line by line. Without the
+    excitation's line amplitudes (``noise_time_error`` NaN) any rise of the time-domain error counts. NaN
+    errors (no overlap) count as neither.
 
     A recording that oscillates by itself (``self_excited``, the oscillation reproduced by the rerun) is
     judged on its FRFs alone: its time histories hold an oscillation of arbitrary phase, which no rerun
@@ -374,7 +376,8 @@ def worsens(v, *, self_excited: bool = False) -> bool:
     frf_better = DecisionPolicy.resolved(v.misfit_before, v.misfit_after, v.noise_misfit)
     if self_excited:
         return frf_worse
-    return frf_worse or (bool(v.time_error_after > v.time_error_before) and not frf_better)
+    time_worse = DecisionPolicy.resolved(v.time_error_after, v.time_error_before, v.noise_time_error)
+    return frf_worse or (time_worse and not frf_better)
 
 
 def explained_share(res, chi2_0: float) -> tuple[float, bool]:

@@ -110,17 +110,17 @@ def lookalikes(h: Hypothesis, problem: Problem) -> list[Hypothesis]:
     return out
 
 
-def _nonlinear_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypothesis]:
-    """The fitted single effects that are the nonlinear parts of the pair ``h`` (friction fitted as a dashpot
-    swapped back), for the parsimony check of :func:`tie_break_by_rerun`; empty if ``h`` has no such part
-    (both parts of a friction + saturation pair are returned)."""
-    if not isinstance(h, Combination):
+def _parts_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypothesis]:
+    """The fitted single effects that are the parts of the pair ``h`` (friction fitted as a dashpot swapped
+    back), for the parsimony check of :func:`tie_break_by_rerun`; empty if ``h`` is not a pair with a
+    nonlinear part (whose second effect the linear fits cannot judge)."""
+    if not isinstance(h, Combination) or not any(p.effect in NONLINEAR for p in h.parts):
         return []
     singles = [g for g in ranked if not isinstance(g, Combination)]
     out = []
-    for part in (p for p in h.parts if p.effect in NONLINEAR):
+    for part in h.parts:
         single = next((g for g in singles if g.label == part.label), None)
-        if single is None:
+        if single is None and part.effect in NONLINEAR:
             swapped = [_swap(g, problem) for g in singles
                        if isinstance(g, (PointDamping, Friction)) and g.location == part.location]
             single = next((s for s in swapped if s is not None and s.effect == part.effect), None)
@@ -148,8 +148,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     saturation named). When the winner is a pair with such a
     nonlinear part, its linear misfit cannot judge the second effect: the
     pair is kept only if its rerun error is below ``parsimony`` times that
-    of its nonlinear part alone (of the better one, when both parts are
-    nonlinear: friction with saturation). With ``plant="mujoco"`` (a
+    of the better of its parts alone (as any pair must beat its better
+    part; the linear part's fit cannot judge the nonlinear one). With ``plant="mujoco"`` (a
     recording diagnosed against the MuJoCo plant) that check is made on
     reruns of the MuJoCo plant, when both can be carried by it: the linear
     plant's time error holds the FE/MuJoCo model-form error (about 0.25 of
@@ -181,7 +181,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     max_candidates : int
         Most hypotheses rerun.
     parsimony : float
-        Factor a pair's rerun error must beat its nonlinear part's alone by.
+        Factor a pair's rerun error must beat its better part's alone by.
     plant : {"linear", "mujoco"}
         Plant of the recording: with ``"mujoco"`` the best look-alikes and the parsimony check are rerun on
         the MuJoCo plant too (the look-alikes are first compared on the linear plant).
@@ -201,8 +201,8 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     if plant not in ("linear", "mujoco"):
         raise ModelError(f"unknown plant {plant!r} for the rerun check; use 'linear' or 'mujoco'")
     cands = _rerun_candidates(problem, chosen, alts, max_candidates)
-    singles = {h.label: g for h in cands if (g := _nonlinear_alone(h, ranked, problem))}
-    # rerun the candidates when there is a choice, and pairs with a nonlinear part and that part alone
+    singles = {h.label: g for h in cands if (g := _parts_alone(h, ranked, problem))}
+    # rerun the candidates when there is a choice, and pairs with a nonlinear part and each part alone
     todo: dict = {}
     for h in [h for h in cands if len(cands) > 1 or h.label in singles] + [g for gs in singles.values() for g in gs]:
         todo.setdefault(h.label, h)
@@ -219,7 +219,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             best = _best_on_mujoco(problem, cands, errors, best, notes, seed)
     alone = singles.get(best.label)
     if alone:
-        best = _pair_or_its_nonlinear_part(problem, best, alone, errors, notes, plant=plant, parsimony=parsimony,
+        best = _pair_or_its_better_part(problem, best, alone, errors, notes, plant=plant, parsimony=parsimony,
                                            seed=seed)
     return best, [h for h in [chosen] + alts if h is not best]
 
@@ -254,11 +254,11 @@ def _best_on_mujoco(problem: Problem, cands: list, errors: dict, best: Hypothesi
     return best
 
 
-def _pair_or_its_nonlinear_part(problem: Problem, best: Hypothesis, alone: list, errors: dict, notes: list, *,
-                                plant: str, parsimony: float, seed: int) -> Hypothesis:
-    """The pair ``best`` if its rerun error is below ``parsimony`` times that of its nonlinear part ``alone``
-    (the better one), else that part; on the MuJoCo plant where both can be carried by it
-    (:func:`tie_break_by_rerun`). Appends a line to ``notes``."""
+def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, errors: dict, notes: list, *,
+                             plant: str, parsimony: float, seed: int) -> Hypothesis:
+    """The pair ``best`` if its rerun error is below ``parsimony`` times that of the better of its parts
+    ``alone``, else that part: as every pair, it must beat its better part; on the MuJoCo plant where both can
+    be carried by it (:func:`tie_break_by_rerun`). Appends a line to ``notes``."""
     single = min(alone, key=lambda g: errors[g.label])
     e_pair, e_single = errors[best.label], errors[single.label]
     where = "linear FE plant"

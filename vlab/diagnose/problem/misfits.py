@@ -78,3 +78,36 @@ def noise_misfit(h: np.ndarray, var: np.ndarray, weight: np.ndarray) -> float:
     s2 = np.asarray(var, dtype=float) / np.maximum(np.abs(h) ** 2, 1e-300)
     w = np.asarray(weight, dtype=float)
     return float(np.sqrt(np.sum(w * s2 / 2.0) / np.sum(w)) / np.log(10.0))
+
+
+def exact_time_error(h: np.ndarray, rel_var: np.ndarray, force_amplitude: np.ndarray) -> float:
+    """Expected relative time-domain error of an exact model against a periodic recording [1].
+
+    In the steady state the velocity at line ``k`` and channel ``j`` is ``F_k h_kj`` and its error
+    ``F_k h_kj e_kj`` with ``E|e_kj|^2 = s^2_kj`` (the relative complex variance of the noise and of the model's
+    own uncertainty); by Parseval's theorem over whole periods the squared relative time-domain error
+    (:func:`vlab.diagnose.data.replay.time_error`) is the response-power-weighted mean of ``s^2``::
+
+        e_t^2 = sum |F_k h_kj|^2 s^2_kj / sum |F_k h_kj|^2
+
+    What the excitation leaves out (the non-excited bins' noise, a transient's residue) is common to any two
+    reruns and cancels where two errors are compared in quadrature (:meth:`vlab.diagnose.policy.DecisionPolicy.
+    resolved`).
+
+    Parameters
+    ----------
+    h : ndarray, complex, shape (n,)
+        Measured FRF values on the compared lines and channels [(m/s)/N].
+    rel_var : ndarray, shape (n,)
+        Their relative complex variance ``E|h - h_true|^2 / |h|^2`` [1].
+    force_amplitude : ndarray, shape (n,)
+        The force amplitude of each value's line [N].
+
+    Returns
+    -------
+    float
+        [1]; NaN where no line carries power.
+    """
+    power = np.abs(np.asarray(force_amplitude, dtype=float) * np.asarray(h)) ** 2
+    total = float(np.sum(power))
+    return float(np.sqrt(np.sum(power * np.asarray(rel_var, dtype=float)) / total)) if total > 0 else float("nan")

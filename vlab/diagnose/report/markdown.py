@@ -204,7 +204,9 @@ def _validation_lines(res: dict) -> list[str]:
                             if best else ""))
     if v.get("time_error_before") is not None:
         lines.append(f"- time-domain error ||v_model - v_recorded|| / ||v_recorded||: "
-                     f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}")
+                     f"{_fmt(v['time_error_before'])} -> {_fmt(v['time_error_after'])}"
+                     + (f" (an exact model leaves {_fmt(v['noise_time_error'])})"
+                        if v.get("noise_time_error") is not None else ""))
     lines.append("")
     return lines
 
