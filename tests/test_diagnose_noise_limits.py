@@ -87,3 +87,16 @@ def test_satterthwaite_limit_reduces_to_chi_square_for_a_known_variance():
     assert p.nuisance_limit(5, 30.0) > p.nuisance_limit(5)
     with pytest.raises(ValueError, match="nu > 4"):
         p.chi2_limit(500, 4.0, 42)
+
+
+def test_simulated_limit_agrees_with_satterthwaite_and_covers_a_band_of_a_few_lines():
+    """The simulated quantile of the sum of g F(g, nu) agrees with the Satterthwaite form where both apply
+    (a second computation of the same law), and gives a finite limit where only it applies: two periods
+    pooled over a band of three lines (nu = 2.9), above the known-variance limit."""
+    p = DecisionPolicy()
+    assert p.chi2_limit_simulated(840, 20.2, 42) == pytest.approx(p.chi2_limit(840, 20.2, 42), rel=0.03)
+    nu = pooled_dof(2, 3)
+    assert nu < 4
+    lim = p.chi2_limit_simulated(6, nu, 6)
+    assert np.isfinite(lim) and lim > p.chi2_limit(6)
+    assert lim == p.chi2_limit_simulated(6, nu, 6)  # seeded: the same limit every run

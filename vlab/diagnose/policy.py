@@ -42,6 +42,7 @@ independent chi-square one (Johnson, Kotz & Balakrishnan 1995, Ch. 27, its momen
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 
@@ -103,7 +104,7 @@ class DecisionPolicy:
         ``nu`` None: the variances are known, ``chi2.isf(a, n)``. Else each weight's noise variance was
         estimated with ``nu`` (> 4) degrees of freedom, one estimate shared by ``shared`` residuals: the
         Satterthwaite quantile of the sum of ``n / shared`` groups ``g F(g, nu)`` (module text). Raises
-        ValueError for ``nu`` <= 4 (the sum's variance is infinite)."""
+        ValueError for ``nu`` <= 4 (the sum's variance is infinite: :meth:`chi2_limit_simulated`)."""
         n = max(int(n), 1)
         if nu is None or not math.isfinite(nu):
             return float(scipy.stats.chi2.isf(self.test_rate, n))
@@ -113,6 +114,14 @@ class DecisionPolicy:
         mean = n * nu / (nu - 2.0)
         var = 2.0 * n * nu**2 * (g + nu - 2.0) / ((nu - 2.0) ** 2 * (nu - 4.0))
         return float(var / (2.0 * mean) * scipy.stats.chi2.isf(self.test_rate, 2.0 * mean**2 / var))
+
+    def chi2_limit_simulated(self, n: int, nu: float, shared: int = 1, *, draws: int = 20000,
+                             seed: int = 0) -> float:
+        """:meth:`chi2_limit` for any ``nu`` > 0 by simulation: the ``1 - a`` quantile of the sum of
+        ``round(n / shared)`` groups ``g F(g, nu)`` (``g = n / groups``), ``draws`` sums drawn from a generator
+        seeded by ``seed`` (the same limit every run). For ``nu`` <= 4, where the sum's variance is infinite
+        and the Satterthwaite form does not apply (a band of a few lines). Cached."""
+        return _sum_of_f_quantile(self.test_rate, max(int(n), 1), float(nu), max(int(shared), 1), draws, seed)
 
     def line_limit(self, n_lines: int, dof: int, nu: float | None = None) -> float:
         """Largest squared residual of one of ``n_lines`` lines, each with ``dof`` (1 or 2) degrees of
@@ -155,6 +164,21 @@ class DecisionPolicy:
     def as_dict(self) -> dict:
         """The policy's numbers for the JSON report (all dimensionless), with the per-test rate."""
         return {**asdict(self), "mismatch_test_rate": self.test_rate}
+
+
+@functools.lru_cache(maxsize=64)
+def _sum_of_f_quantile(rate: float, n: int, nu: float, shared: int, draws: int, seed: int) -> float:
+    """The ``1 - rate`` quantile of the sum of ``round(n / shared)`` groups ``g F(g, nu)``, ``g`` = n / groups,
+    from ``draws`` seeded sums (:meth:`DecisionPolicy.chi2_limit_simulated`)."""
+    import numpy as np
+
+    groups = max(int(round(n / shared)), 1)
+    g = n / groups
+    rng = np.random.default_rng(seed)
+    sums = np.zeros(draws)
+    for _ in range(groups):  # one group at a time: memory of one draw per sum
+        sums += g * rng.f(g, nu, size=draws)
+    return float(np.quantile(sums, 1.0 - rate))
 
 
 #: The default policy (``vlab diagnose`` without ``--false-alarm-rate``).

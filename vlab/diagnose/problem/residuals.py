@@ -513,16 +513,18 @@ class Problem:
 
     def _noise_dof(self) -> tuple[float | None, int]:
         """``(nu, shared)``: the degrees of freedom of the data's estimated noise variance (None: known or
-        none) and how many real residuals share one estimate (:data:`~vlab.diagnose.data.frfestimate.
-        POOL_WIDTH` lines, times 2 with phase)."""
+        none) and how many real residuals share one estimate (a pool of lines, times 2 with phase)."""
         nu = getattr(self.data, "var_dof", None) if isinstance(self.data, FrfData) else None
-        return nu, POOL_WIDTH * (2 if self.use_phase else 1)
+        lines = min(POOL_WIDTH, self.data.h.shape[0]) if isinstance(self.data, FrfData) else POOL_WIDTH
+        return nu, lines * (2 if self.use_phase else 1)
 
     def noise_chi2(self) -> float:
         """Largest chi-square the nominal model may have for the data to count as 'within the noise' [1]:
         the policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.chi2_limit` of :attr:`n_obs` residuals,
         with the degrees of freedom of an estimated noise variance (:attr:`FrfData.var_dof`)."""
         nu, shared = self._noise_dof()
+        if nu is not None and nu <= 4:  # a few lines pooled: no finite variance for the Satterthwaite form
+            return self.policy.chi2_limit_simulated(self.n_obs, nu, shared)
         return self.policy.chi2_limit(self.n_obs, nu, shared)
 
     def nuisance_limit(self, k: int) -> float:
