@@ -117,6 +117,7 @@ def _write_csv(path, t, columns):
     return path
 
 
+@pytest.mark.slow
 def test_the_same_recording_resampled_or_integrated_to_velocity_diagnoses_the_same(lab, tmp_path):
     """The concealed-mass recording exported twice as another acquisition system might: accelerations in g
     resampled from 5 to 4 kHz (a polyphase filter, scipy.signal.resample_poly), and velocities in mm/s

@@ -108,6 +108,7 @@ def test_threshold_ratio(db):
     assert db.threshold_ratio(t, ths) is None
 
 
+@pytest.mark.slow
 def test_tier2_recording_reaches_the_diagnosis_without_its_seeds(db, tmp_path, monkeypatch):
     """A null case and an effect case generated with the simulation replaced by a stub: the converged
     options and the tier's noise seed reach the simulation; the recording's metadata and the diagnosis's

@@ -180,6 +180,7 @@ def short_run():
     return run_experiment(cfg, nominal_fe_model("bcc"))
 
 
+@pytest.mark.slow
 def test_spawn_failure_keeps_the_outputs(short_run, tmp_path, monkeypatch):
     """A viewer that cannot be reached after the run: every output is still written, with a warning."""
     import rerun as rr
@@ -227,6 +228,7 @@ def test_overwrite_never_deletes_a_folder_vlab_did_not_write_nor_a_parent_of_the
     assert here.is_dir() and (tmp_path / "a" / "results.json").exists()
 
 
+@pytest.mark.slow
 def test_an_experiment_whose_loop_is_predicted_unstable_exits_1_unless_allowed(tmp_path):
     """A delay of 1e5 sampling periods (50 s, longer than a 20 s record) makes the analysis predict negative damping: the
     premise of the comparison fails, so the run says why and exits 1; --allow-unstable exits 0 (outputs kept)."""

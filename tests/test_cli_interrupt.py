@@ -11,7 +11,7 @@ is already exiting after a complete run.
 
 The fast test replaces the simulation by a result computed once in this test
 session (pickled), so that every subprocess spends its time in the CLI's
-checks and in writing, where the atomicity matters; the ``slow`` test runs the
+checks and in writing, where the atomicity matters; the ``long`` test runs the
 real simulation.
 """
 
@@ -128,6 +128,7 @@ def pickled_result(tmp_path_factory):
     return str(path)
 
 
+@pytest.mark.slow
 def test_interrupt_leaves_old_or_complete_new_folder(pickled_result, tmp_path):
     """An uninterrupted run replaces the old folder whole; SIGINT at random moments (3 seeds) over the
     CLI's whole run (checks, 'simulation', writing) leaves the old folder or the complete new one."""
@@ -142,7 +143,7 @@ def test_interrupt_leaves_old_or_complete_new_folder(pickled_result, tmp_path):
     assert "old" in outcomes  # the interrupts did land during the run
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_interrupt_real_simulation(tmp_path):
     """As above with the real 40 s linear simulation (about 20 s a run)."""
     _interrupt_runs(tmp_path, "-", range(4), 25.0)

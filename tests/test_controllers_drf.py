@@ -278,7 +278,7 @@ def test_beam_in_centiseconds_mfdrf_and_lqdrf(beam_cs):
     assert_feasible(lq6, ss, zeta_min=0.03, n_modes=6)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_beam_diagonal_lqr_normalised_over_twelve_modes():
     """Sec. 6.2.1: diagonal LQDRF with J_i / J_i^LQR <= beta over 12 modes (Q = 0.01 I, R = 0.84 I)."""
     m, c, k, U, trans = cantilever(n_el=12, act_nodes=(12, 8, 5), zeta=0.01)

@@ -42,6 +42,7 @@ def test_thresholds_are_positive_and_below_the_range(mass_threshold):
     assert all(x.threshold is None or x.threshold > 0 for x in det.thresholds)
 
 
+@pytest.mark.slow
 def test_half_the_threshold_is_mostly_no_mismatch(tmp_path, mass_threshold):
     """At half the threshold the test fires now and then (its largest-line statistic carries the noise and
     the unsettled transient of the record): at most one of three recordings."""
@@ -50,6 +51,7 @@ def test_half_the_threshold_is_mostly_no_mismatch(tmp_path, mass_threshold):
     assert sum(quiet) >= 2, quiet
 
 
+@pytest.mark.slow
 def test_three_times_the_threshold_is_named(tmp_path, mass_threshold):
     spec, _det, t = mass_threshold
     d = _diagnosed(tmp_path, spec, t, 3.0, 73)
@@ -91,6 +93,7 @@ def test_the_threshold_map_is_drawn_and_bad_values_are_refused(tmp_path):
     assert not (tmp_path / "bad.png").exists()
 
 
+@pytest.mark.slow
 def test_the_models_own_uncertainty_raises_the_thresholds(mass_threshold):
     """A real recording (model form derived) shows no more than a recording of the model itself."""
     spec, det_own, _t = mass_threshold  # the same effects, model_form="none"

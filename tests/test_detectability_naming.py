@@ -20,6 +20,9 @@ from vlab.spec import load_spec
 
 from _detect_recordings import diagnosed as _diagnosed
 
+#: every check here runs whole diagnoses: an end-to-end check (`pytest -m slow`, run in CI)
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 
 

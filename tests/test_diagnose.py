@@ -92,6 +92,7 @@ def test_concealed_loop_delay_is_found(nominal, tmp_path):
     assert r.loop == "closed"
 
 
+@pytest.mark.slow
 def test_concealed_saturation_is_found(nominal, tmp_path):
     """A clipping amplifier: its describing function looks like a lower gain; the selection (and, when a gain
     is within reach, the look-alike rerun of vlab.diagnose.fit.selection) must name the saturation."""
@@ -161,6 +162,7 @@ def test_predicted_frf_equals_the_sampled_data_analysis(controller):
     np.testing.assert_allclose(h, ref, rtol=1e-8)
 
 
+@pytest.mark.slow
 def test_cli_prints_the_selection_and_the_noise_floor(nominal, tmp_path, monkeypatch):
     """``vlab diagnose`` on a recording: the ranked table, the selected effect, the validation misfits and
     the misfit the noise alone leaves; the report is written to --out, its FRF overlays on a logarithmic

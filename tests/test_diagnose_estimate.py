@@ -86,6 +86,7 @@ def test_cli_refuses_a_diagnosis_beyond_the_limit_without_yes(recording, tmp_pat
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_cli_refuses_a_detectability_loop_beyond_the_limit_without_yes(monkeypatch):
     import vlab.robust.scheduler as scheduler
 

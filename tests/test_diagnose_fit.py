@@ -85,6 +85,7 @@ def two_masses_on_the_grid():
     return problem, singles, [h for _, h in scored]
 
 
+@pytest.mark.slow
 def test_forward_and_replacement_alone_miss_two_compensating_masses(two_masses_on_the_grid):
     """Held at its single fit, neither the best single effect (a member) nor its replacements lead to the
     masses: the best pair found is two members, far from the noise."""
@@ -95,6 +96,7 @@ def test_forward_and_replacement_alone_miss_two_compensating_masses(two_masses_o
     assert not problem.within_noise(problem.state_for(best, best.params_))
 
 
+@pytest.mark.slow
 def test_basin_step_finds_two_compensating_masses(two_masses_on_the_grid):
     """The mode-moving singles with the least smoothed error, held at the centres of their basins, reach the
     drawn pair (vlab.diagnose.fit.estimate.N_BASIN_FIRSTS)."""

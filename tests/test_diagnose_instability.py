@@ -44,6 +44,7 @@ def recordings(tmp_path_factory):
     return stable, unstable
 
 
+@pytest.mark.slow
 def test_unstable_recording_is_reported_first(recordings):
     from vlab.diagnose.report.verdict import verdict
 
@@ -77,6 +78,7 @@ def test_stable_recording_says_nothing_of_instability(recordings):
     assert "Instability" not in verdict(d)
 
 
+@pytest.mark.slow
 def test_open_loop_recordings_are_not_searched(tmp_path):
     """Without feedback the structure cannot oscillate by itself; an open-loop BCC recording's mode 1 (1.85 Hz,
     zeta 0.004: a decay time of 21 s, longer than the 20 s period) is still settling and once passed every

@@ -76,6 +76,7 @@ def test_an_mjcf_that_breaks_the_naming_contract_is_named(mass6):
     assert "no_coil5.xml" in res.output and "coil5" in res.output
 
 
+@pytest.mark.slow
 def test_a_structural_effect_against_an_mjcf_nominal_is_validated_on_the_spec_plant(mass6):
     tmp, nominal, _edited, rec = mass6
     d = _diagnose_json(rec, nominal, tmp / "d4")

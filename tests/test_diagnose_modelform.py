@@ -112,6 +112,7 @@ def test_table3_is_within_the_reconstructed_grids_accuracy():
     assert res["uncertainty"]["dominant"] == "model form"
 
 
+@pytest.mark.slow
 def test_table3_referred_to_its_analytical_column(tmp_path):
     res = diagnose("grid", "assets/data/table3_grid_frequencies.csv", out_dir=None,
                    reference_column="analytical_hz").as_dict()
@@ -169,6 +170,7 @@ def test_frf_variance_matches_the_modal_closed_form():
     assert np.all(np.isfinite(h))
 
 
+@pytest.mark.slow
 def test_a_recording_within_the_model_form_is_no_mismatch_only_with_it(tmp_path):
     """The structure 0.1 % stiffer in frequency (its stiffness matrix 0.2 % up), as a real structure may
     differ from its calibrated model: with the model-form uncertainty (BCC: 0.06-0.37 %)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 import vlab
 from vlab.fe.damping import modal_damping_matrix, open_loop_ratios
@@ -21,6 +22,9 @@ from vlab.experiment.config import ExperimentConfig, default_chain
 from vlab.experiment.runner import measure
 from vlab.lab.linear_plant import LinearPlant
 from vlab.models import nominal_fe_model
+
+#: every check here runs whole diagnoses: an end-to-end check (`pytest -m slow`, run in CI)
+pytestmark = pytest.mark.slow
 
 
 def _absorber_plant(fe, point: int, mass_kg: float, tuned_hz: float, zeta: float, step_s: float):

@@ -64,6 +64,7 @@ def test_bad_metadata_names_the_file_and_field(meta, field):
 
 # ------------------------------------------------------------------ selection obeys validation ---
 
+@pytest.mark.slow
 def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monkeypatch):
     """A stand-in validation that makes the FRF misfit 10x worse: the pipeline must reject the candidate (shown
     with both numbers), select nothing, and say so; the real validation of the same case selects the mass."""
@@ -115,6 +116,7 @@ def test_a_linear_recording_is_referred_through_its_replay(tmp_path):
     assert not r.mismatch, r.notes
 
 
+@pytest.mark.slow
 def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_path):
     """Issue 28: `vlab experiment` with its defaults (the MuJoCo plant, MFDRF), then `vlab diagnose` with only
     the structure and the recording: "no significant mismatch" (before: a false alarm selecting a member

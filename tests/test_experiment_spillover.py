@@ -80,7 +80,7 @@ def test_oscillation_above_band():
     assert f == pytest.approx(258.5, abs=0.1) and share > 0.9
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_the_experiment_says_why_and_exits_1(beam, tmp_path):
     from typer.testing import CliRunner
 

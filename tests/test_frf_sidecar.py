@@ -36,6 +36,7 @@ def test_the_frf_file_has_the_recording_setup(experiment):
     assert "frf.uff.json" in json.dumps(manifest)
 
 
+@pytest.mark.slow
 def test_vlab_own_frfs_diagnose_as_no_mismatch(experiment, tmp_path):
     res = runner.invoke(app, ["diagnose", "--structure", "bcc", "--recording", str(experiment / "frf.uff"),
                               "--out", str(tmp_path / "d"), "--json"])

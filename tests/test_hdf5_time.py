@@ -319,6 +319,7 @@ def mass_recording(tmp_path_factory):
     return read_recording(path)
 
 
+@pytest.mark.slow
 def test_recording_as_hdf5_diagnoses_as_the_same_recording_as_csv(mass_recording, tmp_path):
     """Force in lbf, velocities in mm/s, no sidecar: the same verdict, statistic and fitted mass from either file."""
     from _recordings import RES_HZ

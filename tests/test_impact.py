@@ -137,6 +137,7 @@ def lab():
     return LabState(fe.spec, fe, HardwareChain(noise_m_s=1e-6), nominal_design(fe, "mfdrf", 0))
 
 
+@pytest.mark.slow
 def test_an_impact_test_of_a_concealed_mass_is_diagnosed(lab, tmp_path):
     """MFDRF loop closed, 0.12 kg at point 6: the transient estimator is chosen by the force, the mass named."""
     from vlab.diagnose import diagnose

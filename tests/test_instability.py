@@ -138,6 +138,7 @@ def test_lqg_spillover_limit_cycle_on_the_mujoco_bcc(bcc_fe):
     assert check.loop_point in (5, 6, 7, 9)
 
 
+@pytest.mark.slow
 def test_stable_mfdrf_on_the_mujoco_bcc(bcc_fe):
     rec = _bcc_recording(bcc_fe, "mfdrf")
     check = find_instability(rec, feedback_points=(5, 6, 7, 9))

@@ -237,16 +237,27 @@ def test_the_unedited_file_runs_and_matches_its_structure(tmp_path):
     assert d["mismatch"] is False and not d["selected"], d["notes"]
 
 
-#: Every structure with every edit; the shipped structures' runs (40 s and 100 s of the 2 kHz loop) are slow, the
-#: templates' and examples' (a few seconds each) run by default. The beam template's and the beam along x's run
-#: here, the others in test_mjcf_roundtrip_structures.py (two files, so that pytest-xdist's ``--dist loadfile``
-#: runs them on two workers); both call :func:`round_trip`.
-ROUND_TRIPS = [pytest.param(s, e, marks=[pytest.mark.slow] if s in ("bcc", "grid") else [])
+#: Every structure with every edit; the shipped structures' runs (40 s and 100 s of the 2 kHz loop) are long
+#: checks, the templates' and examples' (6-30 s each with the diagnosis) end-to-end checks (``slow``) but for one
+#: edit of the smallest example, run by default. The beam template's and the beam along x's run here, the others in
+#: test_mjcf_roundtrip_structures.py (two files, so that pytest-xdist's ``--dist loadfile`` runs them on two
+#: workers); both call :func:`round_trip`.
+DEFAULT_ROUND_TRIP = ("example:cantilever_tip_mass.toml", "mass")
+
+
+def _marks(source: str, edit: str) -> list:
+    if source in ("bcc", "grid"):
+        return [pytest.mark.long]
+    return [] if (source, edit) == DEFAULT_ROUND_TRIP else [pytest.mark.slow]
+
+
+ROUND_TRIPS = [pytest.param(s, e, marks=_marks(s, e))
                for s in ("bcc", "grid", "init:beam", "init:frame", *(f"example:{p.name}" for p in EXAMPLES))
                for e in ("none", "mass", "spring", "gainprm")
                if (s, e) != ("init:beam", "none")]  # = test_the_unedited_file_runs_and_matches_its_structure
 #: The beam along x (bending rotation ry) through design, experiment, export, edit and diagnose.
-ROUND_TRIPS += [pytest.param("init:beam-along-x", e) for e in ("none", "mass", "gainprm")]
+ROUND_TRIPS += [pytest.param("init:beam-along-x", e, marks=_marks("init:beam-along-x", e))
+                for e in ("none", "mass", "gainprm")]
 BEAM_SOURCES = ("init:beam", "init:beam-along-x")
 
 

@@ -244,7 +244,7 @@ def test_fuzzed_files_end_in_a_clean_error_or_a_correct_read(kind, data):
     _check_one(kind, data.draw(mutated(kind)))
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("kind", KINDS)
 @settings(max_examples=1700, **_COMMON)
 @given(data=st.data())

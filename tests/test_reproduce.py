@@ -108,6 +108,7 @@ def subset():
     return _compute_subset()
 
 
+@pytest.mark.slow
 def test_reproduced_numbers_match_stored_expectations(subset):
     tabs, lc = subset
     expected = json.loads(EXPECTED.read_text())
@@ -217,7 +218,7 @@ def test_bad_options_are_clear(tmp_path):
         reproduce(tmp_path, groups=("tables",))
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_fast_reproduction_end_to_end(tmp_path):
     res = reproduce(tmp_path, fast=True)
     assert len(res.tables) == 21

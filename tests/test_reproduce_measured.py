@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import pytest
 
 from vlab.reference import column
 from vlab.reproduce import reproduce
 
 
+@pytest.mark.slow
 def test_measured_data_group_reports_every_table_both_ways(tmp_path):
     res = reproduce(tmp_path / "r", groups=("measured-data",))
     got = {(m.table, m.compared_with) for m in res.measured}

@@ -257,6 +257,7 @@ def test_summary_and_time_simulation(small_study):
     assert r.size >= 3 and np.all(np.abs(np.log(r)) < 0.25)
 
 
+@pytest.mark.slow
 def test_command_writes_the_outputs(tmp_path):
     from typer.testing import CliRunner
 

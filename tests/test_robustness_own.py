@@ -206,7 +206,7 @@ def test_period_source_names_the_thesis_only_for_its_structures():
     assert period_source("mfdrf", 1e-3, "beam") == "set by the user (default for mfdrf: 0.5 ms)"
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_robustness_of_a_structure_file_end_to_end(beam, tmp_path):
     """`vlab robustness FILE --samples 20` with every default (four controllers, the MuJoCo check of the
     worst and of random samples, the limit cycle's sensitivity): every plant's damping change is reported

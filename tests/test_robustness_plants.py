@@ -102,6 +102,7 @@ class SilentServer:
         self.thread.join(5)
 
 
+@pytest.mark.slow
 def test_silent_scheduler_times_out_before_any_computation(tmp_path, monkeypatch):
     """``--scheduler tcp://...`` to a server that accepts and never answers: exit 1 within 10 s, before the designs."""
     from typer.testing import CliRunner
@@ -155,6 +156,7 @@ def test_help_states_the_default_spreads():
     assert "Sec. 5.3" in text and "Sec. 2.1" in text
 
 
+@pytest.mark.slow
 def test_limit_cycle_follows_the_residual_mode():
     """Nominal LQG on the MuJoCo BCC: a limit cycle near 50 Hz that a 5 % stiffer structure moves up and a
     5 % softer one down (the residual mode's frequency), more than the delay's or the filter's changes."""
@@ -187,6 +189,7 @@ def _group_members(pgid: int) -> list[str]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not __import__("pathlib").Path("/proc/self").exists(), reason="needs Linux /proc")
 def test_ctrl_c_on_a_dask_run_prints_one_line(tmp_path):
     """Ctrl-C (SIGINT to the whole foreground group, as a terminal sends it) once the local workers run:

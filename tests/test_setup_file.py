@@ -66,6 +66,7 @@ def test_init_test_writes_the_sidecars_fields_and_reads_back(recording, tmp_path
     assert g.structure == "grid" and g.metadata == {"controller": "none"} and g.nodes == {}
 
 
+@pytest.mark.slow
 def test_a_bare_recording_with_its_test_setup_diagnoses_as_with_its_sidecar(recording, tmp_path):
     with_sidecar = diagnose("bcc", recording, validate_run=False)
     CliRunner().invoke(app, ["init", "test", str(tmp_path / "t.toml"), "--from", str(recording)])
@@ -78,6 +79,7 @@ def test_a_bare_recording_with_its_test_setup_diagnoses_as_with_its_sidecar(reco
     assert _verdict(with_setup)[:3] == (True, "added_mass", (("point", 6),))
 
 
+@pytest.mark.slow
 def test_acquisition_numbering_and_a_second_force_channel(recording, tmp_path):
     """Nodes 101.. mapped to points 1..; the control force at 7 recorded too and left out by the setup."""
     rec = read_recording(recording)

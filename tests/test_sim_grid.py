@@ -187,7 +187,7 @@ def test_one_link_per_top_beam_segment_misses_mode_12(spec):
     assert cc.pairs[11].error_pct <= -2.5, cc.table()
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_damped_grid(spec):
     plant = build_plant(spec)
     cc = crosscheck(plant, 12)
@@ -198,7 +198,7 @@ def test_damped_grid(spec):
     assert fd.frequency_hz == pytest.approx(cc.sim_modes.frequencies_hz[j - 1], rel=2e-3)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_grid_sixty_seconds_no_energy_growth(spec):
     """60 s free vibration: the energy never rises above its start and decays.
 

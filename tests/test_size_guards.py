@@ -94,7 +94,7 @@ def test_a_plant_whose_linearisation_is_too_large_is_refused():
         check_plant_size(load_spec("bcc"), plan)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_mujoco_compiles_a_chain_of_the_limit_and_refuses_one_more():
     """MuJoCo's own depth limit, measured (about 25 s); the default run checks vlab's guard at the same
     number (test_a_plant_deeper_than_mujoco_compiles_is_refused_before_compiling)."""
