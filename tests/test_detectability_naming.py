@@ -141,7 +141,8 @@ def test_profiled_threshold_against_drawn_model_form_errors():
         real = tester.problem.predict(state) * tester.problem.predict(replace(nominal, point_modes=pm)) / base_ref
         p = Problem(replace(data, h=real), nominal, ctx, model_form_frf=mf, profile_nominal=True)
         nu = p.nuisance_test()
-        return beyond_noise(p.chi2(nominal), p.noise_chi2(), p.peak(nominal), p.peak_limit()) or nu["beyond"]
+        return (beyond_noise(p.chi2(nominal, test=True), p.noise_chi2(), p.peak(nominal, test=True), p.peak_limit())
+                or nu["beyond"])
 
     assert sum(fires(0.5) for _ in range(6)) <= 1
     assert sum(fires(2.0) for _ in range(6)) >= 5

@@ -169,3 +169,27 @@ def test_a_remainder_is_stated_in_the_verdict_with_its_place():
            "data": {"kind": "recording"}}
     text = verdict(res)
     assert "Explained in part" in text and "modes 3" in text and "points 8" in text and "9.37 Hz" in text
+
+
+@settings(max_examples=200, deadline=None)
+@given(c_fit=positive, c_prof=positive, drop=st.floats(min_value=0.0, max_value=0.999))
+def test_a_selected_effects_chi2_is_compared_on_the_footing_of_its_fit(c_fit, c_prof, drop):
+    """The verdict's "chi2 a -> b" compares the selected effect's fit with the nominal lab on the same footing
+    (``chi2_nominal_fit``, the residual whitened as the fits' are), not with the nominal lab's profiled
+    chi-square: a fitted effect below the nominal lab is never shown as a rise."""
+    from vlab.diagnose.report.markdown import _mismatch_lines
+
+    chi2_sel = c_fit * (1.0 - drop)  # the gates keep only a choice below the nominal lab on its own footing
+    tests = [{"test": "chi2", "statistic": c_prof, "limit": 1e-3}]
+    stats = {"chi2_nominal": c_prof, "chi2_nominal_fit": c_fit, "chi2_limit": 1e-3, "peak_nominal": 1.0,
+             "peak_limit": 60.0, "n_obs": 4000, "mismatch_tests": tests, "policy": DecisionPolicy().as_dict()}
+    sel = [{"effect": "added_mass", "location": {"point": 2}, "parameters": {"mass_kg": 0.3},
+            "ci95": {"mass_kg": [0.29, 0.31]}}]
+    ranked = [{"effect": "added_mass", "location": {"point": 2}, "chi2": chi2_sel, "score": chi2_sel}]
+    res = {"mismatch": True, "statistics": stats, "selected": sel, "rejected": [], "ranked": ranked,
+           "data": {"kind": "recording"}}
+    text = verdict(res)
+    m = re.search(r"chi2 (\S+) -> (\S+?)\)", text)
+    assert m and m.group(1) == _fmt(c_fit) and m.group(2) == _fmt(chi2_sel)
+    assert float(m.group(1)) >= float(m.group(2)) * (1 - 1e-3)
+    assert f"chi2 {c_fit:.4g} -> {chi2_sel:.4g} " in "\n".join(_mismatch_lines(res))

@@ -100,3 +100,40 @@ def test_simulated_limit_agrees_with_satterthwaite_and_covers_a_band_of_a_few_li
     lim = p.chi2_limit_simulated(6, nu, 6)
     assert np.isfinite(lim) and lim > p.chi2_limit(6)
     assert lim == p.chi2_limit_simulated(6, nu, 6)  # seeded: the same limit every run
+
+
+def test_relative_error_holds_the_line_rate_where_the_log_ratio_does_not():
+    """At low signal-to-noise ratios (median relative noise 0.15, lines up to the 0.5 cut) the largest line of
+    the relative error ``H/h - 1`` (the tests' form, :mod:`vlab.diagnose.problem.forms`) stays within the F
+    law of the pooled estimate, while the log ratio's heavier tail (``ln(1 + e)`` as ``e`` nears -1)
+    exceeds the same limit far more often. The data are the true FRF plus noise over two periods, the
+    variance estimated and pooled as the estimator does, lines beyond the 0.5 cut left out as the
+    Problem does."""
+    from vlab.diagnose.data.measured import MAX_RELATIVE_NOISE
+    from vlab.diagnose.problem.forms import log_ratio_residual, relative_residual
+
+    rng = np.random.default_rng(11)
+    p = DecisionPolicy(false_alarm_rate=0.05)
+    m, n_lines, n_trials = 2, 300, 1000
+    f = np.linspace(1.0, 25.0, n_lines)
+    h_true = (1.0 + 0.8 * np.cos(f)) * np.exp(1j * f / 4.0)  # unit-level FRF with shallow dips
+    sigma = 0.15 * (1.0 + 0.6 * np.sin(f / 2.0))  # absolute noise level of the averaged FRF
+    nu = pooled_dof(2 * (m - 1))
+    hits = {"relative": 0, "log": 0}
+    for _ in range(n_trials):
+        noise = rng.standard_normal((m, n_lines)) + 1j * rng.standard_normal((m, n_lines))
+        hp = h_true + sigma * np.sqrt(m / 2.0) * noise
+        h = hp.mean(axis=0)
+        own = np.sum(np.abs(hp - h) ** 2, axis=0) / (m - 1) / m
+        var = np.maximum(_pooled_variance(own[:, None], 2 * (m - 1))[:, 0], own)
+        srel = np.sqrt(var) / np.abs(h)
+        used = srel <= MAX_RELATIVE_NOISE
+        ps = srel[used] / np.sqrt(2.0)
+        limit = p.line_limit(int(used.sum()), 2, nu)
+        for name, form in (("relative", relative_residual), ("log", log_ratio_residual)):
+            r = form(h_true[used], h[used], ps)
+            k = r.size // 2
+            hits[name] += bool(np.max(r[:k] ** 2 + r[k:] ** 2) > limit)
+    allowance = p.test_rate + 3 * np.sqrt(p.test_rate / n_trials)
+    assert hits["relative"] / n_trials <= allowance
+    assert hits["log"] / n_trials > 3 * p.test_rate

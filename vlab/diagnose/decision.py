@@ -213,7 +213,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     if any(p.effect in NONLINEAR for p in res.selected_parts):
         return None
     state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
-    r = problem.residual(state)
+    r = problem.residual(state, test=True)
     if profiled(problem, state):  # modes moved within their model form, as for the mismatch test
         rp, x, k = profile_state(problem, state)
         inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()

@@ -89,7 +89,8 @@ def _beyond_measurement(problem: Problem, nominal: LabState) -> bool:
                        policy=problem.policy)
     else:
         bare = Problem(problem.data, nominal, problem.ctx, modal_model_form=False, policy=problem.policy)
-    return beyond_noise(bare.chi2(nominal), bare.noise_chi2(), bare.peak(nominal), bare.peak_limit())
+    return beyond_noise(bare.chi2(nominal, test=True), bare.noise_chi2(), bare.peak(nominal, test=True),
+                        bare.peak_limit())
 
 
 def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy: DecisionPolicy,
@@ -150,11 +151,11 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
 def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> DiagnosisResult:
     """Stage 3: the mismatch tests and the location; the result with what they found."""
     nominal = inp.nominal
-    chi2_0, peak_0 = problem.chi2(nominal), problem.peak(nominal)
-    # the hypotheses are scored on the linearly whitened residuals: the nominal model is compared with them on
-    # the same footing (its profiled chi-square, chi2_0, decides whether there is a mismatch at all)
-    r_lin = problem.residual(nominal)
-    chi2_fit = float(r_lin @ r_lin) if problem.model_form_frf is not None else chi2_0
+    chi2_0, peak_0 = problem.chi2(nominal, test=True), problem.peak(nominal, test=True)
+    # the hypotheses are scored on the fits' footing (the log ratio, linearly whitened): the nominal model is
+    # compared with them on it; its test statistic (chi2_0: the relative error, profiled) decides whether there
+    # is a mismatch at all
+    chi2_fit = problem.chi2(nominal)
     limit, peak_limit = problem.noise_chi2(), problem.peak_limit()
     misfit_0 = problem.misfit(nominal)
     say("locating")

@@ -183,7 +183,7 @@ class DetectionTest:
         self.h_model = None if referral is None else problem.predict(nominal)
         # what the noise (and the model's own small errors) contribute: the nominal lab against the nominal
         # recording, or, on data with an effect, what the fitted effect leaves
-        self.chi2_noise = problem.chi2(nominal) if chi2_noise is None else float(chi2_noise)
+        self.chi2_noise = problem.chi2(nominal, test=True) if chi2_noise is None else float(chi2_noise)
         self.limit, self.peak_limit = problem.noise_chi2(), problem.peak_limit()
         mf = problem.model_form_frf
         self.profiled = mf is not None and mf.sigma.size > 0 and isinstance(problem.data, FrfData)
@@ -215,7 +215,7 @@ class DetectionTest:
         p = self._expected(h, x)
         if p is None:
             return None
-        return self.chi2_noise + p.chi2(self.nominal), p.peak(self.nominal)
+        return self.chi2_noise + p.chi2(self.nominal, test=True), p.peak(self.nominal, test=True)
 
     def detected_first_order(self, h, x: float) -> str | None:
         """``"chi2"``, ``"peak"`` or None for hypothesis ``h`` at size ``x`` [SI], to first order."""
@@ -235,7 +235,7 @@ class DetectionTest:
         if p is None:
             return None
         try:
-            chi2, peak, nuis = p.chi2(self.nominal), p.peak(self.nominal), p.nuisance_test()
+            chi2, peak, nuis = p.chi2(self.nominal, test=True), p.peak(self.nominal, test=True), p.nuisance_test()
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
         if self.chi2_noise + chi2 > self.limit:

@@ -225,12 +225,12 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     found, note = _single_on_plant(model, chosen, x_plant)
     if found is None:
         return chosen, refit, [], note
-    single, single_chi2, single_peak, referred = found
+    single, single_chi2, single_test, referred = found
     pairs = _pairs_on_referred(chosen, referred, pool, n_fit, max_nfev)
     if not pairs:
         return chosen, refit, [], None
     refits, plant_chi2 = _refit_on_plant(model, pairs, x_plant, chosen.n_params, refit_best)
-    return _judge_pair(model, chosen, refit, pairs, refits, plant_chi2, single, single_chi2, single_peak)
+    return _judge_pair(model, chosen, refit, pairs, refits, plant_chi2, single, single_chi2, single_test)
 
 
 def _single_on_plant(model: PlantModel, chosen: Hypothesis, x_plant: np.ndarray) -> tuple[tuple | None, str | None]:
@@ -240,7 +240,8 @@ def _single_on_plant(model: PlantModel, chosen: Hypothesis, x_plant: np.ndarray)
     plant = model.problem
     try:
         single = model.state(chosen, x_plant)
-        single_chi2, single_peak = plant.chi2(single), plant.peak(single)
+        single_chi2 = plant.chi2(single)  # on the fits' footing, as the pairs'; the test's statistics for the note
+        single_test = (plant.chi2(single, test=True), plant.peak(single, test=True))
         if plant.within_noise(single):
             return None, None
         if plant.model_form_frf is not None and within_model_accuracy(plant, single):
@@ -250,7 +251,7 @@ def _single_on_plant(model: PlantModel, chosen: Hypothesis, x_plant: np.ndarray)
         referred = referred_through(model, chosen, chosen.params_, x_plant)
     except (ModelError, SpecError):
         return None, None
-    return (single, single_chi2, single_peak, referred), None
+    return (single, single_chi2, single_test, referred), None
 
 
 def _pairs_on_referred(chosen: Hypothesis, referred: Problem, pool: list[Hypothesis], n_fit: int,
@@ -284,13 +285,13 @@ def _refit_on_plant(model: PlantModel, pairs: list, x_plant: np.ndarray, k: int,
 
 def _judge_pair(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None, pairs: list, refits: dict,
                 plant_chi2: dict, single, single_chi2: float,
-                single_peak: float) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+                single_test: tuple[float, float]) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """The best refitted pair against the single effect on the plant by the pair rule; the answer of
     :func:`second_effect_on_plant` with its note."""
     plant = model.problem
     k = chosen.n_params
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
-            f"{single_chi2:.4g}, largest residual {single_peak:.3g}, limits "
+            f"{single_test[0]:.4g}, largest residual {single_test[1]:.3g}, limits "
             f"{plant.noise_chi2():.4g} and {plant.peak_limit():.3g}): a second effect searched on the data "
             "referred through it; on the plant: "
             + ", ".join(f"{c.parts[1].label}: {plant_chi2[c.label]:.4g}" for c in pairs))

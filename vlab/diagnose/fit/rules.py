@@ -170,7 +170,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     if any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, {}
     raw = without_floor(problem, nominal)
-    stats = {"chi2": raw.chi2(nominal), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal),
+    stats = {"chi2": raw.chi2(nominal, test=True), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal, test=True),
              "peak_limit": raw.peak_limit()}
     return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats
 
@@ -412,7 +412,7 @@ def explained_share(res, chi2_0: float) -> tuple[float, bool]:
     state = res.selected_state()
     if res.noise_only:
         raw = without_floor(res.problem)
-        return 1.0 - raw.chi2(state) / res.noise_only["chi2"], raw.within_noise(state)
+        return 1.0 - raw.chi2(state, test=True) / res.noise_only["chi2"], raw.within_noise(state)
     return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
 
 

@@ -10,8 +10,9 @@ frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
 report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used. To first
 order in the noise the log ratio is the relative complex error, whose parts
 over their standard deviations are normal; where the noise is not small its
-tail is heavier (``ln(1 + eps)`` as ``|eps|`` nears 1), which the mismatch
-tests' laws do not carry (:mod:`vlab.diagnose.policy`).
+tail is heavier (``ln(1 + eps)`` as ``|eps|`` nears 1), so every chi-square and
+largest line judged against a limit (:meth:`Problem.chi2`, :meth:`Problem.peak` with ``test``) is of the
+relative error; the fits and the comparisons between fitted labs keep the log ratio.
 
 Modal data: per measured mode ``ln(f_model / f_meas) / sigma_f``, and when
 given ``ln(zeta_model / zeta_meas) / sigma_zeta`` and ``(1 - MAC) / sigma_MAC``
@@ -19,20 +20,12 @@ of the shapes. The model's modes are followed through a modification by MAC
 against the nominal modes (mode tracking), so measured mode ``n`` is always
 compared with the mode that is nominal mode ``n``.
 
-The sum of squares is a chi-square statistic when the weights are the noise:
-it drives the least-squares fits, the information criteria
-(:mod:`vlab.diagnose.fit.estimate`) and, with its largest single term (:meth:`Problem.peak`, which
-catches a mismatch local to one resonance), the decision whether there is a mismatch at all.
-
-A lightly damped structure makes that chi-square a rugged function of a
-stiffness or mass: a resonance that misses its measured line by more than a
-half-power bandwidth costs as much as one that misses it by far, so the
-minimum is a narrow well (about +-12 % in a joint stiffness on the grid). The
-*smoothed* error (:meth:`Problem.scores`) compares model and data
-after the same complex smoothing along frequency (a Gaussian in ``ln f``,
-:data:`SMOOTH_REL_WIDTH`), which widens every resonance to the kernel's width,
-as added damping would: its minimum is broad and lies near the sharp one, so
-a coarse scan of it finds the well that the local fit then descends.
+The sum of squares is a chi-square statistic when the weights are the noise: it drives the fits and
+the information criteria (:mod:`vlab.diagnose.fit.estimate`) and, with its largest single term
+(:meth:`Problem.peak`), decides whether there is a mismatch at all. Its minimum in a stiffness or a mass
+of a lightly damped structure is a narrow well; the *smoothed* error (:meth:`Problem.scores`, a Gaussian
+in ``ln f`` of :data:`SMOOTH_REL_WIDTH`, which widens every resonance as added damping would) has a broad
+minimum near it, which a coarse scan finds.
 """
 
 from __future__ import annotations
@@ -51,10 +44,8 @@ from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from .context import Context
+from .forms import PENALTY, log_ratio_residual, relative_residual
 from .misfits import log_misfit
-
-#: Residual returned for a state the model cannot be built for (unstable, singular).
-PENALTY = 1e3
 
 #: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
 #: (10 %: 0.4 Hz at 4 Hz). A chosen scale, not fitted: ten half-power bandwidths of a 0.5 % damped mode.
@@ -341,19 +332,21 @@ class Problem:
         d: FrfData = self.data
         return predict_frf(state, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
 
-    def residual(self, state: LabState) -> np.ndarray:
-        """Weighted residuals of the lab ``state``, shape (n_obs,). A model that cannot be built gives a large constant."""
+    def residual(self, state: LabState, *, test: bool = False) -> np.ndarray:
+        """Weighted residuals of the lab ``state``, shape (n_obs,): FRF data's log ratio (the fits'), with
+        ``test`` its relative error (the statistics', :mod:`.forms`). A model that cannot be built gives a
+        large constant."""
         self.n_evaluations += 1
         try:
             if isinstance(self.data, FrfData):
-                return self._frf_residual(self.predict(state))
+                return self._frf_residual(self.predict(state), test)
             r = self._modal_residual(state)
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
             return np.full(self.n_obs, PENALTY)
         return np.where(np.isfinite(r), r, PENALTY)
 
-    def _frf_residual(self, hm: np.ndarray) -> np.ndarray:
-        r = self.log_residual(hm[self.mask])
+    def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:
+        r = (self.test_residual if test else self.log_residual)(hm[self.mask])
         w = getattr(self, "_whiten", None)
         if w is not None:
             u, c = w
@@ -373,13 +366,14 @@ class Problem:
             parts.append((1.0 - macs) / self.shape_sigma)
         return np.concatenate(parts)
 
-    def chi2(self, state: LabState) -> float:
-        """Sum of squared weighted residuals of the lab ``state`` (for the nominal lab with
-        ``profile_nominal``: of its profile, with the nuisance parameters' penalty, :meth:`nominal_profile`)."""
-        if self._profiles(state):
+    def chi2(self, state: LabState, *, test: bool = False) -> float:
+        """Sum of squared weighted residuals of the lab ``state``: on the fits' footing (the log ratio), with
+        ``test`` the statistic a limit judges (the relative error, :mod:`.forms`; for the nominal lab with
+        ``profile_nominal`` of its profile, with the nuisance parameters' penalty, :meth:`nominal_profile`)."""
+        if test and self._profiles(state):
             r, x = self.nominal_profile()
             return float(r @ r + x @ x)
-        r = self.residual(state)
+        r = self.residual(state, test=test)
         return float(r @ r)
 
     def nuisance_test(self) -> dict | None:
@@ -439,13 +433,19 @@ class Problem:
         return self._profile
 
     def log_residual(self, h_used: np.ndarray) -> np.ndarray:
-        """Residual of predicted FRFs ``h_used`` (the used lines and channels, shape (n_used,)) weighted by the
-        noise and the floor alone, not whitened by the model form, shape (n_obs,)."""
-        ratio = h_used / self.data.h[self.mask]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            re = np.log(np.abs(ratio)) / self.part_sigma
-            rr = re if not self.use_phase else np.concatenate([re, np.angle(ratio) / self.part_sigma])
-        return np.where(np.isfinite(rr), rr, PENALTY)
+        """Log-ratio residual of predicted FRFs ``h_used`` (the used lines and channels, shape (n_used,)) weighted
+        by the noise and the floor alone, not whitened by the model form, shape (n_obs,) (:mod:`.forms`)."""
+        return log_ratio_residual(h_used, self.data.h[self.mask], self.part_sigma, self.use_phase)
+
+    def test_residual(self, h_used: np.ndarray) -> np.ndarray:
+        """As :meth:`log_residual`, of the relative error ``H / h - 1`` (the tests' form, :mod:`.forms`).
+
+        Parameters
+        ----------
+        h_used : ndarray, complex, shape (n_used,)
+            Predicted FRFs on the used lines and channels [(m/s)/N].
+        """
+        return relative_residual(h_used, self.data.h[self.mask], self.part_sigma, self.use_phase)
 
     def _smoother(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Kernel ``W`` (n_f, n_f), its masked row sums (n_f, n_o) and the smoothed data (n_f, n_o), cached."""
@@ -532,12 +532,15 @@ class Problem:
         (:meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` with the data's ``nu``)."""
         return self.policy.nuisance_limit(k, self._noise_dof()[0])
 
-    def peak(self, state: LabState) -> float:
+    def peak(self, state: LabState, *, test: bool = False) -> float:
         """Largest squared residual of one observation of the lab ``state``: for FRF data the largest
         ``re^2 + im^2`` of one line and channel (chi-square with 2 degrees of freedom under noise, 1 without
         phase), for modal data the largest squared residual. A local mismatch (one resonance of a
-        top-beam segment) can stand far out of the noise while adding little to the total chi-square."""
-        return self.peak_of(self.nominal_profile()[0] if self._profiles(state) else self.residual(state))
+        top-beam segment) can stand far out of the noise while adding little to the total chi-square. ``test``
+        as in :meth:`chi2`."""
+        if test and self._profiles(state):
+            return self.peak_of(self.nominal_profile()[0])
+        return self.peak_of(self.residual(state, test=test))
 
     def peak_of(self, r: np.ndarray) -> float:
         """Largest squared residual of one observation in the residual vector ``r`` (shape (n_obs,)): of one
@@ -554,11 +557,8 @@ class Problem:
 
         The policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.line_limit` over the ``n`` observations
         (Šidák: the chance that the largest of ``n`` independent noise-only residuals exceeds it is the
-        test's rate); ``dof`` = 2 for FRF lines with phase, else 1. When the noise is itself estimated
-        from the data with ``nu`` effective degrees of freedom (:attr:`FrfData.var_dof`), a residual scaled
-        by it follows ``dof F(dof, nu)`` instead, whose tail is heavier: with two periods pooled over 21
-        lines (``nu`` = 27) the limit is about twice the chi-square one for 2000 lines.
-        """
+        test's rate); ``dof`` = 2 for FRF lines with phase, else 1; ``dof F(dof, nu)`` with a noise variance
+        estimated with ``nu`` degrees of freedom (:attr:`FrfData.var_dof`)."""
         if isinstance(self.data, FrfData) and self.use_phase:
             n, dof = self.n_obs // 2, 2
         else:
@@ -568,7 +568,7 @@ class Problem:
     def within_noise(self, state: LabState) -> bool:
         """Whether the lab ``state`` explains the data within the noise: its chi-square is within
         :meth:`noise_chi2` and no single observation exceeds :meth:`peak_limit`."""
-        return self.chi2(state) <= self.noise_chi2() and self.peak(state) <= self.peak_limit()
+        return self.chi2(state, test=True) <= self.noise_chi2() and self.peak(state, test=True) <= self.peak_limit()
 
     def information(self, chi2: float, k: int) -> tuple[float, float]:
         """``(AIC, BIC) = (chi2 + 2k, chi2 + k ln N)`` (Akaike 1974; Schwarz 1978)."""

@@ -32,7 +32,7 @@ import numpy as np
 from ...errors import DataFileError, VlabError
 from ...experiment.results import jsonable
 from .text import _fmt, format_location, format_parameters, misfit_unit, ratio_text
-from .verdict import mismatch_text, selected_chi2, verdict
+from .verdict import mismatch_text, nominal_fit_chi2, selected_chi2, verdict
 
 
 def _params(d: dict, ci: dict) -> str:
@@ -97,8 +97,10 @@ def _mismatch_lines(res: dict) -> list[str]:
         sel = " + ".join(f"`{x['effect']}` at {_loc(x['location'])}" for x in res["selected"])
         chi2_sel = selected_chi2(res)
         arrow = "" if chi2_sel is None else f" -> {chi2_sel:.4g}"
-        lines += [f"**Mismatch: {sel}.** chi2 {s['chi2_nominal']:.4g}{arrow} "
-                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}){peak}.", ""]
+        c0, cp = nominal_fit_chi2(s), s["chi2_nominal"]
+        profiled = "" if c0 == cp else f"; the nominal modes moved within their model form: {cp:.4g}"
+        lines += [f"**Mismatch: {sel}.** chi2 {c0:.4g}{arrow} "
+                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}{profiled}){peak}.", ""]
         for x in res["selected"]:
             fe = ("" if not x.get("fe_fit") else
                   " (refitted on the MuJoCo plant's linearisation; the FE model's fit: "

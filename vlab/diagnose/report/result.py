@@ -258,6 +258,7 @@ class DiagnosisResult:
             "controller": self.controller, "data": data,
             "mismatch": bool(self.mismatch),
             "statistics": {"chi2_nominal": self.chi2_nominal, "chi2_limit": self.chi2_limit,
+                           "chi2_nominal_fit": self.chi2_nominal if self.chi2_fit is None else self.chi2_fit,
                            "peak_nominal": self.peak_nominal, "peak_limit": self.peak_limit,
                            "n_obs": self.problem.n_obs, "floor": self.problem.floor,
                            "noise_only": self.noise_only,

@@ -24,6 +24,14 @@ def _where_text(res: dict) -> str:
     return f" Located {'; '.join(parts)}." if parts else ""
 
 
+def nominal_fit_chi2(s: dict) -> float:
+    """The nominal lab's chi-square on the fits' footing (``statistics.chi2_nominal_fit``: its residual
+    whitened linearly by the model form, as every fitted effect's), the value a fitted effect's chi-square is
+    compared with; ``chi2_nominal`` where absent (no model form: the two are one)."""
+    v = s.get("chi2_nominal_fit")
+    return float(s["chi2_nominal"] if v is None else v)
+
+
 def selected_chi2(res: dict) -> float | None:
     """The chi-square of the selected effect's fit (its entry in ``res["ranked"]``), None when it has none there."""
     sel = res.get("selected") or []
@@ -164,7 +172,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
                                   {"first": sel[0]["location"], "second": sel[1]["location"]}))
     if top_is_selected:
         top = ranked[0]
-        text += (f", the lowest BIC of {len(ranked)} fitted hypotheses (chi2 {_fmt(s['chi2_nominal'])} -> "
+        text += (f", the lowest BIC of {len(ranked)} fitted hypotheses (chi2 {_fmt(nominal_fit_chi2(s))} -> "
                  f"{_fmt(top['chi2'])}")
         if len(ranked) > 1:
             text += f"; the next, {ranked[1]['effect']} at {format_location(ranked[1]['location'])}, is " \
