@@ -110,7 +110,7 @@ def test_relative_error_holds_the_line_rate_where_the_log_ratio_does_not():
     variance estimated and pooled as the estimator does, lines beyond the 0.5 cut left out as the
     Problem does."""
     from vlab.diagnose.data.measured import MAX_RELATIVE_NOISE
-    from vlab.diagnose.problem.forms import log_ratio_residual, relative_residual
+    from vlab.diagnose.problem.forms import line_residual
 
     rng = np.random.default_rng(11)
     p = DecisionPolicy(false_alarm_rate=0.05)
@@ -130,8 +130,8 @@ def test_relative_error_holds_the_line_rate_where_the_log_ratio_does_not():
         used = srel <= MAX_RELATIVE_NOISE
         ps = srel[used] / np.sqrt(2.0)
         limit = p.line_limit(int(used.sum()), 2, nu)
-        for name, form in (("relative", relative_residual), ("log", log_ratio_residual)):
-            r = form(h_true[used], h[used], ps)
+        for name in ("relative", "log"):
+            r = line_residual(h_true[used], h[used], ps, form=name)
             k = r.size // 2
             hits[name] += bool(np.max(r[:k] ** 2 + r[k:] ** 2) > limit)
     allowance = p.test_rate + 3 * np.sqrt(p.test_rate / n_trials)

@@ -76,7 +76,7 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     Parameters
     ----------
     problem : Problem
-        FRF data with ``model_form_frf``; its unwhitened relative error (:meth:`Problem.test_residual`) is used.
+        FRF data with ``model_form_frf``; its unwhitened relative error (:meth:`Problem.line_residual` with ``test``) is used.
     state : LabState
         The lab whose modes move.
     pm0 : PointModes
@@ -103,7 +103,7 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
             kind, r, j = which[i]
             pm = perturbed_modes(pm, kind, r, j, mf.sigma[i] * xi)
         h = problem.predict(replace(state, point_modes=pm))[mask]
-        return problem.test_residual(h if scale is None else scale * h)
+        return problem.line_residual(h if scale is None else scale * h, test=True)
 
     x = np.zeros(len(which))
     if not live:

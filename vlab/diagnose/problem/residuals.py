@@ -44,7 +44,7 @@ from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from .context import Context
-from .forms import PENALTY, log_ratio_residual, relative_residual
+from .forms import PENALTY, line_residual
 from .misfits import log_misfit
 
 #: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
@@ -346,7 +346,7 @@ class Problem:
         return np.where(np.isfinite(r), r, PENALTY)
 
     def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:
-        r = (self.test_residual if test else self.log_residual)(hm[self.mask])
+        r = self.line_residual(hm[self.mask], test=test)
         w = getattr(self, "_whiten", None)
         if w is not None:
             u, c = w
@@ -432,20 +432,19 @@ class Problem:
         self._profile = profile(self, self.base, pm0, scale)
         return self._profile
 
-    def log_residual(self, h_used: np.ndarray) -> np.ndarray:
-        """Log-ratio residual of predicted FRFs ``h_used`` (the used lines and channels, shape (n_used,)) weighted
-        by the noise and the floor alone, not whitened by the model form, shape (n_obs,) (:mod:`.forms`)."""
-        return log_ratio_residual(h_used, self.data.h[self.mask], self.part_sigma, self.use_phase)
-
-    def test_residual(self, h_used: np.ndarray) -> np.ndarray:
-        """As :meth:`log_residual`, of the relative error ``H / h - 1`` (the tests' form, :mod:`.forms`).
+    def line_residual(self, h_used: np.ndarray, *, test: bool = False) -> np.ndarray:
+        """Residual of predicted FRFs weighted by the noise and the floor alone, not whitened by the model
+        form, shape (n_obs,): the log ratio, with ``test`` the relative error (:mod:`.forms`).
 
         Parameters
         ----------
         h_used : ndarray, complex, shape (n_used,)
             Predicted FRFs on the used lines and channels [(m/s)/N].
+        test : bool
+            The tests' form instead of the fits'.
         """
-        return relative_residual(h_used, self.data.h[self.mask], self.part_sigma, self.use_phase)
+        return line_residual(h_used, self.data.h[self.mask], self.part_sigma, form="relative" if test else "log",
+                             use_phase=self.use_phase)
 
     def _smoother(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Kernel ``W`` (n_f, n_f), its masked row sums (n_f, n_o) and the smoothed data (n_f, n_o), cached."""
