@@ -50,7 +50,20 @@ from .structure import Damping, Member, Quantity
 CHANGE_TABLES = ("member_stiffness", "joint_flexibility", "mode_damping")
 
 
-def _unique(existing: set[str], base: str) -> str:
+def unique_id(existing: set[str], base: str) -> str:
+    """``base``, or ``base_2``, ``base_3``, ... : the first that is not in ``existing``.
+
+    Parameters
+    ----------
+    existing : set of str
+        Names already taken.
+    base : str
+        The name wanted.
+
+    Returns
+    -------
+    str
+    """
     name, i = base, 1
     while name in existing:
         i += 1
@@ -100,10 +113,10 @@ def split_segments(spec, rigidity: dict[frozenset, float], source: str):
             sec_name = m.section
             if ei[a] is not None:
                 old = spec.sections[m.section]
-                sec_name = _unique(set(sections), f"{m.section}@{tag}")
+                sec_name = unique_id(set(sections), f"{m.section}@{tag}")
                 sections[sec_name] = dataclasses.replace(old, name=sec_name, ei=Quantity(ei[a], source),
                                                          gj=Quantity(old.gj.si * ei[a] / old.ei.si, source))
-            ident = _unique(used, tag)
+            ident = unique_id(used, tag)
             used.add(ident)
             pts = m.points[a:b + 1]
             members.append(Member(ident, pts, sec_name, m.elements_per_segment,

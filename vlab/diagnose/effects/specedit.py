@@ -23,6 +23,7 @@ import dataclasses
 
 from ...errors import SpecError
 from ...spec import Damping, LumpedMass, Member, Quantity, Spring, StructureSpec, Support
+from ...spec.changes import unique_id
 
 _SOURCE = "diagnosis: {}"
 
@@ -35,14 +36,6 @@ def _keeps_damping(before: StructureSpec, after: StructureSpec) -> StructureSpec
         return after
     basis = before.damping.basis if before.damping is not None and before.damping.basis is not None else before
     return after.replace(damping=dataclasses.replace(d, basis=basis))
-
-
-def _unique_id(existing: set[str], base: str) -> str:
-    name, i = base, 1
-    while name in existing:
-        i += 1
-        name = f"{base}_{i}"
-    return name
 
 
 def add_mass(spec: StructureSpec, point: int, mass_kg: float, *, effect: str = "added_mass") -> StructureSpec:
@@ -58,7 +51,7 @@ def add_mass(spec: StructureSpec, point: int, mass_kg: float, *, effect: str = "
     spec.check_point(point, f"{effect} at point {point}")
     if not mass_kg >= 0.0:
         raise SpecError(f"{effect}: mass must be >= 0 kg, got {mass_kg!r}")
-    ident = _unique_id({m.id for m in spec.masses}, f"{effect}_{point}")
+    ident = unique_id({m.id for m in spec.masses}, f"{effect}_{point}")
     lm = LumpedMass(ident, point, Quantity(float(mass_kg), _SOURCE.format(effect)))
     return _keeps_damping(spec, spec.replace(masses=spec.masses + (lm,)))
 
@@ -97,7 +90,7 @@ def add_spring(spec: StructureSpec, point: int, dof: str, stiffness_si: float, *
         if s.point == point and dof in s.fixed:
             s = Support(s.point, tuple(d for d in s.fixed if d != dof), s.inplane)
         supports.append(s)
-    ident = _unique_id({s.id for s in spec.springs}, f"{effect}_{point}_{dof}")
+    ident = unique_id({s.id for s in spec.springs}, f"{effect}_{point}_{dof}")
     sp = Spring(ident, point, dof, Quantity(float(stiffness_si), _SOURCE.format(effect)))
     return _keeps_damping(spec, spec.replace(springs=spec.springs + (sp,), supports=tuple(supports)))
 
@@ -109,7 +102,7 @@ def is_fixed(spec: StructureSpec, point: int, dof: str) -> bool:
 
 def _scaled_section(spec: StructureSpec, sections: dict, name: str, factor: float, tag: str) -> str:
     sec = spec.sections[name]
-    new = _unique_id(set(sections), f"{name}@{tag}")
+    new = unique_id(set(sections), f"{name}@{tag}")
     sections[new] = dataclasses.replace(
         sec,
         name=new,
@@ -175,7 +168,7 @@ def scale_segments(spec: StructureSpec, factors: dict[tuple[int, int], float], *
                 sec = _scaled_section(spec, sections, m.section, segs[a], f"{effect}:{tag}")
             else:
                 sec = m.section
-            ident = _unique_id(used, tag)
+            ident = unique_id(used, tag)
             used.add(ident)
             members.append(_piece(m, a, b, ident, sec))
     missing = [tuple(sorted(k)) for k in wanted if k not in found]
