@@ -18,18 +18,12 @@ import pytest
 from vlab.errors import DataFileError, ModelError, SimulationError
 from vlab.experiment.config import ExperimentConfig
 from vlab.experiment.runner import make_plant
-from vlab.sim import MujocoPlant, build_plant, export_mjcf, load_plant_for_experiment
-from vlab.spec import load_spec
+from vlab.sim import MujocoPlant, export_mjcf, load_plant_for_experiment
+
+from _plants import structure_fixtures
 
 
-@pytest.fixture(scope="module")
-def spec():
-    return load_spec("bcc")
-
-
-@pytest.fixture(scope="module")
-def plant(spec):
-    return build_plant(spec)
+spec, plant = structure_fixtures("bcc")
 
 
 @pytest.fixture(scope="module")

@@ -31,17 +31,12 @@ from vlab.sim import (
     modes,
     settle,
 )
-from vlab.spec import Member, load_spec
+from vlab.spec import Member
+
+from _plants import structure_fixtures
 
 
-@pytest.fixture(scope="module")
-def spec():
-    return load_spec("bcc")
-
-
-@pytest.fixture(scope="module")
-def plant(spec):
-    return build_plant(spec)
+spec, plant = structure_fixtures("bcc")
 
 
 @pytest.fixture(scope="module")
