@@ -19,7 +19,7 @@ from ...fe import build_fe_model
 from ...units import G_SI
 from ..model.labmodel import natural_frequencies
 from . import specedit
-from .hypothesis import Hypothesis, _log_trials
+from .hypothesis import Hypothesis, _AtPoint, _log_trials
 
 
 def critical_dashpot(state, ctx, point: int) -> float:
@@ -44,7 +44,7 @@ def critical_dashpot(state, ctx, point: int) -> float:
     return float(np.min(2 * (2 * math.pi * f[band][moved]) / ph2[moved]))
 
 
-class PointDamping(Hypothesis):
+class PointDamping(_AtPoint):
     """``damping`` at a point: a viscous dashpot to ground on the out-of-plane DOF.
 
     Parameter: ``c_n_s_per_m`` [N*s/m] (log10), at most :func:`critical_dashpot`.
@@ -56,13 +56,6 @@ class PointDamping(Hypothesis):
     log_scale = (True,)
     spec_level = False
     order = 6
-
-    def __init__(self, *, point: int):
-        self.point = point
-
-    @property
-    def location(self) -> dict:
-        return {"point": self.point}
 
     def _cref(self, ctx) -> float:
         return ctx.point_damping.get(self.point, 0.02 * 2 * math.pi * ctx.f1_hz * ctx.total_mass_kg)
@@ -81,7 +74,7 @@ class PointDamping(Hypothesis):
         return np.array([0.0])
 
 
-class Friction(Hypothesis):
+class Friction(_AtPoint):
     """``friction``: Coulomb friction at a point, as its equivalent viscous damping.
 
     Parameter: ``friction_force_n`` [N] (log10). Under random excitation the
@@ -102,13 +95,6 @@ class Friction(Hypothesis):
     needs = "signals"
     spec_level = False
     order = 12
-
-    def __init__(self, *, point: int):
-        self.point = point
-
-    @property
-    def location(self) -> dict:
-        return {"point": self.point}
 
     def _sigma(self, state, ctx) -> float:
         s = ctx.predicted_velocity_rms(state, self.point)

@@ -207,6 +207,17 @@ def _log_trials(ref: float, factors) -> np.ndarray:
     return np.array([[ref * f] for f in factors])
 
 
+class _AtPoint(Hypothesis):
+    """A hypothesis at one point (``point=``)."""
+
+    def __init__(self, *, point: int):
+        self.point = point
+
+    @property
+    def location(self) -> dict:
+        return {"point": self.point}
+
+
 class Combination(Hypothesis):
     """Two effects at once (``effect = "a+b"``): parameters of the first, then of the second."""
 

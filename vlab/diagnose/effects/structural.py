@@ -18,7 +18,7 @@ import numpy as np
 from ...errors import ModelError, SpecError
 from ..model.labmodel import natural_frequencies
 from . import specedit
-from .hypothesis import Hypothesis, _log_trials
+from .hypothesis import Hypothesis, _AtPoint, _log_trials
 
 
 class _PointSet(Hypothesis):
@@ -139,7 +139,7 @@ class SupportStiffness(_PointSet):
         return None if self._released(state) else np.array([0.0])
 
 
-class JointFlexibility(Hypothesis):
+class JointFlexibility(_AtPoint):
     """``joint_flexibility``: a semi-rigid connection at a point where members meet.
 
     Parameter: ``rotational_stiffness_n_m_per_rad`` [N*m/rad] (log10); each
@@ -153,13 +153,6 @@ class JointFlexibility(Hypothesis):
     log_scale = (True,)
     order = 3
     stage = 0
-
-    def __init__(self, *, point: int):
-        self.point = point
-
-    @property
-    def location(self) -> dict:
-        return {"point": self.point}
 
     def _kref(self, state) -> float:
         segs = specedit.joint_segments(state.spec, self.point)
