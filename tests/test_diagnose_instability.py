@@ -70,6 +70,7 @@ def test_unstable_recording_is_reported_first(recordings):
     assert d["validated"]["misfit_after"] < d["validated"]["misfit_before"]
 
 
+@pytest.mark.slow
 def test_stable_recording_says_nothing_of_instability(recordings):
     from vlab.diagnose.report.verdict import verdict
 

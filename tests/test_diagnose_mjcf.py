@@ -50,6 +50,7 @@ def _diagnose_json(rec, mjcf, out):
     return json.loads(res.stdout)
 
 
+@pytest.mark.slow
 def test_the_recordings_own_plant_as_nominal_leaves_no_mismatch(mass6):
     tmp, _nominal, edited, rec = mass6
     d = _diagnose_json(rec, edited, tmp / "d1")

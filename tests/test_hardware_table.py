@@ -188,6 +188,7 @@ def test_file_settings_fill_the_chain_and_explicit_entries_win():
     assert chain.delay_of(6) == pytest.approx(1.35) and with_hardware(chain, spec) == chain
 
 
+@pytest.mark.slow
 def test_a_concealed_sensor_gain_is_written_back_and_the_redesign_predicts_the_lab(tmp_path):
     import vlab
     from vlab.design import design_controller

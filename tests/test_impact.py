@@ -152,6 +152,7 @@ def test_an_impact_test_of_a_concealed_mass_is_diagnosed(lab, tmp_path):
     assert sel["parameters"]["mass_kg"] == pytest.approx(0.12, rel=0.01)
 
 
+@pytest.mark.slow
 def test_an_impact_test_of_the_nominal_structure_is_no_mismatch(lab, tmp_path):
     from vlab.diagnose import diagnose
 

@@ -142,6 +142,7 @@ def test_update_refuses_a_diagnosis_it_cannot_apply(tmp_path, change, message):
     assert not (tmp_path / "u.toml").exists()
 
 
+@pytest.mark.slow
 def test_concealed_mass_is_written_back_and_the_redesign_predicts_the_changed_plant(tmp_path):
     from vlab.design import design_controller
     from vlab.io.uff import write_recording

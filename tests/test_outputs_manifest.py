@@ -70,6 +70,7 @@ def test_every_file_written_into_an_output_folder_is_in_its_manifest(tree, tmp_p
     assert sorted(p.name for p in out.iterdir()) == ["new.txt", MANIFEST_NAME]
 
 
+@pytest.mark.slow
 def test_an_experiment_lists_every_file_it_wrote(tmp_path):
     """A real command (an experiment on the linear plant): every file in its folder is in the manifest."""
     out = tmp_path / "exp"

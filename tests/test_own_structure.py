@@ -116,6 +116,7 @@ def test_short_closed_loop_experiment_on_the_mujoco_plant():
     assert r.modes[1].damping_measured > 0.025  # open loop: 1 % ([damping]); closed loop: 3 % designed
 
 
+@pytest.mark.slow
 def test_diagnosis_names_a_concealed_added_mass(tmp_path):
     from vlab.design import design_controller
     from vlab.fe import build_fe_model

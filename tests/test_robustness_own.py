@@ -79,6 +79,7 @@ def beam_study(beam):
     return cfg, nominal_analysis(cfg)
 
 
+@pytest.mark.slow
 def test_mujoco_damping_of_a_working_loop(beam_study):
     """MFDRF on the beam's MuJoCo plant: the unperturbed plant's closed-loop damping (its linearisation)
     equals the FE loop's within the two models' difference (modes 1-2 within 0.01 %, `vlab crosscheck`),
@@ -100,6 +101,7 @@ def test_mujoco_damping_of_a_working_loop(beam_study):
     assert st["nominal_plant_damping_change_relative"] < 1e-3
 
 
+@pytest.mark.slow
 def test_mujoco_self_excitation_is_the_linearised_loops_unstable_pole(beam_study):
     """LQDRF-diag self-excites on the beam's MuJoCo plant (its mode 4 near 262 Hz keeps the hinge chain's
     own damping, 0.0036, against the FE model's 0.01): the time check's line is the frequency of the

@@ -166,7 +166,7 @@ def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str 
 
 def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: str = "mujoco",
                    excitation: str = "random", reduction: str | None = None, duration_s: float | None = None,
-                   delay_periods: float = 1.35, period_s: float | None = None, noise_m_s: float = 1e-6,
+                   delay_periods: float | None = None, period_s: float | None = None, noise_m_s: float = 1e-6,
                    seed: int = 0, mjcf: str | Path | None = None, out_dir: str | Path | None = None,
                    overwrite: bool = False, progress=None):
     """Run a closed-loop experiment and measure it like a modal test (``vlab experiment``).
@@ -191,8 +191,8 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     duration_s : float, optional
         Run length [s], at least two records of ``1 / resolution`` (BCC 40 s,
         grid 100 s); None = the settling records plus two measured.
-    delay_periods : float
-        Computation delay [sampling periods], >= 0.
+    delay_periods : float, optional
+        Computation delay [sampling periods], >= 0; None = the PC-1000's 1.35 (Sec. 5.3).
     period_s : float, optional
         Controller sampling period [s]; None = the thesis's for the controller.
     noise_m_s : float
@@ -235,12 +235,12 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
 
     if controller == "lqr":
         raise OptionError("controller 'lqr' needs every state measured; the laboratory ran it as LQG (use 'lqg')")
-    for name, v, low in (("delay_periods", delay_periods, 0.0), ("noise_m_s", noise_m_s, 0.0)):
-        if not math.isfinite(float(v)) or float(v) < low:
-            raise OptionError(f"{name} must be a finite number >= {low:g}, got {v!r}")
-    for name, v in (("duration_s", duration_s), ("period_s", period_s)):
-        if v is not None and (not math.isfinite(float(v)) or float(v) <= 0):
-            raise OptionError(f"{name} must be a finite number > 0, got {v!r}")
+    if delay_periods is None:
+        from .lab.blocks import PC1000_DELAY_PERIODS as delay_periods
+    for name, v, low, strict in (("delay_periods", delay_periods, 0.0, False), ("noise_m_s", noise_m_s, 0.0, False),
+                                 ("duration_s", duration_s, 0.0, True), ("period_s", period_s, 0.0, True)):
+        if v is not None and (not math.isfinite(float(v)) or float(v) < low or (strict and float(v) <= low)):
+            raise OptionError(f"{name} must be a finite number {'>' if strict else '>='} {low:g}, got {v!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
         raise OptionError(f"seed must be an integer in [0, 2**32), got {seed!r}")
     chain = default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s,

@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from .errors import DataFileError, ModelError, SpecError
+from .lab.blocks import PC1000_DELAY_PERIODS
 from .spec import StructureSpec, load_spec, spec_from_dict, structure_identity
 
 #: Relative difference of the natural frequencies allowed between the written file and the diagnosis's own
@@ -494,8 +495,9 @@ def update(structure: str | Path | StructureSpec, diagnosis: str | Path, *, out:
 
 
 def verify(original: str | Path | StructureSpec, updated: str | Path | StructureSpec, mjcf: str | Path, *,
-           controller: str = "mfdrf", seed: int = 0, duration_s: float | None = None, delay_periods: float = 1.35,
-           noise_m_s: float = 1e-6, progress=None, lab_chain=None) -> dict:
+           controller: str = "mfdrf", seed: int = 0, duration_s: float | None = None,
+           delay_periods: float = PC1000_DELAY_PERIODS, noise_m_s: float = 1e-6, progress=None,
+           lab_chain=None) -> dict:
     """Design on the original and on the updated structure, run both against the same plant, compare.
 
     Each design is predicted with its own model's analysis (the sampled-data loop, with its file's

@@ -77,8 +77,9 @@ def _verify_controller(spec, diagnosis: str, controller: ExpController | None, d
         ctrl = d.get("controller") if d.get("controller") not in (None, "none", "lqr") else "mfdrf"
     if ctrl == "none":
         raise OptionError("--controller none: --verify compares designs; choose a controller")
-    est = estimate_experiment(checks.fe_model_of(spec), plant="mujoco", period_s=default_chain(ctrl).period_s,
-                              duration_s=duration, delay_periods=1.35)
+    chain = default_chain(ctrl)
+    est = estimate_experiment(checks.fe_model_of(spec), plant="mujoco", period_s=chain.period_s,
+                              duration_s=duration, delay_periods=chain.delay_periods)
     checks.confirm_long_run("--duration" if duration is not None else "--verify", 2 * est["time_s"],
                             f"two runs of {est['n_ticks']:.3g} ticks", yes, "a shorter --duration")
     return ctrl
