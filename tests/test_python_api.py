@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import scipy.linalg
 
 import vlab
@@ -75,3 +76,15 @@ def test_tutorial_code_runs(capsys):
     assert "Beam Cross-Cable" in out and "mismatch: False" in out and "bcc.xml" in out
     names = set(re.findall(r"vlab\.(\w+)\(", "".join(blocks)))
     assert names <= set(ENTRY), names - set(ENTRY)
+
+
+@pytest.mark.parametrize(("kw", "named"), [({"delay_periods": -1.0}, "delay_periods must be a finite number >= 0"),
+                                           ({"noise_m_s": "abc"}, "noise_m_s must be a finite number >= 0, got 'abc'"),
+                                           ({"duration_s": 0.0}, "duration_s must be a finite number > 0"),
+                                           ({"period_s": float("nan")}, "period_s must be a finite number > 0"),
+                                           ({"seed": 2**32}, "seed must be an integer")])
+def test_run_experiment_refuses_bad_numbers_by_name_before_any_work(kw, named):
+    from vlab.errors import OptionError
+
+    with pytest.raises(OptionError, match=re.escape(named)):
+        vlab.run_experiment("bcc", **kw)

@@ -164,6 +164,36 @@ def design(structure: Any = "bcc", controller: str = "mfdrf", *, reduction: str 
                              seed=seed, period_s=period_s)
 
 
+def _checked_run_numbers(delay_periods, noise_m_s, duration_s, period_s, seed) -> float:
+    """Check :func:`run_experiment`'s numbers; return the delay [sampling periods] (None: the PC-1000's).
+
+    Raises
+    ------
+    OptionError
+        Naming the first number that is not finite, out of its range or not a number, or a seed that is
+        not an integer in [0, 2**32).
+    """
+    import math
+
+    from .errors import OptionError
+
+    if delay_periods is None:  # imported here: `import vlab` stays light
+        from .lab.blocks import PC1000_DELAY_PERIODS
+
+        delay_periods = PC1000_DELAY_PERIODS
+    for name, v, strict in (("delay_periods", delay_periods, False), ("noise_m_s", noise_m_s, False),
+                            ("duration_s", duration_s, True), ("period_s", period_s, True)):
+        try:
+            x = None if v is None or isinstance(v, bool) else float(v)
+        except (TypeError, ValueError):
+            x = math.nan
+        if v is not None and (x is None or not math.isfinite(x) or x < 0.0 or (strict and x <= 0.0)):
+            raise OptionError(f"{name} must be a finite number {'>' if strict else '>='} 0, got {v!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise OptionError(f"seed must be an integer in [0, 2**32), got {seed!r}")
+    return float(delay_periods)
+
+
 def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: str = "mujoco",
                    excitation: str = "random", reduction: str | None = None, duration_s: float | None = None,
                    delay_periods: float | None = None, period_s: float | None = None, noise_m_s: float = 1e-6,
@@ -227,22 +257,13 @@ def run_experiment(structure: Any = "bcc", controller: str = "mfdrf", *, plant: 
     ModelError, SimulationError, MeasurementError, OutputError
         As :func:`vlab.experiment.runner.run_experiment` and the output writer.
     """
-    import math
-
     from .errors import OptionError
     from .experiment.config import ExperimentConfig, default_chain, test_definition
     from .experiment.runner import run_experiment as _run
 
     if controller == "lqr":
         raise OptionError("controller 'lqr' needs every state measured; the laboratory ran it as LQG (use 'lqg')")
-    if delay_periods is None:
-        from .lab.blocks import PC1000_DELAY_PERIODS as delay_periods
-    for name, v, low, strict in (("delay_periods", delay_periods, 0.0, False), ("noise_m_s", noise_m_s, 0.0, False),
-                                 ("duration_s", duration_s, 0.0, True), ("period_s", period_s, 0.0, True)):
-        if v is not None and (not math.isfinite(float(v)) or float(v) < low or (strict and float(v) <= low)):
-            raise OptionError(f"{name} must be a finite number {'>' if strict else '>='} {low:g}, got {v!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
-        raise OptionError(f"seed must be an integer in [0, 2**32), got {seed!r}")
+    delay_periods = _checked_run_numbers(delay_periods, noise_m_s, duration_s, period_s, seed)
     chain = default_chain(controller, delay_periods=delay_periods, noise_m_s=noise_m_s,
                           **({} if period_s is None else {"period_s": period_s}))
     fe = _fe_model(structure)

@@ -117,10 +117,30 @@ class DecisionPolicy:
 
     def chi2_limit_simulated(self, n: int, nu: float, shared: int = 1, *, draws: int = 20000,
                              seed: int = 0) -> float:
-        """:meth:`chi2_limit` for any ``nu`` > 0 by simulation: the ``1 - a`` quantile of the sum of
-        ``round(n / shared)`` groups ``g F(g, nu)`` (``g = n / groups``), ``draws`` sums drawn from a generator
-        seeded by ``seed`` (the same limit every run). For ``nu`` <= 4, where the sum's variance is infinite
-        and the Satterthwaite form does not apply (a band of a few lines). Cached."""
+        """:meth:`chi2_limit` for any ``nu`` > 0 by simulation [1].
+
+        The ``1 - a`` quantile of the sum of ``round(n / shared)`` groups ``g F(g, nu)`` (``g = n / groups``;
+        the law of the module text), for ``nu`` <= 4, where the sum's variance is infinite and the
+        Satterthwaite form does not apply (a band of a few lines). Cached.
+
+        Parameters
+        ----------
+        n : int
+            Number of real residuals.
+        nu : float
+            Degrees of freedom of the estimated noise variance, > 0.
+        shared : int
+            Residuals sharing one variance estimate.
+        draws : int
+            Number of simulated sums.
+        seed : int
+            Seed of the generator: the same limit every run.
+
+        Returns
+        -------
+        float
+            The limit of the total chi-square [1].
+        """
         return _sum_of_f_quantile(self.test_rate, max(int(n), 1), float(nu), max(int(shared), 1), draws, seed)
 
     def line_limit(self, n_lines: int, dof: int, nu: float | None = None) -> float:

@@ -85,10 +85,10 @@ class Validation:
     noise_time_error: float = float("nan")
 
     def as_dict(self) -> dict:
-        """JSON-ready summary."""
+        """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
-                "noise_misfit": self.noise_misfit, "noise_time_error": _finite_or_none(self.noise_time_error),
+                "noise_misfit": self.noise_misfit, "noise_time_error": self.noise_time_error,
                 **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after}
                    if np.isfinite(self.phase_misfit_before) else {})}
 
@@ -220,10 +220,6 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise)
-
-
-def _finite_or_none(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

@@ -170,8 +170,8 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
     if any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, {}
     raw = without_floor(problem, nominal)
-    stats = {"chi2": raw.chi2(nominal, test=True), "chi2_limit": raw.noise_chi2(), "peak": raw.peak(nominal, test=True),
-             "peak_limit": raw.peak_limit()}
+    stats = {"chi2": raw.chi2(nominal, test=True), "chi2_limit": raw.noise_chi2(),
+             "peak": raw.peak(nominal, test=True), "peak_limit": raw.peak_limit()}
     return stats["chi2"] > stats["chi2_limit"] or stats["peak"] > stats["peak_limit"], stats
 
 

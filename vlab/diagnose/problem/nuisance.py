@@ -76,7 +76,8 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     Parameters
     ----------
     problem : Problem
-        FRF data with ``model_form_frf``; its unwhitened relative error (:meth:`Problem.line_residual` with ``test``) is used.
+        FRF data with ``model_form_frf``; its unwhitened relative error (:meth:`Problem.line_residual` with
+        ``test``) is used.
     state : LabState
         The lab whose modes move.
     pm0 : PointModes

@@ -98,9 +98,9 @@ def _mismatch_lines(res: dict) -> list[str]:
         chi2_sel = selected_chi2(res)
         arrow = "" if chi2_sel is None else f" -> {chi2_sel:.4g}"
         c0, cp = nominal_fit_chi2(s), s["chi2_nominal"]
-        profiled = "" if c0 == cp else f"; the mismatch tests' statistic: {cp:.4g}"
+        tested = "" if c0 == cp else f"; the mismatch tests' statistic: {cp:.4g}"
         lines += [f"**Mismatch: {sel}.** chi2 {c0:.4g}{arrow} "
-                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}{profiled}){peak}.", ""]
+                  f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}{tested}){peak}.", ""]
         for x in res["selected"]:
             fe = ("" if not x.get("fe_fit") else
                   " (refitted on the MuJoCo plant's linearisation; the FE model's fit: "
