@@ -241,15 +241,17 @@ def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
     monkeypatch.setattr(selection, "reruns", fake_reruns)
     monkeypatch.setattr(selection, "lookalikes", lambda h, problem: [])  # none: the decision alone is tested
     monkeypatch.setattr(selection, "time_error", lambda run, data: errors[run])
+    monkeypatch.setattr(selection, "rerun_resolution", lambda problem: errors.get("resolution", 0.01))
     notes: list = []
     best, _ = selection.tie_break_by_rerun(_FakeProblem(), pair, [], ranked, notes, plant=plant, seed=7)
     return best, [kind for kind, _seed in asked], notes, {s for _kind, s in asked}
 
 
 def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came_from_it(monkeypatch):
-    """MuJoCo grid benchmark seed 1 case 4 (a lag next to a saturation): on the linear plant the pair's time error
-    was 0.84x the saturation's alone (0.275 against 0.328, the FE/MuJoCo model-form error in both), and the pair
-    was dropped; on the MuJoCo plant the two are 0.041 and 0.162."""
+    """A lag next to a saturation, recorded on the MuJoCo grid: on the linear plant the pair's time error was
+    0.275 against the saturation's 0.328 (the FE/MuJoCo difference in both, which no resolution covers), on
+    the MuJoCo plant 0.041 against 0.162. The pair is kept only where its fall is resolved on the plant that
+    made the recording: ``e_part^2 - e_pair^2 > e_exact^2``."""
     from vlab.diagnose.effects.hypotheses import ActuatorLag, Combination, Saturation
     from vlab.errors import ModelError, SimulationError
 
@@ -257,20 +259,27 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     pair = Combination(first=ActuatorLag(), second=Saturation())
     _fitted(lag, sat, pair)
     errors = {("linear", pair.label): 0.275, ("linear", sat.label): 0.328, ("linear", lag.label): 0.35,
-              ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162}
-    best, asked, _, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
-    assert best.label == sat.label and asked == ["linear"] and seeds == {7}
-    # the pair must beat each part: a lag alone as good as the pair is the answer
-    best, *_ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], {**errors, ("linear", lag.label): 0.276},
+              ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162, "resolution": 0.01}
+    # a recording of the linear plant: the fall 0.328 -> 0.275 is resolved against 0.01 (0.0320 > 1e-4) ...
+    best, asked, notes, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
+    assert best.label == pair.label and asked == ["linear"] and seeds == {7} and "is resolved" in notes[-1]
+    # ... and not against an exact model's 0.18 (0.0320 < 0.0324): the better part alone
+    best, _, notes, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], {**errors, "resolution": 0.18},
+                                        "linear")
+    assert best.label == sat.label and "is not resolved" in notes[-1]
+    # the pair must beat each part: a lag alone nearly as good as the pair is the answer
+    best, *_ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], {**errors, ("linear", lag.label): 0.2751},
                                "linear")
     assert best.label == lag.label
     best, asked, notes, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
     assert best.label == pair.label and asked == ["linear", "mujoco"] and seeds == {7}
     assert "MuJoCo plant" in notes[-1]
-    # a MuJoCo rerun that fails leaves the decision to the linear reruns, and the note says why
+    # a MuJoCo rerun that fails leaves the linear reruns, on a plant other than the recording's: no
+    # resolution is known there, the better part alone is kept, and the note says why
     errors[("mujoco", "fail")] = SimulationError("the plant diverged")
     best, asked, notes, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
     assert best.label == sat.label and asked == ["linear", "mujoco"] and "diverged" in notes[-1]
+    assert "other than the recording's" in notes[-1]
     with pytest.raises(ModelError, match="auto"):
         _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "auto")
 

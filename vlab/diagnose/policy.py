@@ -32,7 +32,9 @@ of the diagnosis follows from it:
 * **What does a validation resolve?** Misfits of independent parts add in quadrature: a rerun that raises
   the FRF misfit from ``before`` to ``after`` makes the fit worse when ``after^2 - before^2`` exceeds the
   square of the misfit an exact model leaves (the noise and the model form), and what a choice leaves is a
-  remainder when ``after^2 - noise^2`` exceeds ``noise^2`` (:meth:`DecisionPolicy.resolved`).
+  remainder when ``after^2 - noise^2`` exceeds ``noise^2`` (:meth:`DecisionPolicy.resolved`). The same rule
+  on the time-domain error of reruns decides whether a pair with a nonlinear part beats its better part
+  alone; on a plant other than the recording's no resolution is known and the simpler model is kept.
 
 Numbers without a statistical principle (yet) are stated as such in their attribute's text.
 
@@ -74,9 +76,6 @@ class DecisionPolicy:
         principle: a practical significance that keeps out second effects which only absorb the
         difference between the FE model and the MuJoCo plant when no model-form uncertainty is carried
         (a vlab recording); a remainder it leaves is reported, not dropped.
-    parsimony : float
-        Factor [1] by which a pair with a nonlinear part must beat the time-domain error of that part's
-        rerun alone. No statistical principle: the time-domain error has no known resolution.
     oscillation_tolerance : float
         Relative frequency tolerance [1] within which a rerun's self-excited line is the recording's
         (a limit cycle's frequency depends on its amplitude).
@@ -86,7 +85,6 @@ class DecisionPolicy:
     evidence: float = 10.0
     explained_share: float = 0.5
     pair_misfit_gain: float = 1.5
-    parsimony: float = 0.8
     oscillation_tolerance: float = 0.02
 
     def __post_init__(self) -> None:

@@ -35,7 +35,7 @@ from .data.measured import FrfData
 from .data.replay import frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns
 from .model.labmodel import LabState
-from .problem.misfits import complex_log_misfit, exact_time_error, log_misfit, noise_misfit
+from .problem.misfits import complex_log_misfit, exact_errors_of, log_misfit
 
 
 @dataclass(frozen=True)
@@ -203,16 +203,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         target = data.h_recorded if recorded else data.h
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
-    floor_misfit = noise_misfit(target[mask], target_var[mask], w)
-    rel_var = target_var[mask] / np.maximum(np.abs(target[mask]) ** 2, 1e-300)
-    mf = problem.model_form_frf
-    if mf is not None and mf.sigma.size:  # an exact model is also uncertain by the model form
-        var_mag = np.sum(mf.sens[mask].real ** 2 * mf.sigma**2, axis=-1)
-        floor_misfit = float(np.hypot(floor_misfit, np.sqrt(np.sum(w * var_mag) / np.sum(w)) / np.log(10.0)))
-        rel_var = rel_var + np.sum(np.abs(mf.sens[mask]) ** 2 * mf.sigma**2, axis=-1)
-    amp = data.force_amplitude
-    time_noise = (float("nan") if amp is None or not data.periodic else
-                  exact_time_error(target[mask], rel_var, np.broadcast_to(np.asarray(amp)[:, None], mask.shape)[mask]))
+    floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))

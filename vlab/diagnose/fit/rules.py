@@ -38,8 +38,9 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
 4. **Look-alikes by rerun**, when the choice or a look-alike is one only a
    rerun separates (:func:`needs_rerun_check`) and the data are time
    histories: the least time-domain error of a rerun wins, and a pair with a
-   nonlinear part is kept only if its rerun error is below the policy's
-   ``parsimony`` times that of the better of its parts alone
+   nonlinear part is kept only if its rerun resolves a fall of the time-domain
+   error below the better of its parts alone (the validation's quadrature
+   rule, on the plant that made the recording)
    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 5. **On the MuJoCo plant's linearisation**, for a spec-level choice on a
    recording of the MuJoCo plant: a pair must pass the pair rule again

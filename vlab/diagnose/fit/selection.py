@@ -20,9 +20,10 @@ from ..data.measured import FrfData
 from ..data.replay import time_error
 from ..data.rerun_jobs import last_reruns_note, reruns
 from ..effects.hypotheses import Combination, Friction, Hypothesis, PointDamping
+from ..problem.misfits import exact_errors_of
 from ..problem.residuals import Problem
 from .locate import located_places
-from ..policy import DEFAULT_POLICY
+from ..policy import DecisionPolicy
 from .rules import NONLINEAR
 
 #: Effects that act only in the controller path (seen closed loop only).
@@ -130,7 +131,7 @@ def _parts_alone(h: Hypothesis, ranked: list, problem: Problem) -> list[Hypothes
 
 
 def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked: list,
-                       notes: list, *, max_candidates: int = 4, parsimony: float = DEFAULT_POLICY.parsimony, plant: str = "linear",
+                       notes: list, *, max_candidates: int = 4, plant: str = "linear",
                        seed: int = 0) -> tuple[Hypothesis, list]:
     """Choose among look-alike effects by the time-domain error of a rerun.
 
@@ -147,8 +148,9 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
     a saturation of that channel both at 0.162 on the linear plant, and the
     saturation named). When the winner is a pair with such a
     nonlinear part, its linear misfit cannot judge the second effect: the
-    pair is kept only if its rerun error is below ``parsimony`` times that
-    of the better of its parts alone (as any pair must beat its better
+    pair is kept only if its rerun resolves a fall of the time-domain error
+    below the better of its parts alone, by the validation's quadrature rule
+    on the plant that made the recording (as any pair must beat its better
     part; the linear part's fit cannot judge the nonlinear one). With ``plant="mujoco"`` (a
     recording diagnosed against the MuJoCo plant) that check is made on
     reruns of the MuJoCo plant, when both can be carried by it: the linear
@@ -180,8 +182,6 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         Receives a line with the time errors.
     max_candidates : int
         Most hypotheses rerun.
-    parsimony : float
-        Factor a pair's rerun error must beat its better part's alone by.
     plant : {"linear", "mujoco"}
         Plant of the recording: with ``"mujoco"`` the best look-alikes and the parsimony check are rerun on
         the MuJoCo plant too (the look-alikes are first compared on the linear plant).
@@ -219,8 +219,7 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             best = _best_on_mujoco(problem, cands, errors, best, notes, seed)
     alone = singles.get(best.label)
     if alone:
-        best = _pair_or_its_better_part(problem, best, alone, errors, notes, plant=plant, parsimony=parsimony,
-                                           seed=seed)
+        best = _pair_or_its_better_part(problem, best, alone, errors, notes, plant=plant, seed=seed)
     return best, [h for h in [chosen] + alts if h is not best]
 
 
@@ -255,13 +254,19 @@ def _best_on_mujoco(problem: Problem, cands: list, errors: dict, best: Hypothesi
 
 
 def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, errors: dict, notes: list, *,
-                             plant: str, parsimony: float, seed: int) -> Hypothesis:
-    """The pair ``best`` if its rerun error is below ``parsimony`` times that of the better of its parts
+                             plant: str, seed: int) -> Hypothesis:
+    """The pair ``best`` if its rerun resolves a fall of the time-domain error below the better of its parts
     ``alone``, else that part: as every pair, it must beat its better part; on the MuJoCo plant where both can
-    be carried by it (:func:`tie_break_by_rerun`). Appends a line to ``notes``."""
+    be carried by it (:func:`tie_break_by_rerun`). Appends a line to ``notes``.
+
+    The quadrature rule of the validation (:meth:`vlab.diagnose.policy.DecisionPolicy.resolved`): the pair is
+    kept when ``e_single^2 - e_pair^2`` exceeds the square of the time-domain error an exact model leaves
+    (:func:`rerun_resolution`). That resolution holds only for reruns on the plant that made the recording
+    (``plant``); on another plant (the linear FE plant against a MuJoCo recording) the two plants' own
+    difference is in both errors and no resolution is known: the simpler model, the better part, is kept."""
     single = min(alone, key=lambda g: errors[g.label])
     e_pair, e_single = errors[best.label], errors[single.label]
-    where = "linear FE plant"
+    where, on_recordings_plant = "linear FE plant", plant == "linear"
     if plant == "mujoco" and best.spec_level and single.spec_level:
         runs = reruns(problem, _rerun_jobs(problem, (best, single)), "mujoco", seed=seed)
         failed = [r for r in runs if isinstance(r, VlabError)]
@@ -270,12 +275,26 @@ def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, er
         else:
             e_pair, e_single = (time_error(r, problem.data) for r in runs)
             how = last_reruns_note(problem)
-            where = "MuJoCo plant" + (f" ({how})" if how else "")
+            where, on_recordings_plant = "MuJoCo plant" + (f" ({how})" if how else ""), True
+    resolution = rerun_resolution(problem) if on_recordings_plant else float("nan")
+    keep = math.isfinite(resolution) and DecisionPolicy.resolved(e_single, e_pair, resolution)
+    why = (f"an exact model leaves {resolution:.3g}: the pair's fall {'is' if keep else 'is not'} resolved"
+           if math.isfinite(resolution) else
+           "no resolution on a plant other than the recording's or for a non-periodic excitation: the better "
+           "part alone is kept")
     notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "
-                 f"{single.label} alone: {e_single:.3g}")
-    if not e_pair < parsimony * e_single:
-        best = single
-    return best
+                 f"{single.label} alone: {e_single:.3g} ({why})")
+    return best if keep else single
+
+
+def rerun_resolution(problem: Problem) -> float:
+    """The time-domain error [1] an exact model leaves against the problem's recording: its noise and the
+    model form carried (:func:`vlab.diagnose.problem.misfits.exact_errors_of` on the recorded FRFs); NaN
+    for a non-periodic excitation or data without force amplitudes."""
+    data = problem.data
+    target, var = ((data.h_recorded, data.var_recorded) if data.h_recorded is not None and data.var_recorded
+                   is not None else (data.h, data.var))
+    return exact_errors_of(problem, target, var)[1]
 
 
 def located_from_fits(res, chi2_0: float, *, share: float = 0.9) -> tuple[list, list]:

@@ -111,3 +111,62 @@ def exact_time_error(h: np.ndarray, rel_var: np.ndarray, force_amplitude: np.nda
     power = np.abs(np.asarray(force_amplitude, dtype=float) * np.asarray(h)) ** 2
     total = float(np.sum(power))
     return float(np.sqrt(np.sum(power * np.asarray(rel_var, dtype=float)) / total)) if total > 0 else float("nan")
+
+
+def exact_model_errors(target: np.ndarray, target_var: np.ndarray, weight: np.ndarray, *,
+                       sens: np.ndarray | None = None, sigma: np.ndarray | None = None,
+                       force_amplitude: np.ndarray | None = None,
+                       periodic: bool = True) -> tuple[float, float]:
+    """What an exact model leaves against measured FRFs: its FRF misfit and its time-domain error.
+
+    The noise of the data (:func:`noise_misfit`) and, where a model form is carried, the model's own
+    uncertainty (the model form's first-order magnitude variance, added in quadrature to the misfit and to
+    the relative variance of the time-domain error, :func:`exact_time_error`). These are the resolutions of
+    the quadrature rule by which two errors are compared (:meth:`vlab.diagnose.policy.DecisionPolicy.resolved`).
+
+    Parameters
+    ----------
+    target : ndarray, complex, shape (n,)
+        Measured FRF values on the compared lines and channels [(m/s)/N].
+    target_var : ndarray, shape (n,)
+        Their variance [((m/s)/N)^2].
+    weight : ndarray, shape (n,)
+        Weights of the misfit (:attr:`vlab.diagnose.problem.residuals.Problem.weight_mag` on those values).
+    sens : ndarray, complex, shape (n, k), optional
+        The model form's sensitivities of ``ln H`` on the same values
+        (:class:`vlab.diagnose.model.modelform.FrfModelForm`); None: no model form carried.
+    sigma : ndarray, shape (k,), optional
+        The model form's standard deviations [1].
+    force_amplitude : ndarray, shape (n,), optional
+        The force amplitude of each value's line [N]; None: no time-domain error (NaN).
+    periodic : bool
+        Whether the recording was excited periodically (else the time-domain error is NaN: Parseval's
+        theorem over whole periods does not apply).
+
+    Returns
+    -------
+    (misfit, time_error) : (float, float)
+        [decades], [1].
+    """
+    misfit = noise_misfit(target, target_var, weight)
+    rel_var = np.asarray(target_var, dtype=float) / np.maximum(np.abs(target) ** 2, 1e-300)
+    if sens is not None and sigma is not None and np.size(sigma):
+        var_mag = np.sum(sens.real**2 * sigma**2, axis=-1)
+        misfit = float(np.hypot(misfit, np.sqrt(np.sum(weight * var_mag) / np.sum(weight)) / np.log(10.0)))
+        rel_var = rel_var + np.sum(np.abs(sens) ** 2 * sigma**2, axis=-1)
+    if force_amplitude is None or not periodic:
+        return misfit, float("nan")
+    return misfit, exact_time_error(target, rel_var, force_amplitude)
+
+
+def exact_errors_of(problem, target: np.ndarray, target_var: np.ndarray) -> tuple[float, float]:
+    """:func:`exact_model_errors` of the problem's used lines against ``target`` (shape (n_f, n_o), the FRFs a
+    rerun is compared with, and ``target_var`` their variance): with its weights, its model form, its
+    data's force amplitudes and excitation. ``problem`` is a :class:`vlab.diagnose.problem.residuals.Problem`
+    of FRF data. Returns ``(misfit [decades], time_error [1])``."""
+    data, mask, mf = problem.data, problem.mask, problem.model_form_frf
+    amp = data.force_amplitude
+    return exact_model_errors(
+        target[mask], target_var[mask], problem.weight_mag[mask], sens=None if mf is None else mf.sens[mask],
+        sigma=None if mf is None else mf.sigma, periodic=data.periodic,
+        force_amplitude=None if amp is None else np.broadcast_to(np.asarray(amp)[:, None], mask.shape)[mask])
