@@ -7,7 +7,8 @@ a structure file, the packaged data folder); a name that reaches outside
 message naming it, and so is anything but a regular file (``/dev/zero``, a
 pipe) or a file over a size limit. The user allows names outside explicitly:
 ``vlab --allow-outside-inputs ...``, which sets the environment variable
-:data:`ALLOW_ENV` to ``1`` (read by :func:`outside_allowed`).
+:data:`ALLOW_ENV` to ``1`` (read by :func:`outside_allowed`). A text input is
+read by :func:`read_utf8`, which names the line of a byte that is not UTF-8.
 """
 
 from __future__ import annotations
@@ -45,6 +46,42 @@ def outside_allowed(allow: bool | None = None) -> bool:
     if allow is not None:
         return bool(allow)
     return os.environ.get(ALLOW_ENV, "") == "1"
+
+
+def read_utf8(path: Path, error: type[Exception], *, encoding: str = "utf-8", hint: str = "") -> str:
+    """The text of an input file, decoded as UTF-8.
+
+    Parameters
+    ----------
+    path : Path
+        The file (its existence is the caller's to check, with its own message).
+    error : type of Exception
+        Raised, naming the file, where it cannot be read or is not UTF-8.
+    encoding : {"utf-8", "utf-8-sig"}
+        ``"utf-8-sig"`` also accepts (and drops) a byte-order mark.
+    hint : str
+        Appended to the message of a file that is not UTF-8 (e.g. ``"; TOML files must be UTF-8"``).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    error
+        ``"<path>: cannot be read: <reason>"``, or ``"<path>: line <n>: not UTF-8 text (byte <b> at offset
+        <k>)<hint>"`` naming the first byte that does not decode.
+    """
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise error(f"{path}: cannot be read: {exc.strerror or exc}") from None
+    try:
+        return raw.decode(encoding)
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise error(f"{path}: line {line}: not UTF-8 text (byte {raw[exc.start:exc.start + 1]!r} at offset "
+                    f"{exc.start}){hint}") from None
 
 
 def _inside(path: Path, folder: Path) -> bool:

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import SpecError
+from ..io.confine import read_utf8
 from .changes import CHANGE_TABLES, apply_change_tables, damping_of, release_supports
 from .hardware import read_hardware
 from .geometry import (read_crosspieces, read_masses, read_members, read_points, read_sections, read_springs,
@@ -57,16 +58,7 @@ def load_spec(name_or_path: str | Path, *, allow_outside: bool | None = None) ->
                             ".toml file (`vlab init KIND PATH` writes one)")
     if not path.exists():
         raise SpecError(f"{path}: file not found")
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot be read: {exc.strerror or exc}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise SpecError(f"{path}: not UTF-8 text: byte {raw[exc.start:exc.start + 1]!r} at offset {exc.start} "
-                        f"(line {line}); TOML files must be UTF-8") from None
+    text = read_utf8(path, SpecError, hint="; TOML files must be UTF-8")
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DataFileError
+from ...io.confine import read_utf8
 from ...spec import StructureSpec
 from ..model.modelform import printed_resolution
 from .measured import ModalData
@@ -60,16 +61,7 @@ def _text_rows(p: Path) -> tuple[list, list]:
     """The data lines ``(line number, text)`` of the file (comments and blank lines dropped) and their CSV rows."""
     if not p.is_file():
         raise DataFileError(f"{p}: no such file")
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DataFileError(f"{p}: unreadable: {exc}") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise DataFileError(f"{p}: line {line}: not UTF-8 text (byte {raw[exc.start:exc.start + 1]!r} at offset "
-                            f"{exc.start})") from None
+    text = read_utf8(p, DataFileError, encoding="utf-8-sig")
     if "\x00" in text:
         raise DataFileError(f"{p}: line {text[:text.index(chr(0))].count(chr(10)) + 1}: NUL byte (a binary file?)")
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")]
