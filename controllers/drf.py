@@ -62,9 +62,4 @@ from .drf_result import DrfDesign, DrfStart
 from .lqdrf import lqdrf
 from .mfdrf import mfdrf
 
-__all__ = [
-    "DrfStart",
-    "DrfDesign",
-    "mfdrf",
-    "lqdrf",
-]
+__all__ = ["DrfStart", "DrfDesign", "mfdrf", "lqdrf"]

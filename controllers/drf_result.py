@@ -8,10 +8,7 @@ import numpy as np
 
 from .realization import DiscreteRealization, output_feedback_realization
 
-__all__ = [
-    "DrfStart",
-    "DrfDesign",
-]
+__all__ = ["DrfStart", "DrfDesign"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,10 +16,7 @@ import scipy.linalg
 from .errors import check_matrix, check_positive_scalar, check_square, readonly
 from .riccati import _care, _riccati_residual, _riccati_weights, check_detectable
 
-__all__ = [
-    "KalmanDesign",
-    "kalman_filter",
-]
+__all__ = ["KalmanDesign", "kalman_filter"]
 
 
 @dataclass(frozen=True, eq=False)

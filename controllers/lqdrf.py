@@ -33,9 +33,7 @@ from .drf_start import _Base, _base_start, _check_reachable
 from .errors import readonly
 from .lqr import lqr
 
-__all__ = [
-    "lqdrf",
-]
+__all__ = ["lqdrf"]
 
 
 def lqdrf(

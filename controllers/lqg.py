@@ -19,10 +19,7 @@ from .lqr import LqrDesign, lqr
 from .performance import _initial_states, modes, performance_index
 from .realization import DiscreteRealization, estimator_realization
 
-__all__ = [
-    "LqgDesign",
-    "lqg",
-]
+__all__ = ["LqgDesign", "lqg"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,10 +17,7 @@ from .performance import _check_state_input, _initial_states, modes
 from .realization import DiscreteRealization, state_feedback_realization
 from .riccati import _care, _riccati_residual, _riccati_weights, check_stabilizable
 
-__all__ = [
-    "LqrDesign",
-    "lqr",
-]
+__all__ = ["LqrDesign", "lqr"]
 
 
 @dataclass(frozen=True, eq=False)

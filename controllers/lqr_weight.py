@@ -17,10 +17,7 @@ from .errors import MatrixPropertyError, check_damping_bound, check_positive_sca
 from .lqr import LqrDesign, lqr
 from .performance import _check_state_input, select_modes
 
-__all__ = [
-    "LqrWeightSearch",
-    "lqr_weight_for_damping",
-]
+__all__ = ["LqrWeightSearch", "lqr_weight_for_damping"]
 
 
 @dataclass(frozen=True, eq=False)

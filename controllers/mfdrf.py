@@ -32,9 +32,7 @@ from .drf_solve import _Program, _run
 from .drf_start import _Base, _base_start, _check_reachable
 from .errors import readonly
 
-__all__ = [
-    "mfdrf",
-]
+__all__ = ["mfdrf"]
 
 
 def mfdrf(

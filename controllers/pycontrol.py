@@ -32,13 +32,7 @@ from .errors import check_matrix, check_positive_scalar
 from .lqg import LqgDesign
 from .statespace import rescale_time
 
-__all__ = [
-    "plant",
-    "lqg_controller",
-    "output_feedback",
-    "discrete_controller",
-    "closed_loop",
-]
+__all__ = ["plant", "lqg_controller", "output_feedback", "discrete_controller", "closed_loop"]
 
 
 def plant(A, B, C, *, time_unit_s: float = 1.0) -> control.StateSpace:

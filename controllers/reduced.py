@@ -19,10 +19,7 @@ from .lqg import LqgDesign
 from .performance import SpilloverReport, _initial_states, modes, performance_index, spillover
 from .realization import DiscreteRealization
 
-__all__ = [
-    "ReducedOnFull",
-    "reduced_on_full",
-]
+__all__ = ["ReducedOnFull", "reduced_on_full"]
 
 
 @dataclass(frozen=True, eq=False)

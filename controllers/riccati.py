@@ -24,10 +24,7 @@ from .errors import (
     check_square,
 )
 
-__all__ = [
-    "check_stabilizable",
-    "check_detectable",
-]
+__all__ = ["check_stabilizable", "check_detectable"]
 
 
 def _riccati_weights(W1, W2, n: int, m: int, names: tuple[str, str] = ("Q", "R"),

@@ -217,10 +217,8 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
     mesh : {"spec", "plant"}
         FE reference: the spec's own mesh (the thesis's) or the spec meshed at
         the plant's resolution (:func:`plant_resolution_spec`).
-    min_mac : float
-        Smallest MAC of a pair [-].
-    margin : float
-        Relative band margin [-] (:data:`BAND_MARGIN`).
+    min_mac, margin : float
+        As :func:`pair_band`.
 
     Returns
     -------
