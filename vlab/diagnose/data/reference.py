@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...errors import DataFileError, OptionError
+from ...io.setup_file import CHAIN_KEYS
 from ...lab.loop import HardwareChain
 from ..model.labmodel import LabState
 from .measured import FrfData
@@ -38,9 +39,6 @@ RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "MuJoCo plant (MJCF)": "mujoco", "l
 #: Seed of every replay and validation rerun. Their chains carry no sensor noise, so it draws nothing;
 #: it is fixed, not the recording's seed, so that nothing of the recording's realisation is reused.
 RERUN_SEED = 0
-
-#: Hardware-chain fields a recording's metadata may carry (``chain`` in the sidecar), with their types.
-CHAIN_FIELDS = ("delay_periods", "filter_hz", "amplifier_gain", "amplifier_limit_n")
 
 
 @dataclass(frozen=True)
@@ -58,7 +56,7 @@ class RecordedSetup:
     plant : {"mujoco", "linear"} or None
         Plant that made the recording (None: not said).
     chain : dict
-        Hardware-chain settings recorded (:data:`CHAIN_FIELDS`; SI, periods for the delay).
+        Hardware-chain settings recorded (:data:`~vlab.io.setup_file.CHAIN_KEYS`; SI, periods for the delay).
     notes : tuple of str
         Where each value came from, when not from an option.
     """
@@ -194,7 +192,7 @@ def recorded_setup(meta: dict, source: str, *, controller: str | None, seed: int
     raw = meta.get("chain") or {}
     if not isinstance(raw, dict):
         raise DataFileError(f"{source}: metadata field 'chain': expected a table, got {raw!r}")
-    for k in CHAIN_FIELDS:
+    for k in CHAIN_KEYS:
         v = raw.get(k)
         if v is None:
             continue
@@ -211,7 +209,7 @@ def recorded_chain(setup: RecordedSetup, period_s: float) -> HardwareChain:
     Parameters
     ----------
     setup : RecordedSetup
-        Its ``chain`` (:data:`CHAIN_FIELDS`) overrides the Sec. 5.3 defaults.
+        Its ``chain`` (:data:`~vlab.io.setup_file.CHAIN_KEYS`) overrides the Sec. 5.3 defaults.
     period_s : float
         Controller sampling period [s] (the recording's sample interval).
 
