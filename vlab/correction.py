@@ -335,12 +335,8 @@ def corrected_damping(m_hat: Any, phi_hat: Any, freq_hz: Any, zeta: Any) -> np.n
 
     Parameters
     ----------
-    m_hat : array_like, shape (n_R, n_R)
-        Corrected mass matrix [kg].
-    phi_hat : array_like, shape (n_R, n_m)
-        Measured shapes, orthonormal with respect to ``m_hat``.
-    freq_hz : array_like, shape (n_m,)
-        Measured natural frequencies [Hz].
+    m_hat, phi_hat, freq_hz
+        As :func:`corrected_stiffness`.
     zeta : float or array_like, shape (n_m,)
         Measured damping ratios [-].
 
