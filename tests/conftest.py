@@ -18,6 +18,7 @@ def pytest_configure(config) -> None:
     cluster) run with the same number of threads as the in-process code they are compared with."""
     for name in ("COLUMNS", "LINES"):
         os.environ.pop(name, None)
+    _run_named_tests(config)
     workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
     if workers is not None:
         threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
@@ -26,3 +27,16 @@ def pytest_configure(config) -> None:
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(limits=int(os.environ["OPENBLAS_NUM_THREADS"]), user_api="blas")
+
+
+#: The marker expression of pyproject's ``addopts``: the default run leaves out the end-to-end checks.
+DEFAULT_MARKEXPR = "not slow and not long"
+
+
+def _run_named_tests(config) -> None:
+    """A test named on the command line by its node id (``pytest tests/x.py::test_y``) runs whatever its
+    marker: the default ``-m 'not slow and not long'`` of ``addopts`` would deselect a ``slow`` one without a
+    word. Only where every argument names a test and ``-m`` is the default's."""
+    args = [str(a) for a in config.args]
+    if args and all("::" in a for a in args) and config.option.markexpr == DEFAULT_MARKEXPR:
+        config.option.markexpr = ""
