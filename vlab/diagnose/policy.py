@@ -35,6 +35,11 @@ of the diagnosis follows from it:
   remainder when ``after^2 - noise^2`` exceeds ``noise^2`` (:meth:`DecisionPolicy.resolved`). The same rule
   on the time-domain error of reruns decides whether a pair with a nonlinear part beats its better part
   alone; on a plant other than the recording's no resolution is known and the simpler model is kept.
+* **Is a second effect the explanation of what the first leaves?** The definition by which one effect is
+  *the* explanation of a mismatch (it removes the larger part, :attr:`DecisionPolicy.explained_share`, of
+  the chi-square) applied to the remainder: a pair replaces its better part only if its second effect
+  removes that share of the single effect's chi-square (or brings the data within the noise); a second
+  effect that removes less absorbs a part of the remainder, which is reported instead.
 
 Numbers without a statistical principle (yet) are stated as such in their attribute's text.
 
@@ -70,12 +75,8 @@ class DecisionPolicy:
         strong", Kass & Raftery 1995); the candidates within it of the choice are its look-alikes.
     explained_share : float
         Share of the nominal chi-square [1] an effect must remove to be reported as *the* explanation (a
-        definition: the larger part of the mismatch), unless it brings the data within the noise.
-    pair_misfit_gain : float
-        Factor [1] by which a pair must lower its better part's FRF misfit to replace it. No statistical
-        principle: a practical significance that keeps out second effects which only absorb the
-        difference between the FE model and the MuJoCo plant when no model-form uncertainty is carried
-        (a vlab recording); a remainder it leaves is reported, not dropped.
+        definition: the larger part of the mismatch), unless it brings the data within the noise; the same
+        share of what a single effect leaves for a pair's second effect to replace it.
     oscillation_tolerance : float
         Relative frequency tolerance [1] within which a rerun's self-excited line is the recording's
         (a limit cycle's frequency depends on its amplitude).
@@ -84,7 +85,6 @@ class DecisionPolicy:
     false_alarm_rate: float = 0.01
     evidence: float = 10.0
     explained_share: float = 0.5
-    pair_misfit_gain: float = 1.5
     oscillation_tolerance: float = 0.02
 
     def __post_init__(self) -> None:

@@ -44,9 +44,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     """Apply the pair rule of the selection again on the plant's linearisation.
 
     The FE fit selects a pair only if it beats the best single effect by
-    the policy's ``evidence`` in quasi-BIC and lowers the
-    misfit the policy's ``pair_misfit_gain`` times
-    (:func:`vlab.diagnose.fit.rules.select`). A second effect can pass that rule by
+    the policy's ``evidence`` in quasi-BIC and explains what the single effect
+    leaves (:func:`vlab.diagnose.fit.rules.select`,
+    :func:`vlab.diagnose.fit.rules.explains_remainder`). A second effect can pass that rule by
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
     and each of its parts alone (at its value in the pair) are scored on the
@@ -101,13 +101,12 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     n_obs = model.problem.n_obs
     c_hat = max(1.0, s1.chi2_ / max(n_obs - s1.n_params, 1))
     ev = evidence(s_pair, s1, chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
-    gain = m1 / m_pair if m_pair > 0 else math.inf
     nonlinear = any(p.effect in NONLINEAR for p in pair.parts)
     # as for a second effect searched on the plant (vlab.diagnose.fit.plantpair): no pair where one part alone
     # leaves only what its modes' own model form allows (a second part would absorb that difference)
     inside = not nonlinear and _within_model_accuracy(model, pair.parts[i1], values[i1] if r1 is None else r1.params)
     policy = model.problem.policy
-    if not inside and passes_pair_rule(ev, gain, nonlinear, policy):
+    if not inside and passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), nonlinear, policy):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])
@@ -123,8 +122,10 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
                 f"the pair {pair.label} absorbed the model's own error; {h1.label} is selected")
     else:
         note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
-                f"(quasi-BIC evidence for the pair {ev:.3g} < {policy.evidence:g}, or misfit gain {gain:.3g} < "
-                f"{policy.pair_misfit_gain:g}): the second effect absorbed the FE/plant model-form difference; "
+                f"(quasi-BIC evidence for the pair {ev:.3g} < {policy.evidence:g}, or its second effect removes "
+                f"{100 * (1 - s_pair.chi2_ / s1.chi2_):.0f} % of the chi-square {s1.chi2_:.4g} the first leaves, "
+                f"less than the {100 * policy.explained_share:.0f} % an explanation accounts for): the second "
+                f"effect absorbed the FE/plant model-form difference; "
                 f"{h1.label} is selected")
     return h1, r1, note
 

@@ -25,7 +25,8 @@ with ``h`` at ``x_FE`` leaves exactly the residual the plant leaves on
 :func:`vlab.diagnose.fit.estimate.fit_pairs` (``h`` held while screening), and the
 best pairs are refitted on the plant's linearisation and judged there by
 the selection's own pair rule against the single effect (quasi-BIC evidence
-of 10, and a misfit gain of 1.5 or a residual brought into the noise). Only
+of 10, and the second effect explaining at least the policy's share of what
+the first leaves, or a residual brought into the noise). Only
 a pair that passes there replaces the single effect.
 
 A nonlinear selected effect (:data:`vlab.diagnose.fit.rules.NONLINEAR`: saturation,
@@ -167,8 +168,8 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
     the data within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`:
     chi-square and largest single residual; with a model form carried, or within the model's accuracy,
     :func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), which ``chosen`` alone did not,
-    or lowers the misfit the policy's ``pair_misfit_gain`` times
-    (the pair rule of :func:`vlab.diagnose.fit.rules.select`). Data compared within the model's own
+    or explains what ``chosen`` leaves there (the policy's ``explained_share`` of its chi-square: the pair
+    rule of :func:`vlab.diagnose.fit.rules.select`, :func:`vlab.diagnose.fit.rules.explains_remainder`). Data compared within the model's own
     uncertainty (``model_form_frf``) are not searched when ``chosen`` leaves only what its modes'
     model form allows (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: a large effect moves
     lightly damped modes, and the plant it is modelled on moves them a little differently from the
@@ -306,15 +307,18 @@ def _judge_pair(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None,
     # within the noise -- or, for data compared within the model's own uncertainty, within that too
     inside = plant.within_noise(pair_state) or (plant.model_form_frf is not None
                                                 and within_model_accuracy(plant, pair_state))
-    gain = plant.misfit(single) / max(plant.misfit(pair_state), 1e-300)
+    share = 1.0 - r.chi2 / single_chi2 if single_chi2 > 0 else float("nan")
     policy = plant.policy
-    if passes_pair_rule(ev, gain, inside, policy):
+    if passes_pair_rule(ev, (single_chi2, r.chi2), inside, policy):
         looks = [c for c in pairs if c is not best and plant_chi2[c.label] - r.chi2 < policy.evidence]
         return best, r, looks, head + (f"; {best.label} (chi-square {r.chi2:.4g} refitted"
                                        + (", within the noise" if inside else "") + f", quasi-BIC evidence {ev:.3g}, "
-                                       f"misfit gain {gain:.3g}) passes the pair rule and is selected")
+                                       f"{100 * share:.0f} % of the single effect's chi-square removed) passes the pair rule and is "
+                                       "selected")
     why = (f"quasi-BIC evidence {ev:.3g} < {policy.evidence:g}" if ev < policy.evidence else
-           f"misfit gain {gain:.3g} < {policy.pair_misfit_gain:g} and the data not within the noise"
+           f"its second effect removes {100 * share:.0f} % of the single effect's chi-square {single_chi2:.4g}, "
+           f"less than the {100 * policy.explained_share:.0f} % an explanation accounts for, and the data not "
+           "within the noise"
            + (" nor the model's accuracy" if plant.model_form_frf is not None else ""))
     return chosen, refit, [], (head + f"; the best, {best.label} (chi-square {r.chi2:.4g} refitted), fails the "
                                f"pair rule ({why}): the single effect stays")

@@ -30,9 +30,9 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    (:func:`vlab.diagnose.effects.beyond_spec.critical_dashpot`).
 3. **Selection on the FE model** (:func:`select`): the best single effect by
    BIC, or a pair that beats it by the policy's evidence, whose second part
-   the likelihood-ratio test finds needed and that lowers its misfit by the
-   policy's ``pair_misfit_gain`` (not asked of a pair with a
-   :data:`NONLINEAR` part); the choice must beat the nominal model by the
+   the likelihood-ratio test finds needed and that explains what the single
+   effect leaves (the policy's ``explained_share`` of its chi-square,
+   :func:`explains_remainder`; not asked of a pair with a :data:`NONLINEAR` part); the choice must beat the nominal model by the
    evidence and the likelihood-ratio test, else nothing is selected. The
    hypotheses within the evidence of it are its look-alikes.
 4. **Look-alikes by rerun**, when the choice or a look-alike is one only a
@@ -61,9 +61,8 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    its chi-square with the model form whitened and with its modes profiled
    within their model form, the statistic that declared the mismatch -- by
    the likelihood-ratio limit; and its validation rerun must lower the FRF
-   misfit.
-   A choice that passes the mismatch test's competitor only on a different
-   footing is not an explanation.
+   misfit (a choice that passes the mismatch test's competitor only on
+   another footing is not an explanation).
 9. **Not explained** (:func:`explains`): a choice that removes less than the
    policy's ``explained_share`` of the nominal chi-square, leaves the data
    out of the noise and whose rerun does not lower the FRF misfit by as
@@ -283,10 +282,10 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int,
     The best single effect (lowest BIC) is chosen unless a pair beats it by the
     policy's ``evidence`` in quasi-BIC (overdispersion from the best single
     fit), its second part is needed by the likelihood-ratio test
-    (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`) and it lowers the single effect's misfit by
-    ``pair_misfit_gain`` (not asked of pairs with a :data:`NONLINEAR` effect); the choice must
-    beat the nominal model by ``evidence`` and be needed by the likelihood-ratio test too, else nothing
-    is selected.
+    (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`) and it explains what the single effect leaves
+    (:func:`explains_remainder`; not asked of pairs with a :data:`NONLINEAR` effect, which the rerun judges);
+    the choice must beat the nominal model by ``evidence`` and be needed by the likelihood-ratio test
+    too, else nothing is selected.
 
     Returns
     -------
@@ -304,13 +303,11 @@ def select(ranked: list[Hypothesis], chi2_0: float, n_obs: int,
     c_hat = max(1.0, best.chi2_ / max(n_obs - best.n_params, 1))
     if combos:
         pair = min(combos, key=lambda h: h.bic_)
-        gain = getattr(best, "misfit_", np.nan) / getattr(pair, "misfit_", np.nan)
-        if any(h.effect in NONLINEAR for h in pair.parts):
-            gain = np.nan
+        nonlinear = any(h.effect in NONLINEAR for h in pair.parts)
         c_pair = max(1.0, pair.chi2_ / max(n_obs - pair.n_params, 1))
         if (evidence(pair, best, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= policy.evidence
                 and policy.needed(best.chi2_, pair.chi2_, pair.n_params - best.n_params, c_pair)
-                and not gain < policy.pair_misfit_gain):  # a NaN gain leaves the decision to the evidence
+                and (nonlinear or explains_remainder(best.chi2_, pair.chi2_, policy))):
             best = pair
             c_hat = c_pair
     if (evidence(best, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) < policy.evidence
@@ -328,12 +325,21 @@ def needs_rerun_check(h: Hypothesis) -> bool:
     return any(p.effect in NONLINEAR or isinstance(p, PointDamping) for p in parts)
 
 
-def passes_pair_rule(ev: float, gain: float, exempt: bool, policy: DecisionPolicy = DEFAULT_POLICY) -> bool:
+def explains_remainder(chi2_single: float, chi2_pair: float, policy: DecisionPolicy = DEFAULT_POLICY) -> bool:
+    """Whether a pair's second effect explains what its first leaves: from ``chi2_single`` to ``chi2_pair`` it
+    removes at least the ``policy``'s ``explained_share`` of the chi-square (the definition of *the* explanation,
+    :func:`explains`, applied to the remainder; one that removes less absorbs a part of the remainder, which
+    is reported instead). A chi-square that is not finite leaves the decision to the evidence (True)."""
+    ok = math.isfinite(chi2_single) and math.isfinite(chi2_pair) and chi2_single > 0
+    return not ok or bool(1.0 - chi2_pair / chi2_single >= policy.explained_share)
+
+
+def passes_pair_rule(ev: float, chi2s: tuple, exempt: bool, policy: DecisionPolicy = DEFAULT_POLICY) -> bool:
     """Rule 5: the pair rule of the selection applied on the plant's linearisation: the pair's quasi-BIC
-    evidence ``ev`` over the single effect (:func:`evidence`) is at least the policy's ``evidence``, and its
-    misfit ``gain`` (single effect's misfit / the pair's) at least its ``pair_misfit_gain`` unless
+    evidence ``ev`` over the single effect (:func:`evidence`) is at least the policy's ``evidence``, and it
+    explains what the single effect leaves, ``chi2s = (single, pair)`` (:func:`explains_remainder`), unless
     ``exempt`` (a pair with a :data:`NONLINEAR` part, or one that brings the data within the noise)."""
-    return ev >= policy.evidence and (exempt or gain >= policy.pair_misfit_gain)
+    return ev >= policy.evidence and (exempt or explains_remainder(chi2s[0], chi2s[1], policy))
 
 
 def too_small_to_name(chosen: Hypothesis | None, noise_only: dict | None) -> bool:
