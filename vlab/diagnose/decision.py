@@ -29,6 +29,7 @@ from .fit.locate import locate
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile_state, profiled
+from ..measure.instability import LINE_TO_FLOOR
 from .problem.misfits import noise_misfit
 from .problem.residuals import Problem
 from .report.text import ratio_text
@@ -37,11 +38,12 @@ from .report.result import DiagnosisResult
 #: Names of the mismatch tests (``test`` of an entry of :func:`mismatch_tests`).
 TESTS = {"chi2": "the total chi-square", "line": "the largest single line",
          "model_form": "the moves of the nominal modes beyond their model-form uncertainty",
-         "change": "the change from the reference without the model-error floor"}
+         "change": "the change from the reference without the model-error floor",
+         "oscillation": "a self-excited oscillation the nominal lab's replay does not make"}
 
 
 def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: float, nuisance: dict | None,
-                   change: dict | None = None) -> list[dict]:
+                   change: dict | None = None, oscillation: dict | None = None) -> list[dict]:
     """The mismatch tests the nominal lab fails (rule 1), each as ``test``, ``statistic``, ``limit`` [1].
 
     Parameters
@@ -55,6 +57,14 @@ def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: floa
     change : dict or None
         The statistics of :func:`vlab.diagnose.fit.rules.changed_beyond_noise` when that test found a change
         (``chi2``, ``chi2_limit``, ``peak``, ``peak_limit``), else None.
+    oscillation : dict or None
+        The recording's instability check (:func:`vlab.measure.instability.find_instability`, as the result
+        holds it) when it found a self-excited oscillation that the nominal lab's replay of the recorded
+        force does not make (``in_replay`` False), else None: a mismatch of its own, whatever the FRFs of the
+        lines the oscillation leaves usable say. Its statistic is the strongest line's power over the
+        channel's incoherent floor, its limit the detector's :data:`vlab.measure.instability.LINE_TO_FLOOR`
+        (a noise bin reaches even a tenth of it with a probability below 1e-30: the test takes no
+        measurable share of the false-alarm rate).
 
     Returns
     -------
@@ -73,6 +83,10 @@ def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: floa
     if change:
         out.append({"test": "change", "statistic": float(change["chi2"]), "limit": float(change["chi2_limit"]),
                     "peak": float(change["peak"]), "peak_limit": float(change["peak_limit"])})
+    if oscillation and oscillation.get("unstable") and oscillation.get("in_replay") is False:
+        strongest = oscillation["oscillations"][0]
+        out.append({"test": "oscillation", "statistic": float(strongest["line_to_floor"]),
+                    "limit": float(LINE_TO_FLOOR), "frequency_hz": float(strongest["frequency_hz"])})
     return out
 
 

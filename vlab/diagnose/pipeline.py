@@ -163,13 +163,14 @@ def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> Di
     location = locate(problem, nominal)
     timing["locate"] = time.perf_counter() - t
     nuisance = problem.nuisance_test()
-    tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance)
+    osc = _instability(inp.instability, inp.replayed, inp.loops)
+    tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance, oscillation=osc)
     noise_only = None
     if not tests and inp.same_record:  # within the floor; within the noise?
         changed, stats = changed_beyond_noise(problem, nominal)
         if changed:
             noise_only = stats
-            tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance, stats)
+            tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance, stats, oscillation=osc)
             notes.append(f"the recording differs from its reference beyond the noise (chi-square "
                          f"{stats['chi2']:.4g}, limit {stats['chi2_limit']:.4g}; largest line {stats['peak']:.3g}, "
                          f"limit {stats['peak_limit']:.3g}), though within the model-error floor of "
@@ -178,7 +179,7 @@ def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> Di
                           location, None, notes=notes, chi2_fit=chi2_fit, misfit_nominal=misfit_0,
                           misfit_selected=misfit_0, peak_nominal=peak_0, peak_limit=peak_limit,
                           noise_only=noise_only, reference=inp.reference,
-                          instability=_instability(inp.instability, inp.replayed, inp.loops), mismatch_tests=tests)
+                          instability=osc, mismatch_tests=tests)
     if not res.mismatch:
         res.location.points, res.location.members = [], []
         res.within_model_accuracy = _beyond_measurement(problem, nominal)

@@ -87,6 +87,10 @@ def mismatch_text(s: dict, n) -> str:
             parts.append(f"without the model-error floor the recording differs from its reference: chi2 = "
                          f"{_fmt(t['statistic'])} over N = {n} residuals exceeds its limit {_fmt(t['limit'])} (with "
                          "the floor it is within)")
+        elif t["test"] == "oscillation":
+            parts.append(f"the recording oscillates by itself at {_fmt(t['frequency_hz'])} Hz and the nominal lab's "
+                         f"replay does not (the line's power over its channel's incoherent floor "
+                         f"{_fmt(t['statistic'])}, limit {_fmt(t['limit'])})")
     if not parts:  # a result written without the tests: the total chi-square is what it quotes
         parts.append(f"the nominal model's chi2 = {_fmt(s['chi2_nominal'])} over N = {n} residuals (limit "
                      f"{_fmt(s['chi2_limit'])})")
