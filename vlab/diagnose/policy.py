@@ -9,7 +9,9 @@ of the diagnosis follows from it:
   moves of the nominal lab's modes beyond their model-form uncertainty (the profiled nuisance parameters).
   Each runs at the Šidák rate ``1 - (1 - alpha)^(1/3)``, so that the three together keep ``alpha``; the
   largest of ``n`` lines runs at ``1 - (1 - a)^(1/n)`` of its test's rate ``a`` (Šidák, J. Am. Stat. Assoc.
-  62 (1967) 626-633).
+  62 (1967) 626-633). A self-excited oscillation that the nominal replay does not make is a mismatch too
+  (:func:`vlab.diagnose.decision.mismatch_tests`); its detector's false-alarm probability on noise is below
+  1e-30 (:mod:`vlab.measure.instability`), so it takes no measurable share of ``alpha``.
 * **A noise variance estimated from the data** (``nu`` degrees of freedom, the periods' scatter) makes each
   weighted residual heavier-tailed than a normal one: a squared residual of ``d`` real components over an
   estimated variance follows ``d F(d, nu)`` (Student's argument; Johnson, Kotz & Balakrishnan,
