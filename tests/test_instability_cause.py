@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from vlab.diagnose.fit.rules import branch, nearest_mode, reproduces_oscillation
-from vlab.diagnose.instability_cause import destabilising_value, recorded_growth_rate
+from vlab.diagnose.instability_cause import destabilising_value, recorded_growth_rate, recorded_mode_band
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
-from vlab.diagnose.model.nyquist import loop_stability, unstable_closed_loop_poles
+from vlab.diagnose.model.nyquist import loop_stability, poles_near, unstable_closed_loop_poles, zeros_in_box
 from vlab.errors import ModelError
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
@@ -53,6 +53,38 @@ def test_nyquist_count_equals_the_state_space_eigenvalues():
         z, _w, _n = unstable_closed_loop_poles(det_of, 5000.0, 0, df_hz=1.0, seeds_hz=[])
         assert z == truth
     assert 5 <= n_unstable_cases <= 35  # both outcomes were tested
+
+
+def test_the_box_count_equals_the_state_space_eigenvalues_in_the_box():
+    """The argument principle around a box (:func:`zeros_in_box` on ``det(I + K C (sI - A)^-1 B)``) against
+    the eigenvalues of ``A - B K C`` there, for random loops and boxes; the open loop is stable, so no pole
+    of the return difference lies in a box right of ``Re s = 0``."""
+    rng = np.random.default_rng(11)
+    hits = 0
+    for _ in range(40):
+        a, b, c = _mechanical(rng)
+        k = rng.standard_normal((2, 2)) * 10 ** rng.uniform(-1, 2)
+        eig = np.linalg.eigvals(a - b @ k @ c)
+        lo_w, hi_w = np.sort(rng.uniform(0.0, 2 * np.pi * 80.0, 2))
+        sigma0 = rng.uniform(0.0, 2.0)
+        box = ((sigma0, 2 * np.pi * 200.0), (lo_w, hi_w))
+        truth = int(np.sum((eig.real > box[0][0]) & (eig.real < box[0][1]) & (eig.imag > lo_w) & (eig.imag < hi_w)))
+        hits += truth > 0
+
+        def det_of(s, a=a, b=b, c=c, k=k):
+            g = np.linalg.solve(s[:, None, None] * np.eye(a.shape[0])[None] - a[None], b[None])
+            return np.linalg.det(np.eye(2)[None] + k[None] @ c[None] @ g)
+
+        assert round(zeros_in_box(det_of, *box)) == truth
+    assert hits >= 3  # boxes holding poles were tested, not only empty ones
+
+
+def test_the_recorded_modes_band_is_its_branch_in_band_and_its_own_interval_above():
+    natural = [10.0, 20.0, 40.0, 80.0]
+    assert recorded_mode_band(25.0, natural, False, 1000.0) == (20.0, 40.0)
+    assert recorded_mode_band(75.0, natural, True, 1000.0) == (60.0, 1000.0)  # nearest 80 Hz, up to Nyquist
+    assert recorded_mode_band(33.0, natural, True, 1000.0) == (30.0, 60.0)
+    assert recorded_mode_band(5.0, natural, False, 1000.0) == (0.0, 10.0)
 
 
 @pytest.fixture(scope="module")
@@ -113,6 +145,12 @@ def test_the_shifted_contour_counts_the_poles_growing_faster_than_the_recorded_r
     assert sigma > 0.5
     assert loop_stability(s, sigma_1_s=0.9 * sigma).unstable_poles == 2
     assert loop_stability(s, sigma_1_s=1.1 * sigma).unstable_poles == 0
+    # which mode: the growing pair's frequency, counted in a box, is the time history's oscillation
+    spec = np.abs(np.fft.rfft(v[-8000:] * np.hanning(8000)))
+    f_osc = np.fft.rfftfreq(8000, 5e-4)[np.argmax(spec)]
+    assert poles_near(s, (0.97 * f_osc, 1.03 * f_osc), 0.9 * sigma) == 1
+    assert poles_near(s, (1.03 * f_osc, 999.0), 0.9 * sigma) == 0
+    assert poles_near(s, (0.0, 0.97 * f_osc), 0.9 * sigma) == 0
     with pytest.raises(ModelError, match="sigma_1_s"):
         loop_stability(s, sigma_1_s=-1.0)
 

@@ -22,9 +22,13 @@ rejected by the FRF rules). The physics of an instability decides instead:
    A fit to a limit cycle's FRFs lands near the stability boundary (they
    are the loop at the amplitude where the nonlinearity's describing
    function makes it marginal), so a fitted candidate counts when its loop
-   is unstable at all. A hardware-chain candidate whose loop is stable at
-   its fitted value is moved (:func:`destabilising_value`), if the FRFs
-   still support it there, to the nearest value at which the loop grows
+   is unstable at all. A hardware-chain candidate whose loop does not grow
+   on the recorded mode at its fitted value (stable, or unstable on
+   another mode: a limit cycle's FRFs are no linear response) is moved
+   (:func:`destabilising_value`), if the FRFs still support it there, to
+   the nearest value at which a loop pole on that mode
+   (:func:`recorded_mode_band`, counted by the argument principle,
+   :func:`vlab.diagnose.model.nyquist.poles_near`), and no pole elsewhere, grows
    at least as fast as the recording did: an oscillation that grew
    ``r``-fold within a record of ``T`` seconds needs a pole with
    ``Re s >= ln(r) / T`` (saturation only slows the growth the linear loop
@@ -71,7 +75,7 @@ from .fit.plantfit import PlantModel
 from .fit.rules import branch, evidence, nearest_mode, reproduces_oscillation
 from .fit.selection import rerun_key
 from .model.labmodel import LabState, structure_modes
-from .model.nyquist import loop_stability
+from .model.nyquist import loop_stability, poles_near
 from .validate import Validation, validate
 
 #: Most candidates rerun in the search for the cause (each a rerun of the analysed record, 1-5 s on the BCC).
@@ -109,7 +113,7 @@ class CauseSearch:
         The natural frequency [Hz] of the checked structure nearest the recorded oscillation.
     moved : list of (str, float, float)
         Candidates moved from their fitted value to the nearest value at which the loop grows at
-        ``growth_1_s``: label, fitted and moved values [SI].
+        ``growth_1_s`` on the recorded mode: label, fitted and moved values [SI].
     growth_1_s : float
         The least growth rate [1/s] of a moved candidate's loop (:func:`recorded_growth_rate`).
     """
@@ -149,7 +153,7 @@ class CauseSearch:
         stable = (f"; stable loops, not rerun: {', '.join(self.stable[:4])}"
                   + (f" and {len(self.stable) - 4} more" if len(self.stable) > 4 else "")) if self.stable else ""
         moved = "".join(f"; {lab} moved from {a:.4g} to {b:.4g}, the nearest value at which the loop grows at "
-                        f"least at the recorded rate ({self.growth_1_s:.3g} 1/s)"
+                        f"least at the recorded rate ({self.growth_1_s:.3g} 1/s) on the recorded mode"
                         for lab, a, b in self.moved)
         verdict = (f": {self.chosen.label} reproduces it" if self.chosen is not None
                    else ": none reproduces it (the cause is not identified)")
@@ -272,6 +276,24 @@ def destabilising_value(h: Hypothesis, problem, unstable_at) -> float | None:
     return min(found, key=lambda x: _chi2(problem, h, x))
 
 
+def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist_hz: float) -> tuple[float, float]:
+    """The frequencies [Hz] on which a loop pole counts as the recorded oscillation's (:func:`search_cause`):
+    with ``same_mode`` (above the measured band) the interval of the natural frequency nearest
+    ``frequency_hz`` (:func:`~vlab.diagnose.fit.rules.nearest_mode`) up to half-way to its neighbours, else
+    the branch between the two natural frequencies that bracket it (:func:`~vlab.diagnose.fit.rules.branch`);
+    both within ``(0, nyquist_hz]``; ``natural_hz`` the structure's natural frequencies [Hz]. The same criterion by which a rerun reproduces it
+    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation`)."""
+    f = np.sort(np.asarray([x for x in np.ravel(natural_hz) if np.isfinite(x) and x > 0], dtype=float))
+    if same_mode and f.size:
+        m = nearest_mode(frequency_hz, f)
+        below, above = f[f < m], f[f > m]
+        lo = 0.5 * (m + below[-1]) if below.size else 0.0
+        hi = 0.5 * (m + above[0]) if above.size else nyquist_hz
+    else:
+        lo, hi = branch(frequency_hz, f)
+    return float(max(lo, 0.0)), float(min(hi, nyquist_hz))
+
+
 def _chi2(problem, h: Hypothesis, x: float) -> float:
     """Chi-square of ``h`` of size ``x`` on the fit's footing (the linearly whitened residuals)."""
     r = problem.residual(problem.state_for(h, np.array([x])))
@@ -298,6 +320,47 @@ def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float, min_eviden
     ok = [h for h in ranked if evidence(h, None, chi2_0=chi2_0, n_obs=n_obs, c_hat=c_hat) >= min_evidence]
     return (sorted([h for h in ok if not isinstance(h, Combination)], key=lambda h: h.bic_)
             + sorted([h for h in ok if isinstance(h, Combination)], key=lambda h: h.bic_))
+
+
+class _Loops:
+    """The candidates' loops, on the MuJoCo plant's linearisation where it can be built (else the FE model):
+    their states, their unstable poles and whether the recorded mode is the one that grows
+    (:func:`search_cause`)."""
+
+    def __init__(self, problem, nominal: LabState, on_plant: bool) -> None:
+        self.problem, self.nominal, self.model, self.on = problem, nominal, None, "the FE model"
+        self.band: tuple[float, float] = (0.0, 0.0)
+        if on_plant:
+            try:
+                self.model, self.on = PlantModel(problem), "the MuJoCo plant's linearisation"
+            except (ModelError, SpecError):
+                self.model = None
+
+    def state(self, h: Hypothesis | None, x=None) -> LabState:
+        """The lab with ``h`` at ``x`` (default its fit; ``h`` None: the nominal lab)."""
+        x = None if h is None else (h.params_ if x is None else np.atleast_1d(np.asarray(x, dtype=float)))
+        if self.model is not None:
+            return self.model.state(h, x)
+        return self.nominal if h is None else self.problem.state_for(h, x)
+
+    def poles(self, h: Hypothesis | None, x=None, sigma: float = 0.0) -> int | None:
+        """Closed-loop poles of ``h`` at ``x`` growing faster than ``e^{sigma t}`` (None: a count the
+        criterion cannot vouch for)."""
+        try:
+            st = loop_stability(self.state(h, x), sigma_1_s=sigma)
+        except (ModelError, SpecError):
+            return None
+        return st.unstable_poles if st.trusted else None
+
+    def on_mode(self, h: Hypothesis, x, sigma: float) -> bool:
+        """Whether ``h`` at ``x`` has a loop pole growing faster than ``e^{sigma t}`` on the recorded mode
+        (:attr:`band`), and every pole growing that fast lies there (the fastest-growing mode is the one a
+        limit cycle settles on)."""
+        try:
+            near = poles_near(self.state(h, x), self.band, sigma)
+        except (ModelError, SpecError):
+            return False
+        return near > 0 and self.poles(h, x, sigma) == 2 * near
 
 
 def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, loops, *, chi2_0: float,
@@ -340,32 +403,17 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
 
     Source: module notes.
     """
-    model, on = None, "the FE model"
-    if on_plant:
-        try:
-            model, on = PlantModel(problem), "the MuJoCo plant's linearisation"
-        except (ModelError, SpecError):
-            model = None
-
-    def state_of(h: Hypothesis | None, x=None) -> LabState:
-        x = None if h is None else (h.params_ if x is None else np.atleast_1d(np.asarray(x, dtype=float)))
-        if model is not None:
-            return model.state(h, x)
-        return nominal if h is None else problem.state_for(h, x)
-
-    def poles(h: Hypothesis | None, x=None, sigma: float = 0.0) -> int | None:
-        """Closed-loop poles of ``h`` at ``x`` growing faster than ``e^{sigma t}`` (None: a count the
-        criterion cannot vouch for)."""
-        try:
-            st = loop_stability(state_of(h, x), sigma_1_s=sigma)
-        except (ModelError, SpecError):
-            return None
-        return st.unstable_poles if st.trusted else None
-
-    base = state_of(None)
+    loops_of = _Loops(problem, nominal, on_plant)
+    base = loops_of.state(None)
     natural = structure_modes(base)[0]
-    out = CauseSearch(on=on, branch_hz=branch(frequency_hz, natural), growth_1_s=float(growth_1_s),
+    out = CauseSearch(on=loops_of.on, branch_hz=branch(frequency_hz, natural), growth_1_s=float(growth_1_s),
                       above_band=frequency_hz > problem.ctx.band_hz[1], mode_hz=nearest_mode(frequency_hz, natural))
+    loops_of.band = recorded_mode_band(frequency_hz, natural, out.above_band, 0.5 / base.chain.period_s)
+    poles, state_of = loops_of.poles, loops_of.state
+
+    def on_mode(h: Hypothesis, x) -> bool:
+        return loops_of.on_mode(h, x, growth_1_s)
+
     # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
     screen = poles(None) == 0
     for h in _supported(ranked, chi2_0, problem.n_obs, c_hat, problem.policy.evidence):
@@ -374,8 +422,11 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
         z = None
         if screen:
             z = poles(h)
-            if z == 0 and h.n_params == 1 and state_of(h).spec is base.spec:  # a chain effect: move it
-                x = destabilising_value(h, problem, lambda v: bool(poles(h, v, growth_1_s)))
+            # a chain effect whose fitted loop does not grow on the recorded mode (stable, or unstable on another
+            # mode: a fit to a limit cycle's FRFs is no linear response) is moved to the nearest value at which
+            # it does
+            if h.n_params == 1 and state_of(h).spec is base.spec and not on_mode(h, h.params_):
+                x = destabilising_value(h, problem, lambda v: on_mode(h, v))
                 g = None if x is None else _moved(h, problem, x, chi2_0, c_hat)
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))

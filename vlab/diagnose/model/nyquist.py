@@ -261,3 +261,93 @@ def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: flo
                                                df_hz=df_hz, seeds_hz=_seed_frequencies(state, top))
     closure = float(np.linalg.norm(loop_transfer(state, np.array([top - shift]))[0], 2))
     return LoopStability(z, p, winding, top, closure, n, float(sigma_1_s))
+
+
+def _phase_change(fun, s0: complex, s1: complex, n: int = 64) -> float:
+    """Change of ``arg fun(s)`` [rad] along the straight segment from ``s0`` to ``s1``, followed on a grid of
+    ``n`` steps refined (:data:`MAX_REFINE` halvings at most) until no step turns it by more than
+    :data:`MAX_STEP_RAD`. Raises ModelError where it cannot be followed (a zero on the segment)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+    d = fun(s0 + t * (s1 - s0))
+    for _ in range(MAX_REFINE):
+        bad = np.abs(np.angle(d[1:] / d[:-1])) > MAX_STEP_RAD
+        if not bad.any():
+            return float(np.sum(np.angle(d[1:] / d[:-1])))
+        mid = 0.5 * (t[:-1][bad] + t[1:][bad])
+        t_new, d_new = np.concatenate([t, mid]), np.concatenate([d, fun(s0 + mid * (s1 - s0))])
+        order = np.argsort(t_new)
+        t, d = t_new[order], d_new[order]
+    raise ModelError(f"the phase of det(I + L) cannot be followed near s = {s0 + t[1:][bad][0] * (s1 - s0):.6g} "
+                     "(a closed-loop pole on the contour)")
+
+
+def zeros_in_box(fun, sigma: tuple[float, float], omega: tuple[float, float]) -> float:
+    """Zeros minus poles of an analytic ``fun`` inside the box ``sigma[0] < Re s < sigma[1]``,
+    ``omega[0] < Im s < omega[1]`` (argument principle: the phase change around its edges, counter-clockwise,
+    over ``2 pi``; a float, near a whole number when the contour is followed).
+
+    Parameters
+    ----------
+    fun : callable ``ndarray complex (n,) -> ndarray complex (n,)``
+        Evaluated at points ``s`` [1/s] of the edges.
+    sigma, omega : (float, float)
+        The box's real and imaginary extents [1/s], each increasing.
+
+    Raises
+    ------
+    ModelError
+        A zero or pole on an edge (the phase cannot be followed).
+
+    Source: the argument principle (e.g. Ahlfors, *Complex Analysis*, 3rd ed., 1979, Sec. 5.2), as the
+    Nyquist criterion applies it to ``det(I + L)``.
+    """
+    a, b = sigma
+    c, d = omega
+    corners = (complex(a, c), complex(b, c), complex(b, d), complex(a, d), complex(a, c))
+    return sum(_phase_change(fun, s0, s1) for s0, s1 in zip(corners[:-1], corners[1:])) / (2 * math.pi)
+
+
+def poles_near(state: LabState, band_hz: tuple[float, float], sigma_1_s: float) -> int:
+    """Closed-loop poles of the lab's linear loop that grow faster than ``e^{sigma t}`` with a frequency in
+    ``band_hz``: the zeros of ``det(I + L(s))`` in the box ``sigma_1_s < Re s < 2 pi band_hz[1]``,
+    ``2 pi band_hz[0] < Im s < 2 pi band_hz[1]`` (:func:`zeros_in_box`), less the controller's own poles there
+    (``ln(z) / T`` and its images ``+ j 2 pi m / T``). Which mode a loop drives unstable, where
+    :func:`loop_stability` counts all of them.
+
+    Parameters
+    ----------
+    state : LabState
+        A closed-loop lab (its structure as in :func:`loop_stability`).
+    band_hz : (float, float)
+        Frequencies [Hz], 0 <= low < high <= the Nyquist frequency ``1 / (2 T)``.
+    sigma_1_s : float
+        Growth rate [1/s], >= 0.
+
+    Returns
+    -------
+    int
+        Number of such poles (the count rounded; complex poles of positive frequency count once).
+
+    Raises
+    ------
+    ModelError
+        Open loop, a band outside ``[0, 1 / (2 T)]``, or a pole on the box's edge.
+    """
+    if state.design is None:
+        raise ModelError("the loop's stability needs a controller (the lab is open loop)")
+    lo, hi = float(band_hz[0]), float(band_hz[1])
+    period = state.chain.period_s
+    if not (0 <= lo < hi <= 0.5 / period + 1e-9) or not (math.isfinite(sigma_1_s) and sigma_1_s >= 0):
+        raise ModelError(f"poles_near: band {band_hz!r} Hz must lie in [0, {0.5 / period:g}] and sigma_1_s "
+                         f"{sigma_1_s!r} be >= 0")
+    box_s, box_w = (float(sigma_1_s), 2 * math.pi * hi + float(sigma_1_s)), (2 * math.pi * lo, 2 * math.pi * hi)
+    count = zeros_in_box(lambda s: return_difference(state, s / (2j * math.pi)), box_s, box_w)
+    lam = _controller_poles(state)
+    s_c = np.log(lam[np.abs(lam) > 0].astype(complex)) / period
+    own = 0
+    for m in range(int(math.floor(box_w[0] * period / (2 * math.pi))) - 1,
+                   int(math.ceil(box_w[1] * period / (2 * math.pi))) + 2):
+        s_m = s_c + 2j * math.pi * m / period
+        own += int(np.sum((s_m.real > box_s[0]) & (s_m.real < box_s[1]) & (s_m.imag > box_w[0])
+                          & (s_m.imag < box_w[1])))
+    return int(round(count)) + own
