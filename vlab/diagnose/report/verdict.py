@@ -204,7 +204,8 @@ def _verdict_body(res: dict, s: dict, n) -> str:
     if cause:
         text += (f" Its rerun oscillates by itself too (at {', '.join(_fmt(f, 4) for f in cause['rerun_frequencies_hz'][:2])}"
                  " Hz): the cause of the oscillation; a limit cycle's FRFs are not the lab's linear response, so the "
-                 "misfit's fall does not judge it.")
+                 "misfit's fall does not judge it, nor can they show whether anything else changed beside it (no "
+                 "remainder is judged: diagnose a recording without the oscillation: open loop, or with a lower loop gain).")
     thr = res.get("detection_threshold") or {}
     if thr.get("threshold") is not None:
         q, unit = parameter_unit(thr["parameter"])
