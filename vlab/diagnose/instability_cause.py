@@ -6,7 +6,7 @@ the FRFs describe badly: its H1 estimates carry the oscillation's leakage,
 the loop's effective gain is that of a limit cycle, and the time histories
 hold an oscillation of arbitrary phase. A fit to those FRFs can look good
 without the cause (a stiffer beam segment), and the right cause can look
-poor on them (tier 2 of the benchmark: a 8.2 ms delay on one channel,
+poor on them (a recording of a converged, perturbed BCC plant: an 8.2 ms delay on one channel,
 fitted to 7.8 ms, lowered the chi-square only from 1622 to 1521 and was
 rejected by the FRF rules). The physics of an instability decides instead:
 

@@ -4,8 +4,8 @@ The pair search of :mod:`vlab.diagnose.fit.estimate` runs on the FE model. When 
 selected effect moves modes far (the grid's joint 8 softened almost to a
 hinge moves six modes by 1-7 %), the FE model and the MuJoCo plant move them
 differently, and what that difference leaves in the residual hides a
-smaller second effect: on benchmark case 9 of the MuJoCo grid (joint 8 at
-7.2 N m/rad with a 23 kN/m spring at point 15) the FE model fits the true
+smaller second effect: on the MuJoCo grid with joint 8 at 7.2 N m/rad and
+a 23 kN/m spring at point 15 the FE model fits the true
 pair *worse* than the joint alone (chi-square 20.5e3 against 16.2e3), while
 on the plant's linearisation the joint alone leaves one line 2.5x over the
 noise limit (peak 145, limit 58) and the true pair does not (17).
