@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from .data.measured import FrfData
-from .fit.locate import locate
+from ..errors import ModelError, SpecError
+from .fit.locate import extra_resonances, locate
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile_state, profiled
@@ -174,6 +175,32 @@ def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misf
                      + f", less than the {100 * policy.explained_share:.0f} % an explanation must account for: the "
                        "mismatch lies outside the library; nothing is selected")
         drop_selection(res, misfit_0, chi2_fit, outside=True)
+    if res.selected is not None and not self_excited and res.location.extra:
+        _keeps_new_resonance(res, problem, misfit_0, chi2_fit, notes)
+
+
+def _keeps_new_resonance(res: DiagnosisResult, problem: Problem, misfit_0: float, chi2_fit: float,
+                         notes: list) -> None:
+    """Rule 9 for a resonance the nominal lab lacks (``res.location.extra``): the choice is *the* explanation
+    only if its lab has that resonance too (:func:`vlab.diagnose.fit.locate.extra_resonances` of the chosen
+    lab finds none left). The library's effects change the structure's masses, stiffnesses, damping and
+    chain; they add no degree of freedom, so a measured resonance the chosen lab still lacks is physics
+    outside the library, whatever share of the misfit the choice removes (a pair can absorb much of a
+    tuned absorber's residual). The choice is then rejected and the resonance reported."""
+    try:
+        left = extra_resonances(problem, res.selected_state())
+    except (ModelError, SpecError):
+        return
+    if not left:
+        return
+    h = res.selected
+    before, after, noise = _misfits(res, misfit_0)
+    res.rejected.append(rejection(h, "leaves a resonance the model does not have", before, after, noise))
+    where = ", ".join(f"{r['frequency_hz']:.4g} Hz at point {r['point']}" for r in left)
+    notes.append(f"the best candidate, {h.label}, leaves a resonance its lab does not have ({where}): no effect "
+                 "of the library adds a degree of freedom, so the mismatch lies outside the library; nothing is "
+                 "selected")
+    drop_selection(res, misfit_0, chi2_fit, outside=True)
 
 
 def _largest_line(problem: Problem, r: np.ndarray) -> dict | None:
