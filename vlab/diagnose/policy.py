@@ -81,7 +81,8 @@ class DecisionPolicy:
         share of what a single effect leaves for a pair's second effect to replace it.
     oscillation_tolerance : float
         Relative frequency tolerance [1] within which a rerun's self-excited line is the recording's
-        (a limit cycle's frequency depends on its amplitude).
+        (a limit cycle's frequency depends on its amplitude). No statistical principle: a stated
+        tolerance; a rerun on the same branch (between the same two natural frequencies) counts too.
     """
 
     false_alarm_rate: float = 0.01
