@@ -15,7 +15,7 @@ file name (column ``note`` says so). Case lines in another format are named in `
 A listing that cannot be read so -- no case line and no summary, case lines that disagree with the
 summary -- stops the script with an error naming it.
 
-Standard library only.
+The standard library, and vlab.io.atomic for the writes (each file whole or as it was, also on Ctrl-C).
 """
 
 from __future__ import annotations
@@ -436,8 +436,11 @@ def main(argv=None) -> int:
         for s in stale:
             print(f"out of date: {s} (run python benchmarks/validation_tables.py)", file=sys.stderr)
         return 1 if stale else 0
-    CSV_PATH.write_text(want_csv, encoding="utf-8")
-    PAGE.write_text(want_page, encoding="utf-8")
+    from vlab.io.atomic import atomic_file
+
+    for path, text in ((CSV_PATH, want_csv), (PAGE, want_page)):  # each file whole or as it was
+        with atomic_file(path, overwrite=True) as tmp:
+            tmp.write_text(text, encoding="utf-8")
     print(f"{len({r['listing'] for r in rows})} listings, {len(rows)} runs -> {CSV_PATH.relative_to(ROOT)}, "
           f"{PAGE.relative_to(ROOT)}")
     return 0

@@ -77,6 +77,8 @@ def test_the_box_count_equals_the_state_space_eigenvalues_in_the_box():
 
         assert round(zeros_in_box(det_of, *box)) == truth
     assert hits >= 3  # boxes holding poles were tested, not only empty ones
+    with pytest.raises(ModelError, match="increasing"):
+        zeros_in_box(np.exp, (1.0, 0.0), (0.0, 1.0))
 
 
 def test_the_recorded_modes_band_is_its_branch_in_band_and_its_own_interval_above():

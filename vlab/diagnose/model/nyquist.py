@@ -197,18 +197,7 @@ def unstable_closed_loop_poles(det_of, f_max_hz: float, open_loop_unstable: int,
     seeds = np.asarray(seeds_hz, dtype=float)
     seeds = seeds[(seeds > 0) & (seeds < f_max_hz)]
     f = np.unique(np.concatenate([np.arange(df_hz * 1e-3, f_max_hz, df_hz), [f_max_hz], seeds]))
-    d = det_of(f)
-    for _ in range(MAX_REFINE):
-        bad = np.abs(np.angle(d[1:] / d[:-1])) > MAX_STEP_RAD
-        if not bad.any():
-            break
-        mid = 0.5 * (f[:-1][bad] + f[1:][bad])
-        f_new, d_new = np.concatenate([f, mid]), np.concatenate([d, det_of(mid)])
-        order = np.argsort(f_new)
-        f, d = f_new[order], d_new[order]
-    else:
-        raise ModelError(f"the phase of det(I + L) cannot be followed near {f[1:][bad][0]:.6g} Hz "
-                         "(a closed-loop pole on the imaginary axis?)")
+    f, d = _followed(det_of, f, lambda x: f"{x:.6g} Hz (a closed-loop pole on the imaginary axis?)")
     winding = float(np.sum(np.angle(d[1:] / d[:-1])) + np.angle(d[0])) / (2 * math.pi)
     return open_loop_unstable - int(round(2 * winding)), winding, int(f.size)
 
@@ -263,22 +252,29 @@ def loop_stability(state: LabState, *, f_max_hz: float | None = None, df_hz: flo
     return LoopStability(z, p, winding, top, closure, n, float(sigma_1_s))
 
 
-def _phase_change(fun, s0: complex, s1: complex, n: int = 64) -> float:
-    """Change of ``arg fun(s)`` [rad] along the straight segment from ``s0`` to ``s1``, followed on a grid of
-    ``n`` steps refined (:data:`MAX_REFINE` halvings at most) until no step turns it by more than
-    :data:`MAX_STEP_RAD`. Raises ModelError where it cannot be followed (a zero on the segment)."""
-    t = np.linspace(0.0, 1.0, n + 1)
-    d = fun(s0 + t * (s1 - s0))
+def _followed(fun, x: np.ndarray, where) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, fun(x))`` on the increasing grid ``x`` refined (:data:`MAX_REFINE` halvings at most) until no
+    step turns the phase of ``fun`` by more than :data:`MAX_STEP_RAD`. Raises ModelError naming
+    ``where(x_bad)`` where it cannot be followed (a zero on the path)."""
+    d = fun(x)
     for _ in range(MAX_REFINE):
         bad = np.abs(np.angle(d[1:] / d[:-1])) > MAX_STEP_RAD
         if not bad.any():
-            return float(np.sum(np.angle(d[1:] / d[:-1])))
-        mid = 0.5 * (t[:-1][bad] + t[1:][bad])
-        t_new, d_new = np.concatenate([t, mid]), np.concatenate([d, fun(s0 + mid * (s1 - s0))])
-        order = np.argsort(t_new)
-        t, d = t_new[order], d_new[order]
-    raise ModelError(f"the phase of det(I + L) cannot be followed near s = {s0 + t[1:][bad][0] * (s1 - s0):.6g} "
-                     "(a closed-loop pole on the contour)")
+            return x, d
+        mid = 0.5 * (x[:-1][bad] + x[1:][bad])
+        x_new, d_new = np.concatenate([x, mid]), np.concatenate([d, fun(mid)])
+        order = np.argsort(x_new)
+        x, d = x_new[order], d_new[order]
+    raise ModelError(f"the phase of det(I + L) cannot be followed near {where(x[1:][bad][0])}")
+
+
+def _phase_change(fun, s0: complex, s1: complex, n: int = 64) -> float:
+    """Change of ``arg fun(s)`` [rad] along the straight segment from ``s0`` to ``s1``, followed on a grid of
+    ``n`` steps refined where it turns fast (:func:`_followed`). Raises ModelError where it cannot be followed
+    (a zero on the segment)."""
+    _t, d = _followed(lambda t: fun(s0 + t * (s1 - s0)), np.linspace(0.0, 1.0, n + 1),
+                      lambda t: f"s = {s0 + t * (s1 - s0):.6g} (a closed-loop pole on the contour)")
+    return float(np.sum(np.angle(d[1:] / d[:-1])))
 
 
 def zeros_in_box(fun, sigma: tuple[float, float], omega: tuple[float, float]) -> float:
@@ -296,13 +292,16 @@ def zeros_in_box(fun, sigma: tuple[float, float], omega: tuple[float, float]) ->
     Raises
     ------
     ModelError
-        A zero or pole on an edge (the phase cannot be followed).
+        Extents that are not finite and increasing (names them); a zero or pole on an edge (the phase cannot
+        be followed).
 
     Source: the argument principle (e.g. Ahlfors, *Complex Analysis*, 3rd ed., 1979, Sec. 5.2), as the
     Nyquist criterion applies it to ``det(I + L)``.
     """
-    a, b = sigma
-    c, d = omega
+    a, b = (float(v) for v in sigma)
+    c, d = (float(v) for v in omega)
+    if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c) and math.isfinite(d) and a < b and c < d):
+        raise ModelError(f"zeros_in_box: sigma {sigma!r} and omega {omega!r} must be finite and increasing")
     corners = (complex(a, c), complex(b, c), complex(b, d), complex(a, d), complex(a, c))
     return sum(_phase_change(fun, s0, s1) for s0, s1 in zip(corners[:-1], corners[1:])) / (2 * math.pi)
 
