@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -121,6 +122,58 @@ def test_atomic_dir_failure_leaves_the_old_folder(tmp_path):
             (tmp / "new.txt").write_text("half")
             raise KeyboardInterrupt
     assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_dropped_interrupt_is_honoured_at_the_commit(tmp_path):
+    """A Ctrl-C recorded but never raised where it landed (Python drops a KeyboardInterrupt raised in a
+    garbage-collection callback): the folder and the file are not committed, the old ones stay."""
+    from vlab.io.atomic import clear_interrupt_request, request_interrupt
+
+    out = _old_output(tmp_path / "out")
+    before = _tree(out)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with atomic_dir(out, overwrite=True) as tmp:
+                (tmp / "new.txt").write_text("complete")
+                request_interrupt()
+        with pytest.raises(KeyboardInterrupt):
+            with atomic_file(tmp_path / "x.txt") as tmp:
+                tmp.write_text("complete")
+    finally:
+        clear_interrupt_request()
+    assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    with atomic_file(tmp_path / "x.txt") as tmp:  # cleared: written again
+        tmp.write_text("complete")
+    assert (tmp_path / "x.txt").read_text() == "complete"
+
+
+class _DropsAnInterrupt:
+    """Sends SIGINT from a finaliser: the handler's KeyboardInterrupt is raised inside ``__del__``, where
+    Python can only print "Exception ignored" and go on (what a garbage-collection callback does)."""
+
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        sum(range(1000))  # the handler runs here, inside the finaliser
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signals")
+def test_a_command_whose_interrupt_was_dropped_ends_as_interrupted(tmp_path, monkeypatch):
+    import vlab.sim
+
+    real = vlab.sim.build_plant
+
+    def dropped(spec):
+        _DropsAnInterrupt()
+        return real(spec)
+
+    monkeypatch.setattr(vlab.sim, "build_plant", dropped)
+    path = tmp_path / "bcc.xml"
+    res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])
+    assert res.exit_code == 130 and res.output == "interrupted: nothing written\n", res.output
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(vlab.sim, "build_plant", real)
+    res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])  # the next command starts clean
+    assert res.exit_code == 0 and path.exists(), res.output
 
 
 def test_atomic_dir_overwrite_replaces_whole_and_refuses_without(tmp_path):

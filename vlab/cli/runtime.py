@@ -92,13 +92,19 @@ class VlabGroup(TyperGroup):
         STATE["debug"] = False  # set by the callback (--debug)
         STATE["interrupted"] = "interrupted: nothing written"
         STATE["out_path"] = STATE["out_id"] = None
-        STATE["sigint"] = False
+        from ..io.atomic import clear_interrupt_request, interrupt_requested
         from ..io.confine import ALLOW_ENV
+
+        clear_interrupt_request()
 
         allow_env = os.environ.get(ALLOW_ENV)
         restore = _install_sigint_flag()
         try:
-            return super().invoke(ctx)
+            result = super().invoke(ctx)
+            if interrupt_requested() and not STATE["debug"]:
+                # the KeyboardInterrupt was dropped where it was raised (a garbage-collection callback)
+                _interrupted()
+            return result
         except (Exit, Abort, TyperException):  # exits, usage errors: typer's own handling
             raise
         except KeyboardInterrupt:
@@ -108,7 +114,7 @@ class VlabGroup(TyperGroup):
         except Exception as exc:  # noqa: BLE001 - the single error path of the CLI
             if STATE["debug"]:
                 raise
-            if STATE["sigint"]:  # a library turned the KeyboardInterrupt into its own error (pyuff does)
+            if interrupt_requested():  # a library turned the KeyboardInterrupt into its own error (pyuff does)
                 _interrupted()
             command = ctx.invoked_subcommand
             error_line(_message(exc, command))
@@ -163,12 +169,17 @@ def _interrupted() -> None:
 
 
 def _install_sigint_flag():
-    """While a command runs, Ctrl-C also sets ``STATE["sigint"]`` (a library may swallow the KeyboardInterrupt).
+    """While a command runs, Ctrl-C is also recorded by :func:`vlab.io.atomic.request_interrupt`.
+
+    A library may swallow the ``KeyboardInterrupt``, and Python drops one raised inside a
+    garbage-collection callback; the record makes the outputs' commit refuse and the command end
+    with the interrupt's message and status all the same.
 
     Only where SIGINT has Python's default handler (not ignored, not replaced) and on the main thread.
     Returns the function restoring the previous handler.
     """
     import signal
+    import sys
     import threading
 
     if threading.current_thread() is not threading.main_thread():
@@ -177,9 +188,22 @@ def _install_sigint_flag():
     if previous is not signal.default_int_handler:
         return lambda: None
 
+    from ..io.atomic import request_interrupt
+
     def on_sigint(signum, frame):
-        STATE["sigint"] = True
+        request_interrupt()
         raise KeyboardInterrupt
 
+    previous_hook = sys.unraisablehook
+
+    def unraisable(info):  # the dropped interrupt is honoured through the record: no traceback for it
+        if not isinstance(info.exc_value, KeyboardInterrupt):
+            previous_hook(info)
+
+    def restore():
+        signal.signal(signal.SIGINT, previous)
+        sys.unraisablehook = previous_hook
+
     signal.signal(signal.SIGINT, on_sigint)
-    return lambda: signal.signal(signal.SIGINT, previous)
+    sys.unraisablehook = unraisable
+    return restore

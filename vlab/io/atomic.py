@@ -20,6 +20,11 @@ Rules:
   manifest. Folders without one (written before it existed) are refused;
 - a second run writing the same folder at the same time is refused at its
   check (:func:`vlab.io.manifest.acquire_lock`), before any work;
+- an interrupt the program could not raise where it landed (Python drops a
+  ``KeyboardInterrupt`` raised inside a garbage-collection callback as
+  "Exception ignored"; a library may swallow it) is recorded by the caller's
+  SIGINT handler (:func:`request_interrupt`) and honoured at the commit: the
+  temporary output is discarded and the target left as it was;
 - parent folders are never created: the target's parent must exist (the
   commands' default ``out/...`` folders are the one exception, see
   :func:`check_output_dir` ``create_parent``);
@@ -190,6 +195,35 @@ def _umask() -> int:
     return mask
 
 
+_INTERRUPT = {"requested": False}
+
+
+def request_interrupt() -> None:
+    """Record that the user asked to stop (Ctrl-C): no output is committed after this.
+
+    Called by a SIGINT handler besides raising ``KeyboardInterrupt``, for the
+    cases where that exception never reaches the program (see the module
+    notes). Cleared by :func:`clear_interrupt_request`.
+    """
+    _INTERRUPT["requested"] = True
+
+
+def clear_interrupt_request() -> None:
+    """Forget an earlier :func:`request_interrupt` (a new command starts)."""
+    _INTERRUPT["requested"] = False
+
+
+def interrupt_requested() -> bool:
+    """Whether :func:`request_interrupt` was called since the last :func:`clear_interrupt_request`."""
+    return _INTERRUPT["requested"]
+
+
+def _refuse_if_interrupted() -> None:
+    """Raise ``KeyboardInterrupt`` (the temporary output is then discarded) when an interrupt is pending."""
+    if _INTERRUPT["requested"]:
+        raise KeyboardInterrupt
+
+
 @contextmanager
 def _interrupts_deferred() -> Iterator[None]:
     """Hold SIGINT back (main thread only) while the renames run."""
@@ -291,6 +325,7 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
             yield tmp
             write_manifest(tmp)
             with _interrupts_deferred():
+                _refuse_if_interrupted()
                 _commit_dir(tmp, target, overwrite)
         except BaseException:
             _remove(tmp)
@@ -328,6 +363,7 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
     try:
         yield tmp
         with _interrupts_deferred():
+            _refuse_if_interrupted()
             if target.exists() and not overwrite:
                 raise OutputError(f"{target}: the file appeared while writing; use --overwrite to replace it")
             os.replace(tmp, target)
