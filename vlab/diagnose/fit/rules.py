@@ -74,9 +74,11 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
 11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when
     the recording holds a self-excited oscillation that the nominal replay
     does not (:mod:`vlab.measure.instability`), a choice is selected only if
-    its validation rerun oscillates at the same frequency (within the
-    policy's ``oscillation_tolerance``) or on the same branch (between the
-    same two natural frequencies, :func:`branch`). The candidates tried are
+    its validation rerun's own oscillation -- its strongest self-excited line
+    at its loop point, the recording's oscillation by the same definition --
+    lies at the same frequency (within the policy's ``oscillation_tolerance``)
+    or on the same branch (between the same two natural frequencies,
+    :func:`branch`). The candidates tried are
     those whose linear loop is unstable (:mod:`vlab.diagnose.instability_cause`).
 
 Where the mismatch is reported once effects are fitted is
@@ -489,7 +491,11 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
         The recording's self-excited frequency [Hz].
     rerun_check : InstabilityCheck or None
         :func:`vlab.measure.instability.find_instability` of the candidate's
-        validation rerun (None: no rerun, which does not reproduce it).
+        validation rerun (None: no rerun, which does not reproduce it). Only its oscillation is
+        compared: its strongest line at its loop point (``rerun_check.frequency_hz``), the definition of
+        the recording's ``frequency_hz``. Its weaker lines are not: a rerun that diverges holds self-excited
+        lines all over the spectrum (one such rerun held 70, from 11.6 to 261 Hz), and one of them would
+        match any recorded oscillation.
     natural_hz : array_like, optional
         Natural frequencies [Hz] of the rerun's structure: a self-excited line on the same branch
         (:func:`branch`, between the same two natural frequencies) counts too. A limit cycle's
@@ -507,22 +513,20 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
     Returns
     -------
     bool
-        True when the rerun holds a self-excited line within the relative
-        ``tolerance`` (the policy's ``oscillation_tolerance``) of ``frequency_hz`` (or two of its
-        spectral lines, whichever is wider), or on its branch (its mode with ``same_mode``).
+        True when the rerun's oscillation lies within the relative ``tolerance`` (the policy's
+        ``oscillation_tolerance``) of ``frequency_hz`` (or two of its spectral lines, whichever is
+        wider), or on its branch (its mode with ``same_mode``).
     """
     if rerun_check is None or not rerun_check.unstable:
         return False
-    tol = max(tolerance * frequency_hz, 2 * rerun_check.resolution_hz)
-    if any(abs(o.frequency_hz - frequency_hz) <= tol for o in rerun_check.oscillations):
+    f_rerun = rerun_check.frequency_hz
+    if abs(f_rerun - frequency_hz) <= max(tolerance * frequency_hz, 2 * rerun_check.resolution_hz):
         return True
     if natural_hz is None or not np.size(natural_hz):
         return False
     if same_mode:
-        mode = nearest_mode(frequency_hz, natural_hz)
-        return any(nearest_mode(o.frequency_hz, natural_hz) == mode for o in rerun_check.oscillations)
-    b = branch(frequency_hz, natural_hz)
-    return any(branch(o.frequency_hz, natural_hz) == b for o in rerun_check.oscillations)
+        return nearest_mode(f_rerun, natural_hz) == nearest_mode(frequency_hz, natural_hz)
+    return branch(f_rerun, natural_hz) == branch(frequency_hz, natural_hz)
 
 
 def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, validation,
