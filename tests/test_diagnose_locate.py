@@ -35,3 +35,46 @@ def test_own_peak_is_half_way_to_the_next():
     assert not _at_own_peak(2.2, peaks, 1)  # nearer 2.7 than half-way from 1.6
     assert not _at_own_peak(float("nan"), peaks, 1)
     assert _at_own_peak(5.0, np.array([1.6]), 0)  # no other peak to have converged on
+
+
+def _modal_frf(f_hz, modes):
+    """Velocity FRF of uncoupled modes ``(f_r [Hz], zeta_r, residue)`` (closed form), shape (n_f, 1)."""
+    w = 2 * np.pi * np.asarray(f_hz)[:, None]
+    h = sum(a * 1j * w / ((2 * np.pi * fr) ** 2 - w**2 + 2j * z * (2 * np.pi * fr) * w) for fr, z, a in modes)
+    return h
+
+
+def test_a_peak_the_model_lacks_is_reported_once_with_its_damping():
+    from vlab.diagnose.fit.locate import unpaired_peaks
+
+    f = np.arange(0.5, 25.0, 0.01)
+    model = _modal_frf(f, [(2.0, 0.01, 1.0), (9.0, 0.01, 1.0)])
+    meas = _modal_frf(f, [(2.02, 0.01, 1.0), (9.0, 0.01, 1.0), (14.0, 0.02, 0.5)])  # 1 % off: still paired
+    (extra,) = unpaired_peaks(f, np.hstack([meas, meas]), np.hstack([model, model]), [5, 9])
+    # read on the sum of modes: the 9 Hz mode's tail moves the peak and its half-power points a little
+    assert abs(extra["frequency_hz"] / 14.0 - 1) < 0.01 and abs(extra["damping_ratio"] / 0.02 - 1) < 0.1
+    assert extra["point"] == 5  # once, at the first of two equally strong channels
+    assert unpaired_peaks(f, model, model, [5]) == []
+
+
+def test_a_nonlinear_choice_is_judged_on_its_rerun(monkeypatch):
+    """A saturated loop's recording holds a peak its describing-function lab cannot have: the choice stands
+    when its rerun has it, and is rejected when the rerun lacks it too."""
+    from types import SimpleNamespace
+
+    import vlab.diagnose.decision as dec
+
+    f = np.arange(0.5, 25.0, 0.01)
+    recorded = _modal_frf(f, [(2.0, 0.01, 1.0), (14.0, 0.02, 0.5)])
+    without = _modal_frf(f, [(2.0, 0.01, 1.0)])
+    dropped = []
+    monkeypatch.setattr(dec, "drop_selection", lambda res, *a, **k: dropped.append(res))
+    monkeypatch.setattr(dec, "extra_resonances", lambda *a: pytest.fail("the linear lab is not asked"))
+    problem = SimpleNamespace(data=SimpleNamespace(freq_hz=f, output_points=[9]))
+    for rerun, rejected in ((recorded, False), (without, True)):
+        res = SimpleNamespace(selected=SimpleNamespace(effect="saturation", label="saturation(channel=all)"),
+                              validation=SimpleNamespace(target=recorded, h_after=rerun, misfit_before=0.1,
+                                                         misfit_after=0.01, noise_misfit=0.005), rejected=[])
+        dropped.clear()
+        dec._keeps_new_resonance(res, problem, 0.1, 100.0, [])
+        assert bool(dropped) == rejected and bool(res.rejected) == rejected

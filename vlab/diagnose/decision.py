@@ -26,7 +26,7 @@ import numpy as np
 
 from .data.measured import FrfData
 from ..errors import ModelError, SpecError
-from .fit.locate import extra_resonances, locate
+from .fit.locate import extra_resonances, locate, unpaired_peaks
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile_state, profiled
@@ -186,9 +186,20 @@ def _keeps_new_resonance(res: DiagnosisResult, problem: Problem, misfit_0: float
     lab finds none left). The library's effects change the structure's masses, stiffnesses, damping and
     chain; they add no degree of freedom, so a measured resonance the chosen lab still lacks is physics
     outside the library, whatever share of the misfit the choice removes (a pair can absorb much of a
-    tuned absorber's residual). The choice is then rejected and the resonance reported."""
+    tuned absorber's residual). The choice is then rejected and the resonance reported.
+
+    A nonlinear choice (:data:`~vlab.diagnose.fit.rules.NONLINEAR`: saturation, friction) is judged on its
+    validation rerun instead (:func:`~vlab.diagnose.fit.locate.unpaired_peaks` of the recording against
+    the rerun's FRFs): its linear lab is a describing function at one amplitude, which cannot show the
+    peaks the nonlinearity itself puts into a measured FRF (a saturated loop's lost damping, its
+    distortion), while its rerun does."""
+    v = res.validation
     try:
-        left = extra_resonances(problem, res.selected_state())
+        if res.selected.effect in NONLINEAR and v is not None and v.target is not None:
+            d = problem.data
+            left = unpaired_peaks(d.freq_hz, v.target, v.h_after, d.output_points)
+        else:
+            left = extra_resonances(problem, res.selected_state())
     except (ModelError, SpecError):
         return
     if not left:

@@ -68,6 +68,9 @@ class Validation:
         The time-domain error an exact model leaves [1], from the same noise and model form as
         ``noise_misfit`` (:func:`vlab.diagnose.problem.misfits.exact_time_error`); NaN without the
         excitation's line amplitudes.
+    target : ndarray, complex, shape (n_f, n_o), or None
+        The FRFs ``h_before`` and ``h_after`` were compared with: the recording (on the plant it was
+        recorded or replayed on, or with a measured baseline), else the data referred to the model.
     """
 
     plant: str
@@ -83,6 +86,7 @@ class Validation:
     phase_misfit_before: float = float("nan")
     phase_misfit_after: float = float("nan")
     noise_time_error: float = float("nan")
+    target: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
@@ -210,7 +214,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise)
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target)
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

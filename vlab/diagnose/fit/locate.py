@@ -441,19 +441,56 @@ PEAK_MATCH = 0.10
 def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: float = 6.0) -> list[dict]:
     """Resonances in the measured FRFs that the nominal lab does not have: a new or a split resonance.
 
-    On every channel, the peaks of the measured FRF and of its reference on the same lines (the nominal
-    plant's replay or a baseline where the data were referred through one, so that resonances the plant has
-    and the FE model lacks are in both; else the nominal lab's FRF; :func:`vlab.measure.modal.find_peaks`,
-    at least ``prominence_db`` prominence) are paired one to one by least relative frequency distance
-    (Hungarian assignment; pairs farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left
-    without a partner on its channel is a resonance the model lacks. The same resonance on several channels
-    is reported once, at the channel where it is strongest, with its half-power damping ratio.
+    The measured FRF is compared with its reference on the same lines (the nominal plant's replay or a
+    baseline where the data were referred through one, so that resonances the plant has and the FE model
+    lacks are in both; else the nominal lab's FRF) by :func:`unpaired_peaks`.
 
     Parameters
     ----------
     problem : Problem
         With FRF data.
     nominal : LabState
+    prominence_db : float
+        Smallest peak prominence [dB] (:func:`vlab.measure.modal.find_peaks`).
+
+    Returns
+    -------
+    list of dict
+        As :func:`unpaired_peaks`.
+    """
+    d: FrfData = problem.data
+    model = predict_frf(nominal, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
+    meas = d.h
+    if getattr(d, "h_recorded", None) is not None:
+        # data referred through a reference (the replay or a baseline, H = H_rec H_model / H_ref): compare the
+        # recording with that reference, on the same plant, so that resonances the plant has and the FE model
+        # lacks (the MuJoCo BCC's crosspiece arms) are in both
+        meas = d.h_recorded
+        with np.errstate(divide="ignore", invalid="ignore"):
+            model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
+    return unpaired_peaks(d.freq_hz, meas, model, d.output_points, prominence_db=prominence_db)
+
+
+def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, output_points, *,
+                   prominence_db: float = 6.0) -> list[dict]:
+    """Peaks of the measured FRFs that the model's FRFs on the same lines do not have.
+
+    On every channel, the peaks of both (:func:`vlab.measure.modal.find_peaks`, at least ``prominence_db``
+    prominence) are paired one to one by least relative frequency distance (Hungarian assignment; pairs
+    farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left without a partner on its
+    channel is a resonance the model lacks. The same resonance on several channels is reported once, at
+    the channel where it is strongest, with its half-power damping ratio.
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (n_f,)
+        The lines [Hz].
+    meas, model : ndarray, complex, shape (n_f, n_o)
+        Measured and model FRFs [(m/s)/N].
+    output_points : sequence of int, length n_o
+        The channels' points.
+    prominence_db : float
+        Smallest peak prominence [dB].
 
     Returns
     -------
@@ -465,21 +502,11 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
 
     from ...measure.modal import half_power_damping
 
-    d: FrfData = problem.data
-    model = predict_frf(nominal, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
-    meas = d.h
-    if getattr(d, "h_recorded", None) is not None:
-        # data referred through a reference (the replay or a baseline, H = H_rec H_model / H_ref): compare the
-        # recording with that reference, on the same plant, so that resonances the plant has and the FE model
-        # lacks (the MuJoCo BCC's crosspiece arms) are in both
-        meas = d.h_recorded
-        with np.errstate(divide="ignore", invalid="ignore"):
-            model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
     found: list[dict] = []
-    for j, p in enumerate(d.output_points):
+    for j, p in enumerate(output_points):
         try:
-            pm = find_peaks(d.freq_hz, meas[:, j], prominence_db=prominence_db, name=f"vel{p}")
-            pn = find_peaks(d.freq_hz, model[:, j], prominence_db=prominence_db, name=f"vel{p}")
+            pm = find_peaks(freq_hz, meas[:, j], prominence_db=prominence_db, name=f"vel{p}")
+            pn = find_peaks(freq_hz, model[:, j], prominence_db=prominence_db, name=f"vel{p}")
         except MeasurementError:
             continue
         fm = np.array([x.freq_hz for x in pm])
@@ -493,10 +520,10 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
             if i in paired:
                 continue
             try:
-                zeta = half_power_damping(d.freq_hz, meas[:, j], pk.freq_hz)
+                zeta = half_power_damping(freq_hz, meas[:, j], pk.freq_hz)
             except MeasurementError:
                 zeta = float("nan")
-            level = float(np.abs(meas[np.argmin(np.abs(d.freq_hz - pk.freq_hz)), j]))
+            level = float(np.abs(meas[np.argmin(np.abs(freq_hz - pk.freq_hz)), j]))
             found.append({"frequency_hz": float(pk.freq_hz), "damping_ratio": float(zeta), "point": int(p),
                           "level": level})
     out: list[dict] = []
