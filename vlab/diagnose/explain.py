@@ -22,6 +22,7 @@ from .data.rerun_jobs import start_background_rerun
 from .detectability import threshold_of
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
+from .fit.locate import located_point_ids
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
@@ -83,7 +84,8 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
             notes.append(note)
             res.alternatives = [h for h in res.alternatives if h is not reduced]
         return reduced
-    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives, res.ranked)
+    chosen, res.plant_refit, res.alternatives, note = choose_on_plant(model, chosen, res.alternatives, res.ranked,
+                                                                      places=res.location.places)
     if note is not None:
         notes.append(note)
     single = chosen
@@ -146,7 +148,7 @@ def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, 
         except (VlabError, ValueError, np.linalg.LinAlgError):
             continue
     scored.sort(key=lambda s: s[0])
-    keep = shortlisted(scored, search.shortlist)
+    keep = shortlisted(scored, search.shortlist, located_point_ids(sensitivity))
     timing["screen"] = time.perf_counter() - t
     say("fitting")
     t = time.perf_counter()

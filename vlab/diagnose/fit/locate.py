@@ -116,6 +116,9 @@ class Location:
         Resonances of the data the nominal lab does not have (:func:`extra_resonances`).
     points, members : list
         Located points (ids) and members (``"member"`` or ``"member[a-b]"``).
+    places : frozenset of int
+        The points the first-order localisation points at (:func:`located_point_ids`): the located points
+        and the end points of the located segments.
     """
 
     modes: list = field(default_factory=list)
@@ -125,6 +128,7 @@ class Location:
     points: list = field(default_factory=list)
     members: list = field(default_factory=list)
     extra: list = field(default_factory=list)
+    places: frozenset = frozenset()
 
 
 # ----------------------------------------------------------------------------- modes
@@ -414,6 +418,23 @@ def located_places(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> t
     return pts, mems
 
 
+def located_point_ids(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> frozenset:
+    """The point ids of the places :func:`located_places` names: its points and the end points of its
+    member segments (a whole member's are not a place)."""
+    pts, mems = located_places(ranked, share=share, top=top)
+    segs = [d["location"]["segment"] for d in ranked if d.get("member") in mems and "segment" in d.get("location", {})]
+    return frozenset(pts) | frozenset(int(p) for seg in segs for p in seg)
+
+
+def at_places(location: dict, places) -> bool:
+    """Whether a hypothesis's ``location`` stands at one of the point ids ``places``: its point, or both end
+    points of its member segment (a whole member or a channel does not)."""
+    if "point" in location:
+        return location["point"] in places
+    seg = location.get("segment")
+    return seg is not None and all(p in places for p in seg)
+
+
 def locate(problem: Problem, nominal: LabState) -> Location:
     """Modes, channels, band and structural location of the mismatch between ``problem``'s data and the lab
     ``nominal`` (see the module docstring)."""
@@ -429,6 +450,7 @@ def locate(problem: Problem, nominal: LabState) -> Location:
             loc.band_hz = [min(m.freq_measured_hz for m in bad), max(m.freq_measured_hz for m in bad)]
     loc.sensitivity = sensitivity_localisation(nominal, problem.ctx, loc.modes)
     loc.points, loc.members = located_places(loc.sensitivity)
+    loc.places = located_point_ids(loc.sensitivity)
     if isinstance(problem.data, FrfData):
         loc.extra = extra_resonances(problem, nominal)
     return loc

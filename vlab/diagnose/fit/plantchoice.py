@@ -35,6 +35,7 @@ from ...errors import ModelError, SpecError
 from ..effects.hypothesis import Combination, Hypothesis
 from ..problem.nuisance import within_model_accuracy
 from .estimate import fit_hypothesis
+from .locate import at_places
 from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_index, refit_parts
 from .rules import NONLINEAR, evidence, passes_pair_rule
 
@@ -169,9 +170,20 @@ def _refit_own(model: PlantModel, h: Hypothesis) -> PlantRefit | None:
     return model.refit(h, h.params_)
 
 
+#: A member's local bending stiffness, parameterised two ways: a joint's rotational flexibility at a point and
+#: a segment's rigidity beside it. Where the FE model and the plant resolve a member differently, one can
+#: stand for the other on the FE model (the grid's top-beam joints and segments).
+BENDING = ("joint_flexibility", "member_stiffness")
+
+
+def _same_physics(h: Hypothesis, chosen: Hypothesis) -> bool:
+    """Whether ``h`` changes what ``chosen`` changes: the same effect, or both a member's bending (:data:`BENDING`)."""
+    return h.effect == chosen.effect or (h.effect in BENDING and chosen.effect in BENDING)
+
+
 def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, ranked: list = (), *,
-                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = LOOKALIKES_REFITTED
-                    ) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+                    max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = LOOKALIKES_REFITTED,
+                    places=frozenset()) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """Choose among a selected single effect and its look-alikes by their fit on the plant's linearisation.
 
     The FE model cannot tell apart effects the data cannot (within
@@ -203,7 +215,10 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     So the :data:`SAME_KIND_COMPARED` best fits of the chosen effect's own
     kind at other places (the place is what the model-form error confounds;
     the kind, what the data decide first) are scored on the plant as well,
-    however far behind on the FE model.
+    however far behind on the FE model; and so are the fits of the same physics (:data:`BENDING`) at every
+    place the first-order localisation points at (``places``,
+    :attr:`vlab.diagnose.fit.locate.Location.places`: it reads the measured frequency errors, not the FE
+    fit), beyond ``max_lookalikes``.
 
     Parameters
     ----------
@@ -215,6 +230,8 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     ranked : list of Hypothesis, optional
         All fitted hypotheses (FE fits); those within ``delta`` are compared too.
     max_lookalikes, refit_best : int
+    places : frozenset of int
+        The located points.
 
     Returns
     -------
@@ -236,6 +253,9 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     looks = list({h.label: h for h in list(alternatives) + near + kind[:SAME_KIND_COMPARED]
                   if h.label != chosen.label and not isinstance(h, Combination) and refit_index(h) is not None
                   }.values())[:max_lookalikes]
+    looks += [h for h in ranked if not isinstance(h, Combination) and h.label != chosen.label
+              and _same_physics(h, chosen) and at_places(h.location, places) and refit_index(h) is not None
+              and h.label not in {x.label for x in looks}]
     if not looks:
         return chosen, model.refit(chosen, chosen.params_), alternatives, None
     cands = [chosen] + looks
@@ -253,7 +273,7 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     pool = {h.label: h for h in [chosen] + list(alternatives) + looks}.values()
     alts = [h for h in pool if h is not best and (h.label not in known or known[h.label] - c_best < model.problem.policy.evidence)]
     note = (f"look-alikes (the fits within {delta:.3g} in FE chi-square, the FE/plant difference on "
-            f"{chosen.label}, and the best of its kind elsewhere) compared on the MuJoCo plant's linearisation "
+            f"{chosen.label}, the best of its kind elsewhere and at the located places) compared on the MuJoCo plant's linearisation "
             f"(chi-square, refitted for the best "
             f"{len(refits)}): " + ", ".join(f"{h.label}: {known[h.label]:.4g}" for h in cands)
             + f"; {best.label} is selected")

@@ -8,25 +8,20 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
 :mod:`vlab.diagnose.fit.plantfit`, :mod:`vlab.diagnose.fit.plantchoice`, :mod:`vlab.diagnose.fit.plantpair`,
 :mod:`vlab.diagnose.validate`); :func:`vlab.diagnose.pipeline.diagnose` applies them in this order:
 
-1. **Is there a mismatch?** The nominal lab's chi-square exceeds its limit,
-   one line of one channel stands out, or the nominal lab's modes must move
-   beyond their model-form uncertainty (:func:`beyond_noise`, with
+1. **Is there a mismatch?** The nominal lab's chi-square exceeds its limit, one line of one channel stands
+   out, or the nominal lab's modes must move beyond their model-form uncertainty (:func:`beyond_noise`, with
    :meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`,
    :meth:`~vlab.diagnose.problem.residuals.Problem.peak_limit` and
-   :meth:`~vlab.diagnose.problem.residuals.Problem.nuisance_test`: three
-   tests sharing the false-alarm rate). Data within those limits whose
-   reference was excited by the recording's own force record are tested
-   once more without the model-error floor (:func:`changed_beyond_noise`); a
-   mismatch found only there is kept for rule 6. No mismatch: nothing is
-   fitted or selected.
-2. **What is fitted.** Every hypothesis of the library is screened
-   (:func:`prune` gives the ones the sensitivity ranking points at its
-   first-order size as an extra trial); the best by chi-square, the best
-   mode-moving ones by smoothed error and the best of every family are
-   fitted (:func:`shortlisted`); pairs are fitted when the best single effect
-   still fails a test of the mismatch (:func:`needs_pairs`;
-   :func:`vlab.diagnose.fit.estimate.fit_pairs`). A dashpot or friction at a
-   point is fitted up to the critical dashpot of the mode it damps most
+   :meth:`~vlab.diagnose.problem.residuals.Problem.nuisance_test`: three tests sharing the false-alarm rate).
+   Data within those limits whose reference was excited by the recording's own force record are tested once
+   more without the model-error floor (:func:`changed_beyond_noise`); a mismatch found only there is kept for
+   rule 6. No mismatch: nothing is fitted or selected.
+2. **What is fitted.** Every hypothesis of the library is screened (:func:`prune` gives the ones the
+   sensitivity ranking points at its first-order size as an extra trial); the best by chi-square, the best
+   mode-moving ones by smoothed error, the best of every family and every local structural one at the
+   located places are fitted (:func:`shortlisted`); pairs are fitted when the best single effect still fails
+   a test of the mismatch (:func:`needs_pairs`; :func:`vlab.diagnose.fit.estimate.fit_pairs`). A dashpot or
+   friction at a point is fitted up to the critical dashpot of the mode it damps most
    (:func:`vlab.diagnose.effects.beyond_spec.critical_dashpot`).
 3. **Selection on the FE model** (:func:`select`): the best single effect by
    BIC, or a pair that beats it by the policy's evidence, whose second part
@@ -51,35 +46,28 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    single effect that leaves more than noise there is replaced by a pair
    only if the pair passes the pair rule there
    (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`).
-6. **Too small to name** (:func:`too_small_to_name`): a choice made on a
-   mismatch found only without the floor (rule 1) is located, not named.
-7. **Rejected by its validation** (:func:`worsens`): a choice whose
-   validation rerun makes the fit worse beyond what it resolves is not
-   selected.
-8. **Better than nothing, on the same footing** (:func:`improves_on_nominal`):
-   the choice's chi-square must fall below the nominal lab's -- the lower of
-   its chi-square with the model form whitened and with its modes profiled
-   within their model form, the statistic that declared the mismatch -- by
-   the likelihood-ratio limit; and its validation rerun must lower the FRF
-   misfit (a choice that passes the mismatch test's competitor only on
-   another footing is not an explanation).
-9. **Not explained** (:func:`explains`): a choice that removes less than the
-   policy's ``explained_share`` of the nominal chi-square, leaves the data
-   out of the noise and whose rerun does not lower the FRF misfit by as
-   much is not selected: the mismatch lies outside the library.
-10. **The remainder** (:func:`remainder_resolved`): what a selected choice
-    leaves is tested against what an exact model leaves; a resolved
-    remainder is reported with its size and place (the choice explains part
+6. **Too small to name** (:func:`too_small_to_name`): a choice made on a mismatch found only without the
+   floor (rule 1) is located, not named.
+7. **Rejected by its validation** (:func:`worsens`): a choice whose validation rerun makes the fit worse
+   beyond what it resolves is not selected.
+8. **Better than nothing, on the same footing** (:func:`improves_on_nominal`): the choice's chi-square must
+   fall below the nominal lab's -- the lower of its chi-square with the model form whitened and with its
+   modes profiled within their model form, the statistic that declared the mismatch -- by the
+   likelihood-ratio limit; and its validation rerun must lower the FRF misfit (a choice that passes the
+   mismatch test's competitor only on another footing is not an explanation).
+9. **Not explained** (:func:`explains`): a choice that removes less than the policy's ``explained_share`` of
+   the nominal chi-square, leaves the data out of the noise and whose rerun does not lower the FRF misfit by
+   as much is not selected: the mismatch lies outside the library.
+10. **The remainder** (:func:`remainder_resolved`): what a selected choice leaves is tested against what an
+    exact model leaves; a resolved remainder is reported with its size and place (the choice explains part
     of the mismatch), never dropped.
-11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when
-    the recording holds a self-excited oscillation that the nominal replay
-    does not (:mod:`vlab.measure.instability`), a choice is selected only if
-    its validation rerun's own oscillation -- its strongest self-excited line
-    at its loop point, the recording's oscillation by the same definition --
-    lies at the same frequency (within the policy's ``oscillation_tolerance``)
-    or on the same branch (between the same two natural frequencies,
-    :func:`branch`). The candidates tried are
-    those whose linear loop is unstable (:mod:`vlab.diagnose.instability_cause`).
+11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when the recording holds a self-excited
+    oscillation that the nominal replay does not (:mod:`vlab.measure.instability`), a choice is selected only
+    if its validation rerun's own oscillation -- its strongest self-excited line at its loop point, the
+    recording's by the same definition -- lies at the same frequency (within the policy's
+    ``oscillation_tolerance``) or on the same branch (between the same two natural frequencies,
+    :func:`branch`). The candidates tried are those whose linear loop is unstable
+    (:mod:`vlab.diagnose.instability_cause`).
 
 Where the mismatch is reported once effects are fitted is
 :func:`vlab.diagnose.fit.selection.located_from_fits`; which parameter of a
@@ -104,6 +92,7 @@ from ..model.labmodel import LabState
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from ..problem.residuals import Problem, without_floor
 from ..problem.nuisance import within_model_accuracy
+from .locate import at_places
 
 
 #: Effects whose frequency-domain model is a describing function: their FRF
@@ -216,7 +205,7 @@ def prune(hyps: list[Hypothesis], sensitivity: list[dict], *, share: float = 0.2
     return list(hyps)
 
 
-def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
+def shortlisted(scored: list, shortlist: int, places=frozenset()) -> list[Hypothesis]:
     """Rule 2: the screened hypotheses fitted in full.
 
     Parameters
@@ -225,14 +214,18 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
         The screened hypotheses with their best screening chi-square, sorted by it (best first).
     shortlist : int
         Number fitted by chi-square (half as many are added by smoothed error).
+    places : frozenset of int
+        The located points (:attr:`vlab.diagnose.fit.locate.Location.places`).
 
     Returns
     -------
     list of Hypothesis
         The ``shortlist`` best by chi-square, the ``shortlist // 2`` one-parameter mode-moving ones with
-        the least smoothed error (``coarse_error_``) not among them, and the best of every family not yet in
+        the least smoothed error (``coarse_error_``) not among them, the best of every family not yet in
         (an effect and the kind of its place: a mode's damping and a point dashpot are two families, a
-        chain effect on one channel and on all channels too).
+        chain effect on one channel and on all channels too), and every local structural hypothesis at
+        ``places``: located from the measured frequency errors, while the FE fit's model-form error at one
+        place can rank the right one far down.
     """
     keep: list[Hypothesis] = [h for _, h in scored[:shortlist]]
     # a mode-moving effect whose chi-square well the trials missed still shows in the smoothed error
@@ -248,6 +241,7 @@ def shortlisted(scored: list, shortlist: int) -> list[Hypothesis]:
         if family(h) not in seen:
             keep.append(h)
             seen.add(family(h))
+    keep += [h for _, h in scored if h.effect in STRUCTURAL and at_places(h.location, places) and h not in keep]
     return keep
 
 
