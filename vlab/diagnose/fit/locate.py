@@ -420,7 +420,19 @@ def located_places(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> t
 
 def located_point_ids(ranked: list[dict], *, share: float = 0.9, top: int = 4) -> frozenset:
     """The point ids of the places :func:`located_places` names: its points and the end points of its
-    member segments (a whole member's are not a place)."""
+    member segments (a whole member's are not a place).
+
+    Parameters
+    ----------
+    ranked : list of dict
+        The sensitivity candidates, best first (:attr:`Location.sensitivity`).
+    share, top : float, int
+        As :func:`located_places`.
+
+    Returns
+    -------
+    frozenset of int
+    """
     pts, mems = located_places(ranked, share=share, top=top)
     segs = [d["location"]["segment"] for d in ranked if d.get("member") in mems and "segment" in d.get("location", {})]
     return frozenset(pts) | frozenset(int(p) for seg in segs for p in seg)
