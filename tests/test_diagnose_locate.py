@@ -78,3 +78,20 @@ def test_a_nonlinear_choice_is_judged_on_its_rerun(monkeypatch):
         dropped.clear()
         dec._keeps_new_resonance(res, problem, 0.1, 100.0, [])
         assert bool(dropped) == rejected and bool(res.rejected) == rejected
+
+
+def test_the_located_places_are_points_and_segment_ends():
+    from vlab.diagnose.fit.locate import at_places, located_point_ids
+
+    ranked = [
+        {"member": "top_beam[20-21]", "location": {"member": "top_beam", "segment": [20, 21]}, "explained": 0.92},
+        {"point": 6, "location": {"point": 6}, "explained": 0.90},
+        {"member": "top_beam[13-14]", "location": {"member": "top_beam", "segment": [13, 14]}, "explained": 0.85},
+        {"point": 3, "location": {"point": 3}, "explained": 0.5},  # below 90 % of the best: not located
+    ]
+    places = located_point_ids(ranked)
+    assert places == {20, 21, 6, 13, 14}
+    assert at_places({"point": 21}, places) and not at_places({"point": 3}, places)
+    assert at_places({"member": "top_beam", "segment": [13, 14]}, places)
+    assert not at_places({"member": "top_beam", "segment": [14, 15]}, places)  # one end only
+    assert not at_places({"member": "beam"}, places) and not at_places({"channel": 5}, places)
