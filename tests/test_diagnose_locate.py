@@ -57,9 +57,10 @@ def test_a_peak_the_model_lacks_is_reported_once_with_its_damping():
     assert unpaired_peaks(f, model, model, [5]) == []
 
 
-def test_a_nonlinear_choice_is_judged_on_its_rerun(monkeypatch):
+def test_a_choice_is_judged_on_its_rerun(monkeypatch):
     """A saturated loop's recording holds a peak its describing-function lab cannot have: the choice stands
-    when its rerun has it, and is rejected when the rerun lacks it too."""
+    when its rerun has it, and is rejected when the rerun lacks it too (the linear lab is not asked when
+    there is a rerun)."""
     from types import SimpleNamespace
 
     import vlab.diagnose.decision as dec

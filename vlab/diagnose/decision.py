@@ -188,14 +188,17 @@ def _keeps_new_resonance(res: DiagnosisResult, problem: Problem, misfit_0: float
     outside the library, whatever share of the misfit the choice removes (a pair can absorb much of a
     tuned absorber's residual). The choice is then rejected and the resonance reported.
 
-    A nonlinear choice (:data:`~vlab.diagnose.fit.rules.NONLINEAR`: saturation, friction) is judged on its
-    validation rerun instead (:func:`~vlab.diagnose.fit.locate.unpaired_peaks` of the recording against
-    the rerun's FRFs): its linear lab is a describing function at one amplitude, which cannot show the
-    peaks the nonlinearity itself puts into a measured FRF (a saturated loop's lost damping, its
-    distortion), while its rerun does."""
+    Judged on the choice's validation rerun where it has one (:func:`~vlab.diagnose.fit.locate.unpaired_peaks`
+    of the FRFs the rerun was compared with against the rerun's): that is the chosen lab on the plant the
+    recording is compared with, as recorded. Its linear lab is a weaker witness: referred to the recording
+    through the nominal replay, it carries the FE model's change to the plant only to first order, which
+    misplaces the peaks of a large change (an added mass and a soft joint that moved nine grid modes); and a
+    nonlinear choice's (:data:`~vlab.diagnose.fit.rules.NONLINEAR`) is a describing function at one
+    amplitude, without the peaks the nonlinearity itself puts into a measured FRF. Without a rerun, the
+    linear lab (:func:`~vlab.diagnose.fit.locate.extra_resonances`)."""
     v = res.validation
     try:
-        if res.selected.effect in NONLINEAR and v is not None and v.target is not None:
+        if v is not None and v.target is not None:
             d = problem.data
             left = unpaired_peaks(d.freq_hz, v.target, v.h_after, d.output_points)
         else:
