@@ -96,3 +96,24 @@ def test_the_located_places_are_points_and_segment_ends():
     assert at_places({"member": "top_beam", "segment": [13, 14]}, places)
     assert not at_places({"member": "top_beam", "segment": [14, 15]}, places)  # one end only
     assert not at_places({"member": "beam"}, places) and not at_places({"channel": 5}, places)
+
+
+def test_a_resonance_whose_prominence_straddles_the_threshold_is_the_models():
+    """The same damped resonance stands out 6.3 dB in the measurement and 5.5 dB in the model: it is
+    the model's resonance, not one the model lacks."""
+    import scipy.signal
+
+    from vlab.diagnose.fit.locate import unpaired_peaks
+
+    f = np.arange(0.5, 5.0, 0.01)
+    floor = _modal_frf(f, [(3.0, 0.02, 1.0)])
+    meas = floor + _modal_frf(f, [(1.65, 0.066, 0.062)])
+    model = floor + _modal_frf(f, [(1.65, 0.066, 0.055)])
+    def prominence_db(h):  # of the peak near 1.65 Hz, by scipy
+        m = 20 * np.log10(np.abs(h[:, 0]))
+        i, props = scipy.signal.find_peaks(m, prominence=0.0)
+        return props["prominences"][np.argmin(np.abs(f[i] - 1.6))]
+
+    assert prominence_db(meas) > 6.0 > prominence_db(model) > 5.0  # the measured one counts, the model's not
+    assert unpaired_peaks(f, meas, model, [2]) == []
+    assert [r["point"] for r in unpaired_peaks(f, meas, floor, [2])] == [2]  # a model without it lacks it
