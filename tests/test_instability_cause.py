@@ -263,3 +263,42 @@ def test_the_report_quotes_the_chi_square_of_the_selected_fit_not_the_best_ranke
     assert _selected_chi2(res) == 1417.0
     res["selected"] = [{"effect": "loop_delay", "location": {"channel": 7}}]
     assert _selected_chi2(res) is None
+
+
+def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stable(monkeypatch):
+    """The loop analysis only saves reruns: the candidate the data support most is rerun whatever it says (near
+    the boundary a linearisation cannot resolve the sign of the least-damped pole), the others only with an
+    unstable loop."""
+    import vlab.diagnose.instability_cause as ic
+
+    class Loops:
+        band = None
+
+        def __init__(self, *a):
+            self.on = "stub"
+
+        def state(self, h, x=None):
+            return SimpleNamespace(spec="base", chain=SimpleNamespace(period_s=5e-4))
+
+        def poles(self, h, x=None, sigma=0.0):
+            return 0  # every loop stable, the nominal's too
+
+        def on_mode(self, h, x, sigma):
+            return True
+
+    cands = [SimpleNamespace(label=name, effect=name, n_params=2) for name in ("best", "second", "third")]
+    reran = []
+
+    def rerun(problem, nominal, h, f, loops, **kw):
+        reran.append(h.label)
+        return {"effect": h.effect, "label": h.label, "rerun_frequencies_hz": [14.0], "reproduced": False}, None
+
+    monkeypatch.setattr(ic, "_Loops", Loops)
+    monkeypatch.setattr(ic, "structure_modes", lambda state: (np.array([5.0, 14.0, 30.0]),))
+    monkeypatch.setattr(ic, "_supported", lambda *a: cands)
+    monkeypatch.setattr(ic, "_rerun_candidate", rerun)
+    problem = SimpleNamespace(ctx=SimpleNamespace(band_hz=(0.5, 10.0)), n_obs=100,
+                              policy=SimpleNamespace(evidence=10.0))
+    out = ic.search_cause(problem, None, cands, 14.0, (5,), chi2_0=1e4, c_hat=1.0, plant="linear", seed=0,
+                          on_plant=False, growth_1_s=0.0)
+    assert reran == ["best"] and out.stable == ["second", "third"] and out.chosen is None

@@ -38,7 +38,13 @@ rejected by the FRF rules). The physics of an instability decides instead:
    unstable loop are rerun -- the whole record from rest, as it was
    recorded, so that the oscillation has the recording's time to grow --
    in the order of their fit (single effects
-   first, then pairs), at most :data:`MAX_RERUNS`; the first whose rerun
+   first, then pairs), at most :data:`MAX_RERUNS`. The best-supported
+   candidate is rerun even when its linear loop is stable: the loop analysis
+   is a screen that saves reruns, and near the stability boundary (a limit
+   cycle of small amplitude) the linearisation cannot resolve the sign of
+   the least-damped pole's real part (a lag on every LQG channel, fitted at
+   its true corner, whose linearised loop was stable while the same plant
+   oscillated at 14 Hz); the rerun is the test. The first whose rerun
    oscillates by itself on the recording's branch
    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation` with the plant's
    natural frequencies) is the cause. Above the measured band the model's
@@ -94,7 +100,8 @@ class CauseSearch:
     Attributes
     ----------
     chosen : Hypothesis or None
-        The cause: the best-fitting candidate whose loop is unstable and whose rerun reproduces the oscillation.
+        The cause: the best-fitting candidate whose rerun reproduces the oscillation, among those whose linear
+        loop is unstable and the best-supported one (module notes).
     validation : Validation or None
         Its rerun.
     tried : list of dict
@@ -139,7 +146,8 @@ class CauseSearch:
         """
         lo, hi = self.branch_hz if self.branch_hz else (float("nan"), float("nan"))
         head = (f"cause of the self-excited oscillation at {frequency_hz:.2f} Hz searched among the candidates "
-                f"whose linear loop is unstable on {self.on} (generalised Nyquist criterion) and whose rerun "
+                f"whose linear loop is unstable on {self.on} (generalised Nyquist criterion), and the best-supported one, "
+                f"and whose rerun "
                 + (f"oscillates by itself on the same mode (above the measured band, where the model's modes are "
                    f"known to their discretisation error: nearest the natural frequency {self.mode_hz:.4g} Hz)"
                    if self.above_band else
@@ -431,7 +439,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))
                     h, z = g, poles(g)
-            if z == 0:
+            if z == 0 and out.tried:  # the best-supported candidate is rerun whatever the screen says
                 out.stable.append(h.label)
                 continue
         tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural,
