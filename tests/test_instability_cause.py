@@ -267,8 +267,8 @@ def test_the_report_quotes_the_chi_square_of_the_selected_fit_not_the_best_ranke
 
 def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stable(monkeypatch):
     """The loop analysis only saves reruns: the candidate the data support most is rerun whatever it says (near
-    the boundary a linearisation cannot resolve the sign of the least-damped pole), the others only with an
-    unstable loop."""
+    the boundary a linearisation cannot resolve the sign of the least-damped pole), and so is a nonlinear one;
+    the others only with an unstable loop."""
     import vlab.diagnose.instability_cause as ic
 
     class Loops:
@@ -287,6 +287,7 @@ def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stab
             return True
 
     cands = [SimpleNamespace(label=name, effect=name, n_params=2) for name in ("best", "second", "third")]
+    cands.append(SimpleNamespace(label="saturation(channel=4)", effect="saturation", n_params=2))
     reran = []
 
     def rerun(problem, nominal, h, f, loops, **kw):
@@ -301,4 +302,5 @@ def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stab
                               policy=SimpleNamespace(evidence=10.0))
     out = ic.search_cause(problem, None, cands, 14.0, (5,), chi2_0=1e4, c_hat=1.0, plant="linear", seed=0,
                           on_plant=False, growth_1_s=0.0)
-    assert reran == ["best"] and out.stable == ["second", "third"] and out.chosen is None
+    # a nonlinear candidate too: its linear loop is a describing function at one amplitude
+    assert reran == ["best", "saturation(channel=4)"] and out.stable == ["second", "third"] and out.chosen is None

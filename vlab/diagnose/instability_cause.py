@@ -44,7 +44,9 @@ rejected by the FRF rules). The physics of an instability decides instead:
    cycle of small amplitude) the linearisation cannot resolve the sign of
    the least-damped pole's real part (a lag on every LQG channel, fitted at
    its true corner, whose linearised loop was stable while the same plant
-   oscillated at 14 Hz); the rerun is the test. The first whose rerun
+   oscillated at 14 Hz); the rerun is the test. So is a nonlinear candidate
+   (saturation, friction): its linear loop is a describing function at one
+   amplitude, which cannot say where a limit cycle sets in. The first whose rerun
    oscillates by itself on the recording's branch
    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation` with the plant's
    natural frequencies) is the cause. Above the measured band the model's
@@ -78,7 +80,7 @@ from ..io.recording import Recording
 from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
 from .fit.plantfit import PlantModel
-from .fit.rules import branch, evidence, nearest_mode, reproduces_oscillation
+from .fit.rules import NONLINEAR, branch, evidence, nearest_mode, reproduces_oscillation
 from .fit.selection import rerun_key
 from .model.labmodel import LabState, structure_modes
 from .model.nyquist import loop_stability, poles_near
@@ -439,7 +441,9 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))
                     h, z = g, poles(g)
-            if z == 0 and out.tried:  # the best-supported candidate is rerun whatever the screen says
+            # the best-supported candidate is rerun whatever the screen says, and so is a nonlinear one (its
+            # linear loop is a describing function at one amplitude: it cannot say where a limit cycle sets in)
+            if z == 0 and out.tried and h.effect not in NONLINEAR:
                 out.stable.append(h.label)
                 continue
         tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural,
