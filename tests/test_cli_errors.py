@@ -171,6 +171,12 @@ def test_a_command_whose_interrupt_was_dropped_ends_as_interrupted(tmp_path, mon
     res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])
     assert res.exit_code == 130 and res.output == "interrupted: nothing written\n", res.output
     assert list(tmp_path.iterdir()) == []
+    from vlab.io.atomic import atomic_file, interrupt_requested
+
+    assert not interrupt_requested()  # the command's record does not outlive it: in-process writes go on
+    with atomic_file(tmp_path / "after.txt") as tmp:
+        tmp.write_text("written")
+    (tmp_path / "after.txt").unlink()
     monkeypatch.setattr(vlab.sim, "build_plant", real)
     res = runner.invoke(app, ["export-mjcf", "bcc", "-o", str(path)])  # the next command starts clean
     assert res.exit_code == 0 and path.exists(), res.output

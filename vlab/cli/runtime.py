@@ -121,6 +121,7 @@ class VlabGroup(TyperGroup):
             raise Exit(exit_code(exc, command)) from None
         finally:
             restore()
+            clear_interrupt_request()  # an in-process caller's later writes are not refused
             from ..io.manifest import release_lock
 
             release_lock()  # the output folder's lock, when the command ended before writing it

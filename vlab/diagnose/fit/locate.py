@@ -440,7 +440,19 @@ def located_point_ids(ranked: list[dict], *, share: float = 0.9, top: int = 4) -
 
 def at_places(location: dict, places) -> bool:
     """Whether a hypothesis's ``location`` stands at one of the point ids ``places``: its point, or both end
-    points of its member segment (a whole member or a channel does not)."""
+    points of its member segment (a whole member or a channel does not).
+
+    Parameters
+    ----------
+    location : dict
+        A hypothesis's location (``point``, or ``member`` with ``segment``, or ``channel``, ...).
+    places : collection of int
+        Point ids (:func:`located_point_ids`).
+
+    Returns
+    -------
+    bool
+    """
     if "point" in location:
         return location["point"] in places
     seg = location.get("segment")
@@ -517,8 +529,8 @@ def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, out
     pairs farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left without a partner on
     its channel is a resonance the model lacks -- where the model is known over the whole match window: a
     peak within :data:`PEAK_MATCH` of the first or last line may have its partner beyond them and is not
-    judged. The same resonance on several channels is reported once, at
-    the channel where it is strongest, with its half-power damping ratio.
+    judged. The same resonance on several channels is reported once, at the channel where it is strongest,
+    with its half-power damping ratio.
 
     Parameters
     ----------
@@ -556,10 +568,12 @@ def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, out
         if fm.size and fn.size:
             cost = np.abs(np.log(fm[:, None] / fn[None, :]))
             gate = np.log1p(PEAK_MATCH)
-            # gated: a pair beyond the match costs as much as no pair, so that the assignment never trades a
+            # gated: a pair beyond the match costs more than all pairs within it together (n pairs at most,
+            # each <= gate), so the assignment first maximises the number of true pairs and never trades a
             # close pair for two distant ones (21.95 Hz with 18.65 and 24.7 with 22.0 cost less in all than
             # 21.95 with 22.0 and 24.7 with 18.65)
-            rows, cols = linear_sum_assignment(np.where(cost <= gate, cost, 10.0 * gate * (1 + fm.size)))
+            beyond = gate * (min(fm.size, fn.size) + 1)
+            rows, cols = linear_sum_assignment(np.where(cost <= gate, cost, beyond))
             paired = {int(r) for r, c in zip(rows, cols) if cost[r, c] <= gate}
         for i, pk in enumerate(pm):
             if i in paired or not judged[i]:
