@@ -96,7 +96,8 @@ class LookAlikes:
         self.tester = tester
         expected = replace(tester.problem.data, h=tester.problem.predict(tester.nominal))
         self.p0 = Problem(expected, tester.nominal, tester.ctx, floor=tester.problem.floor,
-                          model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy)
+                          model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy,
+                          line_floor=getattr(tester.problem, "line_floor", None))
         self.hyps, self.vectors = [], []
         for t in thresholds:
             h = next((x for x in hyps if x.effect == t.effect and x.location == t.location), None)
@@ -129,7 +130,8 @@ def _refit(tester, h_o, data_state) -> float:
     """Chi-square look-alike ``h_o`` leaves on the noise-free data of ``data_state`` after a bounded scalar fit."""
     expected = replace(tester.problem.data, h=tester.problem.predict(data_state))
     p = Problem(expected, tester.nominal, tester.ctx, floor=tester.problem.floor,
-                model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy)
+                model_form_frf=tester.problem.model_form_frf, policy=tester.problem.policy,
+                line_floor=getattr(tester.problem, "line_floor", None))
     _trials, lower, upper = h_o.space(tester.nominal, tester.ctx)
     lo, hi, log = float(lower[0]), float(upper[0]), bool(h_o.log_scale[0]) and lower[0] > 0
 

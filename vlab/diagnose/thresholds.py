@@ -207,7 +207,8 @@ class DetectionTest:
             expected = replace(expected, var=self.var0 + referral_variance(
                 self.referral, expected.h, self.h_model, self.problem.model_form_frf) * np.abs(expected.h) ** 2)
         return Problem(expected, self.nominal, self.ctx, floor=self.problem.floor,
-                       model_form_frf=self.problem.model_form_frf, policy=self.problem.policy, **kw)
+                       model_form_frf=self.problem.model_form_frf, policy=self.problem.policy,
+                       line_floor=getattr(self.problem, "line_floor", None), **kw)
 
     def statistic(self, h, x: float) -> tuple[float, float] | None:
         """Expected chi-square and largest noise-free line residual of hypothesis ``h`` at size ``x`` [SI]

@@ -236,7 +236,8 @@ class PlantModel:
             ratio = problem.predict(nominal) / problem.predict(self.base)
             data = replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2)
         self.problem = Problem(data, nominal, self.ctx, floor=problem.floor, use_phase=problem.use_phase,
-                               model_form_frf=problem.model_form_frf, policy=problem.policy)
+                               model_form_frf=problem.model_form_frf, policy=problem.policy,
+                               line_floor=getattr(problem, "line_floor", None))
         self.n_linearisations = 1
 
     def state(self, h: Hypothesis | None, x) -> LabState:

@@ -97,7 +97,7 @@ def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem
     data = model.problem.data
     return Problem(replace(data, h=data.h * ratio, var=data.var * np.abs(ratio) ** 2), fe.base, fe.ctx,
                    floor=fe.floor, use_phase=fe.use_phase, model_form_frf=fe.model_form_frf,
-                   policy=fe.policy)
+                   policy=fe.policy, line_floor=model.problem.line_floor)
 
 
 #: Pairs fitted on the referred data and scored on the plant at those values; the best

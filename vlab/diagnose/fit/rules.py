@@ -90,7 +90,8 @@ from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis, PointDamping
 from ..model.labmodel import LabState
 from ..policy import DEFAULT_POLICY, DecisionPolicy
-from ..problem.residuals import Problem, without_floor
+from ..problem.derived import without_floor
+from ..problem.residuals import Problem
 from ..problem.nuisance import within_model_accuracy
 from .locate import at_places
 
@@ -388,7 +389,7 @@ def explained_share(res, chi2_0: float) -> tuple[float, bool]:
 
     A mismatch found only without the model-error floor (``res.noise_only``,
     :func:`changed_beyond_noise`) is judged without it too
-    (:func:`vlab.diagnose.problem.residuals.without_floor`): with the floor the nominal
+    (:func:`vlab.diagnose.problem.derived.without_floor`): with the floor the nominal
     model is already within the noise, and any effect would pass.
 
     Parameters

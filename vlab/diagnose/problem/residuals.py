@@ -3,11 +3,10 @@
 FRF data (recordings or UFF FRFs): for every usable line and channel the
 complex log ratio ``e = ln(H_model / H_measured)`` (real part: log magnitude,
 imaginary part: phase, wrapped), each part divided by its standard deviation
-``sqrt((sigma_rel^2 + floor^2) / 2)``. ``sigma_rel`` is the measured relative
-noise of the line (:mod:`vlab.diagnose.data.measured`), ``floor`` a relative model
-error the linear model is allowed (the lab's time stepping and the
-frequency-domain model agree to about 0.1 %, Sec. "prediction" of the
-report). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used. To first
+``sqrt((sigma_rel^2 + floor_line^2) / 2)``. ``sigma_rel`` is the measured relative
+noise of the line (:mod:`vlab.diagnose.data.measured`), ``floor`` a relative model error each modal
+term is allowed, ``floor_line`` its effect on the line, larger where the terms cancel
+(:mod:`vlab.diagnose.model.cancellation`). Lines with ``sigma_rel > 0.5`` (SNR below 2) are not used. To first
 order in the noise the log ratio is the relative complex error, whose parts
 over their standard deviations are normal; where the noise is not small its
 tail is heavier (``ln(1 + eps)`` as ``|eps|`` nears 1), so every chi-square and
@@ -40,6 +39,7 @@ from ...measure.mac import mac, pair_modes
 from ..data.frfestimate import POOL_WIDTH
 from ..data.measured import MAX_RELATIVE_NOISE, FrfData, ModalData
 from ..data.run import DiagnosisRun
+from ..model.cancellation import line_floor as floor_of_lines
 from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from ..policy import DEFAULT_POLICY, DecisionPolicy
@@ -62,7 +62,11 @@ class Problem:
         The nominal lab.
     ctx : Context
     floor : float
-        Relative model error allowed on FRFs [1] (0.005 = 0.5 %).
+        Relative model error allowed each modal term of an FRF [1] (0.005 = 0.5 %).
+    line_floor : ndarray, shape (n_f, n_o), optional
+        The relative model error each line is allowed [1]: default ``floor`` amplified where the terms of
+        ``base`` cancel (:func:`vlab.diagnose.model.cancellation.line_floor`); given, that of another
+        problem on the same data (a plant refit compares chi-squares with the FE problem's).
     use_phase : bool
         Include the phase of FRFs.
     freq_sigma : float, optional
@@ -121,15 +125,15 @@ class Problem:
                  use_phase: bool = True, freq_sigma: float | None = None, damping_sigma: float | None = None,
                  shape_sigma: float = 0.05, model_form_frf=None, modal_model_form: bool = True,
                  profile_nominal: bool = False, policy: DecisionPolicy = DEFAULT_POLICY,
-                 run: DiagnosisRun | None = None, guard_s: float | None = None, replay_plant: str | None = None):
+                 run: DiagnosisRun | None = None, guard_s: float | None = None, replay_plant: str | None = None,
+                 line_floor: np.ndarray | None = None):
         self.data, self.base, self.ctx = data, base, ctx
         self.policy = policy
         self.run = DiagnosisRun() if run is None else run
         self.guard_s, self.replay_plant = guard_s, replay_plant
         self.floor, self.use_phase = float(floor), bool(use_phase)
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
-        self.n_evaluations = 0
-        self.modal_model_form = bool(modal_model_form)
+        self.n_evaluations, self.modal_model_form = 0, bool(modal_model_form)
         self.model_form_frf, self.model_var, self._whiten = None, None, None
         self.profile_nominal, self._profile = bool(profile_nominal), None
         self.model_form = None  # the ModelFormUncertainty behind model_var (set by whoever computed it)
@@ -143,8 +147,11 @@ class Problem:
             self.model_form_frf = model_form_frf
             self.model_var = None if model_form_frf is None else model_form_frf.variance
             mv = 0.0 if self.model_var is None else self.model_var
-            self.part_sigma = np.sqrt((srel**2 + self.floor**2) / 2.0)[self.mask]
-            self.weight_mag = 1.0 / (srel**2 + self.floor**2 + mv)
+            fl = np.asarray(line_floor, dtype=float) if line_floor is not None else floor_of_lines(
+                base, data.freq_hz, self.floor, excitation_point=data.excitation_point, output_points=data.output_points)
+            self.line_floor = fl
+            self.part_sigma = np.sqrt((srel**2 + fl**2) / 2.0)[self.mask]
+            self.weight_mag = 1.0 / (srel**2 + fl**2 + mv)
             self._whiten = self._whitener()
             self.n_obs = int(self.mask.sum()) * (2 if use_phase else 1)
         else:
@@ -497,8 +504,8 @@ class Problem:
     def misfit(self, state: LabState) -> float:
         """Misfit of the lab ``state``.
 
-        FRF data: weighted RMS of ``log10|H_model / H_meas|`` [decades] (weights 1 / (sigma_rel^2 + floor^2));
-        modal data: RMS of ``ln(f_model / f_meas)`` (relative frequency error)."""
+        FRF data: weighted RMS of ``log10|H_model / H_meas|`` [decades] (weights ``weight_mag``); modal data:
+        RMS of ``ln(f_model / f_meas)``."""
         try:
             if isinstance(self.data, FrfData):
                 hm = self.predict(state)
@@ -572,28 +579,3 @@ class Problem:
     def information(self, chi2: float, k: int) -> tuple[float, float]:
         """``(AIC, BIC) = (chi2 + 2k, chi2 + k ln N)`` (Akaike 1974; Schwarz 1978)."""
         return chi2 + 2.0 * k, chi2 + k * math.log(self.n_obs)
-
-
-def without_floor(problem: Problem, nominal: LabState | None = None) -> Problem:
-    """``problem`` with no model-error floor (``floor = 0``).
-
-    Parameters
-    ----------
-    problem : Problem
-        Its data, context, phase use and modal sigmas are kept.
-    nominal : LabState, optional
-        The nominal lab of the new problem (default ``problem.base``).
-
-    Returns
-    -------
-    Problem
-        Residuals weighted by the data's own variance and the model-form variance
-        (``1 / (sigma_rel^2 + model_var)`` per line of FRF data), without the numerical floor: the
-        weights of :func:`vlab.diagnose.fit.rules.changed_beyond_noise`.
-    """
-    p = Problem(problem.data, problem.base if nominal is None else nominal, problem.ctx, floor=0.0,
-                use_phase=problem.use_phase, freq_sigma=problem.freq_sigma, damping_sigma=problem.damping_sigma,
-                shape_sigma=problem.shape_sigma, model_form_frf=getattr(problem, "model_form_frf", None),
-                profile_nominal=getattr(problem, "profile_nominal", False), policy=problem.policy)
-    p.model_form = problem.model_form
-    return p
