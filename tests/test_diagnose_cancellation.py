@@ -80,3 +80,50 @@ def test_closed_loop_ratio_is_finite_and_one_where_the_loop_leaves_one_term():
     kappa = cancellation_ratio(st, f, excitation_point=9, output_points=(5, 9))
     assert np.all(np.isfinite(kappa)) and np.all(kappa > 0)
     assert np.median(kappa) < 5.0
+
+
+def _another_model(st: LabState, f: np.ndarray, out: tuple, rel: float, seed: int) -> np.ndarray:
+    """The FRFs of a second model of the structure: every term of the modal sum (each band mode, the modes
+    below and above) off by an independent relative error of standard deviation ``rel``."""
+    from dataclasses import replace
+
+    from vlab.diagnose.model.cancellation import _point_modes
+    from vlab.diagnose.model.labmodel import predict_frf
+
+    pm = _point_modes(st, tuple(dict.fromkeys(out + st.actuators)))
+    rng = np.random.default_rng(seed)
+    shapes = pm.shapes.copy()
+    for g in mode_groups(pm.omega / (2 * np.pi), f):
+        shapes[:, g] *= np.sqrt(1.0 + rel * rng.standard_normal())
+    return predict_frf(replace(st, point_modes=replace(pm, shapes=shapes)), f, excitation_point=9,
+                       output_points=out)
+
+
+@pytest.mark.parametrize("seed", (1, 2, 3))
+def test_small_term_errors_are_no_mismatch_a_changed_structure_is(open_loop, seed):
+    """Data of a second model (each term 0.3 % off, 1e-4 relative noise): within the model's accuracy with the
+    floor of each term, a mismatch with the floor of each line alone (its valleys stand out); the same data with
+    the beam's stiffness 1 % higher stand out with either floor."""
+    from dataclasses import replace
+
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.model.labmodel import predict_frf
+    from vlab.diagnose.problem.context import context_for
+    from vlab.diagnose.problem.residuals import Problem
+    from vlab.experiment.config import TESTS
+
+    st = open_loop
+    f = np.arange(55, 500) * 0.05
+    out = (1, 2, 3, 4, 5, 6, 7, 8, 9)
+    h = _another_model(st, f, out, 0.003, seed)
+    noise = 1e-4 * np.abs(h) * np.random.default_rng(seed + 10).standard_normal(h.shape)
+    data = FrfData("other.uff", "frf", f, h + noise, (1e-4 * np.abs(h)) ** 2, 9, out)
+    ctx = context_for(st, TESTS["bcc"].band_hz, data)
+    terms = Problem(data, st, ctx, floor=0.005)
+    lines = Problem(data, st, ctx, floor=0.005, line_floor=np.full(h.shape, 0.005))
+    assert terms.within_noise(st)
+    assert not lines.within_noise(st)
+    stiff = replace(st, fe=replace(st.fe, k=st.fe.k * 1.01))
+    h2 = predict_frf(stiff, f, excitation_point=9, output_points=out)
+    changed = replace(data, h=h2 * (h / predict_frf(st, f, excitation_point=9, output_points=out)))
+    assert not Problem(changed, st, ctx, floor=0.005).within_noise(st)
