@@ -45,7 +45,7 @@ def _modal_frf(f_hz, modes):
 
 
 def test_a_peak_the_model_lacks_is_reported_once_with_its_damping():
-    from vlab.diagnose.fit.locate import unpaired_peaks
+    from vlab.diagnose.fit.resonances import unpaired_peaks
 
     f = np.arange(0.5, 25.0, 0.01)
     model = _modal_frf(f, [(2.0, 0.01, 1.0), (9.0, 0.01, 1.0)])
@@ -103,7 +103,7 @@ def test_a_resonance_whose_prominence_straddles_the_threshold_is_the_models():
     the model's resonance, not one the model lacks."""
     import scipy.signal
 
-    from vlab.diagnose.fit.locate import unpaired_peaks
+    from vlab.diagnose.fit.resonances import unpaired_peaks
 
     f = np.arange(0.5, 5.0, 0.01)
     floor = _modal_frf(f, [(3.0, 0.02, 1.0)])
@@ -123,7 +123,7 @@ def test_the_pairing_never_trades_a_close_pair_for_two_distant_ones():
     """Measured peaks at 21.95 and 24.7 Hz, model peaks at 18.65 and 22.0 Hz: an ungated least-cost
     assignment pairs 21.95 with 18.65 and 24.7 with 22.0 (less in all, both beyond the match) and reports
     both as lacking; the 21.95 Hz resonance is the model's 22.0 Hz one."""
-    from vlab.diagnose.fit.locate import unpaired_peaks
+    from vlab.diagnose.fit.resonances import unpaired_peaks
 
     f = np.arange(15.0, 30.0, 0.01)
     meas = _modal_frf(f, [(21.95, 0.003, 1.0), (24.7, 0.003, 0.3)])

@@ -26,7 +26,8 @@ import numpy as np
 
 from .data.measured import FrfData
 from ..errors import ModelError, SpecError
-from .fit.locate import extra_resonances, locate, unpaired_peaks
+from .fit.locate import extra_resonances, locate
+from .fit.resonances import unpaired_peaks
 from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile_state, profiled
@@ -188,7 +189,7 @@ def _keeps_new_resonance(res: DiagnosisResult, problem: Problem, misfit_0: float
     outside the library, whatever share of the misfit the choice removes (a pair can absorb much of a
     tuned absorber's residual). The choice is then rejected and the resonance reported.
 
-    Judged on the choice's validation rerun where it has one (:func:`~vlab.diagnose.fit.locate.unpaired_peaks`
+    Judged on the choice's validation rerun where it has one (:func:`~vlab.diagnose.fit.resonances.unpaired_peaks`
     of the FRFs the rerun was compared with against the rerun's): that is the chosen lab on the plant the
     recording is compared with, as recorded. Its linear lab is a weaker witness: referred to the recording
     through the nominal replay, it carries the FE model's change to the plant only to first order, which

@@ -42,6 +42,7 @@ from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..problem.context import Context
 from ..problem.misfits import log_misfit
 from ..problem.residuals import Problem
+from .resonances import unpaired_peaks
 
 #: Mean chi-square per real residual above which lines, modes or channels count as mismatched.
 FLAG = 4.0
@@ -480,16 +481,12 @@ def locate(problem: Problem, nominal: LabState) -> Location:
     return loc
 
 
-#: A measured peak and a model peak farther apart than this (relative frequency) are not the same resonance.
-PEAK_MATCH = 0.10
-
-
 def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: float = 6.0) -> list[dict]:
     """Resonances in the measured FRFs that the nominal lab does not have: a new or a split resonance.
 
     The measured FRF is compared with its reference on the same lines (the nominal plant's replay or a
     baseline where the data were referred through one, so that resonances the plant has and the FE model
-    lacks are in both; else the nominal lab's FRF) by :func:`unpaired_peaks`.
+    lacks are in both; else the nominal lab's FRF) by :func:`~vlab.diagnose.fit.resonances.unpaired_peaks`.
 
     Parameters
     ----------
@@ -515,78 +512,3 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
         with np.errstate(divide="ignore", invalid="ignore"):
             model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
     return unpaired_peaks(d.freq_hz, meas, model, d.output_points, prominence_db=prominence_db)
-
-
-def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, output_points, *,
-                   prominence_db: float = 6.0) -> list[dict]:
-    """Peaks of the measured FRFs that the model's FRFs on the same lines do not have.
-
-    On every channel, the measured peaks (:func:`vlab.measure.modal.find_peaks`, at least ``prominence_db``
-    prominence: what a resonance must stand out by to count as one) and the model's local maxima (any
-    prominence: the question is whether the model has that resonance, not whether it stands out as much
-    there; a threshold on both sides splits a resonance whose prominence straddles it, 6.03 dB measured and
-    5.97 dB in a rerun) are paired one to one by least relative frequency distance (Hungarian assignment;
-    pairs farther apart than :data:`PEAK_MATCH` are not pairs); a measured peak left without a partner on
-    its channel is a resonance the model lacks -- where the model is known over the whole match window: a
-    peak within :data:`PEAK_MATCH` of the first or last line may have its partner beyond them and is not
-    judged. The same resonance on several channels is reported once, at the channel where it is strongest,
-    with its half-power damping ratio.
-
-    Parameters
-    ----------
-    freq_hz : ndarray, shape (n_f,)
-        The lines [Hz].
-    meas, model : ndarray, complex, shape (n_f, n_o)
-        Measured and model FRFs [(m/s)/N].
-    output_points : sequence of int, length n_o
-        The channels' points.
-    prominence_db : float
-        Smallest prominence [dB] of a measured peak.
-
-    Returns
-    -------
-    list of dict
-        ``frequency_hz``, ``damping_ratio`` [-] (NaN where the half-power points are not both in the band),
-        ``point`` (the channel), ``level`` (its peak magnitude [(m/s)/N]); sorted by frequency.
-    """
-    from scipy.optimize import linear_sum_assignment
-
-    from ...measure.modal import half_power_damping
-
-    found: list[dict] = []
-    for j, p in enumerate(output_points):
-        try:
-            pm = find_peaks(freq_hz, meas[:, j], prominence_db=prominence_db, name=f"vel{p}")
-            pn = find_peaks(freq_hz, model[:, j], prominence_db=0.0, name=f"vel{p}")
-        except MeasurementError:
-            continue
-        fm = np.array([x.freq_hz for x in pm])
-        fn = np.array([x.freq_hz for x in pn])
-        # a peak whose match window reaches beyond the lines may have its partner there: not judged
-        judged = (fm / (1 + PEAK_MATCH) >= np.min(freq_hz)) & (fm * (1 + PEAK_MATCH) <= np.max(freq_hz))
-        paired: set[int] = set()
-        if fm.size and fn.size:
-            cost = np.abs(np.log(fm[:, None] / fn[None, :]))
-            gate = np.log1p(PEAK_MATCH)
-            # gated: a pair beyond the match costs more than all pairs within it together (n pairs at most,
-            # each <= gate), so the assignment first maximises the number of true pairs and never trades a
-            # close pair for two distant ones (21.95 Hz with 18.65 and 24.7 with 22.0 cost less in all than
-            # 21.95 with 22.0 and 24.7 with 18.65)
-            beyond = gate * (min(fm.size, fn.size) + 1)
-            rows, cols = linear_sum_assignment(np.where(cost <= gate, cost, beyond))
-            paired = {int(r) for r, c in zip(rows, cols) if cost[r, c] <= gate}
-        for i, pk in enumerate(pm):
-            if i in paired or not judged[i]:
-                continue
-            try:
-                zeta = half_power_damping(freq_hz, meas[:, j], pk.freq_hz)
-            except MeasurementError:
-                zeta = float("nan")
-            level = float(np.abs(meas[np.argmin(np.abs(freq_hz - pk.freq_hz)), j]))
-            found.append({"frequency_hz": float(pk.freq_hz), "damping_ratio": float(zeta), "point": int(p),
-                          "level": level})
-    out: list[dict] = []
-    for r in sorted(found, key=lambda r: -r["level"]):  # one entry per resonance, at its strongest channel
-        if all(abs(r["frequency_hz"] / o["frequency_hz"] - 1) > 0.02 for o in out):
-            out.append(r)
-    return sorted(out, key=lambda r: r["frequency_hz"])
