@@ -64,7 +64,7 @@ def test_without_a_model_form_it_is_the_noise_test():
 
 
 def test_the_policy_limits_follow_from_the_false_alarm_rate():
-    """Šidák: three tests at 1 - (1 - alpha)^(1/3) keep alpha together; chi-square with one degree of freedom
+    """Šidák: four tests at 1 - (1 - alpha)^(1/4) keep alpha together; chi-square with one degree of freedom
     is a squared standard normal, so its upper quantile is the normal's at half the rate (an identity checked
     against a second distribution, not the same function)."""
     import scipy.stats
@@ -72,7 +72,11 @@ def test_the_policy_limits_follow_from_the_false_alarm_rate():
     from vlab.diagnose.policy import DecisionPolicy
 
     p = DecisionPolicy(false_alarm_rate=0.01)
-    assert (1 - p.test_rate) ** 3 == pytest.approx(0.99, rel=1e-12)
+    assert (1 - p.test_rate) ** 4 == pytest.approx(0.99, rel=1e-12)
+    # the largest of k standard normal moves: P(max |x| > L) = the test's rate (exact for independent normals)
+    k = 70
+    assert 1 - (1 - 2 * scipy.stats.norm.sf(np.sqrt(p.move_limit(k)))) ** k == pytest.approx(p.test_rate, rel=1e-9)
+    assert p.move_limit(1) == pytest.approx(p.nuisance_limit(1), rel=1e-12)
     assert p.nuisance_limit(1) == pytest.approx(scipy.stats.norm.isf(p.test_rate / 2) ** 2, rel=1e-9)
     assert p.lr_limit(1) == pytest.approx(scipy.stats.norm.isf(0.005) ** 2, rel=1e-9)  # 6.635, tabulated
     assert p.lr_limit(1, c_hat=3.0) == pytest.approx(3 * p.lr_limit(1))

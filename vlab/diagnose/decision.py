@@ -40,6 +40,7 @@ from .report.result import DiagnosisResult
 #: Names of the mismatch tests (``test`` of an entry of :func:`mismatch_tests`).
 TESTS = {"chi2": "the total chi-square", "line": "the largest single line",
          "model_form": "the moves of the nominal modes beyond their model-form uncertainty",
+         "model_form_largest": "the largest move of one nominal mode's parameter beyond its model-form uncertainty",
          "change": "the change from the reference without the model-error floor",
          "oscillation": "a self-excited oscillation the nominal lab's replay does not make"}
 
@@ -81,6 +82,10 @@ def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: floa
     if nuisance and nuisance["beyond"]:
         out.append({"test": "model_form", "statistic": float(nuisance["nuisance_chi2"]),
                     "limit": float(nuisance["nuisance_limit"]), "largest": nuisance["largest"],
+                    "largest_sigmas": float(nuisance["largest_sigmas"])})
+    if nuisance and nuisance.get("largest_beyond"):
+        out.append({"test": "model_form_largest", "statistic": float(nuisance["largest_sigmas"]) ** 2,
+                    "limit": float(nuisance["largest_limit"]), "largest": nuisance["largest"],
                     "largest_sigmas": float(nuisance["largest_sigmas"])})
     if change:
         out.append({"test": "change", "statistic": float(change["chi2"]), "limit": float(change["chi2_limit"]),

@@ -227,9 +227,9 @@ class DetectionTest:
 
     def detected(self, h, x: float) -> str | None:
         """``"chi2"``, ``"peak"``, ``"nuisance"`` or None for hypothesis ``h`` at size ``x`` [SI]: the diagnosis's
-        own test (rule 1 and, with a model form, the profile and its nuisance test; the nuisance statistic's
-        null mean, its number of parameters, added as the noise's share is to the chi-square: the noncentral
-        picture of the module notes)."""
+        own test (rule 1 and, with a model form, the profile and its nuisance tests; the nuisance statistics'
+        null means, the number of parameters for their sum and 1 for the largest one's square, added as the
+        noise's share is to the chi-square: the noncentral picture of the module notes)."""
         if not self.profiled:
             return self.detected_first_order(h, x)
         p = self._expected(h, x, profile_nominal=True)
@@ -243,7 +243,10 @@ class DetectionTest:
             return "chi2"
         if peak > self.peak_limit:
             return "peak"
-        return "nuisance" if nuis and self.n_profiled + nuis["nuisance_chi2"] > self.nuisance_limit else None
+        if nuis and (self.n_profiled + nuis["nuisance_chi2"] > self.nuisance_limit
+                     or 1.0 + nuis["largest_sigmas"] ** 2 > nuis["largest_limit"]):
+            return "nuisance"
+        return None
 
 
 #: The search starts this fraction of the way from the null value to the bound (geometric in the distance).

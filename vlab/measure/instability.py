@@ -23,7 +23,14 @@ measure, yet periodic), an oscillation the loop makes itself does not -- and
 below ``MAX_ENVELOPE_CV``) or grows significantly. A lightly damped mode
 driven by sensor noise through the feedback is a narrowband Gaussian process
 whose envelope is Rayleigh distributed, with coefficient of variation
-``sqrt(4/pi - 1) = 0.52`` (Bendat & Piersol, Sec. 3.4.3); a sine has 0.
+``sqrt(4/pi - 1) = 0.52`` (Bendat & Piersol, Sec. 3.4.3); a sine has 0 -- and
+(c) not decaying: an unstable loop's oscillation grows until a nonlinearity
+holds it (a limit cycle) and never dies out by itself, while the free
+response of a stable, lightly damped closed-loop mode (the loop's start-up
+transient) does; a line whose amplitude falls by ``GROWTH_FACTOR`` or more
+over the record's second half, its slope beyond three standard errors, is
+such a transient (a grid LQG loop's 14 Hz mode decaying at 0.045-0.049 1/s,
+``zeta`` = 0.0005, still 38 dB over the floor a minute after the start).
 
 ``LINE_TO_FLOOR`` (1e3, 30 dB): a Welch estimate of a noise spectrum with
 ``nu = 2 n_avg`` degrees of freedom exceeds its mean by a factor ``x`` with
@@ -76,7 +83,8 @@ MAX_ENVELOPE_CV = 2 / 3 * ENVELOPE_CV_RAYLEIGH
 MIN_PERIOD_CHANGE = 0.3
 #: Segments of the record over which the growth of a line is fitted.
 N_SEGMENTS = 8
-#: A line still grows when its amplitude rises by at least this factor over the record's second half (slope > 3 se).
+#: A line still grows when its amplitude rises by at least this factor over the record's second half (slope > 3 se);
+#: it decays (a stable mode's transient) when it falls by as much (slope < -3 se).
 GROWTH_FACTOR = 2.0
 
 
@@ -314,6 +322,8 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
         if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
             continue  # below what the lab's converters resolve next to the response
         growing = sigma > 3 * se and math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR
+        if sigma < -3 * se and math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR:
+            continue  # it dies out: the free response of a stable mode
         if change is not None and change < MIN_PERIOD_CHANGE:
             continue  # it repeats with the force: a forced (possibly nonlinear) response
         if not (cv < MAX_ENVELOPE_CV or growing):

@@ -396,18 +396,20 @@ class Problem:
         -------
         dict or None
             ``nuisance_chi2``, ``nuisance_limit``, ``beyond`` (bool), ``largest`` (label of the parameter
-            that moved most) and ``largest_sigmas`` (its value in standard uncertainties); None without a
-            profiled model form.
+            that moved most), ``largest_sigmas`` (its value in standard uncertainties), ``largest_limit``
+            (:meth:`~vlab.diagnose.policy.DecisionPolicy.move_limit`, of its square) and
+            ``largest_beyond`` (bool); None without a profiled model form.
         """
         if not self._profiles(self.base):
             return None
         _r, x = self.nominal_profile()
-        k = len(x)
-        lim = self.nuisance_limit(k)
+        k, nu = len(x), self._noise_dof()[0]
+        lim, lim1 = self.nuisance_limit(k), self.policy.move_limit(k, nu)
         j = int(np.argmax(np.abs(x)))
         c2 = float(x @ x)
         return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
-                "largest": self.model_form_frf.labels[j], "largest_sigmas": float(x[j])}
+                "largest": self.model_form_frf.labels[j], "largest_sigmas": float(x[j]), "largest_limit": lim1,
+                "largest_beyond": float(x[j]) ** 2 > lim1}
 
     def _profiles(self, state: LabState) -> bool:
         return (self.profile_nominal and state is self.base and self.model_form_frf is not None

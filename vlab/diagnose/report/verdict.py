@@ -83,6 +83,9 @@ def mismatch_text(s: dict, n) -> str:
             parts.append(f"the nominal model's modes must move beyond their model-form uncertainty to fit (chi-square "
                          f"of the moves {_fmt(t['statistic'])}, limit {_fmt(t['limit'])}; most: {t['largest']} by "
                          f"{t['largest_sigmas']:+.3g} sigma)")
+        elif t["test"] == "model_form_largest":
+            parts.append(f"one of the nominal model's modes must move beyond its model-form uncertainty to fit "
+                         f"({t['largest']} by {t['largest_sigmas']:+.3g} sigma, limit {math.sqrt(t['limit']):.3g})")
         elif t["test"] == "change":
             parts.append(f"without the model-error floor the recording differs from its reference: chi2 = "
                          f"{_fmt(t['statistic'])} over N = {n} residuals exceeds its limit {_fmt(t['limit'])} (with "
