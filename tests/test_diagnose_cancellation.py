@@ -87,10 +87,10 @@ def _another_model(st: LabState, f: np.ndarray, out: tuple, rel: float, seed: in
     below and above) off by an independent relative error of standard deviation ``rel``."""
     from dataclasses import replace
 
-    from vlab.diagnose.model.cancellation import _point_modes
+    from vlab.diagnose.model.labmodel import point_modes_of
     from vlab.diagnose.model.labmodel import predict_frf
 
-    pm = _point_modes(st, tuple(dict.fromkeys(out + st.actuators)))
+    pm = point_modes_of(st, tuple(dict.fromkeys(out + st.actuators)))
     rng = np.random.default_rng(seed)
     shapes = pm.shapes.copy()
     for g in mode_groups(pm.omega / (2 * np.pi), f):
@@ -127,3 +127,17 @@ def test_small_term_errors_are_no_mismatch_a_changed_structure_is(open_loop, see
     h2 = predict_frf(stiff, f, excitation_point=9, output_points=out)
     changed = replace(data, h=h2 * (h / predict_frf(st, f, excitation_point=9, output_points=out)))
     assert not Problem(changed, st, ctx, floor=0.005).within_noise(st)
+
+
+def test_a_line_floor_of_another_shape_is_refused(open_loop):
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.problem.context import context_for
+    from vlab.diagnose.problem.residuals import Problem
+    from vlab.experiment.config import TESTS
+
+    f = np.arange(55, 100) * 0.05
+    h = _another_model(open_loop, f, (5, 9), 0.0, 0)
+    data = FrfData("x.uff", "frf", f, h, (1e-4 * np.abs(h)) ** 2, 9, (5, 9))
+    ctx = context_for(open_loop, TESTS["bcc"].band_hz, data)
+    with pytest.raises(ValueError, match=r"line_floor has shape \(45, 1\), the data's FRFs \(45, 2\)"):
+        Problem(data, open_loop, ctx, line_floor=np.full((45, 1), 0.005))

@@ -36,7 +36,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .labmodel import LabState, PointModes, natural_frequencies, predict_frf
+from .labmodel import LabState, point_modes_of, predict_frf
 from .modelform import BAND_MARGIN
 
 #: Relative change of a group's contribution for its finite-difference sensitivity [-].
@@ -45,17 +45,6 @@ STEP = 1e-4
 CACHE_SIZE = 8
 
 _CACHE: list = []
-
-
-def _point_modes(state: LabState, points: tuple) -> PointModes:
-    """The structure's modes at ``points`` (the state's own point modes, else the FE model's)."""
-    if state.point_modes is not None:
-        pm = state.point_modes
-        return PointModes(np.asarray(pm.omega, dtype=float), np.asarray(pm.zeta, dtype=float), pm.rows(points),
-                          points, pm.source, pm.coupling)
-    fr, zeta, phi = natural_frequencies(state)
-    return PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(),
-                      phi[state.fe.dofs.indices(points, "w"), :], points, "the FE model")
 
 
 def mode_groups(natural_hz: np.ndarray, freq_hz: np.ndarray) -> list[np.ndarray]:
@@ -112,7 +101,7 @@ def cancellation_ratio(state: LabState, freq_hz: np.ndarray, *, excitation_point
             return value
     pts = tuple(dict.fromkeys(outs + tuple(state.actuators) + tuple(p for p, _ in state.dashpots)
                               + tuple(p for p, _f, _c in state.frictions)))
-    pm0 = _point_modes(state, pts)
+    pm0 = point_modes_of(state, pts)
     kw = {"excitation_point": excitation_point, "output_points": outs}
     h0 = predict_frf(replace(state, point_modes=pm0), f, **kw)
     total = np.zeros(h0.shape)

@@ -83,6 +83,12 @@ class PointModes:
                              f"{self.source or 'the other model'}")
         return self.shapes[[idx[p] for p in points], :]
 
+    def at(self, points) -> "PointModes":
+        """These modes with the shapes at ``points`` only (copies of the arrays). Raises ModelError as :meth:`rows`."""
+        pts = tuple(points)
+        return replace(self, omega=np.array(self.omega, dtype=float), zeta=np.array(self.zeta, dtype=float),
+                       shapes=self.rows(pts), points=pts)
+
 
 @dataclass(frozen=True)
 class LabState:
@@ -252,6 +258,39 @@ def natural_frequencies(state: LabState, n: int | None = None) -> tuple[np.ndarr
     md, zeta = _modal(state)
     n = len(md.omega) if n is None else min(n, len(md.omega))
     return md.frequencies_hz[:n], zeta[:n], md.shapes[:, :n]
+
+
+def point_modes_of(state: LabState, points, source: str = "the FE model") -> PointModes:
+    """The modes of the structure of ``state`` at ``points``: its own point modes (the MuJoCo plant's
+    linearisation) when it carries them, else its FE model's with the spec's damping.
+
+    Parameters
+    ----------
+    state : LabState
+    points : sequence of int
+        Point ids of the rows of the shapes (out-of-plane).
+    source : str
+        What the FE model's modes are called in reports.
+
+    Returns
+    -------
+    PointModes
+        Angular frequencies [rad/s], damping ratios [1], mass-normalised shapes [m/sqrt(kg)], shape
+        (len(points), n_modes); arrays of its own.
+
+    Raises
+    ------
+    ModelError
+        A point the state's point modes do not carry, an unknown or constrained point, an unstable model.
+
+    Source: Eq. (3.4) via :func:`natural_frequencies`.
+    """
+    pts = tuple(points)
+    if state.point_modes is not None:
+        return state.point_modes.at(pts)
+    fr, zeta, phi = natural_frequencies(state)
+    return PointModes(2 * np.pi * fr, np.array(zeta, dtype=float), phi[state.fe.dofs.indices(pts, "w"), :], pts,
+                      source)
 
 
 def structure_modes(state: LabState) -> tuple[np.ndarray, np.ndarray]:

@@ -65,7 +65,7 @@ from dataclasses import replace as _replace
 from ...errors import DataFileError, ModelError
 from ...fe import build_fe_model, modal_analysis
 from ...spec import ASSETS_DIR, MAX_ELEMENTS_PER_SEGMENT, StructureSpec
-from .labmodel import LabState, PointModes, natural_frequencies, predict_frf
+from .labmodel import LabState, PointModes, point_modes_of, predict_frf
 
 #: Folder of the plants' measured discretisation (``python benchmarks/plant_model_form.py``).
 MODEL_FORM_DIR = ASSETS_DIR / "model_form"
@@ -520,14 +520,9 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     """
     f = np.asarray(freq_hz, dtype=float)
     pts = tuple(dict.fromkeys(tuple(output_points) + state.actuators))
-    if modes is None:
-        fr, zeta, phi = natural_frequencies(state)
-        pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float).copy(), phi[state.fe.dofs.indices(pts, "w"), :],
-                         pts, "the nominal FE model")
-    else:
-        pm0 = PointModes(np.asarray(modes.omega, dtype=float), np.asarray(modes.zeta, dtype=float),
-                         modes.rows(pts), pts, modes.source)
-        fr = pm0.omega / (2 * np.pi)
+    pm0 = point_modes_of(state, pts, "the nominal FE model") if modes is None else _replace(modes.at(pts),
+                                                                                            coupling=None)
+    fr = pm0.omega / (2 * np.pi)
     kw = {"excitation_point": excitation_point, "output_points": output_points}
     h0 = predict_frf(_replace(state, point_modes=pm0), f, **kw)
     lo, hi = f.min() / BAND_MARGIN, f.max() * BAND_MARGIN

@@ -29,7 +29,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.optimize
 
-from ..model.labmodel import LabState, PointModes
+from ..model.labmodel import LabState, PointModes, point_modes_of
 from ..model.modelform import FrfModelForm, perturbed_modes
 
 #: Evaluations of the profile per parameter at most.
@@ -138,14 +138,10 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
     """
     if state.point_modes is not None:
         return state.point_modes, None
-    from ..model.labmodel import natural_frequencies
-
     pm0 = problem.model_form_frf.modes if state.fe is problem.base.fe else None
     if pm0 is None:
-        fr, zeta, phi = natural_frequencies(state)
         pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
-        pm0 = PointModes(2 * np.pi * fr, np.asarray(zeta, dtype=float), phi[state.fe.dofs.indices(pts, "w"), :],
-                         pts, "the lab's FE model")
+        pm0 = point_modes_of(state, pts, "the lab's FE model")
     mask = problem.mask
     return pm0, problem.predict(state)[mask] / problem.predict(replace(state, point_modes=pm0))[mask]
 

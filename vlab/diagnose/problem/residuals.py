@@ -66,7 +66,8 @@ class Problem:
     line_floor : ndarray, shape (n_f, n_o), optional
         The relative model error each line is allowed [1]: default ``floor`` amplified where the terms of
         ``base`` cancel (:func:`vlab.diagnose.model.cancellation.line_floor`); given, that of another
-        problem on the same data (a plant refit compares chi-squares with the FE problem's).
+        problem on the same data (a plant refit compares chi-squares with the FE problem's). Another shape
+        raises ValueError.
     use_phase : bool
         Include the phase of FRFs.
     freq_sigma : float, optional
@@ -148,7 +149,10 @@ class Problem:
             self.model_var = None if model_form_frf is None else model_form_frf.variance
             mv = 0.0 if self.model_var is None else self.model_var
             fl = np.asarray(line_floor, dtype=float) if line_floor is not None else floor_of_lines(
-                base, data.freq_hz, self.floor, excitation_point=data.excitation_point, output_points=data.output_points)
+                base, data.freq_hz, self.floor, excitation_point=data.excitation_point,
+                output_points=data.output_points)
+            if fl.shape != data.h.shape:
+                raise ValueError(f"line_floor has shape {fl.shape}, the data's FRFs {data.h.shape}")
             self.line_floor = fl
             self.part_sigma = np.sqrt((srel**2 + fl**2) / 2.0)[self.mask]
             self.weight_mag = 1.0 / (srel**2 + fl**2 + mv)
