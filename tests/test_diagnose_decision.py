@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vlab.diagnose.decision import mismatch_tests
-from vlab.diagnose.fit.rules import improves_on_nominal, remainder_resolved
+from vlab.diagnose.fit.confirm import improves_on_nominal, remainder_resolved
 from vlab.diagnose.policy import DecisionPolicy
 from vlab.diagnose.report.text import _fmt
 from vlab.diagnose.report.verdict import verdict

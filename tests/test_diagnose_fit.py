@@ -397,12 +397,12 @@ def test_a_dashpot_or_friction_at_a_point_stops_at_the_critical_dashpot():
 
 
 def test_a_validation_worsens_only_beyond_what_it_resolves():
-    """vlab.diagnose.fit.rules.worsens: the FRF misfit must rise by more than the misfit an exact model leaves
+    """vlab.diagnose.fit.confirm.worsens: the FRF misfit must rise by more than the misfit an exact model leaves
     (in quadrature) to reject; a higher time-domain error rejects only where the FRF misfit does not fall by
     more than that (the numbers of tier-2 seed 10202, cases 9 and 4, and of a wrong candidate)."""
     from types import SimpleNamespace
 
-    from vlab.diagnose.fit.rules import worsens
+    from vlab.diagnose.fit.confirm import worsens
 
     def v(before, after, noise, t_before, t_after, t_noise=float("nan")):
         return SimpleNamespace(misfit_before=before, misfit_after=after, noise_misfit=noise,

@@ -28,7 +28,8 @@ from .data.measured import FrfData
 from ..errors import ModelError, SpecError
 from .fit.locate import extra_resonances, locate
 from .fit.resonances import unpaired_peaks
-from .fit.rules import NONLINEAR, explained_share, explains, improves_on_nominal, remainder_resolved, worsens
+from .fit.confirm import improves_on_nominal, remainder_resolved, worsens
+from .fit.rules import NONLINEAR, explained_share, explains
 from .fit.selection import located_from_fits
 from .problem.nuisance import profile_state, profiled
 from ..measure.instability import LINE_TO_FLOOR
@@ -145,7 +146,9 @@ def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misf
     notes : list of str
     """
     policy = problem.policy
-    if res.selected is not None and res.validation is not None and worsens(res.validation, self_excited=self_excited):
+    if res.selected is not None and res.validation is not None and worsens(
+            res.validation, self_excited=self_excited, k=res.selected.n_params, c_hat=res.overdispersion,
+            policy=policy):
         v, h = res.validation, res.selected
         res.rejected.append(rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
                                       v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
@@ -247,7 +250,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     a flat model-error floor does not cover -- a 0.05 % frequency difference moves the line at a peak of
     damping ratio 0.002 by tens of per cent -- so a remainder confined to one line is not reported.
     Where a validation rerun was made, its misfit must also be resolved from what an exact model leaves
-    (:func:`vlab.diagnose.fit.rules.remainder_resolved`). A choice with a nonlinear part is not judged: its
+    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). A choice with a nonlinear part is not judged: its
     linear model is a describing function, whose error is not a remainder, and its value was fitted through
     that describing function, so the rerun's misfit measures that fit as much as what is left.
 

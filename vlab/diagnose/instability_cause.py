@@ -59,7 +59,7 @@ Its validation is that rerun; the rules that judge an explanation by the FRF
 misfit's fall (a partial explanation, rule 10) do not apply to it, since the
 FRFs of a limit cycle are not the lab's linear response; a rerun whose FRF
 misfit rises beyond the resolution still rejects it
-(:func:`~vlab.diagnose.fit.rules.worsens` with ``self_excited``).
+(:func:`~vlab.diagnose.fit.confirm.worsens` with ``self_excited``).
 
 Source: the describing-function view of a limit cycle in a loop whose
 linearisation is unstable (Gelb & Vander Velde, *Multiple-Input Describing

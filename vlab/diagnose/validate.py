@@ -21,6 +21,18 @@ Misfits (before = nominal, after = with the effect):
 The FRF misfit a perfect model would still show, from the measured noise
 alone, is reported with them (``noise_misfit``): a small effect's misfit
 cannot fall further than that, whatever the model.
+
+The decision weighs the reruns on the footing of the fit that chose the
+effect: their chi-square with the diagnosis's own covariance (noise, floor
+and the model form's correlated part whitened,
+:meth:`vlab.diagnose.problem.residuals.Problem.frf_chi2`), the reruns
+referred into the data's frame (``H_rerun * H_data / H_target``: the factor
+that took the compared FRFs to the data, applied to the reruns). The RMS
+misfits above carry the model form only as a mean floor; a rerun plant whose
+lightly damped mode lies a standard uncertainty off moves both misfits by
+more than that mean where the effect sharpens the mode, while the whitened
+chi-square discounts the directions the model form spans -- so the mismatch
+test, the selection and the validation judge on one covariance.
 """
 
 from __future__ import annotations
@@ -71,6 +83,8 @@ class Validation:
     target : ndarray, complex, shape (n_f, n_o), or None
         The FRFs ``h_before`` and ``h_after`` were compared with: the recording (on the plant it was
         recorded or replayed on, or with a measured baseline), else the data referred to the model.
+    chi2_before, chi2_after : float
+        The reruns' chi-square on the fit's footing [1] (module notes); NaN where not computed.
     """
 
     plant: str
@@ -87,12 +101,15 @@ class Validation:
     phase_misfit_after: float = float("nan")
     noise_time_error: float = float("nan")
     target: np.ndarray | None = None
+    chi2_before: float = float("nan")
+    chi2_after: float = float("nan")
 
     def as_dict(self) -> dict:
         """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
                 "noise_misfit": self.noise_misfit, "noise_time_error": self.noise_time_error,
+                "chi2_before": self.chi2_before, "chi2_after": self.chi2_after,
                 **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after}
                    if np.isfinite(self.phase_misfit_before) else {})}
 
@@ -208,13 +225,17 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frame = data.h / target  # what took the compared FRFs to the data (1 where they are the data)
+    frame = np.where(np.isfinite(frame), frame, 1.0)
+    chi2s = problem.frf_chi2(hb * frame), problem.frf_chi2(ha * frame)
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target)
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s)
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

@@ -44,7 +44,7 @@ from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..problem.misfits import noise_misfit
 from ..problem.residuals import PENALTY, Problem
-from .rules import remainder_resolved
+from .confirm import remainder_resolved
 
 #: Values of the coarse scan of a one-parameter, mode-moving effect (log-spaced for a log parameter).
 COARSE_POINTS = 12
@@ -452,7 +452,7 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
 
     Basin step, when no fit so far explains the data fully on the linear
     model (:func:`_explained`: within the noise, or a remainder not resolved from
-    the noise, :func:`vlab.diagnose.fit.rules.remainder_resolved`): two
+    the noise, :func:`vlab.diagnose.fit.confirm.remainder_resolved`): two
     effects that both move modes compensate each other's frequency shifts,
     so the single fit of either is biased toward a value the pair does not
     have, and the best single effect may be neither of them. The ``n_basin``
@@ -535,7 +535,7 @@ def fit_pairs(singles: list[Hypothesis], problem: Problem, candidates: list[Hypo
 def _explained(problem: Problem, fitted: list[Hypothesis]) -> bool:
     """Whether one of the ``fitted`` hypotheses explains the data of ``problem`` fully on the linear model: it
     leaves them within the noise (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`), or leaves a
-    misfit not resolved from the one the noise alone leaves (:func:`vlab.diagnose.fit.rules.remainder_resolved`)."""
+    misfit not resolved from the one the noise alone leaves (:func:`vlab.diagnose.fit.confirm.remainder_resolved`)."""
     fits = [h for h in fitted if np.isfinite(getattr(h, "misfit_", np.nan))]
     if not fits:
         return False

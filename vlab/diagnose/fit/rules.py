@@ -48,17 +48,18 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`).
 6. **Too small to name** (:func:`too_small_to_name`): a choice made on a mismatch found only without the
    floor (rule 1) is located, not named.
-7. **Rejected by its validation** (:func:`worsens`): a choice whose validation rerun makes the fit worse
+7. **Rejected by its validation** (:func:`vlab.diagnose.fit.confirm.worsens`): a choice whose validation rerun makes the fit worse
    beyond what it resolves is not selected.
-8. **Better than nothing, on the same footing** (:func:`improves_on_nominal`): the choice's chi-square must
+8. **Better than nothing, on the same footing** (:func:`vlab.diagnose.fit.confirm.improves_on_nominal`): the choice's chi-square must
    fall below the nominal lab's -- the lower of its chi-square with the model form whitened and with its
    modes profiled within their model form, the statistic that declared the mismatch -- by the
-   likelihood-ratio limit; and its validation rerun must lower the FRF misfit (a choice that passes the
-   mismatch test's competitor only on another footing is not an explanation).
+   likelihood-ratio limit; and its validation rerun's chi-square, on the same covariance, must fall by that
+   limit too (a choice that passes the mismatch test's competitor only on another footing is not an
+   explanation).
 9. **Not explained** (:func:`explains`): a choice that removes less than the policy's ``explained_share`` of
    the nominal chi-square, leaves the data out of the noise and whose rerun does not lower the FRF misfit by
    as much is not selected: the mismatch lies outside the library.
-10. **The remainder** (:func:`remainder_resolved`): what a selected choice leaves is tested against what an
+10. **The remainder** (:func:`vlab.diagnose.fit.confirm.remainder_resolved`): what a selected choice leaves is tested against what an
     exact model leaves; a resolved remainder is reported with its size and place (the choice explains part
     of the mismatch), never dropped.
 11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when the recording holds a self-excited
@@ -347,43 +348,6 @@ def too_small_to_name(chosen: Hypothesis | None, noise_only: dict | None) -> boo
     return chosen is not None and noise_only is not None
 
 
-def worsens(v, *, self_excited: bool = False) -> bool:
-    """Whether a validation rerun makes the fit worse (such an effect is never selected).
-
-    Worse means worse beyond what the comparison resolves. The FRF comparison has a known resolution, the
-    misfit an exact model leaves (``noise_misfit``: the recording's noise and the model's own uncertainty):
-    the modified lab is worse when its misfit exceeds the nominal lab's by more than that, in quadrature
-    (``after^2 - before^2 > noise^2``; the misfits of independent parts add so). The time-domain error is
-    judged the same way against the error an exact model leaves (``noise_time_error``: the same noise and
-    model form, weighted by the response's power, :func:`vlab.diagnose.problem.misfits.exact_time_error`),
-    and only where the FRF comparison does not resolve an improvement (``before^2 - after^2 <= noise^2``): on
-    a real structure the time-domain error is dominated by the dephasing of lightly damped modes that the
-    model places a fraction of a bandwidth off, which the FRF comparison weighs line by line. Without the
-    excitation's line amplitudes (``noise_time_error`` NaN) any rise of the time-domain error counts. NaN
-    errors (no overlap) count as neither.
-
-    A recording that oscillates by itself (``self_excited``, the oscillation reproduced by the rerun) is
-    judged on its FRFs alone: its time histories hold an oscillation of arbitrary phase, which no rerun
-    matches sample by sample.
-
-    Parameters
-    ----------
-    v : Validation
-    self_excited : bool
-        The recording and the rerun both oscillate by themselves (rule 9 met).
-
-    Returns
-    -------
-    bool
-    """
-    frf_worse = DecisionPolicy.resolved(v.misfit_after, v.misfit_before, v.noise_misfit)
-    frf_better = DecisionPolicy.resolved(v.misfit_before, v.misfit_after, v.noise_misfit)
-    if self_excited:
-        return frf_worse
-    time_worse = DecisionPolicy.resolved(v.time_error_after, v.time_error_before, v.noise_time_error)
-    return frf_worse or (time_worse and not frf_better)
-
-
 def explained_share(res, chi2_0: float) -> tuple[float, bool]:
     """What the selected effect of ``res`` explains on the linear model (the test of :func:`explains`).
 
@@ -522,78 +486,3 @@ def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
     if same_mode:
         return nearest_mode(f_rerun, natural_hz) == nearest_mode(frequency_hz, natural_hz)
     return branch(f_rerun, natural_hz) == branch(frequency_hz, natural_hz)
-
-
-def improves_on_nominal(chosen: Hypothesis, chi2_nominal: float, c_hat: float, validation,
-                        policy: DecisionPolicy = DEFAULT_POLICY, *, self_excited: bool = False) -> tuple[bool, str]:
-    """Rule 8: whether a choice fits better than the nominal lab on the footing of the mismatch test.
-
-    Parameters
-    ----------
-    chosen : Hypothesis
-        Fitted (``chi2_``, ``n_params``).
-    chi2_nominal : float
-        The nominal lab's chi-square on the footing of the choice's fit [1] (the same weights, the model
-        form whitened): the choice at size zero is the nominal lab, so the two are nested and Wilks's
-        likelihood-ratio test applies. (The nominal's *profiled* chi-square is not that footing: its modes
-        move freely within their model form, beyond their limit where the model-form test failed, while the
-        choice's do not.)
-    c_hat : float
-        Overdispersion of the choice's fit (>= 1).
-    validation : Validation or None
-        Its validation rerun (None: none was made): its FRF misfit must fall -- with the phase where the
-        fit used it (``phase_misfit_*``), the footing of the choice's own chi-square. The size of the fall is not
-        judged against the misfit an exact model leaves: that misfit is a root mean square over every line,
-        and a local mismatch (one line out of the noise) changes it by less than the noise's share while the
-        change itself is far out of it; a rise beyond the resolution is rule 7's veto.
-    policy : DecisionPolicy
-    self_excited : bool
-        The recording oscillates by itself and the choice's rerun reproduces it: its FRFs hold a limit
-        cycle, and neither the linear fit nor the FRF misfit judges it.
-
-    Returns
-    -------
-    (bool, str)
-        Whether it does, and the reason when it does not ("" when it does).
-    """
-    if self_excited:
-        return True, ""
-    if not policy.needed(chi2_nominal, chosen.chi2_, chosen.n_params, c_hat):
-        return False, (f"its chi-square {chosen.chi2_:.4g} is not below the nominal lab's {chi2_nominal:.4g} by the "
-                       f"likelihood-ratio limit {policy.lr_limit(chosen.n_params, c_hat):.4g}")
-    v = validation
-    if v is None:
-        return True, ""
-    # on the fit's footing: with the phase where the fit used it (a lag turns the phase, hardly the magnitude)
-    pb, pa = getattr(v, "phase_misfit_before", np.nan), getattr(v, "phase_misfit_after", np.nan)
-    with_phase = bool(np.isfinite(pb) and np.isfinite(pa))
-    before, after = (pb, pa) if with_phase else (v.misfit_before, v.misfit_after)
-    if not after < before:
-        return False, (f"its validation rerun does not lower the FRF misfit{' with phase' if with_phase else ''} "
-                       f"({before:.3g} -> {after:.3g} decades)")
-    return True, ""
-
-
-def remainder_resolved(misfit_after: float, noise_misfit: float | None) -> bool:
-    """Whether the misfit an explanation leaves is resolved from the misfit an exact model leaves.
-
-    Misfits of independent parts add in quadrature: the remainder's own misfit is
-    ``sqrt(after^2 - noise^2)``, resolved when it exceeds ``noise`` itself
-    (:meth:`vlab.diagnose.policy.DecisionPolicy.resolved` of ``after`` against ``noise``), i.e. when
-    ``after > sqrt(2) noise``.
-
-    Parameters
-    ----------
-    misfit_after : float
-        FRF misfit [decades] of the lab with the chosen effect (validation rerun or linear model).
-    noise_misfit : float or None
-        The misfit an exact model leaves (same unit): the measured noise, and the model form where it is
-        carried. None or not finite: unknown, and nothing is resolved.
-
-    Returns
-    -------
-    bool
-    """
-    if noise_misfit is None or not np.isfinite(noise_misfit) or not np.isfinite(misfit_after):
-        return False
-    return DecisionPolicy.resolved(misfit_after, noise_misfit, noise_misfit)

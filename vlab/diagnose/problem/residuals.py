@@ -356,6 +356,12 @@ class Problem:
             return np.full(self.n_obs, PENALTY)
         return np.where(np.isfinite(r), r, PENALTY)
 
+    def frf_chi2(self, h: np.ndarray) -> float:
+        """Chi-square [1] of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``) on the fits'
+        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only)."""
+        r = self._frf_residual(np.asarray(h))
+        return float(r @ r)
+
     def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:
         r = self.line_residual(hm[self.mask], test=test)
         w = getattr(self, "_whiten", None)

@@ -185,6 +185,9 @@ def _validation_lines(res: dict) -> list[str]:
     before, after = v['misfit_before'], v['misfit_after']
     lines.append(f"- {what}: {_fmt(before)} -> {_fmt(after)}"
                  + (f" ({ratio_text(before, after)})" if ratio_text(before, after) else ""))
+    if v.get("chi2_before") is not None and v.get("chi2_after") is not None:
+        lines.append(f"- chi-square on the fit's footing (noise, floor and model form; the reruns referred as the "
+                     f"data are): {_fmt(v['chi2_before'])} -> {_fmt(v['chi2_after'])}")
     if v.get("noise_misfit") is not None:
         lines.append(f"- the same misfit of an exact model, from the measured noise (and the model's own "
                      f"uncertainty, where it is carried): {_fmt(v['noise_misfit'])}")

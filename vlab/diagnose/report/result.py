@@ -209,6 +209,9 @@ class DiagnosisResult:
                    "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}
         if self.validation is not None:
             validated = self.validation.as_dict()
+            if self.selected is not None:  # the likelihood-ratio limit the reruns' chi-square is judged by
+                validated["chi2_change_limit"] = self.problem.policy.lr_limit(self.selected.n_params,
+                                                                              self.overdispersion)
             if self.plant_refit is not None:
                 validated["parameters"] = {n: float(x) for n, x in zip(self.selected.param_names,
                                                                        self.plant_refit.params)}

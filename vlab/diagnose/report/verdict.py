@@ -197,6 +197,10 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         if v.get("phase_misfit_before") is not None:
             text += (f" (with phase {_fmt(v['phase_misfit_before'], 3)} -> {_fmt(v['phase_misfit_after'], 3)}, "
                      f"{ratio_text(v['phase_misfit_before'], v['phase_misfit_after'])})")
+        if v.get("chi2_before") is not None and v.get("chi2_after") is not None:
+            text += (f"; chi2 on the fit's footing {_fmt(v['chi2_before'])} -> {_fmt(v['chi2_after'])}"
+                     + (f" (a change beyond {_fmt(v['chi2_change_limit'])} is resolved)"
+                        if v.get("chi2_change_limit") is not None else ""))
         if v.get("noise_misfit") is not None:
             carried = (res.get("uncertainty") or {}).get("model_form") == "derived"
             text += (f"; the measured noise {'and the model form leave' if carried else 'alone leaves'} "
