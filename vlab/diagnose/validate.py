@@ -225,10 +225,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frame = data.h / target  # what took the compared FRFs to the data (1 where they are the data)
-    frame = np.where(np.isfinite(frame), frame, 1.0)
-    chi2s = problem.frf_chi2(hb * frame), problem.frf_chi2(ha * frame)
+    chi2s = chi2_in_data_frame(problem, hb, target), chi2_in_data_frame(problem, ha, target)
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))
@@ -236,6 +233,28 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s)
+
+
+def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray) -> float:
+    """Chi-square [1] of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit (module notes):
+    ``h`` referred into the data's frame, ``h * H_data / target`` (the factor that took ``target`` to the data
+    ``problem.data.h``; 1 where it is not finite), through
+    :meth:`~vlab.diagnose.problem.residuals.Problem.frf_chi2`.
+
+    Parameters
+    ----------
+    problem : Problem
+        Of FRF data.
+    h, target : ndarray, complex, shape (n_f, n_o)
+        [(m/s)/N].
+
+    Returns
+    -------
+    float
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frame = problem.data.h / target
+    return problem.frf_chi2(h * np.where(np.isfinite(frame), frame, 1.0))
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

@@ -1,0 +1,106 @@
+"""A validation rerun judged on the fit's covariance (vlab.diagnose.fit.confirm, vlab.diagnose.validate):
+on closed-form modal FRFs of the BCC whose rerun plant places one mode a standard uncertainty off the
+structure, and as properties of the rules."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vlab.diagnose.data.measured import FrfData
+from vlab.diagnose.fit.confirm import improves_on_nominal, worsens
+from vlab.diagnose.model.labmodel import LabState, PointModes, natural_frequencies, predict_frf
+from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, perturbed_modes
+from vlab.diagnose.policy import DEFAULT_POLICY, DecisionPolicy
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
+from vlab.diagnose.validate import chi2_in_data_frame
+from vlab.lab.loop import HardwareChain
+from vlab.models import nominal_fe_model
+
+R, SIGMA, ZETA = 5, 4e-3, 0.03  # mode 6 (22.7 Hz), 0.4 % frequency uncertainty, damped 3 % (a closed-loop mode)
+KW = {"excitation_point": 9, "output_points": (6,)}
+
+
+def _case(effect_zeta: float):
+    """Structure: the FE modes with mode 6 damped ZETA; the effect scales its damping by ``effect_zeta``
+    (0.5: the true effect, sharper). The rerun plant's mode 6 lies 1.2 standard uncertainties high. The data
+    are the structure with the true effect referred through the plant's nominal rerun (``rec * pn / hb``), as
+    a recording replayed on the plant is. Returns (problem, nominal lab, rec, hb, ha)."""
+    fe = nominal_fe_model("bcc")
+    lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    fr, zeta, phi = natural_frequencies(lab)
+    pts = (5, 6, 7, 9)
+    z = np.asarray(zeta, dtype=float).copy()
+    z[R] = ZETA
+    pm = PointModes(2 * np.pi * fr, z, phi[fe.dofs.indices(pts, "w"), :], pts, "FE")
+    plant = perturbed_modes(pm, "f", R, None, 1.2 * SIGMA)
+
+    def frf(modes, scale):
+        zz = modes.zeta.copy()
+        zz[R] *= scale
+        return predict_frf(replace(lab, point_modes=replace(modes, zeta=zz)), f, **KW)
+
+    f = np.arange(20, 500) * 0.05
+    rec, pn = frf(pm, 0.5), frf(pm, 1.0)
+    hb, ha = frf(plant, 1.0), frf(plant, effect_zeta)
+    data = FrfData("referred.uff", "frf", f, rec * pn / hb, (1e-2 * np.abs(rec)) ** 2, 9, (6,))
+    unc = ModelFormUncertainty(np.where(np.arange(len(fr)) == R, SIGMA, 0.0), np.full(len(fr), np.inf), {}, {})
+    nominal = replace(lab, point_modes=pm)
+    mf = frf_model_form(nominal, f, uncertainty=unc, modes=pm, **KW)
+    return Problem(data, nominal, context_for(nominal, (1.0, 25.0), data), floor=0.0, model_form_frf=mf), nominal, \
+        rec, hb, ha
+
+
+def _validation(problem, rec, hb, ha):
+    return SimpleNamespace(chi2_before=chi2_in_data_frame(problem, hb, rec),
+                           chi2_after=chi2_in_data_frame(problem, ha, rec), misfit_before=np.nan,
+                           misfit_after=np.nan, noise_misfit=np.nan, time_error_before=np.nan,
+                           time_error_after=np.nan, noise_time_error=np.nan)
+
+
+def test_the_nominal_rerun_in_the_data_frame_is_the_nominal_lab():
+    """Referred as the data are, the plant's nominal rerun is the nominal lab: the validation's chi-square
+    before is the fit's own nominal chi-square, so the two cannot disagree."""
+    problem, nominal, rec, hb, _ha = _case(0.5)
+    assert chi2_in_data_frame(problem, hb, rec) == pytest.approx(problem.chi2(nominal), rel=1e-9)
+
+
+def test_the_right_effect_is_confirmed_and_the_wrong_one_rejected_on_a_plant_a_sigma_off():
+    problem, _nominal, rec, hb, ha = _case(0.5)
+    v = _validation(problem, rec, hb, ha)
+    assert not worsens(v) and improves_on_nominal(SimpleNamespace(chi2_=0.0, n_params=1), v.chi2_before, 1.0, v)[0]
+    wrong = _validation(problem, rec, hb, _case(2.0)[4])  # damping raised instead of lowered
+    assert worsens(wrong)
+    ok, why = improves_on_nominal(SimpleNamespace(chi2_=0.0, n_params=1), wrong.chi2_before, 1.0, wrong)
+    assert not ok and "likelihood-ratio limit" in why
+
+
+finite = st.floats(min_value=0.0, max_value=1e6, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(before=finite, after=finite, k=st.integers(1, 3), c_hat=st.floats(min_value=1.0, max_value=5.0),
+       alpha=st.floats(min_value=1e-4, max_value=0.2), t_before=finite, t_after=finite)
+def test_the_reruns_chi_square_decides_both_ways_at_the_policys_rate(before, after, k, c_hat, alpha, t_before,
+                                                                   t_after):
+    policy = DecisionPolicy(false_alarm_rate=alpha)
+    limit = policy.lr_limit(k, c_hat)
+    v = SimpleNamespace(chi2_before=before, chi2_after=after, misfit_before=1.0, misfit_after=1.0,
+                        noise_misfit=0.0, time_error_before=t_before, time_error_after=t_after,
+                        noise_time_error=0.0)
+    worse = worsens(v, k=k, c_hat=c_hat, policy=policy)
+    if after - before > limit:
+        assert worse
+    if before - after > limit:  # a resolved improvement: the time-domain error does not overrule it
+        assert not worse
+    if abs(after - before) <= limit:
+        assert worse == (t_after**2 - t_before**2 > 0.0)  # unresolved on the FRFs: the time-domain error decides
+    ok, why = improves_on_nominal(SimpleNamespace(chi2_=0.0, n_params=k), 1e9, c_hat, v, policy)
+    assert ok == (before - after > limit) and (ok or why)
+    assert DEFAULT_POLICY.lr_limit(1) == pytest.approx(6.6349, rel=1e-4)  # chi2(1) 99 % quantile (tables)
