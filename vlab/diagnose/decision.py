@@ -152,9 +152,13 @@ def apply_gates(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, misf
         v, h = res.validation, res.selected
         res.rejected.append(rejection(h, "its validation rerun makes the fit worse", v.misfit_before,
                                       v.misfit_after, v.noise_misfit, time_error_before=v.time_error_before,
-                                      time_error_after=v.time_error_after))
+                                      time_error_after=v.time_error_after, chi2_before=v.chi2_before,
+                                      chi2_after=v.chi2_after))
+        chi2_text = (f"chi2 on the fit's footing {v.chi2_before:.4g} -> {v.chi2_after:.4g}, a change beyond "
+                     f"{policy.lr_limit(h.n_params, res.overdispersion):.4g} resolved; "
+                     if np.isfinite(v.chi2_before) and np.isfinite(v.chi2_after) and not self_excited else "")
         notes.append(f"the best candidate, {h.label}, is rejected: its validation rerun ({v.plant}) makes the fit "
-                     f"worse (FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
+                     f"worse ({chi2_text}FRF misfit {v.misfit_before:.3g} -> {v.misfit_after:.3g} decades, "
                      f"{ratio_text(v.misfit_before, v.misfit_after)}; time-domain error {v.time_error_before:.3g} "
                      f"-> {v.time_error_after:.3g}, {ratio_text(v.time_error_before, v.time_error_after)}"
                      + (f"; an exact model leaves {v.noise_time_error:.3g}" if np.isfinite(v.noise_time_error) else "")

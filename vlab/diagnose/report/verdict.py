@@ -120,6 +120,32 @@ def _remainder_text(rem: dict | None, unit: str = "decades") -> str:
             + (f"; {'; '.join(where)}" if where else "") + "), outside the library.")
 
 
+def _finite(d: dict, *keys: str) -> bool:
+    """Whether every one of ``keys`` of ``d`` is a finite number (a JSON null or NaN is not)."""
+    return all(isinstance(d.get(k), (int, float)) and math.isfinite(d[k]) for k in keys)
+
+
+def _best_rejected_text(res: dict) -> str:
+    """The clause of an outside-library verdict that says how the best candidate failed (empty if none
+    was rejected for explaining only part or for its validation rerun)."""
+    part = [r for r in res.get("rejected") or [] if str(r.get("reason", "")).startswith(
+        ("explains only part of the mismatch", "its validation rerun makes the fit worse"))]
+    best = ""
+    if part and part[-1]["reason"].startswith("explains"):
+        best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
+                f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x"
+                + (f" and is not separated from {len(part[-1]['look_alikes'])} look-alike(s)"
+                   if part[-1].get("look_alikes") else "") + ")")
+    elif part:
+        r = part[-1]
+        chi2 = (f"chi2 {_fmt(r['chi2_before'])} -> {_fmt(r['chi2_after'])}, "
+                if _finite(r, "chi2_before", "chi2_after") else "")
+        best = (f" (the best, {r['label']}, fails its validation rerun: {chi2}FRF misfit "
+                f"{ratio_text(r['misfit_before'], r['misfit_after'])}, time-domain error "
+                f"{ratio_text(r['time_error_before'], r['time_error_after'])})")
+    return best
+
+
 def _verdict_body(res: dict, s: dict, n) -> str:
     """The verdict after the instability sentence: mismatch, selection, validation (:func:`verdict`)."""
     if not res["mismatch"]:
@@ -138,19 +164,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         return text + (f" A change{where}, beyond the noise but within the model's accuracy "
                        f"({100 * s.get('floor', 0.005):g} % a line): too small to name.")
     if not sel and res.get("outside_library"):
-        part = [r for r in res.get("rejected") or [] if str(r.get("reason", "")).startswith(
-            ("explains only part of the mismatch", "its validation rerun makes the fit worse"))]
-        best = ""
-        if part and part[-1]["reason"].startswith("explains"):
-            best = (f" (the best, {part[-1]['label']}, lowers the misfit only "
-                    f"{part[-1]['misfit_before'] / part[-1]['misfit_after']:.3g} x"
-                    + (f" and is not separated from {len(part[-1]['look_alikes'])} look-alike(s)"
-                       if part[-1].get("look_alikes") else "") + ")")
-        elif part:
-            r = part[-1]
-            best = (f" (the best, {r['label']}, fails its validation rerun: FRF misfit "
-                    f"{ratio_text(r['misfit_before'], r['misfit_after'])}, time-domain error "
-                    f"{ratio_text(r['time_error_before'], r['time_error_after'])})")
+        best = _best_rejected_text(res)
         where = _where_text(res)
         return text + (f" It lies outside the library: no effect of it, alone or in pairs, explains more than part of "
                        f"it{best}.{where}")
@@ -197,7 +211,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         if v.get("phase_misfit_before") is not None:
             text += (f" (with phase {_fmt(v['phase_misfit_before'], 3)} -> {_fmt(v['phase_misfit_after'], 3)}, "
                      f"{ratio_text(v['phase_misfit_before'], v['phase_misfit_after'])})")
-        if v.get("chi2_before") is not None and v.get("chi2_after") is not None:
+        if _finite(v, "chi2_before", "chi2_after"):
             text += (f"; chi2 on the fit's footing {_fmt(v['chi2_before'])} -> {_fmt(v['chi2_after'])}"
                      + (f" (a change beyond {_fmt(v['chi2_change_limit'])} is resolved)"
                         if v.get("chi2_change_limit") is not None else ""))
