@@ -304,3 +304,28 @@ def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stab
                           on_plant=False, growth_1_s=0.0)
     # a nonlinear candidate too: its linear loop is a describing function at one amplitude
     assert reran == ["best", "saturation(channel=4)"] and out.stable == ["second", "third"] and out.chosen is None
+
+
+def test_a_rerun_oscillating_where_the_recording_and_the_linear_loop_do_not_is_the_plants_own(bcc_mfdrf):
+    """vlab.diagnose.instability_cause.plant_own_oscillation: a rerun holding a growing 86 Hz line at a loop
+    point (the MuJoCo plant's lightly damped mode above the band) beside a stable linear loop is the plant's
+    own; the same rerun beside a linear loop that is unstable (delay 40 periods) is the effect's; a rerun
+    without the line is no oscillation."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.instability_cause import plant_own_oscillation
+    from vlab.io.recording import Recording
+
+    dt, n = 5e-4, 16000
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(3)
+    force = rng.standard_normal(n) * 0.1
+    quiet = {p: 1e-4 * rng.standard_normal(n) for p in (5, 7, 9)}
+    rec = Recording.from_signals(dt, {"force9": force, **{f"vel{p}": v for p, v in quiet.items()}})
+    growing = dict(quiet)
+    growing[5] = quiet[5] + 1e-3 * np.exp(0.2 * t) * np.sin(2 * np.pi * 86.0 * t)
+    unstable = replace(bcc_mfdrf, chain=replace(bcc_mfdrf.chain, delay_periods=40.0))
+    f = plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), bcc_mfdrf)
+    assert f == pytest.approx(86.0, abs=0.1)
+    assert plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), unstable) is None
+    assert plant_own_oscillation(SimpleNamespace(v_after=quiet), rec, 9, (5, 7, 9), bcc_mfdrf) is None

@@ -239,6 +239,45 @@ def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int
     return find_instability(Recording.from_signals(recording.dt_s, signals), feedback_points=loops)
 
 
+def plant_own_oscillation(v: Validation, recording: Recording, excitation_point: int, loops,
+                          modified: LabState) -> float | None:
+    """Whether a validation's modified rerun oscillates by itself only because of the rerun plant: the
+    frequency of its oscillation [Hz], or None.
+
+    A recording that does not oscillate was made on the structure with the effect; a rerun of the lab with
+    the effect that oscillates by itself (:func:`rerun_oscillation`) while the effect's own linear loop
+    (``modified``, the diagnosis's model of the same lab: :func:`vlab.diagnose.model.nyquist.loop_stability`)
+    has no unstable pole does not reproduce the recorded experiment in the very property it is to witness:
+    the rerun plant's own modes -- the MuJoCo plant's above the band keep only their light hinge damping
+    (``docs/plants.md``), where the FE model and a real structure damp them more -- are what the effect
+    destabilises there. Call it only for a recording that does not oscillate by itself.
+
+    Parameters
+    ----------
+    v : Validation
+    recording : Recording
+    excitation_point : int
+    loops : tuple of int
+        Feedback points.
+    modified : LabState
+        The lab with the effect on the FE model (not the plant's linearisation).
+
+    Returns
+    -------
+    float or None
+        The rerun's oscillation frequency [Hz] when the rerun oscillates and the linear loop is stable
+        (a count the criterion vouches for); None otherwise.
+    """
+    osc = rerun_oscillation(v, recording, excitation_point, loops)
+    if osc is None or not osc.unstable:
+        return None
+    try:
+        st = loop_stability(modified)
+    except (ModelError, SpecError):
+        return None
+    return float(osc.frequency_hz) if st.trusted and st.unstable_poles == 0 else None
+
+
 def destabilising_value(h: Hypothesis, problem, unstable_at) -> float | None:
     """The value of ``h``'s one parameter nearest its fit at which the loop is unstable, or None.
 

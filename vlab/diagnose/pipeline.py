@@ -47,6 +47,7 @@ from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
 from .explain import Search, explain
 from .fit.locate import locate
+from .instability_cause import plant_own_oscillation
 from .fit.rules import beyond_noise, changed_beyond_noise
 from .fit.selection import located_from_fits, rerun_key
 from .model.labmodel import LabState
@@ -127,10 +128,13 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     return problem
 
 
-def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, timing: dict, say) -> None:
+def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, timing: dict, say,
+               loops=()) -> None:
     """Stage 5: rerun the recorded force through the loop on the lab with the choice of ``res`` (its plant refit
     on the MuJoCo plant; a linear rerun takes the FE value) and set ``res.validation``; a rerun that cannot
-    be made is noted."""
+    be made is noted. A MuJoCo rerun that oscillates by itself where the recording does not and the choice's
+    linear loop is stable (:func:`vlab.diagnose.instability_cause.plant_own_oscillation`) is made again on
+    the linear FE plant, and the note says why."""
     modified, key = res.selected_state(), rerun_key(res.selected)
     if res.plant_refit is not None:
         modified, key = res.plant_refit.state, key + "@plant"
@@ -141,6 +145,18 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
                                   seed=RERUN_SEED, key=key)
         if res.plant_refit is not None and not res.validation.plant.startswith("MuJoCo"):
             res.plant_refit = None  # the plant's value belongs to the plant: a linear rerun takes the FE value
+            res.validation = validate(problem, res.nominal, res.selected_state(), plant="linear", spec_level=False,
+                                      seed=RERUN_SEED, key=rerun_key(res.selected))
+        data = problem.data
+        f_own = None if (res.instability or {}).get("unstable") or not res.validation.plant.startswith("MuJoCo") \
+            else plant_own_oscillation(res.validation, data.recording, data.excitation_point, loops,
+                                       res.selected_state())
+        if f_own is not None:
+            notes.append(f"the MuJoCo rerun with {res.selected.label} oscillates by itself at {f_own:.4g} Hz, the "
+                         "recording does not, and the effect's linear loop is stable: the plant's own modes (above "
+                         "the band it keeps only their light hinge damping) are what the effect destabilises "
+                         "there; validated on the linear FE plant instead")
+            res.plant_refit = None
             res.validation = validate(problem, res.nominal, res.selected_state(), plant="linear", spec_level=False,
                                       seed=RERUN_SEED, key=rerun_key(res.selected))
     except (VlabError, ImportError) as exc:
@@ -302,7 +318,7 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)
         if res.selected is not None and validate_run and isinstance(inp.data, FrfData) \
                 and inp.data.recording is not None and res.validation is None:
-            _validated(res, problem, inp.plant, notes, timing, say)
+            _validated(res, problem, inp.plant, notes, timing, say, inp.loops)
         apply_gates(res, problem, chi2_fit=res.chi2_fit, misfit_0=res.misfit_nominal, self_excited=self_excited,
                     notes=notes)
         if res.selected is not None and not self_excited:
