@@ -66,8 +66,9 @@ def test_bad_metadata_names_the_file_and_field(meta, field):
 
 @pytest.mark.slow
 def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monkeypatch):
-    """A stand-in validation that makes the FRF misfit 10x worse: the pipeline must reject the candidate (shown
-    with both numbers), select nothing, and say so; the real validation of the same case selects the mass."""
+    """A stand-in validation that makes the FRF misfit and the reruns' chi-square 10x worse: the pipeline must
+    reject the candidate (shown with both numbers), select nothing, and say so; the real validation of the
+    same case selects the mass."""
     from vlab.diagnose.model.labmodel import LabState
     from vlab.diagnose.model.nominal import nominal_design
     from vlab.lab.loop import HardwareChain
@@ -80,7 +81,7 @@ def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monk
 
     def worse(*args, **kwargs):
         v = real(*args, **kwargs)
-        return replace(v, misfit_after=10 * v.misfit_before)
+        return replace(v, misfit_after=10 * v.misfit_before, chi2_after=10 * v.chi2_before)
 
     monkeypatch.setattr(pipeline_module, "validate", worse)
     r = diagnose("bcc", path, plant="linear")
@@ -88,6 +89,7 @@ def test_a_candidate_whose_validation_worsens_the_fit_is_rejected(tmp_path, monk
     assert len(r.rejected) == 1 and r.rejected[0]["effect"] == "added_mass"
     rej = r.rejected[0]
     assert rej["misfit_after"] == pytest.approx(10 * rej["misfit_before"])
+    assert rej["chi2_after"] == pytest.approx(10 * rej["chi2_before"])
     assert any("10 x higher" in n and "rejected" in n for n in r.notes)
     d = r.as_dict()
     assert d["selected"] == [] and d["rejected"][0]["label"] == rej["label"]
