@@ -369,8 +369,12 @@ def explained_share(res, chi2_0: float) -> tuple[float, bool]:
         ``1 - chi2 / chi2_nominal`` (dimensionless; negative when the effect fits worse than nothing),
         without the floor against ``res.noise_only["chi2"]`` when the mismatch was found only there.
     within : bool
-        Whether the effect leaves the data within the noise (:meth:`Problem.within_noise`: total
-        chi-square and largest line), on the same weights.
+        Whether the effect leaves the data within the tests that declared the mismatch, on the same
+        weights: the noise's (:meth:`Problem.within_noise`: total chi-square and largest line), with the
+        lab's modes profiled within their model form where the mismatch test profiled the nominal lab's
+        (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: the moves' tests too). A mismatch
+        declared by the model form alone (the nominal chi-square within its limit) leaves no share of the
+        chi-square to remove; the question is then whether the effect passes the test that failed.
 
     Raises
     ------
@@ -381,13 +385,13 @@ def explained_share(res, chi2_0: float) -> tuple[float, bool]:
     if res.noise_only:
         raw = without_floor(res.problem)
         return 1.0 - raw.chi2(state, test=True) / res.noise_only["chi2"], raw.within_noise(state)
-    return 1.0 - res.selected.chi2_ / chi2_0, res.problem.within_noise(state)
+    return 1.0 - res.selected.chi2_ / chi2_0, within_model_accuracy(res.problem, state)
 
 
 def explains(res, chi2_0: float) -> bool:
     """Whether the selected effect of ``res`` explains the mismatch: it removes at least the policy's
-    ``explained_share`` (``res.problem.policy``) of the nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the noise
-    (:meth:`Problem.within_noise`: a local mismatch removed), both without the model-error floor when the
+    ``explained_share`` (``res.problem.policy``) of the nominal chi-square ``chi2_0`` (linear model), or it leaves the data within the
+    tests that declared the mismatch (:func:`explained_share`: a local mismatch removed), both without the model-error floor when the
     mismatch was found only without it (:func:`explained_share`), or its validation rerun lowers the FRF
     misfit by at least ``1 / (1 - share)`` (effects whose linear model is only a describing function:
     friction, saturation)."""
