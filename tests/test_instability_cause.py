@@ -310,7 +310,7 @@ def test_a_rerun_oscillating_where_the_recording_and_the_linear_loop_do_not_is_t
     """vlab.diagnose.instability_cause.plant_own_oscillation: a rerun holding a growing 86 Hz line at a loop
     point (the MuJoCo plant's lightly damped mode above the band) beside a stable linear loop is the plant's
     own; the same rerun beside a linear loop that is unstable (delay 40 periods) is the effect's; a rerun
-    without the line is no oscillation."""
+    without the line is no oscillation; a line within the data's band is not the plant's above-band modes'."""
     from types import SimpleNamespace
 
     from vlab.diagnose.instability_cause import plant_own_oscillation
@@ -325,7 +325,9 @@ def test_a_rerun_oscillating_where_the_recording_and_the_linear_loop_do_not_is_t
     growing = dict(quiet)
     growing[5] = quiet[5] + 1e-3 * np.exp(0.2 * t) * np.sin(2 * np.pi * 86.0 * t)
     unstable = replace(bcc_mfdrf, chain=replace(bcc_mfdrf.chain, delay_periods=40.0))
-    f = plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), bcc_mfdrf)
+    f = plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), bcc_mfdrf, 25.0)
     assert f == pytest.approx(86.0, abs=0.1)
-    assert plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), unstable) is None
-    assert plant_own_oscillation(SimpleNamespace(v_after=quiet), rec, 9, (5, 7, 9), bcc_mfdrf) is None
+    assert plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), unstable, 25.0) is None
+    assert plant_own_oscillation(SimpleNamespace(v_after=quiet), rec, 9, (5, 7, 9), bcc_mfdrf, 25.0) is None
+    # in the band the plant carries the spec's modal damping: an oscillation there is not the plant's own
+    assert plant_own_oscillation(SimpleNamespace(v_after=growing), rec, 9, (5, 7, 9), bcc_mfdrf, 100.0) is None

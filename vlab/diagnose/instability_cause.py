@@ -240,7 +240,7 @@ def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int
 
 
 def plant_own_oscillation(v: Validation, recording: Recording, excitation_point: int, loops,
-                          modified: LabState) -> float | None:
+                          modified: LabState, band_top_hz: float) -> float | None:
     """Whether a validation's modified rerun oscillates by itself only because of the rerun plant: the
     frequency of its oscillation [Hz], or None.
 
@@ -250,7 +250,9 @@ def plant_own_oscillation(v: Validation, recording: Recording, excitation_point:
     has no unstable pole does not reproduce the recorded experiment in the very property it is to witness:
     the rerun plant's own modes -- the MuJoCo plant's above the band keep only their light hinge damping
     (``docs/plants.md``), where the FE model and a real structure damp them more -- are what the effect
-    destabilises there. Call it only for a recording that does not oscillate by itself.
+    destabilises there. That mechanism is the plant's above the band: an oscillation at or below
+    ``band_top_hz`` (where the plant carries the spec's modal damping, as the FE model does) is not
+    attributed to it. Call it only for a recording that does not oscillate by itself.
 
     Parameters
     ----------
@@ -261,15 +263,17 @@ def plant_own_oscillation(v: Validation, recording: Recording, excitation_point:
         Feedback points.
     modified : LabState
         The lab with the effect on the FE model (not the plant's linearisation).
+    band_top_hz : float
+        The highest line of the data [Hz].
 
     Returns
     -------
     float or None
-        The rerun's oscillation frequency [Hz] when the rerun oscillates and the linear loop is stable
-        (a count the criterion vouches for); None otherwise.
+        The rerun's oscillation frequency [Hz] when the rerun oscillates above ``band_top_hz`` and the linear
+        loop is stable (a count the criterion vouches for); None otherwise.
     """
     osc = rerun_oscillation(v, recording, excitation_point, loops)
-    if osc is None or not osc.unstable:
+    if osc is None or not osc.unstable or not osc.frequency_hz > band_top_hz:
         return None
     try:
         st = loop_stability(modified)

@@ -150,7 +150,7 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
         data = problem.data
         f_own = None if (res.instability or {}).get("unstable") or not res.validation.plant.startswith("MuJoCo") \
             else plant_own_oscillation(res.validation, data.recording, data.excitation_point, loops,
-                                       res.selected_state())
+                                       res.selected_state(), float(max(data.freq_hz)))
         if f_own is not None:
             notes.append(f"the MuJoCo rerun with {res.selected.label} oscillates by itself at {f_own:.4g} Hz, the "
                          "recording does not, and the effect's linear loop is stable: the plant's own modes (above "
