@@ -12,10 +12,10 @@ of their chi-square in either direction at the policy's false-alarm rate
 
 The RMS misfits and the time-domain error a rerun also reports carry the model's own uncertainty only as a
 mean floor (:func:`vlab.diagnose.problem.misfits.exact_model_errors`); where the floor is concentrated in
-one lightly damped mode's frequency, a right choice that sharpens that mode moves them by more than the
-mean about one time in six. They decide only where the chi-square is not available (validations made
-without it), and the time-domain error also where the chi-square resolves no improvement: what the FRFs do
-not show (a transient, a nonlinear rerun's waveform). A recording that oscillates by itself is judged on its
+one lightly damped mode's frequency, an exact model's squared error is about that floor times a chi-square
+with one degree of freedom, beyond its mean with probability 0.32. They decide only where the chi-square
+is not available (validations made without it), and the time-domain error also where the chi-square
+resolves no improvement: what the FRFs do not show (a transient, a nonlinear rerun's waveform). A recording that oscillates by itself is judged on its
 FRF misfit alone: its limit cycle is neither in the linear covariance nor matched sample by sample.
 
 The remainder (rule 10, :func:`remainder_resolved`) is what a selected choice leaves beyond what an exact
