@@ -15,8 +15,9 @@ mean floor (:func:`vlab.diagnose.problem.misfits.exact_model_errors`); where the
 one lightly damped mode's frequency, an exact model's squared error is about that floor times a chi-square
 with one degree of freedom, beyond its mean with probability 0.32. They decide only where the chi-square
 is not available (validations made without it), and the time-domain error also where the chi-square
-resolves no improvement: what the FRFs do not show (a transient, a nonlinear rerun's waveform). A recording that oscillates by itself is judged on its
-FRF misfit alone: its limit cycle is neither in the linear covariance nor matched sample by sample.
+resolves no improvement: what the FRFs do not show (a transient, a nonlinear rerun's waveform). A
+recording that oscillates by itself is judged on its FRF misfit alone: its limit cycle is neither in the
+linear covariance nor matched sample by sample.
 
 The remainder (rule 10, :func:`remainder_resolved`) is what a selected choice leaves beyond what an exact
 model leaves.
