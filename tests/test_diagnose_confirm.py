@@ -104,3 +104,12 @@ def test_the_reruns_chi_square_decides_both_ways_at_the_policys_rate(before, aft
     ok, why = improves_on_nominal(SimpleNamespace(chi2_=0.0, n_params=k), 1e9, c_hat, v, policy)
     assert ok == (before - after > limit) and (ok or why)
     assert DEFAULT_POLICY.lr_limit(1) == pytest.approx(6.6349, rel=1e-4)  # chi2(1) 99 % quantile (tables)
+
+
+def test_the_reruns_chi_square_refuses_another_shape_and_counts_a_diverged_line():
+    problem, nominal, rec, hb, _ha = _case(0.5)
+    with pytest.raises(ValueError, match=r"shape \(480, 2\).*\(480, 1\)"):
+        problem.frf_chi2(np.hstack([hb, hb]))
+    diverged = hb.copy()
+    diverged[100, 0] = np.inf  # a rerun that blew up on one line is worse, not undecided
+    assert np.isfinite(problem.frf_chi2(diverged)) and problem.frf_chi2(diverged) > problem.frf_chi2(hb)

@@ -47,9 +47,9 @@ from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
 from .explain import Search, explain
 from .fit.locate import locate
-from .instability_cause import plant_own_oscillation
 from .fit.rules import beyond_noise, changed_beyond_noise
 from .fit.selection import located_from_fits, rerun_key
+from .instability_cause import plant_own_oscillation
 from .model.labmodel import LabState
 from .policy import DecisionPolicy
 from .problem.context import context_for
@@ -132,21 +132,26 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
                loops=()) -> None:
     """Stage 5: rerun the recorded force through the loop on the lab with the choice of ``res`` (its plant refit
     on the MuJoCo plant; a linear rerun takes the FE value) and set ``res.validation``; a rerun that cannot
-    be made is noted. A MuJoCo rerun that oscillates by itself where the recording does not and the choice's
-    linear loop is stable (:func:`vlab.diagnose.instability_cause.plant_own_oscillation`) is made again on
-    the linear FE plant, and the note says why."""
+    be made is noted. A MuJoCo rerun that oscillates by itself above the data's band where the recording
+    does not and the choice's linear loop is stable
+    (:func:`vlab.diagnose.instability_cause.plant_own_oscillation`) is made again on the linear FE plant, and
+    the note says why."""
     modified, key = res.selected_state(), rerun_key(res.selected)
     if res.plant_refit is not None:
         modified, key = res.plant_refit.state, key + "@plant"
     say("validating")
     t = time.perf_counter()
+
+    def on_linear_plant() -> None:  # the plant's value belongs to the plant: a linear rerun takes the FE value
+        res.plant_refit = None
+        res.validation = validate(problem, res.nominal, res.selected_state(), plant="linear", spec_level=False,
+                                  seed=RERUN_SEED, key=rerun_key(res.selected))
+
     try:
         res.validation = validate(problem, res.nominal, modified, plant=plant, spec_level=res.selected.spec_level,
                                   seed=RERUN_SEED, key=key)
         if res.plant_refit is not None and not res.validation.plant.startswith("MuJoCo"):
-            res.plant_refit = None  # the plant's value belongs to the plant: a linear rerun takes the FE value
-            res.validation = validate(problem, res.nominal, res.selected_state(), plant="linear", spec_level=False,
-                                      seed=RERUN_SEED, key=rerun_key(res.selected))
+            on_linear_plant()
         data = problem.data
         f_own = None if (res.instability or {}).get("unstable") or not res.validation.plant.startswith("MuJoCo") \
             else plant_own_oscillation(res.validation, data.recording, data.excitation_point, loops,
@@ -156,9 +161,7 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
                          "recording does not, and the effect's linear loop is stable: the plant's own modes (above "
                          "the band it keeps only their light hinge damping) are what the effect destabilises "
                          "there; validated on the linear FE plant instead")
-            res.plant_refit = None
-            res.validation = validate(problem, res.nominal, res.selected_state(), plant="linear", spec_level=False,
-                                      seed=RERUN_SEED, key=rerun_key(res.selected))
+            on_linear_plant()
     except (VlabError, ImportError) as exc:
         notes.append(f"validation rerun not possible: {exc}")
     timing["validate"] = time.perf_counter() - t

@@ -358,8 +358,13 @@ class Problem:
 
     def frf_chi2(self, h: np.ndarray) -> float:
         """Chi-square [1] of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``) on the fits'
-        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only)."""
-        r = self._frf_residual(np.asarray(h))
+        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only); a line
+        that is not finite counts as :meth:`residual`'s does. Raises ValueError for another shape."""
+        h = np.asarray(h)
+        if h.shape != self.data.h.shape:
+            raise ValueError(f"FRFs of shape {h.shape} compared with data of shape {self.data.h.shape}")
+        r = self._frf_residual(h)
+        r = np.where(np.isfinite(r), r, PENALTY)
         return float(r @ r)
 
     def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:

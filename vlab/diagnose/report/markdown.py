@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import DataFileError, VlabError
 from ...experiment.results import jsonable
-from .text import _fmt, format_location, format_parameters, misfit_unit, ratio_text
+from .text import _fmt, finite_numbers, format_location, format_parameters, misfit_unit, ratio_text
 from .verdict import mismatch_text, nominal_fit_chi2, selected_chi2, verdict
 
 
@@ -185,7 +185,7 @@ def _validation_lines(res: dict) -> list[str]:
     before, after = v['misfit_before'], v['misfit_after']
     lines.append(f"- {what}: {_fmt(before)} -> {_fmt(after)}"
                  + (f" ({ratio_text(before, after)})" if ratio_text(before, after) else ""))
-    if v.get("chi2_before") is not None and v.get("chi2_after") is not None:
+    if finite_numbers(v, "chi2_before", "chi2_after"):
         lines.append(f"- chi-square on the fit's footing (noise, floor and model form; the reruns referred as the "
                      f"data are): {_fmt(v['chi2_before'])} -> {_fmt(v['chi2_after'])}")
     if v.get("noise_misfit") is not None:

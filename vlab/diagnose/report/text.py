@@ -10,6 +10,12 @@ def _ok(a, b) -> bool:
     return a is not None and b is not None and np.isfinite(a) and np.isfinite(b) and b > 0
 
 
+def finite_numbers(d: dict, *keys: str) -> bool:
+    """Whether every one of ``keys`` of the report dict ``d`` is a finite number (missing, a JSON null or NaN
+    is not)."""
+    return all(isinstance(d.get(k), (int, float)) and np.isfinite(d[k]) for k in keys)
+
+
 def _fmt(v, nd: int = 4) -> str:
     if v is None:
         return "n/a"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from .text import _fmt, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text
+from .text import _fmt, finite_numbers, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text
 
 
 def _where_text(res: dict) -> str:
@@ -120,11 +120,6 @@ def _remainder_text(rem: dict | None, unit: str = "decades") -> str:
             + (f"; {'; '.join(where)}" if where else "") + "), outside the library.")
 
 
-def _finite(d: dict, *keys: str) -> bool:
-    """Whether every one of ``keys`` of ``d`` is a finite number (a JSON null or NaN is not)."""
-    return all(isinstance(d.get(k), (int, float)) and math.isfinite(d[k]) for k in keys)
-
-
 def _best_rejected_text(res: dict) -> str:
     """The clause of an outside-library verdict that says how the best candidate failed (empty if none
     was rejected for explaining only part or for its validation rerun)."""
@@ -139,7 +134,7 @@ def _best_rejected_text(res: dict) -> str:
     elif part:
         r = part[-1]
         chi2 = (f"chi2 {_fmt(r['chi2_before'])} -> {_fmt(r['chi2_after'])}, "
-                if _finite(r, "chi2_before", "chi2_after") else "")
+                if finite_numbers(r, "chi2_before", "chi2_after") else "")
         best = (f" (the best, {r['label']}, fails its validation rerun: {chi2}FRF misfit "
                 f"{ratio_text(r['misfit_before'], r['misfit_after'])}, time-domain error "
                 f"{ratio_text(r['time_error_before'], r['time_error_after'])})")
@@ -211,7 +206,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         if v.get("phase_misfit_before") is not None:
             text += (f" (with phase {_fmt(v['phase_misfit_before'], 3)} -> {_fmt(v['phase_misfit_after'], 3)}, "
                      f"{ratio_text(v['phase_misfit_before'], v['phase_misfit_after'])})")
-        if _finite(v, "chi2_before", "chi2_after"):
+        if finite_numbers(v, "chi2_before", "chi2_after"):
             text += (f"; chi2 on the fit's footing {_fmt(v['chi2_before'])} -> {_fmt(v['chi2_after'])}"
                      + (f" (a change beyond {_fmt(v['chi2_change_limit'])} is resolved)"
                         if v.get("chi2_change_limit") is not None else ""))
