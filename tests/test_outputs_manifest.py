@@ -248,3 +248,36 @@ def test_manifest_json_is_stable(tmp_path):
     doc = json.loads((tmp_path / "o" / MANIFEST_NAME).read_text())
     assert doc["format"] == "vlab output folder manifest" and doc["version"] == 1
     assert doc["files"] == {"b.txt": {"size_bytes": 2, "sha256": hashlib.sha256(b"bb").hexdigest()}}
+
+
+@pytest.mark.parametrize("where", ["probe", "temporary folder", "temporary file"])
+def test_an_interrupt_right_after_a_temporary_is_made_leaves_nothing_behind(tmp_path, monkeypatch, where):
+    """SIGINT delivered the instant ``mkdtemp``/``mkstemp`` returns (the writability probe, the folder or the
+    file being written) raises KeyboardInterrupt and leaves no ``.vlab-tmp-`` entry in the parent folder."""
+    import signal
+    import tempfile
+    from vlab.io.atomic import atomic_file
+
+    real = {"mkdtemp": tempfile.mkdtemp, "mkstemp": tempfile.mkstemp}
+
+    def interrupted(name):
+        def made(*args, **kwargs):
+            out = real[name](*args, **kwargs)
+            if ("probe" in kwargs.get("prefix", "")) == (where == "probe"):
+                os.kill(os.getpid(), signal.SIGINT)  # Python raises it at its next check, unless held back
+            return out
+        return made
+
+    monkeypatch.setattr(tempfile, "mkstemp" if where == "temporary file" else "mkdtemp",
+                        interrupted("mkstemp" if where == "temporary file" else "mkdtemp"))
+    with pytest.raises(KeyboardInterrupt):
+        if where == "probe":
+            check_output_dir(tmp_path / "out", lock=False)
+        elif where == "temporary folder":
+            with atomic_dir(tmp_path / "out"):
+                pass
+        else:
+            with atomic_file(tmp_path / "f.txt"):
+                pass
+    monkeypatch.undo()
+    assert [p.name for p in tmp_path.iterdir()] == []

@@ -78,7 +78,8 @@ def _check_parent(path: Path, option: str, create_parent: bool) -> None:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: the folder {parent} is not writable")
     try:  # os.access trusts the permission bits (root passes on /proc, a read-only mount): try it
-        os.rmdir(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}probe-", dir=parent))
+        with _interrupts_deferred():  # an interrupt between making and removing the probe would leave it behind
+            os.rmdir(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}probe-", dir=parent))
     except OSError as exc:
         raise OutputError(f"{option} {path}: nothing can be written into the folder {parent} "
                           f"({exc.strerror or exc})") from None
@@ -226,15 +227,28 @@ def _refuse_if_interrupted() -> None:
 
 @contextmanager
 def _interrupts_deferred() -> Iterator[None]:
-    """Hold SIGINT back (main thread only) while the renames run."""
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
-        yield
+    """Hold SIGINT back (main thread only) while a temporary is made or the renames run.
+
+    The Python-level handler is swapped for one that only records the signal,
+    and the recorded signal is handed to the original handler on leaving. A
+    thread's signal mask would not do: the kernel delivers a process-directed
+    SIGINT to any thread that does not block it (a library's worker thread),
+    and Python then runs the handler in the main thread at once.
+    """
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is None:
+        yield  # another thread cannot swap handlers; a handler installed outside Python cannot be restored
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    held: list[int] = []
+    original = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        signal.signal(signal.SIGINT, original)
+        if held:
+            if callable(original):
+                original(signal.SIGINT, None)
+            elif original == signal.SIG_DFL:
+                os.kill(os.getpid(), signal.SIGINT)
 
 
 def _remove(path: Path) -> None:
@@ -319,16 +333,19 @@ def atomic_dir(target: str | Path, *, overwrite: bool = False, create_parent: bo
                 target.parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise OutputError(f"{target}: cannot create the folder {target.parent} ({exc.strerror})") from None
-        tmp = _temp_sibling(target, TMP_PREFIX, folder=True)
-        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's 0700 -> what mkdir would give
+        tmp = None
         try:
+            with _interrupts_deferred():  # an interrupt lands after tmp is set, so the except below removes it
+                tmp = _temp_sibling(target, TMP_PREFIX, folder=True)
+            os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's 0700 -> what mkdir would give
             yield tmp
             write_manifest(tmp)
             with _interrupts_deferred():
                 _refuse_if_interrupted()
                 _commit_dir(tmp, target, overwrite)
         except BaseException:
-            _remove(tmp)
+            if tmp is not None:
+                _remove(tmp)
             raise
     finally:
         release_lock(target)
@@ -358,9 +375,11 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
     """
     check_output_file(target, overwrite=overwrite, option="output")
     target = _absolute(Path(target))
-    tmp = _temp_sibling(target, TMP_PREFIX, folder=False, suffix=target.suffix)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 -> what open() would give
+    tmp = None
     try:
+        with _interrupts_deferred():  # an interrupt lands after tmp is set, so the except below removes it
+            tmp = _temp_sibling(target, TMP_PREFIX, folder=False, suffix=target.suffix)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 -> what open() would give
         yield tmp
         with _interrupts_deferred():
             _refuse_if_interrupted()
@@ -368,5 +387,6 @@ def atomic_file(target: str | Path, *, overwrite: bool = False) -> Iterator[Path
                 raise OutputError(f"{target}: the file appeared while writing; use --overwrite to replace it")
             os.replace(tmp, target)
     except BaseException:
-        _remove(tmp)
+        if tmp is not None:
+            _remove(tmp)
         raise
