@@ -1033,11 +1033,12 @@ def main(argv=None) -> int:
     ap.add_argument("--keep", type=str, default=None,
                     help="only generate: write the recordings and each case's truth (case<i>.json) to this folder")
     ap.add_argument("--kept", type=str, default=None,
-                    help="diagnose and score the cases --keep left in this folder (all, or those of --only)")
+                    help="diagnose and score the cases --keep left in this folder (all, or those of --only); "
+                         "--tier 3: those --keep-recordings left, with that run's --seed and --cases")
     ap.add_argument("--keep-recordings", type=str, default=None,
                     help="--tier 3: keep each case's recording, truth and diagnosis in this folder")
     args = ap.parse_args(argv)
-    if args.kept:
+    if args.kept and args.tier != 3:
         return _run_kept(args)
     if args.tier == 3:
         if args.structures != ["bcc"] and "--structures" in (argv if argv is not None else sys.argv):
@@ -1047,8 +1048,11 @@ def main(argv=None) -> int:
         args.null_every = NULL_EVERY if args.null_every is None else args.null_every
         if not 1 <= args.null_every <= 3:
             ap.error(f"--tier 3 needs at least a third of null cases: --null-every 1, 2 or 3, got {args.null_every}")
+        if args.kept and (args.keep_recordings or args.baseline):
+            ap.error("--kept diagnoses recordings kept earlier: --keep-recordings and --baseline belong to the run "
+                     "that records (a kept baseline is used where there is one)")
         results, wall = run_tier3(args.cases, args.seed, args.null_every, args.only, args.jobs, args.keep_recordings,
-                                  args.baseline)
+                                  args.baseline, kept=args.kept)
         return _summarise(results, wall, args.json)
     if args.tier == 2:
         if args.plant == "linear":

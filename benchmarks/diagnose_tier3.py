@@ -274,20 +274,47 @@ def run_case(case: dict, workdir: str, keep: bool = False, baseline: bool = Fals
     except (RuntimeError, OSError, subprocess.CalledProcessError) as exc:
         return {**rec, "error": f"{type(exc).__name__}: {exc}", "time_generate_s": time.perf_counter() - t0}
     rec["time_generate_s"] = time.perf_counter() - t0
-    cmd = diagnose_command(lab, case["controller"], folder / "diagnosis", base)
+    rec = _diagnosed(rec, lab, base, folder / "diagnosis")
+    if not keep:
+        lab.unlink(missing_ok=True)
+    return rec
+
+
+def _diagnosed(rec: dict, lab: Path, base: Path | None, out: Path) -> dict:
+    """``rec`` with the blind diagnosis of recording ``lab`` (baseline ``base``) written to ``out``: ``result``,
+    ``error``, ``command`` and ``time_diagnose_s`` set (:func:`run_case`)."""
+    cmd = diagnose_command(lab, rec["controller"], out, base)
     short = {str(lab): "lab.uff", str(base): "baseline/lab.uff"}
-    rec["command"] = " ".join(["vlab"] + [short.get(a, a) for a in cmd[1:]])
+    rec = {**rec, "command": " ".join(["vlab"] + [short.get(a, a) for a in cmd[1:]])}
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     rec["time_diagnose_s"] = time.perf_counter() - t0
-    path = folder / "diagnosis" / "diagnosis.json"
+    path = out / "diagnosis.json"
     if proc.returncode != 0 or not path.exists():
         rec["error"] = f"vlab diagnose exit {proc.returncode}: {(proc.stderr or proc.stdout).strip()[-400:]}"
     else:
         rec["result"] = json.loads(path.read_text())
-    if not keep:
-        lab.unlink(missing_ok=True)
     return rec
+
+
+def kept_case(case: dict, folder: Path) -> dict:
+    """Diagnose again the recording a run kept for ``case`` (``folder/caseNN``, :func:`run_tier3` ``keep``) with
+    the code as it is now; the new diagnosis goes to ``caseNN/rediagnosis`` (the kept one is left as it was).
+
+    Returns the case as :func:`run_case` does (``time_generate_s`` 0, ``error`` set when the recording is missing
+    or its ``truth.json`` is not the one ``case`` draws: another seed, or cases drawn by other code)."""
+    sub = folder / f"case{case['index']:02d}"
+    rec = {**case, "result": None, "error": None, "time_diagnose_s": 0.0, "time_generate_s": 0.0}
+    try:
+        truth = json.loads((sub / "truth.json").read_text())
+    except (OSError, ValueError) as exc:
+        return {**rec, "error": f"{sub}: no readable truth.json ({exc})"}
+    if truth.get("seed") != case["sim_seed"] or truth.get("effects") != case["effects"]:
+        return {**rec, "error": f"{sub}/truth.json: not the case drawn now (seed {truth.get('seed')} for "
+                                f"{case['sim_seed']}, effects {truth.get('effects')} for {case['effects']}): give "
+                                "the seed of the run that kept it"}
+    base = sub / "baseline" / "lab.uff"
+    return _diagnosed(rec, sub / "lab.uff", base if base.exists() else None, sub / "rediagnosis")
 
 
 def case_line(r: dict, s: dict, line: str) -> str:
@@ -309,7 +336,7 @@ def case_line(r: dict, s: dict, line: str) -> str:
 
 
 def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, jobs: int = 1,
-              keep: str | None = None, baseline: bool = False) -> tuple[list, float]:
+              keep: str | None = None, baseline: bool = False, kept: str | None = None) -> tuple[list, float]:
     """Draw, record, diagnose and print the cases of tier 3 (one line each, as they finish).
 
     Parameters
@@ -325,6 +352,9 @@ def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, 
         recordings deleted).
     baseline : bool
         Record the structure before the change for each case and diagnose with it (:func:`run_case`).
+    kept : str, optional
+        Record nothing: diagnose again the recordings a run with ``keep`` left in this folder
+        (:func:`kept_case`; ``seed`` and ``null_every`` must be that run's).
 
     Returns
     -------
@@ -340,8 +370,9 @@ def run_tier3(n_cases: int, seed: int, null_every: int = NULL_EVERY, only=None, 
     with tempfile.TemporaryDirectory(prefix="vlab-tier3-") as tmp:
         work = keep or tmp
         with ProcessPoolExecutor(max(jobs, 1)) as ex:
-            for r in ex.map(run_case, cases, [work] * len(cases), [bool(keep)] * len(cases),
-                            [baseline] * len(cases)):
+            runs = (ex.map(kept_case, cases, [Path(kept)] * len(cases)) if kept else
+                    ex.map(run_case, cases, [work] * len(cases), [bool(keep)] * len(cases), [baseline] * len(cases)))
+            for r in runs:
                 results.append(r)
                 s = score(r)
                 print(case_line(r, s, _line(r, s)), flush=True)

@@ -4,7 +4,7 @@ case drawing and the mapping of vlab's effects onto the reference simulator's, w
 Checked: at least a third of the cases are null cases, half of those closed loop; every kind the simulator conceals
 is drawn, a loop delay and an actuator gain in closed loop; sizes are 2-5x their detection threshold; the
 simulator accepts every drawn effect and its truth maps back (EI factor, delay in periods); the diagnosis is
-called as a user without a sidecar calls it; a passenger is counted.
+called as a user without a sidecar calls it; a passenger is counted; a kept recording of another draw is refused.
 """
 
 from __future__ import annotations
@@ -89,3 +89,17 @@ def test_a_passenger_is_counted(t3):
     s = t3.score({"truth": truth, "result": {"selected": sel, "mismatch": True, "alternatives": [],
                                               "validated": {}}})
     assert s["passengers"] == 1 and not s["right"]
+
+
+def test_a_kept_recording_of_another_draw_is_refused_and_nothing_is_diagnosed(t3, cases, tmp_path):
+    """--kept with the wrong seed: the kept truth.json is not the case drawn now, so the case is an error and no
+    diagnosis is made (a re-diagnosis scored against another draw would report wrong parameter errors)."""
+    import json
+    case = cases[0]
+    sub = tmp_path / "case00"
+    sub.mkdir()
+    (sub / "truth.json").write_text(json.dumps({"seed": case["sim_seed"] + 1, "effects": case["effects"]}))
+    r = t3.kept_case(case, tmp_path)
+    assert r["result"] is None and "not the case drawn now" in r["error"] and not (sub / "rediagnosis").exists()
+    missing = t3.kept_case(cases[1], tmp_path)
+    assert missing["result"] is None and "truth.json" in missing["error"]
