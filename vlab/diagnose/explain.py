@@ -11,6 +11,7 @@ look-alikes on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfi
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 
@@ -26,7 +27,7 @@ from .fit.locate import located_point_ids
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import needs_pairs, needs_rerun_check, prune, select, shortlisted, too_small_to_name
+from .fit.rules import needs_pairs, needs_rerun_check, part_alone, prune, select, shortlisted, too_small_to_name
 from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
 from .instability_cause import recorded_growth_rate, search_cause
 from .model.labmodel import LabState
@@ -128,6 +129,22 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
     return cause.chosen
 
 
+def _parts_fitted(problem: Problem, pair: Combination, ranked: list) -> list:
+    """The parts of ``pair``, each fitted alone: the ranked single fit of the same label, else a new fit of a
+    copy (a part that cannot be fitted is left out)."""
+    singles = {h.label: h for h in ranked if not isinstance(h, Combination)}
+    out = []
+    for part in pair.parts:
+        h = singles.get(part.label)
+        if h is None:
+            try:
+                h = fit_hypothesis(copy.copy(part), problem)
+            except (VlabError, ValueError, np.linalg.LinAlgError):
+                continue
+        out.append(h)
+    return out
+
+
 def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, search: Search, timing: dict,
                    say) -> list:
     """Screen every hypothesis of the library of the lab ``nominal`` (context ``ctx``) on the data of
@@ -194,6 +211,13 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
     ranked = res.ranked = screen_and_fit(problem, nominal, ctx, res.location.sensitivity, search, timing, say)
     chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs, problem.policy)
     res.overdispersion = c_hat
+    if isinstance(chosen, Combination) and not search.self_excited:
+        alone = part_alone(_parts_fitted(problem, chosen, ranked), problem)
+        if alone is not None:
+            notes.append(f"{chosen.label}: {alone.label} alone explains the data within the model's accuracy "
+                         "(the mismatch tests pass after its modes are moved within their model form); the "
+                         "other part is not needed and is not selected")
+            chosen, alts = alone, []
     if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
         chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,
                                              search.validate_run, search.on_plant, notes, timing, say), []

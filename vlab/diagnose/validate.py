@@ -11,7 +11,9 @@ Misfits (before = nominal, after = with the effect):
 
 - FRF: weighted RMS of ``log10|H_rerun / H_recorded|`` over the lines of the
   diagnosis [decades] (:meth:`vlab.diagnose.problem.residuals.Problem.misfit` weights);
-  with a measured baseline, the reruns are referred through it as the data are
+  with a measured baseline, or a replay on another plant than the reruns'
+  (a MuJoCo replay checked on the linear plant), the reruns are referred
+  through it as the data are
   (``H_rerun * H_baseline / H_rerun,nominal``: the nominal rerun becomes the
   baseline), so that the rerun plant's own difference from the structure,
   present in the baseline too, cancels;
@@ -205,12 +207,12 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     mask = problem.mask
     w = problem.weight_mag[mask]
-    measured_base = problem.replay_plant is None and data.h_baseline is not None and data.h_recorded is not None
-    if measured_base:
-        # referred through the measured baseline as the data are: the reruns' change from the nominal rerun,
-        # applied to the baseline (H_b = H_baseline, H_a = H_rerun,modified H_baseline / H_rerun,nominal), is
-        # compared with the recording, so the rerun plant's own difference from the structure cancels as in
-        # the diagnosis
+    through_base = (problem.replay_plant != kind and data.h_baseline is not None and data.h_recorded is not None)
+    if through_base:
+        # referred through the baseline as the data are (a measured one, or the replay on another plant than
+        # the reruns'): the reruns' change from the nominal rerun, applied to the baseline (H_b = H_baseline,
+        # H_a = H_rerun,modified H_baseline / H_rerun,nominal), is compared with the recording, so the rerun
+        # plant's own difference from the structure cancels as in the diagnosis
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(np.abs(hb) > 0, data.h_baseline / hb, 0.0)
             gain = np.where(np.abs(data.h_baseline) > 0, np.abs(data.h_recorded / data.h_baseline) ** 2, 0.0)

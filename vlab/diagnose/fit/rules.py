@@ -29,7 +29,10 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    effect leaves (the policy's ``explained_share`` of its chi-square,
    :func:`explains_remainder`; not asked of a pair with a :data:`NONLINEAR` part); the choice must beat the nominal model by the
    evidence and the likelihood-ratio test, else nothing is selected. The
-   hypotheses within the evidence of it are its look-alikes.
+   hypotheses within the evidence of it are its look-alikes. A selected pair
+   one of whose parts, fitted alone, passes the mismatch tests with its
+   modes profiled within their model form is replaced by that part: the
+   other is a passenger (:func:`part_alone`).
 4. **Look-alikes by rerun**, when the choice or a look-alike is one only a
    rerun separates (:func:`needs_rerun_check`) and the data are time
    histories: the least time-domain error of a rerun wins, and a pair with a
@@ -252,6 +255,33 @@ def needs_pairs(best: Hypothesis | None, problem: Problem) -> bool:
     ``problem`` beyond the tests that declared the mismatch -- the noise, and where the nominal lab's modes
     were profiled the model form too (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`)."""
     return best is not None and not within_model_accuracy(problem, problem.state_for(best, best.params_))
+
+
+def part_alone(parts: list[Hypothesis], problem: Problem) -> Hypothesis | None:
+    """Rule 3, its last step: the part of a selected pair that explains the data by itself, or None.
+
+    A pair's second effect is needed only where the first alone leaves the data beyond the tests that
+    declared the mismatch. The pair is chosen on the fit's footing, where the model form enters to first
+    order only (its correlated part whitened); a model error within that form but beyond the linear range
+    (a lightly damped mode whose frequency is off by a fraction of its half-power bandwidth) still carries
+    chi-square there, and a second effect that moves every mode a little absorbs it. So each part, fitted
+    alone, is put to the mismatch tests themselves -- its modes profiled within the model form
+    (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`) -- and a part that passes them makes the
+    other a passenger.
+
+    Parameters
+    ----------
+    parts : list of Hypothesis
+        The pair's parts, each fitted alone (``params_`` and ``chi2_`` set).
+    problem : Problem
+
+    Returns
+    -------
+    Hypothesis or None
+        The passing part with the lower chi-square; None when each part alone leaves a mismatch.
+    """
+    ok = [h for h in parts if within_model_accuracy(problem, problem.state_for(h, h.params_))]
+    return min(ok, key=lambda h: h.chi2_) if ok else None
 
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,

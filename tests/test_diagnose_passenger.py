@@ -1,0 +1,61 @@
+"""The passenger check of rule 3 (vlab.diagnose.fit.rules.part_alone): a pair's part that alone passes the
+mismatch tests makes the other a passenger. Closed-form modal FRFs of the BCC: a true damping change of one mode, and the structure's
+frequency of another mode off the model by a third of a standard uncertainty of its model form (within the
+model's accuracy) or by twelve (a second real change)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from vlab.diagnose.data.measured import FrfData
+from vlab.diagnose.effects.structural import AddedMass, ModalDamping
+from vlab.diagnose.fit.estimate import fit_hypothesis
+from vlab.diagnose.fit.rules import part_alone
+from vlab.diagnose.model.labmodel import LabState, point_modes_of, predict_frf
+from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, perturbed_modes
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
+from vlab.lab.loop import HardwareChain
+from vlab.models import nominal_fe_model
+
+MODE, OTHER, SIGMA = 3, 5, 2e-3  # damping of mode 3 changed; mode 5 (14.4 Hz, zeta 0.003) uncertain by 0.2 %
+KW = {"excitation_point": 9, "output_points": (3, 6)}
+PTS = (3, 5, 6, 7, 9)  # the outputs and the actuators
+
+
+def _problem(offset_sigmas: float) -> Problem:
+    """Data: the lab with mode 3's damping doubled and mode 5's frequency ``offset_sigmas`` standard
+    uncertainties high, 0.1 % noise; the model form: mode 5's frequency only."""
+    fe = nominal_fe_model("bcc")
+    lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    f = np.arange(40, 500) * 0.05
+    ctx = context_for(lab, (2.0, 25.0), None)
+    changed = ModalDamping(mode=MODE).apply(lab, np.array([0.008]), ctx)
+    pm = point_modes_of(changed, PTS)
+    h = predict_frf(replace(changed, point_modes=perturbed_modes(pm, "f", OTHER - 1, None, offset_sigmas * SIGMA)),
+                    f, **KW)
+    data = FrfData("closed-form.uff", "frf", f, h, (1e-2 * np.abs(h)) ** 2, 9, (3, 6))
+    n = len(pm.omega)
+    unc = ModelFormUncertainty(np.where(np.arange(n) == OTHER - 1, SIGMA, 0.0), np.full(n, np.inf), {}, {})
+    mf = frf_model_form(lab, f, uncertainty=unc, **KW)
+    return Problem(data, lab, context_for(lab, (2.0, 25.0), data), floor=0.0, model_form_frf=mf,
+                   profile_nominal=True)  # as the diagnosis's problem: its mismatch test profiles the modes
+
+
+def _parts(problem: Problem) -> list:
+    return [fit_hypothesis(ModalDamping(mode=MODE), problem), fit_hypothesis(AddedMass(point=6), problem)]
+
+
+def test_a_part_that_explains_the_data_within_the_model_form_makes_the_other_a_passenger():
+    problem = _problem(0.3)
+    damping, mass = _parts(problem)
+    assert abs(damping.params_[0] / 0.008 - 1) < 0.02
+    assert part_alone([damping, mass], problem) is damping
+    assert part_alone([mass, damping], problem) is damping
+
+
+def test_no_part_alone_when_the_second_change_lies_beyond_the_model_form():
+    problem = _problem(12.0)
+    assert part_alone(_parts(problem), problem) is None
