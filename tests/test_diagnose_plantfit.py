@@ -323,3 +323,23 @@ def test_the_answer_is_the_refitted_value_with_the_fe_fit_beside_it():
     res.plant_refit = None
     joint, _ = DiagnosisResult._selected_entries(res)
     assert joint["parameters"][name] == 5000.0 and "fe_fit" not in joint
+
+
+def test_the_chosen_effect_is_refitted_on_the_plant_however_far_off_its_fe_value_lies_there():
+    """Tier-3 seed 57057, case 20 (the bottom segment 8-9 stiffened): the FE fit's value put the chosen segment at
+    a plant chi-square of 1.43e5, far behind other segments scored at their FE values; refitted on the plant
+    it is the best (its plant value lies 19 % from its FE value). Scored only at its FE value it lost to a
+    refitted neighbour. The chosen effect is refitted whatever its rank at the FE values."""
+    from vlab.diagnose.fit.plantchoice import choose_on_plant
+    from vlab.diagnose.effects.hypotheses import MemberStiffness
+
+    def seg(lo, ei, chi2):
+        h = MemberStiffness(member="beam", segment=(lo, lo + 1))
+        h.params_, h.chi2_ = np.array([ei]), chi2
+        return h
+
+    s89, s12, s67 = seg(8, 57.65, 5000.0), seg(1, 28.0, 5200.0), seg(6, 30.0, 5300.0)
+    at_fe = {s89.label: 1.428e5, s12.label: 2.2e4, s67.label: 1.65e4}
+    refitted = {s89.label: 4845.0, s12.label: 2.08e4, s67.label: 1.6e4}
+    chosen, refit, alts, note = choose_on_plant(_TablePlant(at_fe, refitted), s89, [s12, s67], [s89, s12, s67])
+    assert chosen is s89 and refit.chi2 == 4845.0 and alts == []

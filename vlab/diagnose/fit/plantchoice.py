@@ -193,9 +193,9 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     model that is rerun. Here the selected effect and up to
     ``max_lookalikes`` of its single, refittable alternatives
     (:func:`refit_index`) are scored on the plant's linearisation at their
-    FE values, the ``refit_best`` best of them are refitted there
+    FE values, the ``refit_best`` best of them and the selected one are refitted there
     (:meth:`PlantModel.refit`, from their own FE fits; in parallel processes,
-    :func:`map_on_plant`), and the least plant
+    :func:`map_on_plant`), and the least refitted plant
     chi-square wins. The alternatives left are those whose plant chi-square
     (refitted, else at the FE value) is within the policy's ``evidence`` of the
     winner's, and those not scored.
@@ -261,7 +261,10 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     cands = [chosen] + looks
     known.update({h.label: model.chi2(h, h.params_) for h in looks})
     refits = {}
-    best_known = sorted(cands, key=lambda h: known[h.label])[:refit_best]
+    # the chosen effect is always refitted: scored at its FE value it would be judged off its own best, against
+    # challengers refitted to theirs (a change the plant resolves differently moves the plant's value far)
+    best_known = list({h.label: h for h in [chosen] + sorted(cands, key=lambda h: known[h.label])[:refit_best]
+                       }.values())
     for h, r in zip(best_known, map_on_plant(_refit_own, model, [(h,) for h in best_known])):
         if r is not None:
             refits[h.label] = r

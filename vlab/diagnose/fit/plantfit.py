@@ -21,7 +21,8 @@ with the plant's own modal damping) and the rest of the lab (hardware
 chain, controller) as before; data referred through a baseline are referred
 to the plant's linearisation instead of the FE model. The fit is a
 chi-square scan of :data:`SCAN_POINTS` values within ``+-SCAN_HALF_WIDTH``
-(in ``ln p``) of the FE value, then a bounded Brent search between the best
+(in ``ln p``) of the FE value, followed outward step by step while its least
+chi-square lies at its edge, then a bounded Brent search between the best
 scan point's neighbours. The FE value is one of the scan points, so the
 refit never ends worse on the plant's linearisation than the FE value.
 
@@ -70,7 +71,8 @@ from ..model.labmodel import LabState, PointModes
 from ..problem.residuals import Problem
 
 #: Half-width of the scan in ``ln p`` around the FE-fitted value (+-12 %: the FE/MuJoCo
-#: frequency offsets moved the grid's joint stiffness by 7 %). A chosen range, not fitted.
+#: frequency offsets moved the grid's joint stiffness by 7 %). A chosen range, not fitted; a least chi-square
+#: at its edge is followed outward (:func:`_bracketed`).
 SCAN_HALF_WIDTH = 0.12
 
 #: Scan values (odd: the FE value is the middle one); the spacing (6 %) is half the
@@ -257,6 +259,12 @@ class PlantModel:
         except (ModelError, SpecError):
             return math.inf
 
+    def _log_bounds(self, h: Hypothesis, x0: np.ndarray, i: int) -> tuple[float, float]:
+        """The range of ``h``'s parameter ``i`` (its search space) in ``ln(p / x0[i])``."""
+        _, lo, hi = h.space(self.base, self.ctx)
+        with np.errstate(divide="ignore"):
+            return float(np.log(lo[i] / x0[i])), float(np.log(hi[i] / x0[i]))
+
     def refit(self, h: Hypothesis, x0, index: int | None = None, *, half_width: float = SCAN_HALF_WIDTH,
               points: int = SCAN_POINTS) -> PlantRefit | None:
         """Refit the mode-moving parameter of ``h``, starting from ``x0`` [SI] (the FE fit), the others held.
@@ -266,6 +274,7 @@ class PlantModel:
 
         A chi-square scan of ``points`` values (odd; default :data:`SCAN_POINTS`)
         within ``+-half_width`` in ``ln p`` (default :data:`SCAN_HALF_WIDTH`),
+        followed outward while the least lies at its edge (:func:`_bracketed`, within the parameter's range),
         then a bounded Brent search (:data:`XTOL`) between the best
         scan point's neighbours; the least chi-square seen is kept, so the
         result is never worse than ``x0``.
@@ -296,13 +305,31 @@ class PlantModel:
 
         step = half_width / (points // 2)
         grid = step * np.arange(-(points // 2), points // 2 + 1)  # 0 (the FE value) exactly in the middle
-        b = int(np.argmin([chi2(u) for u in grid]))
-        scipy.optimize.minimize_scalar(chi2, bounds=(grid[b] - step, grid[b] + step), method="bounded",
+        u_b = _bracketed(chi2, grid, step, self._log_bounds(h, x0, i))
+        scipy.optimize.minimize_scalar(chi2, bounds=(u_b - step, u_b + step), method="bounded",
                                        options={"xatol": XTOL})
         u_best = min(seen, key=seen.get)  # the least chi-square seen, scan points included
         x = params(u_best)
         return PlantRefit(h.param_names[i], float(x0[i]), float(x[i]), x, h.apply(self.base, x, self.ctx),
                           chi2(0.0), seen[u_best], self.n_linearisations - n0, time.perf_counter() - t0)
+
+
+def _bracketed(chi2, grid: np.ndarray, step: float, bounds: tuple[float, float]) -> float:
+    """The scan point of least ``chi2`` on ``grid`` (in ``ln p``), stepped on outward by ``step`` while the
+    least lies at the scan's edge and the chi-square keeps falling (within ``bounds``): a minimum at the edge of
+    a chosen range is not bracketed, and the Brent search between its neighbours would end at that edge."""
+    vals = {float(u): chi2(u) for u in grid}
+    u_b = min(vals, key=vals.get)
+    for side in (-1.0, 1.0):
+        while u_b == (min(vals) if side < 0 else max(vals)):
+            u = u_b + side * step
+            if not bounds[0] <= u <= bounds[1]:
+                break
+            vals[u] = chi2(u)
+            if not vals[u] < vals[u_b]:
+                break
+            u_b = u
+    return u_b
 
 
 def refit_parts(model: PlantModel, pair: Combination, r: PlantRefit, parts) -> PlantRefit:
