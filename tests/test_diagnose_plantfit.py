@@ -343,3 +343,16 @@ def test_the_chosen_effect_is_refitted_on_the_plant_however_far_off_its_fe_value
     refitted = {s89.label: 4845.0, s12.label: 2.08e4, s67.label: 1.6e4}
     chosen, refit, alts, note = choose_on_plant(_TablePlant(at_fe, refitted), s89, [s12, s67], [s89, s12, s67])
     assert chosen is s89 and refit.chi2 == 4845.0 and alts == []
+
+
+def test_a_minimum_beyond_the_scan_edge_is_followed_to_within_a_step():
+    """A parabola in ln p with its minimum at +0.31 (outside the +-0.12 scan): the scan point of least value
+    is followed outward to the step nearest the minimum; within the parameter's range only; a minimum inside
+    the scan is left where the scan found it."""
+    from vlab.diagnose.fit.plantfit import _bracketed
+
+    grid = np.array([-0.12, -0.06, 0.0, 0.06, 0.12])
+    u = _bracketed(lambda x: (x - 0.31) ** 2, grid, 0.06, (-np.inf, np.inf))
+    assert u == pytest.approx(0.30) and abs(u - 0.31) <= 0.03
+    assert _bracketed(lambda x: (x - 0.31) ** 2, grid, 0.06, (-np.inf, 0.2)) == pytest.approx(0.18)
+    assert _bracketed(lambda x: (x + 0.05) ** 2, grid, 0.06, (-np.inf, np.inf)) == pytest.approx(-0.06)

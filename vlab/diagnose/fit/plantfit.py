@@ -260,10 +260,11 @@ class PlantModel:
             return math.inf
 
     def _log_bounds(self, h: Hypothesis, x0: np.ndarray, i: int) -> tuple[float, float]:
-        """The range of ``h``'s parameter ``i`` (its search space) in ``ln(p / x0[i])``."""
+        """The range of ``h``'s parameter ``i`` (its search space) in ``ln(p / x0[i])``, ``x0[i] > 0``; a lower
+        bound at or below zero is no bound in ``ln p``."""
         _, lo, hi = h.space(self.base, self.ctx)
-        with np.errstate(divide="ignore"):
-            return float(np.log(lo[i] / x0[i])), float(np.log(hi[i] / x0[i]))
+        low = math.log(lo[i] / x0[i]) if lo[i] > 0 else -math.inf
+        return low, (math.log(hi[i] / x0[i]) if hi[i] > 0 else -math.inf)
 
     def refit(self, h: Hypothesis, x0, index: int | None = None, *, half_width: float = SCAN_HALF_WIDTH,
               points: int = SCAN_POINTS) -> PlantRefit | None:
