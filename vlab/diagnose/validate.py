@@ -24,6 +24,24 @@ The FRF misfit a perfect model would still show, from the measured noise
 alone, is reported with them (``noise_misfit``): a small effect's misfit
 cannot fall further than that, whatever the model.
 
+Two properties of a rerun plant that are not the effect's are kept out of
+the judgement:
+
+- **its start**: a warm start's error decays in the guard period only if the
+  lab's slowest mode does; where it may not (:func:`outlasts_guard`, a nearly
+  undamped mode), both reruns run through every analysed period and their
+  FRFs are estimated as the recording's are, the transient left removed;
+- **its level dependence**: a MuJoCo plant's response is not exactly linear
+  (finite rotations of its hinge chain, a tensioned cable's stretch), and an
+  effect that sharpens a resonance raises the level there. Both MuJoCo reruns
+  are repeated at :data:`LOW_LEVEL` x the recorded force with the lab's own
+  nonlinear elements scaled with it
+  (:func:`vlab.diagnose.data.replay.at_amplitude`); the chi-square below is
+  that of the low-level reruns, the best linear approximations, with both
+  reruns' distortions as a variance about them
+  (:func:`distortion_variance`), since whether the structure shares the
+  plant's level dependence is not known.
+
 The decision weighs the reruns on the footing of the fit that chose the
 effect: their chi-square with the diagnosis's own covariance (noise, floor
 and the model form's correlated part whitened,
@@ -48,8 +66,17 @@ from ..io.recording import Recording
 from .data.measured import FrfData
 from .data.replay import frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns
+from .data.warmstart import GUARD_DECAY, guard_ticks, recorded_window
 from .model.labmodel import LabState
+from .model.nominal import settling_time
 from .problem.misfits import complex_log_misfit, exact_errors_of, log_misfit
+
+
+#: Level of the reruns that give a MuJoCo plant's best linear approximation [1] (:func:`distortion_variance`):
+#: a distortion that grows at least in proportion to the level keeps at most this fraction of itself there.
+#: The lab's own nonlinear elements scale exactly (:func:`vlab.diagnose.data.replay.at_amplitude`). A chosen
+#: level; a lower one changes the estimated distortion by at most this fraction.
+LOW_LEVEL = 0.1
 
 
 @dataclass(frozen=True)
@@ -179,6 +206,9 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     if whole_record:
         window = (0, 0, None)
         base_key, key = f"{base_key}@whole", (None if key is None else f"{key}@whole")
+    elif outlasts_guard(problem, (base, modified)):
+        window = recorded_window(data, rec.dt_s, None, guard_s=problem.guard_s)
+        base_key, key = f"{base_key}@all", (None if key is None else f"{key}@all")
 
     def both(k: str) -> list[Recording]:
         runs = reruns(problem, [(base, base_key), (modified, key)], k, seed=seed, workers=workers, window=window)
@@ -198,13 +228,76 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     how = last_reruns_note(problem)  # both reruns made here: one mujoco.batch, or processes (and why)
     desc = ("linear FE plant" if kind == "linear" else "MuJoCo plant" if base.mjcf is None
             else f"MuJoCo plant of {base.mjcf}") + note + (f" ({how})" if how and kind == "mujoco" else "")
-    return _compared(problem, desc, kind, runs, pts)
+    low = None
+    if kind == "mujoco" and not whole_record:
+        low = reruns(problem, [(base, f"{base_key}@level"), (modified, None if key is None else f"{key}@level")],
+                     kind, seed=seed, workers=workers, window=window, amplitude=LOW_LEVEL)
+        low = None if any(isinstance(r, VlabError) for r in low) else low
+    return _compared(problem, desc, kind, runs, pts, low)
 
 
-def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validation:
-    """The two reruns (nominal, modified) compared with the recording (:func:`validate`'s last step)."""
+def outlasts_guard(problem, labs) -> bool:
+    """Whether a warm-started rerun's start error may outlast its guard: the slowest mode in the band of one
+    of ``labs`` decays to :data:`~vlab.diagnose.data.warmstart.GUARD_DECAY` later than the guard before the
+    analysed periods ends (:func:`~vlab.diagnose.model.nominal.settling_time`; the guard is capped at
+    :data:`~vlab.diagnose.data.warmstart.GUARD_PERIODS` periods). Such reruns run through every analysed
+    period, and their FRFs are estimated as the recording's are, the transient left removed
+    (:func:`~vlab.diagnose.data.replay.frf_of`); a nearly undamped mode would otherwise carry the start's
+    error through the one analysed period a rerun simulates.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording; its ``guard_s`` and band.
+    labs : sequence of LabState
+        The labs to be rerun.
+
+    Returns
+    -------
+    bool
+        False for data not estimated period by period.
+    """
+    data: FrfData = problem.data
+    if not data.periodic or data.recording is None:
+        return False
+    dt = data.recording.dt_s
+    guard = guard_ticks(data, dt, problem.guard_s) * dt
+    return any(settling_time(st, problem.ctx.band_hz, decay=GUARD_DECAY) > guard for st in labs)
+
+
+def distortion_variance(full: tuple, low: tuple) -> np.ndarray:
+    """The relative variance [1] per line of the plant's own level dependence: ``|d_b|^2 + |d_a|^2``,
+    ``d = H / H_low - 1``, of the nominal and the modified reruns' FRFs ``full`` at the recorded level and
+    ``low`` at :data:`LOW_LEVEL` x it (each ``d`` the nonlinear distortion, to within ``LOW_LEVEL`` of itself),
+    shape (n_f, n_o); 0 where a ratio is not finite.
+
+    Whether the recorded structure shares the plant's level dependence (a hinge chain's finite rotations, a
+    cable's stretch) is not known: it is the plant's model form, not the effect's. So the reruns are judged
+    by their best linear approximations (the low-level reruns, which keep the lab's saturation and
+    friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both distortions as a variance about
+    them, one covariance for both (Pintelon & Schoukens, *System Identification: A Frequency Domain
+    Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear approximation and its nonlinear distortions).
+    """
+    var = 0.0
+    for h, h_low in zip(full, low):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = h / h_low - 1.0
+        var = var + np.where(np.isfinite(d), np.abs(d) ** 2, 0.0)
+    return var
+
+
+def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list | None = None) -> Validation:
+    """The two reruns (nominal, modified) compared with the recording (:func:`validate`'s last step); with
+    their reruns at a low level ``low``, their chi-square is that of the low-level reruns with the
+    distortion as a variance (:func:`distortion_variance`)."""
     data: FrfData = problem.data
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
+    lb, la = (hb, ha) if low is None else (frf_of(low[0], data), frf_of(low[1], data))
+    extra = None if low is None else distortion_variance((hb, ha), (lb, la))
+    if extra is not None:
+        desc += (f"; judged by its reruns at {LOW_LEVEL:g} x the level, the plant's own level dependence (up to "
+                 f"{np.sqrt(np.max(extra[problem.mask])):.2g} of an FRF, median "
+                 f"{np.sqrt(np.median(extra[problem.mask])):.2g}) counted as its uncertainty")
     mask = problem.mask
     w = problem.weight_mag[mask]
     through_base = (problem.replay_plant != kind and data.h_baseline is not None and data.h_recorded is not None)
@@ -215,8 +308,9 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         # plant's own difference from the structure cancels as in the diagnosis
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(np.abs(hb) > 0, data.h_baseline / hb, 0.0)
+            scale_low = np.where(np.abs(lb) > 0, data.h_baseline / lb, 0.0)
             gain = np.where(np.abs(data.h_baseline) > 0, np.abs(data.h_recorded / data.h_baseline) ** 2, 0.0)
-        hb, ha = hb * scale, ha * scale
+        hb, ha, lb, la = hb * scale, ha * scale, lb * scale_low, la * scale_low
         target, target_var = data.h_recorded, data.var_recorded + data.var_baseline * gain
     else:
         # a rerun on the plant the recording was made on -- the MuJoCo plant, or the plant the recorded force
@@ -227,7 +321,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
-    chi2s = chi2_in_data_frame(problem, hb, target), chi2_in_data_frame(problem, ha, target)
+    chi2s = chi2_in_data_frame(problem, lb, target, extra), chi2_in_data_frame(problem, la, target, extra)
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))
@@ -237,7 +331,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple) -> Validati
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s)
 
 
-def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray) -> float:
+def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None) -> float:
     """Chi-square [1] of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit (module notes):
     ``h`` referred into the data's frame, ``h * H_data / target`` (the factor that took ``target`` to the data
     ``problem.data.h``; 1 where it is not finite), through
@@ -249,6 +343,8 @@ def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray) -> float:
         Of FRF data.
     h, target : ndarray, complex, shape (n_f, n_o)
         [(m/s)/N].
+    extra_var : ndarray, shape (n_f, n_o), optional
+        Relative variance [1] added to each line's noise (:func:`distortion_variance`).
 
     Returns
     -------
@@ -256,7 +352,7 @@ def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray) -> float:
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         frame = problem.data.h / target
-    return problem.frf_chi2(h * np.where(np.isfinite(frame), frame, 1.0))
+    return problem.frf_chi2(h * np.where(np.isfinite(frame), frame, 1.0), extra_var)
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

@@ -22,6 +22,8 @@ and kept in the diagnosis's run context (:mod:`vlab.diagnose.data.rerun_jobs`).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ...fe.damping import structural_damping
@@ -93,6 +95,42 @@ class FrictionPlant:
     def displacements(self, points) -> np.ndarray:
         """Displacements [m] at ``points``."""
         return self.inner.displacements(points)
+
+
+def at_amplitude(state: LabState, scale: float) -> LabState:
+    """The lab whose every force level is scaled by ``scale``: the amplifier's force limits, the Coulomb
+    friction forces, the RMS command forces of the saturation's describing function and the controller's
+    sensor noise (the equivalent dashpots are ratios of force to velocity and stay). Played back with the
+    recorded force times ``scale``, every response of the lab's own elements -- linear ones, and the
+    saturation and friction, whose forces are homogeneous of degree one in the level -- is the recorded
+    level's times ``scale``; what does not scale is the plant's own amplitude dependence (a MuJoCo plant's
+    finite rotations, a tensioned cable's stretch): the best linear approximation of a nonlinear plant and
+    its nonlinear distortion (Pintelon & Schoukens, *System Identification: A Frequency Domain Approach*,
+    2nd ed., Wiley 2012, Ch. 3).
+
+    Parameters
+    ----------
+    state : LabState
+    scale : float
+        Level factor [1], > 0.
+
+    Returns
+    -------
+    LabState
+
+    Raises
+    ------
+    ValueError
+        A scale that is not a positive finite number.
+    """
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise ValueError(f"amplitude scale must be a positive finite number, got {scale!r}")
+    ch = state.chain
+    lim = None if ch.amplifier_limit_n is None else ch.amplifier_limit_n * scale
+    chain = replace(ch, amplifier_limit_n=lim, noise_m_s=ch.noise_m_s * scale,
+                    channel_limit_n={p: (None if v is None else v * scale) for p, v in ch.channel_limit_n.items()})
+    return replace(state, chain=chain, frictions=tuple((p, f * scale, c) for p, f, c in state.frictions),
+                   rms_force_n={p: v * scale for p, v in state.rms_force_n.items()})
 
 
 def linear_plant(state: LabState):

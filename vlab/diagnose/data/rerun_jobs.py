@@ -20,7 +20,7 @@ from ...errors import VlabError
 from .batchrerun import batch_key, rerun_together, why_apart
 from ..model.labmodel import LabState
 from .measured import FrfData
-from .replay import mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
+from .replay import at_amplitude, mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
 from .warmstart import recorded_window
 
 #: Run several MuJoCo reruns of :func:`reruns` whose plants share one layout as one ``mujoco.batch``
@@ -203,15 +203,13 @@ def _in_processes(rest: list, args: tuple, workers: int) -> dict:
 
 
 def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, batch: bool | None = None,
-           window: tuple | None = None) -> list:
+           window: tuple | None = None, amplitude: float = 1.0) -> list:
     """Reruns of the recorded test of ``problem`` on several lab states, cached on ``problem``.
 
-    Several MuJoCo reruns (:data:`BATCH_MIN_RERUNS` or more, see ``batch``)
-    whose plants differ only in values (the same sizes of everything
-    ``MjData`` holds: stiffness, damping, chain and controller gains; not an
-    added mass, a new geom) run as one ``mujoco.batch``
-    (:mod:`vlab.diagnose.data.batchrerun`), bit for bit the reruns made one
-    by one; the others, and every linear rerun, run in parallel processes.
+    Several MuJoCo reruns (:data:`BATCH_MIN_RERUNS` or more, see ``batch``) whose plants differ only in
+    values (the same sizes of everything ``MjData`` holds: stiffness, damping, chain and controller gains;
+    not an added mass, a new geom) run as one ``mujoco.batch`` (:mod:`vlab.diagnose.data.batchrerun`), bit
+    for bit the reruns made one by one; the others, and every linear rerun, run in parallel processes.
     :func:`last_reruns_note` says which way they went.
 
     Parameters
@@ -224,11 +222,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     seed : int
         Seed of the controller's sensor noise.
     workers : int
-        Parallel processes when more than one rerun is needed (falls back to
-        one process where a pool cannot start); each rerun still running in
-        the background (:func:`start_background_rerun`) holds one of them, and
-        one of ``jobs`` is made while it finishes (background reruns already
-        finished are collected first and hold none).
+        Parallel processes when more than one rerun is needed (falls back to one process where a pool cannot
+        start); each rerun still running in the background (:func:`start_background_rerun`) holds one of
+        them, and one of ``jobs`` is made while it finishes (finished ones are collected first, holding none).
     batch : bool, optional
         True: run MuJoCo reruns that can share a batch as one (two or more);
         False: processes only; None (default): as one batch when
@@ -237,6 +233,10 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         ``(start, period, stop)`` ticks of the reruns (default :func:`~vlab.diagnose.data.warmstart.recorded_window`:
         a warm start before the analysed periods; ``(0, 0, None)``: the whole record from rest). The cache
         keys must name a window other than the default.
+    amplitude : float
+        The recorded force played back times ``amplitude``, on the states at that level
+        (:func:`~vlab.diagnose.data.replay.at_amplitude`); the reruns' signals are at that level. The cache
+        keys must name an amplitude other than 1.
 
     Returns
     -------
@@ -246,6 +246,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
     """
     data: FrfData = problem.data
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    if amplitude != 1.0:
+        force = force * amplitude
+        jobs = [(at_amplitude(st, amplitude), k) for st, k in jobs]
     window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s) if window is None else window
     pts = tuple(data.output_points)
     cache, pending = problem.run.reruns, problem.run.background

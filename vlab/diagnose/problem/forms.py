@@ -76,3 +76,41 @@ def line_residual(h_model: np.ndarray, h_meas: np.ndarray, part_sigma: np.ndarra
         else:
             e = np.log(np.abs(ratio)) + 1j * np.angle(ratio)
     return _parts(e, part_sigma, use_phase)
+
+
+def whitener(sens: np.ndarray, sigma: np.ndarray, part_sigma: np.ndarray, use_phase: bool):
+    """``(U, c)`` such that ``r + U (c * (U^T r))`` whitens a residual ``r`` (each part already divided by its
+    ``part_sigma``) for the model-form covariance ``A A^T``, ``A = J diag(sigma)``: with ``A = U S V^T``,
+    ``(I + A A^T)^(-1/2) = I + U diag(1 / sqrt(1 + s^2) - 1) U^T`` (the inverse square root of a low-rank
+    update of the identity, e.g. Golub & Van Loan, *Matrix Computations*, 4th ed., Sec. 2.4 and 4.2).
+
+    Parameters
+    ----------
+    sens : ndarray, complex, shape (n, k)
+        ``d ln H / d theta_k`` of the model form's ``k`` parameters on the ``n`` used lines and channels.
+    sigma : ndarray, shape (k,)
+        The parameters' standard uncertainties (in the units of ``theta``).
+    part_sigma : ndarray, shape (n,)
+        Standard deviation of each real part of the residual [1].
+    use_phase : bool
+        The residual holds the imaginary parts too (shape (2 n,)).
+
+    Returns
+    -------
+    (ndarray, ndarray) or None
+        ``U`` (shape (n or 2 n, min(...)) and ``c``; None where ``sigma`` is empty.
+    """
+    if sigma.size == 0:
+        return None
+    parts = [sens.real] + ([sens.imag] if use_phase else [])
+    a = np.concatenate(parts, axis=0) / np.concatenate([part_sigma] * len(parts))[:, None] * sigma
+    u, sv, _ = np.linalg.svd(a, full_matrices=False)
+    return u, 1.0 / np.sqrt(1.0 + sv**2) - 1.0
+
+
+def whitened(r: np.ndarray, w) -> np.ndarray:
+    """``r + U (c * (U^T r))`` for the whitener ``w = (U, c)`` of :func:`whitener` (``r`` itself for None)."""
+    if w is None:
+        return r
+    u, c = w
+    return r + u @ (c * (u.T @ r))

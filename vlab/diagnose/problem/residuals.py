@@ -44,7 +44,7 @@ from ..model.labmodel import LabState, natural_frequencies, predict_frf
 from ..model.modelform import ROUNDING_SIGMA, model_form_uncertainty
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from .context import Context
-from .forms import PENALTY, line_residual
+from .forms import PENALTY, line_residual, whitened, whitener
 from .misfits import log_misfit
 
 #: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
@@ -166,18 +166,14 @@ class Problem:
             n = len(data.freq_hz)
             self.n_obs = n + int(self.damping_compared.sum()) + (n if data.shapes is not None else 0)
 
-    def _whitener(self):
-        """``(U, c)`` such that ``r + U (c * (U^T r))`` whitens a residual ``r`` (already divided by its noise
-        and floor sigma) for the model-form covariance ``A A^T``, ``A = J diag(sigma)``: with ``A = U S V^T``,
-        ``(I + A A^T)^(-1/2) = I + U diag(1 / sqrt(1 + s^2) - 1) U^T``. None without model form."""
+    def _whitener(self, part_sigma: np.ndarray | None = None):
+        """The model form's whitener for parts of standard deviation ``part_sigma`` (default the data's),
+        :func:`.forms.whitener`; None without model form."""
         mf = self.model_form_frf
-        if mf is None or mf.sigma.size == 0:
+        if mf is None:
             return None
-        s = mf.sens[self.mask]  # (n_used, k)
-        parts = [s.real] + ([s.imag] if self.use_phase else [])
-        a = np.concatenate(parts, axis=0) / np.concatenate([self.part_sigma] * len(parts))[:, None] * mf.sigma
-        u, sv, _ = np.linalg.svd(a, full_matrices=False)
-        return u, 1.0 / np.sqrt(1.0 + sv**2) - 1.0
+        ps = self.part_sigma if part_sigma is None else part_sigma
+        return whitener(mf.sens[self.mask], mf.sigma, ps, self.use_phase)
 
     # ------------------------------------------------------------------ modal helpers
     def _nominal_modes(self, base: LabState) -> None:
@@ -356,24 +352,27 @@ class Problem:
             return np.full(self.n_obs, PENALTY)
         return np.where(np.isfinite(r), r, PENALTY)
 
-    def frf_chi2(self, h: np.ndarray) -> float:
+    def frf_chi2(self, h: np.ndarray, extra_var: np.ndarray | None = None) -> float:
         """Chi-square [1] of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``) on the fits'
-        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only); a line
-        that is not finite counts as :meth:`residual`'s does. Raises ValueError for another shape."""
+        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only), with
+        ``extra_var`` (shape (n_f, n_o), a relative complex variance [1] per line, e.g. a rerun plant's own
+        uncertainty) added to each line's noise; a line that is not finite counts as :meth:`residual`'s
+        does. Raises ValueError for another shape."""
         h = np.asarray(h)
         if h.shape != self.data.h.shape:
             raise ValueError(f"FRFs of shape {h.shape} compared with data of shape {self.data.h.shape}")
-        r = self._frf_residual(h)
+        if extra_var is None:
+            r = self._frf_residual(h)
+        else:
+            ps = np.sqrt(self.part_sigma**2 + np.asarray(extra_var, dtype=float)[self.mask] / 2.0)
+            r = line_residual(h[self.mask], self.data.h[self.mask], ps, form="log", use_phase=self.use_phase)
+            r = whitened(r, self._whitener(ps))
         r = np.where(np.isfinite(r), r, PENALTY)
         return float(r @ r)
 
     def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:
         r = self.line_residual(hm[self.mask], test=test)
-        w = getattr(self, "_whiten", None)
-        if w is not None:
-            u, c = w
-            r = r + u @ (c * (u.T @ r))
-        return r
+        return whitened(r, getattr(self, "_whiten", None))
 
     def _modal_residual(self, state: LabState) -> np.ndarray:
         d: ModalData = self.data
