@@ -99,6 +99,34 @@ def test_a_plants_level_dependence_around_the_sharpened_mode_is_judged_as_its_un
     assert worsens(w) and not improves_on_nominal(one, w.chi2_before, 1.0, w)[0]
 
 
+def test_reruns_on_another_plant_are_referred_through_the_baseline_where_the_plants_own_error_cancels(
+        monkeypatch):
+    """Closed form of the referral of :func:`vlab.diagnose.validate._compared`: the data were referred through
+    a baseline (the structure's own FRFs, ``H_baseline``) and the reruns are made on another plant, which
+    differs from the structure by a 5 % ripple ``g`` in every FRF (``H_rerun = H_structure g``). Referred as
+    the data are, ``H_b = H_baseline`` and ``H_a = H_rerun,a H_baseline / H_rerun,b`` is the recording itself:
+    the chi-square after is zero. Compared on the rerun plant directly, the ripple stays."""
+    import vlab.diagnose.validate as vmod
+
+    problem, _nominal, rec, _hb, _ha = _case(0.5)
+    d = problem.data
+    pn = predict_frf(_nominal, d.freq_hz, **KW)  # the structure without the effect
+    g = 1.0 + 0.05 * np.exp(2j * np.pi * np.random.default_rng(3).random(rec.shape))
+    problem.data = replace(d, h=rec, h_recorded=rec, h_baseline=pn, var_recorded=d.var, var_baseline=d.var)
+    problem.replay_plant = "linear"  # the data were referred through a linear replay; the reruns are MuJoCo
+    runs = {"nominal": pn * g, "modified": rec * g}
+    monkeypatch.setattr(vmod, "frf_of", lambda r, _data: runs[r])
+    monkeypatch.setattr(vmod, "time_error", lambda r, _data: float("nan"))
+    monkeypatch.setattr(vmod, "_on_recording_axis", lambda r, p, _rec: np.zeros(1))
+    monkeypatch.setattr(vmod, "exact_errors_of", lambda *_a: (float("nan"), float("nan")))
+    v = vmod._compared(problem, "plant", "mujoco", ["nominal", "modified"], (6,))
+    np.testing.assert_allclose(v.h_before, pn, rtol=1e-12)
+    np.testing.assert_allclose(v.h_after, rec, rtol=1e-12)
+    assert v.chi2_after == pytest.approx(0.0, abs=1e-12) and v.chi2_before > 1e3
+    direct = vmod._compared(problem, "plant", "linear", ["nominal", "modified"], (6,))  # the replay's own plant
+    assert direct.chi2_after > 100.0  # the ripple: 5 % on lines with 1 % noise
+
+
 finite = st.floats(min_value=0.0, max_value=1e6, allow_nan=False)
 
 
