@@ -72,3 +72,23 @@ def test_the_distortion_variance_is_the_sum_of_both_reruns_squared_relative_dist
     low_a[0, 0] = 0.0  # a line the low-level rerun does not reach counts no distortion of that rerun
     var = distortion_variance((lb * (1 + db), la), (lb, low_a))
     assert var[0, 0] == pytest.approx(abs(db[0, 0]) ** 2, rel=1e-9) and np.all(np.isfinite(var))
+
+
+def test_a_rerun_runs_every_analysed_period_where_the_slowest_mode_outlasts_the_warm_starts_guard(clipped):
+    """The guard before the analysed periods is one 20 s period: the BCC's open loop (mode 1 damped 0.4 %
+    at 1.85 Hz decays to 1e-3 in ln(1000) / (0.004 * 2 pi 1.85) = 149 s) outlasts it and its reruns run
+    through every analysed period; under MFDRF (its slowest closed-loop mode decays in under 10 s) they
+    take the default window."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.data.rerun_jobs import outlasts_guard, window_for
+
+    data = SimpleNamespace(periodic=True, recording=SimpleNamespace(dt_s=5e-4), freq_hz=np.arange(20, 500) * 0.05,
+                           analysed_from_s=40.0, output_points=PTS)
+    problem = SimpleNamespace(data=data, guard_s=None, ctx=SimpleNamespace(band_hz=(1.0, 25.0)))
+    open_loop = replace(clipped, design=None)
+    assert outlasts_guard(problem, (open_loop,)) and outlasts_guard(problem, (clipped, open_loop))
+    assert not outlasts_guard(problem, (clipped,))
+    assert window_for(problem, (clipped,)) == (None, "")
+    data.periodic = False  # H1 with a window: no warm start, no guard
+    assert not outlasts_guard(problem, (open_loop,))

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import VlabError
 from .data.reference import RERUN_SEED
-from .data.rerun_jobs import start_background_rerun
+from .data.rerun_jobs import start_background_rerun, window_for
 from .detectability import threshold_of
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
@@ -207,7 +207,8 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
     """
     nominal = res.nominal
     if search.on_plant and problem.replay_plant is None:
-        start_background_rerun(problem, nominal, "nominal", "mujoco", seed=RERUN_SEED)  # on the other core
+        window, suffix = window_for(problem, (nominal,))  # the validation's window where the nominal lab sets it
+        start_background_rerun(problem, nominal, f"nominal{suffix}", "mujoco", seed=RERUN_SEED, window=window)
     ranked = res.ranked = screen_and_fit(problem, nominal, ctx, res.location.sensitivity, search, timing, say)
     chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs, problem.policy)
     res.overdispersion = c_hat

@@ -28,7 +28,7 @@ Two properties of a rerun plant that are not the effect's are kept out of
 the judgement:
 
 - **its start**: a warm start's error decays in the guard period only if the
-  lab's slowest mode does; where it may not (:func:`outlasts_guard`, a nearly
+  lab's slowest mode does; where it may not (:func:`vlab.diagnose.data.rerun_jobs.outlasts_guard`, a nearly
   undamped mode), both reruns run through every analysed period and their
   FRFs are estimated as the recording's are, the transient left removed;
 - **its level dependence**: a MuJoCo plant's response is not exactly linear
@@ -65,10 +65,8 @@ from ..errors import ModelError, VlabError
 from ..io.recording import Recording
 from .data.measured import FrfData
 from .data.replay import frf_of, time_error
-from .data.rerun_jobs import last_reruns_note, reruns
-from .data.warmstart import GUARD_DECAY, guard_ticks, recorded_window
+from .data.rerun_jobs import last_reruns_note, reruns, window_for
 from .model.labmodel import LabState
-from .model.nominal import settling_time
 from .problem.misfits import complex_log_misfit, exact_errors_of, log_misfit
 
 
@@ -206,9 +204,9 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     if whole_record:
         window = (0, 0, None)
         base_key, key = f"{base_key}@whole", (None if key is None else f"{key}@whole")
-    elif outlasts_guard(problem, (base, modified)):
-        window = recorded_window(data, rec.dt_s, None, guard_s=problem.guard_s)
-        base_key, key = f"{base_key}@all", (None if key is None else f"{key}@all")
+    else:
+        window, suffix = window_for(problem, (base, modified))
+        base_key, key = f"{base_key}{suffix}", (None if key is None else f"{key}{suffix}")
 
     def both(k: str) -> list[Recording]:
         runs = reruns(problem, [(base, base_key), (modified, key)], k, seed=seed, workers=workers, window=window)
@@ -234,35 +232,6 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
                      kind, seed=seed, workers=workers, window=window, amplitude=LOW_LEVEL)
         low = None if any(isinstance(r, VlabError) for r in low) else low
     return _compared(problem, desc, kind, runs, pts, low)
-
-
-def outlasts_guard(problem, labs) -> bool:
-    """Whether a warm-started rerun's start error may outlast its guard: the slowest mode in the band of one
-    of ``labs`` decays to :data:`~vlab.diagnose.data.warmstart.GUARD_DECAY` later than the guard before the
-    analysed periods ends (:func:`~vlab.diagnose.model.nominal.settling_time`; the guard is capped at
-    :data:`~vlab.diagnose.data.warmstart.GUARD_PERIODS` periods). Such reruns run through every analysed
-    period, and their FRFs are estimated as the recording's are, the transient left removed
-    (:func:`~vlab.diagnose.data.replay.frf_of`); a nearly undamped mode would otherwise carry the start's
-    error through the one analysed period a rerun simulates.
-
-    Parameters
-    ----------
-    problem : Problem
-        With :class:`FrfData` from a recording; its ``guard_s`` and band.
-    labs : sequence of LabState
-        The labs to be rerun.
-
-    Returns
-    -------
-    bool
-        False for data not estimated period by period.
-    """
-    data: FrfData = problem.data
-    if not data.periodic or data.recording is None:
-        return False
-    dt = data.recording.dt_s
-    guard = guard_ticks(data, dt, problem.guard_s) * dt
-    return any(settling_time(st, problem.ctx.band_hz, decay=GUARD_DECAY) > guard for st in labs)
 
 
 def distortion_variance(full: tuple, low: tuple) -> np.ndarray:

@@ -21,7 +21,8 @@ from .batchrerun import batch_key, rerun_together, why_apart
 from ..model.labmodel import LabState
 from .measured import FrfData
 from .replay import at_amplitude, mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
-from .warmstart import recorded_window
+from ..model.nominal import settling_time
+from .warmstart import GUARD_DECAY, guard_ticks, recorded_window
 
 #: Run several MuJoCo reruns of :func:`reruns` whose plants share one layout as one ``mujoco.batch``
 #: (:mod:`vlab.diagnose.data.batchrerun`) instead of one process each. The same recordings either way
@@ -52,7 +53,57 @@ def _background_job(conn, *args) -> None:
         conn.close()
 
 
-def start_background_rerun(problem, state: LabState, key: str, plant: str, *, seed: int = 0) -> bool:
+def outlasts_guard(problem, labs) -> bool:
+    """Whether a warm-started rerun's start error may outlast its guard: the slowest mode in the band of one
+    of ``labs`` decays to :data:`~vlab.diagnose.data.warmstart.GUARD_DECAY` later than the guard before the
+    analysed periods ends (:func:`~vlab.diagnose.model.nominal.settling_time`; the guard is capped at
+    :data:`~vlab.diagnose.data.warmstart.GUARD_PERIODS` periods). Such reruns run through every analysed
+    period, and their FRFs are estimated as the recording's are, the transient left removed
+    (:func:`~vlab.diagnose.data.replay.frf_of`); a nearly undamped mode would otherwise carry the start's
+    error through the one analysed period a rerun simulates.
+
+    Parameters
+    ----------
+    problem : Problem
+        With :class:`FrfData` from a recording; its ``guard_s`` and band.
+    labs : sequence of LabState
+        The labs to be rerun.
+
+    Returns
+    -------
+    bool
+        False for data not estimated period by period.
+    """
+    data: FrfData = problem.data
+    if not data.periodic or data.recording is None:
+        return False
+    dt = data.recording.dt_s
+    guard = guard_ticks(data, dt, problem.guard_s) * dt
+    return any(settling_time(st, problem.ctx.band_hz, decay=GUARD_DECAY) > guard for st in labs)
+
+
+def window_for(problem, labs) -> tuple[tuple | None, str]:
+    """The window of reruns of ``labs`` and the suffix of their cache keys: through every analysed period,
+    ``"@all"``, where :func:`outlasts_guard`; else the default window (None) and no suffix.
+
+    Parameters
+    ----------
+    problem, labs
+        As :func:`outlasts_guard`.
+
+    Returns
+    -------
+    (tuple or None, str)
+        ``(start, period, stop)`` ticks (:func:`reruns`' ``window``) or None, and the suffix.
+    """
+    data: FrfData = problem.data
+    if outlasts_guard(problem, labs):
+        return recorded_window(data, data.recording.dt_s, None, guard_s=problem.guard_s), "@all"
+    return None, ""
+
+
+def start_background_rerun(problem, state: LabState, key: str, plant: str, *, seed: int = 0,
+                           window: tuple | None = None) -> bool:
     """Start the rerun of ``state`` in a background process, to be picked up by :func:`reruns` under
     ``(key, plant, seed)`` (the nominal lab's MuJoCo rerun, while the hypotheses are fitted).
 
@@ -65,10 +116,12 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     state : LabState
         The lab to rerun.
     key : str
-        Cache key of the rerun (``"nominal"``).
+        Cache key of the rerun (``"nominal"``; with :func:`window_for`'s suffix for its window).
     plant : {"linear", "mujoco"}
     seed : int
         Seed of the controller's sensor noise (as :func:`reruns`).
+    window : (int, int, int or None), optional
+        As :func:`reruns` (default: its default).
 
     Returns
     -------
@@ -82,7 +135,8 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s)
+    if window is None:
+        window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s)
     try:
         recv, send = multiprocessing.Pipe(duplex=False)
         proc = multiprocessing.Process(target=_background_job, daemon=True, args=(
