@@ -152,6 +152,14 @@ def test_the_reruns_chi_square_decides_both_ways_at_the_policys_rate(before, aft
     assert DEFAULT_POLICY.lr_limit(1) == pytest.approx(6.6349, rel=1e-4)  # chi2(1) 99 % quantile (tables)
 
 
+def test_no_extra_variance_is_the_fits_own_chi_square_and_more_variance_lowers_it():
+    """``frf_chi2`` with an extra variance of zero is the fit's chi-square (the whitener rebuilt for the same
+    sigmas); with an extra relative variance equal to the noise's on every line, no line weighs more."""
+    problem, _nominal, _rec, hb, _ha = _case(0.5)
+    assert problem.frf_chi2(hb, np.zeros(hb.shape)) == pytest.approx(problem.frf_chi2(hb), rel=1e-10)
+    assert problem.frf_chi2(hb, 2.0 * problem.data.var / np.abs(problem.data.h) ** 2) < problem.frf_chi2(hb)
+
+
 def test_the_reruns_chi_square_refuses_another_shape_and_counts_a_diverged_line():
     problem, nominal, rec, hb, _ha = _case(0.5)
     with pytest.raises(ValueError, match=r"shape \(480, 2\).*\(480, 1\)"):

@@ -230,7 +230,10 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     if kind == "mujoco" and not whole_record:
         low = reruns(problem, [(base, f"{base_key}@level"), (modified, None if key is None else f"{key}@level")],
                      kind, seed=seed, workers=workers, window=window, amplitude=LOW_LEVEL)
-        low = None if any(isinstance(r, VlabError) for r in low) else low
+        failed = next((r for r in low if isinstance(r, VlabError)), None)
+        if failed is not None:  # judged as before, on the reruns at the recorded level, and said so
+            low = None
+            desc += f"; its reruns at {LOW_LEVEL:g} x the level failed ({failed}): judged at the recorded level"
     return _compared(problem, desc, kind, runs, pts, low)
 
 
@@ -246,8 +249,18 @@ def distortion_variance(full: tuple, low: tuple) -> np.ndarray:
     friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both distortions as a variance about
     them, one covariance for both (Pintelon & Schoukens, *System Identification: A Frequency Domain
     Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear approximation and its nonlinear distortions).
+
+    Parameters
+    ----------
+    full, low : tuple of ndarray, complex, shape (n_f, n_o)
+        The nominal and the modified reruns' FRFs [(m/s)/N] at the recorded level and at the low level.
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_o)
+        Relative complex variance [1] per line and channel.
     """
-    var = 0.0
+    var = np.zeros(np.shape(full[0]))
     for h, h_low in zip(full, low):
         with np.errstate(divide="ignore", invalid="ignore"):
             d = h / h_low - 1.0
@@ -264,8 +277,8 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
     lb, la = (hb, ha) if low is None else (frf_of(low[0], data), frf_of(low[1], data))
     extra = None if low is None else distortion_variance((hb, ha), (lb, la))
     if extra is not None:
-        desc += (f"; judged by its reruns at {LOW_LEVEL:g} x the level, the plant's own level dependence (up to "
-                 f"{np.sqrt(np.max(extra[problem.mask])):.2g} of an FRF, median "
+        desc += (f"; judged by its reruns at {LOW_LEVEL:g} x the level, the plant's own level dependence (a "
+                 f"relative change of the FRFs up to {np.sqrt(np.max(extra[problem.mask])):.2g}, median "
                  f"{np.sqrt(np.median(extra[problem.mask])):.2g}) counted as its uncertainty")
     mask = problem.mask
     w = problem.weight_mag[mask]

@@ -98,7 +98,8 @@ def whitener(sens: np.ndarray, sigma: np.ndarray, part_sigma: np.ndarray, use_ph
     Returns
     -------
     (ndarray, ndarray) or None
-        ``U`` (shape (n or 2 n, min(...)) and ``c``; None where ``sigma`` is empty.
+        ``U``, shape (m, min(m, k)) with ``m = 2 n`` with the phase, else ``n``, and ``c``, shape
+        (min(m, k),); None where ``sigma`` is empty.
     """
     if sigma.size == 0:
         return None
