@@ -314,7 +314,8 @@ def test_the_answer_is_the_refitted_value_with_the_fe_fit_beside_it():
 
     pair = Combination(first=JointFlexibility(point=18), second=AddedMass(point=3))
     pair.params_, pair.ci95_ = np.array([5000.0, 0.5]), np.array([[4000.0, 6000.0], [0.4, 0.6]])
-    res = SimpleNamespace(selected=pair, plant_refit=SimpleNamespace(params=np.array([6000.0, 0.5])))
+    res = SimpleNamespace(selected=pair, plant_refit=SimpleNamespace(params=np.array([6000.0, 0.5])),
+                          structure_fit=None)
     joint, mass = DiagnosisResult._selected_entries(res)
     name = JointFlexibility.param_names[0]
     assert joint["parameters"][name] == 6000.0 and joint["fe_fit"] == {name: 5000.0}
@@ -323,6 +324,28 @@ def test_the_answer_is_the_refitted_value_with_the_fe_fit_beside_it():
     res.plant_refit = None
     joint, _ = DiagnosisResult._selected_entries(res)
     assert joint["parameters"][name] == 5000.0 and "fe_fit" not in joint
+
+
+def test_a_recording_of_unknown_source_is_answered_on_the_structure_with_the_plant_value_in_its_interval():
+    """With a fit on the structure's own model, ``selected`` reports its values, each interval widened to hold the
+    plant's value (which is reported as ``plant_fit``), and no ``fe_fit``."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.effects.hypotheses import AddedMass
+    from vlab.diagnose.fit.onstructure import StructureFit
+    from vlab.diagnose.report.result import DiagnosisResult
+
+    pair = Combination(first=JointFlexibility(point=18), second=AddedMass(point=3))
+    pair.params_, pair.ci95_ = np.array([5000.0, 0.5]), np.array([[4000.0, 6000.0], [0.4, 0.6]])
+    sf = StructureFit(np.array([5200.0, 0.45]), np.array([[5100.0, 5300.0], [0.44, 0.46]]), 10.0, "its replay", 0.1)
+    res = SimpleNamespace(selected=pair, plant_refit=SimpleNamespace(params=np.array([6000.0, 0.5])),
+                          structure_fit=sf)
+    joint, mass = DiagnosisResult._selected_entries(res)
+    name = JointFlexibility.param_names[0]
+    assert joint["parameters"][name] == 5200.0 and joint["ci95"][name] == [5100.0, 6000.0]
+    assert joint["plant_fit"] == {name: 6000.0} and "fe_fit" not in joint
+    assert mass["parameters"] == {"mass_kg": 0.45} and mass["ci95"]["mass_kg"] == [0.44, 0.5]
+    assert mass["plant_fit"] == {"mass_kg": 0.5}
 
 
 def test_the_chosen_effect_is_refitted_on_the_plant_however_far_off_its_fe_value_lies_there():

@@ -39,18 +39,19 @@ from ..errors import VlabError
 from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
 from ..spec import StructureSpec
-from .data.measured import FrfData
-from .data.reference import RERUN_SEED
+from .data.measured import FrfData, refer_to_model
+from .data.reference import RERUN_SEED, replay_reference
 from .data.run import DiagnosisRun, one_blas_thread
 from .data.rerun_jobs import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
 from .detectability import frf_model_form_of
 from .explain import Search, explain
 from .fit.locate import locate
+from .fit.onstructure import fit_on_structure
 from .fit.rules import beyond_noise, changed_beyond_noise
 from .fit.selection import located_from_fits, rerun_key
 from .instability_cause import plant_own_oscillation
-from .model.labmodel import LabState
+from .model.labmodel import LabState, predict_frf
 from .policy import DecisionPolicy
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -165,6 +166,44 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
     except (VlabError, ImportError) as exc:
         notes.append(f"validation rerun not possible: {exc}")
     timing["validate"] = time.perf_counter() - t
+
+
+def _source_named(inp: Inputs) -> bool:
+    """The recording's metadata names the vlab plant that made it."""
+    return isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
+
+
+def _on_structure(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> None:
+    """Stage 5b: for a recording that names no vlab plant and was referred through the MuJoCo plant's replay,
+    the choice's value fitted again on the structure's model -- the FE model at the structure file's mesh, the
+    data referred through its own linear replay -- and set as ``res.structure_fit``
+    (:mod:`vlab.diagnose.fit.onstructure`: the MuJoCo referral puts the plant's discretisation into every
+    mode-moving parameter). The model form is the one the diagnosis used, taken for the FE model's modes."""
+    if res.selected is None or not inp.on_plant or inp.unreferred is None or _source_named(inp):
+        return
+    say("fitting the value on the structure's own model")
+    t = time.perf_counter()
+    raw = inp.unreferred
+    lab = replace(inp.nominal, spec=inp.spec, fe=inp.fe, point_modes=None)  # the structure file's own mesh
+    try:
+        base, _replay, kind = replay_reference(raw, lab, "linear", guard_s=inp.guard_s)
+        h_nom = predict_frf(lab, raw.freq_hz, excitation_point=raw.excitation_point, output_points=raw.output_points)
+        data = refer_to_model(raw, base, h_nom)
+        mf, mf_frf = frf_model_form_of(lab, data, "linear") if problem.model_form_frf is not None else (None, None)
+        on_fe = Problem(data, lab, context_for(lab, inp.band_hz, data), floor=problem.floor, model_form_frf=mf_frf,
+                        modal_model_form=problem.modal_model_form, profile_nominal=True, policy=problem.policy)
+    except (VlabError, ImportError) as exc:
+        notes.append(f"the value could not be fitted on the structure's own model ({exc}): it is the MuJoCo "
+                     "plant's")
+        return
+    on_fe.model_form = mf
+    res.structure_fit = fit_on_structure(on_fe, res.selected, f"its own replay of the recorded force ({kind})")
+    if res.structure_fit is not None:
+        notes.append("the recording names no vlab plant: the value is fitted on the structure's own model (the FE "
+                     "model at the structure file's mesh, the data referred through its own linear replay), where "
+                     "no simulator's discretisation enters it; its 95 % interval spans the MuJoCo plant's value, "
+                     "the value the validation rerun used")
+    timing["structure_fit"] = time.perf_counter() - t
 
 
 def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> DiagnosisResult:
@@ -324,6 +363,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             _validated(res, problem, inp.plant, notes, timing, say, inp.loops)
         apply_gates(res, problem, chi2_fit=res.chi2_fit, misfit_0=res.misfit_nominal, self_excited=self_excited,
                     notes=notes)
+        if not self_excited:
+            _on_structure(res, inp, problem, notes, timing, say)
         if res.selected is not None and not self_excited:
             say("testing the remainder")
             t = time.perf_counter()

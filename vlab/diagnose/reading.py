@@ -172,6 +172,8 @@ class Inputs:
         Feedback points (empty in open loop).
     guard_s : float or None
         How long before the analysed part reruns start warm [s].
+    unreferred : FrfData or None
+        The recording's FRFs before their referral through a replay (None without a replay).
     notes : tuple of str
     timing_s : dict
         Stage -> seconds.
@@ -199,6 +201,7 @@ class Inputs:
     notes: tuple = ()
     timing_s: dict = field(default_factory=dict)
     on_recording_plant: bool = False
+    unreferred: FrfData | None = None
 
 
 def _check_options(opt: Options, path: Path) -> None:
@@ -264,7 +267,7 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
             h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
                                 output_points=data.output_points)
             inp.update(data=refer_to_model(data, base, h_nom), replayed=replayed, same_record=True,
-                       reference=f"the nominal {kind}'s replay of the recorded force")
+                       reference=f"the nominal {kind}'s replay of the recorded force", unreferred=data)
         timing["replay"] = time.perf_counter() - t
     elif (inp["what"] == "frf" and opt.replay and inp["setup_plant"] == "mujoco" and isinstance(data, FrfData)):
         _refer_through_plant(inp, notes, say)  # needs MuJoCo: plant_modes says so when it is missing

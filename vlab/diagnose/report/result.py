@@ -11,6 +11,7 @@ from ...spec import structure_identity
 from ..data.measured import FrfData, ModalData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..fit.locate import FLAG, Location
+from ..fit.onstructure import StructureFit, spanning
 from ..fit.plantfit import PlantRefit
 from ..model.labmodel import LabState
 from ..problem.residuals import Problem
@@ -60,6 +61,10 @@ class DiagnosisResult:
     plant_refit : PlantRefit or None
         The selected effect's mode-moving parameter refitted on the MuJoCo
         plant's linearisation, used by the MuJoCo rerun (:mod:`vlab.diagnose.fit.plantfit`).
+    structure_fit : StructureFit or None
+        For a recording that names no vlab plant, the selected effect fitted again on the structure's own
+        model, the data referred through its linear replay (:mod:`vlab.diagnose.fit.onstructure`): the
+        reported value.
     rejected : list of dict
         Candidates the validation rerun rejected (they made the FRF misfit or the time-domain error
         worse): ``effect``, ``label``, ``misfit_before``, ``misfit_after`` [decades], ``time_error_before``,
@@ -119,6 +124,7 @@ class DiagnosisResult:
     alternatives: list = field(default_factory=list)
     overdispersion: float = 1.0
     plant_refit: PlantRefit | None = None
+    structure_fit: StructureFit | None = None
     peak_nominal: float = float("nan")
     peak_limit: float = float("nan")
     noise_only: dict | None = None
@@ -155,19 +161,23 @@ class DiagnosisResult:
                 "misfit_after": float(h.misfit_)}
 
     def _selected_entries(self) -> list[dict]:
-        """The answer, one entry per part: ``effect``, ``location``, ``parameters``, ``ci95`` and, where a
-        parameter was refitted on the MuJoCo plant's linearisation, ``fe_fit`` (the FE model's value).
+        """The answer, one entry per part: ``effect``, ``location``, ``parameters``, ``ci95`` and, where the
+        answer is not the value the validation rerun used, that value as ``plant_fit``.
 
-        A refitted parameter is reported at its refitted value: it belongs to the plant the validation rerun
-        uses, and on every benchmark that compared both it was the closer one (tier 2, a plant the
-        diagnosis does not use: joints' FE fits 15-21 % off, the refits within 7.4 %). Its 95 % interval is
-        the FE fit's, scaled by refitted / FE value (the data's information about the parameter is the
-        same; the model that centres it is not)."""
+        The value belongs to the model that stands for the recording's source. For a recording that names no
+        vlab plant and was compared through the MuJoCo plant's replay it is the structure's own model's
+        (``structure_fit``, :mod:`vlab.diagnose.fit.onstructure`), with its 95 % interval widened to hold the
+        plant's value (the two references' difference is a model-form uncertainty the fit's interval does
+        not carry). Otherwise a parameter refitted on the MuJoCo plant's linearisation is reported at its
+        refitted value -- it belongs to the plant that made the recording, the plant the rerun uses -- with
+        the FE fit's interval scaled by refitted / FE value (the data's information about the parameter is the
+        same; the model that centres it is not), and the FE model's value as ``plant_fit``'s counterpart
+        ``fe_fit``."""
         if self.selected is None:
             return []
         h = self.selected
         x, ci = np.asarray(h.params_, dtype=float), np.asarray(h.ci95_, dtype=float).copy()
-        fe_fit = {}
+        fe_fit, plant_fit = {}, None
         r = self.plant_refit
         if r is not None and len(r.params) == len(x):
             for j, (a, b) in enumerate(zip(x, r.params)):
@@ -175,6 +185,10 @@ class DiagnosisResult:
                     ci[j] = ci[j] * (b / a)
                     fe_fit[j] = float(a)
             x = np.asarray(r.params, dtype=float)
+        sf = self.structure_fit
+        if sf is not None and len(sf.params) == len(x):
+            plant_fit, fe_fit = x, {}
+            x, ci = np.asarray(sf.params, dtype=float), spanning(sf.ci95, plant_fit)
         parts = h.parts if isinstance(h, Combination) else (h,)
         out, i = [], 0
         for part in parts:
@@ -185,9 +199,21 @@ class DiagnosisResult:
                  "ci95": {n: [float(ci[j][0]), float(ci[j][1])] for n, j in zip(names, idx)}}
             if any(j in fe_fit for j in idx):
                 e["fe_fit"] = {n: fe_fit[j] for n, j in zip(names, idx) if j in fe_fit}
+            if plant_fit is not None:
+                e["plant_fit"] = {n: float(plant_fit[j]) for n, j in zip(names, idx)}
             out.append(e)
             i += part.n_params
         return out
+
+    def _value_reference(self) -> str | None:
+        """The model the selected parameters belong to, in words (None when nothing is selected)."""
+        if self.selected is None:
+            return None
+        if self.structure_fit is not None:
+            return f"the structure's FE model, the data referred through {self.structure_fit.reference}"
+        if self.plant_refit is not None:
+            return "the MuJoCo plant's linearisation (a mode-moving parameter refitted there)"
+        return "the FE model, the data referred through " + self.reference
 
     def as_dict(self) -> dict:
         """The JSON object: ``mismatch``, ``located``, ``ranked``, ``selected``, ``validated`` and context.
@@ -275,6 +301,8 @@ class DiagnosisResult:
             "rejected": list(self.rejected),
             "too_small_to_name": bool(self.too_small),
             "reference": self.reference,
+            "value_reference": self._value_reference(),
+            "structure_fit": None if self.structure_fit is None else self.structure_fit.as_dict(),
             "uncertainty": self.problem.uncertainty(),
             "instability": self.instability,
             "detection_threshold": self.threshold,

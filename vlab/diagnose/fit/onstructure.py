@@ -1,0 +1,136 @@
+"""The value of a chosen effect on the structure's own model, for a recording whose source is not a vlab plant.
+
+A recording is referred to the model through a replay of its own force
+(:func:`vlab.diagnose.data.reference.replay_reference`): ``H_ref = H_rec H_model /
+H_replay``. To first order in the mode frequencies that referral moves each
+resonance of the data by ``omega_model - omega_replay``, so a parameter fitted to
+the referred data carries the difference between the recording's source and the
+replay plant: ``delta_fit = delta_true + (omega_source - omega_replay)`` mapped
+onto the effect's sensitivity. Where the source *is* the replay plant (a vlab
+MuJoCo recording) the term is zero, and the MuJoCo replay, whose loop, hold and
+estimator are the recording's, is the right reference. Where the source is
+another code or a real structure, the MuJoCo plant's rigid-link discretisation
+(its frequencies 0.04-0.4 % from the converged FE model's, ``vlab crosscheck``)
+enters every mode-moving parameter: an added mass of 2-5x its detection threshold
+shifts the resonances by a few tenths of a percent, the same order.
+
+So, for a recording that names no vlab plant, the chosen effect's value is
+fitted again on the *structure's* model -- the FE model at the structure file's
+own mesh, whose discretisation is part of its stated model form -- with the data
+referred through that model's own linear replay (the same loop, chain and
+estimator; no simulator's discretisation put in). That value is the answer; the
+plant's value (:mod:`vlab.diagnose.fit.plantfit`) stays the value the validation
+rerun uses. The two references differ by their model form, which the fit's
+statistical interval does not carry, so the reported 95 % interval spans the
+plant's value as well (a two-model estimate of the value's model-form
+uncertainty).
+
+Source: a parameter is meaningful for the model it was fitted on (Friswell &
+Mottershead, *Finite Element Model Updating in Structural Dynamics*, 1995,
+ch. 1); the referral is the reference-state method of Doebling et al.
+(LA-13070-MS, 1996, Sec. 3).
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import VlabError
+from ..effects.hypothesis import Combination, Hypothesis
+from ..problem.residuals import Problem
+from .estimate import fit_hypothesis
+
+
+@dataclass(frozen=True)
+class StructureFit:
+    """A chosen effect fitted again on the structure's model (the FE model, data referred through its replay).
+
+    Attributes
+    ----------
+    params : ndarray, shape (k,)
+        The fitted parameters [SI], in the hypothesis's order.
+    ci95 : ndarray, shape (k, 2)
+        Their 95 % intervals from the fit [SI] (NaN where undetermined).
+    chi2 : float
+        The fit's chi-square on the structure's problem.
+    reference : str
+        What the data were referred through, in words.
+    seconds : float
+        Wall time of the fit [s].
+    """
+
+    params: np.ndarray
+    ci95: np.ndarray
+    chi2: float
+    reference: str
+    seconds: float
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary (parameters SI, in the hypothesis's order)."""
+        return {"parameters": [float(v) for v in self.params], "chi2": float(self.chi2),
+                "reference": self.reference, "seconds": float(self.seconds)}
+
+
+def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> StructureFit | None:
+    """Fit the chosen hypothesis ``h`` again on the structure's problem.
+
+    A single effect is fitted from its own trial values (the structure's optimum may lie outside a local
+    search from the plant's value: an added mass 30 % apart); a pair from the parameters ``h`` was chosen
+    with, by a local fit.
+
+    Parameters
+    ----------
+    problem : Problem
+        The data referred through the structure's own (linear FE) replay, against the FE model at the
+        structure file's mesh.
+    h : Hypothesis
+        The chosen effect, fitted (``params_`` set); it is not changed (a copy is fitted).
+    reference : str
+        What ``problem``'s data were referred through (kept in the result).
+
+    Returns
+    -------
+    StructureFit or None
+        None when ``h`` has no parameter or the fit fails (a model the structure cannot carry).
+    """
+    if h.n_params == 0:
+        return None
+    t = time.perf_counter()
+    g = copy.deepcopy(h)
+    try:
+        if isinstance(g, Combination):
+            g = fit_hypothesis(g, problem, starts=np.asarray(h.params_, dtype=float)[None, :])
+        else:
+            g = fit_hypothesis(g, problem)
+    except (VlabError, ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(g.params_)):
+        return None
+    return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
+                        reference, time.perf_counter() - t)
+
+
+def spanning(ci95: np.ndarray, *values: np.ndarray) -> np.ndarray:
+    """The intervals ``ci95`` widened to hold ``values`` (other reference models' estimates of the same parameters).
+
+    Parameters
+    ----------
+    ci95 : ndarray, shape (k, 2)
+        Statistical 95 % intervals [SI]; a NaN row (undetermined) stays NaN.
+    *values : ndarray, shape (k,)
+        Estimates of the same parameters on other reference models [SI].
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+    """
+    out = np.array(ci95, dtype=float, copy=True)
+    for v in values:
+        v = np.asarray(v, dtype=float)
+        out[:, 0] = np.where(np.isfinite(out[:, 0]), np.minimum(out[:, 0], v), out[:, 0])
+        out[:, 1] = np.where(np.isfinite(out[:, 1]), np.maximum(out[:, 1], v), out[:, 1])
+    return out
