@@ -79,8 +79,9 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     """Fit the chosen hypothesis ``h`` again on the structure's problem.
 
     A single effect is fitted from its own trial values (the structure's optimum may lie outside a local
-    search from the plant's value: an added mass 30 % apart); a pair from the parameters ``h`` was chosen
-    with, by a local fit.
+    search from the chosen value: an added mass 30 % apart), and again from the chosen value where that
+    scores better on the structure's problem than the trials' fit (a value beyond the trials' range); a pair
+    from the chosen parameters, by a local fit.
 
     Parameters
     ----------
@@ -102,10 +103,13 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     t = time.perf_counter()
     g = copy.deepcopy(h)
     try:
+        x0 = np.asarray(h.params_, dtype=float)
         if isinstance(g, Combination):
-            g = fit_hypothesis(g, problem, starts=np.asarray(h.params_, dtype=float)[None, :])
+            g = fit_hypothesis(g, problem, starts=x0[None, :])
         else:
             g = fit_hypothesis(g, problem)
+            if problem.chi2(problem.state_for(h, x0)) < g.chi2_:
+                g = fit_hypothesis(copy.deepcopy(h), problem, starts=x0[None, :])
     except (VlabError, ValueError, np.linalg.LinAlgError):
         return None
     if not np.all(np.isfinite(g.params_)):
