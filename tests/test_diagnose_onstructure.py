@@ -71,3 +71,29 @@ def test_spanning_widens_each_interval_to_hold_the_other_values_and_keeps_an_und
     assert np.isnan(out[1]).all()
     assert out[2].tolist() == [5.0, 6.0]
     assert ci[0].tolist() == [1.0, 2.0]  # the input is not changed
+
+
+@pytest.mark.parametrize("metadata, on_plant, fitted", [
+    ({"plant": "mujoco"}, True, False),   # a recording the MuJoCo plant made: the plant's value is the answer
+    ({}, False, False),                   # not compared through the MuJoCo replay: no plant value to replace
+    ({}, True, True),                     # a recording from elsewhere, referred through the MuJoCo replay
+    ({"plant": ""}, True, True),
+])
+def test_the_structures_value_is_fitted_only_for_a_recording_of_unknown_source_referred_through_the_plant(
+        metadata, on_plant, fitted, monkeypatch):
+    from types import SimpleNamespace
+
+    import vlab.diagnose.pipeline as pipeline
+
+    calls = []
+    monkeypatch.setattr(pipeline, "replay_reference", lambda *a, **k: calls.append(a) or (_ for _ in ()).throw(
+        pipeline.VlabError("stop here")))
+    res = SimpleNamespace(selected=AddedMass(point=POINT), structure_fit=None)
+    _, lab = _referred(0.0)
+    inp = SimpleNamespace(metadata=metadata, on_plant=on_plant, unreferred=object(), nominal=lab, spec=lab.spec,
+                          fe=lab.fe, guard_s=None)
+    notes = []
+    pipeline._on_structure(res, inp, None, notes, {}, lambda s: None)
+    assert bool(calls) == fitted
+    assert res.structure_fit is None
+    assert any("could not be fitted on the structure's own model (stop here)" in n for n in notes) == fitted

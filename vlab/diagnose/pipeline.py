@@ -21,6 +21,10 @@ one policy (:class:`vlab.diagnose.policy.DecisionPolicy`, from the user's false-
    spec-level choice refitted on the MuJoCo plant's linearisation.
 5. **Validate** (:func:`_validated`, :mod:`vlab.diagnose.validate`): the recorded force played back
    through the 2 kHz loop on the nominal and the modified plant; FRF and time-domain misfits.
+   **5b. Value** (:func:`_on_structure`, :mod:`vlab.diagnose.fit.onstructure`; after the gates of 6): for a
+   recording that names no vlab plant, the choice's value fitted again on the structure's own model, the data
+   referred through its linear replay (the MuJoCo replay puts the plant's discretisation into a mode-moving
+   parameter).
 6. **Decide** (:func:`vlab.diagnose.decision.apply_gates`, :func:`vlab.diagnose.decision.remainder_of`):
    the choice stands only if its validation does not make the fit worse, it beats the nominal lab on its
    fit's footing (likelihood-ratio test) and explains the larger part of the mismatch; what it leaves, when resolved,
@@ -104,8 +108,8 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     plant compared with the FE model carry the plant's model-form difference)."""
     data, nominal = inp.data, inp.nominal
     ctx = context_for(nominal, inp.band_hz, data)
-    made_by_vlab = (isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
-                    and (inp.replayed is not None or inp.replay_plant == "linear" or inp.on_recording_plant))
+    made_by_vlab = _source_named(inp) and (inp.replayed is not None or inp.replay_plant == "linear"
+                                           or inp.on_recording_plant)
     mf_mode = model_form
     if model_form == "auto":
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"

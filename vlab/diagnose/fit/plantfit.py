@@ -36,11 +36,14 @@ where the scan and Brent took 11 (chi-square 1.57; the same stiffness to
 chi-square 97. ``mujoco.sysid`` fits rollouts in the time domain, not a
 linearisation's FRFs. So the one-parameter search stays derivative-free.
 
-The refitted value is the diagnosis's answer (``selected``, with the FE
-model's value beside it as ``fe_fit``; :meth:`DiagnosisResult._selected_entries`
-of :mod:`vlab.diagnose.report.result`) and the value the rerun used
-(``validated.parameters``): on every benchmark that compared the two it was
-the closer one (tier 2: joints' FE fits 15-21 % off, the refits within 7.4 %).
+The refitted value is the value the rerun uses (``validated.parameters``) and,
+for a recording the MuJoCo plant made, the diagnosis's answer (``selected``, with
+the FE model's value beside it as ``fe_fit``; :meth:`DiagnosisResult._selected_entries`
+of :mod:`vlab.diagnose.report.result`). For a recording that names no vlab plant the
+answer is fitted on the structure's own model instead
+(:mod:`vlab.diagnose.fit.onstructure`): the plant's discretisation, referred into the
+data by its replay, is in the refitted value (an added mass of an independent
+simulator's recording 4-46 % high).
 
 What is decided on the plant with these refits is in
 :mod:`vlab.diagnose.fit.plantchoice` (a selected pair or single effect against
