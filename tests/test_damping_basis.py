@@ -172,3 +172,23 @@ def test_the_carried_damping_matrix_is_cached_read_only():
     assert a is b and not a.flags.writeable
     with pytest.raises(ValueError):
         a[0, 0] += 1.0
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_a_member_split_on_a_mesh_with_interior_nodes_keeps_the_damping_matrix(bcc, n):
+    """A segment scaled by 1 is the same structure: with ``n`` elements per segment the split renames the
+    interior nodes (``"<member>.<segment>.<k>"`` of the new pieces), which are carried by place, so the damping
+    matrix and the modal ratios are the unchanged structure's (the spec's 0.004, 0.002, ...)."""
+    import dataclasses
+
+    fine = bcc.replace(members=tuple(dataclasses.replace(m, elements_per_segment=n) for m in bcc.members))
+    split = specedit.scale_segments(fine, {(8, 9): 1.0})
+    fe0, fe1 = build_fe_model(fine), build_fe_model(split)
+    assert fe0.dofs.labels != fe1.dofs.labels and fe0.n == fe1.n
+    order = [fe0.dofs._index[lab] if lab in fe0.dofs else None for lab in fe1.dofs.labels]
+    assert None in order  # some DOFs are renamed
+    md = modal_analysis(fe1.m, fe1.k)
+    np.testing.assert_allclose(structural_ratios(fe1, md, split)[:6], open_loop_ratios(bcc, 6), rtol=1e-6)
+    c1 = structural_damping(fe1, split)
+    c0 = structural_damping(fe0, fine)
+    assert np.allclose(np.sort(np.linalg.eigvalsh(c1)), np.sort(np.linalg.eigvalsh(c0)), rtol=1e-8, atol=1e-12)

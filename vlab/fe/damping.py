@@ -92,6 +92,30 @@ def _basis(spec) -> tuple[FEModel, Modes]:
     return fe, md
 
 
+def _carried(base: FEModel, fe: FEModel) -> list[tuple[int, int | None]]:
+    """``(i, j)``: the DOF ``j`` of the unchanged structure ``base`` that DOF ``i`` of ``fe`` is, or None.
+
+    A DOF is the same DOF when its label is (a point's DOF), else when its node lies at the same place with the
+    same DOF name and no other node of ``base`` does: a changed member is split into pieces with their own ids
+    (:func:`vlab.diagnose.effects.specedit.scale_segments`), which renames the interior nodes of a mesh with
+    more than one element per segment (``"<member>.<segment>.<k>"``) but does not move them.
+    """
+    at: dict[tuple, int | None] = {}
+    for j, (node, dof) in enumerate(base.dofs.labels):
+        xy = base.mesh.nodes.get(node)
+        if xy is not None:
+            key = (round(xy[0], 9), round(xy[1], 9), dof)
+            at[key] = None if key in at else j  # two nodes at one place: not carried by place
+    out = []
+    for i, lab in enumerate(fe.dofs.labels):
+        j = base.dofs._index.get(lab)
+        if j is None:
+            xy = fe.mesh.nodes.get(lab[0])
+            j = None if xy is None else at.get((round(xy[0], 9), round(xy[1], 9), lab[1]))
+        out.append((i, j))
+    return out
+
+
 def structural_damping(fe: FEModel, spec=None) -> np.ndarray:
     """The damping matrix of the structure of ``fe`` [N*s/m], shape (n, n).
 
@@ -122,7 +146,7 @@ def structural_damping(fe: FEModel, spec=None) -> np.ndarray:
     if base.dofs.labels == fe.dofs.labels:
         c = c0
     else:
-        rows = [(i, base.dofs._index.get(lab)) for i, lab in enumerate(fe.dofs.labels)]
+        rows = _carried(base, fe)
         keep = [(i, j) for i, j in rows if j is not None]
         ii = np.array([i for i, _ in keep], dtype=int)
         jj = np.array([j for _, j in keep], dtype=int)
