@@ -283,7 +283,7 @@ def _comment(e: dict, recording: str) -> str:
     refit = "" if fe is None else f" (refitted on the MuJoCo plant; the FE model's fit: {fe:.6g})"
     plant = (e.get("plant_fit") or {}).get(name)
     if plant is not None:
-        refit = f" (fitted on the structure's own model; the MuJoCo plant's value: {plant:.6g})"
+        refit = f" (fitted on the structure's own model; fitted through the MuJoCo plant's replay: {plant:.6g})"
     return f"# {e['effect']} ({where}): {name} = {x:.6g}, 95 % interval [{ci[0]:.4g}, {ci[1]:.4g}]{refit}\n"
 
 

@@ -39,6 +39,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import VlabError
 from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
@@ -196,17 +198,20 @@ def _on_structure(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: li
         mf, mf_frf = frf_model_form_of(lab, data, "linear") if problem.model_form_frf is not None else (None, None)
         on_fe = Problem(data, lab, context_for(lab, inp.band_hz, data), floor=problem.floor, model_form_frf=mf_frf,
                         modal_model_form=problem.modal_model_form, profile_nominal=True, policy=problem.policy)
-    except (VlabError, ImportError) as exc:
-        notes.append(f"the value could not be fitted on the structure's own model ({exc}): it is the MuJoCo "
-                     "plant's")
+    except (VlabError, ImportError, ValueError, np.linalg.LinAlgError) as exc:
+        notes.append(f"the value could not be fitted on the structure's own model ({exc}): it is the one fitted "
+                     "through the MuJoCo plant's replay")
         return
     on_fe.model_form = mf
     res.structure_fit = fit_on_structure(on_fe, res.selected, f"its own replay of the recorded force ({kind})")
     if res.structure_fit is not None:
         notes.append("the recording names no vlab plant: the value is fitted on the structure's own model (the FE "
                      "model at the structure file's mesh, the data referred through its own linear replay), where "
-                     "no simulator's discretisation enters it; its 95 % interval spans the MuJoCo plant's value, "
-                     "the value the validation rerun used")
+                     "no simulator's discretisation enters it; its 95 % interval spans the value fitted through "
+                     "the MuJoCo plant's replay (plant_fit)")
+    else:
+        notes.append("the value could not be fitted on the structure's own model (the fit failed or did not beat "
+                     "the nominal model there): it is the one fitted through the MuJoCo plant's replay")
     timing["structure_fit"] = time.perf_counter() - t
 
 
@@ -367,13 +372,12 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             _validated(res, problem, inp.plant, notes, timing, say, inp.loops)
         apply_gates(res, problem, chi2_fit=res.chi2_fit, misfit_0=res.misfit_nominal, self_excited=self_excited,
                     notes=notes)
-        if not self_excited:
-            _on_structure(res, inp, problem, notes, timing, say)
         if res.selected is not None and not self_excited:
             say("testing the remainder")
             t = time.perf_counter()
             settle_remainder(res, problem, chi2_fit=res.chi2_fit, notes=notes)
             timing["remainder"] = time.perf_counter() - t
+            _on_structure(res, inp, problem, notes, timing, say)
     finally:
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start

@@ -22,8 +22,9 @@ closely than a fixed ratio would (Adhikari, *Damping Models for Structural Vibra
 Cambridge, 2000, ch. 2). The off-diagonal terms ``phi_r'^T C0 phi_s'`` (non-classical damping) are left
 out; for the lightly damped structures here they shift no ratio by more than its square.
 
-``C0`` is carried DOF by DOF (by the DOF labels): a DOF the changed structure has and the unchanged one
-does not (a support released to attach a spring) has no damping from it.
+``C0`` is carried DOF by DOF (by the DOF labels; an interior node of a split member, renamed by the split,
+by its place): a DOF the changed structure has and the unchanged one does not (a support released to attach
+a spring) has no damping from it.
 """
 
 from __future__ import annotations
@@ -100,18 +101,21 @@ def _carried(base: FEModel, fe: FEModel) -> list[tuple[int, int | None]]:
     (:func:`vlab.diagnose.effects.specedit.scale_segments`), which renames the interior nodes of a mesh with
     more than one element per segment (``"<member>.<segment>.<k>"``) but does not move them.
     """
+    claimed = {base.dofs._index[lab] for lab in fe.dofs.labels if lab in base.dofs}
     at: dict[tuple, int | None] = {}
     for j, (node, dof) in enumerate(base.dofs.labels):
         xy = base.mesh.nodes.get(node)
-        if xy is not None:
+        if isinstance(node, str) and xy is not None and j not in claimed:
             key = (round(xy[0], 9), round(xy[1], 9), dof)
-            at[key] = None if key in at else j  # two nodes at one place: not carried by place
-    out = []
+            at[key] = None if key in at else j  # two interior nodes at one place: not carried by place
+    out, used = [], set()
     for i, lab in enumerate(fe.dofs.labels):
         j = base.dofs._index.get(lab)
-        if j is None:
+        if j is None and isinstance(lab[0], str):
             xy = fe.mesh.nodes.get(lab[0])
             j = None if xy is None else at.get((round(xy[0], 9), round(xy[1], 9), lab[1]))
+            j = None if j in used else j  # one base DOF is carried to one DOF at most
+            used.add(j)
         out.append((i, j))
     return out
 
@@ -121,7 +125,8 @@ def structural_damping(fe: FEModel, spec=None) -> np.ndarray:
 
     The spec's modal ratios on the modes of ``fe`` (:func:`modal_damping_matrix`), or, when the spec names an
     unchanged structure (:attr:`vlab.spec.Damping.basis`), that structure's matrix with the spec's ratios,
-    carried DOF by DOF (zero for DOFs the unchanged structure lacks). ``spec``: the spec whose damping
+    carried DOF by DOF (by label, an interior node by place: :func:`_carried`; zero for DOFs the unchanged
+    structure lacks). ``spec``: the spec whose damping
     applies (default ``fe.spec``; a lab whose damping was edited without rebuilding its FE model passes its
     own).
 

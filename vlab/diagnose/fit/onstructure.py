@@ -70,8 +70,9 @@ class StructureFit:
     seconds: float
 
     def as_dict(self) -> dict:
-        """JSON-ready summary (parameters SI, in the hypothesis's order)."""
-        return {"parameters": [float(v) for v in self.params], "chi2": float(self.chi2),
+        """JSON-ready summary (parameters and their 95 % intervals SI, in the hypothesis's order)."""
+        return {"parameters": [float(v) for v in self.params],
+                "ci95": [[float(a), float(b)] for a, b in self.ci95], "chi2": float(self.chi2),
                 "reference": self.reference, "seconds": float(self.seconds)}
 
 
@@ -96,7 +97,8 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     Returns
     -------
     StructureFit or None
-        None when ``h`` has no parameter or the fit fails (a model the structure cannot carry).
+        None when ``h`` has no parameter, the fit fails (a model the structure cannot carry) or its value does
+        not fit the structure's data better than the nominal model.
     """
     if h.n_params == 0:
         return None
@@ -112,7 +114,7 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
                 g = fit_hypothesis(copy.deepcopy(h), problem, starts=x0[None, :])
     except (VlabError, ValueError, np.linalg.LinAlgError):
         return None
-    if not np.all(np.isfinite(g.params_)):
+    if not np.all(np.isfinite(g.params_)) or not g.chi2_ < problem.chi2(problem.base):
         return None
     return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
                         reference, time.perf_counter() - t)

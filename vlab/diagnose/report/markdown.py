@@ -107,7 +107,7 @@ def _mismatch_lines(res: dict) -> list[str]:
                   + ", ".join(f"{k} = {v:.4g}" for k, v in x["fe_fit"].items()) + ")")
             if x.get("plant_fit"):
                 fe = (" (fitted on the structure's own model, the data referred through its linear replay; the "
-                      "MuJoCo plant's value, which the rerun used: "
+                      "value fitted through the MuJoCo plant's replay: "
                       + ", ".join(f"{k} = {v:.4g}" for k, v in x["plant_fit"].items()) + ")")
             lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}{fe}")
         lines.append("")

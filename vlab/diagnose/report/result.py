@@ -162,7 +162,8 @@ class DiagnosisResult:
 
     def _selected_entries(self) -> list[dict]:
         """The answer, one entry per part: ``effect``, ``location``, ``parameters``, ``ci95`` and, where the
-        answer is not the value the validation rerun used, that value as ``plant_fit``.
+        answer is fitted on the structure's own model, the value fitted through the MuJoCo plant's replay as
+        ``plant_fit`` (a mode-moving parameter refitted on the plant's linearisation: the rerun's value).
 
         The value belongs to the model that stands for the recording's source. For a recording that names no
         vlab plant and was compared through the MuJoCo plant's replay it is the structure's own model's
@@ -213,7 +214,8 @@ class DiagnosisResult:
             return f"the structure's FE model, the data referred through {self.structure_fit.reference}"
         if self.plant_refit is not None:
             return "the MuJoCo plant's linearisation (a mode-moving parameter refitted there)"
-        return "the FE model, the data referred through " + self.reference
+        return "the FE model" + ("" if self.reference == "the FE model" else ", the data referred through "
+                                 + self.reference)
 
     def as_dict(self) -> dict:
         """The JSON object: ``mismatch``, ``located``, ``ranked``, ``selected``, ``validated`` and context.
