@@ -57,7 +57,7 @@ def test_diagnosis_is_estimated_before_the_first_simulation(recording, monkeypat
     def no_replay(*_a, **_k):
         raise AssertionError("the replay ran before the estimate was confirmed")
 
-    monkeypatch.setattr(reading, "replay_reference", no_replay)
+    monkeypatch.setattr(reading, "referred_through_replay", no_replay)
     seen = []
 
     def confirm(est):

@@ -86,7 +86,7 @@ def test_the_structures_value_is_fitted_only_for_a_recording_of_unknown_source_r
     import vlab.diagnose.pipeline as pipeline
 
     calls = []
-    monkeypatch.setattr(pipeline, "replay_reference", lambda *a, **k: calls.append(a) or (_ for _ in ()).throw(
+    monkeypatch.setattr(pipeline, "referred_through_replay", lambda *a, **k: calls.append(a) or (_ for _ in ()).throw(
         pipeline.VlabError("stop here")))
     res = SimpleNamespace(selected=AddedMass(point=POINT), structure_fit=None)
     _, lab = _referred(0.0)

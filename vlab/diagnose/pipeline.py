@@ -45,8 +45,8 @@ from ..errors import VlabError
 from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
 from ..spec import StructureSpec
-from .data.measured import FrfData, refer_to_model
-from .data.reference import RERUN_SEED, replay_reference
+from .data.measured import FrfData
+from .data.reference import RERUN_SEED, referred_through_replay
 from .data.run import DiagnosisRun, one_blas_thread
 from .data.rerun_jobs import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
@@ -57,7 +57,7 @@ from .fit.onstructure import fit_on_structure
 from .fit.rules import beyond_noise, changed_beyond_noise
 from .fit.selection import located_from_fits, rerun_key
 from .instability_cause import plant_own_oscillation
-from .model.labmodel import LabState, predict_frf
+from .model.labmodel import LabState
 from .policy import DecisionPolicy
 from .problem.context import context_for
 from .problem.residuals import Problem
@@ -192,9 +192,7 @@ def _on_structure(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: li
     raw = inp.unreferred
     lab = replace(inp.nominal, spec=inp.spec, fe=inp.fe, point_modes=None)  # the structure file's own mesh
     try:
-        base, _replay, kind = replay_reference(raw, lab, "linear", guard_s=inp.guard_s)
-        h_nom = predict_frf(lab, raw.freq_hz, excitation_point=raw.excitation_point, output_points=raw.output_points)
-        data = refer_to_model(raw, base, h_nom)
+        data, _replay, kind = referred_through_replay(raw, lab, "linear", guard_s=inp.guard_s)
         mf, mf_frf = frf_model_form_of(lab, data, "linear") if problem.model_form_frf is not None else (None, None)
         on_fe = Problem(data, lab, context_for(lab, inp.band_hz, data), floor=problem.floor, model_form_frf=mf_frf,
                         modal_model_form=problem.modal_model_form, profile_nominal=True, policy=problem.policy)

@@ -32,7 +32,7 @@ from .data.measured import FrfData, ModalData, refer_to_model
 from .data.modalcsv import read_modal_csv
 from .data.acquired import is_lab_recording
 from .data.readers import detect_kind, read_data, read_uff_any
-from .data.reference import (recorded_chain, recorded_setup, replay_reference, shares_excitation_record,
+from .data.reference import (recorded_chain, recorded_setup, referred_through_replay, shares_excitation_record,
                              with_test_setup)
 from .data.warmstart import GUARD_DECAY
 from .model.labmodel import LabState, predict_frf
@@ -258,15 +258,14 @@ def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
         say(f"replaying the recorded force on the nominal {inp['replay_plant']} plant")
         t = time.perf_counter()
         try:
-            base, replayed, kind = replay_reference(data, nominal, inp["replay_plant"], guard_s=inp["guard_s"])
+            referred, replayed, kind = referred_through_replay(data, nominal, inp["replay_plant"],
+                                                               guard_s=inp["guard_s"])
         except (VlabError, ImportError) as exc:
             notes.append(f"the recorded force could not be replayed on the nominal {inp['replay_plant']} plant "
                          f"({exc}): the recording is compared with the FE model alone")
             inp["reference"] = "the FE model (the replay failed)"
         else:
-            h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point,
-                                output_points=data.output_points)
-            inp.update(data=refer_to_model(data, base, h_nom), replayed=replayed, same_record=True,
+            inp.update(data=referred, replayed=replayed, same_record=True,
                        reference=f"the nominal {kind}'s replay of the recorded force", unreferred=data)
         timing["replay"] = time.perf_counter() - t
     elif (inp["what"] == "frf" and opt.replay and inp["setup_plant"] == "mujoco" and isinstance(data, FrfData)):

@@ -30,8 +30,8 @@ import numpy as np
 from ...errors import DataFileError, OptionError
 from ...io.setup_file import CHAIN_KEYS
 from ...lab.loop import HardwareChain
-from ..model.labmodel import LabState
-from .measured import FrfData
+from ..model.labmodel import LabState, predict_frf
+from .measured import FrfData, refer_to_model
 
 #: The ``plant`` metadata of ``vlab experiment`` -> the replay's plant kind.
 RECORDED_PLANTS = {"MuJoCo plant": "mujoco", "MuJoCo plant (MJCF)": "mujoco", "linear FE model": "linear"}
@@ -321,3 +321,38 @@ def shares_excitation_record(data: FrfData, baseline) -> bool:
         return False
     scale = float(np.sqrt(np.mean(a ** 2))) or 1.0
     return bool(np.max(np.abs(a - b)) <= 1e-9 * scale)
+
+
+def referred_through_replay(data: FrfData, nominal: LabState, plant: str,
+                            guard_s: float | None = None) -> tuple[FrfData, object, str]:
+    """``data`` referred to the model ``nominal`` through its replay on ``plant``:
+    ``H = H_recorded H_model / H_replay`` (:func:`replay_reference`, then
+    :func:`vlab.diagnose.data.measured.refer_to_model`).
+
+    Parameters
+    ----------
+    data : FrfData
+        From a recording (``data.recording`` set), not yet referred.
+    nominal : LabState
+        The lab the data are referred to (its FE model predicts ``H_model``) and replayed on.
+    plant : {"mujoco", "linear"}
+    guard_s : float, optional
+        As :func:`replay_reference`.
+
+    Returns
+    -------
+    referred : FrfData
+        Shape (n_f, n_o) FRFs [(m/s)/N] as :func:`~vlab.diagnose.data.measured.refer_to_model` returns them.
+    rec : Recording
+        The replay.
+    kind : str
+        The plant, in words.
+
+    Raises
+    ------
+    ModelError, SimulationError
+        As :func:`replay_reference`.
+    """
+    base, rec, kind = replay_reference(data, nominal, plant, guard_s=guard_s)
+    h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point, output_points=data.output_points)
+    return refer_to_model(data, base, h_nom), rec, kind
