@@ -951,7 +951,8 @@ def score(case: dict) -> dict:
     # a passenger: an effect selected beside a true one found (an effect selected instead is just wrong)
     found = [h for h in matched if h is not None]
     out["passengers"] = len(sel) - len(found) if found else 0
-    # the selection reported with look-alikes the data cannot tell from it (dBIC < 10): is the truth one?
+    # the selection reported with look-alikes the data cannot tell from it (dBIC < 10, or predictions within the
+    # one-parameter limit, vlab.diagnose.fit.separation): is the truth one?
     # (a pair's look-alikes are pairs, "a + b", matched in either order)
     looks = {frozenset(p.replace(" ", "") for p in a.split(" + ")) for a in d.get("alternatives", [])}
     out["lookalike"] = (not out["right"] and len(sel) == len(truths)
@@ -1169,7 +1170,7 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
           f"{summary['no_effect']} without)")
     print(f"right effect and location: {100 * summary['right_share']:.0f} %   (target >= 90 %)")
     print(f"  the right one selected or among the look-alikes reported with the selection (the data cannot tell "
-          f"them apart, dBIC < 10): {100 * summary['right_or_lookalike_share']:.0f} %")
+          f"them apart: dBIC < 10 or predictions within the one-parameter chi-square limit): {100 * summary['right_or_lookalike_share']:.0f} %")
     if perr:
         print(f"parameter error: median {100 * summary['param_error_median']:.2f} %, max "
               f"{100 * summary['param_error_max']:.1f} %, within 15 %: {100 * summary['param_within_15pct_share']:.0f} %")

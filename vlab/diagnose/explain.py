@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VlabError
+from .data.measured import FrfData
 from .data.reference import RERUN_SEED
 from .data.rerun_jobs import start_background_rerun, window_for
 from .detectability import threshold_of
@@ -29,6 +30,7 @@ from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
 from .fit.rules import needs_pairs, needs_rerun_check, part_alone, prune, select, shortlisted, too_small_to_name
 from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
+from .fit.separation import inseparable, separation_note
 from .instability_cause import recorded_growth_rate, search_cause
 from .model.labmodel import LabState
 from .problem.residuals import Problem
@@ -96,6 +98,23 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     if chosen is not single:
         res.alternatives = looks  # the pair's look-alikes on the plant, not those of the single effect
     return chosen
+
+
+def _by_prediction(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, ranked: list, alts: list,
+                   c_hat: float, notes: list) -> list[Hypothesis]:
+    """The fits of ``ranked`` not in ``alts`` whose predictions the data cannot tell from ``chosen``'s
+    (:func:`vlab.diagnose.fit.separation.inseparable`), kept in ``res.separation`` with a line in ``notes``
+    when there are any."""
+    known = {h.label for h in alts}
+    state_of = lambda h: problem.state_for(h, h.params_)  # noqa: E731 -- the fitted lab, on the FE model
+    chi2 = problem.chi2(state_of(chosen))  # on this footing even where the plant refitted the choice
+    found = [(h, d) for h, d in inseparable(chosen, chi2, ((h, h.chi2_) for h in ranked), problem, state_of, c_hat)
+             if h.label not in known]
+    if found:
+        notes.append(separation_note(chosen, found, problem, c_hat))
+        res.separation = {"limit_chi2": problem.policy.lr_limit(1, c_hat),
+                          "distance_chi2": {h.label: d for h, d in found}}
+    return [h for h, _ in found]
 
 
 def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabState, ranked: list, loops,
@@ -249,6 +268,9 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
                          f"{problem.policy.evidence:g} with the likelihood-ratio test passed)")
         return
     res.selected = chosen
+    if not search.self_excited and isinstance(problem.data, FrfData):
+        res.alternatives = list(res.alternatives) + _by_prediction(res, problem, chosen, ranked, res.alternatives,
+                                                                   c_hat, notes)
     res.misfit_selected = float(chosen.misfit_)
     t = time.perf_counter()
     thr = threshold_of(problem, nominal, ctx, chosen)

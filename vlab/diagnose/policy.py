@@ -185,6 +185,17 @@ class DecisionPolicy:
         are needed (:meth:`lr_limit`, with the overdispersion ``c_hat``)."""
         return bool(chi2_without - chi2_with > self.lr_limit(k_added, c_hat))
 
+    def separable(self, distance_chi2: float, c_hat: float = 1.0) -> bool:
+        """Whether two fitted hypotheses whose predictions lie ``distance_chi2`` apart [1] (the chi-square of
+        one's prediction taken as the other's data, on the fits' footing) can be told apart by data of this
+        noise and model accuracy: the distance exceeds :meth:`lr_limit` of one parameter. If one were true,
+        the other's excess chi-square would be at most a noncentral chi-square of one degree of freedom and
+        noncentrality ``distance_chi2`` (its fit can move towards the data), which reaches that limit about
+        half the time at most when the distance is below it: a test at the false-alarm rate has no better
+        than even power (the power argument of a detection threshold; Kay, *Fundamentals of Statistical
+        Signal Processing*, Vol. II, Sec. 7.3). ``c_hat``: the overdispersion [1] that scales the limit."""
+        return bool(math.isfinite(distance_chi2) and distance_chi2 > self.lr_limit(1, c_hat))
+
     @staticmethod
     def resolved(before: float, after: float, noise: float | None) -> bool:
         """Whether a validation resolves a fall of the FRF misfit from ``before`` to ``after`` [decades],

@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import DataFileError, VlabError
 from ...experiment.results import jsonable
-from .text import _fmt, finite_numbers, format_location, format_parameters, misfit_unit, ratio_text
+from .text import _fmt, finite_numbers, format_location, format_parameters, misfit_unit, ratio_text, separable_why
 from .verdict import mismatch_text, nominal_fit_chi2, selected_chi2, verdict
 
 
@@ -166,8 +166,7 @@ def _ranked_lines(res: dict) -> list[str]:
                      f"{_fmt(h['misfit_before'], 3)} | {_fmt(h['misfit_after'], 3)} |")
     lines.append("")
     if res.get("alternatives"):
-        lines += ["Within 10 of the selected BIC (not separable by these data): "
-                  + ", ".join(res["alternatives"]), ""]
+        lines += [f"Not separable by these data ({separable_why(res)}): " + ", ".join(res["alternatives"]), ""]
     return lines
 
 

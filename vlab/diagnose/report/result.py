@@ -56,6 +56,9 @@ class DiagnosisResult:
         Name -> path of the report files (when an output folder was given).
     alternatives : list of Hypothesis
         Hypotheses the data cannot tell apart from the selected one.
+    separation : dict or None
+        The look-alikes by prediction (:mod:`vlab.diagnose.fit.separation`): ``limit_chi2`` [1] and
+        ``distance_chi2`` (label -> the chi-square distance [1] of its prediction from the selection's).
     overdispersion : float
         ``max(1, chi2 / (N - k))`` of the selected fit (see :func:`vlab.diagnose.fit.rules.evidence`).
     plant_refit : PlantRefit or None
@@ -122,6 +125,7 @@ class DiagnosisResult:
     timing_s: dict = field(default_factory=dict)
     files: dict = field(default_factory=dict)
     alternatives: list = field(default_factory=list)
+    separation: dict | None = None
     overdispersion: float = 1.0
     plant_refit: PlantRefit | None = None
     structure_fit: StructureFit | None = None
@@ -206,6 +210,23 @@ class DiagnosisResult:
             i += part.n_params
         return out
 
+    def _located(self) -> dict:
+        """The JSON's ``located``: the modes, points, members, band, sensors and channels of the location."""
+        loc = self.location
+        sensors = [p for p, c in loc.channels.items()
+                   if c["chi2_per_residual"] > FLAG or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
+        return {"modes": [m.mode for m in loc.modes if m.flagged], "points": loc.points, "members": loc.members,
+                "band_hz": loc.band_hz, "extra_resonances": list(loc.extra), "loop": self.loop, "sensors": sensors,
+                "mode_errors": [m.as_dict() for m in loc.modes], "channels": loc.channels,
+                "sensitivity": loc.sensitivity[:10]}
+
+    def _by_prediction(self, alternatives: list[str]) -> dict | None:
+        """The JSON's ``alternatives_by_prediction``: the limit and the distances of those of ``alternatives``
+        found by prediction (:attr:`separation`), None when there are none."""
+        sep = self.separation or {}
+        dist = {k: v for k, v in sep.get("distance_chi2", {}).items() if k in alternatives}
+        return {"limit_chi2": sep["limit_chi2"], "distance_chi2": dist} if dist else None
+
     def _value_reference(self) -> str | None:
         """The model the selected parameters belong to, in words (None when nothing is selected)."""
         if self.selected is None:
@@ -226,15 +247,8 @@ class DiagnosisResult:
         error; time errors relative. Plain JSON types: numbers that are not
         finite become None.
         """
-        loc = self.location
         d = self.data
-        flagged = [m.mode for m in loc.modes if m.flagged]
-        sensors = [p for p, c in loc.channels.items()
-                   if c["chi2_per_residual"] > FLAG or (np.isfinite(c["comac"]) and c["comac"] < 0.9)]
-        located = {"modes": flagged, "points": loc.points, "members": loc.members, "band_hz": loc.band_hz,
-                   "extra_resonances": list(loc.extra),
-                   "loop": self.loop, "sensors": sensors, "mode_errors": [m.as_dict() for m in loc.modes],
-                   "channels": loc.channels, "sensitivity": loc.sensitivity[:10]}
+        located = self._located()
         if self.validation is not None:
             validated = self.validation.as_dict()
             if self.selected is not None:  # the likelihood-ratio limit the reruns' chi-square is judged by
@@ -276,7 +290,8 @@ class DiagnosisResult:
             if self.problem.data.reference_column is not None:
                 validated["modes_compared_with"] = (f"the column {self.problem.data.reference_column!r}, changed by "
                                                     "the effect as vlab's model predicts")
-        alternatives = [h.label for h in self.alternatives]
+        chosen = None if self.selected is None else self.selected.label
+        alternatives = list(dict.fromkeys(h.label for h in self.alternatives if h.label != chosen))
         data = {"source": d.source, "kind": d.kind}
         if isinstance(d, FrfData):
             data.update(n_lines=int(d.freq_hz.size), n_channels=len(d.output_points),
@@ -300,6 +315,7 @@ class DiagnosisResult:
             "ranked": [self._entry(h) for h in self.ranked],
             "selected": self._selected_entries(),
             "alternatives": alternatives,
+            "alternatives_by_prediction": self._by_prediction(alternatives),
             "rejected": list(self.rejected),
             "too_small_to_name": bool(self.too_small),
             "reference": self.reference,

@@ -210,3 +210,18 @@ def ratio_text(before, after) -> str:
         return ""
     r = before / after
     return f"{r:.3g} x lower" if r >= 1 else f"{1 / r:.3g} x higher"
+
+
+def separable_why(res: dict) -> str:
+    """Why the JSON result ``res``'s ``alternatives`` are look-alikes of the selection: within the policy's
+    evidence (10) in BIC, or -- those in ``alternatives_by_prediction`` -- their fitted predictions within
+    the chi-square limit of the selection's (:mod:`vlab.diagnose.fit.separation`)."""
+    by = res.get("alternatives_by_prediction") or {}
+    dist = by.get("distance_chi2") or {}
+    parts = []
+    if any(a not in dist for a in res.get("alternatives") or []):
+        parts.append("BIC within 10")
+    if dist:
+        parts.append(f"{', '.join(dist)}: predictions within chi-square {_fmt(float(by['limit_chi2']))} of the "
+                     "selection's")
+    return "; ".join(parts)

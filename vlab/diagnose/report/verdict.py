@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import math
 
-from .text import _fmt, finite_numbers, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text
+from .text import (_fmt, finite_numbers, format_location, format_parameters, misfit_unit, parameter_unit, ratio_text,
+                   separable_why)
 
 
 def _where_text(res: dict) -> str:
@@ -197,7 +198,7 @@ def _verdict_body(res: dict, s: dict, n) -> str:
     text += "."
     alts = res.get("alternatives") or []
     if alts:
-        text += f" Not separable by these data (BIC within 10): {', '.join(alts)}."
+        text += f" Not separable by these data ({separable_why(res)}): {', '.join(alts)}."
     v = res.get("validated") or {}
     ratio = ratio_text(v.get("misfit_before"), v.get("misfit_after"))
     if ratio:
