@@ -93,7 +93,8 @@ def test_the_structures_value_is_fitted_only_for_a_recording_of_unknown_source_r
     inp = SimpleNamespace(metadata=metadata, on_plant=on_plant, unreferred=object(), nominal=lab, spec=lab.spec,
                           fe=lab.fe, guard_s=None)
     notes = []
-    pipeline._on_structure(res, inp, None, notes, {}, lambda s: None)
+    problem = SimpleNamespace(model_form=None, model_form_frf=None)
+    assert pipeline._structure_problem(res, inp, problem, notes, {}, lambda s: None) is None
     assert bool(calls) == fitted
     assert res.structure_fit is None
-    assert any("could not be fitted on the structure's own model (stop here)" in n for n in notes) == fitted
+    assert any("could not be referred to the structure's own model (stop here)" in n for n in notes) == fitted

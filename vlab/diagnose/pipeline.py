@@ -35,6 +35,7 @@ one policy (:class:`vlab.diagnose.policy.DecisionPolicy`, from the user's false-
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -50,10 +51,14 @@ from .data.reference import RERUN_SEED, referred_through_replay
 from .data.run import DiagnosisRun, one_blas_thread
 from .data.rerun_jobs import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
-from .detectability import frf_model_form_of
+from .detectability import frf_model_form_of, threshold_of
+from .effects.hypotheses import Combination
 from .explain import Search, explain
 from .fit.locate import locate
-from .fit.onstructure import fit_on_structure
+from .fit.anchored import pair_on_anchor
+from .fit.estimate import fit_hypothesis
+from .fit.onstructure import converged_lab, fit_on_structure
+from .fit.plantfit import PlantModel
 from .fit.rules import beyond_noise, changed_beyond_noise
 from .fit.selection import located_from_fits, rerun_key
 from .instability_cause import plant_own_oscillation
@@ -179,34 +184,89 @@ def _source_named(inp: Inputs) -> bool:
     return isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
 
 
-def _on_structure(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> None:
-    """Stage 5b: for a recording that names no vlab plant and was referred through the MuJoCo plant's replay,
-    the choice's value fitted again on the structure's model -- the FE model at the structure file's mesh, the
-    data referred through its own linear replay -- and set as ``res.structure_fit``
-    (:mod:`vlab.diagnose.fit.onstructure`: the MuJoCo referral puts the plant's discretisation into every
-    mode-moving parameter). The model form is the one the diagnosis used, taken for the FE model's modes."""
+def _structure_problem(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: list, timing: dict,
+                       say) -> tuple[Problem, str] | None:
+    """The structure's own problem for stage 5a/5b: for a recording that names no vlab plant and was referred
+    through the MuJoCo plant's replay, its data referred through the FE model's own linear replay, the mesh
+    converged (:func:`vlab.diagnose.fit.onstructure.converged_lab`); the model form the diagnosis used, taken
+    for that model's modes (:mod:`vlab.diagnose.fit.onstructure`: the MuJoCo referral puts the plant's
+    discretisation into every mode-moving parameter), with what the data were referred through, in words.
+    None when there is no choice or no such recording, or it cannot be built (a note says why)."""
     if res.selected is None or not inp.on_plant or inp.unreferred is None or _source_named(inp):
-        return
-    say("fitting the value on the structure's own model")
+        return None
+    say("referring the recording to the structure's own model")
     t = time.perf_counter()
     raw = inp.unreferred
-    lab = replace(inp.nominal, spec=inp.spec, fe=inp.fe, point_modes=None)  # the structure file's own mesh
+    lab = replace(inp.nominal, spec=inp.spec, fe=inp.fe, point_modes=None)  # the structure file's own spec
     try:
+        # the referral H_model / H_replay corrects the loop's and the estimator's effects, which the file's
+        # mesh carries as well as a finer one (and replays many times faster): it is taken there
         data, _replay, kind = referred_through_replay(raw, lab, "linear", guard_s=inp.guard_s)
+        sigma = float(np.min(problem.model_form.frequency_rel)) if problem.model_form is not None else 0.0
+        lab, factor, change = converged_lab(lab, inp.band_hz, sigma) if sigma > 0 else (lab, 1, float("nan"))
         mf, mf_frf = frf_model_form_of(lab, data, "linear") if problem.model_form_frf is not None else (None, None)
         on_fe = Problem(data, lab, context_for(lab, inp.band_hz, data), floor=problem.floor, model_form_frf=mf_frf,
                         modal_model_form=problem.modal_model_form, profile_nominal=True, policy=problem.policy)
     except (VlabError, ImportError, ValueError, np.linalg.LinAlgError) as exc:
-        notes.append(f"the value could not be fitted on the structure's own model ({exc}): it is the one fitted "
-                     "through the MuJoCo plant's replay")
-        return
+        notes.append(f"the recording could not be referred to the structure's own model ({exc}): the value is the "
+                     "one fitted through the MuJoCo plant's replay")
+        return None
     on_fe.model_form = mf
-    res.structure_fit = fit_on_structure(on_fe, res.selected, f"its own replay of the recorded force ({kind})")
+    if factor > 1:
+        notes.append(f"the structure's own model: its mesh refined {factor} x (the modes in the band then move by "
+                     f"{100 * change:.2g} % at most from one refinement to the next)")
+    timing["structure_problem"] = time.perf_counter() - t
+    return on_fe, f"its own replay of the recorded force ({kind})"
+
+
+def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, on_plant: bool, notes: list,
+                       timing: dict, say) -> None:
+    """Stage 5a: a chosen pair judged on the structure's own problem ``on_fe`` with the model form anchored at
+    its better part (:func:`vlab.diagnose.fit.anchored.pair_on_anchor`); where its second effect is not needed
+    there, that part alone is the choice (its fit on ``problem``, refitted on the MuJoCo plant where it
+    edits the spec): a second effect needed only where one mode's model-form error has moved away from the
+    nominal covariance, or only on the plant's discretisation, is a passenger."""
+    pair = res.selected
+    say("judging the pair on the structure's own model")
+    t = time.perf_counter()
+    try:
+        judged = pair_on_anchor(pair, on_fe)
+    except (VlabError, ValueError, np.linalg.LinAlgError) as exc:
+        notes.append(f"the pair could not be judged on the structure's own model ({exc})")
+        return
+    notes.append(judged.describe(pair.label) + " (on the structure's own model)")
+    timing["pair_on_structure"] = time.perf_counter() - t
+    if judged.keep:
+        return
+    part = next((h for h in res.ranked if h.label == judged.part.label and not isinstance(h, Combination)), None)
+    if part is None:
+        part = fit_hypothesis(copy.deepcopy(judged.part), problem)
+    res.selected, res.alternatives, res.misfit_selected = part, [], float(part.misfit_)
+    res.plant_refit = None
+    if on_plant and part.spec_level:
+        try:
+            res.plant_refit = PlantModel(problem).refit(part, part.params_)
+        except (VlabError, ImportError) as exc:
+            notes.append(f"{part.label} could not be refitted on the MuJoCo plant's linearisation: {exc}")
+    thr = threshold_of(problem, res.nominal, problem.ctx, part)
+    res.threshold = None if thr is None else thr.as_dict()
+
+
+def _on_structure(res: DiagnosisResult, structure: tuple[Problem, str] | None, notes: list, timing: dict,
+                  say) -> None:
+    """Stage 5b: the choice's value fitted again on the structure's own problem and set as
+    ``res.structure_fit`` (``structure``: what :func:`_structure_problem` returned)."""
+    if res.selected is None or structure is None:
+        return
+    say("fitting the value on the structure's own model")
+    t = time.perf_counter()
+    res.structure_fit = fit_on_structure(structure[0], res.selected, structure[1])
     if res.structure_fit is not None:
         notes.append("the recording names no vlab plant: the value is fitted on the structure's own model (the FE "
-                     "model at the structure file's mesh, the data referred through its own linear replay), where "
-                     "no simulator's discretisation enters it; its 95 % interval spans the value fitted through "
-                     "the MuJoCo plant's replay (plant_fit)")
+                     "model of the structure file, its mesh converged, the data referred through its own linear "
+                     "replay, the model form anchored at the fitted lab's modes), where no simulator's "
+                     "discretisation enters it; its 95 % interval spans the value fitted through the MuJoCo "
+                     "plant's replay (plant_fit)")
     else:
         notes.append("the value could not be fitted on the structure's own model (the fit failed or did not beat "
                      "the nominal model there): it is the one fitted through the MuJoCo plant's replay")
@@ -365,6 +425,9 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             explain(res, problem, problem.ctx, search, chi2_fit=res.chi2_fit, noise_only=res.noise_only, notes=notes,
                     timing=timing, say=say)
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)
+        structure = None if self_excited else _structure_problem(res, inp, problem, notes, timing, say)
+        if structure is not None and isinstance(res.selected, Combination):
+            _pair_on_structure(res, problem, structure[0], inp.on_plant, notes, timing, say)
         if res.selected is not None and validate_run and isinstance(inp.data, FrfData) \
                 and inp.data.recording is not None and res.validation is None:
             _validated(res, problem, inp.plant, notes, timing, say, inp.loops)
@@ -375,7 +438,7 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             t = time.perf_counter()
             settle_remainder(res, problem, chi2_fit=res.chi2_fit, notes=notes)
             timing["remainder"] = time.perf_counter() - t
-            _on_structure(res, inp, problem, notes, timing, say)
+            _on_structure(res, structure, notes, timing, say)
     finally:
         stop_background(problem)  # a background rerun never asked for
     timing["total"] = time.perf_counter() - t_start

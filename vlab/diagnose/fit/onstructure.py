@@ -15,10 +15,13 @@ enters every mode-moving parameter: an added mass of 2-5x its detection threshol
 shifts the resonances by a few tenths of a percent, the same order.
 
 So, for a recording that names no vlab plant, the chosen effect's value is
-fitted again on the *structure's* model -- the FE model at the structure file's
-own mesh, whose discretisation is part of its stated model form -- with the data
-referred through that model's own linear replay (the same loop, chain and
-estimator; no simulator's discretisation put in). That value is the answer; the
+fitted again on the *structure's* model -- the FE model of the structure file,
+its mesh refined until its discretisation is negligible against the model form
+(:func:`converged_lab`: a value is a property of the structure, not of a mesh) --
+with the data referred through that model's own linear replay (the same loop,
+chain and estimator; no simulator's discretisation put in), and the model form
+anchored at the fitted lab's own modes (:mod:`vlab.diagnose.fit.anchored`). That
+value is the answer; the
 plant's value (:mod:`vlab.diagnose.fit.plantfit`) stays the value the validation
 rerun uses. The two references differ by their model form, which the fit's
 statistical interval does not carry, so the reported 95 % interval spans the
@@ -34,15 +37,28 @@ ch. 1); the referral is the reference-state method of Doebling et al.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ...errors import VlabError
+from ...fe import build_fe_model, modal_analysis
+from ...spec import MAX_ELEMENTS_PER_SEGMENT
 from ..effects.hypothesis import Combination, Hypothesis
+from ..model.labmodel import LabState
 from ..problem.residuals import Problem
+from .anchored import fit_anchored
 from .estimate import fit_hypothesis
+
+#: Share of the smallest model-form frequency uncertainty below which a mesh counts as converged: the
+#: discretisation then adds at most 1 % to any mode's frequency variance.
+CONVERGED_SHARE = 0.1
+#: Most degrees of freedom of the refined model (each fit evaluation solves its modes).
+MAX_REFINED_DOFS = 600
+#: Modes above the band by this factor do not enter the convergence test (as the FRF model form's margin).
+BAND_MARGIN = 1.5
 
 
 @dataclass(frozen=True)
@@ -80,9 +96,10 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     """Fit the chosen hypothesis ``h`` again on the structure's problem.
 
     A single effect is fitted from its own trial values (the structure's optimum may lie outside a local
-    search from the chosen value: an added mass 30 % apart), and again from the chosen value where that
-    scores better on the structure's problem than the trials' fit (a value beyond the trials' range); a pair
-    from the chosen parameters, by a local fit.
+    search from the chosen value: an added mass 30 % apart) or from the chosen value where that scores
+    better on the structure's problem than the trials' fit (a value beyond the trials' range); a pair from the
+    chosen parameters, by a local fit; each with the model form anchored at the fitted lab
+    (:func:`vlab.diagnose.fit.anchored.fit_anchored`).
 
     Parameters
     ----------
@@ -106,15 +123,13 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     g = copy.deepcopy(h)
     try:
         x0 = np.asarray(h.params_, dtype=float)
-        if isinstance(g, Combination):
-            g = fit_hypothesis(g, problem, starts=x0[None, :])
-        else:
-            g = fit_hypothesis(g, problem)
-            if problem.chi2(problem.state_for(h, x0)) < g.chi2_:
-                g = fit_hypothesis(copy.deepcopy(h), problem, starts=x0[None, :])
+        if not isinstance(g, Combination) and problem.chi2(problem.state_for(h, x0)) >= \
+                fit_hypothesis(copy.deepcopy(h), problem).chi2_:
+            x0 = None  # the trials' fit scores better than the chosen value: start from the trials
+        g, footing = fit_anchored(g, problem, starts=None if x0 is None else x0[None, :])
     except (VlabError, ValueError, np.linalg.LinAlgError):
         return None
-    if not np.all(np.isfinite(g.params_)) or not g.chi2_ < problem.chi2(problem.base):
+    if not np.all(np.isfinite(g.params_)) or not g.chi2_ < footing.chi2(footing.base):
         return None
     return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
                         reference, time.perf_counter() - t)
@@ -140,3 +155,56 @@ def spanning(ci95: np.ndarray, *values: np.ndarray) -> np.ndarray:
         out[:, 0] = np.where(np.isfinite(out[:, 0]), np.minimum(out[:, 0], v), out[:, 0])
         out[:, 1] = np.where(np.isfinite(out[:, 1]), np.maximum(out[:, 1], v), out[:, 1])
     return out
+
+
+def converged_lab(lab: LabState, band_hz: tuple[float, float], frequency_sigma: float) -> tuple[LabState, int, float]:
+    """``lab`` with its FE model's mesh refined until converged in the band.
+
+    The elements per segment of every member are doubled while the modes up to :data:`BAND_MARGIN` times the
+    band's top move by more than :data:`CONVERGED_SHARE` of ``frequency_sigma`` (relative) from one mesh to
+    the next, while the refined model stays within :data:`MAX_REFINED_DOFS` and while the spec can carry it
+    (an element no shorter than a rigid insert).
+
+    Parameters
+    ----------
+    lab : LabState
+        With the structure file's spec and FE model.
+    band_hz : (float, float)
+        The data's band [Hz].
+    frequency_sigma : float
+        The smallest relative standard uncertainty of a frequency in the model form [1].
+
+    Returns
+    -------
+    lab : LabState
+        The refined lab (``lab`` itself when its mesh is converged).
+    factor : int
+        The refinement factor of the elements per segment.
+    change : float
+        The largest relative frequency change of the last doubling in the band [1].
+
+    Raises
+    ------
+    ModelError
+        ``lab``'s own FE model has no modes.
+    """
+    tol = CONVERGED_SHARE * float(frequency_sigma)
+    spec, fe, factor, change = lab.spec, lab.fe, 1, float("inf")
+    f_top = BAND_MARGIN * float(band_hz[1])
+    f0 = modal_analysis(fe.m, fe.k).frequencies_hz
+    while True:
+        fine = spec.replace(members=tuple(dataclasses.replace(
+            m, elements_per_segment=min(MAX_ELEMENTS_PER_SEGMENT, 2 * m.elements_per_segment)) for m in spec.members))
+        try:
+            fe1 = build_fe_model(fine)
+        except VlabError:  # a mesh the spec cannot carry (an element shorter than a rigid insert): the last one
+            break
+        if fe1.n > MAX_REFINED_DOFS or fine == spec:
+            break
+        f1 = modal_analysis(fe1.m, fe1.k).frequencies_hz
+        k = int(np.sum(f0 <= f_top))
+        change = float(np.max(np.abs(np.log(f0[:k] / f1[:k])), initial=0.0))
+        spec, fe, f0, factor = fine, fe1, f1, 2 * factor
+        if change <= tol:
+            break
+    return (lab if factor == 1 else replace(lab, spec=spec, fe=fe, point_modes=None)), factor, change

@@ -195,7 +195,8 @@ def calibration_residual(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[floa
 
 
 def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
-    """``|ln(f / f_refined)|`` of the first ``n`` modes, the refined mesh with twice the elements per segment.
+    """``|ln(f / f_refined)|`` of the first ``n`` modes, the refined mesh with twice the elements per segment
+    (where the spec cannot carry it, the mesh with half as many: a bound from above).
 
     Parameters
     ----------
@@ -208,10 +209,11 @@ def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
     ndarray, shape (n,)
         Relative difference [1]; modes beyond the refined model's count get the largest value found.
     """
-    fine = spec.replace(members=tuple(
-        dataclasses.replace(m, elements_per_segment=min(MAX_ELEMENTS_PER_SEGMENT, 2 * m.elements_per_segment))
-        for m in spec.members))
-    fe0, fe1 = build_fe_model(spec), build_fe_model(fine)
+    fe0 = build_fe_model(spec)
+    try:
+        fe1 = build_fe_model(_remeshed(spec, 2.0))
+    except ModelError:  # no finer mesh fits (an element shorter than a rigid insert): the coarser one bounds it
+        fe1 = build_fe_model(_remeshed(spec, 0.5))
     f0 = modal_analysis(fe0.m, fe0.k, n).frequencies_hz
     f1 = modal_analysis(fe1.m, fe1.k, n).frequencies_hz
     k = min(len(f0), len(f1))
@@ -219,6 +221,13 @@ def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
     out[:k] = np.abs(np.log(f0[:k] / f1[:k]))
     out[k:] = out[:k].max(initial=0.0)
     return out
+
+
+def _remeshed(spec: StructureSpec, factor: float) -> StructureSpec:
+    """``spec`` with every member's elements per segment scaled by ``factor`` (at least 1, at most the
+    spec's limit)."""
+    return spec.replace(members=tuple(dataclasses.replace(m, elements_per_segment=int(min(
+        MAX_ELEMENTS_PER_SEGMENT, max(1, round(factor * m.elements_per_segment))))) for m in spec.members))
 
 
 def damping_uncertainty(spec: StructureSpec, n: int) -> np.ndarray:
@@ -536,13 +545,43 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
         for which, j, s_p in params:
             if not np.isfinite(s_p) or s_p <= 0:
                 continue
-            pm = perturbed_modes(pm0, which, r, j, SENSITIVITY_STEP)
-            h = predict_frf(_replace(state, point_modes=pm), f, **kw)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                s = np.log(h / h0) / SENSITIVITY_STEP
-            sens.append(np.where(np.isfinite(s), s, 0.0))
+            sens.append(_sensitivity(state, pm0, which, r, j, f, kw, h0))
             sig.append(s_p)
             labels.append(f"{which}{r + 1}" + (f"@{pts[j]}" if j is not None else ""))
     if not sens:
         return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm0)
     return FrfModelForm(np.stack(sens, axis=-1), np.array(sig), tuple(labels), pm0)
+
+
+def _sensitivity(state: LabState, pm: PointModes, which: str, r: int, j: int | None, f: np.ndarray, kw: dict,
+                 h0: np.ndarray) -> np.ndarray:
+    """``d ln H / d ln p`` of one modal parameter of ``pm`` (:func:`perturbed_modes`), shape of ``h0``: a forward
+    difference of :func:`predict_frf` of ``state`` with those modes (0 where it is not finite)."""
+    h = predict_frf(_replace(state, point_modes=perturbed_modes(pm, which, r, j, SENSITIVITY_STEP)), f, **kw)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.log(h / h0) / SENSITIVITY_STEP
+    return np.where(np.isfinite(s), s, 0.0)
+
+
+def model_form_at(mff: FrfModelForm, state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
+                  output_points) -> FrfModelForm:
+    """The model form ``mff`` (:func:`frf_model_form`) anchored at the lab ``state``'s own modes
+    (:func:`vlab.diagnose.model.labmodel.point_modes_of` at ``mff``'s points): the same parameters and standard
+    uncertainties, each sensitivity taken at ``state``'s mode of the same number in frequency order (zero for a
+    mode it lacks); ``freq_hz`` (shape (n_f,), [Hz]), ``excitation_point`` and ``output_points`` as there. Why:
+    :mod:`vlab.diagnose.fit.anchored`. Raises ModelError where ``state`` cannot be built or lacks the points."""
+    f = np.asarray(freq_hz, dtype=float)
+    kw = {"excitation_point": excitation_point, "output_points": output_points}
+    pts = mff.modes.points if mff.modes is not None else tuple(dict.fromkeys(tuple(output_points) + state.actuators))
+    pm = point_modes_of(state, pts, "the evaluated lab")
+    h0 = predict_frf(_replace(state, point_modes=pm), f, **kw)
+    sens = []
+    for label in mff.labels:
+        which = "zeta" if label.startswith("zeta") else ("phi" if label.startswith("phi") else "f")
+        mode, _, point = label[len(which):].partition("@")
+        r, j = int(mode) - 1, (pts.index(int(point)) if point else None)
+        sens.append(_sensitivity(state, pm, which, r, j, f, kw, h0) if r < len(pm.omega)
+                    else np.zeros(h0.shape, dtype=complex))
+    if not sens:
+        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm)
+    return FrfModelForm(np.stack(sens, axis=-1), np.asarray(mff.sigma), tuple(mff.labels), pm)

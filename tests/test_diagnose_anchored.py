@@ -1,0 +1,96 @@
+"""The model form anchored at a fitted lab's own modes (vlab.diagnose.fit.anchored), on closed-form FRFs of the
+BCC: the bottom segment stiffened 2.2 x, every mode of that structure off by one standard uncertainty of its
+frequency (alternating signs), as a structure's own modes are off its model's. Its lightly damped modes have
+moved by several half-power bandwidths, so the nominal lab's model-form sensitivities no longer cover
+their errors: anchored at the nominal lab, the fitted stiffness is biased and a joint elsewhere looks
+needed; anchored at the fitted lab, the value is the truth's and the joint a passenger. A second effect
+that is really there is kept."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from vlab.diagnose.data.measured import FrfData
+from vlab.diagnose.effects.hypotheses import Combination
+from vlab.diagnose.effects.structural import JointFlexibility, MemberStiffness
+from vlab.diagnose.fit.anchored import fit_anchored, pair_on_anchor
+from vlab.diagnose.fit.estimate import fit_hypothesis
+from vlab.diagnose.model.labmodel import LabState, natural_frequencies, point_modes_of, predict_frf
+from vlab.diagnose.model.modelform import frf_model_form, model_form_at, model_form_uncertainty
+from vlab.diagnose.problem.context import context_for
+from vlab.diagnose.problem.residuals import Problem
+from vlab.lab.loop import HardwareChain
+from vlab.models import nominal_fe_model
+
+KW = {"excitation_point": 9, "output_points": (1, 3, 5, 6, 7, 9)}
+F_HZ = np.arange(10, 500) * 0.05
+EI_TRUE = 26.0015 * 2.2135  # the bottom segment's rigidity, 2.2 x the nominal [N m^2]
+SEGMENT = MemberStiffness(member="beam", segment=(8, 9))
+
+
+def _problem(joint_n_m_per_rad: float | None = None):
+    """The nominal lab, its model form and a problem of FRFs of the changed structure with its modes off."""
+    fe = nominal_fe_model("bcc")
+    lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    ctx = context_for(lab, (0.5, 25.0), None)
+    mf = model_form_uncertainty(fe.spec, natural_frequencies(lab)[0], compared_with="fe")
+    truth = SEGMENT.apply(lab, np.array([EI_TRUE]), ctx)
+    if joint_n_m_per_rad is not None:
+        truth = JointFlexibility(point=3).apply(truth, np.array([joint_n_m_per_rad]), ctx)
+    pm = point_modes_of(truth, sorted(set(KW["output_points"]) | {9}))
+    n = len(pm.omega)
+    sig = np.zeros(n)
+    k = min(n, len(mf.frequency_rel))
+    sig[:k] = mf.frequency_rel[:k]
+    offset = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * sig
+    h = predict_frf(replace(truth, point_modes=replace(pm, omega=pm.omega * np.exp(offset))), F_HZ, **KW)
+    data = FrfData("closed-form", "frf", F_HZ, h, (1e-4 * np.abs(h)) ** 2, 9, KW["output_points"])
+    mff = frf_model_form(lab, F_HZ, uncertainty=mf, **KW)
+    pr = Problem(data, lab, context_for(lab, (0.5, 25.0), data), model_form_frf=mff, profile_nominal=True)
+    pr.model_form = mf
+    return lab, mff, pr
+
+
+@pytest.fixture(scope="module")
+def stiffened():
+    return _problem()
+
+
+def test_the_model_form_anchored_at_the_nominal_lab_is_the_nominal_model_form(stiffened):
+    lab, mff, _ = stiffened
+    same = model_form_at(mff, lab, F_HZ, **KW)
+    assert same.labels == mff.labels
+    assert np.array_equal(same.sigma, mff.sigma)
+    assert np.allclose(same.sens, mff.sens, rtol=1e-9, atol=1e-9)
+
+
+def test_anchored_at_the_fitted_lab_the_value_is_the_truths_and_the_joint_a_passenger(stiffened):
+    _, _, pr = stiffened
+    plain = fit_hypothesis(copy.deepcopy(SEGMENT), pr)
+    assert abs(plain.params_[0] / EI_TRUE - 1) > 0.1  # the nominal anchor pulls the value off
+    assert plain.chi2_ > pr.noise_chi2()
+    anchored, footing = fit_anchored(copy.deepcopy(SEGMENT), pr)
+    assert anchored.params_[0] == pytest.approx(EI_TRUE, rel=0.02)
+    assert anchored.chi2_ < footing.noise_chi2()
+    joint = fit_hypothesis(JointFlexibility(point=3), pr)
+    pair = fit_hypothesis(Combination(first=plain, second=joint), pr,
+                          starts=np.r_[plain.params_, joint.params_][None, :])
+    assert pr.policy.needed(plain.chi2_, pair.chi2_, 1)  # on the nominal anchor the joint looks needed
+    given = pair.params_.copy()
+    judged = pair_on_anchor(pair, pr)
+    assert not judged.keep and judged.part.label == SEGMENT.label
+    assert "alone is kept" in judged.describe(pair.label)
+    assert np.array_equal(pair.params_, given)  # the pair given is not changed
+
+
+def test_a_second_effect_that_is_there_is_kept():
+    _, _, pr = _problem(joint_n_m_per_rad=300.0)
+    seg = fit_hypothesis(copy.deepcopy(SEGMENT), pr)
+    joint = fit_hypothesis(JointFlexibility(point=3), pr)
+    pair = fit_hypothesis(Combination(first=seg, second=joint), pr, starts=np.r_[seg.params_, joint.params_][None, :])
+    judged = pair_on_anchor(pair, pr)
+    assert judged.keep
