@@ -40,12 +40,6 @@ def _edit(src: Path, dst: Path, edit) -> Path:
     return dst
 
 
-def _assert_refused(spec, path: Path, match: str, error=ModelError) -> None:
-    """Loading the MJCF ``path`` for an experiment on ``spec`` raises ``error`` matching ``match``."""
-    with pytest.raises(error, match=match):
-        load_plant_for_experiment(spec, mjcf=path)
-
-
 def _named(parent, name):
     return next(e for e in parent if e.get("name") == name)
 
@@ -72,52 +66,47 @@ def _drive(sim: MujocoPlant, steps: int = 40) -> None:
     sim.step(steps)
 
 
-def test_removed_sensor_is_refused(spec, exported, tmp_path):
-    path = _edit(exported, tmp_path / "no_vel6.xml", lambda s, a: s.remove(_named(s, "vel6")))
-    _assert_refused(spec, path, r"no_vel6\.xml.*sensor vel6 .*missing")
+def _rename_actuator(s, a):
+    _named(a, "coil7").set("name", "shaker7")
+    _named(s, "vel7").set("actuator", "shaker7")
 
 
-def test_renamed_sensor_is_refused_and_the_new_name_reported(spec, exported, tmp_path):
-    path = _edit(exported, tmp_path / "renamed.xml", lambda s, a: _named(s, "vel6").set("name", "velocity6"))
-    _assert_refused(spec, path, r"renamed\.xml.*sensor vel6 .*missing.*velocity6")
+def _delay_sensor(s, a):
+    _named(s, "vel5").set("nsample", "4")
+    _named(s, "vel5").set("delay", "0.001")
 
 
-def test_renamed_actuator_is_refused(spec, exported, tmp_path):
-    def edit(s, a):
-        _named(a, "coil7").set("name", "shaker7")
-        _named(s, "vel7").set("actuator", "shaker7")
-
-    path = _edit(exported, tmp_path / "shaker.xml", edit)
-    _assert_refused(spec, path, r"shaker\.xml.*actuator coil7 .*missing.*shaker7")
+def _retype_sensor(s, a):
+    _named(s, "vel6").tag = "framepos"
 
 
-def test_sensor_noise_is_refused_naming_the_attribute_and_the_lab_option(spec, exported, tmp_path):
-    path = _edit(exported, tmp_path / "noisy.xml", lambda s, a: _named(s, "vel6").set("noise", "0.1"))
-    _assert_refused(spec, path, r"noisy\.xml.*sensor vel6 has noise=\"0\.1\".*--noise")
+# (file name, edit, message pattern, error) of the edits vlab cannot honour: each is refused naming the file and
+# the element. MuJoCo sensors have no gain: a gain attribute is refused when the file is read, naming it.
+REFUSED_EDITS = [
+    pytest.param("no_vel6.xml", lambda s, a: s.remove(_named(s, "vel6")), r"no_vel6\.xml.*sensor vel6 .*missing",
+                 ModelError, id="removed_sensor"),
+    pytest.param("renamed.xml", lambda s, a: _named(s, "vel6").set("name", "velocity6"),
+                 r"renamed\.xml.*sensor vel6 .*missing.*velocity6", ModelError,
+                 id="renamed_sensor_and_the_new_name_reported"),
+    pytest.param("shaker.xml", _rename_actuator, r"shaker\.xml.*actuator coil7 .*missing.*shaker7", ModelError,
+                 id="renamed_actuator"),
+    pytest.param("noisy.xml", lambda s, a: _named(s, "vel6").set("noise", "0.1"),
+                 r"noisy\.xml.*sensor vel6 has noise=\"0\.1\".*--noise", ModelError,
+                 id="sensor_noise_naming_the_attribute_and_the_lab_option"),
+    pytest.param("late.xml", _delay_sensor, r"late\.xml.*sensor vel5 has delay.*sensor vel5 has nsample", ModelError,
+                 id="sensor_delay"),
+    pytest.param("pos6.xml", _retype_sensor, r"pos6\.xml.*sensor vel6 has type mjSENS_FRAMEPOS", ModelError,
+                 id="sensor_of_another_type"),
+    pytest.param("gain.xml", lambda s, a: _named(s, "vel6").set("gain", "2"), r"gain\.xml", DataFileError,
+                 id="sensor_gain_attribute"),
+]
 
 
-def test_sensor_delay_is_refused(spec, exported, tmp_path):
-    def edit(s, a):
-        _named(s, "vel5").set("nsample", "4")
-        _named(s, "vel5").set("delay", "0.001")
-
-    path = _edit(exported, tmp_path / "late.xml", edit)
-    _assert_refused(spec, path, r"late\.xml.*sensor vel5 has delay.*sensor vel5 has nsample")
-
-
-def test_sensor_of_another_type_is_refused(spec, exported, tmp_path):
-    def edit(s, a):
-        e = _named(s, "vel6")
-        e.tag = "framepos"
-
-    path = _edit(exported, tmp_path / "pos6.xml", edit)
-    _assert_refused(spec, path, r"pos6\.xml.*sensor vel6 has type mjSENS_FRAMEPOS")
-
-
-def test_a_sensor_gain_attribute_does_not_exist_and_is_refused(spec, exported, tmp_path):
-    """MuJoCo sensors have no gain; such an edit is refused when the file is read, naming it."""
-    path = _edit(exported, tmp_path / "gain.xml", lambda s, a: _named(s, "vel6").set("gain", "2"))
-    _assert_refused(spec, path, r"gain\.xml", DataFileError)
+@pytest.mark.parametrize("name, edit, match, error", REFUSED_EDITS)
+def test_an_edit_vlab_cannot_honour_is_refused(spec, exported, tmp_path, name, edit, match, error):
+    path = _edit(exported, tmp_path / name, edit)
+    with pytest.raises(error, match=match):
+        load_plant_for_experiment(spec, mjcf=path)
 
 
 def test_sensor_moved_to_another_site_measures_there(spec, exported, tmp_path):

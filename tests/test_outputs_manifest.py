@@ -30,6 +30,13 @@ def _tree(folder: Path) -> dict[str, str]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+def _written(out: Path, name: str, text: str) -> Path:
+    """``out`` as a vlab command leaves it: the one file ``name`` holding ``text``, and the manifest."""
+    with atomic_dir(out) as tmp:
+        (tmp / name).write_text(text)
+    return out
+
+
 def _assert_manifest_lists_everything(folder: Path) -> None:
     listed = read_manifest(folder)
     assert listed is not None, f"{folder} has no valid {MANIFEST_NAME}"
@@ -111,9 +118,7 @@ def test_a_folder_vlab_did_not_write_survives_overwrite(tmp_path):
 
 def test_a_manifest_copied_into_a_users_folder_proves_nothing(tmp_path):
     """A manifest listing files whose hashes differ (a copy, or edited files) does not make them vlab's."""
-    out = tmp_path / "out"
-    with atomic_dir(out) as tmp:
-        (tmp / "report.md").write_text("vlab's")
+    out = _written(tmp_path / "out", "report.md", "vlab's")
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "report.md").write_text("the user's")
@@ -126,9 +131,7 @@ def test_a_manifest_copied_into_a_users_folder_proves_nothing(tmp_path):
 def test_a_file_added_while_the_run_writes_survives(tmp_path):
     """A foreign file that appears in the old folder after the check, while the new one is written: the old
     folder is checked again after it is renamed away, put back, and the run fails naming the file."""
-    out = tmp_path / "out"
-    with atomic_dir(out) as tmp:
-        (tmp / "results.json").write_text("{}")
+    out = _written(tmp_path / "out", "results.json", "{}")
     with pytest.raises(OutputError, match="late.txt"):
         with atomic_dir(out, overwrite=True) as tmp:
             (tmp / "results.json").write_text('{"new": 1}')
@@ -143,9 +146,7 @@ def test_a_file_added_between_the_last_check_and_the_rename_survives(tmp_path, m
     away and before anything is deleted; it is put back whole."""
     import vlab.io.atomic as atomic
 
-    out = tmp_path / "out"
-    with atomic_dir(out) as tmp:
-        (tmp / "results.json").write_text("{}")
+    out = _written(tmp_path / "out", "results.json", "{}")
     tmp = tmp_path / ".vlab-tmp-out-test"
     tmp.mkdir()
     (tmp / "results.json").write_text('{"new": 1}')
@@ -160,9 +161,7 @@ def test_a_file_added_between_the_last_check_and_the_rename_survives(tmp_path, m
 
 
 def test_links_and_folders_vlab_did_not_write_are_foreign(tmp_path):
-    out = tmp_path / "out"
-    with atomic_dir(out) as tmp:
-        (tmp / "a.txt").write_text("a")
+    out = _written(tmp_path / "out", "a.txt", "a")
     (out / "link").symlink_to(tmp_path)
     (out / "sub").mkdir()
     assert foreign_entries(out) == ["link (not a regular file)", "sub/ (a folder vlab did not write)"]
@@ -230,8 +229,7 @@ def test_the_lock_is_released_after_writing_and_reentrant_in_one_process(tmp_pat
     out = tmp_path / "o"
     check_output_dir(out)
     check_output_dir(out)  # the same process: no self-conflict
-    with atomic_dir(out) as tmp:
-        (tmp / "a").write_text("a")
+    _written(out, "a", "a")
     code = ("import sys; from vlab.io.atomic import check_output_dir; "
             "check_output_dir(sys.argv[1], overwrite=True); print('ok')")
     res = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True,

@@ -64,8 +64,7 @@ def test_a_file_named_outside_is_not_read_nor_echoed_and_an_option_allows_it(tmp
     if not host.is_file() or not host.read_text().strip():
         pytest.skip("no /etc/hostname here")
     p = tmp_path / "s.toml"
-    p.write_text(readers_cases.sub1(readers_cases.BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"',
-                                    'frequencies = "/etc/hostname"'))
+    p.write_text(readers_cases.with_reference(readers_cases.BCC_TOML, '"/etc/hostname"'))
     monkeypatch.delenv(ALLOW_ENV, raising=False)
     with pytest.raises(SpecError) as info:
         load_spec(p)
@@ -86,8 +85,7 @@ def test_files_beside_the_structure_file_and_includes_beside_the_model_are_read(
 
     shutil.copy(DATA_DIR / "table1_bcc_frequencies.csv", tmp_path / "mine.csv")
     p = tmp_path / "s.toml"
-    p.write_text(readers_cases.sub1(readers_cases.BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"',
-                                    'frequencies = "mine.csv"'))
+    p.write_text(readers_cases.with_reference(readers_cases.BCC_TOML, '"mine.csv"'))
     assert load_spec(p).reference["frequencies"] == str((tmp_path / "mine.csv").resolve())
     t = readers_cases.good_mjcf_text()
     sensors = re.search(r"<sensor>.*?</sensor>", t, flags=re.S).group(0)

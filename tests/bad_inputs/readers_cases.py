@@ -10,6 +10,8 @@ and also checks that the message names the file and that nothing is written.
 A case is ``Case(id, kind, make, read, error, fragments)``: ``make(d)`` writes
 the corrupted file in the folder ``d`` and returns its path; ``read(path)`` is
 the reader under test.
+Cases that differ only in their data are rows of a table: a field of one
+record changed (:func:`field_cases`), a text edited (:meth:`TextKind.table`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import re
 import shutil
 import struct
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Callable
 
@@ -162,12 +164,6 @@ GOOD_CSV = ("# measured modes of the BCC\n"
             "3,7.3,0.004,0.03,0.001,0.4,-0.7\n")
 
 
-def write_text(d, name, text):
-    p = d / name
-    p.write_text(text, encoding="utf-8")
-    return p
-
-
 @lru_cache(maxsize=1)
 def good_mjcf_text():
     import tempfile
@@ -197,6 +193,67 @@ def set_field(p, rec, **fields):
 
 def poke(p, sets_fn):
     return rewrite(p, sets_fn)
+
+
+def field_cases(kind, write, read, rows, error=DataFileError):
+    """Register a case per row ``(id, record, fields, fragments)``: the good file ``write(d)`` with ``fields``
+    of its record ``record`` (0-based) changed, read by ``read``."""
+    for id_, record, fields, fragments in rows:
+        CASES.append(Case(id_, kind, partial(_set_fields, write, record, fields), read, error, fragments))
+
+
+def _set_fields(write, record, fields, d):
+    return set_field(write(d), record, **fields)
+
+
+@dataclass(frozen=True)
+class TextKind:
+    """A text input: its cases write ``file_name``, the good text ``good()`` corrupted by an edit.
+
+    Call it as a decorator, ``@csv_case(*fragments, error=...)`` on ``edit(text) -> text or bytes``, or
+    register a table of edits with :meth:`table`.
+    """
+
+    kind: str
+    read: Callable[[Path], object]
+    file_name: str
+    good: Callable[[], str]
+    error: type
+
+    def add(self, id_, edit, fragments, error=None):
+        """Register the case ``id_``: the file holds ``edit(good())``, text (UTF-8) or bytes."""
+        def make(d):
+            p = d / self.file_name
+            text = edit(self.good())
+            if isinstance(text, bytes):
+                p.write_bytes(text)
+            else:
+                assert text != self.good(), "corruption did nothing"
+                p.write_text(text, encoding="utf-8")
+            return p
+        CASES.append(Case(id_, self.kind, make, self.read, error or self.error, tuple(fragments)))
+
+    def __call__(self, *fragments, error=None):
+        def deco(edit):
+            self.add(edit.__name__, edit, fragments, error)
+            return edit
+        return deco
+
+    def table(self, edit, rows):
+        """Register a case per row ``(id, args, fragments)``: the good text changed by ``edit(text, *args)``."""
+        for id_, args, fragments in rows:
+            self.add(id_, partial(_edit_with, edit, args), fragments)
+
+
+def _edit_with(edit, args, text):
+    return edit(text, *args)
+
+
+def truncated(p, numerator=1, denominator=2):
+    """The file ``p`` cut to its first ``numerator / denominator`` of bytes."""
+    raw = p.read_bytes()
+    p.write_bytes(raw[: numerator * len(raw) // denominator])
+    return p
 
 
 def put_bytes(p, old: float, new: float, count=1):
@@ -273,24 +330,25 @@ def time_clipped_bottom(d):
     return write_rec(d, rec_with(force9=lambda x: np.maximum(x, 0.5 * x.min())))
 
 
-@case("uff58-time", read_rec, DataFileError, "vel5", "sampled every 0.001")
-def time_channels_at_two_rates(d):
-    return set_field(write_rec(d), 1, x=np.arange(N) * 1e-3, id4="dt_s=0.001")
-
-
-@case("uff58-time", read_rec, DataFileError, "force9", "ID line time step", "0.0005")
-def time_id_line_disagrees_with_header(d):
-    return set_field(write_rec(d), 0, x=np.arange(N) * 2e-3)
-
-
-@case("uff58-time", read_rec, DataFileError, "force9", "not positive")
-def time_zero_step(d):
-    return set_field(write_rec(d), 0, x=np.zeros(N), id4="dt_s=0.0")
-
-
-@case("uff58-time", read_rec, DataFileError, "force9", "not positive", "-0.0005")
-def time_negative_step(d):
-    return set_field(write_rec(d), 0, x=-np.arange(N) * 5e-4, id4="dt_s=-0.0005")
+# (id, record, fields, fragments): a field of one record of the good recording changed
+field_cases("uff58-time", write_rec, read_rec, [
+    ("time_channels_at_two_rates", 1, dict(x=np.arange(N) * 1e-3, id4="dt_s=0.001"), ("vel5", "sampled every 0.001")),
+    ("time_id_line_disagrees_with_header", 0, dict(x=np.arange(N) * 2e-3), ("force9", "ID line time step", "0.0005")),
+    ("time_zero_step", 0, dict(x=np.zeros(N), id4="dt_s=0.0"), ("force9", "not positive")),
+    ("time_negative_step", 0, dict(x=-np.arange(N) * 5e-4, id4="dt_s=-0.0005"),
+     ("force9", "not positive", "-0.0005")),
+    ("time_unknown_data_type", 2, dict(ordinate_spec_data_type=2, id1="NONE"),
+     ("record 3", "unsupported ordinate specific data type 2")),
+    ("time_unit_label_in_per_s", 4, dict(ordinate_axis_units_lab="in/s"), ("vel6", "'in/s'")),
+    ("time_force_in_lbf", 0, dict(ordinate_axis_units_lab="lbf"), ("force9", "'lbf'")),
+    ("time_direction_seven", 2, dict(rsp_dir=7), ("vel7", "rsp_dir = 7")),
+    ("time_direction_scalar", 1, dict(rsp_dir=0), ("vel5", "rsp_dir = 0")),
+    ("time_node_zero", 1, dict(rsp_node=0), ("record 2", "rsp_node = 0")),
+    ("time_negative_node", 0, dict(rsp_node=-9), ("record 1", "rsp_node = -9")),
+    ("time_name_says_other_node", 2, dict(rsp_node=8), ("vel7", "point 7", "node 8", "mislabelled")),
+    ("time_name_says_other_quantity", 2, dict(ordinate_spec_data_type=13), ("vel7", "force", "mislabelled")),
+    ("time_abscissa_is_frequency", 3, dict(abscissa_spec_data_type=18), ("vel9", "abscissa specific data type 18")),
+])
 
 
 @case("uff58-time", read_rec, DataFileError, "vel9", "1500 samples", "2000")
@@ -307,51 +365,6 @@ def time_three_samples(d):
         for s in sets:
             s["data"], s["x"] = s["data"][:3], s["x"][:3]
     return poke(write_rec(d), fn)
-
-
-@case("uff58-time", read_rec, DataFileError, "record 3", "unsupported ordinate specific data type 2")
-def time_unknown_data_type(d):
-    return set_field(write_rec(d), 2, ordinate_spec_data_type=2, id1="NONE")
-
-
-@case("uff58-time", read_rec, DataFileError, "vel6", "'in/s'")
-def time_unit_label_in_per_s(d):
-    return set_field(write_rec(d), 4, ordinate_axis_units_lab="in/s")
-
-
-@case("uff58-time", read_rec, DataFileError, "force9", "'lbf'")
-def time_force_in_lbf(d):
-    return set_field(write_rec(d), 0, ordinate_axis_units_lab="lbf")
-
-
-@case("uff58-time", read_rec, DataFileError, "vel7", "rsp_dir = 7")
-def time_direction_seven(d):
-    return set_field(write_rec(d), 2, rsp_dir=7)
-
-
-@case("uff58-time", read_rec, DataFileError, "vel5", "rsp_dir = 0")
-def time_direction_scalar(d):
-    return set_field(write_rec(d), 1, rsp_dir=0)
-
-
-@case("uff58-time", read_rec, DataFileError, "record 2", "rsp_node = 0")
-def time_node_zero(d):
-    return set_field(write_rec(d), 1, rsp_node=0)
-
-
-@case("uff58-time", read_rec, DataFileError, "record 1", "rsp_node = -9")
-def time_negative_node(d):
-    return set_field(write_rec(d), 0, rsp_node=-9)
-
-
-@case("uff58-time", read_rec, DataFileError, "vel7", "point 7", "node 8", "mislabelled")
-def time_name_says_other_node(d):
-    return set_field(write_rec(d), 2, rsp_node=8)
-
-
-@case("uff58-time", read_rec, DataFileError, "vel7", "force", "mislabelled")
-def time_name_says_other_quantity(d):
-    return set_field(write_rec(d), 2, ordinate_spec_data_type=13)
 
 
 @case("uff58-time", read_rec, DataFileError, "duplicate channel vel5")
@@ -377,11 +390,6 @@ def time_same_sensor_twice(d):
         extra["id1"] = "ref5"
         return sets + [extra]
     return _fix_counts(poke(write_rec(d), fn))
-
-
-@case("uff58-time", read_rec, DataFileError, "vel9", "abscissa specific data type 18")
-def time_abscissa_is_frequency(d):
-    return set_field(write_rec(d), 3, abscissa_spec_data_type=18)
 
 
 @case("uff58-time", read_rec, DataFileError, "period_s", "0.001", "mis-sampled")
@@ -418,10 +426,7 @@ def time_sidecar_a_list(d):
 
 @case("uff58-time", read_rec, DataFileError, "truncated")
 def time_truncated_half(d):
-    p = write_rec(d)
-    raw = p.read_bytes()
-    p.write_bytes(raw[: len(raw) // 2])
-    return p
+    return truncated(write_rec(d))
 
 
 @case("uff58-time", read_rec, DataFileError, "truncated UFF", "record")
@@ -479,14 +484,11 @@ def time_sampled_faster_than_the_pc1000(d):
     return write_rec(d, Recording(1 / 4096, rec.channels, dict(rec.metadata)))
 
 
-@case("uff58-time", diagnose_rec, DataFileError, "acc6", "acceleration")
-def time_acceleration_channel(d):
-    return set_field(write_rec(d), 4, ordinate_spec_data_type=12, id1="acc6", ordinate_axis_units_lab="m/s^2")
-
-
-@case("uff58-time", diagnose_rec, DataFileError, "vel6", "direction 1")
-def time_in_plane_direction(d):
-    return set_field(write_rec(d), 4, rsp_dir=1)
+field_cases("uff58-time", write_rec, diagnose_rec, [
+    ("time_acceleration_channel", 4, dict(ordinate_spec_data_type=12, id1="acc6", ordinate_axis_units_lab="m/s^2"),
+     ("acc6", "acceleration")),
+    ("time_in_plane_direction", 4, dict(rsp_dir=1), ("vel6", "direction 1")),
+])
 
 
 @case("uff58-time", diagnose_rec, MeasurementError, "vel9", "constant")
@@ -542,44 +544,17 @@ def frf_coherence_above_one(d):
     return poke(write_frf(d), fn)
 
 
-@case("uff58-frf", read_frf, DataFileError, "denominator type 11", "not a force")
-def frf_denominator_velocity(d):
-    return set_field(write_frf(d), 0, orddenom_spec_data_type=11)
-
-
-@case("uff58-frf", read_frf, DataFileError, "unsupported response", "13")
-def frf_force_over_force(d):
-    return set_field(write_frf(d), 2, ordinate_spec_data_type=13)
-
-
-@case("uff58-frf", read_frf, DataFileError, "FRF record 1", "ref_node = 0")
-def frf_reference_node_zero(d):
-    return set_field(write_frf(d), 0, ref_node=0)
-
-
-@case("uff58-frf", read_frf, DataFileError, "vel6/force9", "rsp_dir = 9")
-def frf_bad_direction(d):
-    return set_field(write_frf(d), 4, rsp_dir=9)
-
-
-@case("uff58-frf", read_frf, DataFileError, "vel5/force9", "ref_dir = -7")
-def frf_bad_reference_direction(d):
-    return set_field(write_frf(d), 0, ref_dir=-7)
-
-
-@case("uff58-frf", read_frf, DataFileError, "vel7/force9", "'g'")
-def frf_unit_label_g(d):
-    return set_field(write_frf(d), 2, ordinate_axis_units_lab="g")
-
-
-@case("uff58-frf", read_frf, DataFileError, "vel5", "node 6", "mislabelled")
-def frf_output_name_other_node(d):
-    return set_field(write_frf(d), 0, rsp_node=6)
-
-
-@case("uff58-frf", read_frf, DataFileError, "force4", "reference node 9", "mislabelled")
-def frf_input_name_other_node(d):
-    return set_field(write_frf(d), 2, id1="vel7/force4")
+field_cases("uff58-frf", write_frf, read_frf, [
+    ("frf_denominator_velocity", 0, dict(orddenom_spec_data_type=11), ("denominator type 11", "not a force")),
+    ("frf_force_over_force", 2, dict(ordinate_spec_data_type=13), ("unsupported response", "13")),
+    ("frf_reference_node_zero", 0, dict(ref_node=0), ("FRF record 1", "ref_node = 0")),
+    ("frf_bad_direction", 4, dict(rsp_dir=9), ("vel6/force9", "rsp_dir = 9")),
+    ("frf_bad_reference_direction", 0, dict(ref_dir=-7), ("vel5/force9", "ref_dir = -7")),
+    ("frf_unit_label_g", 2, dict(ordinate_axis_units_lab="g"), ("vel7/force9", "'g'")),
+    ("frf_output_name_other_node", 0, dict(rsp_node=6), ("vel5", "node 6", "mislabelled")),
+    ("frf_input_name_other_node", 2, dict(id1="vel7/force4"), ("force4", "reference node 9", "mislabelled")),
+    ("frf_abscissa_time", 4, dict(abscissa_spec_data_type=17), ("vel6/force9", "not frequency")),
+])
 
 
 @case("uff58-frf", read_frf, DataFileError, "a second velocity FRF", "node 9 to node 5")
@@ -591,17 +566,9 @@ def frf_duplicated(d):
     return write_frf(d, f + [twin])
 
 
-@case("uff58-frf", read_frf, DataFileError, "vel6/force9", "not frequency")
-def frf_abscissa_time(d):
-    return set_field(write_frf(d), 4, abscissa_spec_data_type=17)
-
-
 @case("uff58-frf", read_frf, DataFileError, "truncated")
 def frf_truncated(d):
-    p = write_frf(d)
-    raw = p.read_bytes()
-    p.write_bytes(raw[: 2 * len(raw) // 3])
-    return p
+    return truncated(write_frf(d), 2, 3)
 
 
 @case("uff58-frf", read_frf, DataFileError, "no dataset-58 FRF")
@@ -652,19 +619,12 @@ def modes_repeated_node(d):
     return poke(write_modes(d), fn)
 
 
-@case("uff55", read_modes, DataFileError, "mode record 2", "natural frequency -4.8")
-def modes_negative_frequency(d):
-    return set_field(write_modes(d), 1, freq=-4.8)
-
-
-@case("uff55", read_modes, DataFileError, "mode record 1", "natural frequency 0.0")
-def modes_zero_frequency(d):
-    return set_field(write_modes(d), 0, freq=0.0)
-
-
-@case("uff55", read_modes, DataFileError, "mode record 3", "damping ratio 1.5")
-def modes_damping_above_one(d):
-    return set_field(write_modes(d), 2, modal_damp_vis=1.5)
+field_cases("uff55", write_modes, read_modes, [
+    ("modes_negative_frequency", 1, dict(freq=-4.8), ("mode record 2", "natural frequency -4.8")),
+    ("modes_zero_frequency", 0, dict(freq=0.0), ("mode record 1", "natural frequency 0.0")),
+    ("modes_damping_above_one", 2, dict(modal_damp_vis=1.5), ("mode record 3", "damping ratio 1.5")),
+    ("modes_repeated_number", 1, dict(mode_n=1), ("mode number 1 repeats",)),
+])
 
 
 @case("uff55", read_modes, DataFileError, "mode record 2", "non-finite shape value", "node 5")
@@ -683,11 +643,6 @@ def modes_zero_shape(d):
     return poke(write_modes(d), fn)
 
 
-@case("uff55", read_modes, DataFileError, "mode number 1 repeats")
-def modes_repeated_number(d):
-    return set_field(write_modes(d), 1, mode_n=1)
-
-
 @case("uff55", read_modes, DataFileError, "mode 2", "different nodes")
 def modes_nodes_differ(d):
     def fn(sets):
@@ -697,10 +652,7 @@ def modes_nodes_differ(d):
 
 @case("uff55", read_modes, DataFileError, "truncated")
 def modes_truncated(d):
-    p = write_modes(d)
-    raw = p.read_bytes()
-    p.write_bytes(raw[: len(raw) // 2])
-    return p
+    return truncated(write_modes(d))
 
 
 @case("uff55", read_modes, DataFileError, "truncated UFF", "mode record")
@@ -709,13 +661,7 @@ def modes_record_missing(d):
 
 
 # ============================================================================ modal CSV
-def csv_case(*fragments, error=DataFileError):
-    def deco(fn):
-        def make(d):
-            return write_text(d, "modes.csv", fn(GOOD_CSV))
-        make.__name__ = fn.__name__
-        return case("csv", read_csv, error, *fragments)(make)
-    return deco
+csv_case = TextKind("csv", read_csv, "modes.csv", lambda: GOOD_CSV, DataFileError)
 
 
 def sub_line(text, lineno, old, new):
@@ -725,114 +671,35 @@ def sub_line(text, lineno, old, new):
     return "\n".join(lines)
 
 
-@csv_case("line 3", "frequency_hz", "not finite", "nan")
-def csv_nan_frequency(t):
-    return sub_line(t, 3, "1.9", "nan")
-
-
-@csv_case("line 4", "shape_7", "not finite", "inf")
-def csv_inf_shape(t):
-    return sub_line(t, 4, "0.2", "inf")
-
-
-@csv_case("line 5", "frequency_hz", "not a number", "'7,3'")
-def csv_decimal_comma(t):
-    return sub_line(t, 5, "7.3", '"7,3"')
-
-
-@csv_case("line 3", "frequency_hz", "> 0 Hz")
-def csv_zero_frequency(t):
-    return sub_line(t, 3, "1.9", "0")
-
-
-@csv_case("line 4", "frequency_hz", "4800 Hz", "Nyquist")
-def csv_frequency_in_millihertz(t):
-    return sub_line(t, 4, "4.8", "4800")
-
-
-@csv_case("line 5", "damping_ratio", "1.2")
-def csv_damping_above_one(t):
-    return sub_line(t, 5, "0.004", "1.2")
-
-
-@csv_case("line 3", "damping_ratio", "-0.1")
-def csv_negative_damping(t):
-    return sub_line(t, 3, "0.004", "-0.1")
-
-
-@csv_case("line 4", "frequency_sigma_hz", "uncertainty", "-0.02")
-def csv_negative_sigma(t):
-    return sub_line(t, 4, "0.02", "-0.02")
-
-
-@csv_case("line 3", "damping_sigma", "not a number")
-def csv_sigma_text(t):
-    return sub_line(t, 3, "0.001,0.3", "big,0.3")
-
-
-@csv_case("line 2", "'shape_5' appears twice")
-def csv_duplicate_column(t):
-    return sub_line(t, 2, "shape_7", "shape_5")
-
-
-@csv_case("line 2", "column 3 has no name")
-def csv_empty_column_name(t):
-    return sub_line(t, 2, "damping_ratio", "")
-
-
-@csv_case("shape_42", "point id 42")
-def csv_shape_at_unknown_point(t):
-    return sub_line(t, 2, "shape_7", "shape_42")
-
-
-@csv_case("shape_x", "shape_<point id>")
-def csv_shape_column_without_point(t):
-    return sub_line(t, 2, "shape_7", "shape_x")
-
-
-@csv_case("no 'mode' column")
-def csv_mode_column_missing(t):
-    return sub_line(t, 2, "mode,", "number,")
-
-
-@csv_case("no frequency column")
-def csv_frequency_column_missing(t):
-    return sub_line(t, 2, "frequency_hz", "f")
-
-
-@csv_case("repeated mode numbers [2]")
-def csv_repeated_mode(t):
-    return sub_line(t, 5, "3,", "2,")
+# (id, (line number, old, new), fragments): ``old`` replaced by ``new`` on one line of the good CSV
+csv_case.table(sub_line, [
+    ("csv_nan_frequency", (3, "1.9", "nan"), ("line 3", "frequency_hz", "not finite", "nan")),
+    ("csv_inf_shape", (4, "0.2", "inf"), ("line 4", "shape_7", "not finite", "inf")),
+    ("csv_decimal_comma", (5, "7.3", '"7,3"'), ("line 5", "frequency_hz", "not a number", "'7,3'")),
+    ("csv_zero_frequency", (3, "1.9", "0"), ("line 3", "frequency_hz", "> 0 Hz")),
+    ("csv_frequency_in_millihertz", (4, "4.8", "4800"), ("line 4", "frequency_hz", "4800 Hz", "Nyquist")),
+    ("csv_damping_above_one", (5, "0.004", "1.2"), ("line 5", "damping_ratio", "1.2")),
+    ("csv_negative_damping", (3, "0.004", "-0.1"), ("line 3", "damping_ratio", "-0.1")),
+    ("csv_negative_sigma", (4, "0.02", "-0.02"), ("line 4", "frequency_sigma_hz", "uncertainty", "-0.02")),
+    ("csv_sigma_text", (3, "0.001,0.3", "big,0.3"), ("line 3", "damping_sigma", "not a number")),
+    ("csv_duplicate_column", (2, "shape_7", "shape_5"), ("line 2", "'shape_5' appears twice")),
+    ("csv_empty_column_name", (2, "damping_ratio", ""), ("line 2", "column 3 has no name")),
+    ("csv_shape_at_unknown_point", (2, "shape_7", "shape_42"), ("shape_42", "point id 42")),
+    ("csv_shape_column_without_point", (2, "shape_7", "shape_x"), ("shape_x", "shape_<point id>")),
+    ("csv_mode_column_missing", (2, "mode,", "number,"), ("no 'mode' column",)),
+    ("csv_frequency_column_missing", (2, "frequency_hz", "f"), ("no frequency column",)),
+    ("csv_repeated_mode", (5, "3,", "2,"), ("repeated mode numbers [2]",)),
+    ("csv_extra_field", (4, "0.2", "0.2,9"), ("line 4", "8 fields", "7")),
+    ("csv_missing_field", (5, ",-0.7", ""), ("line 5", "6 fields")),
+    ("csv_fractional_mode", (3, "1,1.9", "1.5,1.9"), ("line 3", "column 'mode'", "positive integer", "'1.5'")),
+    ("csv_mode_zero", (3, "1,1.9", "0,1.9"), ("line 3", "column 'mode'", "positive integer", "'0'")),
+    ("csv_zero_shape", (4, "-0.6,0.2", "0,0"), ("zero at every point",)),
+])
 
 
 @csv_case("repeated frequency 4.8")
 def csv_duplicated_row(t):
     return t + "4,4.8,0.002,0.02,0.0005,-0.6,0.2\n"
-
-
-@csv_case("line 4", "8 fields", "7")
-def csv_extra_field(t):
-    return sub_line(t, 4, "0.2", "0.2,9")
-
-
-@csv_case("line 5", "6 fields")
-def csv_missing_field(t):
-    return sub_line(t, 5, ",-0.7", "")
-
-
-@csv_case("line 3", "column 'mode'", "positive integer", "'1.5'")
-def csv_fractional_mode(t):
-    return sub_line(t, 3, "1,1.9", "1.5,1.9")
-
-
-@csv_case("line 3", "column 'mode'", "positive integer", "'0'")
-def csv_mode_zero(t):
-    return sub_line(t, 3, "1,1.9", "0,1.9")
-
-
-@csv_case("zero at every point")
-def csv_zero_shape(t):
-    return sub_line(t, 4, "-0.6,0.2", "0,0")
 
 
 @csv_case("no data rows")
@@ -868,25 +735,17 @@ def csv_missing(d):
 BCC_TOML = (ASSETS / "bcc.toml").read_text(encoding="utf-8")
 
 
-def toml_case(*fragments, error=SpecError):
-    def deco(fn):
-        def make(d):
-            p = d / "bcc_edit.toml"
-            text = fn(BCC_TOML)
-            if isinstance(text, bytes):
-                p.write_bytes(text)
-            else:
-                assert text != BCC_TOML, "corruption did nothing"
-                p.write_text(text, encoding="utf-8")
-            return p
-        make.__name__ = fn.__name__
-        return case("toml", read_toml, error, *fragments)(make)
-    return deco
+toml_case = TextKind("toml", read_toml, "bcc_edit.toml", lambda: BCC_TOML, SpecError)
 
 
 def sub1(text, old, new):
     assert old in text, old
     return text.replace(old, new, 1)
+
+
+def with_reference(text, value):
+    """The structure TOML ``text`` naming ``value`` (TOML source) as its reference frequencies file."""
+    return sub1(text, 'frequencies = "table1_bcc_frequencies.csv"', f"frequencies = {value}")
 
 
 @toml_case("not UTF-8", "line 1", "offset")
@@ -901,144 +760,58 @@ def toml_bad_byte_midway(t):
     return b"\n".join(lines)
 
 
-@toml_case("sections.steel_beam.ei.value", "plausible range", "9.06e+33")
-def toml_ei_times_1e30(t):
-    return sub1(t, "value = 9060.0", "value = 9060.0e30")
-
-
-@toml_case("sections.steel_beam.ei.value", "plausible range")
-def toml_ei_times_1e_30(t):
-    return sub1(t, "value = 9060.0", "value = 9060.0e-30")
-
-
-@toml_case("sections.steel_beam.modulus.value", "finite", "nan")
-def toml_modulus_nan(t):
-    return sub1(t, "value = 29.0e6", "value = nan")
-
-
-@toml_case("sections.aluminium_crosspiece.density.value", "finite", "inf")
-def toml_density_inf(t):
-    return sub1(t, "value = 0.098", "value = inf")
-
-
-@toml_case("sections.steel_beam.density.value", "plausible range")
-def toml_density_in_wrong_unit(t):
-    return sub1(t, 'value = 0.283, unit = "lbf/in^3"', 'value = 0.283e9, unit = "lbf/in^3"')
-
-
-@toml_case("points.coordinates.5", "finite")
-def toml_coordinate_nan(t):
-    return sub1(t, "5 = [0, 40]", "5 = [0, nan]")
-
-
-@toml_case("points.coordinates.5", "within")
-def toml_coordinate_huge(t):
-    return sub1(t, "5 = [0, 40]", "5 = [0, 4e9]")
-
-
-@toml_case("points.coordinates.5", "expected [x, y]")
-def toml_coordinate_bool(t):
-    return sub1(t, "5 = [0, 40]", "5 = [false, 40]")
-
-
-@toml_case("members[0].points", "points 4 and 5 coincide")
-def toml_coincident_points(t):
-    return sub1(t, "5 = [0, 40]", "5 = [0, 50]")
-
-
-@toml_case("strings[1].tension.value", "positive", "-71.02")
-def toml_negative_tension(t):
-    return sub1(t, "value = 71.02", "value = -71.02")
-
-
-@toml_case("strings[1].tension.value", "plausible range")
-def toml_tension_huge(t):
-    return sub1(t, "value = 71.02", "value = 71.02e12")
-
-
-@toml_case("masses[0].mass.value", "plausible range")
-def toml_mass_huge(t):
-    return sub1(t, "value = 0.1447", "value = 0.1447e12")
-
-
-@toml_case("masses[2].mass.value", "plausible range")
-def toml_mass_tiny(t):
-    return sub1(t, 'id = "coil9"\npoint = 9\nmass = { value = 0.1703', 'id = "coil9"\npoint = 9\nmass = { value = 0.1703e-12')
-
-
-@toml_case("structure.gravity", "finite")
-def toml_gravity_nan(t):
-    return sub1(t, "gravity = [0.0, -1.0]", "gravity = [nan, -1.0]")
-
-
-@toml_case("sections.steel_beam.width.unit", "'furlong'")
-def toml_unknown_unit(t):
-    return sub1(t, 'width = { value = 2.0, unit = "in"', 'width = { value = 2.0, unit = "furlong"')
-
-
-@toml_case("members[0].elements_per_segment", "100000")
-def toml_too_many_elements(t):
-    return sub1(t, "elements_per_segment = 1", "elements_per_segment = 100000")
-
-
-@toml_case("members[0].elements_per_segment", "0")
-def toml_zero_elements(t):
-    return sub1(t, "elements_per_segment = 1", "elements_per_segment = 0")
-
-
-@toml_case("damping.default_ratio", "1.5")
-def toml_default_damping_above_one(t):
-    return sub1(t, "default_ratio = 0.01", "default_ratio = 1.5")
-
-
-@toml_case("damping.modal_ratios", "-0.1")
-def toml_negative_modal_damping(t):
-    return sub1(t, "modal_ratios = [0.004,", "modal_ratios = [-0.1,")
-
-
-@toml_case("instrumentation.actuators", "99")
-def toml_actuator_at_unknown_point(t):
-    return sub1(t, "actuators = [5, 7, 9]", "actuators = [5, 7, 99]")
-
-
-@toml_case("instrumentation.actuators", "repeated", "[5, 5, 9]")
-def toml_repeated_actuator(t):
-    return sub1(t, "actuators = [5, 7, 9]", "actuators = [5, 5, 9]")
-
-
-@toml_case("instrumentation.sensors", "6.0")
-def toml_float_point_id(t):
-    return sub1(t, "sensors = [5, 7, 9, 6]", "sensors = [5, 7, 9, 6.0]")
+# (id, (old, new), fragments): the first ``old`` of the good TOML replaced by ``new``
+toml_case.table(sub1, [
+    ("toml_ei_times_1e30", ("value = 9060.0", "value = 9060.0e30"),
+     ("sections.steel_beam.ei.value", "plausible range", "9.06e+33")),
+    ("toml_ei_times_1e_30", ("value = 9060.0", "value = 9060.0e-30"),
+     ("sections.steel_beam.ei.value", "plausible range")),
+    ("toml_modulus_nan", ("value = 29.0e6", "value = nan"), ("sections.steel_beam.modulus.value", "finite", "nan")),
+    ("toml_density_inf", ("value = 0.098", "value = inf"),
+     ("sections.aluminium_crosspiece.density.value", "finite", "inf")),
+    ("toml_density_in_wrong_unit", ('value = 0.283, unit = "lbf/in^3"', 'value = 0.283e9, unit = "lbf/in^3"'),
+     ("sections.steel_beam.density.value", "plausible range")),
+    ("toml_coordinate_nan", ("5 = [0, 40]", "5 = [0, nan]"), ("points.coordinates.5", "finite")),
+    ("toml_coordinate_huge", ("5 = [0, 40]", "5 = [0, 4e9]"), ("points.coordinates.5", "within")),
+    ("toml_coordinate_bool", ("5 = [0, 40]", "5 = [false, 40]"), ("points.coordinates.5", "expected [x, y]")),
+    ("toml_coincident_points", ("5 = [0, 40]", "5 = [0, 50]"), ("members[0].points", "points 4 and 5 coincide")),
+    ("toml_negative_tension", ("value = 71.02", "value = -71.02"),
+     ("strings[1].tension.value", "positive", "-71.02")),
+    ("toml_tension_huge", ("value = 71.02", "value = 71.02e12"), ("strings[1].tension.value", "plausible range")),
+    ("toml_mass_huge", ("value = 0.1447", "value = 0.1447e12"), ("masses[0].mass.value", "plausible range")),
+    ("toml_mass_tiny",
+     ('id = "coil9"\npoint = 9\nmass = { value = 0.1703', 'id = "coil9"\npoint = 9\nmass = { value = 0.1703e-12'),
+     ("masses[2].mass.value", "plausible range")),
+    ("toml_gravity_nan", ("gravity = [0.0, -1.0]", "gravity = [nan, -1.0]"), ("structure.gravity", "finite")),
+    ("toml_unknown_unit", ('width = { value = 2.0, unit = "in"', 'width = { value = 2.0, unit = "furlong"'),
+     ("sections.steel_beam.width.unit", "'furlong'")),
+    ("toml_too_many_elements", ("elements_per_segment = 1", "elements_per_segment = 100000"),
+     ("members[0].elements_per_segment", "100000")),
+    ("toml_zero_elements", ("elements_per_segment = 1", "elements_per_segment = 0"),
+     ("members[0].elements_per_segment", "0")),
+    ("toml_default_damping_above_one", ("default_ratio = 0.01", "default_ratio = 1.5"),
+     ("damping.default_ratio", "1.5")),
+    ("toml_negative_modal_damping", ("modal_ratios = [0.004,", "modal_ratios = [-0.1,"),
+     ("damping.modal_ratios", "-0.1")),
+    ("toml_actuator_at_unknown_point", ("actuators = [5, 7, 9]", "actuators = [5, 7, 99]"),
+     ("instrumentation.actuators", "99")),
+    ("toml_repeated_actuator", ("actuators = [5, 7, 9]", "actuators = [5, 5, 9]"),
+     ("instrumentation.actuators", "repeated", "[5, 5, 9]")),
+    ("toml_float_point_id", ("sensors = [5, 7, 9, 6]", "sensors = [5, 7, 9, 6.0]"),
+     ("instrumentation.sensors", "6.0")),
+    ("toml_missing_source", (', source = "calibrated: Table 1 + Table 8 (cable attachment at the beam top)"', ""),
+     ("masses[0].mass.source", "missing")),
+    ("toml_zero_shear_modulus", ("value = 11.2e6", "value = 0"),
+     ("sections.steel_beam.shear_modulus.value", "positive")),
+    ("toml_unknown_dof", ('dofs = ["w", "rx"]', 'dofs = ["w", "wz"]'), ("structure.dofs", "'wz'")),
+    ("toml_arm_in_wrong_unit", ("arm_length = { value = 15.0", "arm_length = { value = 15.0e6"),
+     ("crosspieces[0].arm_length.value", "plausible range")),
+])
 
 
 @toml_case("not valid TOML")
 def toml_truncated(t):
     return t[: t.index("[[masses]]") + 5]
-
-
-@toml_case("masses[0].mass.source", "missing")
-def toml_missing_source(t):
-    return sub1(t, ', source = "calibrated: Table 1 + Table 8 (cable attachment at the beam top)"', "")
-
-
-@toml_case("reference.frequencies", "5")
-def toml_reference_not_a_name(t):
-    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', "frequencies = 5")
-
-
-@toml_case("sections.steel_beam.shear_modulus.value", "positive")
-def toml_zero_shear_modulus(t):
-    return sub1(t, "value = 11.2e6", "value = 0")
-
-
-@toml_case("structure.dofs", "'wz'")
-def toml_unknown_dof(t):
-    return sub1(t, 'dofs = ["w", "rx"]', 'dofs = ["w", "wz"]')
-
-
-@toml_case("crosspieces[0].arm_length.value", "plausible range")
-def toml_arm_in_wrong_unit(t):
-    return sub1(t, "arm_length = { value = 15.0", "arm_length = { value = 15.0e6")
 
 
 def _missing_toml(d):
@@ -1049,20 +822,7 @@ CASES.append(Case("toml_missing", "toml", _missing_toml, read_toml, SpecError, (
 
 
 # =============================================================================== MJCF
-def mjcf_case(*fragments, error=ModelError):
-    def deco(fn):
-        def make(d):
-            p = d / "plant.xml"
-            text = fn(good_mjcf_text())
-            if isinstance(text, bytes):
-                p.write_bytes(text)
-            else:
-                assert text != good_mjcf_text(), "corruption did nothing"
-                p.write_text(text)
-            return p
-        make.__name__ = fn.__name__
-        return case("mjcf", read_mjcf, error, *fragments)(make)
-    return deco
+mjcf_case = TextKind("mjcf", read_mjcf, "plant.xml", good_mjcf_text, ModelError)
 
 
 def _first_attr(t, attr):
@@ -1076,44 +836,17 @@ def sub_attr(t, attr, value):
     return t[:m.start()] + f'{attr}="{value}"' + t[m.end():]
 
 
-@mjcf_case("body 'J1'", "mass", "inf")
-def mjcf_mass_inf(t):
-    return sub_attr(t, "mass", "inf")
-
-
-@mjcf_case("body 'J1'", "mass 1e+12 kg")
-def mjcf_mass_huge(t):
-    return sub_attr(t, "mass", "1e12")
-
-
-@mjcf_case("timestep", "nan")
-def mjcf_timestep_nan(t):
-    return sub_attr(t, "timestep", "nan")
-
-
-@mjcf_case("timestep", "2")
-def mjcf_timestep_too_long(t):
-    return sub_attr(t, "timestep", "2")
-
-
-@mjcf_case("gravity", "nan")
-def mjcf_gravity_nan(t):
-    return sub_attr(t, "gravity", "0 nan 0")
-
-
-@mjcf_case("joint", "stiffness", "inf")
-def mjcf_stiffness_inf(t):
-    return sub_attr(t, "stiffness", "inf")
-
-
-@mjcf_case("joint", "damping", "nan")
-def mjcf_damping_nan(t):
-    return sub_attr(t, "damping", "nan")
-
-
-@mjcf_case("actuator 'coil5'", "gear", "nan")
-def mjcf_gear_nan(t):
-    return sub_attr(t, "gear", "0 0 nan")
+# (id, (attribute, value), fragments): the first such attribute of the good MJCF set to ``value``
+mjcf_case.table(sub_attr, [
+    ("mjcf_mass_inf", ("mass", "inf"), ("body 'J1'", "mass", "inf")),
+    ("mjcf_mass_huge", ("mass", "1e12"), ("body 'J1'", "mass 1e+12 kg")),
+    ("mjcf_timestep_nan", ("timestep", "nan"), ("timestep", "nan")),
+    ("mjcf_timestep_too_long", ("timestep", "2"), ("timestep", "2")),
+    ("mjcf_gravity_nan", ("gravity", "0 nan 0"), ("gravity", "nan")),
+    ("mjcf_stiffness_inf", ("stiffness", "inf"), ("joint", "stiffness", "inf")),
+    ("mjcf_damping_nan", ("damping", "nan"), ("joint", "damping", "nan")),
+    ("mjcf_gear_nan", ("gear", "0 0 nan"), ("actuator 'coil5'", "gear", "nan")),
+])
 
 
 @mjcf_case("custom numeric 'vlab_modal_A'", "not finite")
@@ -1154,46 +887,37 @@ CASES.append(Case("mjcf_missing", "mjcf", _missing_mjcf, read_mjcf, DataFileErro
 OUTSIDE = "../" * 12  # enough parents to reach the root from any temporary folder
 
 
-@toml_case("reference.frequencies", "reaches outside", "/etc/passwd", "--allow-outside-inputs")
-def toml_reference_parent_path(t):
-    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', f'frequencies = "{OUTSIDE}etc/passwd"')
+toml_case.table(with_reference, [
+    ("toml_reference_not_a_name", ("5",), ("reference.frequencies", "5")),
+    ("toml_reference_parent_path", (f'"{OUTSIDE}etc/passwd"',),
+     ("reference.frequencies", "reaches outside", "/etc/passwd", "--allow-outside-inputs")),
+    ("toml_reference_absolute_path", ('"/etc/passwd"',), ("reference.frequencies", "reaches outside", "/etc/passwd")),
+    ("toml_reference_device", ('"/dev/zero"',), ("reference.frequencies", "reaches outside", "/dev/zero")),
+    ("toml_reference_missing", ('"mine.csv"',), ("reference.frequencies", "'mine.csv'", "not found")),
+])
 
 
-@toml_case("reference.frequencies", "reaches outside", "/etc/passwd")
-def toml_reference_absolute_path(t):
-    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "/etc/passwd"')
-
-
-@toml_case("reference.frequencies", "reaches outside", "/dev/zero")
-def toml_reference_device(t):
-    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "/dev/zero"')
-
-
-@toml_case("reference.frequencies", "'mine.csv'", "not found")
-def toml_reference_missing(t):
-    return sub1(t, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "mine.csv"')
+def _toml_naming_freq_csv(d):
+    """The structure file naming ``freq.csv`` (made by the case) as its reference frequencies."""
+    p = d / "bcc_edit.toml"
+    p.write_text(with_reference(BCC_TOML, '"freq.csv"'))
+    return p
 
 
 def _toml_reference_symlink(d):
     (d / "freq.csv").symlink_to("/etc/passwd")
-    p = d / "bcc_edit.toml"
-    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
-    return p
+    return _toml_naming_freq_csv(d)
 
 
 def _toml_reference_fifo(d):
     os.mkfifo(d / "freq.csv")
-    p = d / "bcc_edit.toml"
-    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
-    return p
+    return _toml_naming_freq_csv(d)
 
 
 def _toml_reference_too_large(d):
     with open(d / "freq.csv", "wb") as fh:
         fh.truncate(65 * 2**20)  # sparse: no disk used
-    p = d / "bcc_edit.toml"
-    p.write_text(sub1(BCC_TOML, 'frequencies = "table1_bcc_frequencies.csv"', 'frequencies = "freq.csv"'))
-    return p
+    return _toml_naming_freq_csv(d)
 
 
 CASES += [
@@ -1251,14 +975,17 @@ def _with_units_record(p, **kw):
     return rewrite(p, fn)
 
 
-@case("uff58-frf", read_frf, DataFileError, "per 'lbf'", "FRF record 1")
-def frf_per_lbf(d):
-    return set_field(write_frf(d), 0, orddenom_axis_units_lab="lbf")
-
-
-@case("uff58-frf", read_frf, DataFileError, "'rpm'", "frequency axis")
-def frf_abscissa_rpm(d):
-    return set_field(write_frf(d), 0, abscissa_axis_units_lab="rpm")
+field_cases("uff58-frf", write_frf, read_frf, [
+    ("frf_per_lbf", 0, dict(orddenom_axis_units_lab="lbf"), ("per 'lbf'", "FRF record 1")),
+    ("frf_abscissa_rpm", 0, dict(abscissa_axis_units_lab="rpm"), ("'rpm'", "frequency axis")),
+    ("frf_denominator_exponents_not_force", 0, dict(orddenom_len_unit_exp=1, orddenom_force_unit_exp=0),
+     ("orddenom_len_unit_exp 1", "specific data type 13")),
+])
+field_cases("uff58-time", write_rec, read_rec, [
+    ("time_abscissa_ms", 1, dict(abscissa_axis_units_lab="ms"), ("time axis in 'ms'", "record 2")),
+    ("time_velocity_with_force_exponents", 1, dict(ordinate_len_unit_exp=0, ordinate_force_unit_exp=1),
+     ("ordinate_len_unit_exp 0", "ordinate_force_unit_exp 1", "specific data type 11")),
+])
 
 
 @case("uff58-frf", read_frf, DataFileError, "units record (dataset 164)", "'BG'", "length factor 0.3048")
@@ -1266,25 +993,9 @@ def frf_units_record_not_si(d):
     return _with_units_record(write_frf(d))
 
 
-@case("uff58-frf", read_frf, DataFileError, "orddenom_len_unit_exp 1", "specific data type 13")
-def frf_denominator_exponents_not_force(d):
-    return set_field(write_frf(d), 0, orddenom_len_unit_exp=1, orddenom_force_unit_exp=0)
-
-
 @case("uff58-time", read_rec, DataFileError, "units record (dataset 164)", "force factor 4.44822")
 def time_units_record_not_si(d):
     return _with_units_record(write_rec(d, good_recording()))
-
-
-@case("uff58-time", read_rec, DataFileError, "time axis in 'ms'", "record 2")
-def time_abscissa_ms(d):
-    return set_field(write_rec(d, good_recording()), 1, abscissa_axis_units_lab="ms")
-
-
-@case("uff58-time", read_rec, DataFileError, "ordinate_len_unit_exp 0", "ordinate_force_unit_exp 1",
-      "specific data type 11")
-def time_velocity_with_force_exponents(d):
-    return set_field(write_rec(d, good_recording()), 1, ordinate_len_unit_exp=0, ordinate_force_unit_exp=1)
 
 
 # ============================== a NaN written by pyuff (as 0) into a periodic excitation's force
