@@ -12,7 +12,8 @@ from typer.testing import CliRunner
 
 from vlab.cli import app
 from vlab.diagnose import diagnose
-from vlab.diagnose.cost import BASE_S, REFIT_SHARE, SEARCH_S_PER_HYP_DOF125, SIM_S_PER_TICK_DOF, estimate_diagnosis
+from vlab.diagnose.cost import (BASE_S, REFIT_SHARE, SEARCH_S_PER_HYP_DOF125, SIM_S_PER_TICK_DOF, STRUCTURE_SHARE,
+                               estimate_diagnosis)
 from vlab.diagnose.effects import specedit
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
@@ -42,8 +43,12 @@ def test_estimate_follows_its_stated_model():
     search = SEARCH_S_PER_HYP_DOF125 * 10 * 16 ** 1.25
     replay = plant_estimate(20)["time_s"] + SIM_S_PER_TICK_DOF * 1000 * 20
     assert est["parts_s"] == pytest.approx({"replay": replay, "search": search, "refit": REFIT_SHARE * search,
-                                            "validate": replay})
+                                            "validate": replay, "structure": 0.0})
     assert est["time_s"] == pytest.approx(BASE_S + 2 * replay + (1 + REFIT_SHARE) * search)
+    elsewhere = estimate_diagnosis(n_fe_dofs=16, n_hypotheses=10, n_ticks=1000, n_channels=3, n_joints=20,
+                                   from_elsewhere=True)
+    assert elsewhere["parts_s"]["structure"] == pytest.approx(STRUCTURE_SHARE * search)
+    assert elsewhere["time_s"] == pytest.approx(est["time_s"] + STRUCTURE_SHARE * search)
     frf = estimate_diagnosis(n_fe_dofs=16, n_hypotheses=10, n_ticks=0, n_channels=0, n_joints=None)
     assert frf["parts_s"]["replay"] == frf["parts_s"]["refit"] == 0.0
     assert "hypotheses on 16 FE DOFs" in frf["what"] and "ticks" not in frf["what"]

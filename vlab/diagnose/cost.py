@@ -35,6 +35,10 @@ SIM_S_PER_TICK_DOF = 8.1e-7
 SEARCH_S_PER_HYP_DOF125 = 3.5e-3
 #: The plant refit's cost as a share of the search's (calibrated: BCC 0.43, grid 0.32; the larger kept).
 REFIT_SHARE = 0.45
+#: The structure stage's cost (a recording from elsewhere: its value, and a pair's check, fitted again on the
+#: structure's converged model) as a share of the search's (calibrated on one BCC case: 3.9 s of 13.8 s for a
+#: single effect, 9.0 s with a pair; the single's 0.3 kept: a pair is the rarer choice).
+STRUCTURE_SHARE = 0.3
 #: Seconds of reading, designing the nominal controller, locating and writing the report.
 BASE_S = 3.0
 #: Copies of the recording a diagnosis holds at once (the recording, the replay, the validation rerun and the
@@ -43,7 +47,7 @@ RECORD_COPIES = 4
 
 
 def estimate_diagnosis(*, n_fe_dofs: int, n_hypotheses: int, n_ticks: int, n_channels: int,
-                       n_joints: int | None) -> dict:
+                       n_joints: int | None, from_elsewhere: bool = False) -> dict:
     """Time and memory of a diagnosis, from its sizes.
 
     Parameters
@@ -60,12 +64,15 @@ def estimate_diagnosis(*, n_fe_dofs: int, n_hypotheses: int, n_ticks: int, n_cha
     n_joints : int or None
         Joint DOFs of the MuJoCo plant that replays and reruns the recording; None: no MuJoCo plant (a linear
         replay or no replay).
+    from_elsewhere : bool
+        The recording names no vlab plant and is replayed on the MuJoCo plant: its value is fitted again on
+        the structure's own model (:mod:`vlab.diagnose.fit.onstructure`).
 
     Returns
     -------
     dict
         ``time_s`` [s] (the whole run, a mismatch found), ``memory_bytes`` [bytes], ``parts_s`` (dict of
-        ``replay``, ``search``, ``refit``, ``validate`` [s]) and ``what`` (the sizes, in words).
+        ``replay``, ``search``, ``refit``, ``validate``, ``structure`` [s]) and ``what`` (the sizes, in words).
 
     Source: the constants of this module (calibrated, see there).
     """
@@ -79,5 +86,6 @@ def estimate_diagnosis(*, n_fe_dofs: int, n_hypotheses: int, n_ticks: int, n_cha
         memory += plant["memory_bytes"]
         what += f", {n_ticks} ticks replayed on a MuJoCo plant of {n_joints} joint DOFs"
     parts = {"replay": replay, "search": search, "refit": REFIT_SHARE * search if n_joints is not None else 0.0,
-             "validate": replay}
+             "validate": replay, "structure": STRUCTURE_SHARE * search if from_elsewhere and n_joints is not None
+             else 0.0}
     return {"time_s": BASE_S + sum(parts.values()), "memory_bytes": memory, "parts_s": parts, "what": what}

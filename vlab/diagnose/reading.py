@@ -318,9 +318,10 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
     return LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
 
 
-def _estimate(nominal: LabState, data, band_hz, *, simulated: bool) -> dict:
+def _estimate(nominal: LabState, data, band_hz, *, simulated: bool, from_elsewhere: bool = False) -> dict:
     """The run's time and memory (:func:`vlab.diagnose.cost.estimate_diagnosis`) from the nominal lab, the
-    library's size and the recording; ``simulated``: the recording is replayed and rerun on the MuJoCo plant."""
+    library's size and the recording; ``simulated``: the recording is replayed and rerun on the MuJoCo plant;
+    ``from_elsewhere``: its metadata names no vlab plant."""
     from ..sim import SimOptions
     from ..sim.planner import plan_structure
     from .cost import estimate_diagnosis
@@ -335,7 +336,8 @@ def _estimate(nominal: LabState, data, band_hz, *, simulated: bool) -> dict:
         n_joints = sum(len(b.joints) for b in plan.bodies.values())
     return estimate_diagnosis(n_fe_dofs=nominal.fe.n, n_hypotheses=len(library(nominal, context_for(nominal, band_hz,
                                                                                                    data))),
-                              n_ticks=n_ticks, n_channels=rec.n_channels if rec is not None else 0, n_joints=n_joints)
+                              n_ticks=n_ticks, n_channels=rec.n_channels if rec is not None else 0, n_joints=n_joints,
+                              from_elsewhere=from_elsewhere)
 
 
 def _through_test_setup(what: str, obj, meta: dict, opt: Options, path: Path, notes: list) -> tuple:
@@ -476,7 +478,9 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
                guard_s=settling_time(nominal, band, decay=GUARD_DECAY) if what == "recording" else None)
     inp["setup_plant"] = setup.plant
     if opt.confirm is not None:
-        opt.confirm(_estimate(nominal, data, band, simulated=replaying and replay_plant == "mujoco"))
+        named = isinstance(meta.get("plant"), str) and meta.get("plant") != ""
+        opt.confirm(_estimate(nominal, data, band, simulated=replaying and replay_plant == "mujoco",
+                              from_elsewhere=not named))
     _refer(inp, opt, notes, timing, say)
     del inp["setup_plant"]
     data = inp["data"]
