@@ -9,7 +9,11 @@ stiffened segment or an added mass at a few times its detection threshold moves 
 sensitivities are nearly zero: the covariance no longer covers it, the fit is pulled to a value that puts
 the mode back under them, and a second effect is recruited to absorb the rest. The uncertainty of a mode
 travels with the mode: for a lab with an effect, the same parameters with the same standard uncertainties,
-their sensitivities taken at that lab's own modes (:func:`vlab.diagnose.model.modelform.model_form_at`).
+their sensitivities taken with the modes at that lab's own frequencies and shapes
+(:func:`vlab.diagnose.model.modelform.model_form_at`). The damping ratios do not travel: a sensitivity taken at a
+more heavily damped peak is broader and larger, so a covariance that followed the fitted damping would
+grow with it, and a fit that does not carry the covariance's determinant would run away towards ever
+more damping.
 
 The fit is then iterated: fit, re-anchor the covariance at the fitted lab, fit again from there, until the
 value moves by less than a tenth of its own 95 % interval (iterated generalised least squares, the

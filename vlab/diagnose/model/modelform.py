@@ -565,23 +565,30 @@ def _sensitivity(state: LabState, pm: PointModes, which: str, r: int, j: int | N
 
 def model_form_at(mff: FrfModelForm, state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
                   output_points) -> FrfModelForm:
-    """The model form ``mff`` (:func:`frf_model_form`) anchored at the lab ``state``'s own modes
+    """The model form ``mff`` (:func:`frf_model_form`) anchored at the lab ``state``'s own mode frequencies
     (:func:`vlab.diagnose.model.labmodel.point_modes_of` at ``mff``'s points): the same parameters and standard
-    uncertainties, each sensitivity taken at ``state``'s mode of the same number in frequency order (zero for a
-    mode it lacks); ``freq_hz`` (shape (n_f,), [Hz]), ``excitation_point`` and ``output_points`` as there. Why:
-    :mod:`vlab.diagnose.fit.anchored`. Raises ModelError where ``state`` cannot be built or lacks the points."""
+    uncertainties, each sensitivity taken with ``mff``'s modes moved to ``state``'s frequencies and shapes, mode by
+    mode in frequency order (damping ratios kept); ``freq_hz`` (shape (n_f,), [Hz]), ``excitation_point``
+    and ``output_points`` as there. Why: :mod:`vlab.diagnose.fit.anchored`. Raises ModelError where ``state``
+    cannot be built or lacks the points."""
     f = np.asarray(freq_hz, dtype=float)
     kw = {"excitation_point": excitation_point, "output_points": output_points}
     pts = mff.modes.points if mff.modes is not None else tuple(dict.fromkeys(tuple(output_points) + state.actuators))
-    pm = point_modes_of(state, pts, "the evaluated lab")
+    own = point_modes_of(state, pts, "the evaluated lab")
+    pm = mff.modes if mff.modes is not None else point_modes_of(state, pts)
+    n = min(len(pm.omega), len(own.omega))
+    # the frequencies and shapes travel; the peaks' widths stay the anchor's, so that the covariance's size
+    # (its determinant, which the fit does not carry) does not follow a fitted damping
+    shapes = pm.shapes.copy()
+    shapes[:, :n] = own.shapes[:, :n]
+    pm = _replace(pm, omega=np.concatenate([own.omega[:n], pm.omega[n:]]), shapes=shapes)
     h0 = predict_frf(_replace(state, point_modes=pm), f, **kw)
     sens = []
     for label in mff.labels:
         which = "zeta" if label.startswith("zeta") else ("phi" if label.startswith("phi") else "f")
         mode, _, point = label[len(which):].partition("@")
         r, j = int(mode) - 1, (pts.index(int(point)) if point else None)
-        sens.append(_sensitivity(state, pm, which, r, j, f, kw, h0) if r < len(pm.omega)
-                    else np.zeros(h0.shape, dtype=complex))
+        sens.append(_sensitivity(state, pm, which, r, j, f, kw, h0))
     if not sens:
         return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm)
     return FrfModelForm(np.stack(sens, axis=-1), np.asarray(mff.sigma), tuple(mff.labels), pm)
