@@ -94,3 +94,25 @@ def test_a_second_effect_that_is_there_is_kept():
     pair = fit_hypothesis(Combination(first=seg, second=joint), pr, starts=np.r_[seg.params_, joint.params_][None, :])
     judged = pair_on_anchor(pair, pr)
     assert judged.keep
+
+
+def test_the_stiffened_segment_moves_the_modes_as_the_independent_simulator_does():
+    """The effect itself is not the mismatch: vlab's segment stiffening and the reference simulator's
+    (benchmarks.reference_sim, written without vlab's code) move every mode below 40 Hz alike, both at four
+    elements per segment."""
+    from benchmarks.reference_sim.fe import assemble, modes
+    from benchmarks.reference_sim.params import load_bcc
+    from vlab.diagnose.model.modelform import remeshed
+    from vlab.fe import build_fe_model
+
+    p = load_bcc()
+    factor = EI_TRUE / 26.0015
+    f_ref0 = modes(assemble(p, elements_per_segment=4))[0][:7]
+    f_ref1 = modes(assemble(p.with_effects(ei_factors={(8, 9): factor}), elements_per_segment=4))[0][:7]
+    spec = remeshed(nominal_fe_model("bcc").spec, 4.0)
+    lab = LabState(spec, build_fe_model(spec), HardwareChain(noise_m_s=0.0), None)
+    stiff = SEGMENT.apply(lab, np.array([EI_TRUE]), context_for(lab, (0.5, 25.0), None))
+    f_v0, f_v1 = natural_frequencies(lab)[0][:7], natural_frequencies(stiff)[0][:7]
+    moved_ref, moved_vlab = f_ref1 / f_ref0 - 1, f_v1 / f_v0 - 1
+    assert moved_ref[5] > 0.005  # mode 6 moves by half a percent: five half-power bandwidths at zeta 0.001
+    assert moved_vlab == pytest.approx(moved_ref, abs=5e-5)

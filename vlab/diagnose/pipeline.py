@@ -59,8 +59,8 @@ from .fit.anchored import pair_on_anchor
 from .fit.estimate import fit_hypothesis
 from .fit.onstructure import converged_lab, fit_on_structure
 from .fit.plantfit import PlantModel
-from .fit.rules import beyond_noise, changed_beyond_noise
-from .fit.selection import located_from_fits, rerun_key
+from .fit.rules import NONLINEAR, beyond_noise, changed_beyond_noise
+from .fit.selection import CONTROLLER_PATH, located_from_fits, rerun_key
 from .instability_cause import plant_own_oscillation
 from .model.labmodel import LabState
 from .policy import DecisionPolicy
@@ -222,7 +222,8 @@ def _structure_problem(res: DiagnosisResult, inp: Inputs, problem: Problem, note
 def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, on_plant: bool, notes: list,
                        timing: dict, say) -> None:
     """Stage 5a: a chosen pair judged on the structure's own problem ``on_fe`` with the model form anchored at
-    its better part (:func:`vlab.diagnose.fit.anchored.pair_on_anchor`); where its second effect is not needed
+    its better part (:func:`vlab.diagnose.fit.anchored.pair_on_anchor`; not a pair with a nonlinear part, which
+    the reruns judge); where its second effect is not needed
     there, that part alone is the choice (its fit on ``problem``, refitted on the MuJoCo plant where it
     edits the spec): a second effect needed only where one mode's model-form error has moved away from the
     nominal covariance, or only on the plant's discretisation, is a passenger."""
@@ -242,6 +243,8 @@ def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, o
     if part is None:
         part = fit_hypothesis(copy.deepcopy(judged.part), problem)
     res.selected, res.alternatives, res.misfit_selected = part, [], float(part.misfit_)
+    if res.loop == "both" and part.effect in CONTROLLER_PATH:  # as the choice's loop is set in stage 4
+        res.loop = "closed"
     res.plant_refit = None
     if on_plant and part.spec_level:
         try:
@@ -426,7 +429,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
                     timing=timing, say=say)
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)
         structure = None if self_excited else _structure_problem(res, inp, problem, notes, timing, say)
-        if structure is not None and isinstance(res.selected, Combination):
+        if structure is not None and isinstance(res.selected, Combination) and \
+                not any(p.effect in NONLINEAR for p in res.selected.parts):  # a nonlinear pair: judged by rerun
             _pair_on_structure(res, problem, structure[0], inp.on_plant, notes, timing, say)
         if res.selected is not None and validate_run and isinstance(inp.data, FrfData) \
                 and inp.data.recording is not None and res.validation is None:

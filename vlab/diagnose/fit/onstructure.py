@@ -37,7 +37,6 @@ ch. 1); the referral is the reference-state method of Doebling et al.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import time
 from dataclasses import dataclass, replace
 
@@ -45,9 +44,9 @@ import numpy as np
 
 from ...errors import VlabError
 from ...fe import build_fe_model, modal_analysis
-from ...spec import MAX_ELEMENTS_PER_SEGMENT
 from ..effects.hypothesis import Combination, Hypothesis
 from ..model.labmodel import LabState
+from ..model.modelform import remeshed
 from ..problem.residuals import Problem
 from .anchored import fit_anchored
 from .estimate import fit_hypothesis
@@ -193,8 +192,7 @@ def converged_lab(lab: LabState, band_hz: tuple[float, float], frequency_sigma: 
     f_top = BAND_MARGIN * float(band_hz[1])
     f0 = modal_analysis(fe.m, fe.k).frequencies_hz
     while True:
-        fine = spec.replace(members=tuple(dataclasses.replace(
-            m, elements_per_segment=min(MAX_ELEMENTS_PER_SEGMENT, 2 * m.elements_per_segment)) for m in spec.members))
+        fine = remeshed(spec, 2.0)
         try:
             fe1 = build_fe_model(fine)
         except VlabError:  # a mesh the spec cannot carry (an element shorter than a rigid insert): the last one

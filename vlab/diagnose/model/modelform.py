@@ -196,7 +196,8 @@ def calibration_residual(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[floa
 
 def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
     """``|ln(f / f_refined)|`` of the first ``n`` modes, the refined mesh with twice the elements per segment
-    (where the spec cannot carry it, the mesh with half as many: a bound from above).
+    (where the spec cannot carry it, the mesh with half as many: a bound from above; where there is no coarser
+    one either, the ModelError of the refined mesh is raised).
 
     Parameters
     ----------
@@ -211,9 +212,12 @@ def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
     """
     fe0 = build_fe_model(spec)
     try:
-        fe1 = build_fe_model(_remeshed(spec, 2.0))
+        fe1 = build_fe_model(remeshed(spec, 2.0))
     except ModelError:  # no finer mesh fits (an element shorter than a rigid insert): the coarser one bounds it
-        fe1 = build_fe_model(_remeshed(spec, 0.5))
+        coarse = remeshed(spec, 0.5)
+        if coarse == spec:  # no coarser one either: nothing bounds it
+            raise
+        fe1 = build_fe_model(coarse)
     f0 = modal_analysis(fe0.m, fe0.k, n).frequencies_hz
     f1 = modal_analysis(fe1.m, fe1.k, n).frequencies_hz
     k = min(len(f0), len(f1))
@@ -223,9 +227,10 @@ def discretisation_error(spec: StructureSpec, n: int) -> np.ndarray:
     return out
 
 
-def _remeshed(spec: StructureSpec, factor: float) -> StructureSpec:
-    """``spec`` with every member's elements per segment scaled by ``factor`` (at least 1, at most the
-    spec's limit)."""
+def remeshed(spec: StructureSpec, factor: float) -> StructureSpec:
+    """``spec`` with every member's elements per segment scaled by ``factor`` (rounded; at least 1, at most
+    :data:`vlab.spec.MAX_ELEMENTS_PER_SEGMENT`). Building its FE model raises ModelError where an element would
+    be shorter than a rigid insert."""
     return spec.replace(members=tuple(dataclasses.replace(m, elements_per_segment=int(min(
         MAX_ELEMENTS_PER_SEGMENT, max(1, round(factor * m.elements_per_segment))))) for m in spec.members))
 
