@@ -99,3 +99,133 @@ def hinge_layout(n: int, layout: str = "gauss") -> tuple[np.ndarray, np.ndarray]
     if layout == "uniform":
         return (np.arange(n) + 0.5) / n, np.full(n, 1.0 / n)
     raise SimulationError(f"unknown hinge layout {layout!r}; use 'gauss' or 'uniform'")
+
+
+#: A crosspiece arm is a resonator of its own: a cantilever carrying a tip mass whose first bending
+#: frequency may lie inside the structure's band (the BCC's 15-in arms: 8.62 Hz, between modes 3 and 4).
+#: Its hinge chain must place that resonance within a tenth of the half-power half-bandwidth ``zeta f`` of
+#: the lightest damped mode of the spec (a resonator detuned by ``0.1 zeta`` reads its peak receptance
+#: ``1 / sqrt(1 + 0.1^2)``: within 0.5 %). ARM_LINKS_MAX bounds the search; a tolerance not met by then
+#: takes ARM_LINKS_MAX links.
+ARM_DETUNING_SHARE = 0.1
+ARM_LINKS_MAX = 16
+
+
+def tip_mass_cantilever_omega(length: float, ei: float, rho_a: float, tip_mass: float) -> float:
+    """First bending natural frequency [rad/s] of a uniform Euler-Bernoulli cantilever with a tip point mass.
+
+    Parameters
+    ----------
+    length : float
+        Cantilever length L [m], > 0.
+    ei : float
+        Bending stiffness EI [N m^2], > 0.
+    rho_a : float
+        Mass per length [kg/m], > 0.
+    tip_mass : float
+        Point mass at the free end [kg], >= 0 (no rotary inertia).
+
+    Returns
+    -------
+    float
+        ``lambda^2 sqrt(EI / (rho_a L^4))`` with ``lambda`` the first root of
+        ``1 + cos(l) cosh(l) + mu l (cos(l) sinh(l) - sin(l) cosh(l)) = 0``, ``mu = tip_mass / (rho_a L)``.
+
+    Raises
+    ------
+    SimulationError
+        For a non-positive length, stiffness or mass per length, or a negative tip mass.
+
+    Source: the frequency equation of a cantilever with a tip mass (Blevins, Formulas for Natural
+    Frequency and Mode Shape, 1979, Ch. 8; mu = 0 gives lambda = 1.8751).
+    """
+    from scipy.optimize import brentq
+
+    if not (length > 0 and ei > 0 and rho_a > 0 and tip_mass >= 0):
+        raise SimulationError(f"cantilever: length {length!r} m, EI {ei!r} N*m^2 and mass per length {rho_a!r} kg/m "
+                              f"must be > 0 and the tip mass {tip_mass!r} kg >= 0")
+    mu = tip_mass / (rho_a * length)
+
+    def residual(lam: float) -> float:
+        return (1.0 + math.cos(lam) * math.cosh(lam)
+                + mu * lam * (math.cos(lam) * math.sinh(lam) - math.sin(lam) * math.cosh(lam)))
+
+    lam = brentq(residual, 1e-6, 1.8751041)  # the root falls from 1.8751 (mu = 0) towards 0 as mu grows
+    return lam ** 2 * math.sqrt(ei / (rho_a * length ** 4))
+
+
+def hinge_chain_cantilever_omega(n: int, length: float, ei: float, rho_a: float, tip_mass: float,
+                                 layout: str = "gauss") -> float:
+    """First natural frequency [rad/s] of the plant's hinge chain of a cantilever with a tip mass.
+
+    The chain as the planner builds a crosspiece arm: a rigid root piece, ``n`` rigid links joined by
+    hinges at :func:`hinge_layout`'s positions with stiffness ``EI / (c_k L)``, the mass distributed
+    along the links (rotary inertia of the thin links left out, as in the closed form), the point mass
+    at the tip. Small-rotation Lagrangian: ``w(s) = sum_k theta_k (s - s_k)`` for ``s > s_k``.
+
+    Parameters
+    ----------
+    n : int
+        Hinges, >= 1.
+    length, ei, rho_a, tip_mass : float
+        As :func:`tip_mass_cantilever_omega`.
+    layout : {"gauss", "uniform"}
+        Hinge layout.
+
+    Returns
+    -------
+    float
+        Lowest natural frequency of the chain [rad/s].
+
+    Raises
+    ------
+    SimulationError
+        As :func:`hinge_layout`.
+    """
+    frac, share = hinge_layout(n, layout)
+    s_k = frac * length
+    gx, gw = np.polynomial.legendre.leggauss(8)  # exact: the integrand is quadratic on each piece
+    mass = tip_mass * np.outer(length - s_k, length - s_k)
+    edges = np.concatenate([[0.0], s_k, [length]])
+    for a, b in zip(edges[:-1], edges[1:]):
+        s = a + 0.5 * (b - a) * (gx + 1.0)
+        phi = np.clip(s[None, :] - s_k[:, None], 0.0, None)
+        mass += rho_a * (phi * (0.5 * (b - a) * gw)) @ phi.T
+    stiff = np.diag(ei / (share * length))
+    from scipy.linalg import eigh
+
+    return float(math.sqrt(eigh(stiff, mass, eigvals_only=True, subset_by_index=[0, 0])[0]))
+
+
+def arm_links(length: float, ei: float, rho_a: float, tip_mass: float, tolerance: float,
+              layout: str = "gauss") -> int:
+    """Fewest hinges (at least MIN_LINKS) that place a tip-loaded arm's first bending frequency within ``tolerance``.
+
+    Parameters
+    ----------
+    length, ei, rho_a, tip_mass : float
+        As :func:`tip_mass_cantilever_omega`.
+    tolerance : float
+        Largest relative frequency error of the chain [-], > 0 (the planner passes
+        ``ARM_DETUNING_SHARE`` times the spec's smallest modal damping ratio).
+    layout : {"gauss", "uniform"}
+        Hinge layout.
+
+    Returns
+    -------
+    int
+        The smallest ``n`` in ``MIN_LINKS .. ARM_LINKS_MAX`` with
+        ``|omega_chain(n) / omega_exact - 1| <= tolerance``; ARM_LINKS_MAX if none.
+
+    Raises
+    ------
+    SimulationError
+        For a tolerance that is not positive, and as :func:`tip_mass_cantilever_omega`.
+    """
+    if not tolerance > 0:
+        raise SimulationError(f"arm frequency tolerance must be > 0, got {tolerance!r}")
+    exact = tip_mass_cantilever_omega(length, ei, rho_a, tip_mass)
+    for n in range(MIN_LINKS, ARM_LINKS_MAX + 1):
+        if abs(hinge_chain_cantilever_omega(n, length, ei, rho_a, tip_mass, layout) / exact - 1.0) <= tolerance:
+            return n
+    return ARM_LINKS_MAX

@@ -50,7 +50,9 @@ class SimOptions:
         ``[mujoco] segments = { <member id> = n }`` and ``segments_per_element``.
     crosspiece_segments : int, optional
         Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default
-        automatic as for members (2 on the BCC).
+        automatic: the fewest that place the tip-loaded arm's own bending
+        resonance within a tenth of the smallest modal damping ratio
+        (:func:`vlab.sim.hinges.arm_links`; 3 on the BCC).
     timestep_s : float, optional
         Integration step [s]. ``[mujoco] timestep``; default automatic: the
         largest ``LAB_PERIOD_S / k`` (k = 1, 2, ...) with ``omega_max * dt <=
