@@ -106,7 +106,8 @@ import numpy as np
 
 from ..spec import StructureSpec
 from .damping import add_modal_tendons, modal_damping_plan, projected_modes
-from .damping_matrix import store_modal_damping
+from .damping_matrix import ModalDamping, store_modal_damping
+from .dofmap import dof_permutation
 from .emit import build_mjspec, compile_plant
 from .options import SimOptions
 from .plant import BuildInfo, Plant
@@ -129,8 +130,9 @@ _BASIS_PLANTS: dict = {}
 
 def _basis_damping(spec: StructureSpec, options: SimOptions | None, model0: mujoco.MjModel):
     """The damping of the unchanged structure that ``spec`` names as its basis (:attr:`vlab.spec.Damping.basis`):
-    ``(beta, ModalDamping, DampingReport, dof_damping)``, or None when there is none or its plant's joints
-    differ from ``model0``'s (then the changed plant's damping is designed on its own modes)."""
+    ``(beta, ModalDamping, DampingReport, dof_damping)`` in ``model0``'s DOF order, or None when there is
+    none or its plant's DOFs are not ``model0``'s under other names (:func:`vlab.sim.dofmap.dof_permutation`:
+    then the changed plant's damping is designed on its own modes)."""
     d = spec.damping
     if d is None or d.basis is None:
         return None
@@ -142,13 +144,12 @@ def _basis_damping(spec: StructureSpec, options: SimOptions | None, model0: mujo
             _BASIS_PLANTS.pop(next(iter(_BASIS_PLANTS)))
         hit = _BASIS_PLANTS[key] = (d.basis, base)
     base = hit[1]
-    names = [base.model.joint(i).name for i in range(base.model.njnt)]
-    if base.model.nv != model0.nv or names != [model0.joint(i).name for i in range(model0.njnt)]:
-        return None
     md = base.modal_damping
-    if md is None:
+    perm = dof_permutation(base.model, model0)
+    if md is None or perm is None:
         return None
-    return base.options.stiffness_damping_s or 0.0, md, base.damping, np.array(base.model.dof_damping)
+    md = ModalDamping(np.ascontiguousarray(md.A[perm]), md.c)
+    return base.options.stiffness_damping_s or 0.0, md, base.damping, np.array(base.model.dof_damping)[perm]
 
 
 def _set_joint_damping(ms: mujoco.MjSpec, model0: mujoco.MjModel, dof_damping: np.ndarray) -> None:
