@@ -7,7 +7,11 @@ at the reference configuration and accepts the pairing only where the paired coo
 motion: a configuration moved along every paired coordinate puts every joint of both plants at the same
 place again (added bodies or masses do not matter: the coordinates do). The unchanged structure's damping
 matrix (a fixed ``C`` in joint space, as :func:`vlab.fe.damping.structural_damping` keeps it in the FE
-model) then carries over row by row.
+model) then carries over row by row. A plant with a joint more (a released support, a freed clamp) is not
+paired: the plant's joint coordinates are relative and the FE model's DOFs absolute, so the same matrix
+carried into each with the new DOF undamped damps the new motion differently (the cantilever example with
+its clamp released: plant ratios 0.008-0.012 against the FE model's 0.0107-0.0108); such a plant's
+damping is designed on its own modes.
 
 Source: MuJoCo's joint anchors and axes (``mjData.xanchor``, ``xaxis``) and ``mj_kinematics``
 (``doc/APIreference``); the fixed damping matrix of a changed structure as in Sec. 2.1.2 of the
