@@ -456,6 +456,11 @@ def _draw_summary(done: list) -> list[str]:
     if fl:
         lines.append("# floor (null cases: the nominal design run on the unchanged plant): average peak level error "
                      + ", ".join(f"{x:.4f}" for x in fl))
+        floor = max(fl)  # an updated design cannot go below it: an original error under twice it cannot be halved
+        low = [r for r in upd if r["e_original"] < 2 * floor]
+        lines.append(f"# of the updates, {len(low)} started below twice the floor ({2 * floor:.4f}; halved "
+                     f"{n(low, lambda r: r['half'])}); the {len(upd) - len(low)} others halved "
+                     f"{n(upd, lambda r: r['half']) - n(low, lambda r: r['half'])}")
     if upd:
         import numpy as np
         e0, e1 = np.array([r["e_original"] for r in upd]), np.array([r["e_updated"] for r in upd])
