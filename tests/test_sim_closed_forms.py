@@ -161,3 +161,16 @@ def test_plant_arm_mode_is_the_clamped_arm_resonance():
     exact = tip_mass_cantilever_omega(c.arm_length.si, sec.ei.si, sec.rho_a, c.tip_mass.si) / (2 * math.pi)
     assert np.min(np.abs(f / exact - 1)) < 1e-3
     assert plant.info.links[c.id] == 3
+
+
+def test_a_damping_change_leaves_the_arms_hinges_and_the_step():
+    """The arms' hinges follow their geometry and masses, not the damping ratios: a mode made nearly undamped
+    (a diagnosis's hypothesis) builds the same joints at the same time step."""
+    from vlab.diagnose.effects import specedit
+    from vlab.spec import load_spec
+
+    spec = load_spec("bcc")
+    p0 = build_plant(spec, SimOptions())
+    p1 = build_plant(specedit.set_modal_damping(spec, 6, 1e-6), SimOptions())
+    assert p1.info.links == p0.info.links and p1.model.nv == p0.model.nv
+    assert p1.timestep_s == p0.timestep_s

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..units import G_SI
-from .hinges import ARM_DETUNING_SHARE, arm_links, auto_links, hinge_layout
+from .hinges import ARM_FREQUENCY_TOL, arm_links, hinge_layout
 from .plan import AXIS, Body, Item, Joint, Visual, p3, point_mass, rod
 
 
@@ -51,7 +51,8 @@ class AttachmentPlanner:
                                   "length in metres, 0 <= offset < 1")
         offset = float(offset)
         L = c.arm_length.si
-        n = self.opts.crosspiece_segments or self._arm_links(c, sec, L)
+        n = self.opts.crosspiece_segments or arm_links(L, sec.ei.si, sec.rho_a, c.tip_mass.si, ARM_FREQUENCY_TOL,
+                                                           self.opts.hinge_layout)
         self.links[c.id] = n
         frac, comp = hinge_layout(n, self.opts.hinge_layout)
         k_bend = [sec.ei.si / (cf * L) for cf in comp]
@@ -78,17 +79,6 @@ class AttachmentPlanner:
                     b.visuals.append(Visual("sphere", end, (0.012,), rgba=(0.8, 0.3, 0.2, 1.0)))
                     b.sites.append((f"{c.id}.tip{label}", end, f"spec: crosspiece {c.id} tip {label}"))
                 parent = b.name
-
-    def _arm_links(self, c, sec, length: float) -> int:
-        """Automatic hinges per crosspiece arm: the tip-loaded arm's own bending resonance placed within
-        ARM_DETUNING_SHARE of the spec's smallest modal damping ratio (:func:`vlab.sim.hinges.arm_links`);
-        a spec without a positive damping ratio takes the members' link-length rule (:func:`auto_links`)."""
-        d = self.spec.damping
-        ratios = [z for z in ((*d.modal_ratios, d.default_ratio) if d is not None else ()) if z > 0]
-        if not ratios:
-            return auto_links(length)
-        return arm_links(length, sec.ei.si, sec.rho_a, c.tip_mass.si, ARM_DETUNING_SHARE * min(ratios),
-                         self.opts.hinge_layout)
 
     def _masses(self) -> None:
         for lm in self.spec.masses:

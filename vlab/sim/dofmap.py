@@ -26,22 +26,18 @@ import numpy as np
 #: Anchors closer than this [m] are the same place (the plants are built from the same numbers: their
 #: anchors agree to rounding, ~1e-15 m; the BCC's hinges are >= 27 mm apart).
 PLACE_TOL_M = 1e-9
+#: Largest ``1 - cos`` of the angle between the axes of two joints that are the same joint.
+AXIS_TOL = 1e-9
 #: Rotation [rad] or slide [m] given every paired hinge or slide joint in the kinematic check: the same
 #: coordinates move the joints to the same places (to rounding); other coordinates move them ~1e-3 apart.
 PROBE_DQ = 1e-3
 
 
-def _joint_places(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _places(model: mujoco.MjModel, qpos_offsets: dict[int, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint anchors and axes (world frame), shape (njnt, 3) each, at ``qpos0`` moved by ``qpos_offsets``."""
     data = mujoco.MjData(model)
     data.qpos[:] = model.qpos0
-    mujoco.mj_kinematics(model, data)
-    return np.array(data.xanchor), np.array(data.xaxis), np.array(model.jnt_type)
-
-
-def _moved_places(model: mujoco.MjModel, qpos_offsets: dict[int, float]) -> tuple[np.ndarray, np.ndarray]:
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    for adr, dq in qpos_offsets.items():
+    for adr, dq in (qpos_offsets or {}).items():
         data.qpos[adr] += dq
     mujoco.mj_kinematics(model, data)
     return np.array(data.xanchor), np.array(data.xaxis)
@@ -64,14 +60,14 @@ def dof_permutation(base: mujoco.MjModel, model: mujoco.MjModel) -> np.ndarray |
     """
     if base.nv != model.nv or base.njnt != model.njnt:
         return None
-    pb, ab, tb = _joint_places(base)
-    pm, am, tm = _joint_places(model)
+    (pb, ab), (pm, am) = _places(base), _places(model)
+    tb, tm = np.asarray(base.jnt_type), np.asarray(model.jnt_type)
     perm = np.empty(model.nv, dtype=int)
     used = np.zeros(base.njnt, dtype=bool)
     pairs = []
     for j in range(model.njnt):
         near = np.flatnonzero((np.linalg.norm(pb - pm[j], axis=1) <= PLACE_TOL_M) & (tb == tm[j]) & ~used
-                              & (np.abs(np.sum(ab * am[j], axis=1) - 1.0) <= 1e-9))
+                              & (np.abs(np.sum(ab * am[j], axis=1) - 1.0) <= AXIS_TOL))
         if near.size != 1:
             return None
         used[near[0]] = True
@@ -94,10 +90,10 @@ def _same_motion(base: mujoco.MjModel, model: mujoco.MjModel, pairs: list[tuple[
             dq = PROBE_DQ * (1.0 + 0.5 * np.sin(k + 1.0))
             off_m[int(model.jnt_qposadr[j])] = dq
             off_b[int(base.jnt_qposadr[jb])] = dq
-    pb, ab = _moved_places(base, off_b)
-    pm, am = _moved_places(model, off_m)
+    pb, ab = _places(base, off_b)
+    pm, am = _places(model, off_m)
     jm, jb = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
-    return bool(np.max(np.abs(pb[jb] - pm[jm])) <= PLACE_TOL_M and np.max(np.abs(ab[jb] - am[jm])) <= 1e-9)
+    return bool(np.max(np.abs(pb[jb] - pm[jm])) <= PLACE_TOL_M and np.max(np.abs(ab[jb] - am[jm])) <= AXIS_TOL)
 
 
 def _dofs(model: mujoco.MjModel, joint: int) -> int:

@@ -51,7 +51,7 @@ class SimOptions:
     crosspiece_segments : int, optional
         Links per crosspiece arm. ``[mujoco] crosspiece_segments``; default
         automatic: the fewest that place the tip-loaded arm's own bending
-        resonance within a tenth of the smallest modal damping ratio
+        resonance within :data:`vlab.sim.hinges.ARM_FREQUENCY_TOL`
         (:func:`vlab.sim.hinges.arm_links`; 3 on the BCC).
     timestep_s : float, optional
         Integration step [s]. ``[mujoco] timestep``; default automatic: the
