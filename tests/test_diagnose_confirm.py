@@ -19,7 +19,8 @@ from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, 
 from vlab.diagnose.policy import DEFAULT_POLICY, DecisionPolicy
 from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
-from vlab.diagnose.validate import chi2_in_data_frame, distortion_variance
+from vlab.diagnose.data.replay import distortion_variance
+from vlab.diagnose.validate import chi2_in_data_frame
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

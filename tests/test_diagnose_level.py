@@ -1,7 +1,7 @@
 """A lab played back at a lower level (vlab.diagnose.data.replay.at_amplitude): every response of the lab's
 own elements scales with the level -- the amplifier's clipping, Coulomb friction, the sensor noise -- so
 that what does not scale in a rerun is the plant's own level dependence; and that dependence counted as a
-variance about the low-level reruns (vlab.diagnose.validate.distortion_variance)."""
+variance about the low-level reruns (vlab.diagnose.data.replay.distortion_variance)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from vlab.diagnose.data.replay import at_amplitude, rerun
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
-from vlab.diagnose.validate import distortion_variance
+from vlab.diagnose.data.replay import distortion_variance
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 

@@ -47,7 +47,8 @@ from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
 from ..spec import StructureSpec
 from .data.measured import FrfData
-from .data.reference import RERUN_SEED, referred_through_replay
+from .data.reference import RERUN_SEED, referred_through_replay, with_replay_distortion
+from .data.replay import LOW_LEVEL
 from .data.run import DiagnosisRun, one_blas_thread
 from .data.rerun_jobs import stop_background
 from .decision import apply_gates, mismatch_tests, settle_remainder
@@ -121,6 +122,9 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     if model_form == "auto":
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"
     mf, mf_frf = None, None
+    if isinstance(data, FrfData) and mf_mode == "derived" and inp.replayed is not None \
+            and inp.replay_plant == "mujoco":
+        data = _with_plant_distortion(inp, notes)
     if isinstance(data, FrfData) and mf_mode == "derived":
         mf, mf_frf = frf_model_form_of(nominal, data, inp.replay_plant if inp.replayed is not None else None, notes)
         notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
@@ -138,6 +142,22 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     if mf is not None:
         problem.model_form = mf
     return problem
+
+
+def _with_plant_distortion(inp: Inputs, notes: list) -> FrfData:
+    """``inp.data`` with the MuJoCo replay's own level dependence in its variance
+    (:func:`vlab.diagnose.data.reference.with_replay_distortion`); unchanged, with a note, where the second
+    replay fails."""
+    try:
+        data, largest = with_replay_distortion(inp.data, inp.nominal, inp.replay_plant, guard_s=inp.guard_s)
+    except (VlabError, ImportError) as exc:
+        notes.append(f"the replay at {LOW_LEVEL:g} x the level failed ({exc}): the replay's own level dependence "
+                     "is not in the comparison's variance")
+        return inp.data
+    notes.append(f"the replay plant's own level dependence (its FRFs at the recorded level against "
+                 f"{LOW_LEVEL:g} x it: a relative change up to {largest:.2g}) counted as the reference's "
+                 "uncertainty, since whether the structure shares it is not known")
+    return data
 
 
 def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, timing: dict, say,
@@ -419,6 +439,7 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
     timing = dict(inp.timing_s)
     notes = list(inp.notes)
     problem = _problem_of(inp, floor=floor, model_form=model_form, baseline=baseline, policy=policy, notes=notes)
+    inp = replace(inp, data=problem.data)  # the variance may carry the replay plant's level dependence
     try:
         res = _tested(inp, problem, notes, timing, say)
         osc = res.instability or {}

@@ -39,7 +39,7 @@ the judgement:
   (:func:`vlab.diagnose.data.replay.at_amplitude`); the chi-square below is
   that of the low-level reruns, the best linear approximations, with both
   reruns' distortions as a variance about them
-  (:func:`distortion_variance`), since whether the structure shares the
+  (:func:`vlab.diagnose.data.replay.distortion_variance`), since whether the structure shares the
   plant's level dependence is not known.
 
 The decision weighs the reruns on the footing of the fit that chose the
@@ -64,17 +64,12 @@ import numpy as np
 from ..errors import ModelError, VlabError
 from ..io.recording import Recording
 from .data.measured import FrfData
-from .data.replay import frf_of, time_error
+from .data.replay import LOW_LEVEL, distortion_variance, frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns, window_for
 from .model.labmodel import LabState
 from .problem.misfits import complex_log_misfit, exact_errors_of, log_misfit
 
 
-#: Level of the reruns that give a MuJoCo plant's best linear approximation [1] (:func:`distortion_variance`):
-#: a distortion that grows at least in proportion to the level keeps at most this fraction of itself there.
-#: The lab's own nonlinear elements scale exactly (:func:`vlab.diagnose.data.replay.at_amplitude`). A chosen
-#: level; a lower one changes the estimated distortion by at most this fraction.
-LOW_LEVEL = 0.1
 
 
 @dataclass(frozen=True)
@@ -237,41 +232,10 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     return _compared(problem, desc, kind, runs, pts, low)
 
 
-def distortion_variance(full: tuple, low: tuple) -> np.ndarray:
-    """The relative variance [1] per line of the plant's own level dependence: ``|d_b|^2 + |d_a|^2``,
-    ``d = H / H_low - 1``, of the nominal and the modified reruns' FRFs ``full`` at the recorded level and
-    ``low`` at :data:`LOW_LEVEL` x it (each ``d`` the nonlinear distortion, to within ``LOW_LEVEL`` of itself),
-    shape (n_f, n_o); 0 where a ratio is not finite.
-
-    Whether the recorded structure shares the plant's level dependence (a hinge chain's finite rotations, a
-    cable's stretch) is not known: it is the plant's model form, not the effect's. So the reruns are judged
-    by their best linear approximations (the low-level reruns, which keep the lab's saturation and
-    friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both distortions as a variance about
-    them, one covariance for both (Pintelon & Schoukens, *System Identification: A Frequency Domain
-    Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear approximation and its nonlinear distortions).
-
-    Parameters
-    ----------
-    full, low : tuple of ndarray, complex, shape (n_f, n_o)
-        The nominal and the modified reruns' FRFs [(m/s)/N] at the recorded level and at the low level.
-
-    Returns
-    -------
-    ndarray, shape (n_f, n_o)
-        Relative complex variance [1] per line and channel.
-    """
-    var = np.zeros(np.shape(full[0]))
-    for h, h_low in zip(full, low):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = h / h_low - 1.0
-        var = var + np.where(np.isfinite(d), np.abs(d) ** 2, 0.0)
-    return var
-
-
 def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list | None = None) -> Validation:
     """The two reruns (nominal, modified) compared with the recording (:func:`validate`'s last step); with
     their reruns at a low level ``low``, their chi-square is that of the low-level reruns with the
-    distortion as a variance (:func:`distortion_variance`)."""
+    distortion as a variance (:func:`~vlab.diagnose.data.replay.distortion_variance`)."""
     data: FrfData = problem.data
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     lb, la = (hb, ha) if low is None else (frf_of(low[0], data), frf_of(low[1], data))
@@ -326,7 +290,7 @@ def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np
     h, target : ndarray, complex, shape (n_f, n_o)
         [(m/s)/N].
     extra_var : ndarray, shape (n_f, n_o), optional
-        Relative variance [1] added to each line's noise (:func:`distortion_variance`).
+        Relative variance [1] added to each line's noise (:func:`~vlab.diagnose.data.replay.distortion_variance`).
 
     Returns
     -------

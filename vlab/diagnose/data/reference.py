@@ -222,7 +222,7 @@ def recorded_chain(setup: RecordedSetup, period_s: float) -> HardwareChain:
 
 
 def replay_reference(data: FrfData, nominal: LabState, plant: str,
-                     guard_s: float | None = None) -> tuple[FrfData, object, str]:
+                     guard_s: float | None = None, level: float = 1.0) -> tuple[FrfData, object, str]:
     """Play the recorded force back through the nominal plant: the reference a recording is referred through.
 
     The replay starts warm the lab's settling time (``guard_s``) before the
@@ -244,6 +244,9 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     guard_s : float, optional
         Time [s] simulated after the warm start before the analysed part, when shorter than a period
         (:func:`vlab.diagnose.data.warmstart.guard_ticks`).
+    level : float
+        The force played back is the recorded one times ``level`` [1], > 0, with the lab's own nonlinear
+        elements scaled with it (:func:`vlab.diagnose.data.replay.at_amplitude`); the FRFs are per newton.
 
     Returns
     -------
@@ -262,11 +265,13 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     SimulationError
         The replay diverged.
     """
-    from .replay import frf_of, rerun, rerun_split
+    from .replay import at_amplitude, frf_of, rerun, rerun_split
     from .warmstart import recorded_window
 
     rec = data.recording
     force = np.asarray(rec[f"force{data.excitation_point}"])
+    if level != 1.0:
+        nominal, force = at_amplitude(nominal, level), force * level
     start, period, stop = recorded_window(data, rec.dt_s, guard_s=guard_s)
     first = int(round(data.analysed_from_s / rec.dt_s))
     if plant == "mujoco" and period and start < first:  # over both cores
@@ -278,7 +283,7 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
         run, kind = rerun(nominal, force, excitation_point=data.excitation_point,
                           measured_points=tuple(data.output_points), plant=plant, seed=RERUN_SEED, start=start,
                           period=period, stop=stop)
-    h = frf_of(run, data)
+    h = frf_of(run, data)  # per newton at any level: the force is the one played back
     ref = replace(data, source=f"the nominal {kind}'s replay of the recorded force", h=h, var=np.zeros(h.shape),
                   recording=None, notes=[], h_recorded=None, var_recorded=None, var_baseline=None,
                   var_steady=None, same_transient=bool(data.periodic and start == 0 and not period))
@@ -356,3 +361,50 @@ def referred_through_replay(data: FrfData, nominal: LabState, plant: str,
     base, rec, kind = replay_reference(data, nominal, plant, guard_s=guard_s)
     h_nom = predict_frf(nominal, data.freq_hz, excitation_point=data.excitation_point, output_points=data.output_points)
     return refer_to_model(data, base, h_nom), rec, kind
+
+
+def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
+                           guard_s: float | None = None) -> tuple[FrfData, float]:
+    """``data`` referred through a replay (:func:`referred_through_replay`) with the replay plant's own level
+    dependence added to its variance: the reference's model form, where the data are of a real structure.
+
+    A MuJoCo plant is not exactly linear (its hinge chains' finite rotations): a random-phase multisine
+    played through it comes back with nonlinear distortions on every excited line, the same in every period
+    (Pintelon & Schoukens, *System Identification: A Frequency Domain Approach*, 2nd ed., Wiley 2012, Ch. 3),
+    so they are not in any period-to-period noise, and the referral ``H_rec H_model / H_replay`` carries them
+    into the data, largest relative to the response where it is small (between and above the resonances).
+    Whether the recorded structure shares them is not known. So the force is replayed again at
+    :data:`~vlab.diagnose.data.replay.LOW_LEVEL` x its level -- the plant's best linear approximation -- and
+    the squared relative difference (:func:`~vlab.diagnose.data.replay.distortion_variance`) is the
+    replay's own relative variance per line, propagated as the referral propagates a baseline's noise
+    (:func:`~vlab.diagnose.data.measured.refer_to_model`); the validation judges its reruns with the same
+    variance (:mod:`vlab.diagnose.validate`), so the mismatch test, the selection and the validation
+    weigh the plant's level dependence alike.
+
+    Parameters
+    ----------
+    data : FrfData
+        Referred through the replay on ``plant`` (``h_baseline`` the replay's FRFs), with its recording.
+    nominal, plant, guard_s
+        As for :func:`referred_through_replay`.
+
+    Returns
+    -------
+    data : FrfData
+        ``var`` and ``var_baseline`` with the distortion's variance added [((m/s)/N)^2].
+    largest : float
+        The largest relative distortion over the lines and channels [1].
+
+    Raises
+    ------
+    ModelError, SimulationError
+        As :func:`replay_reference`.
+    """
+    from .replay import LOW_LEVEL, distortion_variance
+
+    if data.h_baseline is None or data.recording is None:
+        raise OptionError("the replay's level dependence needs data referred through a replay of its recording")
+    low, _rec, _kind = replay_reference(data, nominal, plant, guard_s=guard_s, level=LOW_LEVEL)
+    rel = distortion_variance((data.h_baseline,), (low.h,))
+    var_base = (data.var_baseline if data.var_baseline is not None else 0.0) + rel * np.abs(data.h_baseline) ** 2
+    return replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base), float(np.sqrt(rel.max()))

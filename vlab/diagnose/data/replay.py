@@ -38,6 +38,12 @@ from ..model.labmodel import LabState
 from .measured import FrfData
 from .warmstart import warm_start
 
+#: Level of the reruns that give a MuJoCo plant's best linear approximation [1] (:func:`distortion_variance`):
+#: a distortion that grows at least in proportion to the level keeps at most this fraction of itself there.
+#: The lab's own nonlinear elements scale exactly (:func:`vlab.diagnose.data.replay.at_amplitude`). A chosen
+#: level; a lower one changes the estimated distortion by at most this fraction.
+LOW_LEVEL = 0.1
+
 
 
 class FrictionPlant:
@@ -424,3 +430,34 @@ def recording_of(payload: tuple[float, dict, dict]) -> Recording:
     """The :class:`Recording` of a :func:`rerun_payload` result ``(dt_s, signals, metadata)``."""
     dt, signals, meta = payload
     return Recording.from_signals(dt, signals, metadata=meta)
+
+
+def distortion_variance(full: tuple, low: tuple) -> np.ndarray:
+    """The relative variance [1] per line of the plant's own level dependence: ``|d_b|^2 + |d_a|^2``,
+    ``d = H / H_low - 1``, of the nominal and the modified reruns' FRFs ``full`` at the recorded level and
+    ``low`` at :data:`LOW_LEVEL` x it (each ``d`` the nonlinear distortion, to within ``LOW_LEVEL`` of itself),
+    shape (n_f, n_o); 0 where a ratio is not finite.
+
+    Whether the recorded structure shares the plant's level dependence (a hinge chain's finite rotations, a
+    cable's stretch) is not known: it is the plant's model form, not the effect's. So the reruns are judged
+    by their best linear approximations (the low-level reruns, which keep the lab's saturation and
+    friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both distortions as a variance about
+    them, one covariance for both (Pintelon & Schoukens, *System Identification: A Frequency Domain
+    Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear approximation and its nonlinear distortions).
+
+    Parameters
+    ----------
+    full, low : tuple of ndarray, complex, shape (n_f, n_o)
+        The nominal and the modified reruns' FRFs [(m/s)/N] at the recorded level and at the low level.
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_o)
+        Relative complex variance [1] per line and channel.
+    """
+    var = np.zeros(np.shape(full[0]))
+    for h, h_low in zip(full, low):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = h / h_low - 1.0
+        var = var + np.where(np.isfinite(d), np.abs(d) ** 2, 0.0)
+    return var
