@@ -147,8 +147,9 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
         without coherence): the floor then stays the only weight, since the
         referral's term alone would weigh a change of any size as about
         ``1 / |ln(H_model / H_baseline)|``. False too against the nominal plant's
-        noise-free replay (its variance is zero): the recording's noise alone,
-        estimated from two or three periods, made a clean linear recording's
+        replay: its variance is zero, or only the replay plant's own level dependence
+        (:func:`vlab.diagnose.data.reference.with_replay_distortion`), not a noise; the recording's noise
+        alone, estimated from two or three periods, made a clean linear recording's
         band-edge line stand out (squared residual 70, limit 53), so the replay
         is compared within the model-error floor only.
 
@@ -163,7 +164,7 @@ def changed_beyond_noise(problem: Problem, nominal: LabState) -> tuple[bool, dic
                          "for a change without the model-error floor")
     m = problem.mask
     noise = (data.var_recorded, data.var_baseline)
-    if any(v is None or not np.all(v[m] > 0) for v in noise):
+    if problem.replay_plant is not None or any(v is None or not np.all(v[m] > 0) for v in noise):
         return False, {}
     raw = without_floor(problem, nominal)
     stats = {"chi2": raw.chi2(nominal, test=True), "chi2_limit": raw.noise_chi2(),
