@@ -28,7 +28,8 @@ from .fit.locate import located_point_ids
 from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import needs_pairs, needs_rerun_check, part_alone, prune, select, shortlisted, too_small_to_name
+from .fit.rules import (needs_pairs, needs_rerun_check, part_alone, passing_single, prune, select, shortlisted,
+                        too_small_to_name)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
 from .fit.separation import inseparable, separation_note
 from .instability_cause import recorded_growth_rate, search_cause
@@ -238,6 +239,11 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
                          "(the mismatch tests pass after its modes are moved within their model form); the "
                          "other part is not needed and is not selected")
             chosen, alts = alone, []
+    passing = None if search.self_excited else passing_single(chosen, ranked, problem, search.shortlist)
+    if passing is not None:
+        notes.append(f"{chosen.label} leaves the data beyond a test that declared the mismatch (with its modes "
+                     f"moved within their model form); {passing.label} passes them all and is the choice")
+        chosen, alts = passing, []
     if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
         chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,
                                              search.validate_run, search.on_plant, notes, timing, say), []

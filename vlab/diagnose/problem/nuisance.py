@@ -29,6 +29,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.optimize
 
+from ...errors import ModelError
 from ..model.labmodel import LabState, PointModes, point_modes_of
 from ..model.modelform import FrfModelForm, perturbed_modes
 
@@ -194,3 +195,40 @@ def within_model_accuracy(problem, state: LabState) -> bool:
     r, x, k = profile_state(problem, state)
     return (float(r @ r + x @ x) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
             and float(x @ x) <= problem.nuisance_limit(k))
+
+
+def moves_left(problem, state: LabState) -> float:
+    """First-order estimate of the squared moves ``|x|^2`` that :func:`profile` would need for ``state``:
+    the nominal lab's moves (:meth:`Problem.nominal_profile`) less what ``state`` itself moves its modes'
+    frequencies and damping ratios, in units of their standard uncertainty (the shapes' moves are kept).
+    A cheap ordering of candidates for :func:`within_model_accuracy`, not a test.
+
+    Parameters
+    ----------
+    problem : Problem
+        FRF data with ``model_form_frf``, its nominal lab profiled.
+    state : LabState
+        A lab of the same structure's points (its own FE modes are computed).
+
+    Returns
+    -------
+    float
+        ``|x_nominal - d|^2`` [1], ``d_i = ln(p_state / p_nominal) / sigma_i`` for each frequency or damping
+        parameter ``p`` whose mode both labs have; inf where the modes cannot be computed.
+    """
+    mf = problem.model_form_frf
+    _r, x0 = problem.nominal_profile()
+    pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
+    try:
+        pm_n = point_modes_of(problem.base, pts, "the nominal FE model")
+        pm_s = point_modes_of(state, pts, "the lab's FE model")
+    except (ModelError, ValueError, np.linalg.LinAlgError):
+        return float("inf")
+    d = np.zeros_like(x0)
+    for i, ((kind, rn, _j), (_k, rs, _js)) in enumerate(zip(parameters(mf, pm_n), parameters(mf, pm_s))):
+        if kind == "phi" or rn is None or rs is None:
+            continue
+        a, b = (pm_s.omega[rs], pm_n.omega[rn]) if kind == "f" else (pm_s.zeta[rs], pm_n.zeta[rn])
+        if a > 0 and b > 0 and mf.sigma[i] > 0:
+            d[i] = np.log(a / b) / mf.sigma[i]
+    return float(np.sum((x0 - d) ** 2))
