@@ -12,7 +12,7 @@ import numpy as np
 from vlab.diagnose.data.measured import FrfData
 from vlab.diagnose.effects.structural import AddedMass, ModalDamping
 from vlab.diagnose.fit.estimate import fit_hypothesis
-from vlab.diagnose.fit.rules import part_alone
+from vlab.diagnose.fit.rules import part_alone, passing_single
 from vlab.diagnose.model.labmodel import LabState, point_modes_of, predict_frf
 from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, perturbed_modes
 from vlab.diagnose.problem.context import context_for
@@ -59,3 +59,14 @@ def test_a_part_that_explains_the_data_within_the_model_form_makes_the_other_a_p
 def test_no_part_alone_when_the_second_change_lies_beyond_the_model_form():
     problem = _problem(12.0)
     assert part_alone(_parts(problem), problem) is None
+
+
+def test_a_choice_that_fails_the_mismatch_tests_gives_way_to_a_single_effect_that_passes_them():
+    """Rule 3's last step (vlab.diagnose.fit.rules.passing_single): the mass, ranked first, cannot make mode
+    3's damping; the damping change passes every test that declared the mismatch and is the choice."""
+    problem = _problem(0.3)
+    damping, mass = _parts(problem)
+    assert passing_single(mass, [mass, damping], problem, 5) is damping
+    assert passing_single(damping, [damping, mass], problem, 5) is None  # the choice passes: kept
+    assert passing_single(mass, [mass, damping], problem, 0) is None  # none examined
+    assert passing_single(None, [mass, damping], problem, 5) is None
