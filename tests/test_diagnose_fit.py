@@ -521,3 +521,23 @@ def test_the_screening_finds_a_gain_change_smaller_than_its_trial_spacing():
     chi2, x = screen(hyp, problem)[0]
     assert x[0] == pytest.approx(gain, rel=2e-4)
     assert chi2 < 1e-3 * nominal_chi2
+
+
+def test_a_fitted_interval_stays_in_the_parameters_range():
+    """A mode's damping lowered to 1e-5 (the bound of its range), 0.05 Hz lines and 1 % noise: the linearised
+    95 % interval would reach below zero; it is held to the range (a damping ratio is not negative)."""
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.effects.structural import ModalDamping
+    from vlab.diagnose.model.labmodel import predict_frf
+
+    fe = nominal_fe_model("bcc")
+    lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    f = np.arange(40, 500) * 0.05
+    ctx = context_for(lab, (2.0, 25.0), None)
+    h = predict_frf(ModalDamping(mode=3).apply(lab, np.array([1e-5]), ctx), f, excitation_point=9,
+                    output_points=(3, 6))
+    data = FrfData("closed-form.uff", "frf", f, h, (1e-2 * np.abs(h)) ** 2, 9, (3, 6))
+    g = fit_hypothesis(ModalDamping(mode=3), Problem(data, lab, context_for(lab, (2.0, 25.0), data), floor=0.0))
+    _trials, lo, hi = g.space(lab, ctx)
+    assert g.params_[0] == pytest.approx(1e-5, rel=1e-3)
+    assert g.ci95_[0, 0] == lo[0] and lo[0] < g.ci95_[0, 1] <= hi[0]
