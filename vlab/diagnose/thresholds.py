@@ -188,6 +188,7 @@ class DetectionTest:
         mf = problem.model_form_frf
         self.profiled = mf is not None and mf.sigma.size > 0 and isinstance(problem.data, FrfData)
         self.n_profiled = 0
+        self._starts: dict = {}  # hypothesis label -> its last profile's optimum (:meth:`detected`)
         if self.profiled:
             from .problem.nuisance import parameters
 
@@ -232,13 +233,15 @@ class DetectionTest:
         noise's share is to the chi-square: the noncentral picture of the module notes)."""
         if not self.profiled:
             return self.detected_first_order(h, x)
-        p = self._expected(h, x, profile_nominal=True)
+        # the profile starts where the last one of this hypothesis ended (a nearby size: a few iterations)
+        p = self._expected(h, x, profile_nominal=True, profile_start=self._starts.get(h.label))
         if p is None:
             return None
         try:
             chi2, peak, nuis = p.chi2(self.nominal, test=True), p.peak(self.nominal, test=True), p.nuisance_test()
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
+        self._starts[h.label] = p.nominal_profile()[1]
         if self.chi2_noise + chi2 > self.limit:
             return "chi2"
         if peak > self.peak_limit:

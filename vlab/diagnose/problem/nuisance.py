@@ -71,7 +71,8 @@ def parameters(mf: FrfModelForm, pm: PointModes) -> list[tuple[str, int | None, 
     return out
 
 
-def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.ndarray, np.ndarray]:
+def profile(problem, state: LabState, pm0: PointModes, scale=None,
+            start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``state`` with its modes ``pm0`` moved within the model form of ``problem`` to fit its data (module notes).
 
     Parameters
@@ -86,6 +87,9 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     scale : ndarray, complex, shape (n_used,), optional
         Multiplies the prediction on the used lines (the nominal lab: its FE prediction over the prediction
         with ``pm0``, so that the moves change it as they change the reference's).
+    start : ndarray, shape (k,), optional
+        The search's start in units of the parameters' standard uncertainty (a previous optimum of this
+        function on nearby data; ignored when its length is not ``k``); default 0.
 
     Returns
     -------
@@ -110,7 +114,8 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None) -> tuple[np.n
     x = np.zeros(len(which))
     if not live:
         return plain(np.zeros(0)), x
-    sol = scipy.optimize.least_squares(lambda xl: np.concatenate([plain(xl), xl]), np.zeros(len(live)),
+    x_start = np.zeros(len(live)) if start is None or np.size(start) != len(which) else np.asarray(start)[live]
+    sol = scipy.optimize.least_squares(lambda xl: np.concatenate([plain(xl), xl]), x_start,
                                        method="trf", x_scale=1.0, diff_step=1e-3,
                                        max_nfev=NFEV_PER_PARAMETER * len(live))
     x[live] = sol.x

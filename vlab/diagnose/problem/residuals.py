@@ -91,6 +91,10 @@ class Problem:
         :meth:`peak` of ``base``) are those of its modes' most likely frequencies and damping within their
         model-form uncertainty (:meth:`nominal_profile`, nonlinear), not of the linear whitening: a
         frequency error of a mode with 0.1 % damping moves its peak lines far beyond first order.
+    profile_start : ndarray, shape (k,), optional
+        Where :meth:`nominal_profile` starts its search, in units of the parameters' standard uncertainty
+        (the optimum of a problem of nearby data: a detection threshold's search, :mod:`vlab.diagnose.thresholds`;
+        default 0, the model as it is).
     policy : DecisionPolicy
         Every limit of the decision (:mod:`vlab.diagnose.policy`; default: a false-alarm rate of 1 %).
     run : DiagnosisRun, optional
@@ -127,7 +131,7 @@ class Problem:
                  shape_sigma: float = 0.05, model_form_frf=None, modal_model_form: bool = True,
                  profile_nominal: bool = False, policy: DecisionPolicy = DEFAULT_POLICY,
                  run: DiagnosisRun | None = None, guard_s: float | None = None, replay_plant: str | None = None,
-                 line_floor: np.ndarray | None = None):
+                 line_floor: np.ndarray | None = None, profile_start: np.ndarray | None = None):
         self.data, self.base, self.ctx = data, base, ctx
         self.policy = policy
         self.run = DiagnosisRun() if run is None else run
@@ -136,7 +140,7 @@ class Problem:
         self.freq_sigma, self.damping_sigma, self.shape_sigma = freq_sigma, damping_sigma, shape_sigma
         self.n_evaluations, self.modal_model_form = 0, bool(modal_model_form)
         self.model_form_frf, self.model_var, self._whiten = None, None, None
-        self.profile_nominal, self._profile = bool(profile_nominal), None
+        self.profile_nominal, self._profile, self.profile_start = bool(profile_nominal), None, profile_start
         self.model_form = None  # the ModelFormUncertainty behind model_var (set by whoever computed it)
         self._base_scores: tuple[float, float] | None = None  # scores of the nominal lab (:meth:`base_scores`)
         self._smooth = None  # kernel of the smoothed error, made on first use (:meth:`_smoother`)
@@ -452,7 +456,7 @@ class Problem:
 
         # the nominal prediction changed as the perturbed modes change theirs
         pm0, scale = own_modes(self, self.base)
-        self._profile = profile(self, self.base, pm0, scale)
+        self._profile = profile(self, self.base, pm0, scale, start=self.profile_start)
         return self._profile
 
     def line_residual(self, h_used: np.ndarray, *, test: bool = False) -> np.ndarray:
