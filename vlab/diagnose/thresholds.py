@@ -226,6 +226,10 @@ class DetectionTest:
             return None
         return "chi2" if st[0] > self.limit else "peak" if st[1] > self.peak_limit else None
 
+    def forget_start(self, h) -> None:
+        """Start the next profile of hypothesis ``h`` from the model as it is (:meth:`detected`)."""
+        self._starts.pop(h.label, None)
+
     def detected(self, h, x: float) -> str | None:
         """``"chi2"``, ``"peak"``, ``"nuisance"`` or None for hypothesis ``h`` at size ``x`` [SI]: the diagnosis's
         own test (rule 1 and, with a model form, the profile and its nuisance tests; the nuisance statistics'
@@ -323,6 +327,7 @@ def _profiled_side(test: DetectionTest, h, null, start: float, end: float, log: 
     threshold ``first`` (None: at the bound) on a ladder of factors, then bisected in the factor."""
     if first is None:
         first = end
+    test.forget_start(h)  # each side's search starts from the model as it is
     if null is not None:
         d1 = abs(first - null)
         sign = 1.0 if end >= null else -1.0

@@ -34,13 +34,15 @@ the judgement:
 - **its level dependence**: a MuJoCo plant's response is not exactly linear
   (finite rotations of its hinge chain, a tensioned cable's stretch), and an
   effect that sharpens a resonance raises the level there. Both MuJoCo reruns
-  are repeated at :data:`LOW_LEVEL` x the recorded force with the lab's own
+  are repeated at :data:`~vlab.diagnose.data.replay.LOW_LEVEL` x the recorded force with the lab's own
   nonlinear elements scaled with it
   (:func:`vlab.diagnose.data.replay.at_amplitude`); the chi-square below is
   that of the low-level reruns, the best linear approximations, with both
   reruns' distortions as a variance about them
   (:func:`vlab.diagnose.data.replay.distortion_variance`), since whether the structure shares the
-  plant's level dependence is not known.
+  plant's level dependence is not known; where the data were referred through the nominal replay on the
+  same plant with its distortion in their variance
+  (:func:`vlab.diagnose.data.reference.with_replay_distortion`), the nominal rerun's is not counted twice.
 
 The decision weighs the reruns on the footing of the fit that chose the
 effect: their chi-square with the diagnosis's own covariance (noise, floor
@@ -240,6 +242,9 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     lb, la = (hb, ha) if low is None else (frf_of(low[0], data), frf_of(low[1], data))
     extra = None if low is None else distortion_variance((hb, ha), (lb, la))
+    if extra is not None and data.var_distortion is not None and kind == problem.replay_plant:
+        # the nominal rerun is the replay the data were referred through: its distortion is in their variance
+        extra = np.maximum(extra - data.var_distortion, 0.0)
     if extra is not None:
         desc += (f"; judged by its reruns at {LOW_LEVEL:g} x the level, the plant's own level dependence (a "
                  f"relative change of the FRFs up to {np.sqrt(np.max(extra[problem.mask])):.2g}, median "

@@ -78,6 +78,9 @@ class FrfData:
     same_transient : bool
         This FrfData is a reference replayed from rest through the recording's own periods: it carries the
         recording's transient, which then cancels in :func:`refer_to_model`.
+    var_distortion : ndarray, shape (n_f, n_o) or None
+        The relative variance [1] of the reference replay's own level dependence that ``var`` includes
+        (:func:`vlab.diagnose.data.reference.with_replay_distortion`); None where none is included.
     records : (tuple of int, int) or None
         A transient excitation's records (their first samples on the recording's clock) and the samples the
         force window keeps (:func:`vlab.measure.impact.transient_h1`), so that a simulation of the test is
@@ -105,6 +108,7 @@ class FrfData:
     var_steady: np.ndarray | None = None
     same_transient: bool = False
     records: tuple | None = None
+    var_distortion: np.ndarray | None = None
 
     @property
     def sigma_rel(self) -> np.ndarray:

@@ -391,12 +391,15 @@ def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
     Returns
     -------
     data : FrfData
-        ``var`` and ``var_baseline`` with the distortion's variance added [((m/s)/N)^2].
+        ``var`` and ``var_baseline`` with the distortion's variance added [((m/s)/N)^2], ``var_distortion``
+        that relative variance [1].
     largest : float
         The largest relative distortion over the lines and channels [1].
 
     Raises
     ------
+    OptionError
+        ``data`` not referred through a replay of its recording (no ``h_baseline`` or no recording).
     ModelError, SimulationError
         As :func:`replay_reference`.
     """
@@ -407,4 +410,5 @@ def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
     low, _rec, _kind = replay_reference(data, nominal, plant, guard_s=guard_s, level=LOW_LEVEL)
     rel = distortion_variance((data.h_baseline,), (low.h,))
     var_base = (data.var_baseline if data.var_baseline is not None else 0.0) + rel * np.abs(data.h_baseline) ** 2
-    return replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base), float(np.sqrt(rel.max()))
+    return (replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base, var_distortion=rel),
+            float(np.sqrt(rel.max())))

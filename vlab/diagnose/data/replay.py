@@ -433,22 +433,24 @@ def recording_of(payload: tuple[float, dict, dict]) -> Recording:
 
 
 def distortion_variance(full: tuple, low: tuple) -> np.ndarray:
-    """The relative variance [1] per line of the plant's own level dependence: ``|d_b|^2 + |d_a|^2``,
-    ``d = H / H_low - 1``, of the nominal and the modified reruns' FRFs ``full`` at the recorded level and
-    ``low`` at :data:`LOW_LEVEL` x it (each ``d`` the nonlinear distortion, to within ``LOW_LEVEL`` of itself),
-    shape (n_f, n_o); 0 where a ratio is not finite.
+    """The relative variance [1] per line of a plant's own level dependence: ``sum_i |d_i|^2``,
+    ``d_i = H_i / H_low,i - 1``, over the plays ``full`` at the recorded level and ``low`` at :data:`LOW_LEVEL`
+    x it of the same runs (each ``d`` the nonlinear distortion, to within ``LOW_LEVEL`` of itself), shape
+    (n_f, n_o); 0 where a ratio is not finite.
 
     Whether the recorded structure shares the plant's level dependence (a hinge chain's finite rotations, a
-    cable's stretch) is not known: it is the plant's model form, not the effect's. So the reruns are judged
-    by their best linear approximations (the low-level reruns, which keep the lab's saturation and
-    friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both distortions as a variance about
-    them, one covariance for both (Pintelon & Schoukens, *System Identification: A Frequency Domain
-    Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear approximation and its nonlinear distortions).
+    cable's stretch) is not known: it is the plant's model form, not the effect's. So the validation's
+    reruns (nominal and modified) are judged by their best linear approximations (the low-level reruns,
+    which keep the lab's saturation and friction, :func:`vlab.diagnose.data.replay.at_amplitude`) with both
+    distortions as a variance about them, one covariance for both, and a replay that is the data's reference
+    carries its own (:func:`vlab.diagnose.data.reference.with_replay_distortion`) (Pintelon & Schoukens,
+    *System Identification: A Frequency Domain Approach*, 2nd ed., Wiley 2012, Ch. 3: the best linear
+    approximation and its nonlinear distortions).
 
     Parameters
     ----------
     full, low : tuple of ndarray, complex, shape (n_f, n_o)
-        The nominal and the modified reruns' FRFs [(m/s)/N] at the recorded level and at the low level.
+        The runs' FRFs [(m/s)/N] at the recorded level and, in the same order, at the low level.
 
     Returns
     -------

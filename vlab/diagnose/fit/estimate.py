@@ -267,9 +267,10 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
         h.params_ = x
         h.chi2_ = float(chi2)
         h.success_ = bool(best.success or best.status > 0)
-        # the linearised interval held to the parameter's own range (a damping ratio is not negative)
-        h.ci95_ = np.clip(_ci95(best.jac / scale[None, :], z, chi2, problem.n_obs, log), np.asarray(lo)[:, None],
-                          np.asarray(hi)[:, None])
+        # the linearised interval held to the parameter's own range (a damping ratio is not negative); an
+        # end the data do not bound (inf, NaN) stays so
+        ci = _ci95(best.jac / scale[None, :], z, chi2, problem.n_obs, log)
+        h.ci95_ = np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
     k = h.n_params
     h.aic_, h.bic_ = problem.information(h.chi2_, k)
     h.misfit_ = problem.misfit(problem.state_for(h, h.params_))

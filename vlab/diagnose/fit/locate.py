@@ -155,13 +155,14 @@ def _at_own_peak(f_fit: float, peaks_hz: np.ndarray, j: int) -> bool:
 
 
 def _referred_mode(d: FrfData, ch: int, f_rec: float, f_base: float, pred: tuple[float, float],
-                   half_hz: float) -> tuple[float, float, float] | None:
+                   half_hz: float, reach_hz: float) -> tuple[float, float, float] | None:
     """A mode of FRF data referred through a baseline or replay (``H = H_rec H_model / H_base``,
     :func:`vlab.diagnose.data.measured.refer_to_model`), its modal parameters referred instead of its lines:
-    the recorded and the baseline FRFs each curve-fitted at their own peak (guesses ``f_rec``, ``f_base``
-    [Hz]) on channel ``ch``, and ``f = f_model f_rec / f_base``, ``zeta = zeta_model zeta_rec / zeta_base``,
-    peak ratio ``peak_base / peak_rec`` (peak levels as measured, :func:`vlab.measure.modal.peak_levels`;
-    ``pred``: the model's fitted ``(f, zeta)``; ``half_hz``: the peak-level band [Hz]).
+    the recorded and the baseline FRFs each curve-fitted at their own peak on channel ``ch`` (the largest
+    line within ``reach_hz`` of the guesses ``f_rec``, ``f_base`` [Hz]: half the way to the model's next
+    resonance), and ``f = f_model f_rec / f_base``, ``zeta = zeta_model zeta_rec / zeta_base``, peak ratio
+    ``peak_base / peak_rec`` (peak levels as measured, :func:`vlab.measure.modal.peak_levels`; ``pred``: the
+    model's fitted ``(f, zeta)``; ``half_hz``: the peak-level band [Hz]).
 
     The line-by-line referral is exact to first order only where ``H_model / H_base`` is near one; at a
     lightly damped mode that the baseline's plant places more than a half-power bandwidth off the model's
@@ -176,14 +177,20 @@ def _referred_mode(d: FrfData, ch: int, f_rec: float, f_base: float, pred: tuple
         fails or leaves its own peak.
     """
     f = d.freq_hz
+
+    def own_peak(h: np.ndarray, guess: float) -> float:
+        near = np.abs(f - guess) <= reach_hz
+        return float(f[near][np.argmax(np.abs(h[near, ch]))]) if near.any() else guess
+
+    peaks = own_peak(d.h_recorded, f_rec), own_peak(d.h_baseline, f_base)
     try:
-        rec = fit_modes(f, d.h_recorded[:, ch], [f_rec], name=d.source)[0]
-        base = fit_modes(f, d.h_baseline[:, ch], [f_base], name="baseline")[0]
+        rec = fit_modes(f, d.h_recorded[:, ch], [peaks[0]], name=d.source)[0]
+        base = fit_modes(f, d.h_baseline[:, ch], [peaks[1]], name="baseline")[0]
         levels = [peak_levels(f, h[:, ch], [x.freq_hz], half_band_hz=half_hz)[0]
                   for h, x in ((d.h_baseline, base), (d.h_recorded, rec))]
     except MeasurementError:
         return None
-    if not all(abs(x.freq_hz - g) < half_hz for x, g in ((rec, f_rec), (base, f_base))):
+    if not all(abs(x.freq_hz - p) < reach_hz for x, p in zip((rec, base), peaks)):
         return None
     return (pred[0] * rec.freq_hz / base.freq_hz, pred[1] * rec.damping_ratio / base.damping_ratio,
             levels[0] / levels[1])
@@ -250,7 +257,9 @@ def frf_modes(problem: Problem, nominal: LabState) -> list[ModeError]:
         except MeasurementError:
             ratio = np.nan
         if d.h_recorded is not None and d.h_baseline is not None and np.isfinite(zpred):
-            referred = _referred_mode(d, ch, fmeas, fpred, (fpred, zpred), half)
+            others = np.delete(fp, i)
+            reach = 0.5 * float(np.min(np.abs(others - fp[i]))) if others.size else half
+            referred = _referred_mode(d, ch, fmeas, fpred, (fpred, zpred), half, reach)
             if referred is not None:
                 fmeas, zmeas, ratio = referred
         near = (np.abs(f - fpred) <= half) | (np.abs(f - fmeas) <= half)

@@ -91,7 +91,7 @@ import math
 
 import numpy as np
 
-from ...errors import ModelError
+from ...errors import ModelError, VlabError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis, PointDamping
 from ..model.labmodel import LabState
@@ -318,14 +318,25 @@ def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     Hypothesis or None
         The passing single effect; None where ``chosen`` passes, is None, or no examined single effect passes.
     """
-    if chosen is None or within_model_accuracy(problem, problem.state_for(chosen, chosen.params_)):
+    def passes(h: Hypothesis) -> bool:  # a lab that cannot be built or profiled does not pass
+        try:
+            return within_model_accuracy(problem, problem.state_for(h, h.params_))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            return False
+
+    def left(h: Hypothesis) -> float:
+        try:
+            return moves_left(problem, problem.state_for(h, h.params_))
+        except (VlabError, ValueError, np.linalg.LinAlgError):
+            return math.inf
+
+    if chosen is None or passes(chosen):
         return None
     singles = [h for h in ranked if not isinstance(h, Combination) and h is not chosen]
     if profiled(problem, problem.base):  # those that leave the least to move first (a first-order estimate)
-        left = {id(h): moves_left(problem, problem.state_for(h, h.params_)) for h in singles}
-        singles = sorted(singles, key=lambda h: left[id(h)])
-    return next((h for h in singles[:most] if within_model_accuracy(problem, problem.state_for(h, h.params_))),
-                None)
+        order = {id(h): left(h) for h in singles}
+        singles = sorted(singles, key=lambda h: order[id(h)])
+    return next((h for h in singles[:most] if passes(h)), None)
 
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,

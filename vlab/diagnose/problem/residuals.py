@@ -92,9 +92,8 @@ class Problem:
         model-form uncertainty (:meth:`nominal_profile`, nonlinear), not of the linear whitening: a
         frequency error of a mode with 0.1 % damping moves its peak lines far beyond first order.
     profile_start : ndarray, shape (k,), optional
-        Where :meth:`nominal_profile` starts its search, in units of the parameters' standard uncertainty
-        (the optimum of a problem of nearby data: a detection threshold's search, :mod:`vlab.diagnose.thresholds`;
-        default 0, the model as it is).
+        Start of :meth:`nominal_profile`'s search [standard uncertainties]: a nearby problem's optimum
+        (:mod:`vlab.diagnose.thresholds`); default 0.
     policy : DecisionPolicy
         Every limit of the decision (:mod:`vlab.diagnose.policy`; default: a false-alarm rate of 1 %).
     run : DiagnosisRun, optional
