@@ -96,7 +96,8 @@ def test_profiled_search_finds_a_step_either_way_from_the_first_order_threshold(
     from vlab.diagnose import thresholds as dm
 
     def tester(step: float, up: bool = True):
-        return SimpleNamespace(detected=lambda h, x: "chi2" if (x >= step if up else x <= step) else None)
+        return SimpleNamespace(detected=lambda h, x: "chi2" if (x >= step if up else x <= step) else None,
+                               forget_start=lambda h: None)
 
     tol = dm.LADDER ** (1.0 / 2**dm.N_BISECT_PROFILED)
     for step in (0.37, 3.1, 20.0):  # below, above and far above the first-order 1.0

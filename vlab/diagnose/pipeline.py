@@ -439,7 +439,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
     timing = dict(inp.timing_s)
     notes = list(inp.notes)
     problem = _problem_of(inp, floor=floor, model_form=model_form, baseline=baseline, policy=policy, notes=notes)
-    inp = replace(inp, data=problem.data)  # the variance may carry the replay plant's level dependence
+    if isinstance(inp.data, FrfData):  # its variance may carry the replay plant's level dependence (a modal
+        inp = replace(inp, data=problem.data)  # table's problem holds it referred; the report keeps it as read)
     try:
         res = _tested(inp, problem, notes, timing, say)
         osc = res.instability or {}
