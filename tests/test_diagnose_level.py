@@ -14,6 +14,7 @@ from vlab.diagnose.data.replay import at_amplitude, rerun
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.data.replay import distortion_variance
+from vlab.diagnose.validate import reruns_distortion
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
@@ -72,6 +73,19 @@ def test_the_distortion_variance_is_the_sum_of_both_reruns_squared_relative_dist
     low_a[0, 0] = 0.0  # a line the low-level rerun does not reach counts no distortion of that rerun
     var = distortion_variance((lb * (1 + db), la), (lb, low_a))
     assert var[0, 0] == pytest.approx(abs(db[0, 0]) ** 2, rel=1e-9) and np.all(np.isfinite(var))
+
+
+def test_the_replays_distortion_in_the_data_is_not_counted_again_by_the_reruns():
+    """Where the data were referred through the nominal replay with its distortion ``d_b`` in their variance,
+    the reruns on that plant add only the modified rerun's ``|d_a|^2``: ``|d_b|^2 + |d_a|^2 - |d_b|^2``."""
+    rng = np.random.default_rng(1)
+    lb, la = (rng.normal(size=(40, 2)) + 1j * rng.normal(size=(40, 2)) for _ in range(2))
+    db, da = (0.02 * (rng.normal(size=(40, 2)) + 1j * rng.normal(size=(40, 2))) for _ in range(2))
+    full, low = (lb * (1 + db), la * (1 + da)), (lb, la)
+    np.testing.assert_allclose(reruns_distortion(full, low, np.abs(db) ** 2), np.abs(da) ** 2, rtol=1e-9,
+                               atol=1e-18)
+    np.testing.assert_allclose(reruns_distortion(full, low, None), np.abs(db) ** 2 + np.abs(da) ** 2, rtol=1e-9)
+    assert np.all(reruns_distortion(full, low, np.full((40, 2), 1.0)) == 0.0)  # never below zero
 
 
 def test_a_rerun_runs_every_analysed_period_where_the_slowest_mode_outlasts_the_warm_starts_guard(clipped):

@@ -234,6 +234,17 @@ def validate(problem, nominal: LabState, modified: LabState, *, plant: str = "au
     return _compared(problem, desc, kind, runs, pts, low)
 
 
+def reruns_distortion(full: tuple, low: tuple, in_data: np.ndarray | None) -> np.ndarray:
+    """The reruns' level dependence to add to the data's variance: :func:`distortion_variance` of the nominal
+    and modified reruns (``full`` at the recorded level, ``low`` at :data:`LOW_LEVEL` x it, each shape
+    (n_f, n_o), complex [(m/s)/N]) less ``in_data``, the relative variance [1] the data already carry
+    (:attr:`FrfData.var_distortion`: the nominal replay's own, where the reruns are made on the plant the data
+    were referred through -- the nominal rerun is that replay), never below zero. Returns shape (n_f, n_o) [1].
+    """
+    extra = distortion_variance(full, low)
+    return extra if in_data is None else np.maximum(extra - in_data, 0.0)
+
+
 def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list | None = None) -> Validation:
     """The two reruns (nominal, modified) compared with the recording (:func:`validate`'s last step); with
     their reruns at a low level ``low``, their chi-square is that of the low-level reruns with the
@@ -241,10 +252,8 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
     data: FrfData = problem.data
     hb, ha = frf_of(runs[0], data), frf_of(runs[1], data)
     lb, la = (hb, ha) if low is None else (frf_of(low[0], data), frf_of(low[1], data))
-    extra = None if low is None else distortion_variance((hb, ha), (lb, la))
-    if extra is not None and data.var_distortion is not None and kind == problem.replay_plant:
-        # the nominal rerun is the replay the data were referred through: its distortion is in their variance
-        extra = np.maximum(extra - data.var_distortion, 0.0)
+    extra = None if low is None else reruns_distortion((hb, ha), (lb, la), data.var_distortion
+                                                       if kind == problem.replay_plant else None)
     if extra is not None:
         desc += (f"; judged by its reruns at {LOW_LEVEL:g} x the level, the plant's own level dependence (a "
                  f"relative change of the FRFs up to {np.sqrt(np.max(extra[problem.mask])):.2g}, median "
