@@ -118,7 +118,7 @@ def test_profiled_threshold_against_drawn_model_form_errors():
     from vlab.diagnose.detectability import frf_model_form_of, nominal_test
     from vlab.diagnose.fit.rules import beyond_noise
     from vlab.diagnose.model.modelform import perturbed_modes
-    from vlab.diagnose.problem.nuisance import parameters
+    from vlab.diagnose.problem.nuisance import nuisance_test, parameters
     from vlab.diagnose.problem.residuals import Problem
     from vlab.diagnose.thresholds import DetectionTest, effect_thresholds
 
@@ -141,7 +141,7 @@ def test_profiled_threshold_against_drawn_model_form_errors():
                 pm = perturbed_modes(pm, kind, r, j, s * rng.standard_normal())
         real = tester.problem.predict(state) * tester.problem.predict(replace(nominal, point_modes=pm)) / base_ref
         p = Problem(replace(data, h=real), nominal, ctx, model_form_frf=mf, profile_nominal=True)
-        nu = p.nuisance_test()
+        nu = nuisance_test(p)
         return (beyond_noise(p.chi2(nominal, test=True), p.noise_chi2(), p.peak(nominal, test=True), p.peak_limit())
                 or nu["beyond"] or nu["largest_beyond"])
 

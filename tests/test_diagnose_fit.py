@@ -225,6 +225,9 @@ class _FakeProblem:
     def state_for(self, h, x):
         return h.label
 
+    def fitted_state(self, h):
+        return self.state_for(h, h.params_)
+
 
 def _tie_break_with(monkeypatch, pair, ranked, errors: dict, plant: str):
     """Run the parsimony check (seed 7) with rerun time errors ``errors[(plant, label)]`` (``errors[(plant,

@@ -107,7 +107,7 @@ def _by_prediction(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, r
     (:func:`vlab.diagnose.fit.separation.inseparable`), kept in ``res.separation`` with a line in ``notes``
     when there are any."""
     known = {h.label for h in alts}
-    state_of = lambda h: problem.state_for(h, h.params_)  # noqa: E731 -- the fitted lab, on the FE model
+    state_of = lambda h: problem.fitted_state(h)  # noqa: E731 -- the fitted lab, on the FE model
     chi2 = problem.chi2(state_of(chosen))  # on this footing even where the plant refitted the choice
     found = [(h, d) for h, d in inseparable(chosen, chi2, ((h, h.chi2_) for h in ranked), problem, state_of, c_hat)
              if h.label not in known]

@@ -505,7 +505,7 @@ def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: fl
     data = problem.data
     entry = {"effect": h.effect, "label": h.label, "rerun_frequencies_hz": [], "reproduced": False}
     try:
-        v = validate(problem, nominal, problem.state_for(h, h.params_), plant=plant,
+        v = validate(problem, nominal, problem.fitted_state(h), plant=plant,
                      spec_level=h.spec_level, seed=seed, key=rerun_key(h), whole_record=True)
     except (VlabError, ImportError) as exc:
         return dict(entry, error=str(exc)), None

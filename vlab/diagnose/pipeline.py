@@ -66,6 +66,7 @@ from .instability_cause import plant_own_oscillation
 from .model.labmodel import LabState
 from .policy import DecisionPolicy
 from .problem.context import context_for
+from .problem.nuisance import nuisance_test
 from .problem.residuals import Problem
 from .reading import Inputs, Options, read_inputs
 from .report.result import DiagnosisResult
@@ -121,10 +122,10 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     mf_mode = model_form
     if model_form == "auto":
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"
-    mf, mf_frf = None, None
+    mf, mf_frf, low_replay = None, None, None
     if isinstance(data, FrfData) and mf_mode == "derived" and inp.replayed is not None \
             and inp.replay_plant == "mujoco":
-        data = _with_plant_distortion(inp, notes)
+        data, low_replay = _with_plant_distortion(inp, notes)
     if isinstance(data, FrfData) and mf_mode == "derived":
         mf, mf_frf = frf_model_form_of(nominal, data, inp.replay_plant if inp.replayed is not None else None, notes)
         notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
@@ -134,8 +135,10 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
                else "as asked")
         notes.append(f"no model-form uncertainty ({why}): only the noise and the {100 * floor:g} % floor")
     run = DiagnosisRun()
-    if inp.replayed is not None:  # the validation's nominal rerun is the replay
+    if inp.replayed is not None:  # the validation's nominal reruns are the replays
         run.reruns[("nominal", inp.replay_plant, RERUN_SEED)] = inp.replayed
+        if low_replay is not None:
+            run.reruns[("nominal@level", inp.replay_plant, RERUN_SEED)] = low_replay
     problem = Problem(data, nominal, ctx, floor=floor, model_form_frf=mf_frf, modal_model_form=mf_mode != "none",
                       profile_nominal=True, policy=policy, run=run, guard_s=inp.guard_s,
                       replay_plant=inp.replay_plant if inp.replayed is not None else None)
@@ -144,20 +147,20 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     return problem
 
 
-def _with_plant_distortion(inp: Inputs, notes: list) -> FrfData:
+def _with_plant_distortion(inp: Inputs, notes: list) -> tuple[FrfData, object]:
     """``inp.data`` with the MuJoCo replay's own level dependence in its variance
-    (:func:`vlab.diagnose.data.reference.with_replay_distortion`); unchanged, with a note, where the second
-    replay fails."""
+    (:func:`vlab.diagnose.data.reference.with_replay_distortion`), and the replay at the low level (None, with
+    the data unchanged and a note, where that replay fails)."""
     try:
-        data, largest = with_replay_distortion(inp.data, inp.nominal, inp.replay_plant, guard_s=inp.guard_s)
+        data, largest, low = with_replay_distortion(inp.data, inp.nominal, inp.replay_plant, guard_s=inp.guard_s)
     except (VlabError, ImportError) as exc:
         notes.append(f"the replay at {LOW_LEVEL:g} x the level failed ({exc}): the replay's own level dependence "
                      "is not in the comparison's variance")
-        return inp.data
+        return inp.data, None
     notes.append(f"the replay plant's own level dependence (its FRFs at the recorded level against "
                  f"{LOW_LEVEL:g} x it: a relative change up to {largest:.2g}) counted as the reference's "
                  "uncertainty, since whether the structure shares it is not known")
-    return data
+    return data, low
 
 
 def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, timing: dict, say,
@@ -310,7 +313,7 @@ def _tested(inp: Inputs, problem: Problem, notes: list, timing: dict, say) -> Di
     t = time.perf_counter()
     location = locate(problem, nominal)
     timing["locate"] = time.perf_counter() - t
-    nuisance = problem.nuisance_test()
+    nuisance = nuisance_test(problem)
     osc = _instability(inp.instability, inp.replayed, inp.loops)
     tests = mismatch_tests(chi2_0, limit, peak_0, peak_limit, nuisance, oscillation=osc)
     noise_only = None

@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import VlabError
 from .data.measured import FrfData
 from .model.labmodel import LabState
+from .problem.nuisance import nuisance_test
 from .problem.residuals import Problem
 
 #: Sizes tried between an effect's null value and its bound before the bisection.
@@ -242,7 +243,7 @@ class DetectionTest:
         if p is None:
             return None
         try:
-            chi2, peak, nuis = p.chi2(self.nominal, test=True), p.peak(self.nominal, test=True), p.nuisance_test()
+            chi2, peak, nuis = p.chi2(self.nominal, test=True), p.peak(self.nominal, test=True), nuisance_test(p)
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return None
         self._starts[h.label] = p.nominal_profile()[1]

@@ -364,7 +364,7 @@ def referred_through_replay(data: FrfData, nominal: LabState, plant: str,
 
 
 def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
-                           guard_s: float | None = None) -> tuple[FrfData, float]:
+                           guard_s: float | None = None) -> tuple[FrfData, float, object]:
     """``data`` referred through a replay (:func:`referred_through_replay`) with the replay plant's own level
     dependence added to its variance: the reference's model form, where the data are of a real structure.
 
@@ -395,6 +395,9 @@ def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
         that relative variance [1].
     largest : float
         The largest relative distortion over the lines and channels [1].
+    low : Recording
+        The replay at :data:`~vlab.diagnose.data.replay.LOW_LEVEL` x the level (the validation's nominal rerun
+        at that level, :mod:`vlab.diagnose.validate`).
 
     Raises
     ------
@@ -407,8 +410,8 @@ def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
 
     if data.h_baseline is None or data.recording is None:
         raise OptionError("the replay's level dependence needs data referred through a replay of its recording")
-    low, _rec, _kind = replay_reference(data, nominal, plant, guard_s=guard_s, level=LOW_LEVEL)
+    low, low_rec, _kind = replay_reference(data, nominal, plant, guard_s=guard_s, level=LOW_LEVEL)
     rel = distortion_variance((data.h_baseline,), (low.h,))
     var_base = (data.var_baseline if data.var_baseline is not None else 0.0) + rel * np.abs(data.h_baseline) ** 2
     return (replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base, var_distortion=rel),
-            float(np.sqrt(rel.max())))
+            float(np.sqrt(rel.max())), low_rec)

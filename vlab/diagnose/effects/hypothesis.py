@@ -191,7 +191,7 @@ class Hypothesis:
             raise ModelError(f"{self.label}: fit it (vlab.diagnose.fit.estimate.fit_hypothesis) before score()")
         if problem is None:
             return float(self.bic_)
-        chi2 = problem.chi2(problem.state_for(self, self.params_))
+        chi2 = problem.chi2(problem.fitted_state(self))
         return float(chi2 + self.n_params * math.log(problem.n_obs))
 
     def parameters_dict(self) -> dict:

@@ -179,11 +179,11 @@ def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
     ev = evidence(both, part, chi2_0=chi2_0, n_obs=n, c_hat=c_hat)
     # the part alone within the model's accuracy (its modes moved within their model form, the mismatch
     # tests pass): a second effect has nothing to explain (as the search on the plant)
-    alone = within_model_accuracy(footing, footing.state_for(part, part.params_))
+    alone = within_model_accuracy(footing, footing.fitted_state(part))
     # exempt from explaining the remainder: a nonlinear part (judged by rerun), or a pair that brings the data
     # within the noise where the part alone did not (as the pair rule on the plant)
     exempt = any(p.effect in NONLINEAR for p in pair.parts) or footing.within_noise(
-        footing.state_for(both, both.params_))
+        footing.fitted_state(both))
     keep = (not alone and passes_pair_rule(ev, (part.chi2_, both.chi2_), exempt, footing.policy)
             and footing.policy.needed(part.chi2_, both.chi2_, both.n_params - part.n_params, c_hat))
     return PairOnAnchor(bool(keep), part, float(part.chi2_), float(both.chi2_), float(ev))

@@ -273,7 +273,7 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
         h.ci95_ = np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
     k = h.n_params
     h.aic_, h.bic_ = problem.information(h.chi2_, k)
-    h.misfit_ = problem.misfit(problem.state_for(h, h.params_))
+    h.misfit_ = problem.misfit(problem.fitted_state(h))
     h.n_evaluations_ = problem.n_evaluations - n0
     return h
 
@@ -543,7 +543,7 @@ def _explained(problem: Problem, fitted: list[Hypothesis]) -> bool:
     if not fits:
         return False
     best = min(fits, key=lambda h: h.chi2_)
-    if problem.within_noise(problem.state_for(best, best.params_)):
+    if problem.within_noise(problem.fitted_state(best)):
         return True
     noise = None
     if isinstance(problem.data, FrfData):

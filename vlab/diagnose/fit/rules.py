@@ -257,7 +257,7 @@ def needs_pairs(best: Hypothesis | None, problem: Problem) -> bool:
     """Rule 2: whether pairs are fitted: the best single effect ``best`` (fitted) leaves the data of
     ``problem`` beyond the tests that declared the mismatch -- the noise, and where the nominal lab's modes
     were profiled the model form too (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`)."""
-    return best is not None and not within_model_accuracy(problem, problem.state_for(best, best.params_))
+    return best is not None and not within_model_accuracy(problem, problem.fitted_state(best))
 
 
 def part_alone(parts: list[Hypothesis], problem: Problem) -> Hypothesis | None:
@@ -283,7 +283,7 @@ def part_alone(parts: list[Hypothesis], problem: Problem) -> Hypothesis | None:
     Hypothesis or None
         The passing part with the lower chi-square; None when each part alone leaves a mismatch.
     """
-    ok = [h for h in parts if within_model_accuracy(problem, problem.state_for(h, h.params_))]
+    ok = [h for h in parts if within_model_accuracy(problem, problem.fitted_state(h))]
     return min(ok, key=lambda h: h.chi2_) if ok else None
 
 
@@ -320,13 +320,13 @@ def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     """
     def passes(h: Hypothesis) -> bool:  # a lab that cannot be built or profiled does not pass
         try:
-            return within_model_accuracy(problem, problem.state_for(h, h.params_))
+            return within_model_accuracy(problem, problem.fitted_state(h))
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return False
 
     def left(h: Hypothesis) -> float:
         try:
-            return moves_left(problem, problem.state_for(h, h.params_))
+            return moves_left(problem, problem.fitted_state(h))
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return math.inf
 

@@ -43,7 +43,7 @@ def rerun_key(h: Hypothesis) -> str:
 def _rerun_jobs(problem: Problem, hyps) -> list:
     """``(lab state, cache key)`` of each fitted hypothesis of ``hyps``, for
     :func:`vlab.diagnose.data.rerun_jobs.reruns`."""
-    return [(problem.state_for(h, h.params_), rerun_key(h)) for h in hyps]
+    return [(problem.fitted_state(h), rerun_key(h)) for h in hyps]
 
 
 def data_has_signals(data) -> bool:

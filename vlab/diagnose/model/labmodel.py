@@ -462,30 +462,67 @@ def predict_frf(state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
     f = np.asarray(freq_hz, dtype=float)
     outs = tuple(output_points)
     g = plant_frf(state, f, outs + acts, acts)
-    g_out, g_fb = g[:, : len(outs), :], g[:, len(outs):, :]
+    return closed_loop_frf(state, f, g, excitation_point=excitation_point, output_points=outs,
+                           return_forces=return_forces)
+
+
+def closed_loop_frf(state: LabState, freq_hz: np.ndarray, g: np.ndarray, *, excitation_point: int,
+                    output_points, return_forces: bool = False):
+    """:func:`predict_frf` from the plant's FRFs ``g``: the chain, the controller and the loop of ``state``
+    closed around them (module notes), for one plant or a stack of them.
+
+    Parameters
+    ----------
+    state : LabState
+        The lab whose chain and controller close the loop (its structure is not used).
+    freq_hz : ndarray, shape (n_f,)
+        Frequencies [Hz].
+    g : ndarray, complex, shape (..., n_f, n_o + n_act, n_act)
+        Velocity FRFs ``v / f`` [(m/s)/N] from the coil forces to the output points followed by the actuator
+        points (:func:`plant_frf` with ``output_points + state.actuators`` and ``state.actuators``).
+    excitation_point : int
+    output_points : sequence of int, length n_o
+    return_forces : bool
+
+    Returns
+    -------
+    As :func:`predict_frf`, each array with the leading dimensions of ``g``.
+
+    Raises
+    ------
+    ModelError
+        Excitation point not an actuator.
+    """
+    acts = state.actuators
+    if excitation_point not in acts:
+        raise ModelError(f"excitation point {excitation_point} is not an actuator point {acts}")
+    f = np.asarray(freq_hz, dtype=float)
+    outs = tuple(output_points)
+    g_out, g_fb = g[..., : len(outs), :], g[..., len(outs):, :]
     na = len(acts)
     e = np.zeros(na, dtype=complex)
     e[acts.index(excitation_point)] = 1.0
     a = actuator_path(state, f)
     hold = zoh(f, state.chain.period_s)
     k = controller_frf(state, f)
+    drive = a * e[None, :] * hold[:, None]                            # A e ZOH  (n_f, na)
     if k is None:
-        force = a * e[None, :] * hold[:, None]
-        cmd = e[None, :] * hold[:, None] * np.ones((len(f), 1))
+        force = np.array(np.broadcast_to(drive, g.shape[:-3] + drive.shape))
+        cmd = np.array(np.broadcast_to(e[None, :] * hold[:, None], force.shape))
     else:
         s = sensor_path(state, f)
         loop = a[:, :, None] * k * s[:, None, :]                     # A K S  (n_f, na, na)
-        mat = np.eye(na)[None] + loop @ g_fb
-        rhs = (a * e[None, :] * hold[:, None])[:, :, None]
-        force = np.linalg.solve(mat, rhs)[:, :, 0]
+        mat = np.eye(na) + loop @ g_fb
+        rhs = np.broadcast_to(drive[:, :, None], mat.shape[:-1] + (1,))
+        force = np.linalg.solve(mat, rhs)[..., 0]
         cmd = force / a
-    h = np.einsum("foa,fa->fo", g_out, force)
+    h = np.einsum("...foa,...fa->...fo", g_out, force)
     # a recorded channel at a feedback sensor is that sensor's signal (gain and lag), open loop too
     sens_out = [(o, acts.index(p)) for o, p in enumerate(outs) if p in acts]
     if sens_out:
         s = sensor_path(state, f)
         for o, i in sens_out:
-            h[:, o] = h[:, o] * s[:, i]
+            h[..., o] = h[..., o] * s[:, i]
     if return_forces:
         return h, (force, cmd)
     return h

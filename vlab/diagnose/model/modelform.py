@@ -65,7 +65,8 @@ from dataclasses import replace as _replace
 from ...errors import DataFileError, ModelError
 from ...fe import build_fe_model, modal_analysis
 from ...spec import ASSETS_DIR, MAX_ELEMENTS_PER_SEGMENT, StructureSpec
-from .labmodel import LabState, PointModes, point_modes_of, predict_frf
+from .labmodel import LabState, PointModes, point_modes_of
+from .modal_changes import changed_mode_frfs, moved_modes
 
 #: Folder of the plants' measured discretisation (``python benchmarks/plant_model_form.py``).
 MODEL_FORM_DIR = ASSETS_DIR / "model_form"
@@ -490,13 +491,7 @@ def perturbed_modes(pm: PointModes, which: str, r: int, j: int | None, u: float)
     -------
     PointModes
     """
-    if which == "phi":
-        sh = pm.shapes.copy()
-        sh[j, r] += u * float(np.sqrt(np.mean(pm.shapes[:, r] ** 2)))
-        return _replace(pm, shapes=sh)
-    om, ze = pm.omega.copy(), pm.zeta.copy()
-    (om if which == "f" else ze)[r] *= math.exp(u)
-    return _replace(pm, omega=om, zeta=ze)
+    return moved_modes(pm, [(which, r, j, u)])
 
 
 def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: int, output_points,
@@ -538,34 +533,32 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
                                                                                             coupling=None)
     fr = pm0.omega / (2 * np.pi)
     kw = {"excitation_point": excitation_point, "output_points": output_points}
-    h0 = predict_frf(_replace(state, point_modes=pm0), f, **kw)
     lo, hi = f.min() / BAND_MARGIN, f.max() * BAND_MARGIN
     n_u = len(uncertainty.frequency_rel)
-    sens, sig, labels = [], [], []
+    params, sig, labels = [], [], []
     for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
         sf = uncertainty.frequency_rel[min(r, n_u - 1)]
         sz = uncertainty.damping_rel[r] if r < n_u else np.inf
         ss = float(shape_rel[r]) if shape_rel is not None and r < len(shape_rel) else 0.0
-        params = [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss) for j in range(len(pts))]
-        for which, j, s_p in params:
+        for which, j, s_p in [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss) for j in range(len(pts))]:
             if not np.isfinite(s_p) or s_p <= 0:
                 continue
-            sens.append(_sensitivity(state, pm0, which, r, j, f, kw, h0))
+            params.append((which, int(r), j))
             sig.append(s_p)
             labels.append(f"{which}{r + 1}" + (f"@{pts[j]}" if j is not None else ""))
-    if not sens:
-        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm0)
-    return FrfModelForm(np.stack(sens, axis=-1), np.array(sig), tuple(labels), pm0)
+    return FrfModelForm(_sensitivities(state, pm0, params, f, kw), np.array(sig), tuple(labels), pm0)
 
 
-def _sensitivity(state: LabState, pm: PointModes, which: str, r: int, j: int | None, f: np.ndarray, kw: dict,
-                 h0: np.ndarray) -> np.ndarray:
-    """``d ln H / d ln p`` of one modal parameter of ``pm`` (:func:`perturbed_modes`), shape of ``h0``: a forward
-    difference of :func:`predict_frf` of ``state`` with those modes (0 where it is not finite)."""
-    h = predict_frf(_replace(state, point_modes=perturbed_modes(pm, which, r, j, SENSITIVITY_STEP)), f, **kw)
+def _sensitivities(state: LabState, pm: PointModes, params: list, f: np.ndarray, kw: dict) -> np.ndarray:
+    """``d ln H / d ln p`` of the modal parameters ``params`` (``(kind, mode index, point row)``, as
+    :func:`vlab.diagnose.model.modal_changes.moved_modes`) of ``pm``, shape (n_f, n_o, k): forward differences
+    (:data:`SENSITIVITY_STEP`) of :func:`predict_frf` of ``state`` with those modes, all at once
+    (:func:`~vlab.diagnose.model.modal_changes.changed_mode_frfs`); 0 where not finite."""
+    changes = [(which, r, j, SENSITIVITY_STEP) for which, r, j in params]
+    h0, hs = changed_mode_frfs(state, pm, changes, f, **kw)
     with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.log(h / h0) / SENSITIVITY_STEP
-    return np.where(np.isfinite(s), s, 0.0)
+        s = np.log(hs / h0[None]) / SENSITIVITY_STEP
+    return np.moveaxis(np.where(np.isfinite(s), s, 0.0), 0, -1)
 
 
 def model_form_at(mff: FrfModelForm, state: LabState, freq_hz: np.ndarray, *, excitation_point: int,
@@ -587,13 +580,9 @@ def model_form_at(mff: FrfModelForm, state: LabState, freq_hz: np.ndarray, *, ex
     shapes = pm.shapes.copy()
     shapes[:, :n] = own.shapes[:, :n]
     pm = _replace(pm, omega=np.concatenate([own.omega[:n], pm.omega[n:]]), shapes=shapes)
-    h0 = predict_frf(_replace(state, point_modes=pm), f, **kw)
-    sens = []
+    params = []
     for label in mff.labels:
         which = "zeta" if label.startswith("zeta") else ("phi" if label.startswith("phi") else "f")
         mode, _, point = label[len(which):].partition("@")
-        r, j = int(mode) - 1, (pts.index(int(point)) if point else None)
-        sens.append(_sensitivity(state, pm, which, r, j, f, kw, h0))
-    if not sens:
-        return FrfModelForm(np.zeros(h0.shape + (0,), dtype=complex), np.zeros(0), (), pm)
-    return FrfModelForm(np.stack(sens, axis=-1), np.asarray(mff.sigma), tuple(mff.labels), pm)
+        params.append((which, int(mode) - 1, pts.index(int(point)) if point else None))
+    return FrfModelForm(_sensitivities(state, pm, params, f, kw), np.asarray(mff.sigma), tuple(mff.labels), pm)

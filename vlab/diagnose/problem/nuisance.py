@@ -10,7 +10,10 @@ uncertainty, to where the data put it, at the cost ``|x|^2``::
 
 with ``r`` the residual weighted by the noise and the floor alone (not
 whitened). Under the null hypothesis the minimum is about chi-square with N
-degrees of freedom and ``|x|^2`` about chi-square with k. The nominal lab's
+degrees of freedom and ``|x|^2`` about chi-square with k. The Jacobian is
+taken by forward differences, every parameter's at once
+(:func:`vlab.diagnose.model.modal_changes.changed_mode_frfs`: a parameter
+changes one mode's term of the modal sum). The nominal lab's
 decision uses it (:meth:`vlab.diagnose.problem.residuals.Problem.nominal_profile`),
 and so does the question whether a selected effect leaves more than its own
 model form (:func:`within_model_accuracy`): an effect that moves a lightly
@@ -24,6 +27,7 @@ squares: scipy.optimize.least_squares (trust-region reflective).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import replace
 
 import numpy as np
@@ -31,10 +35,14 @@ import scipy.optimize
 
 from ...errors import ModelError
 from ..model.labmodel import LabState, PointModes, point_modes_of
-from ..model.modelform import FrfModelForm, perturbed_modes
+from ..model.modal_changes import changed_mode_frfs, moved_modes
+from ..model.modelform import FrfModelForm
 
 #: Evaluations of the profile per parameter at most.
 NFEV_PER_PARAMETER = 60
+#: Relative step of the Jacobian's forward differences (scipy's ``diff_step``: the step of ``x`` is this times
+#: ``max(1, |x|)``, in units of the parameter's standard uncertainty).
+DIFF_STEP = 1e-3
 
 
 def parameters(mf: FrfModelForm, pm: PointModes) -> list[tuple[str, int | None, int | None]]:
@@ -102,22 +110,32 @@ def profile(problem, state: LabState, pm0: PointModes, scale=None,
     which = parameters(mf, pm0)
     mask = problem.mask
     live = [i for i, (_k, r, _j) in enumerate(which) if r is not None]
+    sigma = np.array([mf.sigma[i] for i in live])
+
+    def changes(xl: np.ndarray) -> list:
+        return [(which[i][0], which[i][1], which[i][2], s * xi) for i, s, xi in zip(live, sigma, xl)]
 
     def plain(xl: np.ndarray) -> np.ndarray:
-        pm = pm0
-        for i, xi in zip(live, xl):
-            kind, r, j = which[i]
-            pm = perturbed_modes(pm, kind, r, j, mf.sigma[i] * xi)
-        h = problem.predict(replace(state, point_modes=pm))[mask]
+        h = problem.predict(replace(state, point_modes=moved_modes(pm0, changes(xl))))[mask]
         return problem.line_residual(h if scale is None else scale * h, test=True)
+
+    def jac(xl: np.ndarray) -> np.ndarray:
+        # forward differences of every parameter at once (module notes); steps as scipy's '2-point'
+        step = DIFF_STEP * np.where(xl >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(xl))
+        h0, hs = changed_mode_frfs(state, moved_modes(pm0, changes(xl)), changes(step),
+                                   problem.data.freq_hz, excitation_point=problem.data.excitation_point,
+                                   output_points=problem.data.output_points, ref=pm0)
+        s_ = 1.0 if scale is None else scale
+        r0 = problem.line_residual(s_ * h0[mask], test=True)
+        cols = [(problem.line_residual(s_ * hi[mask], test=True) - r0) / st for hi, st in zip(hs, step)]
+        return np.vstack([np.stack(cols, axis=1), np.eye(len(xl))])
 
     x = np.zeros(len(which))
     if not live:
         return plain(np.zeros(0)), x
     x_start = np.zeros(len(live)) if start is None or np.size(start) != len(which) else np.asarray(start)[live]
-    sol = scipy.optimize.least_squares(lambda xl: np.concatenate([plain(xl), xl]), x_start,
-                                       method="trf", x_scale=1.0, diff_step=1e-3,
-                                       max_nfev=NFEV_PER_PARAMETER * len(live))
+    sol = scipy.optimize.least_squares(lambda xl: np.concatenate([plain(xl), xl]), x_start, jac=jac,
+                                       method="trf", x_scale=1.0, max_nfev=NFEV_PER_PARAMETER * len(live))
     x[live] = sol.x
     return plain(sol.x), x
 
@@ -164,10 +182,20 @@ def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int
     k : int
         The parameters that have a mode to move (the degrees of freedom of ``|x|^2``).
     """
+    memo = _PROFILES.setdefault(problem, {})
+    hit = memo.get(id(state))
+    if hit is not None and hit[0] is state and hit[1] is problem.model_form_frf:
+        return hit[2]
     pm0, scale = own_modes(problem, state)
     k = sum(r is not None for _kind, r, _j in parameters(problem.model_form_frf, pm0))
     r, x = profile(problem, state, pm0, scale)
+    memo[id(state)] = (state, problem.model_form_frf, (r, x, k))
     return r, x, k
+
+
+#: :func:`profile_state`'s results per problem (weakly: a problem's go with it) and lab state (by identity: a
+#: state is immutable); the selection's tests ask the same state more than once.
+_PROFILES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def profiled(problem, state: LabState) -> bool:
@@ -237,3 +265,36 @@ def moves_left(problem, state: LabState) -> float:
         if a > 0 and b > 0 and mf.sigma[i] > 0:
             d[i] = np.log(a / b) / mf.sigma[i]
     return float(np.sum((x0 - d) ** 2))
+
+
+def nuisance_test(problem) -> dict | None:
+    """Whether the nominal lab's modes must move beyond their model-form uncertainty to fit the data.
+
+    The profiled parameters (:meth:`Problem.nominal_profile`, in units of their standard uncertainty) are,
+    under the null hypothesis, about standard normal: ``|x|^2`` is tested against the policy's
+    :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` (one of its three mismatch tests). The
+    total chi-square alone has little power here: eight standard deviations on a few modes add ~200
+    to a chi-square of ~1000 residuals, inside its margin.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    dict or None
+        ``nuisance_chi2``, ``nuisance_limit``, ``beyond`` (bool), ``largest`` (label of the parameter
+        that moved most), ``largest_sigmas`` (its value in standard uncertainties), ``largest_limit``
+        (:meth:`~vlab.diagnose.policy.DecisionPolicy.move_limit`, of its square) and
+        ``largest_beyond`` (bool); None without a profiled model form.
+    """
+    if not problem.profiles(problem.base):
+        return None
+    _r, x = problem.nominal_profile()
+    k, nu = len(x), problem.noise_dof()[0]
+    lim, lim1 = problem.nuisance_limit(k), problem.policy.move_limit(k, nu)
+    j = int(np.argmax(np.abs(x)))
+    c2 = float(x @ x)
+    return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
+            "largest": problem.model_form_frf.labels[j], "largest_sigmas": float(x[j]), "largest_limit": lim1,
+            "largest_beyond": float(x[j]) ** 2 > lim1}

@@ -46,6 +46,7 @@ from ..policy import DEFAULT_POLICY, DecisionPolicy
 from .context import Context
 from .forms import PENALTY, line_residual, whitened, whitener
 from .misfits import log_misfit
+from .nuisance import nuisance_test, own_modes, profile
 
 #: Standard deviation, in ``ln f``, of the Gaussian smoothing of the smoothed error (:meth:`Problem.scores`)
 #: (10 %: 0.4 Hz at 4 Hz). A chosen scale, not fitted: ten half-power bandwidths of a 0.5 % damped mode.
@@ -118,7 +119,7 @@ class Problem:
         The same for each damping ratio (the model part inf where the spec assumes the damping:
         that residual is then not compared).
     freq_sigma_total, damping_sigma_total : ndarray, shape (n_m,)
-        Their root sums of squares, the weights of the modal residuals.
+        Their root sums of squares (the weights).
     damping_compared : ndarray of bool, shape (n_m,)
         Modes whose damping enters the residual.
     model_form : ModelFormUncertainty
@@ -143,6 +144,7 @@ class Problem:
         self.model_form = None  # the ModelFormUncertainty behind model_var (set by whoever computed it)
         self._base_scores: tuple[float, float] | None = None  # scores of the nominal lab (:meth:`base_scores`)
         self._smooth = None  # kernel of the smoothed error, made on first use (:meth:`_smoother`)
+        self._fitted: dict = {}  # (id(hyp), params) -> (hyp, state) (:meth:`fitted_state`)
         if isinstance(data, FrfData):
             srel = data.sigma_rel
             self.mask = (srel <= MAX_RELATIVE_NOISE) & (np.abs(data.h) > 0)
@@ -279,7 +281,7 @@ class Problem:
                     "model_form_sigma_median_rel": mf, "model_form_sigma_max_rel": mx,
                     "model_form": "none (data from the model itself)" if self.model_var is None else "derived",
                     "sources": {} if self.model_form is None else dict(self.model_form.sources),
-                    "nominal_profile": self.nuisance_test(),
+                    "nominal_profile": nuisance_test(self),
                     "dominant": "model form" if model > med else "noise"}
         zc = self.damping_compared
         return {"modes": [int(m) for m in self.data.modes],
@@ -336,6 +338,13 @@ class Problem:
         if hyp is None:
             return self.base
         return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
+
+    def fitted_state(self, hyp) -> LabState:
+        """:meth:`state_for` at ``hyp.params_``, one object while they stay (a choice's tests ask it again)."""
+        key = (id(hyp), np.asarray(hyp.params_, dtype=float).tobytes())
+        if key not in self._fitted or self._fitted[key][0] is not hyp:
+            self._fitted[key] = (hyp, self.state_for(hyp, hyp.params_))
+        return self._fitted[key][1]
 
     def predict(self, state: LabState) -> np.ndarray:
         """FRFs of the lab ``state`` on the data's lines, shape (n_f, n_o) (FRF data)."""
@@ -394,41 +403,14 @@ class Problem:
         """Sum of squared weighted residuals of the lab ``state``: on the fits' footing (the log ratio), with
         ``test`` the statistic a limit judges (the relative error, :mod:`.forms`; for the nominal lab with
         ``profile_nominal`` of its profile, with the nuisance parameters' penalty, :meth:`nominal_profile`)."""
-        if test and self._profiles(state):
+        if test and self.profiles(state):
             r, x = self.nominal_profile()
             return float(r @ r + x @ x)
         r = self.residual(state, test=test)
         return float(r @ r)
 
-    def nuisance_test(self) -> dict | None:
-        """Whether the nominal lab's modes must move beyond their model-form uncertainty to fit the data.
-
-        The profiled parameters (:meth:`nominal_profile`, in units of their standard uncertainty) are,
-        under the null hypothesis, about standard normal: ``|x|^2`` is tested against the policy's
-        :meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` (one of its three mismatch tests). The
-        total chi-square alone has little power here: eight standard deviations on a few modes add ~200
-        to a chi-square of ~1000 residuals, inside its margin.
-
-        Returns
-        -------
-        dict or None
-            ``nuisance_chi2``, ``nuisance_limit``, ``beyond`` (bool), ``largest`` (label of the parameter
-            that moved most), ``largest_sigmas`` (its value in standard uncertainties), ``largest_limit``
-            (:meth:`~vlab.diagnose.policy.DecisionPolicy.move_limit`, of its square) and
-            ``largest_beyond`` (bool); None without a profiled model form.
-        """
-        if not self._profiles(self.base):
-            return None
-        _r, x = self.nominal_profile()
-        k, nu = len(x), self._noise_dof()[0]
-        lim, lim1 = self.nuisance_limit(k), self.policy.move_limit(k, nu)
-        j = int(np.argmax(np.abs(x)))
-        c2 = float(x @ x)
-        return {"nuisance_chi2": c2, "nuisance_limit": lim, "beyond": c2 > lim,
-                "largest": self.model_form_frf.labels[j], "largest_sigmas": float(x[j]), "largest_limit": lim1,
-                "largest_beyond": float(x[j]) ** 2 > lim1}
-
-    def _profiles(self, state: LabState) -> bool:
+    def profiles(self, state: LabState) -> bool:
+        """Whether ``state``'s test statistics are :meth:`nominal_profile`'s (the nominal lab, profiled)."""
         return (self.profile_nominal and state is self.base and self.model_form_frf is not None
                 and self.model_form_frf.sigma.size > 0)
 
@@ -451,8 +433,6 @@ class Problem:
         """
         if self._profile is not None:
             return self._profile
-        from .nuisance import own_modes, profile
-
         # the nominal prediction changed as the perturbed modes change theirs
         pm0, scale = own_modes(self, self.base)
         self._profile = profile(self, self.base, pm0, scale, start=self.profile_start)
@@ -536,7 +516,7 @@ class Problem:
         except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
             return float("nan")
 
-    def _noise_dof(self) -> tuple[float | None, int]:
+    def noise_dof(self) -> tuple[float | None, int]:
         """``(nu, shared)``: the degrees of freedom of the data's estimated noise variance (None: known or
         none) and how many real residuals share one estimate (a pool of lines, times 2 with phase)."""
         nu = getattr(self.data, "var_dof", None) if isinstance(self.data, FrfData) else None
@@ -547,7 +527,7 @@ class Problem:
         """Largest chi-square the nominal model may have for the data to count as 'within the noise' [1]:
         the policy's :meth:`~vlab.diagnose.policy.DecisionPolicy.chi2_limit` of :attr:`n_obs` residuals,
         with the degrees of freedom of an estimated noise variance (:attr:`FrfData.var_dof`)."""
-        nu, shared = self._noise_dof()
+        nu, shared = self.noise_dof()
         if nu is not None and nu <= 4:  # a few lines pooled: no finite variance for the Satterthwaite form
             return self.policy.chi2_limit_simulated(self.n_obs, nu, shared)
         return self.policy.chi2_limit(self.n_obs, nu, shared)
@@ -555,7 +535,7 @@ class Problem:
     def nuisance_limit(self, k: int) -> float:
         """Largest ``|x|^2`` of ``k`` profiled model-form parameters under the null [1]
         (:meth:`~vlab.diagnose.policy.DecisionPolicy.nuisance_limit` with the data's ``nu``)."""
-        return self.policy.nuisance_limit(k, self._noise_dof()[0])
+        return self.policy.nuisance_limit(k, self.noise_dof()[0])
 
     def peak(self, state: LabState, *, test: bool = False) -> float:
         """Largest squared residual of one observation of the lab ``state``: for FRF data the largest
@@ -563,7 +543,7 @@ class Problem:
         phase), for modal data the largest squared residual. A local mismatch (one resonance of a
         top-beam segment) can stand far out of the noise while adding little to the total chi-square. ``test``
         as in :meth:`chi2`."""
-        if test and self._profiles(state):
+        if test and self.profiles(state):
             return self.peak_of(self.nominal_profile()[0])
         return self.peak_of(self.residual(state, test=test))
 

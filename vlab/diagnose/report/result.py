@@ -155,7 +155,7 @@ class DiagnosisResult:
         """The lab with the selected effect (the nominal lab if none)."""
         if self.selected is None:
             return self.nominal
-        return self.problem.state_for(self.selected, self.selected.params_)
+        return self.problem.fitted_state(self.selected)
 
     def _entry(self, h: Hypothesis) -> dict:
         bic0 = self.chi2_nominal if self.chi2_fit is None else self.chi2_fit
@@ -282,7 +282,7 @@ class DiagnosisResult:
                 for m, fm, b, a in zip(self.data.modes, self.data.freq_hz, fb, fa)]
             if self.selected is None and self.ranked:  # what the best fitted candidate would do, though not selected
                 top = self.ranked[0]
-                fc, _, _ = self.problem.model_modes(self.problem.state_for(top, top.params_))
+                fc, _, _ = self.problem.model_modes(self.problem.fitted_state(top))
                 fc = self.data.freq_hz * fc / f_cmp
                 validated["best_candidate"] = top.label
                 for e, c, fm in zip(validated["modes"], fc, self.data.freq_hz):
