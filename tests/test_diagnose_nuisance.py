@@ -106,3 +106,22 @@ def test_a_lab_without_its_own_modes_is_judged_as_the_mismatch_test_judged_the_n
     _r, x, k = profile_state(problem, bare)
     assert k == 1 and x[0] == pytest.approx(moved, rel=0.02)
     assert within_model_accuracy(problem, bare) is inside
+
+
+def test_a_lab_improves_on_the_nominal_only_where_the_profiled_statistic_falls_beyond_the_lr_limit():
+    """Data with mode 3 moved 10 sigma: the nominal lab is profiled (its modes moved within the model form);
+    the lab with the move itself fits them (the statistic falls far beyond chi2_1's 1 % point), the nominal
+    lab itself does not improve on itself, and a lab moved the other way fits them worse."""
+    from vlab.diagnose.problem.nuisance import improves_on_nominal
+
+    problem, st = _problem(10.0)
+    problem.profile_nominal = True
+    nominal = st
+    pm = st.point_modes
+    right = replace(st, point_modes=perturbed_modes(pm, "f", R, None, 10.0 * SIGMA))
+    wrong = replace(st, point_modes=perturbed_modes(pm, "f", R, None, -10.0 * SIGMA))
+    assert improves_on_nominal(problem, right)
+    assert not improves_on_nominal(problem, nominal)
+    assert not improves_on_nominal(problem, wrong)
+    problem.model_form_frf = None  # no model form to profile: the fit's footing decides, not this test
+    assert improves_on_nominal(problem, wrong)

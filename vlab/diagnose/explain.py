@@ -241,8 +241,9 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
             chosen, alts = alone, []
     passing = None if search.self_excited else passing_single(chosen, ranked, problem, search.shortlist)
     if passing is not None:
-        notes.append(f"{chosen.label} leaves the data beyond a test that declared the mismatch (with its modes "
-                     f"moved within their model form); {passing.label} passes them all and is the choice")
+        notes.append(f"{chosen.label} does not explain the data by the statistic that declared the mismatch (with "
+                     "its modes moved within their model form it leaves them beyond a test, or fits them no "
+                     f"better than the nominal lab); {passing.label} does and is the choice")
         chosen, alts = passing, []
     if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
         chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,

@@ -98,7 +98,7 @@ from ..model.labmodel import LabState
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from ..problem.derived import without_floor
 from ..problem.residuals import Problem
-from ..problem.nuisance import moves_left, profiled, within_model_accuracy
+from ..problem.nuisance import improves_on_nominal, moves_left, profiled, within_model_accuracy
 from .locate import at_places
 
 
@@ -296,10 +296,12 @@ def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     model form, which must move beyond it (most often one mode's damping ratio, many standard uncertainties).
     A choice that leaves the data beyond any of the tests that declared the mismatch
     (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: the chi-square, the largest line and the
-    moves) has not explained it, however much chi-square it removes on the fit's footing: an effect that
-    shifts every mode a little (a member's rigidity) absorbs there a model error that the profiled test
-    already allows. The first of the ranked single effects that passes all three tests is then the choice:
-    it explains the data by the statistic that found the mismatch. Where the nominal lab was profiled, the
+    moves), or that does not fit the data significantly better than the nominal lab by their statistic
+    (:func:`vlab.diagnose.problem.nuisance.improves_on_nominal`), has not explained it, however much
+    chi-square it removes on the fit's footing: an effect that shifts every mode a little (a member's
+    rigidity) absorbs there a model error that the profiled test already allows. The first of the ranked
+    single effects that passes both is then the choice: it explains the data by the statistic that found
+    the mismatch. Where the nominal lab was profiled, the
     single effects are examined in the order of the moves they leave to first order
     (:func:`vlab.diagnose.problem.nuisance.moves_left`), else in their rank.
 
@@ -320,7 +322,8 @@ def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     """
     def passes(h: Hypothesis) -> bool:  # a lab that cannot be built or profiled does not pass
         try:
-            return within_model_accuracy(problem, problem.fitted_state(h))
+            st = problem.fitted_state(h)
+            return within_model_accuracy(problem, st) and improves_on_nominal(problem, st, h.n_params)
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return False
 

@@ -230,6 +230,33 @@ def within_model_accuracy(problem, state: LabState) -> bool:
             and float(x @ x) <= problem.nuisance_limit(k))
 
 
+def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
+    """Whether ``state`` (``k`` parameters fitted) explains ``problem``'s data better than the nominal lab by
+    the statistic of the mismatch test that profiles the nominal lab's modes: both labs' modes moved within
+    their model form (:func:`profile`), the fall ``S_nominal - S_state`` of ``S = |r|^2 + |x|^2`` must pass the
+    policy's likelihood-ratio limit for ``k`` parameters (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`).
+    True where the nominal lab is not profiled (the fit's own footing decides then).
+
+    Parameters
+    ----------
+    problem : Problem
+    state : LabState
+    k : int
+        The parameters ``state`` adds to the nominal lab.
+
+    Returns
+    -------
+    bool
+
+    Source: the likelihood-ratio test (Wilks 1938) on the profile likelihood of the module notes.
+    """
+    if not (profiled(problem, problem.base) and profiled(problem, state)):
+        return True
+    r0, x0 = problem.nominal_profile()
+    r, x, _k = profile_state(problem, state)
+    return problem.policy.needed(float(r0 @ r0 + x0 @ x0), float(r @ r + x @ x), k)
+
+
 def moves_left(problem, state: LabState) -> float:
     """First-order estimate of the squared moves ``|x|^2`` that :func:`profile` would need for ``state``:
     the nominal lab's moves (:meth:`Problem.nominal_profile`) less what ``state`` itself moves its modes'
