@@ -68,7 +68,7 @@ from .model.modelform import damping_by_frequency, frf_model_form, model_form_un
 from .model.nominal import nominal_design, settling_time
 from .problem.context import context_for
 from .problem.residuals import Problem
-from .thresholds import DetectionTest, Threshold, effect_thresholds, referral_variance
+from .thresholds import N_BISECT_REPORTED, DetectionTest, Threshold, effect_thresholds, referral_variance
 
 
 @dataclass(frozen=True)
@@ -117,7 +117,8 @@ class Detectability:
 
 
 def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | None:
-    """The detection threshold of a found effect on the diagnosis's own data, on the side of its fitted value.
+    """The detection threshold of a found effect on the diagnosis's own data, on the side of its fitted value,
+    to about 5 % (:data:`~vlab.diagnose.thresholds.N_BISECT_REPORTED`).
 
     Parameters
     ----------
@@ -139,7 +140,8 @@ def threshold_of(problem: Problem, nominal: LabState, ctx, h) -> Threshold | Non
         return None
     x = float(np.asarray(h.params_)[0])
     # the side of the fitted value only (a profiled side costs a few seconds)
-    sides = effect_thresholds(DetectionTest(problem, nominal, ctx, chi2_noise=getattr(h, "chi2_", None)), h, toward=x)
+    sides = effect_thresholds(DetectionTest(problem, nominal, ctx, chi2_noise=getattr(h, "chi2_", None)), h, toward=x,
+                              bisections=N_BISECT_REPORTED)
     return (sides or [None])[0]
 
 

@@ -274,12 +274,16 @@ def _first_detected(detected, h, xs) -> tuple[int, str | None]:
 LADDER = 1.5
 #: Steps of that ladder at most, each way.
 LADDER_STEPS = 10
-#: Bisection steps of the profiled test between two sizes of its ladder (to about LADDER**(1/32)).
+#: Bisection steps of the profiled test between two sizes of its ladder (to about LADDER**(1/32) = 1.3 %: the
+#: thresholds ``vlab detectability`` tabulates).
 N_BISECT_PROFILED = 5
+#: The same for the threshold a diagnosis reports beside a named effect (to about LADDER**(1/8) = 5 %: how far
+#: beyond detection the effect lies; each step costs a profile of the nominal lab).
+N_BISECT_REPORTED = 3
 
 
 def _side(test: DetectionTest, h, null: float | None, start: float, end: float, log: bool,
-          profiled: bool = True) -> tuple[float | None, str | None]:
+          profiled: bool = True, bisections: int = N_BISECT_PROFILED) -> tuple[float | None, str | None]:
     """Threshold between the null end ``start`` and ``end`` [SI].
 
     To first order: a grid geometric in the distance from the null value (from :data:`SMALLEST` of the range;
@@ -320,10 +324,11 @@ def _side(test: DetectionTest, h, null: float | None, start: float, end: float, 
         thr = b if to_x is None else float(to_x(b))
     if not (profiled and test.profiled):
         return thr, by
-    return _profiled_side(test, h, null, start, end, log, thr)
+    return _profiled_side(test, h, null, start, end, log, thr, bisections)
 
 
-def _profiled_side(test: DetectionTest, h, null, start: float, end: float, log: bool, first: float | None):
+def _profiled_side(test: DetectionTest, h, null, start: float, end: float, log: bool, first: float | None,
+                   bisections: int = N_BISECT_PROFILED):
     """The profiled test's threshold on the side from ``start`` to ``end``, searched from the first-order
     threshold ``first`` (None: at the bound) on a ladder of factors, then bisected in the factor."""
     if first is None:
@@ -377,7 +382,7 @@ def _profiled_side(test: DetectionTest, h, null, start: float, end: float, log: 
             lo = s
         if hi is None:
             return None, None
-    for _ in range(N_BISECT_PROFILED):
+    for _ in range(bisections):
         mid = math.sqrt(lo * hi)
         b = test_at(mid)
         if b is None:
@@ -389,7 +394,7 @@ def _profiled_side(test: DetectionTest, h, null, start: float, end: float, log: 
 
 
 def effect_thresholds(tester: DetectionTest, h, profiled: bool = True,
-                      toward: float | None = None) -> list[Threshold]:
+                      toward: float | None = None, bisections: int = N_BISECT_PROFILED) -> list[Threshold]:
     """The thresholds of the one-parameter hypothesis ``h`` (one per side of its null value); with
     ``profiled=False`` to first order in the model form only (:func:`_side`); with ``toward`` [SI] only on
     the side of that value (both where it is the null value itself).
@@ -404,6 +409,8 @@ def effect_thresholds(tester: DetectionTest, h, profiled: bool = True,
         Search with the profiled test where the tester has a model form (else to first order only).
     toward : float, optional
         A size [SI]: only the side of the null value it lies on.
+    bisections : int
+        Bisection steps of the profiled search (:data:`N_BISECT_PROFILED`, :data:`N_BISECT_REPORTED`).
 
     Returns
     -------
@@ -426,6 +433,6 @@ def effect_thresholds(tester: DetectionTest, h, profiled: bool = True,
         sides = [(a, b) for a, b in sides if (toward - x0) * (b - x0) > 0] or sides
     out = []
     for start, end in sides:
-        thr, by = _side(tester, h, x0, start, end, log, profiled)
+        thr, by = _side(tester, h, x0, start, end, log, profiled, bisections)
         out.append(Threshold(h.effect, h.location, h.param_names[0], x0, thr, end, by))
     return out
