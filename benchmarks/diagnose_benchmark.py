@@ -923,6 +923,34 @@ def diagnose_case(rec: dict, t_gen: float = 0.0) -> dict:
             "error": err}
 
 
+#: Diagnosis time per case on a quiet two-core machine at most [s], per structure (the targets the timing
+#: line prints beside the medians).
+TIME_TARGET_S = {"bcc": 30.0, "grid": 120.0}
+
+
+def _print_stage_times(results: list) -> None:
+    """Print the diagnosis time per structure (median over the cases with an effect and over the null cases,
+    with :data:`TIME_TARGET_S`) and each stage's median cost (``timing_s`` of diagnosis.json) over the cases
+    that ran it."""
+    done = [r for r in results if r.get("result")]
+    for st in sorted({r["structure"] for r in done}):
+        mine = [r for r in done if r["structure"] == st]
+        eff = [r["time_diagnose_s"] for r in mine if r.get("truth")]
+        null = [r["time_diagnose_s"] for r in mine if not r.get("truth")]
+        parts = [f"{len(x)} {what} median {np.median(x):.0f} s" for x, what in ((eff, "with an effect"),
+                                                                                  (null, "null")) if x]
+        print(f"diagnosis time, {st}: " + ", ".join(parts) +
+              (f" (target <= {TIME_TARGET_S[st]:g} s on a quiet two-core machine)" if st in TIME_TARGET_S else ""))
+    stages: dict = {}
+    for r in done:
+        for k, v in (r["result"].get("timing_s") or {}).items():
+            if k != "total" and isinstance(v, (int, float)):
+                stages.setdefault(k, []).append(float(v))
+    if stages:
+        print("diagnosis stages, median s over the cases that ran them: " +
+              ", ".join(f"{k} {np.median(v):.1f} ({len(v)})" for k, v in stages.items()))
+
+
 def _same_location(a: dict, b: dict) -> bool:
     return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in a.items()} == \
         {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in b.items()}
@@ -1192,6 +1220,7 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     print(f"time per case: diagnosis median {summary['diagnose_time_s_median']:.0f} s, max "
           f"{summary['diagnose_time_s_max']:.0f} s; with the recording's simulation max {summary['case_time_s_max']:.0f} s"
           + (" (simulation not timed: cases generated earlier, --kept)" if not any(tg) else ""))
+    _print_stage_times(results)
     if summary["errors"]:
         print("errors:", summary["errors"])
     # one line: what issue 24 item 2 asks of each tier

@@ -162,10 +162,22 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
     """
     if state.point_modes is not None:
         return state.point_modes, None
-    pm0 = problem.model_form_frf.modes if state.fe is problem.base.fe else None
-    if pm0 is None:
+    return _modes_and_scale(problem, state, on_fe=not on_reference_modes(problem, state))
+
+
+def on_reference_modes(problem, state: LabState) -> bool:
+    """Whether :func:`own_modes` moves the reference modes the model form was derived on (a lab of the nominal
+    structure, a model form with modes), rather than the lab's own FE modes."""
+    return state.point_modes is None and state.fe is problem.base.fe and problem.model_form_frf.modes is not None
+
+
+def _modes_and_scale(problem, state: LabState, on_fe: bool):
+    """:func:`own_modes` of ``state`` on the reference modes or (``on_fe``) its own FE modes, with the scale."""
+    if on_fe:
         pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
         pm0 = point_modes_of(state, pts, "the lab's FE model")
+    else:
+        pm0 = problem.model_form_frf.modes
     mask = problem.mask
     return pm0, problem.predict(state)[mask] / problem.predict(replace(state, point_modes=pm0))[mask]
 
@@ -235,7 +247,10 @@ def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
     the statistic of the mismatch test that profiles the nominal lab's modes: both labs' modes moved within
     their model form (:func:`profile`), the fall ``S_nominal - S_state`` of ``S = |r|^2 + |x|^2`` must pass the
     policy's likelihood-ratio limit for ``k`` parameters (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`).
-    True where the nominal lab is not profiled (the fit's own footing decides then).
+    True where the nominal lab is not profiled (the fit's own footing decides then). Both labs are profiled
+    on the same footing: a lab of a changed structure moves its own FE modes (:func:`own_modes`), and is
+    compared with the nominal lab's FE modes moved likewise, not with the reference modes the mismatch test
+    moved (those of the plant the data were referred through, which may hold modes the FE model lacks).
 
     Parameters
     ----------
@@ -253,8 +268,22 @@ def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
     if not (profiled(problem, problem.base) and profiled(problem, state)):
         return True
     r0, x0 = problem.nominal_profile()
+    if state.point_modes is None and not on_reference_modes(problem, state) and on_reference_modes(problem,
+                                                                                                   problem.base):
+        r0, x0 = _nominal_on_fe_modes(problem)  # the same footing: the nominal lab's own FE modes moved
     r, x, _k = profile_state(problem, state)
     return problem.policy.needed(float(r0 @ r0 + x0 @ x0), float(r @ r + x @ x), k)
+
+
+def _nominal_on_fe_modes(problem) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`profile` of the nominal lab on its own FE modes (the footing of a lab of another structure,
+    whose reference modes a model form does not carry), memoised with :func:`profile_state`'s results."""
+    memo = _PROFILES.setdefault(problem, {})
+    key = ("nominal on its FE modes", id(problem.model_form_frf))
+    if key not in memo:
+        pm0, scale = _modes_and_scale(problem, problem.base, on_fe=True)
+        memo[key] = profile(problem, problem.base, pm0, scale)
+    return memo[key]
 
 
 def moves_left(problem, state: LabState) -> float:
