@@ -167,7 +167,18 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
 
 def on_reference_modes(problem, state: LabState) -> bool:
     """Whether :func:`own_modes` moves the reference modes the model form was derived on (a lab of the nominal
-    structure, a model form with modes), rather than the lab's own FE modes."""
+    structure, a model form with modes), rather than the lab's own FE modes.
+
+    Parameters
+    ----------
+    problem : Problem
+        FRF data with ``model_form_frf``.
+    state : LabState
+
+    Returns
+    -------
+    bool
+    """
     return state.point_modes is None and state.fe is problem.base.fe and problem.model_form_frf.modes is not None
 
 
