@@ -91,3 +91,37 @@ def test_the_profile_with_the_batched_jacobian_finds_scipys_optimum(monkeypatch)
     assert len(x) > 20  # frequencies, damping ratios and shapes of the in-band modes
     assert cost == pytest.approx(cost_fd, rel=1e-6)
     np.testing.assert_allclose(x, x_fd, atol=1e-2)
+
+
+def test_reference_modes_moved_like_the_fe_modes():
+    """With the nominal FE modes as the reference, the moved reference is the changed lab's FE modes themselves
+    (in band, paired, signs aligned); a reference mode the FE model lacks keeps its values."""
+    from vlab.diagnose.model.labmodel import point_modes_of
+    from vlab.diagnose.model.modal_changes import MOVED_REFERENCE, moved_like
+
+    st, _pm = _lab(False)
+    from vlab.diagnose.effects.hypotheses import library
+    from vlab.diagnose.problem.context import context_for as ctx_of
+
+    data = FrfData("x.uff", "frf", F, np.ones((F.size, 1), dtype=complex), np.ones((F.size, 1)), 9, (6,))
+    ctx = ctx_of(st, (1.0, 12.0), data)
+    spring = next(h for h in library(st, ctx) if h.effect == "support_stiffness" and h.location.get("point") == 6)
+    after_lab = spring.apply(st, np.array([20.0]), ctx)
+    before = point_modes_of(st, PTS)
+    after = point_modes_of(after_lab, PTS)
+    moved = moved_like(before, before, after, top_hz=30.0)
+    assert moved.source == MOVED_REFERENCE and len(moved.omega) == len(before.omega)
+    inband = np.flatnonzero(before.omega <= 2 * np.pi * 30.0)
+    assert np.max(np.abs(after.omega[inband] / before.omega[inband] - 1)) > 1e-3  # the spring moves them
+    np.testing.assert_allclose(moved.omega[inband], after.omega[inband], rtol=1e-12)
+    np.testing.assert_allclose(moved.zeta[inband], after.zeta[inband], rtol=1e-12)
+    sign = np.sign(np.sum(moved.shapes[:, inband] * after.shapes[:, inband], axis=0))
+    np.testing.assert_allclose(moved.shapes[:, inband], after.shapes[:, inband] * sign, atol=1e-12)
+    # a second reference mode beside mode 3 (as a plant's second crosspiece arm): mode 3 pairs with its own
+    # FE mode first (MAC 1), the extra one has no partner left
+    extra = np.linalg.svd(before.shapes[:, inband])[0][:, -1]
+    ref = replace(before, omega=np.append(before.omega, before.omega[2] * 0.99), zeta=np.append(before.zeta, 0.01),
+                  shapes=np.column_stack([before.shapes, extra]))
+    moved = moved_like(ref, before, after, top_hz=30.0)
+    assert moved.omega[-1] == ref.omega[-1] and moved.zeta[-1] == 0.01
+    np.testing.assert_array_equal(moved.shapes[:, -1], extra)

@@ -32,9 +32,17 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import ModelError
+from ...measure.mac import mac, pair_modes
 from .labmodel import LabState, PointModes, closed_loop_frf, frequencies, predict_frf
 
 KINDS = ("f", "zeta", "phi")
+#: ``PointModes.source`` of reference modes moved as a lab's FE modes move (:func:`moved_like`): their modes
+#: are the reference's, one for one, in its order.
+MOVED_REFERENCE = "the reference modes, moved as the lab's FE modes move"
+#: Modes are paired where their shapes at the points are more alike than not (MAC at least this) ...
+PAIR_MAC = 0.5
+#: ... and their frequencies lie within this ratio (the pairing of a model form's parameters with a lab's modes).
+PAIR_RATIO = 1.2
 
 
 def moved_modes(pm: PointModes, changes, ref: PointModes | None = None) -> PointModes:
@@ -153,3 +161,64 @@ def _mode_terms(omega, zeta, rows, cols, w) -> np.ndarray:
     ``cols`` (k, n_a)), each on its own, shape (k, n_f, n_p, n_a) [m/N]."""
     den = omega[:, None] ** 2 - w[None, :] ** 2 + 2j * (zeta * omega)[:, None] * w[None, :]   # (k, n_f)
     return (rows[:, :, None] * cols[:, None, :])[:, None, :, :] / den[:, :, None, None]
+
+
+def moved_like(ref: PointModes, before: PointModes, after: PointModes, top_hz: float) -> PointModes:
+    """The reference modes ``ref`` changed as the FE modes ``before`` change into ``after``: each mode of ``ref``
+    below ``top_hz`` paired with a mode of ``before``, and that with a mode of ``after`` (one to one, by MAC at
+    the points, at least :data:`PAIR_MAC`, within :data:`PAIR_RATIO` in frequency), takes the FE mode's change:
+    its angular frequency and damping ratio the ratio ``after / before``, its shape the difference (signs
+    aligned). A reference mode without a pair (one the FE model lacks, such as a plant's second crosspiece
+    arm) keeps its values.
+
+    Why: a model form's parameters are modes of the reference (the plant the data were referred through); a
+    lab of a changed structure moved within them is on the nominal lab's footing only if its modes are the
+    reference's as changed by the lab's change (first order in the change).
+
+    Parameters
+    ----------
+    ref : PointModes
+        The reference modes (a model form's ``modes``).
+    before, after : PointModes
+        The FE modes of the nominal and of the changed lab at ``ref.points``.
+    top_hz : float
+        Reference modes above this frequency [Hz] keep their values.
+
+    Returns
+    -------
+    PointModes
+        ``ref``'s modes in its order (source :data:`MOVED_REFERENCE`, classical damping).
+
+    Raises
+    ------
+    ModelError
+        ``before`` or ``after`` not at ``ref.points``.
+    """
+    if tuple(before.points) != tuple(ref.points) or tuple(after.points) != tuple(ref.points):
+        raise ModelError(f"modes at {before.points} and {after.points} cannot move the reference's at {ref.points}")
+    band = 2 * np.pi * top_hz
+    r_in = np.flatnonzero(ref.omega <= band)
+    b_in = np.flatnonzero(before.omega <= PAIR_RATIO * band)
+    a_in = np.flatnonzero(after.omega <= PAIR_RATIO**2 * band)
+    to_before = _pairs(ref, before, r_in, b_in)
+    to_after = _pairs(before, after, b_in, a_in)
+    om, ze, sh = ref.omega.copy(), ref.zeta.copy(), ref.shapes.copy()
+    for r, n in to_before.items():
+        if n not in to_after:
+            continue
+        s = to_after[n]
+        pb, pa = before.shapes[:, n], after.shapes[:, s]
+        om[r] *= after.omega[s] / before.omega[n]
+        ze[r] *= after.zeta[s] / before.zeta[n] if before.zeta[n] > 0 else 1.0
+        sh[:, r] += np.sign(ref.shapes[:, r] @ pb) * (np.sign(pa @ pb) * pa - pb)
+    return replace(ref, omega=om, zeta=ze, shapes=sh, coupling=None, source=MOVED_REFERENCE)
+
+
+def _pairs(a: PointModes, b: PointModes, ia: np.ndarray, ib: np.ndarray) -> dict:
+    """Modes ``ia`` of ``a`` paired one to one with modes ``ib`` of ``b`` (:func:`moved_like`): index -> index."""
+    if not ia.size or not ib.size:
+        return {}
+    m = mac(a.shapes[:, ia], b.shapes[:, ib])
+    far = np.abs(np.log(a.omega[ia][:, None] / b.omega[ib][None, :])) > np.log(PAIR_RATIO)
+    m[far] = 0.0
+    return {int(ia[i]): int(ib[j]) for i, j, _v in pair_modes(m, threshold=PAIR_MAC)}

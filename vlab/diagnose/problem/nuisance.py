@@ -35,8 +35,8 @@ import scipy.optimize
 
 from ...errors import ModelError
 from ..model.labmodel import LabState, PointModes, point_modes_of
-from ..model.modal_changes import changed_mode_frfs, moved_modes
-from ..model.modelform import FrfModelForm
+from ..model.modal_changes import MOVED_REFERENCE, changed_mode_frfs, moved_like, moved_modes
+from ..model.modelform import BAND_MARGIN, FrfModelForm
 
 #: Evaluations of the profile per parameter at most.
 NFEV_PER_PARAMETER = 60
@@ -48,7 +48,8 @@ DIFF_STEP = 1e-3
 def parameters(mf: FrfModelForm, pm: PointModes) -> list[tuple[str, int | None, int | None]]:
     """``(kind, mode index in pm, point row)`` of each parameter of ``mf``, its mode paired with the mode of
     ``pm`` nearest in frequency to the one ``mf`` perturbs (None where ``pm`` has no mode within 20 %, or not
-    the point).
+    the point); the same mode where ``pm`` are the reference modes moved
+    (:func:`vlab.diagnose.model.modal_changes.moved_like`).
 
     Parameters
     ----------
@@ -62,13 +63,16 @@ def parameters(mf: FrfModelForm, pm: PointModes) -> list[tuple[str, int | None, 
     list of (str, int or None, int or None)
     """
     ref = mf.modes.omega if mf.modes is not None else pm.omega
+    one_for_one = pm.source == MOVED_REFERENCE and len(pm.omega) == len(ref)  # the reference's modes, moved
     out = []
     for lab in mf.labels:
         kind = "phi" if lab.startswith("phi") else "zeta" if lab.startswith("zeta") else "f"
         head, _, pt = lab[len(kind):].partition("@")
         r0 = int(head) - 1
         r = None
-        if r0 < len(ref) and len(pm.omega):
+        if one_for_one:
+            r = r0
+        elif r0 < len(ref) and len(pm.omega):
             i = int(np.argmin(np.abs(np.log(np.maximum(pm.omega, 1e-300) / ref[r0]))))
             r = i if abs(np.log(pm.omega[i] / ref[r0])) <= np.log(1.2) else None
         j = None
@@ -145,9 +149,13 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
 
     A lab carrying its modes (``state.point_modes``, a refit on the plant's linearisation) moves those,
     unscaled. Otherwise the modes are the reference modes the model form was derived on (``mf.modes``) for a
-    lab with the nominal structure (a chain effect), else the lab's own FE modes at the measured points and
-    actuators; the scale is the lab's FE prediction over its prediction with those modes on the used lines,
-    so that the moves change the prediction as they change the modes.
+    lab with the nominal structure (a chain effect, a mode's damping), and for a lab of a changed structure
+    those reference modes moved as its FE modes move from the nominal lab's
+    (:func:`vlab.diagnose.model.modal_changes.moved_like`): every lab then moves the same parameters, the
+    nominal lab's, and their profiles compare on one footing (the reference may hold modes the FE model
+    lacks, such as the MuJoCo BCC's second crosspiece arm). Without reference modes, the lab's own FE modes
+    at the measured points and actuators. The scale is the lab's FE prediction over its prediction with
+    those modes on the used lines, so that the moves change the prediction as they change the modes.
 
     Parameters
     ----------
@@ -162,35 +170,26 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
     """
     if state.point_modes is not None:
         return state.point_modes, None
-    return _modes_and_scale(problem, state, on_fe=not on_reference_modes(problem, state))
-
-
-def on_reference_modes(problem, state: LabState) -> bool:
-    """Whether :func:`own_modes` moves the reference modes the model form was derived on (a lab of the nominal
-    structure, a model form with modes), rather than the lab's own FE modes.
-
-    Parameters
-    ----------
-    problem : Problem
-        FRF data with ``model_form_frf``.
-    state : LabState
-
-    Returns
-    -------
-    bool
-    """
-    return state.point_modes is None and state.fe is problem.base.fe and problem.model_form_frf.modes is not None
-
-
-def _modes_and_scale(problem, state: LabState, on_fe: bool):
-    """:func:`own_modes` of ``state`` on the reference modes or (``on_fe``) its own FE modes, with the scale."""
-    if on_fe:
+    mf = problem.model_form_frf
+    if mf.modes is None:
         pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
         pm0 = point_modes_of(state, pts, "the lab's FE model")
-    else:
-        pm0 = problem.model_form_frf.modes
+    elif state.fe is problem.base.fe:
+        pm0 = mf.modes
+    else:  # a changed structure: the reference modes moved as its FE modes move (the nominal lab's footing)
+        top = float(np.max(problem.data.freq_hz)) * BAND_MARGIN
+        pm0 = moved_like(mf.modes, _nominal_fe_modes(problem), point_modes_of(state, mf.modes.points), top)
     mask = problem.mask
     return pm0, problem.predict(state)[mask] / problem.predict(replace(state, point_modes=pm0))[mask]
+
+
+def _nominal_fe_modes(problem) -> PointModes:
+    """The nominal lab's FE modes at the model form's points, once per problem."""
+    memo = _PROFILES.setdefault(problem, {})
+    key = ("nominal FE modes", id(problem.model_form_frf))
+    if key not in memo:
+        memo[key] = point_modes_of(problem.base, problem.model_form_frf.modes.points, "the nominal FE model")
+    return memo[key]
 
 
 def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int]:
@@ -258,10 +257,9 @@ def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
     the statistic of the mismatch test that profiles the nominal lab's modes: both labs' modes moved within
     their model form (:func:`profile`), the fall ``S_nominal - S_state`` of ``S = |r|^2 + |x|^2`` must pass the
     policy's likelihood-ratio limit for ``k`` parameters (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`).
-    True where the nominal lab is not profiled (the fit's own footing decides then). Both labs are profiled
-    on the same footing: a lab of a changed structure moves its own FE modes (:func:`own_modes`), and is
-    compared with the nominal lab's FE modes moved likewise, not with the reference modes the mismatch test
-    moved (those of the plant the data were referred through, which may hold modes the FE model lacks).
+    True where the nominal lab is not profiled (the fit's own footing decides then). Both labs move the same
+    parameters (:func:`own_modes`: a lab of a changed structure moves the reference modes as changed by its
+    change), so the two statistics are on one footing.
 
     Parameters
     ----------
@@ -279,22 +277,8 @@ def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
     if not (profiled(problem, problem.base) and profiled(problem, state)):
         return True
     r0, x0 = problem.nominal_profile()
-    if state.point_modes is None and not on_reference_modes(problem, state) and on_reference_modes(problem,
-                                                                                                   problem.base):
-        r0, x0 = _nominal_on_fe_modes(problem)  # the same footing: the nominal lab's own FE modes moved
     r, x, _k = profile_state(problem, state)
     return problem.policy.needed(float(r0 @ r0 + x0 @ x0), float(r @ r + x @ x), k)
-
-
-def _nominal_on_fe_modes(problem) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`profile` of the nominal lab on its own FE modes (the footing of a lab of another structure,
-    whose reference modes a model form does not carry), memoised with :func:`profile_state`'s results."""
-    memo = _PROFILES.setdefault(problem, {})
-    key = ("nominal on its FE modes", id(problem.model_form_frf))
-    if key not in memo:
-        pm0, scale = _modes_and_scale(problem, problem.base, on_fe=True)
-        memo[key] = profile(problem, problem.base, pm0, scale)
-    return memo[key]
 
 
 def moves_left(problem, state: LabState) -> float:
