@@ -458,12 +458,16 @@ class FrfModelForm:
         ``sigma x`` times the shape's RMS over the points).
     modes : PointModes
         The modal model the parameters belong to (the FE model's, or the reference plant's linearisation).
+    anchor : LabState or None
+        The lab whose structure ``modes`` stand for (:func:`model_form_at`); None: the nominal lab of the
+        problem that carries this model form.
     """
 
     sens: np.ndarray
     sigma: np.ndarray
     labels: tuple[str, ...]
     modes: PointModes | None = None
+    anchor: LabState | None = None
 
     @property
     def variance(self) -> np.ndarray:
@@ -585,4 +589,5 @@ def model_form_at(mff: FrfModelForm, state: LabState, freq_hz: np.ndarray, *, ex
         which = "zeta" if label.startswith("zeta") else ("phi" if label.startswith("phi") else "f")
         mode, _, point = label[len(which):].partition("@")
         params.append((which, int(mode) - 1, pts.index(int(point)) if point else None))
-    return FrfModelForm(_sensitivities(state, pm, params, f, kw), np.asarray(mff.sigma), tuple(mff.labels), pm)
+    return FrfModelForm(_sensitivities(state, pm, params, f, kw), np.asarray(mff.sigma), tuple(mff.labels), pm,
+                        anchor=state)

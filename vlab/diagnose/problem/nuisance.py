@@ -150,7 +150,8 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
     A lab carrying its modes (``state.point_modes``, a refit on the plant's linearisation) moves those,
     unscaled. Otherwise the modes are the reference modes the model form was derived on (``mf.modes``) for a
     lab with the nominal structure (a chain effect, a mode's damping), and for a lab of a changed structure
-    those reference modes moved as its FE modes move from the nominal lab's
+    those reference modes moved as its FE modes move from the nominal lab's (from those of the lab the model
+    form was anchored at, ``mf.anchor``)
     (:func:`vlab.diagnose.model.modal_changes.moved_like`): every lab then moves the same parameters, the
     nominal lab's, and their profiles compare on one footing (the reference may hold modes the FE model
     lacks, such as the MuJoCo BCC's second crosspiece arm). Without reference modes, the lab's own FE modes
@@ -174,22 +175,25 @@ def own_modes(problem, state: LabState) -> tuple[PointModes, np.ndarray | None]:
     if mf.modes is None:
         pts = tuple(dict.fromkeys(tuple(problem.data.output_points) + state.actuators))
         pm0 = point_modes_of(state, pts, "the lab's FE model")
-    elif state.fe is problem.base.fe:
+    elif state.fe is (problem.base if mf.anchor is None else mf.anchor).fe:
         pm0 = mf.modes
     else:  # a changed structure: the reference modes moved as its FE modes move (the nominal lab's footing)
         top = float(np.max(problem.data.freq_hz)) * BAND_MARGIN
-        pm0 = moved_like(mf.modes, _nominal_fe_modes(problem), point_modes_of(state, mf.modes.points), top)
+        pm0 = moved_like(mf.modes, _anchor_fe_modes(problem), point_modes_of(state, mf.modes.points), top)
     mask = problem.mask
     return pm0, problem.predict(state)[mask] / problem.predict(replace(state, point_modes=pm0))[mask]
 
 
-def _nominal_fe_modes(problem) -> PointModes:
-    """The nominal lab's FE modes at the model form's points, once per problem."""
+def _anchor_fe_modes(problem) -> PointModes:
+    """The FE modes, at the model form's points, of the lab its reference modes stand for (its ``anchor``, by
+    default the nominal lab), once per problem and model form."""
+    mf = problem.model_form_frf
     memo = _PROFILES.setdefault(problem, {})
-    key = ("nominal FE modes", id(problem.model_form_frf))
-    if key not in memo:
-        memo[key] = point_modes_of(problem.base, problem.model_form_frf.modes.points, "the nominal FE model")
-    return memo[key]
+    key = ("anchor FE modes", id(mf))
+    if key not in memo or memo[key][0] is not mf:
+        anchor = problem.base if mf.anchor is None else mf.anchor
+        memo[key] = (mf, point_modes_of(anchor, mf.modes.points, "the FE model of the model form's lab"))
+    return memo[key][1]
 
 
 def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int]:
