@@ -57,7 +57,7 @@ def mismatch_tests(chi2: float, chi2_limit: float, peak: float, peak_limit: floa
     peak, peak_limit : float
         Its largest squared residual of one line and channel and its limit (:meth:`Problem.peak_limit`).
     nuisance : dict or None
-        :meth:`Problem.nuisance_test` (None: no model form profiled).
+        :func:`vlab.diagnose.problem.nuisance.nuisance_test` (None: no model form profiled).
     change : dict or None
         The statistics of :func:`vlab.diagnose.fit.rules.changed_beyond_noise` when that test found a change
         (``chi2``, ``chi2_limit``, ``peak``, ``peak_limit``), else None.

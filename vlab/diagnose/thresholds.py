@@ -155,7 +155,7 @@ class DetectionTest:
     """The mismatch test of the nominal recording, applied to the noise-free FRFs of a modified lab.
 
     With a model form the diagnosis profiles the nominal lab's modes within it (nonlinear,
-    :meth:`Problem.nominal_profile`) and also tests how far they had to move (:meth:`Problem.nuisance_test`);
+    :meth:`Problem.nominal_profile`) and also tests how far they had to move (:func:`vlab.diagnose.problem.nuisance.nuisance_test`);
     :meth:`detected` is then that test (``profiled``), and :meth:`detected_first_order` the linear whitening's,
     which is cheap and gives the starting point of the search (:func:`_side`).
 

@@ -12,7 +12,7 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    out, or the nominal lab's modes must move beyond their model-form uncertainty (:func:`beyond_noise`, with
    :meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`,
    :meth:`~vlab.diagnose.problem.residuals.Problem.peak_limit` and
-   :meth:`~vlab.diagnose.problem.residuals.Problem.nuisance_test`: three tests sharing the false-alarm rate).
+   :func:`~vlab.diagnose.problem.nuisance.nuisance_test`: three tests sharing the false-alarm rate).
    Data within those limits whose reference was excited by the recording's own force record are tested once
    more without the model-error floor (:func:`changed_beyond_noise`); a mismatch found only there is kept for
    rule 6. No mismatch: nothing is fitted or selected.
