@@ -120,7 +120,8 @@ def test_the_fe_frf_of_a_changed_structure_is_the_direct_solution(bcc):
     md = modal_analysis(fe.m, fe.k)
     ph = md.shapes[fe.dofs.indices(pts + (9,), "w"), :]
     w = 2 * np.pi * f
-    classical = labmodel._receptance(md.omega, structural_ratios(fe, md), ph, w)[:, :len(pts), -1] * 1j * w[:, None]
+    classical = labmodel.modal_receptance(md.omega, structural_ratios(fe, md), ph, w)[:, :len(pts), -1] \
+        * 1j * w[:, None]
     assert np.max(np.abs(classical - direct) / np.max(np.abs(direct), axis=0)) > 5 * np.max(rel)
 
 
@@ -146,9 +147,9 @@ def test_the_coupled_receptance_equals_a_direct_solve():
 
 
 def test_the_classical_receptance_equals_a_direct_solve():
-    """The classical modal sum of ``_receptance`` against ``Phi_p (Omega^2 - w^2 I + i w diag(2 zeta omega))^-1
+    """The classical modal sum of ``modal_receptance`` against ``Phi_p (Omega^2 - w^2 I + i w diag(2 zeta omega))^-1
     Phi_p^T`` solved at each frequency, on the real axis and at complex frequencies (a shifted contour)."""
-    from vlab.diagnose.model.labmodel import _receptance
+    from vlab.diagnose.model.labmodel import modal_receptance
 
     rng = np.random.default_rng(4)
     n, n_p = 12, 5
@@ -156,7 +157,7 @@ def test_the_classical_receptance_equals_a_direct_solve():
     zeta = rng.uniform(0.002, 0.05, n)
     ph = rng.standard_normal((n_p, n))
     for w in (np.linspace(1.0, 90.0, 150), np.linspace(1.0, 90.0, 150) - 0.3j):
-        got = _receptance(om, zeta, ph, w)
+        got = modal_receptance(om, zeta, ph, w)
         cm = np.diag(2.0 * zeta * om)
         ref = np.array([ph @ np.linalg.solve(np.diag(om**2) - wk**2 * np.eye(n) + 1j * wk * cm, ph.T) for wk in w])
         np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())

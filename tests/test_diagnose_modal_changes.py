@@ -125,3 +125,50 @@ def test_reference_modes_moved_like_the_fe_modes():
     moved = moved_like(ref, before, after, top_hz=30.0)
     assert moved.omega[-1] == ref.omega[-1] and moved.zeta[-1] == 0.01
     np.testing.assert_array_equal(moved.shapes[:, -1], extra)
+
+
+def test_changes_in_several_blocks_equal_each_change_predicted_on_its_own(monkeypatch):
+    """More changes than one block holds (the block made 2 long): the same FRFs as each change alone."""
+    from vlab.diagnose.model import modal_changes
+
+    monkeypatch.setattr(modal_changes, "BLOCK", 2)
+    st, pm = _lab(True)
+    kw = {"excitation_point": 9, "output_points": (3, 6, 9)}
+    _h0, hs = changed_mode_frfs(st, pm, CHANGES, F, **kw)
+    assert hs.shape == (len(CHANGES), F.size, 3)
+    for c, h in zip(CHANGES, hs):
+        one = predict_frf(replace(st, point_modes=moved_modes(pm, [c])), F, **kw)
+        np.testing.assert_allclose(h, one, rtol=1e-9, atol=1e-15 * np.abs(one).max())
+    with pytest.raises(ValueError, match="point row"):
+        moved_modes(pm, [("phi", 1, None, 0.1)])
+
+
+def test_a_changed_structure_moves_the_reference_modes_from_the_lab_they_stand_for():
+    """own_modes: with the nominal FE modes as the reference, a lab with a grounded spring moves them into its
+    own FE modes (in band); with the model form anchored at that lab, its reference modes are moved by nothing.
+    Both against point_modes_of of the spring's lab (the FE eigen solve), not against the moving code."""
+    from vlab.diagnose.effects.hypotheses import library
+    from vlab.diagnose.model.labmodel import point_modes_of
+    from vlab.diagnose.problem.nuisance import own_modes
+
+    st, _pm = _lab(False)
+    h = predict_frf(st, F, excitation_point=9, output_points=(3, 6))
+    data = FrfData("x.uff", "frf", F, h, (1e-3 * np.abs(h)) ** 2, 9, (3, 6))
+    ctx = context_for(st, (1.0, 12.0), data)
+    spring = next(h for h in library(st, ctx) if h.effect == "support_stiffness" and h.location.get("point") == 6)
+    lab = spring.apply(st, np.array([20.0]), ctx)
+    n = len(_pm.omega)
+    unc = ModelFormUncertainty(np.full(n, 1e-3), np.full(n, 0.05), {}, {})
+    mf = frf_model_form(st, F, excitation_point=9, output_points=(3, 6), uncertainty=unc)
+    problem = Problem(data, st, ctx, floor=0.0, model_form_frf=mf)
+    pm0, scale = own_modes(problem, lab)
+    truth = point_modes_of(lab, mf.modes.points)
+    inband = np.flatnonzero(truth.omega <= 2 * np.pi * F.max())
+    assert np.max(np.abs(truth.omega[inband] / mf.modes.omega[inband] - 1)) > 1e-3
+    np.testing.assert_allclose(pm0.omega[inband], truth.omega[inband], rtol=1e-10)
+    # the scale carries what the moved modes leave out (modes above the band kept at the nominal lab's,
+    # the changed structure's damping coupling): small on the lines
+    assert np.median(np.abs(scale - 1)) < 1e-3 and np.max(np.abs(scale - 1)) < 0.02
+    problem.model_form_frf = replace(mf, modes=truth, anchor=lab)
+    pm1, _ = own_modes(problem, spring.apply(st, np.array([20.0]), ctx))  # the same lab, built again
+    np.testing.assert_allclose(pm1.omega[inband], truth.omega[inband], rtol=1e-10)

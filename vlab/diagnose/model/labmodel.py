@@ -206,11 +206,15 @@ def _coupled_block(omega, zeta, ph, w, coupling, idx) -> np.ndarray:
     return (g @ lr).reshape(w.size, n_p, n_p)                            # one product: sum over k
 
 
-def _receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
+def modal_receptance(omega, zeta, ph, w, coupling=None) -> np.ndarray:
     """Receptance between the points of ``ph`` (shape (n_p, n)) at ``w`` [rad/s], shape (n_f, n_p, n_p) [m/N]:
     the classical modal sum, with the modes below :data:`COUPLED_BAND` times the top of ``w`` taken with
     their damping coupling when ``coupling`` is given (the rest stay classical: far from the band the
-    coupling moves nothing)."""
+    coupling moves nothing).
+
+    ``omega`` [rad/s] and ``zeta`` [1] have shape (n,), ``ph`` holds the mass-normalised shapes at the points
+    [m/sqrt(kg)], ``coupling`` the off-diagonal modal damping [1/s], shape (n, n), or None. Source: Eq. (3.1)
+    (modal superposition); the coupled block: :func:`_coupled_block`."""
     den = omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * w[:, None]
     r = 1.0 / den
     idx = np.array([], dtype=int)
@@ -335,7 +339,7 @@ def plant_frf(state: LabState, freq_hz: np.ndarray, out_points, in_points) -> np
         md, zeta = _modal(state)
         omega, ph = md.omega, md.shapes[state.fe.dofs.indices(all_pts, "w"), :]        # (n_p, n)
         coupling = _coupling(state, md)
-    alpha = _receptance(omega, zeta, ph, w, coupling)                                    # (n_f, n_p, n_p)
+    alpha = modal_receptance(omega, zeta, ph, w, coupling)                              # (n_f, n_p, n_p)
     no, ni = len(out_points), len(in_points)
     io = slice(0, no)
     ii = slice(no, no + ni)
@@ -474,7 +478,8 @@ def closed_loop_frf(state: LabState, freq_hz: np.ndarray, g: np.ndarray, *, exci
     Parameters
     ----------
     state : LabState
-        The lab whose chain and controller close the loop (its structure is not used).
+        The lab whose chain, controller and coil gains close the loop (its structure's modes are not used:
+        they are in ``g``).
     freq_hz : ndarray, shape (n_f,)
         Frequencies [Hz].
     g : ndarray, complex, shape (..., n_f, n_o + n_act, n_act)

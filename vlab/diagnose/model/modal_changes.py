@@ -13,8 +13,8 @@ parameter changed on its own. A change of mode ``r`` changes only the
                           - phi_r  phi_r^T  / (w_r^2  - w^2 + 2 j zeta_r  w_r  w)
 
 so the plants of ``k`` changes are the nominal sum plus ``k`` one-mode
-corrections, and the loop is closed around all of them in one batched solve
-(:func:`vlab.diagnose.model.labmodel.closed_loop_frf`). Where the plant is not
+corrections, and the loop is closed around them in batched solves of
+:data:`BLOCK` changes (:func:`vlab.diagnose.model.labmodel.closed_loop_frf`). Where the plant is not
 a classical modal sum (a damping coupling of the modes, point dashpots or
 friction) each change is predicted on its own with
 :func:`~vlab.diagnose.model.labmodel.predict_frf` (the same FRFs, ``k`` times
@@ -33,7 +33,7 @@ import numpy as np
 
 from ...errors import ModelError
 from ...measure.mac import mac, pair_modes
-from .labmodel import LabState, PointModes, closed_loop_frf, frequencies, predict_frf
+from .labmodel import LabState, PointModes, closed_loop_frf, frequencies, modal_receptance, predict_frf
 
 KINDS = ("f", "zeta", "phi")
 #: ``PointModes.source`` of reference modes moved as a lab's FE modes move (:func:`moved_like`): their modes
@@ -43,6 +43,8 @@ MOVED_REFERENCE = "the reference modes, moved as the lab's FE modes move"
 PAIR_MAC = 0.5
 #: ... and their frequencies lie within this ratio (the pairing of a model form's parameters with a lab's modes).
 PAIR_RATIO = 1.2
+#: Changes whose plants are held in memory together (each block holds BLOCK x n_f x n_p x n_act complex numbers).
+BLOCK = 32
 
 
 def moved_modes(pm: PointModes, changes, ref: PointModes | None = None) -> PointModes:
@@ -67,7 +69,7 @@ def moved_modes(pm: PointModes, changes, ref: PointModes | None = None) -> Point
     Raises
     ------
     ValueError
-        An unknown kind.
+        An unknown kind, or a shape change without its point row.
     """
     om, ze, sh = pm.omega.copy(), pm.zeta.copy(), pm.shapes
     ref_sh = (pm if ref is None else ref).shapes
@@ -78,6 +80,8 @@ def moved_modes(pm: PointModes, changes, ref: PointModes | None = None) -> Point
         elif kind == "zeta":
             ze[r] *= math.exp(u)
         elif kind == "phi":
+            if j is None:
+                raise ValueError(f"a shape change of mode {r} needs its point row, got None")
             if not copied:
                 sh, copied = sh.copy(), True
             sh[j, r] += u * float(np.sqrt(np.mean(ref_sh[:, r] ** 2)))
@@ -135,9 +139,17 @@ def changed_mode_frfs(state: LabState, pm: PointModes, changes, freq_hz: np.ndar
         raise ModelError(f"excitation point {excitation_point} is not an actuator point {acts}")
     w = 2 * np.pi * frequencies(f)
     rows, cols = pm.rows(outs + acts), pm.rows(acts)                        # (n_p, n), (n_a, n)
-    g0 = 1j * w[:, None, None] * _modal_sum(pm.omega, pm.zeta, rows, cols, w)
-    if not changes:
-        return closed_loop_frf(state, f, g0, **kw), np.zeros((0,) + (f.size, len(outs)), dtype=complex)
+    g0 = 1j * w[:, None, None] * modal_receptance(pm.omega, pm.zeta, rows, w)[:, :, len(outs):]
+    h0 = closed_loop_frf(state, f, g0, **kw)
+    hs = [_changed_block(state, pm, changes[i:i + BLOCK], ref, f, w, g0, rows, cols, kw)
+          for i in range(0, len(changes), BLOCK)]
+    return h0, np.concatenate(hs) if hs else np.zeros((0,) + h0.shape, dtype=complex)
+
+
+def _changed_block(state, pm, changes, ref, f, w, g0, rows, cols, kw) -> np.ndarray:
+    """:func:`changed_mode_frfs`' FRFs of the changes ``changes`` (the plant ``g0`` with one mode's term
+    replaced each), shape (len(changes), n_f, n_o)."""
+    outs, acts = kw["output_points"], state.actuators
     r = np.array([c[1] for c in changes])
     new = [moved_modes(pm, [c], ref) for c in changes]
     om1, ze1 = np.array([m.omega[i] for m, i in zip(new, r)]), np.array([m.zeta[i] for m, i in zip(new, r)])
@@ -145,20 +157,13 @@ def changed_mode_frfs(state: LabState, pm: PointModes, changes, freq_hz: np.ndar
     cols1 = np.stack([m.rows(acts)[:, i] for m, i in zip(new, r)])         # (k, n_a)
     delta = (_mode_terms(om1, ze1, rows1, cols1, w)
              - _mode_terms(pm.omega[r], pm.zeta[r], rows[:, r].T, cols[:, r].T, w))
-    h = closed_loop_frf(state, f, np.concatenate([g0[None], g0[None] + 1j * w[None, :, None, None] * delta]), **kw)
-    return h[0], h[1:]
-
-
-def _modal_sum(omega, zeta, rows, cols, w) -> np.ndarray:
-    """Classical receptance ``sum_r rows[:, r] cols[:, r]^T / den_r(w)``, shape (n_f, n_p, n_a) [m/N]."""
-    den = omega[None, :] ** 2 - w[:, None] ** 2 + 2j * zeta[None, :] * omega[None, :] * w[:, None]
-    pp = (rows[:, None, :] * cols[None, :, :]).reshape(-1, len(omega))   # (n_p n_a, n)
-    return ((1.0 / den) @ pp.T).reshape(w.size, rows.shape[0], cols.shape[0])
+    return closed_loop_frf(state, f, g0[None] + 1j * w[None, :, None, None] * delta, **kw)
 
 
 def _mode_terms(omega, zeta, rows, cols, w) -> np.ndarray:
-    """The terms of :func:`_modal_sum` of ``k`` modes (``omega``, ``zeta`` shape (k,), ``rows`` (k, n_p),
-    ``cols`` (k, n_a)), each on its own, shape (k, n_f, n_p, n_a) [m/N]."""
+    """The terms of the classical modal sum (:func:`~vlab.diagnose.model.labmodel.modal_receptance`) of ``k``
+    modes (``omega``, ``zeta`` shape (k,), ``rows`` (k, n_p), ``cols`` (k, n_a)), each on its own, shape
+    (k, n_f, n_p, n_a) [m/N]."""
     den = omega[:, None] ** 2 - w[None, :] ** 2 + 2j * (zeta * omega)[:, None] * w[None, :]   # (k, n_f)
     return (rows[:, :, None] * cols[:, None, :])[:, None, :, :] / den[:, :, None, None]
 
@@ -216,6 +221,8 @@ def moved_like(ref: PointModes, before: PointModes, after: PointModes, top_hz: f
 
 def _pairs(a: PointModes, b: PointModes, ia: np.ndarray, ib: np.ndarray) -> dict:
     """Modes ``ia`` of ``a`` paired one to one with modes ``ib`` of ``b`` (:func:`moved_like`): index -> index."""
+    ia = ia[(np.linalg.norm(a.shapes[:, ia], axis=0) > 0) & (a.omega[ia] > 0)]  # a mode seen at the points
+    ib = ib[(np.linalg.norm(b.shapes[:, ib], axis=0) > 0) & (b.omega[ib] > 0)]
     if not ia.size or not ib.size:
         return {}
     m = mac(a.shapes[:, ia], b.shapes[:, ib])

@@ -263,7 +263,8 @@ def improves_on_nominal(problem, state: LabState, k: int = 1) -> bool:
     policy's likelihood-ratio limit for ``k`` parameters (:meth:`~vlab.diagnose.policy.DecisionPolicy.needed`).
     True where the nominal lab is not profiled (the fit's own footing decides then). Both labs move the same
     parameters (:func:`own_modes`: a lab of a changed structure moves the reference modes as changed by its
-    change), so the two statistics are on one footing.
+    change), so the two statistics are on one footing. The limit is not scaled by an overdispersion: ``S``
+    is the tests' statistic, whose weights the mismatch test holds to be the noise and the model form.
 
     Parameters
     ----------

@@ -339,6 +339,10 @@ class Problem:
             return self.base
         return hyp.apply(self.base, np.asarray(x, dtype=float), self.ctx)
 
+    def __getstate__(self) -> dict:
+        """The problem without its fitted-state memo (a worker process rebuilds what it asks for)."""
+        return {**self.__dict__, "_fitted": {}}
+
     def fitted_state(self, hyp) -> LabState:
         """:meth:`state_for` at ``hyp.params_``, one object while they stay (a choice's tests ask it again)."""
         key = (id(hyp), np.asarray(hyp.params_, dtype=float).tobytes())
