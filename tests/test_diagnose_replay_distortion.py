@@ -98,3 +98,30 @@ def test_a_mujoco_replays_level_dependence_enters_the_variance_it_refers_through
 def test_the_level_dependence_needs_data_referred_through_a_replay(recorded):
     with pytest.raises(OptionError, match="referred through a replay"):
         with_replay_distortion(recorded.data, recorded.nominal, "mujoco")
+
+
+def test_the_low_level_replay_is_the_validations_nominal_rerun_at_that_level(recorded):
+    """The diagnosis keeps the reference's replay at LOW_LEVEL x the level as the validation's nominal rerun
+    there in the default window (cache key ``"nominal@level"``; a validation over every analysed period,
+    key suffix ``"@all"``, makes its own): made again by the validation's own path (``reruns`` at that
+    amplitude, default window), it gives the same signals."""
+    from vlab.diagnose.data.reference import RERUN_SEED
+    from vlab.diagnose.data.replay import LOW_LEVEL
+    from vlab.diagnose.data.rerun_jobs import reruns, window_for
+    from vlab.diagnose.problem.context import context_for
+    from vlab.diagnose.problem.residuals import Problem
+
+    data, _rec, _kind = referred_through_replay(recorded.data, recorded.nominal, "mujoco")
+    _out, _largest, low = with_replay_distortion(data, recorded.nominal, "mujoco", guard_s=recorded.guard_s)
+    problem = Problem(data, recorded.nominal, context_for(recorded.nominal, recorded.band_hz, data),
+                      guard_s=recorded.guard_s, replay_plant="mujoco")
+    window, suffix = window_for(problem, (recorded.nominal,))
+    assert (window is None) == (suffix == "")  # only the default window's key is the kept replay's
+    fresh, = reruns(problem, [(recorded.nominal, None)], "mujoco", seed=RERUN_SEED, workers=1, window=None,
+                    amplitude=LOW_LEVEL)
+    assert [c.name for c in fresh.channels] == [c.name for c in low.channels]
+    assert fresh.dt_s == low.dt_s
+    for c in fresh.channels:
+        a, b = np.asarray(fresh[c.name]), np.asarray(low[c.name])
+        assert a.shape == b.shape
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * np.abs(b).max())
