@@ -195,6 +195,40 @@ def poke(p, sets_fn):
     return rewrite(p, sets_fn)
 
 
+def set_items(record, key, items, dtype=None):
+    """A ``poke`` edit: the entries ``items`` (index -> value) of the array ``key`` of record ``record``
+    (0-based) replaced, on a copy of the array made with ``dtype``."""
+    def fn(sets):
+        a = np.array(sets[record][key], dtype=dtype)
+        for i, v in items.items():
+            a[i] = v
+        sets[record][key] = a
+    return fn
+
+
+def raw_file(d, name, data):
+    """The file ``d / name`` holding the bytes ``data``."""
+    p = d / name
+    p.write_bytes(data)
+    return p
+
+
+def with_sidecar(d, text):
+    """The good recording with its JSON metadata sidecar replaced by ``text``."""
+    p = write_rec(d)
+    p.with_name(p.name + ".json").write_text(text)
+    return p
+
+
+def renamed_channel(d, old, new, scale=1):
+    """The good recording with channel ``old`` renamed ``new`` and its samples multiplied by ``scale``."""
+    from vlab.io.recording import Recording
+    rec = good_recording()
+    sig = {c.name: np.array(c.samples) for c in rec.channels}
+    sig[new] = sig.pop(old) * scale
+    return write_rec(d, Recording.from_signals(DT, sig, metadata=dict(rec.metadata)))
+
+
 def field_cases(kind, write, read, rows, error=DataFileError):
     """Register a case per row ``(id, record, fields, fragments)``: the good file ``write(d)`` with ``fields``
     of its record ``record`` (0-based) changed, read by ``read``."""
@@ -404,24 +438,17 @@ def time_sidecar_period_disagrees(d):
 
 @case("uff58-time", read_rec, DataFileError, "period_s", "'fast'")
 def time_sidecar_period_not_a_number(d):
-    p = write_rec(d)
-    side = p.with_name(p.name + ".json")
-    side.write_text(json.dumps({"structure": "bcc", "period_s": "fast"}))
-    return p
+    return with_sidecar(d, json.dumps({"structure": "bcc", "period_s": "fast"}))
 
 
 @case("uff58-time", read_rec, DataFileError, "rec.uff.json", "unreadable metadata sidecar")
 def time_sidecar_not_json(d):
-    p = write_rec(d)
-    p.with_name(p.name + ".json").write_text("{structure: bcc")
-    return p
+    return with_sidecar(d, "{structure: bcc")
 
 
 @case("uff58-time", read_rec, DataFileError, "rec.uff.json", "JSON object")
 def time_sidecar_a_list(d):
-    p = write_rec(d)
-    p.with_name(p.name + ".json").write_text("[1, 2]")
-    return p
+    return with_sidecar(d, "[1, 2]")
 
 
 @case("uff58-time", read_rec, DataFileError, "truncated")
@@ -436,16 +463,12 @@ def time_truncated_at_record_boundary(d):
 
 @case("uff58-time", read_rec, DataFileError, "empty file")
 def time_empty_file(d):
-    p = d / "rec.uff"
-    p.write_bytes(b"")
-    return p
+    return raw_file(d, "rec.uff", b"")
 
 
 @case("uff58-time", read_rec, DataFileError, "malformed UFF")
 def time_garbage(d):
-    p = d / "rec.uff"
-    p.write_bytes(b"    -1\n    58\nthis is not a UFF record\n    -1\n")
-    return p
+    return raw_file(d, "rec.uff", b"    -1\n    58\nthis is not a UFF record\n    -1\n")
 
 
 @case("uff58-time", read_rec, DataFileError, "no dataset-58 time-response")
@@ -461,20 +484,12 @@ def time_force_channel_missing(d):
 
 @case("uff58-time", diagnose_rec, DataFileError, "exactly one force channel", "force5")
 def time_two_force_channels(d):
-    from vlab.io.recording import Recording
-    rec = good_recording()
-    sig = {c.name: np.array(c.samples) for c in rec.channels}
-    sig["force5"] = sig.pop("vel5") * 100
-    return write_rec(d, Recording.from_signals(DT, sig, metadata=dict(rec.metadata)))
+    return renamed_channel(d, "vel5", "force5", scale=100)
 
 
 @case("uff58-time", diagnose_rec, DataFileError, "vel42", "point id 42")
 def time_channel_at_unknown_point(d):
-    from vlab.io.recording import Recording
-    rec = good_recording()
-    sig = {c.name: np.array(c.samples) for c in rec.channels}
-    sig["vel42"] = sig.pop("vel6")
-    return write_rec(d, Recording.from_signals(DT, sig, metadata=dict(rec.metadata)))
+    return renamed_channel(d, "vel6", "vel42")
 
 
 @case("uff58-time", diagnose_rec, DataFileError, "4096 samples/s", "PC-1000")
@@ -528,20 +543,12 @@ def frf_repeated_line(d):
 
 @case("uff58-frf", read_frf, DataFileError, "negative frequency", "-0.2")
 def frf_negative_frequency(d):
-    def fn(sets):
-        x = np.array(sets[0]["x"])
-        x[0] = -0.2
-        sets[0]["x"] = x
-    return poke(write_frf(d), fn)
+    return poke(write_frf(d), set_items(0, "x", {0: -0.2}))
 
 
 @case("uff58-frf", read_frf, DataFileError, "coherence", "vel7/force9", "1.5", "outside [0, 1]")
 def frf_coherence_above_one(d):
-    def fn(sets):
-        c = np.array(sets[3]["data"])
-        c[7] = 1.5
-        sets[3]["data"] = c
-    return poke(write_frf(d), fn)
+    return poke(write_frf(d), set_items(3, "data", {7: 1.5}))
 
 
 field_cases("uff58-frf", write_frf, read_frf, [
@@ -624,30 +631,14 @@ field_cases("uff55", write_modes, read_modes, [
     ("modes_zero_frequency", 0, dict(freq=0.0), ("mode record 1", "natural frequency 0.0")),
     ("modes_damping_above_one", 2, dict(modal_damp_vis=1.5), ("mode record 3", "damping ratio 1.5")),
     ("modes_repeated_number", 1, dict(mode_n=1), ("mode number 1 repeats",)),
+    ("modes_zero_shape", 0, dict(r3=np.zeros(6)), ("mode record 1", "zero at every node")),
+    ("modes_nodes_differ", 1, dict(node_nums=np.array([1, 3, 5, 7, 9, 8])), ("mode 2", "different nodes")),
 ])
 
 
 @case("uff55", read_modes, DataFileError, "mode record 2", "non-finite shape value", "node 5")
 def modes_nan_shape(d):
-    def fn(sets):
-        z = np.array(sets[1]["r3"], dtype=float)
-        z[2] = np.nan
-        sets[1]["r3"] = z
-    return poke(write_modes(d), fn)
-
-
-@case("uff55", read_modes, DataFileError, "mode record 1", "zero at every node")
-def modes_zero_shape(d):
-    def fn(sets):
-        sets[0]["r3"] = np.zeros(6)
-    return poke(write_modes(d), fn)
-
-
-@case("uff55", read_modes, DataFileError, "mode 2", "different nodes")
-def modes_nodes_differ(d):
-    def fn(sets):
-        sets[1]["node_nums"] = np.array([1, 3, 5, 7, 9, 8])
-    return poke(write_modes(d), fn)
+    return poke(write_modes(d), set_items(1, "r3", {2: np.nan}, dtype=float))
 
 
 @case("uff55", read_modes, DataFileError, "truncated")
@@ -714,16 +705,12 @@ def csv_sigma_without_damping(t):
 
 @case("csv", read_csv, DataFileError, "line 1", "not UTF-8", "offset")
 def csv_not_utf8(d):
-    p = d / "modes.csv"
-    p.write_bytes(GOOD_CSV.replace("BCC", "BCC \xe9t\xe9").encode("latin-1"))
-    return p
+    return raw_file(d, "modes.csv", GOOD_CSV.replace("BCC", "BCC \xe9t\xe9").encode("latin-1"))
 
 
 @case("csv", read_csv, DataFileError, "NUL byte")
 def csv_binary(d):
-    p = d / "modes.csv"
-    p.write_bytes(GOOD_CSV.encode() + b"\x00\x01\x02\x03")
-    return p
+    return raw_file(d, "modes.csv", GOOD_CSV.encode() + b"\x00\x01\x02\x03")
 
 
 @case("csv", read_csv, DataFileError, "no such file")

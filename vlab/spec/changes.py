@@ -44,6 +44,7 @@ import math
 from typing import Any, Callable
 
 from ..errors import SpecError
+from .reader import read_damping_ratio
 from .structure import Damping, Member, Quantity
 
 #: The change tables this module reads, in the order they are applied.
@@ -174,9 +175,7 @@ def _mode_damping(spec, r) -> Any:
     mode = r.int("mode")
     if mode < 1:
         r.fail("mode", f"mode numbers start at 1, got {mode}")
-    ratio = r.raw("ratio", types=(int, float))
-    if isinstance(ratio, bool) or not 0.0 <= ratio < 1.0:
-        r.fail("ratio", f"a damping ratio must be in [0, 1), got {ratio!r}")
+    ratio = read_damping_ratio(r, "ratio")
     source = r.str("source")
     r.done()
     d = spec.damping

@@ -340,6 +340,31 @@ def read_number(r: TableReader, key: str, default: Any = ..., *, low: float = 0.
     return float(v)
 
 
+def read_damping_ratio(r: TableReader, key: str) -> int | float:
+    """A required damping ratio of table ``r``, in [0, 1) [-]; SpecError naming the field.
+
+    Parameters
+    ----------
+    r : TableReader
+    key : str
+        Field name.
+
+    Returns
+    -------
+    int or float
+        The value as written (the caller converts it).
+
+    Raises
+    ------
+    SpecError
+        The field is missing, not a number, or outside [0, 1).
+    """
+    ratio = r.raw(key, types=(int, float))
+    if isinstance(ratio, bool) or not 0.0 <= ratio < 1.0:
+        r.fail(key, f"a damping ratio must be in [0, 1), got {ratio!r}")
+    return ratio
+
+
 def read_points_list(r: TableReader, key: str, points: dict, default: Any = ...) -> tuple[int, ...]:
     """A list of known, distinct point ids (SpecError naming the field and the bad id).
 

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..errors import SpecError
 from ..io.confine import confined_file
-from .reader import TableReader, read_number, read_point, read_points_list
+from .reader import TableReader, read_damping_ratio, read_number, read_point, read_points_list
 from .structure import DATA_DIR, DOF_NAMES, Damping, Instrumentation, ModelFormDeclared, StructureTest
 
 #: Response quantities a test can compare (Sec. 5.4.2: BCC displacement, Fig. 22; grid velocity, Figs. 23-31).
@@ -108,9 +108,7 @@ def read_damping(dr: TableReader | None) -> Damping | None:
     for z in ratios:
         if not isinstance(z, (int, float)) or isinstance(z, bool) or not 0.0 <= z < 1.0:
             dr.fail("modal_ratios", f"damping ratios must be in [0, 1), got {z!r}")
-    default = dr.raw("default_ratio", types=(int, float))
-    if isinstance(default, bool) or not 0.0 <= default < 1.0:
-        dr.fail("default_ratio", f"a damping ratio must be in [0, 1), got {default!r}")
+    default = read_damping_ratio(dr, "default_ratio")
     damping = Damping(tuple(float(z) for z in ratios), float(default), dr.str("source"))
     dr.done()
     return damping
