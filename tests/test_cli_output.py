@@ -154,13 +154,13 @@ def test_unbounded_interval_is_said_not_printed():
     """A log-scaled parameter the data do not bound gets no interval like [7.55e-145, 1.13e+135]."""
     import numpy as np
 
-    from vlab.diagnose.fit.estimate import UNBOUNDED_DECADES, _ci95
+    from vlab.diagnose.fit.estimate import UNBOUNDED_DECADES, ci95_of
     from vlab.diagnose.report.text import format_parameter
 
     jac = np.array([[1.0, 1e-9], [0.0, 1e-9], [1.0, 0.0]])  # the second (log) parameter barely moves the residuals
-    ci = _ci95(jac, np.array([0.5, -4.5]), chi2=3.0, n=3, log=(False, True))
+    ci = ci95_of(jac, np.array([0.5, -4.5]), chi2=3.0, n=3, log=(False, True))
     assert np.all(np.isfinite(ci[0])) and np.all(np.isnan(ci[1]))
-    well = _ci95(np.array([[10.0], [10.0]]), np.array([-1.0]), chi2=2.0, n=2, log=(True,))
+    well = ci95_of(np.array([[10.0], [10.0]]), np.array([-1.0]), chi2=2.0, n=2, log=(True,))
     assert np.all(np.isfinite(well)) and np.log10(well[0, 1] / well[0, 0]) < 2 * UNBOUNDED_DECADES
     assert format_parameter("c_n_s_m", 3e-5, [None, None]).endswith("[not bounded by the data]")
     assert format_parameter("c_n_s_m", 3e-5, [float("nan"), float("nan")]).endswith("[not bounded by the data]")

@@ -55,12 +55,14 @@ LOCAL_POINTS = 9
 LOCAL_SPAN = 0.3
 
 
-def _z(x: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
+def to_z(x: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
+    """The fit's coordinates of parameters ``x`` [SI] (shape (k,)): log10 where ``log`` says, else as given."""
     x = np.asarray(x, dtype=float)
     return np.array([math.log10(max(v, 1e-300)) if lg else v for v, lg in zip(x, log)])
 
 
-def _x(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
+def from_z(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
+    """Parameters [SI] of the fit's coordinates ``z`` (shape (k,)) with ``log`` as :func:`to_z`'s: its inverse."""
     return np.array([10.0**v if lg else v for v, lg in zip(z, log)])
 
 
@@ -166,10 +168,10 @@ def _parabolic_step(h: Hypothesis, problem: Problem, scored: list[tuple[float, n
     if h.n_params != 1:
         return None
     log = tuple(h.log_scale)
-    pts = [(float(_z(x, log)[0]), c) for c, x in scored if np.isfinite(c) and (not log[0] or x[0] > 0)]
+    pts = [(float(to_z(x, log)[0]), c) for c, x in scored if np.isfinite(c) and (not log[0] or x[0] > 0)]
     null = h.null(problem.base, problem.ctx)
     if null is not None and np.all(np.isfinite(null)) and (not log[0] or null[0] > 0):
-        pts.append((float(_z(np.asarray(null, dtype=float), log)[0]), problem.base_scores()[0]))
+        pts.append((float(to_z(np.asarray(null, dtype=float), log)[0]), problem.base_scores()[0]))
     best_at: dict[float, float] = {}
     for z, c in pts:  # one point per value (the null may be a trial too)
         best_at[z] = min(c, best_at.get(z, math.inf))
@@ -185,7 +187,7 @@ def _parabolic_step(h: Hypothesis, problem: Problem, scored: list[tuple[float, n
     if not (za < zv < zc) or zv in (za, zb, zc):
         return None
     _, lo, hi = h.space(problem.base, problem.ctx)
-    return np.clip(_x(np.array([zv]), log), lo, hi)
+    return np.clip(from_z(np.array([zv]), log), lo, hi)
 
 
 def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None = None,
@@ -228,19 +230,19 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
     log = tuple(h.log_scale)
     best_chi2 = screened[0][0]
     picks = [x for c, x in screened[:n_starts] if c <= 3.0 * best_chi2 + 1.0]
-    zlo, zhi = _z(lo, log), _z(hi, log)
-    tz = np.array([_z(np.clip(t, lo, hi), log) for t in trials])
+    zlo, zhi = to_z(lo, log), to_z(hi, log)
+    tz = np.array([to_z(np.clip(t, lo, hi), log) for t in trials])
     scale = np.maximum(np.max(np.abs(tz), axis=0), 1e-12)
     scale = np.where(np.array(log), 1.0, scale)
     best = None
     for x0 in picks:
-        z0 = _z(np.clip(x0, lo, hi), log)
+        z0 = to_z(np.clip(x0, lo, hi), log)
         span = zhi - zlo
         z0 = np.clip(z0, zlo + 1e-6 * span, zhi - 1e-6 * span)
 
         def fun(u: np.ndarray) -> np.ndarray:
             try:
-                return problem.residual(problem.state_for(h, _x(u * scale, log)))
+                return problem.residual(problem.state_for(h, from_z(u * scale, log)))
             except ModelError:  # a model the structure cannot carry (buckling): the fit steps back
                 return np.full(problem.n_obs, PENALTY)
 
@@ -259,17 +261,17 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
         h.success_ = False
     else:
         z = best.x * scale
-        x = _x(z, log)
+        x = from_z(z, log)
         chi2 = 2.0 * best.cost
         if chi2 > best_chi2:
             x, chi2 = screened[0][1], best_chi2
-            z = _z(x, log)
+            z = to_z(x, log)
         h.params_ = x
         h.chi2_ = float(chi2)
         h.success_ = bool(best.success or best.status > 0)
         # the linearised interval held to the parameter's own range (a damping ratio is not negative); an
         # end the data do not bound (inf, NaN) stays so
-        ci = _ci95(best.jac / scale[None, :], z, chi2, problem.n_obs, log)
+        ci = ci95_of(best.jac / scale[None, :], z, chi2, problem.n_obs, log)
         h.ci95_ = np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
     k = h.n_params
     h.aic_, h.bic_ = problem.information(h.chi2_, k)
@@ -283,9 +285,13 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
 UNBOUNDED_DECADES = 2.0
 
 
-def _ci95(jac: np.ndarray, z: np.ndarray, chi2: float, n: int, log: tuple[bool, ...]) -> np.ndarray:
-    """95 % intervals [SI] from the Jacobian of the residuals w.r.t. z (log10 or linear parameters); NaN ends for
-    a log parameter the data do not bound (half-width above :data:`UNBOUNDED_DECADES` decades)."""
+def ci95_of(jac: np.ndarray, z: np.ndarray, chi2: float, n: int, log: tuple[bool, ...]) -> np.ndarray:
+    """95 % intervals [SI], shape (k, 2), from the Jacobian ``jac`` (shape (n, k)) of the residuals w.r.t. ``z``
+    (log10 or linear parameters, shape (k,)), the covariance ``s2 (J^T J)^-1`` with ``s2 = max(1, chi2 / (n - k))``
+    (the reduced chi-square where it exceeds 1); NaN ends for a log parameter the data do not bound
+    (half-width above :data:`UNBOUNDED_DECADES` decades), infinite ones for a direction the data do not
+    determine. Source: the linearised (Gauss-Newton) covariance of least squares, e.g. Seber & Wild,
+    *Nonlinear Regression*, 1989, Sec. 5.1."""
     k = z.size
     s2 = max(1.0, chi2 / max(n - k, 1))
     jtj = jac.T @ jac

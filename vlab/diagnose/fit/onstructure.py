@@ -50,6 +50,7 @@ from ..model.modelform import remeshed
 from ..problem.residuals import Problem
 from .anchored import fit_anchored
 from .estimate import fit_hypothesis
+from .robust import t_fit
 
 #: Share of the smallest model-form frequency uncertainty below which a mesh counts as converged: the
 #: discretisation then adds at most 1 % to any mode's frequency variance.
@@ -76,6 +77,10 @@ class StructureFit:
         What the data were referred through, in words.
     seconds : float
         Wall time of the fit [s].
+    likelihood : str
+        The likelihood the value maximises, in words (:mod:`vlab.diagnose.fit.robust`).
+    t_dof, t_scale : float or None
+        The Student-t likelihood's degrees of freedom and scale [1], None on the normal likelihood.
     """
 
     params: np.ndarray
@@ -83,12 +88,17 @@ class StructureFit:
     chi2: float
     reference: str
     seconds: float
+    likelihood: str = "normal (least squares)"
+    t_dof: float | None = None
+    t_scale: float | None = None
 
     def as_dict(self) -> dict:
         """JSON-ready summary (parameters and their 95 % intervals SI, in the hypothesis's order)."""
         return {"parameters": [float(v) for v in self.params],
                 "ci95": [[float(a), float(b)] for a, b in self.ci95], "chi2": float(self.chi2),
-                "reference": self.reference, "seconds": float(self.seconds)}
+                "reference": self.reference, "seconds": float(self.seconds), "likelihood": self.likelihood,
+                "t_dof": None if self.t_dof is None else float(self.t_dof),
+                "t_scale": None if self.t_scale is None else float(self.t_scale)}
 
 
 def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> StructureFit | None:
@@ -98,7 +108,11 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     search from the chosen value: an added mass 30 % apart) or from the chosen value where that scores
     better on the structure's problem than the trials' fit (a value beyond the trials' range); a pair from the
     chosen parameters, by a local fit; each with the model form anchored at the fitted lab
-    (:func:`vlab.diagnose.fit.anchored.fit_anchored`).
+    (:func:`vlab.diagnose.fit.anchored.fit_anchored`). The value is then that of the Student-t likelihood of
+    the same residuals, its degrees of freedom and scale estimated with it
+    (:func:`vlab.diagnose.fit.robust.t_fit`: a few lines misfit by the model's form beyond their variance
+    no longer pull a value whose information lies elsewhere), where it fits better than the nominal lab on
+    that likelihood; else the least-squares value.
 
     Parameters
     ----------
@@ -130,8 +144,15 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
         return None
     if not np.all(np.isfinite(g.params_)) or not g.chi2_ < footing.chi2(footing.base):
         return None
-    return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
-                        reference, time.perf_counter() - t)
+    try:
+        tf = t_fit(g, footing, np.asarray(g.params_, dtype=float))
+    except (VlabError, ValueError, np.linalg.LinAlgError):
+        tf = None
+    if tf is None or not np.all(np.isfinite(tf.params)) or not tf.nll < tf.nll_nominal:
+        return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
+                            reference, time.perf_counter() - t)
+    return StructureFit(tf.params, tf.ci95, footing.chi2(footing.state_for(g, tf.params)), reference,
+                        time.perf_counter() - t, tf.describe(), tf.dof, tf.scale)
 
 
 def spanning(ci95: np.ndarray, *values: np.ndarray) -> np.ndarray:
