@@ -99,3 +99,13 @@ def test_a_start_of_another_length_is_refused():
     problem, h = _spring_data(0.0)
     with pytest.raises(ValueError, match="start of shape"):
         t_fit(h, problem, np.array([1.0, 2.0]))
+
+
+def test_the_structure_fit_says_which_likelihood_its_value_maximises():
+    from vlab.diagnose.fit.onstructure import StructureFit
+
+    plain = StructureFit(np.array([1.0]), np.array([[0.9, 1.1]]), 3.0, "its own replay", 0.1).as_dict()
+    assert plain["likelihood"].startswith("normal") and plain["t_dof"] is None and plain["t_scale"] is None
+    t = StructureFit(np.array([1.0]), np.array([[0.9, 1.1]]), 3.0, "its own replay", 0.1, "Student-t likelihood",
+                     2.5, 0.3).as_dict()
+    assert (t["likelihood"], t["t_dof"], t["t_scale"]) == ("Student-t likelihood", 2.5, 0.3)

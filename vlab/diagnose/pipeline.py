@@ -292,7 +292,7 @@ def _on_structure(res: DiagnosisResult, structure: tuple[Problem, str] | None, n
                      "model of the structure file, its mesh converged, the data referred through its own linear "
                      "replay, the model form anchored at the fitted lab's modes), where no simulator's "
                      "discretisation enters it; its 95 % interval spans the value fitted through the MuJoCo "
-                     "plant's replay (plant_fit)")
+                     f"plant's replay (plant_fit); the value maximises the {res.structure_fit.likelihood}")
     else:
         notes.append("the value could not be fitted on the structure's own model (the fit failed or did not beat "
                      "the nominal model there): it is the one fitted through the MuJoCo plant's replay")

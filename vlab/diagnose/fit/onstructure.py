@@ -88,7 +88,7 @@ class StructureFit:
     chi2: float
     reference: str
     seconds: float
-    likelihood: str = "normal (least squares)"
+    likelihood: str = "normal likelihood (least squares)"
     t_dof: float | None = None
     t_scale: float | None = None
 
