@@ -8,6 +8,7 @@ import numpy as np
 from rich.markup import escape
 
 from ..errors import OptionError
+from ..lab.blocks import PC1000_DELAY_PERIODS, RC_CORNER_HZ
 from . import checks
 from .figure_option import figure_path, write_atomically
 from .options import REDUCTION_HELP, DesignReduction, OutputFormat, arg_structure, flag, format_opt, json_flag, opt
@@ -36,8 +37,8 @@ def design(
     period_ms: float = opt(None, "--period-ms",
                            help="sampling period of the realization [ms], > 0 (default: the thesis's, "
                                 "Sec. 5.3: LQG 1 ms, the others 0.5 ms)"),
-    margins: bool = flag("--margins", help="also analyse the lab's sampled-data loop on the FE model (delay 1.35 "
-                                           "periods, hold, 677 Hz RC filter): loop-at-a-time gain and phase margins "
+    margins: bool = flag("--margins", help="also analyse the lab's sampled-data loop on the FE model (delay "
+                                           f"{PC1000_DELAY_PERIODS:g} periods, hold, {RC_CORNER_HZ:g} Hz RC filter): loop-at-a-time gain and phase margins "
                                            "per channel and the peak sensitivity M_s (a second table; JSON key loop; "
                                            "with --format csv the margins' rows instead of the modes')"),
     figure: str = opt(None, "--figure", help="also draw the loop into this file (.png, .svg or .pdf): Bode and "

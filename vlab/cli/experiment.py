@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 
 from ..errors import OptionError, ResourceError, VlabError
+from ..lab.blocks import PC1000_DELAY_PERIODS
 from ..units import format_bytes, format_duration
 from . import checks
 from .options import (REDUCTION_HELP, STRUCTURE_HELP, DesignReduction, ExpController, OutputFormat, PlantKind,
@@ -44,7 +45,8 @@ def experiment(
                                  "grid: 2 x 50 s = 100 s) (default: the records the slowest mode needs to settle "
                                  "+ 2 measured)"),
     delay_periods: float = opt(None, "--delay-periods", "--delay-samples",
-                               help="computation delay [sampling periods], >= 0 (Sec. 5.3; default 1.35); given, "
+                               help=f"computation delay [sampling periods], >= 0 (Sec. 5.3; default {PC1000_DELAY_PERIODS:g}); "
+                                    "given, "
                                     "it also replaces the per-channel delays of the structure file's [hardware] "
                                     "table, whose other settings the run always uses"),
     period_ms: float = opt(None, "--period-ms",
@@ -84,7 +86,7 @@ def experiment(
     spec = checks.load_structure(structure)
     out_path = checks.out_dir(out, EXPERIMENT_OUT, overwrite)
     file_delays = () if delay_periods is None or spec.hardware is None else tuple(spec.hardware.delay_s)
-    delay_periods = 1.35 if delay_periods is None else delay_periods
+    delay_periods = PC1000_DELAY_PERIODS if delay_periods is None else delay_periods
     cfg = _config(spec, controller=controller, reduction=reduction, excitation=excitation, duration=duration,
                   delay_periods=delay_periods, period_ms=period_ms, noise=noise, seed=seed, mjcf=mjcf, plant=plant,
                   spawn=spawn, file_delays=file_delays)

@@ -9,6 +9,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import OptionError
+from ..lab.blocks import PC1000_DELAY_PERIODS
 from . import checks
 from .options import arg, flag, opt, quiet_flag
 from .output import console, print_json, stages
@@ -33,7 +34,7 @@ def robustness(
                                 "coil masses ±10 %, support springs ±10 %, delay 1.15-1.55 periods, actuator "
                                 "gains ±5 %, sensor gains ±5 %, all uniform and assumed (the dissertation states "
                                 "no tolerances; EI measured, Sec. 2.1; masses calibrated, Tables 1 and 8; delay "
-                                "1.35 periods measured, Sec. 5.3); each group's source in robustness.json"),
+                                f"{PC1000_DELAY_PERIODS:g} periods measured, Sec. 5.3); each group's source in robustness.json"),
     scheduler: str = opt("local", "--scheduler",
                          help="where the chunks run: local (a Dask LocalCluster, one process per CPU), none "
                               "(this process) or tcp://HOST:PORT (an existing Dask scheduler, which must answer "

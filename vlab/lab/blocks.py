@@ -515,7 +515,7 @@ class SensorNoise(Block):
 
         y[n] = u[n] + sigma * w[n],     w[n] ~ N(0, I) independent
 
-    MuJoCo does not apply sensor noise (DESIGN.md), so the lab adds it here.
+    MuJoCo does not apply sensor noise (its ``noise`` attribute is not simulated), so the lab adds it here.
     The sequence is fully determined by ``seed``.
 
     Parameters

@@ -207,6 +207,7 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
     from .plants import per_plant, sec7_on_plants
 
     from .study import is_dissertation, nominal_spec
+    from .uncertainty import DEFAULTS
 
     extras = extras or {}
     sim = extras.get("time_simulation", {})
@@ -214,7 +215,8 @@ def markdown(cfg: StudyConfig, nominal: Nominal, summary: Summary, checks, timin
     diss = is_dissertation(cfg)
     spec = nominal_spec(cfg, nominal)
     lines = [
-        f"# Robustness of the controllers to modelling errors: {cfg.structure.upper() if diss else spec.title}", "",
+        f"# Robustness of the controllers to modelling errors: {cfg.structure.upper() if diss else spec.title}"
+        + ("" if cfg.uncertainties == DEFAULTS else " (the spreads of the command's --uncertainty file)"), "",
         f"Written by `{command}` ({cfg.n_samples} Monte Carlo samples, seed {cfg.seed}, "
         f"{timings.get('total', float('nan')):.0f} s on this machine; the samples ran in "
         f"{timings.get('study', float('nan')):.0f} s on {timings.get('where', '?')}, the MuJoCo runs took "

@@ -91,7 +91,7 @@ Spec keys read from ``[mujoco]`` (all optional)
 (``beta`` [s]), ``crosspiece_root_offset`` [m], ``pendulum_plates`` (table
 spring id -> mass id, or false). :class:`SimOptions` fields override them.
 
-Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
+Sources: docs/plants.md (how the plants are built); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
 dissertation; MuJoCo documentation (``doc/XMLreference.rst``: tendon,
 equality, actuator/general refsite; ``doc/computation/index.rst``:
 integrators).
