@@ -54,6 +54,7 @@ def test_a_replay_plants_frequency_offset_enters_the_mass_and_the_structures_own
     assert sf is not None and sf.params[0] == pytest.approx(MASS, rel=1e-3)
     assert chosen.params_[0] == fitted  # the chosen hypothesis itself is left as it was
     assert sf.reference == "its own replay" and sf.ci95.shape == (1, 2)
+    assert sf.likelihood.startswith("normal")  # noise-free residuals: no tail for the t likelihood to weigh
 
 
 def test_an_effect_without_parameters_has_no_structure_value():

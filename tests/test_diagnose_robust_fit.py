@@ -109,3 +109,41 @@ def test_the_structure_fit_says_which_likelihood_its_value_maximises():
     t = StructureFit(np.array([1.0]), np.array([[0.9, 1.1]]), 3.0, "its own replay", 0.1, "Student-t likelihood",
                      2.5, 0.3).as_dict()
     assert (t["likelihood"], t["t_dof"], t["t_scale"]) == ("Student-t likelihood", 2.5, 0.3)
+
+
+def test_the_loss_is_the_t_likelihood_at_fixed_dof_and_scale():
+    """rho and its derivatives by finite differences; scipy's cost ``0.5 sum s^2 rho(f^2 / s^2)`` is
+    ``nu s^2 / (nu + 1)`` times the residual part of the t negative log-likelihood."""
+    from vlab.diagnose.fit.robust import _t_loss
+
+    nu, s = 2.5, 0.4
+    z = np.array([0.0, 0.3, 2.0, 40.0])
+    rho = _t_loss(nu)(z)
+    dz = 1e-6
+    np.testing.assert_allclose(rho[1], (_t_loss(nu)(z + dz)[0] - _t_loss(nu)(z - dz)[0]) / (2 * dz), rtol=1e-6)
+    np.testing.assert_allclose(rho[2], (_t_loss(nu)(z + dz)[1] - _t_loss(nu)(z - dz)[1]) / (2 * dz), rtol=1e-5)
+    f = np.array([0.1, -0.5, 1.7, 6.0])
+    cost = 0.5 * np.sum(s * s * _t_loss(nu)((f / s) ** 2)[0])
+    expected = nu * s * s / (nu + 1) * (t_nll(f**2, nu, s) - t_nll(np.zeros(4), nu, s))
+    assert cost == pytest.approx(expected, rel=1e-12)
+
+
+def test_the_interval_is_the_expected_information_of_the_residuals_own_jacobian():
+    """The misplaced-mode fit's interval against one made here: central differences of the problem's residuals
+    in the fit's coordinate (log10 of the stiffness), information (nu + 1) / ((nu + 3) max(s, 1)^2) each."""
+    problem, h = _spring_data(0.0015)
+    ls = fit_hypothesis(h, problem)
+    tf = t_fit(ls, problem, ls.params_)
+    assert h.log_scale == (True,)
+    z0, dz = np.log10(tf.params[0]), 1e-4
+    col = (problem.residual(problem.state_for(h, np.array([10 ** (z0 + dz)])))
+           - problem.residual(problem.state_for(h, np.array([10 ** (z0 - dz)])))) / (2 * dz)
+    s = max(tf.scale, 1.0)
+    sd = 1.0 / np.sqrt((tf.dof + 1) / ((tf.dof + 3) * s * s) * col @ col)
+    np.testing.assert_allclose(tf.ci95[0], 10 ** (z0 + np.array([-1.96, 1.96]) * sd), rtol=2e-3)
+
+
+def test_residuals_that_are_mostly_zero_have_no_tail_to_weigh():
+    r2 = np.concatenate([np.zeros(900), np.random.default_rng(0).standard_normal(100) ** 2])
+    with pytest.raises(ValueError, match="no interior maximum"):
+        t_dof_scale(r2)

@@ -72,7 +72,8 @@ class StructureFit:
     ci95 : ndarray, shape (k, 2)
         Their 95 % intervals from the fit [SI] (NaN where undetermined).
     chi2 : float
-        The fit's chi-square on the structure's problem.
+        The least-squares chi-square on the structure's problem at ``params`` (on the t likelihood not the
+        objective minimised).
     reference : str
         What the data were referred through, in words.
     seconds : float

@@ -18,7 +18,7 @@ parameters stop moving.
 Source: K. L. Lange, R. J. A. Little and J. M. G. Taylor, "Robust statistical modeling using the t
 distribution", *J. Amer. Statist. Assoc.* 84 (1989) 881-896 (the likelihood, the joint estimation of
 ``nu`` and the scale, and the expected information ``(nu + 1) / ((nu + 3) s^2)`` per residual used for
-the intervals, with ``s`` held to at least the stated standard deviations); C. Liu and D. B. Rubin, "ML estimation of the t distribution using EM and its
+the intervals, where vlab holds ``s`` to at least the stated standard deviations); C. Liu and D. B. Rubin, "ML estimation of the t distribution using EM and its
 extensions, ECM and ECME", *Statistica Sinica* 5 (1995) 19-39.
 """
 
@@ -31,12 +31,14 @@ import numpy as np
 import scipy.optimize
 from scipy.special import gammaln
 
+from ...errors import ModelError
 from ..effects.hypothesis import Hypothesis
+from ..problem.forms import PENALTY
 from ..problem.residuals import Problem
 from .estimate import ci95_of, from_z, to_z
 
-#: The degrees of freedom searched, ``[low, high]``: below 0.5 the t density has no usable scale; above
-#: 1e4 it is the normal density to within 1e-4 in every quantile used here.
+#: The degrees of freedom searched, ``[low, high]``: below 0.5 the t density has no usable scale; at 1e4 its
+#: 97.5 % quantile is the normal one to 1.2e-4 (relative).
 DOF_RANGE = (0.5, 1.0e4)
 #: ECM rounds at most (each a local fit): the parameters settle in two or three.
 ROUNDS = 6
@@ -55,19 +57,31 @@ def t_nll(r2: np.ndarray, nu: float, scale: float) -> float:
 def t_dof_scale(r2: np.ndarray) -> tuple[float, float]:
     """Maximum-likelihood ``(nu, scale)`` of residuals with squares ``r2`` (shape (n,), location 0).
 
-    ``nu`` is held to :data:`DOF_RANGE`. Raises ValueError when ``r2`` is empty or not finite."""
+    ``nu`` is searched in :data:`DOF_RANGE`, the scale within 15 e-folds of the root-mean-square residual.
+
+    Raises
+    ------
+    ValueError
+        ``r2`` empty or not finite, or a likelihood without an interior maximum: the degrees of freedom at the
+        lower end of :data:`DOF_RANGE` or the scale at its lower bound -- residuals of which more than
+        ``nu / (nu + 1)`` are (nearly) zero, e.g. noise-free data, have a likelihood unbounded as the scale
+        goes to 0, and their "heavy tails" are not evidence of anything.
+    """
     r2 = np.asarray(r2, dtype=float)
     if r2.size == 0 or not np.all(np.isfinite(r2)):
         raise ValueError("the t likelihood needs finite residuals")
-    s0 = max(math.sqrt(float(np.median(r2))), 1e-12)
+    u_s = math.log(max(math.sqrt(float(np.mean(r2))), 1e-300))
 
     def f(u: np.ndarray) -> float:
         return t_nll(r2, math.exp(u[0]), math.exp(u[1]))
 
     lo, hi = math.log(DOF_RANGE[0]), math.log(DOF_RANGE[1])
-    best = min((scipy.optimize.minimize(f, [u0, math.log(s0)], method="L-BFGS-B",
-                                        bounds=[(lo, hi), (math.log(s0) - 10, math.log(s0) + 10)])
+    s_bounds = (u_s - 15.0, u_s + 15.0)
+    best = min((scipy.optimize.minimize(f, [u0, u_s], method="L-BFGS-B", bounds=[(lo, hi), s_bounds])
                 for u0 in (math.log(2.0), math.log(100.0))), key=lambda s: s.fun)
+    if best.x[0] <= lo + 1e-6 or best.x[1] <= s_bounds[0] + 1e-6:
+        raise ValueError("the t likelihood of these residuals has no interior maximum (most of them are nearly "
+                         "zero): no tail to weigh")
     return math.exp(best.x[0]), math.exp(best.x[1])
 
 
@@ -80,8 +94,8 @@ class TFit:
     params : ndarray, shape (k,)
         The parameters [SI].
     ci95 : ndarray, shape (k, 2)
-        Their 95 % intervals from the expected information [SI], the scale held to at least 1 (NaN ends where
-        undetermined).
+        Their 95 % intervals [SI] from the expected information (the residuals' own Jacobian; the scale held to
+        at least 1), held to the parameters' range (NaN ends where undetermined).
     dof : float
         The residuals' degrees of freedom ``nu`` [1].
     scale : float
@@ -89,7 +103,7 @@ class TFit:
     nll : float
         The negative log-likelihood at the fit [1].
     nll_nominal : float
-        That of the problem's nominal lab at the same ``nu`` and ``s`` [1].
+        That of the problem's nominal lab at its own maximum-likelihood ``nu`` and ``s`` [1] (both profiled).
     """
 
     params: np.ndarray
@@ -138,7 +152,9 @@ def t_fit(h: Hypothesis, problem: Problem, x0: np.ndarray, *, max_nfev: int = 40
     Raises
     ------
     ValueError
-        ``x0`` of another length than ``h``'s parameters, or residuals that are not finite.
+        ``x0`` of another length than ``h``'s parameters, residuals that are not finite, a likelihood without an
+        interior maximum (:func:`t_dof_scale`: noise-free residuals), or a fit ending on a model that leaves
+        lines it cannot predict.
     """
     x = np.asarray(x0, dtype=float)
     if x.shape != (h.n_params,):
@@ -149,26 +165,58 @@ def t_fit(h: Hypothesis, problem: Problem, x0: np.ndarray, *, max_nfev: int = 40
     span = zhi - zlo
 
     def fun(z: np.ndarray) -> np.ndarray:
-        return problem.residual(problem.state_for(h, from_z(z, log)))
+        try:
+            return problem.residual(problem.state_for(h, from_z(z, log)))
+        except ModelError:  # a model the structure cannot carry (buckling): the fit steps back
+            return np.full(problem.n_obs, PENALTY)
 
     z = np.clip(to_z(np.clip(x, lo, hi), log), zlo + 1e-6 * span, zhi - 1e-6 * span)
-    ci = np.full((h.n_params, 2), np.nan)
-    sol = None
     for _ in range(ROUNDS):
         nu, s = t_dof_scale(fun(z) ** 2)
         sol = scipy.optimize.least_squares(fun, z, bounds=(zlo, zhi), method="trf", loss=_t_loss(nu),
-                                           f_scale=s, diff_step=1e-3, max_nfev=max_nfev)
-        # expected information of the t likelihood, (nu + 1) / ((nu + 3) s^2) per residual, with the scale held to
-        # at least the problem's stated standard deviations (the floor is the model's stated accuracy: residuals
-        # below it are not more informative), as least squares holds its reduced chi-square to at least 1
-        s_ci = max(s, 1.0)
-        ci = ci95_of(sol.jac * math.sqrt((nu + 1) / ((nu + 3) * s_ci * s_ci)), sol.x, 0.0, problem.n_obs, log)
-        width = np.abs(ci[:, 1] - ci[:, 0])
-        moved = np.abs(from_z(sol.x, log) - from_z(z, log))
+                                           f_scale=s, diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
+        moved = np.abs(sol.x - z)
         z = sol.x
-        if np.all(np.isfinite(width)) and np.all(moved <= SETTLED * width):
+        if np.all(moved <= SETTLED * np.maximum(_sd_z(fun, z, nu, s, zlo, zhi), 1e-9 * span)):
             break
-    r2 = fun(z) ** 2
-    nu, s = t_dof_scale(r2)
-    r2_nominal = problem.residual(problem.base) ** 2
-    return TFit(from_z(z, log), ci, nu, s, t_nll(r2, nu, s), t_nll(r2_nominal, nu, s))
+    r = fun(z)
+    if np.any(r == PENALTY):
+        raise ValueError("the t fit ended on a model with lines it cannot predict")
+    nu, s = t_dof_scale(r**2)
+    ci = ci95_of(_jac(fun, z, zlo, zhi) * math.sqrt(_information(nu, s)), z, 0.0, problem.n_obs, log)
+    ci = np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
+    r_nom = problem.residual(problem.base)
+    return TFit(from_z(z, log), ci, nu, s, t_nll(r**2, nu, s), t_nll(r_nom**2, *t_dof_scale(r_nom**2)))
+
+
+def _information(nu: float, s: float) -> float:
+    """Expected information per residual for a location parameter of the t density, ``(nu + 1) / ((nu + 3)
+    s^2)`` (Lange et al. 1989), with the scale held to at least the problem's stated standard deviations
+    (residuals below the model's stated accuracy are not taken as more informative; this floor is vlab's, as
+    least squares holds its reduced chi-square to at least 1)."""
+    s = max(s, 1.0)
+    return (nu + 1) / ((nu + 3) * s * s)
+
+
+def _jac(fun, z: np.ndarray, zlo: np.ndarray, zhi: np.ndarray) -> np.ndarray:
+    """Forward-difference Jacobian of ``fun`` at ``z`` (steps 1e-3 of ``|z|``, at least 1e-6 of the range, taken
+    inward at an upper bound), shape (n, k): the residuals' own, not a robust loss's reweighted one."""
+    r0 = fun(z)
+    cols = []
+    for i in range(z.size):
+        step = max(1e-3 * abs(z[i]), 1e-3 * (zhi[i] - zlo[i]) * 1e-3)
+        if z[i] + step > zhi[i]:
+            step = -step
+        zi = z.copy()
+        zi[i] += step
+        cols.append((fun(zi) - r0) / step)
+    return np.column_stack(cols)
+
+
+def _sd_z(fun, z, nu, s, zlo, zhi) -> np.ndarray:
+    """Standard deviations of ``z`` from the t likelihood's expected information (inf where undetermined)."""
+    j = _jac(fun, z, zlo, zhi) * math.sqrt(_information(nu, s))
+    try:
+        return np.sqrt(np.clip(np.diag(np.linalg.pinv(j.T @ j)), 0.0, None))
+    except np.linalg.LinAlgError:
+        return np.full(z.size, np.inf)
