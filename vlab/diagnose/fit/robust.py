@@ -171,13 +171,16 @@ def t_fit(h: Hypothesis, problem: Problem, x0: np.ndarray, *, max_nfev: int = 40
             return np.full(problem.n_obs, PENALTY)
 
     z = np.clip(to_z(np.clip(x, lo, hi), log), zlo + 1e-6 * span, zhi - 1e-6 * span)
+    tol = None  # the settling tolerance: SETTLED of the standard deviations at the start's (nu, s)
     for _ in range(ROUNDS):
         nu, s = t_dof_scale(fun(z) ** 2)
+        if tol is None:
+            tol = SETTLED * np.maximum(_sd_z(fun, z, nu, s, zlo, zhi), 1e-9 * span)
         sol = scipy.optimize.least_squares(fun, z, bounds=(zlo, zhi), method="trf", loss=_t_loss(nu),
                                            f_scale=s, diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
         moved = np.abs(sol.x - z)
         z = sol.x
-        if np.all(moved <= SETTLED * np.maximum(_sd_z(fun, z, nu, s, zlo, zhi), 1e-9 * span)):
+        if np.all(moved <= tol):
             break
     r = fun(z)
     if np.any(r == PENALTY):
