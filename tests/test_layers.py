@@ -15,7 +15,7 @@ import counts: module level, inside functions and under ``TYPE_CHECKING``):
 9. diagnose, robust, reproduce, update
 10. the command line and the package's own ``__init__`` (its public names)
 
-The same order is drawn in DESIGN.md. Within ``vlab.sim`` the import graph has no cycle. Modules of vlab and
+Within ``vlab.sim`` the import graph has no cycle. Modules of vlab and
 of the design package ``controllers/`` stay under :data:`MAX_MODULE_LINES` lines and functions under
 :data:`MAX_FUNCTION_LINES` (docstring included).
 The checks are also run on small made-up inputs so that they can fail.

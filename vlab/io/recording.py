@@ -251,7 +251,7 @@ class Channel:
     name : str
         Unique name within the recording (``"force4"``, ``"vel1"``).
     point_id : int
-        Structure point (dissertation numbering, see DESIGN.md) where it is measured.
+        Structure point (dissertation numbering: docs/getting-started.md, "Units and numbering") where it is measured.
     quantity : {"force", "displacement", "velocity", "acceleration"}
         What is measured; fixes the unit (:data:`QUANTITY_UNITS`).
     samples : array_like, shape (n_samples,)

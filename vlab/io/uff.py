@@ -1,6 +1,6 @@
 """Universal File Format (UFF) input/output with pyuff.
 
-Formats (DESIGN.md, "Data formats"):
+Formats written and read:
 
 * **Recordings** — dataset 58, function type 1 (time response), one record
   per channel: ``rsp_node`` = point id, ``rsp_dir`` = 3 (+Z, out of plane),

@@ -515,7 +515,8 @@ class SensorNoise(Block):
 
         y[n] = u[n] + sigma * w[n],     w[n] ~ N(0, I) independent
 
-    MuJoCo does not apply sensor noise (DESIGN.md), so the lab adds it here.
+    MuJoCo's sensors return noise-free values (it does not apply an MJCF sensor's ``noise``
+    attribute), so the lab adds the noise here.
     The sequence is fully determined by ``seed``.
 
     Parameters

@@ -7,7 +7,7 @@ bodies of the member chains, once those exist. :mod:`vlab.sim.builder`
 describes how each is modelled.
 
 Sources: Sec. 2.1, 2.2, 2.2.1 of the dissertation (crosspieces, strings,
-the grid's pendulum plates ``W Y``); DESIGN.md ("MuJoCo facts").
+the grid's pendulum plates ``W Y``); the plant's construction and its checks: docs/plants.md.
 """
 
 from __future__ import annotations

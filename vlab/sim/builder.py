@@ -91,10 +91,9 @@ Spec keys read from ``[mujoco]`` (all optional)
 (``beta`` [s]), ``crosspiece_root_offset`` [m], ``pendulum_plates`` (table
 spring id -> mass id, or false). :class:`SimOptions` fields override them.
 
-Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
-dissertation; MuJoCo documentation (``doc/XMLreference.rst``: tendon,
-equality, actuator/general refsite; ``doc/computation/index.rst``:
-integrators).
+Sources: Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the dissertation; docs/plants.md; MuJoCo
+documentation (``doc/XMLreference.rst``: tendon, equality, actuator/general refsite;
+``doc/computation/index.rst``: integrators).
 """
 
 from __future__ import annotations

@@ -21,7 +21,8 @@ Two checks:
   (:mod:`vlab.sim.decay`); repeated over discretisations by
   :mod:`vlab.sim.convergence`.
 
-Sources: MAC, Allemang & Brown (1982); DESIGN.md (cross-check targets);
+Sources: MAC, Allemang & Brown (1982); the limits :data:`TOL_PCT` and :data:`MIN_MAC` (their
+source: :data:`TOLERANCE_SOURCE`);
 Ewins, *Modal Testing*, Sec. 4.2 (logarithmic decrement).
 """
 
@@ -232,7 +233,7 @@ def crosscheck(spec_or_plant: StructureSpec | Plant, n_modes: int, *, options: S
     ModelError
         If the FE model cannot be built.
 
-    Source: MAC, Allemang & Brown (1982); DESIGN.md (cross-check targets).
+    Source: MAC, Allemang & Brown (1982); limits :data:`TOL_PCT`, :data:`MIN_MAC`.
     """
     from ..fe import modal_analysis
 

@@ -9,7 +9,7 @@ The forest topology's closures and the grounded springs away from the root
 need the compiled model's first-order kinematics at the flat state
 (``mj_jacSite``): the spec is compiled once for them.
 
-Sources: DESIGN.md ("MuJoCo facts"); MuJoCo documentation
+Sources: MuJoCo documentation
 (``doc/XMLreference.rst``: tendon, equality, actuator/general refsite;
 ``doc/APIreference/functions.rst``: ``mj_jacSite``).
 """
@@ -32,7 +32,8 @@ from .plan import Plan, combine_items
 from .planner import plan_structure
 from .timestep import LAB_PERIOD_S
 
-#: Weld/connect constraint impedance that makes a weld behave as rigid (DESIGN.md).
+#: Weld/connect constraint impedance that makes a weld behave as rigid (``d = 0.9999``, the largest impedance
+#: MuJoCo's constraint regularisation allows).
 RIGID_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 #: Newton solver tolerance of the forest topology (MuJoCo's default 1e-8). At rest, the forest's warm-started

@@ -4,7 +4,7 @@ The plant's reference configuration is flat; gravity acts in the plane, so
 the settled state is the flat one up to round-off -- but the geometric
 stiffness of gravity and of the string tensions only appears in a
 linearisation *around the loaded state*, which is why the state is settled
-first (DESIGN.md: "let the model settle before linearising").
+first.
 
 The linearisation is :func:`mujoco.mjd_transitionFD` (forward finite
 differences of one step by default): ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k``

@@ -4,7 +4,7 @@ The options are read by the planner (:mod:`vlab.sim.planner`), the MjSpec
 emitter (:mod:`vlab.sim.emit`) and the builder (:mod:`vlab.sim.builder`);
 ``None`` fields take the spec's ``[mujoco]`` value (:meth:`SimOptions.resolved`).
 
-Sources: DESIGN.md ("MuJoCo facts"); MuJoCo documentation
+Sources: MuJoCo documentation
 (``doc/computation/index.rst``: integrators).
 """
 

@@ -24,8 +24,8 @@ its free out-of-plane DOFs become a slide (w) and hinges (rx, ry). The tree is
 grown breadth first; a member segment whose far end is already in the tree
 closes a loop: its last link ("stub") is welded to the junction with
 ``solref = (2 dt, 1)``, ``solimp = (0.9999, 0.9999, 0.001, 0.5, 2)``
-(DESIGN.md). Other supports are ``connect`` (w fixed) or ``weld`` (all fixed)
-equalities to the world.
+(the stiffest weld MuJoCo allows: impedance ``d <= 0.9999``). Other supports are
+``connect`` (w fixed) or ``weld`` (all fixed) equalities to the world.
 
 Each of these equalities holds an *in-plane release* body (slides x, y and a
 hinge about z, with a small in-plane armature), not the member end or the
@@ -73,8 +73,8 @@ A member with inner points stays one continuous chain: a closure inside a
 stiff member is soft (MuJoCo's constraint regularisation, ``d <= 0.9999``):
 closing the grid's top beam at every point put modes 7, 8 and 12 2-13 % low.
 
-Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the
-dissertation.
+Sources: Sec. 2.1, 2.1.1, 2.2, 2.2.1 of the dissertation; the plant's construction and
+its checks: docs/plants.md.
 """
 
 from __future__ import annotations

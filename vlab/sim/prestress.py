@@ -8,7 +8,7 @@ in-plane support) are applied as ``prestress*`` loads instead (see
 :mod:`vlab.sim.planner`, "Topology"). :class:`PrestressPlanner` is that part
 of the planner.
 
-Sources: DESIGN.md ("MuJoCo facts"); Sec. 2.2 of the dissertation.
+Sources: Sec. 2.2 of the dissertation; the plant's construction: docs/plants.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The library of physics hypotheses: named, parametrised modifications of the laboratory.
 
 Each hypothesis is one small class with the habits of a scikit-learn
-estimator (DESIGN.md): a keyword-only constructor that fixes *where* the
+estimator (scikit-learn's "Developing estimators"): a keyword-only constructor that fixes *where* the
 effect is (point, DOF, member, mode, channel), :meth:`Hypothesis.fit` that
 estimates *how large* it is and returns ``self``, fitted values ending in
 ``_`` (``params_``, ``ci95_``, ``bic_``, ...) and :meth:`Hypothesis.score`

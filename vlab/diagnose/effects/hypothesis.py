@@ -1,6 +1,6 @@
 """The base class of the physics hypotheses and the combination of two.
 
-Estimator habits after scikit-learn (DESIGN.md): a keyword-only constructor
+Estimator habits after scikit-learn ("Developing estimators"): a keyword-only constructor
 that fixes *where* the effect is, :func:`vlab.diagnose.fit.estimate.fit_hypothesis` that
 estimates *how large* it is (the fit lives there, after the hypotheses, so
 that the data flow runs one way), fitted values ending in ``_`` and

@@ -1,7 +1,7 @@
 """Public edits of a :class:`~vlab.spec.StructureSpec` used by the diagnosis hypotheses.
 
-A physics hypothesis is applied by building a modified spec (DESIGN.md, "data
-flows one way"): these functions return a new spec and never change the one
+A physics hypothesis is applied by building a modified spec (the data
+flows one way, spec to models to lab: tests/test_layers.py): these functions return a new spec and never change the one
 given. The FE model (:func:`vlab.fe.build_fe_model`) and the MuJoCo plant
 (:func:`vlab.sim.build_plant`) built from the result both contain the effect.
 
