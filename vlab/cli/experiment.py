@@ -79,12 +79,13 @@ def experiment(
     status 1 unless --allow-unstable.
     """
     from ..experiment.results import write_outputs
+    from ..lab.blocks import PC1000_DELAY_PERIODS
 
     out_fmt = checks.output_format(fmt, as_json)
     spec = checks.load_structure(structure)
     out_path = checks.out_dir(out, EXPERIMENT_OUT, overwrite)
     file_delays = () if delay_periods is None or spec.hardware is None else tuple(spec.hardware.delay_s)
-    delay_periods = 1.35 if delay_periods is None else delay_periods
+    delay_periods = PC1000_DELAY_PERIODS if delay_periods is None else delay_periods
     cfg = _config(spec, controller=controller, reduction=reduction, excitation=excitation, duration=duration,
                   delay_periods=delay_periods, period_ms=period_ms, noise=noise, seed=seed, mjcf=mjcf, plant=plant,
                   spawn=spawn, file_delays=file_delays)
