@@ -35,8 +35,10 @@ def init_cmd(
     recording: str = opt(None, "--from", metavar="<recording.uff>",
                          help="test: take the values from a vlab recording's metadata sidecar"),
 ) -> None:
-    """Write a commented structure file (with its test and design tables) to edit and run like bcc or grid,
-    or the setup of a test (``test``): a recording without vlab's sidecar diagnosed with ``--test``."""
+    """Write a commented structure file to edit and run like bcc or grid, or a test's setup (`init test`).
+
+    A structure file carries its test and design tables; a test's setup describes a recording without
+    vlab's sidecar, diagnosed with `vlab diagnose --test`."""
     from ..errors import OptionError
     from ..templates import write_template, write_test_setup
 
