@@ -81,7 +81,6 @@ def experiment(
     status 1 unless --allow-unstable.
     """
     from ..experiment.results import write_outputs
-    from ..lab.blocks import PC1000_DELAY_PERIODS
 
     out_fmt = checks.output_format(fmt, as_json)
     spec = checks.load_structure(structure)
