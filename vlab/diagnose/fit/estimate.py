@@ -66,6 +66,21 @@ def from_z(z: np.ndarray, log: tuple[bool, ...]) -> np.ndarray:
     return np.array([10.0**v if lg else v for v, lg in zip(z, log)])
 
 
+def residuals_in_z(h: Hypothesis, problem: Problem, scale: np.ndarray | float = 1.0):
+    """The residuals of ``problem`` (shape (n_obs,)) as a function of the fit's coordinates ``z / scale`` of
+    ``h`` (:func:`to_z`); a model the structure cannot carry (:class:`ModelError`, e.g. buckling) gives
+    :data:`~vlab.diagnose.problem.residuals.PENALTY` on every residual, so that a local fit steps back."""
+    log = tuple(h.log_scale)
+
+    def fun(u: np.ndarray) -> np.ndarray:
+        try:
+            return problem.residual(problem.state_for(h, from_z(u * scale, log)))
+        except ModelError:
+            return np.full(problem.n_obs, PENALTY)
+
+    return fun
+
+
 def trials_for(h: Hypothesis, problem: Problem) -> np.ndarray:
     """Trial values [SI] of ``h`` on ``problem`` (its nominal lab and context), shape (n, k): the
     hypothesis's own, or for a one-parameter effect that moves the modes (``h.moves_modes``)
@@ -240,11 +255,7 @@ def fit_hypothesis(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None
         span = zhi - zlo
         z0 = np.clip(z0, zlo + 1e-6 * span, zhi - 1e-6 * span)
 
-        def fun(u: np.ndarray) -> np.ndarray:
-            try:
-                return problem.residual(problem.state_for(h, from_z(u * scale, log)))
-            except ModelError:  # a model the structure cannot carry (buckling): the fit steps back
-                return np.full(problem.n_obs, PENALTY)
+        fun = residuals_in_z(h, problem, scale)
 
         try:
             sol = scipy.optimize.least_squares(fun, z0 / scale, bounds=(zlo / scale, zhi / scale), method="trf",

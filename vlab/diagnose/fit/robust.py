@@ -31,11 +31,10 @@ import numpy as np
 import scipy.optimize
 from scipy.special import gammaln
 
-from ...errors import ModelError
 from ..effects.hypothesis import Hypothesis
 from ..problem.forms import PENALTY
 from ..problem.residuals import Problem
-from .estimate import ci95_of, from_z, to_z
+from .estimate import ci95_of, from_z, residuals_in_z, to_z
 
 #: The degrees of freedom searched, ``[low, high]``: below 0.5 the t density has no usable scale; at 1e4 its
 #: 97.5 % quantile is the normal one to 1.2e-4 (relative).
@@ -164,21 +163,23 @@ def t_fit(h: Hypothesis, problem: Problem, x0: np.ndarray, *, max_nfev: int = 40
     zlo, zhi = to_z(lo, log), to_z(hi, log)
     span = zhi - zlo
 
-    def fun(z: np.ndarray) -> np.ndarray:
-        try:
-            return problem.residual(problem.state_for(h, from_z(z, log)))
-        except ModelError:  # a model the structure cannot carry (buckling): the fit steps back
-            return np.full(problem.n_obs, PENALTY)
+    fun = residuals_in_z(h, problem)
+
+    def interval(z: np.ndarray, nu: float, s: float) -> np.ndarray:
+        """95 % intervals [SI] at ``z`` from the t likelihood's expected information, held to the range."""
+        ci = ci95_of(_jac(fun, z, zlo, zhi) * math.sqrt(_information(nu, s)), z, 0.0, problem.n_obs, log)
+        return np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
 
     z = np.clip(to_z(np.clip(x, lo, hi), log), zlo + 1e-6 * span, zhi - 1e-6 * span)
-    tol = None  # the settling tolerance: SETTLED of the standard deviations at the start's (nu, s)
+    tol = None  # the settling tolerance [SI]: SETTLED of the 95 % widths at the start (inf where undetermined)
     for _ in range(ROUNDS):
         nu, s = t_dof_scale(fun(z) ** 2)
         if tol is None:
-            tol = SETTLED * np.maximum(_sd_z(fun, z, nu, s, zlo, zhi), 1e-9 * span)
+            width = np.diff(interval(z, nu, s), axis=1)[:, 0]
+            tol = np.where(np.isfinite(width), SETTLED * width, np.inf)
         sol = scipy.optimize.least_squares(fun, z, bounds=(zlo, zhi), method="trf", loss=_t_loss(nu),
                                            f_scale=s, diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
-        moved = np.abs(sol.x - z)
+        moved = np.abs(from_z(sol.x, log) - from_z(z, log))
         z = sol.x
         if np.all(moved <= tol):
             break
@@ -186,8 +187,7 @@ def t_fit(h: Hypothesis, problem: Problem, x0: np.ndarray, *, max_nfev: int = 40
     if np.any(r == PENALTY):
         raise ValueError("the t fit ended on a model with lines it cannot predict")
     nu, s = t_dof_scale(r**2)
-    ci = ci95_of(_jac(fun, z, zlo, zhi) * math.sqrt(_information(nu, s)), z, 0.0, problem.n_obs, log)
-    ci = np.where(np.isfinite(ci), np.clip(ci, np.asarray(lo)[:, None], np.asarray(hi)[:, None]), ci)
+    ci = interval(z, nu, s)
     r_nom = problem.residual(problem.base)
     return TFit(from_z(z, log), ci, nu, s, t_nll(r**2, nu, s), t_nll(r_nom**2, *t_dof_scale(r_nom**2)))
 
@@ -214,12 +214,3 @@ def _jac(fun, z: np.ndarray, zlo: np.ndarray, zhi: np.ndarray) -> np.ndarray:
         zi[i] += step
         cols.append((fun(zi) - r0) / step)
     return np.column_stack(cols)
-
-
-def _sd_z(fun, z, nu, s, zlo, zhi) -> np.ndarray:
-    """Standard deviations of ``z`` from the t likelihood's expected information (inf where undetermined)."""
-    j = _jac(fun, z, zlo, zhi) * math.sqrt(_information(nu, s))
-    try:
-        return np.sqrt(np.clip(np.diag(np.linalg.pinv(j.T @ j)), 0.0, None))
-    except np.linalg.LinAlgError:
-        return np.full(z.size, np.inf)
