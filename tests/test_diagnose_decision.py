@@ -154,6 +154,12 @@ def test_a_verdict_without_a_selection_states_why():
     assert "model-form uncertainty" in text and "113.8" in text and "86.47" in text
     assert "one line stands out" not in text and "exceeds its limit 5019" not in text
     assert re.search(r"no effect of the library fits the data better than the nominal model", text, re.I)
+    assert "Located" not in text  # nothing located: no place invented
+    located = {"points": [6, 7], "modes": [5], "extra_resonances": []}
+    for why in (rejected, []):
+        text = verdict({"mismatch": True, "statistics": stats, "selected": [], "rejected": why, "ranked": [],
+                        "located": located})
+        assert "the cause is not identified. Located at points 6, 7; in mode 5." in text
 
 
 def test_a_partial_fit_not_separated_from_its_look_alikes_is_outside_the_library():

@@ -71,7 +71,12 @@ def test_a_choice_is_judged_on_its_rerun(monkeypatch):
     dropped = []
     monkeypatch.setattr(dec, "drop_selection", lambda res, *a, **k: dropped.append(res))
     monkeypatch.setattr(dec, "extra_resonances", lambda *a: pytest.fail("the linear lab is not asked"))
-    problem = SimpleNamespace(data=SimpleNamespace(freq_hz=f, output_points=[9]))
+    from vlab.diagnose.policy import DEFAULT_POLICY
+
+    var = np.full(recorded.shape, 1e-12)
+    data = SimpleNamespace(freq_hz=f, output_points=[9], h=recorded, var=var, var_dof=None,
+                           as_recorded=lambda: (recorded, var))
+    problem = SimpleNamespace(data=data, policy=DEFAULT_POLICY)
     for rerun, rejected in ((recorded, False), (without, True)):
         res = SimpleNamespace(selected=SimpleNamespace(effect="saturation", label="saturation(channel=all)"),
                               validation=SimpleNamespace(target=recorded, h_after=rerun, misfit_before=0.1,
@@ -79,6 +84,40 @@ def test_a_choice_is_judged_on_its_rerun(monkeypatch):
         dropped.clear()
         dec._keeps_new_resonance(res, problem, 0.1, 100.0, [])
         assert bool(dropped) == rejected and bool(res.rejected) == rejected
+
+
+def test_a_peak_the_noise_could_make_is_no_resonance():
+    """An FRF scattered by noise (an oscillation's leakage) has many peaks of 6 dB prominence; none is a
+    resonance the model lacks unless it rises out of the noise by the policy's line limit; the absorber-like
+    resonance of the same FRF does, at a noise it stands out of."""
+    from vlab.diagnose.fit.resonances import stands_out, unpaired_peaks
+    from vlab.diagnose.policy import DEFAULT_POLICY
+
+    f = np.arange(0.5, 25.0, 0.01)
+    model = _modal_frf(f, [(2.0, 0.01, 1.0)])
+    rng = np.random.default_rng(3)
+    sd = 0.5 * np.abs(model).mean()
+    noisy = model + sd * (rng.standard_normal(model.shape) + 1j * rng.standard_normal(model.shape)) / np.sqrt(2)
+    var = np.full(model.shape, sd**2)
+    limit = DEFAULT_POLICY.line_limit(model.size, 1)
+    assert unpaired_peaks(f, noisy, model, [9])  # without the noise test: spurious resonances
+    assert unpaired_peaks(f, noisy, model, [9], var=var, limit=limit) == []
+    absorber = _modal_frf(f, [(2.0, 0.01, 1.0), (14.0, 0.02, 0.5)])
+    quiet = np.full(model.shape, (1e-3 * np.abs(absorber).min()) ** 2)
+    (extra,) = unpaired_peaks(f, absorber, model, [9], var=quiet, limit=limit)
+    assert abs(extra["frequency_hz"] - 14.0) < 0.05
+    i = int(np.argmin(np.abs(f - 14.0)))
+    i = i - 3 + int(np.argmax(np.abs(absorber[i - 3:i + 4, 0])))
+    # the rise of the 14 Hz peak over its base, squared against half the two lines' variance: at the limit
+    # the test turns
+    mag = np.abs(absorber[:, 0])
+    from scipy.signal import peak_prominences
+
+    _p, lb, rb = peak_prominences(20 * np.log10(mag), [i])
+    rise = mag[i] - max(mag[lb[0]], mag[rb[0]])
+    v_edge = rise**2 / limit  # the variance at which the rise equals the limit
+    assert stands_out(absorber[:, 0], np.full(f.shape, 0.99 * v_edge), i, limit)
+    assert not stands_out(absorber[:, 0], np.full(f.shape, 1.01 * v_edge), i, limit)
 
 
 def test_the_located_places_are_points_and_segment_ends():

@@ -328,3 +328,36 @@ def test_help_lines_parse():
     assert check(["--help"]) is None
     assert check(["modes", "--help"]) is None
     assert check(["--debug", "experiment", "--plant", "linear"]) is None
+
+
+#: The commands a page shows that run in seconds; the others (experiments, diagnoses, updates, reproductions)
+#: run for tens of seconds to minutes each and are exercised by their own tests.
+QUICK = frozenset({"modes", "design", "init", "export-mjcf", "crosscheck", "--help"})
+
+
+def _quick_by_page() -> dict[str, list[Shown]]:
+    """Each page's quick commands (:data:`QUICK`), in page order; a command that reads a file a command of
+    the page did not make (a recording) is left out."""
+    pages: dict[str, list[Shown]] = {}
+    for where, shown in DOCUMENTED:
+        if shown.args and shown.args[0] in QUICK:
+            pages.setdefault(where, []).append(shown)
+    return pages
+
+
+QUICK_PAGES = _quick_by_page()
+
+
+@pytest.mark.parametrize("where", sorted(QUICK_PAGES))
+def test_documented_quick_commands_run(where, tmp_path, monkeypatch):
+    """Each page's quick commands run, in the page's order, in an empty folder (so that a command may read
+    what an earlier one of the page wrote, as a reader following the page would), and end without error."""
+    from typer.testing import CliRunner
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    runner = CliRunner()
+    for shown in QUICK_PAGES[where]:
+        out = runner.invoke(app, list(shown.args))
+        assert out.exit_code == 0, (f"{where}:{shown.line}: vlab {shlex.join(shown.args)} exited "
+                                    f"{out.exit_code}:\n{out.output[-2000:]}\n{out.exception!r}")

@@ -30,6 +30,7 @@ A Frequency Domain Approach*, 2nd ed., Wiley 2012, Sec. 7.2.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import islice
 
 import numpy as np
 
@@ -130,8 +131,11 @@ def periodic_spectra(y: np.ndarray, n_per: int, lines: np.ndarray, *, half_width
 def _non_excited_near(b: int, m: int, n_bins: int, count: int) -> np.ndarray:
     """The ``count`` non-excited bins (not multiples of ``m``, not 0) nearest to bin ``b``, balanced about it
     where the spectrum's ends allow."""
-    left = [j for j in range(b - 1, 0, -1) if j % m][: count // 2]
-    right = [j for j in range(b + 1, n_bins) if j % m][: count - len(left)]
+    def below(n: int) -> list:
+        return list(islice((j for j in range(b - 1, 0, -1) if j % m), n))
+
+    left = below(count // 2)
+    right = list(islice((j for j in range(b + 1, n_bins) if j % m), count - len(left)))
     if len(left) + len(right) < count:  # near the upper end: more on the left
-        left = [j for j in range(b - 1, 0, -1) if j % m][: count - len(right)]
+        left = below(count - len(right))
     return np.array(sorted(left + right), dtype=int)

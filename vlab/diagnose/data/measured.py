@@ -110,6 +110,19 @@ class FrfData:
     records: tuple | None = None
     var_distortion: np.ndarray | None = None
 
+    def as_recorded(self) -> tuple[np.ndarray, np.ndarray]:
+        """The FRFs as recorded and their variance, shapes (n_f, n_o): ``h_recorded`` and ``var_recorded``
+        where these data were referred to the model through a reference, else ``h`` and ``var``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Complex FRFs [(m/s)/N] and their variance [((m/s)/N)^2].
+        """
+        if self.h_recorded is not None:
+            return self.h_recorded, (self.var_recorded if self.var_recorded is not None else self.var)
+        return self.h, self.var
+
     @property
     def sigma_rel(self) -> np.ndarray:
         """Relative standard deviation ``sqrt(var) / |h|``, shape (n_f, n_o)."""

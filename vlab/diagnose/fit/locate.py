@@ -529,12 +529,31 @@ def locate(problem: Problem, nominal: LabState) -> Location:
     return loc
 
 
+def peak_limit(problem: Problem) -> float:
+    """The squared standardised rise [1] a measured peak must exceed to be a resonance rather than noise
+    (:func:`~vlab.diagnose.fit.resonances.stands_out`): the policy's line limit over every line and channel
+    of the data, one degree of freedom (:meth:`vlab.diagnose.policy.DecisionPolicy.line_limit`).
+
+    Parameters
+    ----------
+    problem : Problem
+        With FRF data and its decision policy.
+
+    Returns
+    -------
+    float
+    """
+    d: FrfData = problem.data
+    return problem.policy.line_limit(d.h.size, 1, getattr(d, "var_dof", None))
+
+
 def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: float = 6.0) -> list[dict]:
     """Resonances in the measured FRFs that the nominal lab does not have: a new or a split resonance.
 
     The measured FRF is compared with its reference on the same lines (the nominal plant's replay or a
     baseline where the data were referred through one, so that resonances the plant has and the FE model
-    lacks are in both; else the nominal lab's FRF) by :func:`~vlab.diagnose.fit.resonances.unpaired_peaks`.
+    lacks are in both; else the nominal lab's FRF) by :func:`~vlab.diagnose.fit.resonances.unpaired_peaks`;
+    a measured peak must stand out of the recording's own noise (:func:`peak_limit`).
 
     Parameters
     ----------
@@ -551,12 +570,12 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
     """
     d: FrfData = problem.data
     model = predict_frf(nominal, d.freq_hz, excitation_point=d.excitation_point, output_points=d.output_points)
-    meas = d.h
+    meas, var = d.as_recorded()
     if getattr(d, "h_recorded", None) is not None:
         # data referred through a reference (the replay or a baseline, H = H_rec H_model / H_ref): compare the
         # recording with that reference, on the same plant, so that resonances the plant has and the FE model
         # lacks (the MuJoCo BCC's crosspiece arms) are in both
-        meas = d.h_recorded
         with np.errstate(divide="ignore", invalid="ignore"):
             model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
-    return unpaired_peaks(d.freq_hz, meas, model, d.output_points, prominence_db=prominence_db)
+    return unpaired_peaks(d.freq_hz, meas, model, d.output_points, prominence_db=prominence_db, var=var,
+                          limit=peak_limit(problem))

@@ -28,15 +28,36 @@ def _resonances(peaks: list[tuple[float, float, int]]) -> list[tuple[float, floa
     return sorted(out)
 
 
-def _peaks(freq_hz: np.ndarray, h: np.ndarray, output_points, prominence_db: float) -> list:
+def stands_out(h: np.ndarray, var: np.ndarray, index: int, limit: float) -> bool:
+    """Whether the peak of ``|h|`` (shape (n_f,)) at line ``index`` stands out of the noise: the rise of its
+    magnitude above the higher of its two bases (:func:`scipy.signal.peak_prominences`), squared and divided by
+    that rise's variance, exceeds ``limit`` [1]. With circular complex noise of variance ``var`` (shape
+    (n_f,), ``E|h - h_true|^2``) the magnitude's variance is ``var / 2`` where ``|h|`` is well above the noise
+    (Bendat & Piersol, *Random Data*, 4th ed., 2010, Sec. 9.2.2), so the rise's is the sum of its two lines'
+    halves. A peak the noise could make (the leakage of an oscillation outside the band scatters an FRF from
+    period to period) is no resonance however prominent in decibels."""
+    from scipy.signal import peak_prominences
+
+    mag = np.abs(h)
+    _prom, left, right = peak_prominences(20 * np.log10(np.maximum(mag, 1e-300)), [index])
+    base = int(left[0]) if mag[left[0]] >= mag[right[0]] else int(right[0])
+    rise = mag[index] - mag[base]
+    return bool(rise**2 > limit * 0.5 * (var[index] + var[base]))
+
+
+def _peaks(freq_hz: np.ndarray, h: np.ndarray, output_points, prominence_db: float,
+           var: np.ndarray | None = None, limit: float | None = None) -> list:
     """``(f [Hz], level [(m/s)/N], point)`` of every channel's peaks of ``h`` (shape (n_f, n_o)) with at least
-    ``prominence_db`` prominence; a channel without any is skipped."""
+    ``prominence_db`` prominence and, given the variance ``var`` (shape of ``h``) and a ``limit``, standing out
+    of the noise (:func:`stands_out`); a channel without any is skipped."""
     out = []
     for j, p in enumerate(output_points):
         try:
             pks = find_peaks(freq_hz, h[:, j], prominence_db=prominence_db, name=f"vel{p}")
         except MeasurementError:
             continue
+        if var is not None and limit is not None:
+            pks = [x for x in pks if stands_out(h[:, j], var[:, j], x.index, limit)]
         out += [(float(x.freq_hz), float(np.abs(h[np.argmin(np.abs(freq_hz - x.freq_hz)), j])), int(p)) for x in pks]
     return out
 
@@ -90,7 +111,8 @@ def _lacking(fm: np.ndarray, fn: np.ndarray, *, counted: bool) -> np.ndarray:
 
 
 def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, output_points, *,
-                   prominence_db: float = 6.0) -> list[dict]:
+                   prominence_db: float = 6.0, var: np.ndarray | None = None,
+                   limit: float | None = None) -> list[dict]:
     """Resonances of the measured FRFs that the model's FRFs on the same lines do not have.
 
     The measured peaks have at least ``prominence_db`` prominence (:func:`vlab.measure.modal.find_peaks`:
@@ -126,6 +148,12 @@ def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, out
         The channels' points.
     prominence_db : float
         Smallest prominence [dB] of a measured peak.
+    var : ndarray, shape (n_f, n_o), optional
+        The variance of ``meas`` [((m/s)/N)^2]; with ``limit``, a measured peak must also stand out of the
+        noise (:func:`stands_out`).
+    limit : float, optional
+        The squared standardised rise [1] a measured peak must exceed (a line limit of the decision policy,
+        :meth:`vlab.diagnose.policy.DecisionPolicy.line_limit`).
 
     Returns
     -------
@@ -136,7 +164,7 @@ def unpaired_peaks(freq_hz: np.ndarray, meas: np.ndarray, model: np.ndarray, out
     from ...measure.modal import half_power_damping
 
     pts = list(output_points)
-    peaks_m, peaks_n = _peaks(freq_hz, meas, pts, prominence_db), _peaks(freq_hz, model, pts, 0.0)
+    peaks_m, peaks_n = _peaks(freq_hz, meas, pts, prominence_db, var, limit), _peaks(freq_hz, model, pts, 0.0)
     on_structure = _lacking(np.array([r[0] for r in _resonances(peaks_m)]),
                             np.array([r[0] for r in _resonances(peaks_n)]), counted=True)
     found = []

@@ -10,7 +10,8 @@ from .text import (_fmt, finite_numbers, format_location, format_parameters, mis
 
 
 def _where_text(res: dict) -> str:
-    """Where an unexplained mismatch is, in one sentence: points, modes, band (from ``located``)."""
+    """Where an unexplained mismatch is, in one sentence: points, modes, resonances the model lacks (from
+    ``located``); the whole mismatch is then the remainder, whose size the mismatch sentence states."""
     loc = res.get("located") or {}
     parts = []
     if loc.get("points"):
@@ -171,15 +172,16 @@ def _verdict_body(res: dict, s: dict, n) -> str:
         return text + (" No effect of the library whose linear loop is unstable reproduces the self-excited "
                        f"oscillation at {_fmt(inst.get('frequency_hz'), 5)} Hz in its rerun"
                        + (f" (rerun: {', '.join(tried)})" if tried else " (none was unstable and supported by the data)")
-                       + ": the cause is not identified.")
+                       + ": the cause is not identified." + _where_text(res))
     if not sel:
         worse = [r for r in res.get("rejected") or [] if r.get("reason") == "fits no better than the nominal lab"]
         if worse:
             return text + (f" No effect of the library fits the data better than the nominal model within its own "
-                           f"uncertainty (the best, {worse[-1]['label']}, does not): the cause is not identified.")
+                           f"uncertainty (the best, {worse[-1]['label']}, does not): the cause is not identified."
+                           + _where_text(res))
         ev = (s.get("policy") or {}).get("evidence", 10.0)
         return text + (f" No hypothesis of the library (alone or in pairs) improves the BIC by {ev:g} or more and "
-                       "explains it: the cause is not identified.")
+                       "explains it: the cause is not identified." + _where_text(res))
     what = " + ".join(f"{x['effect']} at {format_location(x['location'])} "
                       f"({format_parameters(x['parameters'], x.get('ci95'), names=True)})" for x in sel)
     ranked = res.get("ranked") or []
