@@ -100,8 +100,12 @@ def _blocks_loop(plant, engine, chain, exc, seed):
                     x = dac[i].mean_over(t, t + h)
                 f[i] = amp[i].output(x + (e if p == 9 else 0.0))[0] * chain.actuator_gain.get(p, 1.0)
                 if a_act[i] is not None:
-                    lag_f[i] = a_act[i] * lag_f[i] + (1 - a_act[i]) * f[i]
-                    f[i] = lag_f[i]
+                    # the coil's continuous lag tau y' = x - y with x held over the step: y(t) = x + (y0 - x)
+                    # e^{-t / tau}; the plant holds its mean over the step, the state goes on from the step's end
+                    tau = 1 / (2 * math.pi * chain.actuator_lag_of(p))
+                    y0, x = lag_f[i], f[i]
+                    f[i] = x + (y0 - x) * tau / h * (1 - math.exp(-h / tau))
+                    lag_f[i] = x + (y0 - x) * math.exp(-h / tau)
             plant.set_forces(f)
             plant.step()
     return np.array(ys)[:, [sensors.index(p) for p in MEAS]], np.array(us)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import importlib.util
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +34,7 @@ from .data.acquired import is_lab_recording
 from .data.readers import detect_kind, read_data, read_uff_any
 from .data.reference import (recorded_chain, recorded_setup, referred_through_replay, shares_excitation_record,
                              with_test_setup)
+from .data.replay import plant_step_s
 from .data.warmstart import GUARD_DECAY
 from .model.labmodel import LabState, predict_frf
 from .model.nominal import PLANT_RESOLUTION_ELEMENTS, nominal_design, plant_resolution, settling_time
@@ -281,15 +282,13 @@ def _refer_through_plant(inp: dict, notes: list, say) -> None:
     """FRFs the MuJoCo plant made, referred to the model through that plant's nominal linearisation
     (``H_ref = H_file H_FE / H_plant``, :func:`~vlab.diagnose.data.measured.refer_to_model`): the FE/plant
     difference present in the file is removed to first order, as a replay does for time histories."""
-    from dataclasses import replace as _replace
-
     from .fit.plantfit import plant_modes
 
     data, nominal = inp["data"], inp["nominal"]
     say("linearising the nominal MuJoCo plant (the FRFs' reference)")
     pts = tuple(dict.fromkeys(tuple(data.output_points) + nominal.actuators))
     try:
-        on_plant = _replace(nominal, point_modes=plant_modes(nominal.spec, pts))
+        on_plant = replace(nominal, point_modes=plant_modes(nominal.spec, pts))
     except ModelError as exc:
         notes.append(f"the FRFs name the MuJoCo plant, whose linearisation failed ({exc}): compared with the FE "
                      "model alone")
@@ -297,7 +296,7 @@ def _refer_through_plant(inp: dict, notes: list, say) -> None:
         return
     kw = dict(excitation_point=data.excitation_point, output_points=data.output_points)
     h_plant, h_nom = predict_frf(on_plant, data.freq_hz, **kw), predict_frf(nominal, data.freq_hz, **kw)
-    base = _replace(data, h=h_plant, var=np.zeros_like(data.var), source="the nominal MuJoCo plant's linearisation")
+    base = replace(data, h=h_plant, var=np.zeros_like(data.var), source="the nominal MuJoCo plant's linearisation")
     inp.update(data=refer_to_model(data, base, h_nom), on_recording_plant=True,
                reference="the nominal MuJoCo plant's linearisation (the plant the FRFs name)")
 
@@ -315,7 +314,14 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
                      "mesh")
     chain = with_hardware(recorded_chain(setup, period_s), spec)  # the structure file's [hardware] settings
     design = nominal_design(fe, controller, setup.seed, period_s=chain.period_s, reduction=setup.reduction)
-    return LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
+    lab = LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
+    if on_plant:  # the model holds the coil forces over the plant's own physics step, as that plant does
+        try:  # the plant built from the structure file (the model's finer mesh is the FE model's alone)
+            lab = replace(lab, step_s=plant_step_s(replace(lab, spec=spec, fe=fe)))
+        except ModelError as exc:
+            notes.append(f"the MuJoCo plant's physics step is not known ({exc}): the model holds the coil forces "
+                         "over half a controller period")
+    return lab
 
 
 def _estimate(nominal: LabState, data, band_hz, *, simulated: bool, from_elsewhere: bool = False) -> dict:

@@ -111,6 +111,26 @@ def _hold_steps(frac: np.ndarray, tau: np.ndarray, n_sub: int, period: float, h:
     return d_old, d_new, decay(d_old), decay(d_new)
 
 
+def lag_mean_weight(corner_hz, h_s: float) -> np.ndarray:
+    """``g = (tau / h)(1 - exp(-h / tau))``, ``tau = 1 / (2 pi f_c)``, of first-order lags of corners
+    ``corner_hz`` (array; 0 or less: no lag, ``g = 0``) over a physics step ``h_s`` [s] (:func:`lag_step`)."""
+    fc = np.asarray(corner_hz, dtype=float)
+    a = 2 * math.pi * np.where(fc > 0, fc, 1.0) * h_s  # h / tau
+    return np.where(fc > 0, -np.expm1(-a) / a, 0.0)
+
+
+def lag_step(y0, u, c, g):
+    """One physics step of a continuous first-order lag ``tau y' = u - y`` whose input ``u`` is held over the
+    step: returns ``(y1, mean)``, its value at the step's end ``y1 = c y0 + (1 - c) u`` and its exact
+    average over the step ``u + g (y0 - u)`` (``c = exp(-h / tau)``, ``g = (tau / h)(1 - c)``), the force the
+    plant holds over the step. The step's held input is the step average of what precedes the lag (the RC
+    filter's exact average, :func:`rc_step`), a midpoint value; the lag's average is then its value at the
+    midpoint too, to second order in ``h``, whatever the step: a lag's end-of-step value held over the step
+    would lead the continuous lag by ``h / 2``. Scalars or arrays (broadcast); ``c = g = 0``: no lag
+    (``mean = y1 = u``)."""
+    return c * y0 + (1 - c) * u, u + g * (y0 - u)
+
+
 @dataclass(frozen=True)
 class BatchChain:
     """Per-simulation, per-channel hardware settings and the step coefficients derived from them.
@@ -138,7 +158,10 @@ class BatchChain:
     actuator_gain : ndarray, shape (N, n_act)
         Coil force gain [-].
     actuator_lag : ndarray, shape (N, n_act)
-        ``a`` of the coil-force lag per physics step (0: off).
+        ``c = exp(-h / tau)`` of the coil-force lag per physics step ``h`` (0: off).
+    actuator_lag_mean : ndarray, shape (N, n_act)
+        ``g = (tau / h)(1 - c)``: the weight of the lag's start in its output's average over the step
+        (:func:`lag_step`; 0: off).
     sensor_gain : ndarray, shape (N, n_fb)
         Feedback sensor sensitivity [-].
     sensor_lag : ndarray, shape (N, n_fb)
@@ -161,6 +184,7 @@ class BatchChain:
     amp_limit_n: np.ndarray
     actuator_gain: np.ndarray
     actuator_lag: np.ndarray
+    actuator_lag_mean: np.ndarray
     sensor_gain: np.ndarray
     sensor_lag: np.ndarray
     noise_m_s: np.ndarray
@@ -244,6 +268,7 @@ class BatchChain:
             j_old=tau * (1.0 - e_old) / h, j_new=tau * (1.0 - e_new) / h,
             amp_gain=gains["amplifier_gain"], amp_limit_n=limit, actuator_gain=gains["actuator_gain"],
             actuator_lag=np.where(lag_a > 0, np.exp(-2 * math.pi * lag_a * h), 0.0),
+            actuator_lag_mean=lag_mean_weight(lag_a, h),
             sensor_gain=gains["sensor_gain"],
             sensor_lag=np.where(lag_s > 0, np.exp(-2 * math.pi * lag_s * period), 0.0),
             noise_m_s=noise,
@@ -360,7 +385,8 @@ class ChainRun:
                             for st in self._steps]
             self._post1 = (self._amp is not None or self._clip or self._act_gain is not None or self._use_lag_a)
             self._coil1 = list(zip(hw.amp_gain[0].tolist(), hw.amp_limit_n[0].tolist(),
-                                   hw.actuator_gain[0].tolist(), hw.actuator_lag[0].tolist()))
+                                   hw.actuator_gain[0].tolist(), hw.actuator_lag[0].tolist(),
+                                   hw.actuator_lag_mean[0].tolist()))
 
     def sense(self, v: np.ndarray, k: int, out: np.ndarray | None = None) -> np.ndarray:
         """Measured signals of tick ``k`` from the velocities ``v`` (N, n_sensors) [m/s]; same shape.
@@ -423,8 +449,7 @@ class ChainRun:
         if self._act_gain is not None:
             f *= self._act_gain
         if self._use_lag_a:
-            self._lag_act = hw.actuator_lag * self._lag_act + (1 - hw.actuator_lag) * f
-            f = self._lag_act
+            self._lag_act, f = lag_step(self._lag_act, f, hw.actuator_lag, hw.actuator_lag_mean)
         return f
 
     def push_one(self, u: list) -> None:
@@ -446,12 +471,11 @@ class ChainRun:
             f[i] = fi + excitation[i]
         if self._post1:
             lag = self._lag1
-            for i, (amp, limit, gain, a) in enumerate(self._coil1):
+            for i, (amp, limit, gain, c, g) in enumerate(self._coil1):
                 fi = f[i] * amp if self._amp is not None else f[i]
                 fi = max(min(fi, limit), -limit) if self._clip else fi
                 fi = fi * gain if self._act_gain is not None else fi
                 if self._use_lag_a:
-                    lag[i] = a * lag[i] + (1 - a) * fi
-                    fi = lag[i]
+                    lag[i], fi = lag_step(lag[i], fi, c, g)
                 f[i] = fi
         return f

@@ -4,16 +4,20 @@ The loop (:mod:`vlab.lab.loop`) applies per-channel gains, delays and first-orde
 the same blocks as frequency responses, for a prediction that includes them (the experiment's analysis,
 :mod:`vlab.experiment.runner`, and the diagnosis's lab model, :mod:`vlab.diagnose.model.labmodel`)::
 
-    actuators  A_i(w) = g_amp g_a,i L_a,i(w)     L_a = (1 - c) / (1 - c e^{-jwh}),  c = e^{-2 pi f_a h}
+    actuators  A_i(w) = g_amp g_a,i L_a,i(w)     L_a = ((1 - g) + (g - c) e^{-jwh}) / (1 - c e^{-jwh}),
+                                                 c = e^{-2 pi f_a h},  g = (1 - c) / (2 pi f_a h)
     sensors    S_i(w) = g_s,i L_s,i(w)           L_s = (1 - a) / (1 - a e^{-jwT}),  a = e^{-2 pi f_s T}
     output     D_i(w) = e^{-j w d_i T} / (1 + j f / f_RC)    (delay d_i [periods] and RC filter of channel i)
 
-``h`` is the physics step (the actuator lag is a recursion per physics step), ``T`` the controller period
-(the sensor lag runs once per period). Frequencies may be complex, ``f - j sigma / (2 pi)`` standing for
-the Laplace variable ``s = sigma + j 2 pi f``.
+``h`` is the physics step, ``T`` the controller period. The coil's lag is a continuous first-order lag,
+whose output the plant holds over each physics step at its exact step average (``L_a``: the average
+of the lag's response to an input held over the step, :func:`vlab.lab.batch_chain.lag_step`); the
+sensor lag runs once per period as the recursion ``L_s``. Frequencies may be complex,
+``f - j sigma / (2 pi)`` standing for the Laplace variable ``s = sigma + j 2 pi f``.
 
-Source: Fig. 21 and Sec. 5.3 (the chain); the discrete first-order lag is the exact recursion
-``y[n] = c y[n-1] + (1 - c) x[n]`` the loop runs (:class:`vlab.lab.batch_chain.ChainRun`).
+Source: Fig. 21 and Sec. 5.3 (the chain); the lags are the operations the loop runs
+(:class:`vlab.lab.batch_chain.ChainRun`): the sensor's recursion ``y[n] = a y[n-1] + (1 - a) x[n]``, the
+coil's end-of-step value ``y[n] = c y[n-1] + (1 - c) x[n]`` and step average ``x[n] + g (y[n-1] - x[n])``.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import math
 
 import numpy as np
 
+from .batch_chain import lag_mean_weight
 from .loop import HardwareChain
 
 
@@ -31,7 +36,8 @@ def _f(freq_hz) -> np.ndarray:
 
 
 def discrete_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
-    """Discrete first-order lags ``(1 - c) / (1 - c e^{-jw step})``, ``c = e^{-2 pi f_c step}``, per channel.
+    """Discrete first-order lags ``(1 - c) / (1 - c e^{-jw step})``, ``c = e^{-2 pi f_c step}``, per channel:
+    the recursion ``y[n] = c y[n-1] + (1 - c) x[n]`` (the sensor lag, once per controller period).
 
     Parameters
     ----------
@@ -55,6 +61,32 @@ def discrete_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
     return out
 
 
+def step_mean_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
+    """Continuous first-order lags of corners ``corners_hz`` held over steps of ``step_s`` at their exact step
+    average, per channel: ``((1 - g) + (g - c) z^-1) / (1 - c z^-1)``, ``z = e^{jw step}``,
+    ``c = e^{-2 pi f_c step}``, ``g = (1 - c) / (2 pi f_c step)`` (the coil lag of
+    :func:`vlab.lab.batch_chain.lag_step`; to second order in ``step``, ``1 / (1 + jw / w_c)`` times the
+    hold of its input).
+
+    Parameters
+    ----------
+    corners_hz, freq_hz, step_s
+        As :func:`discrete_lags`.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_f, n_ch)
+    """
+    f = _f(freq_hz)
+    out = np.ones((len(f), len(corners_hz)), dtype=complex)
+    for i, fc in enumerate(corners_hz):
+        if fc:
+            c, g = math.exp(-2 * math.pi * fc * step_s), float(lag_mean_weight(fc, step_s))
+            zi = np.exp(-2j * np.pi * f * step_s)
+            out[:, i] = ((1 - g) + (g - c) * zi) / (1 - c * zi)
+    return out
+
+
 def actuator_path(chain: HardwareChain, actuators, freq_hz, step_s: float) -> np.ndarray:
     """``A_i(w)`` of every actuator channel: amplifier gain x channel gain x actuator lag.
 
@@ -66,7 +98,7 @@ def actuator_path(chain: HardwareChain, actuators, freq_hz, step_s: float) -> np
     freq_hz : ndarray, shape (n_f,)
         Frequencies [Hz].
     step_s : float
-        Physics step h [s] of the plant (the lag's recursion step).
+        Physics step h [s] of the plant (the step over which the coil lag's output is averaged).
 
     Returns
     -------
@@ -74,7 +106,7 @@ def actuator_path(chain: HardwareChain, actuators, freq_hz, step_s: float) -> np
     """
     f = _f(freq_hz)
     g = np.array([chain.amplifier_gain * chain.actuator_gain.get(p, 1.0) for p in actuators], dtype=complex)
-    return g[None, :] * discrete_lags([chain.actuator_lag_of(p) for p in actuators], f, step_s)
+    return g[None, :] * step_mean_lags([chain.actuator_lag_of(p) for p in actuators], f, step_s)
 
 
 def sensor_path(chain: HardwareChain, sensors, freq_hz) -> np.ndarray:
@@ -148,7 +180,7 @@ def chain_closed_loop_frf(g_fb: np.ndarray, g_out: np.ndarray, k_core: np.ndarra
     freq_hz : ndarray, shape (n_f,)
         Frequencies [Hz].
     step_s : float
-        Physics step [s] (the actuator lag's recursion).
+        Physics step [s] (the step over which the actuator lag is averaged).
 
     Returns
     -------

@@ -197,6 +197,20 @@ def mujoco_plant(state: LabState, sensors=()):
     return MujocoPlant(build_plant(state.spec))
 
 
+def plant_step_s(state: LabState) -> float:
+    """The physics step [s] of ``state``'s MuJoCo plant (:func:`mujoco_plant`), the step over which its coil
+    forces are held, which the lab model of a comparison through that plant must use
+    (:attr:`LabState.step_s <vlab.diagnose.model.labmodel.LabState>`: the RC filter's and the coil lag's step
+    averages).
+
+    Raises
+    ------
+    ModelError, DataFileError
+        As :func:`mujoco_plant`.
+    """
+    return float(mujoco_plant(state).timestep_s)
+
+
 def rerun(state: LabState, force: np.ndarray, *, excitation_point: int, measured_points: tuple[int, ...],
           plant: str = "linear", seed: int = 0, start: int = 0, period: int = 0,
           stop: int | None = None) -> tuple[Recording, str]:

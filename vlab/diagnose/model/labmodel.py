@@ -113,7 +113,8 @@ class LabState:
         Physics step of the plant [s] (the linear plant of an experiment uses
         half a period). The loop applies the RC filter's exact average over
         each step (the continuous filter's phase) and the actuator lag's
-        discrete recursion at this step, which the model includes.
+        exact step average at this step, which the model includes; a
+        comparison through the MuJoCo plant sets that plant's step.
     rms_force_n : dict
         Actuator point -> RMS command force [N] used by the saturation describing function
         (filled in by :func:`with_command_rms`).
