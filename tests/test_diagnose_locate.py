@@ -60,7 +60,8 @@ def test_a_peak_the_model_lacks_is_reported_once_with_its_damping():
 def test_a_choice_is_judged_on_its_rerun(monkeypatch):
     """A saturated loop's recording holds a peak its describing-function lab cannot have: the choice stands
     when its rerun has it, and is rejected when the rerun lacks it too (the linear lab is not asked when
-    there is a rerun)."""
+    there is a rerun) -- unless the peak does not rise out of the noise of the FRFs the rerun is compared
+    with."""
     from types import SimpleNamespace
 
     import vlab.diagnose.decision as dec
@@ -73,14 +74,15 @@ def test_a_choice_is_judged_on_its_rerun(monkeypatch):
     monkeypatch.setattr(dec, "extra_resonances", lambda *a: pytest.fail("the linear lab is not asked"))
     from vlab.diagnose.policy import DEFAULT_POLICY
 
-    var = np.full(recorded.shape, 1e-12)
-    data = SimpleNamespace(freq_hz=f, output_points=[9], h=recorded, var=var, var_dof=None,
-                           as_recorded=lambda: (recorded, var))
+    quiet, loud = np.full(recorded.shape, 1e-12), np.full(recorded.shape, np.abs(recorded).max() ** 2)
+    # the data's own variance is quiet: the rerun's target's variance decides whether its peak is a resonance
+    data = SimpleNamespace(freq_hz=f, output_points=[9], h=recorded, var=quiet, var_dof=None)
     problem = SimpleNamespace(data=data, policy=DEFAULT_POLICY)
-    for rerun, rejected in ((recorded, False), (without, True)):
+    for rerun, var, rejected in ((recorded, quiet, False), (without, quiet, True), (without, loud, False)):
         res = SimpleNamespace(selected=SimpleNamespace(effect="saturation", label="saturation(channel=all)"),
                               validation=SimpleNamespace(target=recorded, h_after=rerun, misfit_before=0.1,
-                                                         misfit_after=0.01, noise_misfit=0.005), rejected=[])
+                                                         misfit_after=0.01, noise_misfit=0.005,
+                                                         target_var=var), rejected=[])
         dropped.clear()
         dec._keeps_new_resonance(res, problem, 0.1, 100.0, [])
         assert bool(dropped) == rejected and bool(res.rejected) == rejected
@@ -172,3 +174,30 @@ def test_the_pairing_never_trades_a_close_pair_for_two_distant_ones():
     # lines to 25 Hz only: the model's partner of 24.7 Hz may lie beyond them, so it is not judged
     cut = f <= 25.0
     assert unpaired_peaks(f[cut], meas[cut], model[cut], [6]) == []
+
+
+def test_the_lab_model_holds_forces_over_the_plant_step(monkeypatch):
+    """Compared through the MuJoCo plant, the nominal lab model steps as that plant does (its physics step);
+    a plant that cannot be built leaves the default half period, with a note."""
+    from types import SimpleNamespace
+
+    import vlab.diagnose.reading as reading
+    from vlab.errors import SimulationError
+    from vlab.fe import build_fe_model
+    from vlab.sim import build_plant
+    from vlab.spec import load_spec
+
+    spec = load_spec("bcc")
+    fe = build_fe_model(spec)
+    setup = SimpleNamespace(chain={}, seed=0, reduction=None)
+    lab = reading._nominal_lab(spec, fe, setup, "none", 5e-4, True, None, [])
+    assert lab.step_s == build_plant(spec).timestep_s and lab.h_s == lab.step_s
+    assert reading._nominal_lab(spec, fe, setup, "none", 5e-4, False, None, []).step_s is None
+
+    def fails(state):
+        raise SimulationError("no plant")
+
+    monkeypatch.setattr(reading, "plant_step_s", fails)
+    notes = []
+    lab = reading._nominal_lab(spec, fe, setup, "none", 5e-4, True, None, notes)
+    assert lab.step_s is None and lab.h_s == 2.5e-4 and any("no plant" in n for n in notes)

@@ -26,7 +26,7 @@ import numpy as np
 
 from .data.measured import FrfData
 from ..errors import ModelError, SpecError
-from .fit.locate import extra_resonances, locate, peak_limit
+from .fit.locate import extra_resonances, locate, resonance_limit
 from .fit.resonances import unpaired_peaks
 from .fit.confirm import improves_on_nominal, remainder_resolved, worsens
 from .fit.rules import NONLINEAR, explained_share, explains
@@ -213,9 +213,8 @@ def _keeps_new_resonance(res: DiagnosisResult, problem: Problem, misfit_0: float
     try:
         if v is not None and v.target is not None:
             d = problem.data
-            h_rec, var_rec = d.as_recorded()
-            left = unpaired_peaks(d.freq_hz, v.target, v.h_after, d.output_points,
-                                  var=var_rec if v.target is h_rec else d.var, limit=peak_limit(problem))
+            left = unpaired_peaks(d.freq_hz, v.target, v.h_after, d.output_points, var=v.target_var,
+                                  limit=resonance_limit(problem))
         else:
             left = extra_resonances(problem, res.selected_state())
     except (ModelError, SpecError):

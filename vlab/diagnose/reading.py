@@ -318,7 +318,7 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
     if on_plant:  # the model holds the coil forces over the plant's own physics step, as that plant does
         try:  # the plant built from the structure file (the model's finer mesh is the FE model's alone)
             lab = replace(lab, step_s=plant_step_s(replace(lab, spec=spec, fe=fe)))
-        except ModelError as exc:
+        except (VlabError, ImportError) as exc:  # the replay falls back to the FE model the same way
             notes.append(f"the MuJoCo plant's physics step is not known ({exc}): the model holds the coil forces "
                          "over half a controller period")
     return lab

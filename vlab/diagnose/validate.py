@@ -109,6 +109,8 @@ class Validation:
         recorded or replayed on, or with a measured baseline), else the data referred to the model.
     chi2_before, chi2_after : float
         The reruns' chi-square on the fit's footing [1] (module notes); NaN where not computed.
+    target_var : ndarray, shape (n_f, n_o), or None
+        The variance of ``target`` [((m/s)/N)^2].
     """
 
     plant: str
@@ -127,6 +129,7 @@ class Validation:
     target: np.ndarray | None = None
     chi2_before: float = float("nan")
     chi2_after: float = float("nan")
+    target_var: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
@@ -288,7 +291,8 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s)
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s,
+                      target_var)
 
 
 def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None) -> float:

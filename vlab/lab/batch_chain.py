@@ -370,7 +370,8 @@ class ChainRun:
         self._amp = hw.amp_gain if np.any(hw.amp_gain != 1.0) else None
         self._act_gain = hw.actuator_gain if np.any(hw.actuator_gain != 1.0) else None
         self._sen_gain = hw.sensor_gain if np.any(hw.sensor_gain != 1.0) else None
-        self._use_lag_a = bool(np.any(hw.actuator_lag > 0))
+        # a corner so high that c underflows to 0 keeps its (small) g
+        self._use_lag_a = bool(np.any(hw.actuator_lag > 0) or np.any(hw.actuator_lag_mean > 0))
         self._use_lag_s = bool(np.any(hw.sensor_lag > 0))
         self._sense_fb = bool(n_fb and (self._sen_gain is not None or self._use_lag_s))
         # the step coefficients of each physics step s, looked up once

@@ -65,8 +65,7 @@ def step_mean_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
     """Continuous first-order lags of corners ``corners_hz`` held over steps of ``step_s`` at their exact step
     average, per channel: ``((1 - g) + (g - c) z^-1) / (1 - c z^-1)``, ``z = e^{jw step}``,
     ``c = e^{-2 pi f_c step}``, ``g = (1 - c) / (2 pi f_c step)`` (the coil lag of
-    :func:`vlab.lab.batch_chain.lag_step`; to second order in ``step``, ``1 / (1 + jw / w_c)`` times the
-    hold of its input).
+    :func:`vlab.lab.batch_chain.lag_step`; to second order in ``step``, the continuous ``1 / (1 + jw / w_c)``).
 
     Parameters
     ----------

@@ -207,6 +207,8 @@ def plant_step_s(state: LabState) -> float:
     ------
     ModelError, DataFileError
         As :func:`mujoco_plant`.
+    SimulationError
+        The plant cannot be built (:func:`vlab.sim.build_plant`).
     """
     return float(mujoco_plant(state).timestep_s)
 

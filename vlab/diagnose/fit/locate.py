@@ -529,7 +529,7 @@ def locate(problem: Problem, nominal: LabState) -> Location:
     return loc
 
 
-def peak_limit(problem: Problem) -> float:
+def resonance_limit(problem: Problem) -> float:
     """The squared standardised rise [1] a measured peak must exceed to be a resonance rather than noise
     (:func:`~vlab.diagnose.fit.resonances.stands_out`): the policy's line limit over every line and channel
     of the data, one degree of freedom (:meth:`vlab.diagnose.policy.DecisionPolicy.line_limit`).
@@ -553,7 +553,7 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
     The measured FRF is compared with its reference on the same lines (the nominal plant's replay or a
     baseline where the data were referred through one, so that resonances the plant has and the FE model
     lacks are in both; else the nominal lab's FRF) by :func:`~vlab.diagnose.fit.resonances.unpaired_peaks`;
-    a measured peak must stand out of the recording's own noise (:func:`peak_limit`).
+    a measured peak must stand out of the recording's own noise (:func:`resonance_limit`).
 
     Parameters
     ----------
@@ -578,4 +578,4 @@ def extra_resonances(problem: Problem, nominal: LabState, *, prominence_db: floa
         with np.errstate(divide="ignore", invalid="ignore"):
             model = np.where(np.abs(d.h) > 0, d.h_recorded * model / d.h, model)
     return unpaired_peaks(d.freq_hz, meas, model, d.output_points, prominence_db=prominence_db, var=var,
-                          limit=peak_limit(problem))
+                          limit=resonance_limit(problem))
