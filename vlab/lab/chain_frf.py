@@ -35,6 +35,21 @@ def _f(freq_hz) -> np.ndarray:
     return f.astype(complex if np.iscomplexobj(f) else float)
 
 
+def _lags(corners_hz, freq_hz, step_s: float, mean: bool) -> np.ndarray:
+    """``((1 - g) + (g - c) z^-1) / (1 - c z^-1)`` per channel, ``z = e^{jw step}``, ``c = e^{-2 pi f_c step}``;
+    ``g = c`` (the recursion, :func:`discrete_lags`) or, with ``mean``, the step average's weight
+    (:func:`step_mean_lags`). Shapes and units as those."""
+    f = _f(freq_hz)
+    out = np.ones((len(f), len(corners_hz)), dtype=complex)
+    for i, fc in enumerate(corners_hz):
+        if fc:
+            c = math.exp(-2 * math.pi * fc * step_s)
+            g = float(lag_mean_weight(fc, step_s)) if mean else c
+            zi = np.exp(-2j * np.pi * f * step_s)
+            out[:, i] = ((1 - g) + (g - c) * zi) / (1 - c * zi)
+    return out
+
+
 def discrete_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
     """Discrete first-order lags ``(1 - c) / (1 - c e^{-jw step})``, ``c = e^{-2 pi f_c step}``, per channel:
     the recursion ``y[n] = c y[n-1] + (1 - c) x[n]`` (the sensor lag, once per controller period).
@@ -52,13 +67,7 @@ def discrete_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
     -------
     ndarray, complex, shape (n_f, n_ch)
     """
-    f = _f(freq_hz)
-    out = np.ones((len(f), len(corners_hz)), dtype=complex)
-    for i, fc in enumerate(corners_hz):
-        if fc:
-            c = math.exp(-2 * math.pi * fc * step_s)
-            out[:, i] = (1 - c) / (1 - c * np.exp(-2j * np.pi * f * step_s))
-    return out
+    return _lags(corners_hz, freq_hz, step_s, mean=False)
 
 
 def step_mean_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
@@ -76,14 +85,7 @@ def step_mean_lags(corners_hz, freq_hz, step_s: float) -> np.ndarray:
     -------
     ndarray, complex, shape (n_f, n_ch)
     """
-    f = _f(freq_hz)
-    out = np.ones((len(f), len(corners_hz)), dtype=complex)
-    for i, fc in enumerate(corners_hz):
-        if fc:
-            c, g = math.exp(-2 * math.pi * fc * step_s), float(lag_mean_weight(fc, step_s))
-            zi = np.exp(-2j * np.pi * f * step_s)
-            out[:, i] = ((1 - g) + (g - c) * zi) / (1 - c * zi)
-    return out
+    return _lags(corners_hz, freq_hz, step_s, mean=True)
 
 
 def actuator_path(chain: HardwareChain, actuators, freq_hz, step_s: float) -> np.ndarray:
