@@ -238,3 +238,17 @@ def test_detectability_json_of_a_structure_file(beam, tmp_path):
     assert data["structure"] == "beam" and data["noise_m_s"] == 1e-6
     assert {t["effect"] for t in data["thresholds"]} == {"sensor_gain"}
     assert "sensor_gain" in res.stdout
+
+
+def test_a_study_with_its_own_spreads_says_so_in_its_title(beam, tmp_path):
+    """A study run with ``--uncertainty`` is titled as such, so that its page is not taken for the default one."""
+    spreads = tmp_path / "spreads.toml"
+    spreads.write_text('[parameters.member_ei]\nspread = 0.1\nsource = "test: twice the default"\n')
+    out = tmp_path / "rob"
+    _invoke("robustness", beam, "--samples", "2", "--chunk-size", "2", "--scheduler", "none", "--controllers",
+            "mfdrf", "--simulate", "0", "--simulate-random", "0", "--uncertainty", spreads, "--out", out)
+    title = (out / "robustness.md").read_text().splitlines()[0]
+    assert title.endswith("(the spreads of the command's --uncertainty file)"), title
+    data = json.loads((out / "robustness.json").read_text())
+    ei = next(u for u in data["uncertainties"] if "member_ei" in json.dumps(u))
+    assert "twice the default" in json.dumps(ei)
