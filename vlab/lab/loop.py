@@ -157,9 +157,11 @@ class HardwareChain:
         controller reads it and, where the point is measured, the recording
         holds it. A diagnosis hypothesis, like ``actuator_gain``.
     actuator_lag_hz : float or None
-        Corner frequency [Hz] of an extra first-order lag on each coil force,
-        applied at every physics step (None = off). A diagnosis hypothesis
-        (e.g. coil inductance), not part of the Sec. 5.3 chain.
+        Corner frequency [Hz] of an extra first-order lag on each coil force:
+        a continuous lag whose exact average over each physics step is the
+        force held over it (:func:`vlab.lab.batch_chain.lag_step`; None = off).
+        A diagnosis hypothesis (e.g. coil inductance), not part of the Sec. 5.3
+        chain.
     sensor_lag_hz : float or None
         Corner frequency [Hz] of an extra first-order lag on each feedback
         sensor's velocity, applied once per controller period before the noise
