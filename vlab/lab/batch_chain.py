@@ -113,7 +113,20 @@ def _hold_steps(frac: np.ndarray, tau: np.ndarray, n_sub: int, period: float, h:
 
 def lag_mean_weight(corner_hz, h_s: float) -> np.ndarray:
     """``g = (tau / h)(1 - exp(-h / tau))``, ``tau = 1 / (2 pi f_c)``, of first-order lags of corners
-    ``corner_hz`` (array; 0 or less: no lag, ``g = 0``) over a physics step ``h_s`` [s] (:func:`lag_step`)."""
+    ``corner_hz`` over a physics step ``h_s`` (:func:`lag_step`).
+
+    Parameters
+    ----------
+    corner_hz : array_like, any shape
+        Corner frequencies [Hz]; 0 or less: no lag (``g = 0``).
+    h_s : float
+        Physics step [s], > 0.
+
+    Returns
+    -------
+    ndarray, shape of ``corner_hz``
+        ``g`` [1], in (0, 1) where there is a lag.
+    """
     fc = np.asarray(corner_hz, dtype=float)
     a = 2 * math.pi * np.where(fc > 0, fc, 1.0) * h_s  # h / tau
     return np.where(fc > 0, -np.expm1(-a) / a, 0.0)
@@ -126,8 +139,25 @@ def lag_step(y0, u, c, g):
     plant holds over the step. The step's held input is the step average of what precedes the lag (the RC
     filter's exact average, :func:`rc_step`), a midpoint value; the lag's average is then its value at the
     midpoint too, to second order in ``h``, whatever the step: a lag's end-of-step value held over the step
-    would lead the continuous lag by ``h / 2``. Scalars or arrays (broadcast); ``c = g = 0``: no lag
-    (``mean = y1 = u``)."""
+    would lead the continuous lag by ``h / 2``.
+
+    Parameters
+    ----------
+    y0 : float or ndarray
+        The lag's value at the step's start [N].
+    u : float or ndarray
+        Its input, held over the step [N] (broadcast with ``y0``).
+    c, g : float or ndarray
+        ``exp(-h / tau)`` and :func:`lag_mean_weight` [1]; ``c = g = 0``: no lag (``mean = y1 = u``).
+
+    Returns
+    -------
+    (y1, mean)
+        The value at the step's end and the average over the step [N], shape of the broadcast inputs.
+
+    Source: the exact solution ``y(t) = u + (y0 - u) e^{-t / tau}`` of the first-order lag under a constant
+    input, averaged over ``0 <= t <= h``.
+    """
     return c * y0 + (1 - c) * u, u + g * (y0 - u)
 
 

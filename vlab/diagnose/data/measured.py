@@ -112,7 +112,8 @@ class FrfData:
 
     def as_recorded(self) -> tuple[np.ndarray, np.ndarray]:
         """The FRFs as recorded and their variance, shapes (n_f, n_o): ``h_recorded`` and ``var_recorded``
-        where these data were referred to the model through a reference, else ``h`` and ``var``.
+        where these data were referred to the model through a reference (``var`` where the recording's own
+        variance was not kept), else ``h`` and ``var``.
 
         Returns
         -------
