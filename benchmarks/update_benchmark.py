@@ -41,9 +41,9 @@ size ``k`` times its detection threshold, ``k`` log-uniform in [2, 5] (distance 
 difference above it, the log ratio below it, the compliance for a joint or lag, :func:`_size`; ``--k LO HI``
 for other sizes), and its own seed for the recording's excitation and noise. The thresholds are vlab's own
 (:func:`vlab.diagnose.detectability.detectability`) for the closed-loop test with the benchmark's controller,
-``model_form="derived"`` (a MuJoCo recording as the diagnosis reads it), computed once (13 min for the BCC
-with MFDRF, 33 min with LQDRF, on two shared cores) and cached in
-``docs/validation/data/detectability_<structure>_<controller>.json``. They are not those of the shipped
+``model_form="plant"`` (a recording the MuJoCo plant made, compared through that plant's replay without a
+model form, as the diagnosis reads the draws' recordings, whose metadata name their plant), computed once and
+cached in ``docs/validation/data/detectability_<structure>_<controller>_plant.json``. They are not those of the shipped
 open-loop table (``detectability_bcc_open_loop.csv``): the closed loop moves and damps the peaks, and its
 per-channel chain effects exist only there. The cases run in rounds (one null case and one of every kind,
 kinds shuffled, then the rest) so that a run stopped early (``--limit N``) covers every kind once. Each case
@@ -51,23 +51,8 @@ is printed as it ends (and written with ``--out``): what was concealed, ``k``, t
 criteria, the time, how the diagnosis compares (right / WRONG effect / WRONG place / missed / not named / for
 null cases a false alarm) with the fitted size over the concealed one, and what it selected; then a summary.
 
-Measured (BCC, MFDRF, 2 shared cores; docs/validation/data/update_benchmark_draw_*.txt), about 20 s a case:
-
-- ``--draw 7171`` (k 2-5, a seed not used while developing; 24 cases in 6.5 min): diagnosis right in 23
-  (21 of 22 effects at their place, both null cases no mismatch and the update refused), one missed (mode
-  1's damping 0.004 -> 0.0011, k 2.2: no mismatch found; the threshold is the profiled test's of a real
-  measurement, not the test a recording of vlab's own plant gets). Error halved in 2 of 21 updates: the
-  original errors are 0.007-0.048 (median 0.024), the updated ones at the BCC's floor (0.018-0.020 in 20; the
-  nominal design on the unchanged plant: 0.0181), and one worse (18 g at point 5: 0.0071 -> 0.0292). No
-  original error above 0.06 (the 0.03 criterion untested); damping within 10 % in 21 of 21.
-- ``--draw 7272 --k 5 20``: diagnosis right in 24 of 24; halved 15 of 22 (the 7 misses all started below
-  0.032, under twice the floor); <= 0.03 in 5 of 6 (a 15.5-period delay: 0.1225 -> 0.0598); damping within
-  10 % in 20 of 22 (the 11.8- and 15.5-period delays: 12 %, 22 %). Below the null, ``k`` near 20 drives a
-  mode's damping ratio to ~0 (log ratio); the fit then sits at the library's bound.
-- ``--draw 7171 --controller lqdrf`` (its own thresholds, 33 min; 24 cases in 5.6 min): diagnosis right in
-  21 of 24, three missed (coil gain 1.017, chain gain 0.980, mode 1 damping 0.004 -> 0.00018); halved 2 of 19
-  (original 0.008-0.028, updated 0.011-0.018, the floor 0.0114); damping within 10 % in 17 of 19 (the two
-  sensor-lag cases: nan).
+The measured runs are listed in ``docs/validation/data/update_benchmark_draw_*.txt`` (the listing index:
+``docs/benchmark-listings.md``).
 """
 
 from __future__ import annotations
@@ -242,15 +227,16 @@ def _rel(path: Path) -> str:
 def draw_thresholds(structure: str, controller: str, cache: Path) -> dict:
     """The detection thresholds of ``structure``'s closed-loop test with ``controller`` (cached as JSON).
 
-    :func:`vlab.diagnose.detectability.detectability` (``model_form="derived"``: a real recording referred
-    through the MuJoCo plant's replay, as the diagnosis reads the benchmark's recordings), restricted to
+    :func:`vlab.diagnose.detectability.detectability` with ``model_form="plant"``: a recording the MuJoCo
+    plant made, referred through that plant's replay without a model form, as the diagnosis reads the
+    benchmark's recordings (their metadata name the plant that made them); restricted to
     :data:`DRAW_EFFECTS`, no naming thresholds. Computed once and written to ``cache``."""
     import json
     if cache.exists():
         return json.loads(cache.read_text())
     from vlab.diagnose.detectability import detectability
     t0 = time.perf_counter()
-    d = detectability(structure, controller, effects=DRAW_EFFECTS, model_form="derived", naming=False).as_dict()
+    d = detectability(structure, controller, effects=DRAW_EFFECTS, model_form="plant", naming=False).as_dict()
     d["seconds"] = time.perf_counter() - t0
     cache.parent.mkdir(parents=True, exist_ok=True)
     cache.write_text(json.dumps(d, indent=1, default=float))
@@ -484,7 +470,7 @@ def main_draw(a) -> None:
               f"--controller {a.controller} --k {a.k[0]:g} {a.k[1]:g}"
               + (f" --limit {a.limit}" if a.limit is not None else "") + f"   ({time.strftime('%Y-%m-%d')})",
               "# thresholds: " + ", ".join(f"{k}: {_rel(v)}" for k, v in thr_files.items()) + " (closed loop, "
-              f"{a.controller}, model_form derived)",
+              f"{a.controller}, model_form plant)",
               "# k: size / detection threshold (distance from the null value: _size); err: average peak level error "
               "mean|1 - r| of the design on the original / updated model on the changed plant; dzeta: largest "
               "relative difference of the updated design's closed-loop damping ratios, measured vs predicted; "
@@ -536,7 +522,7 @@ def main() -> None:
                     help="--draw: sizes log-uniform between LO and HI times the detection threshold")
     ap.add_argument("--limit", type=int, default=None, help="--draw: run only the first N cases drawn")
     ap.add_argument("--thresholds", default=str(ROOT / "docs" / "validation" / "data" /
-                                                  "detectability_{structure}_{controller}.json"),
+                                                  "detectability_{structure}_{controller}_plant.json"),
                     help="--draw: the thresholds' cache file ({structure}, {controller} filled in)")
     a = ap.parse_args()
     if a.draw is not None:

@@ -127,3 +127,21 @@ def test_referral_variance_is_the_term_refer_to_model_adds():
     added = out.var / np.abs(out.h) ** 2
     expected = referral_variance(model_over_base, h_model * effect, h_model, None)
     assert np.allclose(added, expected, rtol=1e-6, atol=1e-20)
+
+
+def test_a_plants_own_recording_carries_the_referrals_variance_only(mass_threshold):
+    """The thresholds of a recording the MuJoCo plant made (model_form="plant") are those of the model's own
+    recording with the variance the referral through the plant's replay adds: never below them, above them
+    where the plant differs from the model; no profile, so detected by rule 1 alone. An unknown model form is
+    refused before anything is recorded."""
+    from vlab.errors import ModelError
+
+    spec, det_own, _t = mass_threshold
+    det = detectability(spec, "none", effects=("added_mass",), model_form="plant")
+    assert det.model_form == "plant" and all(t.by in ("chi2", "peak") for t in det.thresholds if t.threshold)
+    plant = {repr(t.location): t.threshold for t in det.thresholds}
+    own = {repr(t.location): t.threshold for t in det_own.thresholds}
+    both = [k for k in plant if plant[k] is not None and own.get(k) is not None]
+    assert both and all(plant[k] >= own[k] * (1 - 1e-6) for k in both) and any(plant[k] > 1.05 * own[k] for k in both)
+    with pytest.raises(ModelError, match="model form 'real'"):
+        detectability(spec, "none", effects=("added_mass",), model_form="real")

@@ -214,10 +214,11 @@ def detectability(
     seed: int = opt(0, "--seed", help="seed of the excitation, the noise and the design's multi-start"),
     out: str = opt(None, "--out", help="also write detectability.json and a figure into this folder"),
     overwrite: bool = flag("--overwrite", help="replace an existing non-empty output folder"),
-    model_form: str = opt("derived", "--model-form", metavar="<derived|none>",
+    model_form: str = opt("derived", "--model-form", metavar="<derived|plant|none>",
                           help="derived: thresholds of a real measurement, within the model's own uncertainty "
-                               "(calibration residual, plant discretisation); none: of a recording made by the "
-                               "model itself"),
+                               "(calibration residual, plant discretisation); plant: of a recording made by the "
+                               "MuJoCo plant (an exported plant with a concealed effect); none: of a recording "
+                               "made by the model itself"),
     naming: bool = typer.Option(True, "--naming/--no-naming",
                                 help="also the smallest size at which the diagnosis names the effect among its "
                                      "look-alikes (every one-parameter effect of the library; minutes)"),

@@ -35,6 +35,14 @@ second-order variance (:func:`vlab.diagnose.data.measured.refer_to_model`) the t
 expected value (:func:`~vlab.diagnose.thresholds.referral_variance`): at the lightly damped peaks it is
 far larger than the noise (BCC: 18-36 % of the FRF against 2 %), and masses' thresholds rise 10-30 times.
 
+A recording the vlab MuJoCo plant made itself (``model_form="plant"``: an exported plant with an effect
+concealed in it, recorded with its metadata naming that plant) is read by the diagnosis without a model
+form -- the replay plant *is* the structure, but for the effect -- referred through that plant's replay
+with the referral's second-order variance (:func:`vlab.diagnose.data.measured.refer_to_model`), whose
+structure-to-plant term ``e`` is then zero: the test is rule 1 alone (no profile, no nuisance test), with
+the noise, the 0.5 % floor and that variance. These are the thresholds of a concealed effect recorded on
+the plant (``benchmarks/update_benchmark.py --draw``).
+
 Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
 pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.
 
@@ -71,6 +79,10 @@ from .problem.residuals import Problem
 from .thresholds import N_BISECT_REPORTED, DetectionTest, Threshold, effect_thresholds, referral_variance
 
 
+#: How the nominal recording is read (:func:`detectability`'s ``model_form``).
+MODEL_FORMS = ("derived", "plant", "none")
+
+
 @dataclass(frozen=True)
 class Detectability:
     """Thresholds of every one-parameter effect of the library for one test.
@@ -90,7 +102,7 @@ class Detectability:
     skipped : tuple of str
         Hypotheses left out (more than one parameter), by label.
     model_form : str
-        "derived" or "none" (:func:`detectability`).
+        "derived", "plant" or "none" (:func:`detectability`).
     """
 
     structure: str
@@ -267,11 +279,12 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
         Seed of the excitation, the noise and the design's multi-start.
     floor : float
         The diagnosis's relative model-error floor (0.5 %).
-    model_form : {"derived", "none"}
+    model_form : {"derived", "plant", "none"}
         "derived" (default): the thresholds of a real measurement, compared through the plant's replay
         within the model-form uncertainty of :mod:`vlab.diagnose.model.modelform` (calibration residual
         and the plant's discretisation), by the profiled test and with the referral's variance (module
-        notes); "none": of a recording made by the model itself.
+        notes); "plant": of a recording made by the MuJoCo plant itself, compared through its replay
+        (the referral's variance, no model form); "none": of a recording made by the model itself.
     naming : bool
         Also the naming thresholds (:mod:`vlab.diagnose.naming`): the detection thresholds of every
         look-alike are needed, so the whole library's are computed (minutes).
@@ -291,7 +304,7 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     Raises
     ------
     ModelError
-        Unknown controller or effect name; a structure without a test definition.
+        Unknown controller, effect name or model form; a structure without a test definition.
     SpecError
         Unknown structure.
 
@@ -299,18 +312,23 @@ def detectability(structure: str | StructureSpec = "bcc", controller: str = "non
     -----
     The method is in the module notes. The recording is made on the linear FE plant; with
     ``model_form="derived"`` it is read as a real recording compared through the MuJoCo plant's replay
-    (the model form and the referral's variance added), with ``"none"`` as a recording of the model itself.
+    (the model form and the referral's variance added), with ``"plant"`` as the MuJoCo plant's own recording
+    compared through its replay (the referral's variance alone), with ``"none"`` as a recording of the model
+    itself.
     Cost: about 4 s a place and side with the profiled test, a fraction of a second without.
     """
     say = progress or (lambda s: None)
+    if model_form not in MODEL_FORMS:
+        raise ModelError(f"model form {model_form!r}: use one of {', '.join(MODEL_FORMS)}")
     say("recording the nominal test on the linear plant")
     spec, nominal, data, ctx = nominal_test(structure, controller, noise_m_s=noise_m_s, seed=seed)
-    if model_form not in ("derived", "none"):
-        raise ModelError(f"model form {model_form!r}: use 'derived' or 'none'")
     mf_frf, referral = None, None
-    if model_form == "derived":  # a real test, referred through the MuJoCo plant's replay
-        _mf, mf_frf = frf_model_form_of(nominal, data, "mujoco")
-        referral = replay_referral(nominal, data, mf_frf)
+    if model_form in ("derived", "plant"):  # referred through the MuJoCo plant's replay
+        _mf, mf_plant = frf_model_form_of(nominal, data, "mujoco")
+        referral = replay_referral(nominal, data, mf_plant)
+        # a real structure is compared within the model form; the plant's own recording is the replay plant
+        # itself with the effect (no model form; the referral's second-order term with e = 0)
+        mf_frf = mf_plant if model_form == "derived" else None
     var0 = data.var
     if referral is not None:  # the nominal recording as a real one: with the referral's term
         data = replace(data, var=var0 + referral_variance(referral, data.h, data.h, mf_frf) * np.abs(data.h) ** 2)
