@@ -410,11 +410,13 @@ def section(rows: list[dict], link_prefix: str = "data/") -> str:
     return "\n".join(lines)
 
 
-def replace_section(page: str, new: str) -> str:
-    """``page`` with the text between the markers (markers included) replaced by ``new``."""
-    a, b = page.find(BEGIN), page.find(END)
+def replace_section(page: str, new: str, begin: str = BEGIN) -> str:
+    """``page`` with the text between the markers ``begin`` and :data:`END` (markers included) replaced by
+    ``new``."""
+    a = page.find(begin)
+    b = page.find(END, a)
     if a < 0 or b < a:
-        raise ValueError(f"the page has no '{BEGIN}' ... '{END}' section")
+        raise ValueError(f"the page has no '{begin}' ... '{END}' section")
     return page[:a] + new + page[b + len(END):]
 
 
@@ -427,22 +429,29 @@ def main(argv=None) -> int:
     except ListingError as err:
         print(f"cannot read a listing: {err}", file=sys.stderr)
         return 2
-    want_csv = csv_text(rows)
     page = PAGE.read_text(encoding="utf-8")
-    want_page = replace_section(page, section(rows))
-    if args.check:
-        stale = [str(p.relative_to(ROOT)) for p, want in ((CSV_PATH, want_csv), (PAGE, want_page))
+    rc = write_or_check(((CSV_PATH, csv_text(rows)), (PAGE, replace_section(page, section(rows)))), args.check,
+                        "validation_tables.py")
+    if rc == 0 and not args.check:
+        print(f"{len({r['listing'] for r in rows})} listings, {len(rows)} runs -> {CSV_PATH.relative_to(ROOT)}, "
+              f"{PAGE.relative_to(ROOT)}")
+    return rc
+
+
+def write_or_check(files, check: bool, script: str) -> int:
+    """Write each ``(path, text)`` of ``files`` whole (or leave it as it was, also on Ctrl-C), or with ``check``
+    name on stderr those whose content differs; returns the exit status (1: some are out of date)."""
+    if check:
+        stale = [str(p.relative_to(ROOT)) for p, want in files
                  if not p.exists() or p.read_text(encoding="utf-8") != want]
         for s in stale:
-            print(f"out of date: {s} (run python benchmarks/validation_tables.py)", file=sys.stderr)
+            print(f"out of date: {s} (run python benchmarks/{script})", file=sys.stderr)
         return 1 if stale else 0
     from vlab.io.atomic import atomic_file
 
-    for path, text in ((CSV_PATH, want_csv), (PAGE, want_page)):  # each file whole or as it was
+    for path, text in files:
         with atomic_file(path, overwrite=True) as tmp:
             tmp.write_text(text, encoding="utf-8")
-    print(f"{len({r['listing'] for r in rows})} listings, {len(rows)} runs -> {CSV_PATH.relative_to(ROOT)}, "
-          f"{PAGE.relative_to(ROOT)}")
     return 0
 
 
