@@ -19,6 +19,7 @@ def pytest_configure(config) -> None:
     for name in ("COLUMNS", "LINES"):
         os.environ.pop(name, None)
     _run_named_tests(config)
+    _sigint_as_in_a_terminal()
     workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
     if workers is not None:
         threads = str(max(1, (os.cpu_count() or 1) // int(workers)))
@@ -27,6 +28,17 @@ def pytest_configure(config) -> None:
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(limits=int(os.environ["OPENBLAS_NUM_THREADS"]), user_api="blas")
+
+
+def _sigint_as_in_a_terminal() -> None:
+    """Ctrl-C raises KeyboardInterrupt, as in a terminal, also when the suite was started in the background:
+    a shell without job control starts a background command with SIGINT ignored, Python then keeps it
+    ignored, and the tests of what an interrupt leaves behind would see no interrupt at all."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 #: The marker expression of pyproject's ``addopts``: the default run leaves out the end-to-end checks.

@@ -58,6 +58,10 @@ class Search:
         The recording oscillates by itself and the nominal replay does not.
     loops : tuple of int
         Feedback points.
+    plant_made : bool
+        The recording names the MuJoCo plant that made it and is compared with that plant: a chosen effect
+        of the hardware chain is refitted and compared with its look-alikes there too
+        (:class:`vlab.diagnose.fit.plantfit.PlantModel`'s ``chain_refit``).
     """
 
     effects: tuple | None
@@ -67,18 +71,20 @@ class Search:
     on_plant: bool
     self_excited: bool
     loops: tuple
+    plant_made: bool = False
 
 
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
-                    pool: list[Hypothesis]) -> Hypothesis:
+                    pool: list[Hypothesis], chain: bool = False) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`); a pair
     is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
     look-alikes and the fits of ``res.ranked`` the FE model orders by less than its difference from the plant
     (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
     ``pool`` is searched next to it (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`). Sets
-    ``res.plant_refit`` (and ``res.alternatives``); returns the choice."""
+    ``res.plant_refit`` (and ``res.alternatives``); returns the choice. ``chain``: a chain effect is refitted
+    and compared there too (:attr:`Search.plant_made`)."""
     try:
-        model = PlantModel(problem)
+        model = PlantModel(problem, chain_refit=chain)
     except (VlabError, ImportError) as exc:
         notes.append(f"the MuJoCo plant could not be linearised for a refit: {exc}")
         return chosen
@@ -256,10 +262,11 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
                                           plant="mujoco" if search.on_plant else "linear", seed=RERUN_SEED)
         timing["tie_break"] = time.perf_counter() - t
     res.alternatives = alts
-    if chosen is not None and search.on_plant and chosen.spec_level and not search.self_excited:
+    chain = search.plant_made and not isinstance(chosen, Combination)
+    if chosen is not None and search.on_plant and (chosen.spec_level or chain) and not search.self_excited:
         say("refitting on the MuJoCo plant's linearisation")
         t = time.perf_counter()
-        chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects))
+        chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain)
         timing["plant_refit"] = time.perf_counter() - t
     if too_small_to_name(chosen, noise_only):  # beyond the noise, within the model's accuracy: located, not named
         res.too_small, res.too_small_candidates = True, [chosen] + list(alts)

@@ -117,8 +117,7 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
     plant compared with the FE model carry the plant's model-form difference)."""
     data, nominal = inp.data, inp.nominal
     ctx = context_for(nominal, inp.band_hz, data)
-    made_by_vlab = _source_named(inp) and (inp.replayed is not None or inp.replay_plant == "linear"
-                                           or inp.on_recording_plant)
+    made_by_vlab = _made_by_vlab(inp)
     mf_mode = model_form
     if model_form == "auto":
         mf_mode = "none" if (made_by_vlab or baseline is not None) else "derived"
@@ -205,6 +204,13 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
 def _source_named(inp: Inputs) -> bool:
     """The recording's metadata names the vlab plant that made it."""
     return isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
+
+
+def _made_by_vlab(inp: Inputs) -> bool:
+    """The recording names the vlab plant that made it and is compared with that plant (replayed there, or
+    the linear FE plant's compared with the FE model, or FRFs referred through the plant's linearisation)."""
+    return _source_named(inp) and (inp.replayed is not None or inp.replay_plant == "linear"
+                                   or inp.on_recording_plant)
 
 
 def _structure_problem(res: DiagnosisResult, inp: Inputs, problem: Problem, notes: list, timing: dict,
@@ -449,7 +455,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
         osc = res.instability or {}
         self_excited = bool(osc.get("unstable") and osc.get("in_replay") is False)  # part of the mismatch
         if res.mismatch:
-            search = replace(how, on_plant=inp.on_plant, self_excited=self_excited, loops=inp.loops)
+            search = replace(how, on_plant=inp.on_plant, self_excited=self_excited, loops=inp.loops,
+                             plant_made=inp.on_plant and _made_by_vlab(inp))
             explain(res, problem, problem.ctx, search, chi2_fit=res.chi2_fit, noise_only=res.noise_only, notes=notes,
                     timing=timing, say=say)
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)

@@ -336,11 +336,12 @@ def fit_half_bands(freq_hz, modes_hz, damping_hint) -> np.ndarray:
 
 def fit_each_mode(freq_hz, h, modes_hz, half_band_hz, *, response: str = "velocity",
                   weights=None, name: str = "frf") -> list[ModeFit | None]:
-    """:func:`fit_modes` of all expected modes at once, or, where that fails, of each mode alone.
+    """:func:`fit_modes` of the expected modes, the modes of overlapping bands together, group by group.
 
-    Overlapping bands (close modes) are fitted together in the first attempt; when it fails (too few
-    lines or no pole near one peak), each mode is fitted on its own band and a mode that still fails is
-    None.
+    Close modes whose bands overlap (:func:`overlapping_bands`) are fitted together (MDOF: fitted alone,
+    each would have to explain its neighbour's response with its own pole, Ewins 2000, Sec. 4.7). A group
+    whose fit fails (too few lines, or no resonant pole near one peak: an overdamped mode) has its modes
+    fitted each on its own band; the other groups keep their joint fits. A mode that still fails is None.
 
     Parameters
     ----------
@@ -361,17 +362,23 @@ def fit_each_mode(freq_hz, h, modes_hz, half_band_hz, *, response: str = "veloci
     Nothing of its own: a fit that raises MeasurementError (bad or non-finite arrays included) gives None.
     """
     modes = [float(x) for x in np.atleast_1d(modes_hz)]
-    halves = [float(x) for x in np.atleast_1d(half_band_hz)]
-    try:
-        return list(fit_modes(freq_hz, h, modes, response=response, half_band_hz=halves, weights=weights,
-                              name=name))
-    except MeasurementError:
-        pass
-    fits: list[ModeFit | None] = []
-    for fm, half in zip(modes, halves):
+    halves = np.broadcast_to(np.asarray(half_band_hz, dtype=float), (len(modes),))
+
+    def fit(idx: list[int]) -> list[ModeFit]:
+        return fit_modes(freq_hz, h, [modes[j] for j in idx], response=response,
+                         half_band_hz=[float(halves[j]) for j in idx], weights=weights, name=name)
+
+    fits: list[ModeFit | None] = [None] * len(modes)
+    for g in overlapping_bands(modes, halves):
         try:
-            fits.append(fit_modes(freq_hz, h, [fm], response=response, half_band_hz=half, weights=weights,
-                                  name=name)[0])
+            for j, m in zip(g, fit(g)):
+                fits[j] = m
+            continue
         except MeasurementError:
-            fits.append(None)
+            pass
+        for j in g:
+            try:
+                fits[j] = fit([j])[0]
+            except MeasurementError:
+                fits[j] = None
     return fits

@@ -29,6 +29,8 @@ class _Channel(Hypothesis):
     on closed-loop data only.
     """
 
+    in_chain = True
+
     def __init__(self, *, channel: int | str = "all"):
         if channel != "all" and (isinstance(channel, bool) or not isinstance(channel, (int, np.integer))):
             raise ModelError(f"{type(self).__name__}: channel must be a point id (int) or 'all', got {channel!r}")

@@ -46,6 +46,9 @@ class Hypothesis:
         True when the effect shifts natural frequencies (mass, stiffness): its
         one parameter is scanned densely before the local fit
         (:func:`vlab.diagnose.fit.estimate.trials_for`).
+    in_chain : bool
+        True when the effect acts in the hardware chain (delay, lag, gain, amplifier limit), leaving the
+        structure as it is.
     params_ : ndarray, shape (k,)
         Parameter values [SI].
     ci95_ : ndarray, shape (k, 2)
@@ -70,6 +73,7 @@ class Hypothesis:
     needs: ClassVar[str] = "any"
     spec_level: ClassVar[bool] = True
     moves_modes: ClassVar[bool] = False
+    in_chain: ClassVar[bool] = False
     order: ClassVar[int] = 0
     #: Application stage: 0 rebuilds the FE model from a spec, 1 edits the FE model, 2 adds to it.
     stage: ClassVar[int] = 2

@@ -181,6 +181,24 @@ def _same_physics(h: Hypothesis, chosen: Hypothesis) -> bool:
     return h.effect == chosen.effect or (h.effect in BENDING and chosen.effect in BENDING)
 
 
+def _to_compare(model: PlantModel, chosen: Hypothesis, alternatives: list, ranked, delta: float,
+                max_lookalikes: int, places) -> list:
+    """The fits :func:`choose_on_plant` compares with ``chosen`` on the plant: its look-alikes, the fits within
+    ``delta`` of it in FE chi-square and the best of its kind elsewhere (up to ``max_lookalikes``), then every
+    fit of the same physics at the located ``places``; each single and refittable there."""
+    chain = model.chain_refit
+
+    def refittable(h: Hypothesis) -> bool:
+        return h.label != chosen.label and not isinstance(h, Combination) and refit_index(h, chain=chain) is not None
+
+    near = sorted((h for h in ranked if abs(h.chi2_ - chosen.chi2_) < delta), key=lambda h: h.chi2_)
+    kind = sorted((h for h in ranked if type(h) is type(chosen) and h.label != chosen.label), key=lambda h: h.chi2_)
+    looks = list({h.label: h for h in list(alternatives) + near + kind[:SAME_KIND_COMPARED]
+                  if refittable(h)}.values())[:max_lookalikes]
+    return looks + [h for h in ranked if refittable(h) and _same_physics(h, chosen) and at_places(h.location, places)
+                    and h.label not in {x.label for x in looks}]
+
+
 def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, ranked: list = (), *,
                     max_lookalikes: int = MAX_LOOKALIKES, refit_best: int = LOOKALIKES_REFITTED,
                     places=frozenset()) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
@@ -244,18 +262,11 @@ def choose_on_plant(model: PlantModel, chosen: Hypothesis, alternatives: list, r
     note : str or None
         The plant chi-squares, when look-alikes were compared.
     """
-    if refit_index(chosen) is None:
+    if refit_index(chosen, chain=model.chain_refit) is None:
         return chosen, model.refit(chosen, chosen.params_), alternatives, None
     known = {chosen.label: model.chi2(chosen, chosen.params_)}  # at the FE values: one linearisation each
     delta = abs(known[chosen.label] - chosen.chi2_) if math.isfinite(known[chosen.label]) else 0.0
-    near = sorted((h for h in ranked if abs(h.chi2_ - chosen.chi2_) < delta), key=lambda h: h.chi2_)
-    kind = sorted((h for h in ranked if type(h) is type(chosen) and h.label != chosen.label), key=lambda h: h.chi2_)
-    looks = list({h.label: h for h in list(alternatives) + near + kind[:SAME_KIND_COMPARED]
-                  if h.label != chosen.label and not isinstance(h, Combination) and refit_index(h) is not None
-                  }.values())[:max_lookalikes]
-    looks += [h for h in ranked if not isinstance(h, Combination) and h.label != chosen.label
-              and _same_physics(h, chosen) and at_places(h.location, places) and refit_index(h) is not None
-              and h.label not in {x.label for x in looks}]
+    looks = _to_compare(model, chosen, alternatives, ranked, delta, max_lookalikes, places)
     if not looks:
         return chosen, model.refit(chosen, chosen.params_), alternatives, None
     cands = [chosen] + looks

@@ -72,6 +72,7 @@ from ..data.measured import FrfData
 from ..effects.hypothesis import Combination, Hypothesis
 from ..model.labmodel import LabState, PointModes
 from ..problem.residuals import Problem
+from .rules import NONLINEAR
 
 #: Half-width of the scan in ``ln p`` around the FE-fitted value (+-12 %: the FE/MuJoCo
 #: frequency offsets moved the grid's joint stiffness by 7 %). A chosen range, not fitted; a least chi-square
@@ -141,13 +142,17 @@ def _plant_coupling(spec: StructureSpec, plant, phi: np.ndarray) -> np.ndarray |
     return cm
 
 
-def refit_index(h: Hypothesis, part: Hypothesis | None = None) -> int | None:
+def refit_index(h: Hypothesis, part: Hypothesis | None = None, *, chain: bool = False) -> int | None:
     """Index into ``h.params_`` of the parameter to refit on the plant, or None.
 
     That of the one spec-level, mode-moving, one-parameter effect of ``h`` (a
     pair qualifies when all its parts are spec-level and exactly one moves
-    modes, or ``part``, one of its parts, moves modes); None otherwise.
+    modes, or ``part``, one of its parts, moves modes); with ``chain``, also the one parameter of a single
+    effect of the hardware chain (a recording the MuJoCo plant made: the chain acts in that plant's loop,
+    :class:`PlantModel`); None otherwise.
     """
+    if chain and not isinstance(h, Combination) and h.in_chain and h.effect not in NONLINEAR and h.n_params == 1:
+        return 0
     parts = h.parts if isinstance(h, Combination) else (h,)
     if not all(p.spec_level for p in parts):
         return None
@@ -212,6 +217,13 @@ class PlantModel:
         With FRF data (recording or FRFs); its nominal lab, context and weights are used.
     modes_of : callable ``(spec, points) -> PointModes``
         The plant's modes (default :func:`plant_modes`).
+    chain_refit : bool
+        Refit a single effect of the hardware chain too (:func:`refit_index` with ``chain``): for a recording
+        the MuJoCo plant made, compared with that plant. The data were referred through the plant's replay,
+        so a change of the chain is the change it makes in the *plant's* loop; fitted on the FE model, whose
+        loop differs from the plant's (FRFs 18-36 % apart at the BCC's peaks), it carries that difference to
+        second order (the referral's error, :func:`vlab.diagnose.data.measured.refer_to_model`), enough to
+        read a lag's corner 0.5 % off and to let a delay fit the lag's data better than the lag.
 
     Attributes
     ----------
@@ -229,7 +241,8 @@ class PlantModel:
         Modal data, or the plant of the nominal spec cannot be built or linearised.
     """
 
-    def __init__(self, problem: Problem, *, modes_of=plant_modes):
+    def __init__(self, problem: Problem, *, modes_of=plant_modes, chain_refit: bool = False):
+        self.chain_refit = bool(chain_refit)
         data = problem.data
         if not isinstance(data, FrfData):
             raise ModelError("a refit on the plant needs FRF data (a recording or FRFs), not a modal table")
@@ -288,7 +301,7 @@ class PlantModel:
         PlantRefit or None
             None when ``h`` has no such parameter (:func:`refit_index`) or it is not positive.
         """
-        i = refit_index(h) if index is None else index
+        i = refit_index(h, chain=self.chain_refit) if index is None else index
         x0 = np.asarray(x0, dtype=float)
         if i is None or not float(x0[i]) > 0.0:
             return None

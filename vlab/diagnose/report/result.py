@@ -234,7 +234,7 @@ class DiagnosisResult:
         if self.structure_fit is not None:
             return f"the structure's FE model, the data referred through {self.structure_fit.reference}"
         if self.plant_refit is not None:
-            return "the MuJoCo plant's linearisation (a mode-moving parameter refitted there)"
+            return "the MuJoCo plant's linearisation (the parameter refitted there)"
         return "the FE model" + ("" if self.reference == "the FE model" else ", the data referred through "
                                  + self.reference)
 
