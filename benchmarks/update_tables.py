@@ -16,15 +16,13 @@ The standard library, and the page-section and writing helpers of ``validation_t
 
 from __future__ import annotations
 
-import argparse
-import csv
-import io
 import re
 import statistics
 import sys
 from pathlib import Path
 
-from validation_tables import DATA, END, ROOT, ListingError, replace_section, write_or_check
+from validation_tables import DATA, END, ROOT, ListingError, generated_main, replace_section
+from validation_tables import csv_text as table_csv
 
 PAGE = ROOT / "docs" / "validation" / "update-benchmarks.md"
 CSV_PATH = DATA / "update_runs.csv"
@@ -135,11 +133,7 @@ def table_rows(data: Path = DATA) -> list[dict]:
 
 def csv_text(rows: list[dict]) -> str:
     """The CSV of ``rows`` (columns :data:`COLUMNS`)."""
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    return buf.getvalue()
+    return table_csv(rows, COLUMNS)
 
 
 def section(rows: list[dict], link_prefix: str = "data/") -> str:
@@ -163,20 +157,11 @@ def section(rows: list[dict], link_prefix: str = "data/") -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--check", action="store_true", help="exit 1 if the CSV or the page is out of date")
-    args = ap.parse_args(argv)
-    try:
-        rows = table_rows()
-    except ListingError as err:
-        print(f"cannot read a listing: {err}", file=sys.stderr)
-        return 2
-    page = PAGE.read_text(encoding="utf-8")
-    rc = write_or_check(((CSV_PATH, csv_text(rows)), (PAGE, replace_section(page, section(rows), BEGIN))), args.check,
-                        "update_tables.py")
-    if rc == 0 and not args.check:
-        print(f"{len(rows)} listings -> {CSV_PATH.relative_to(ROOT)}, {PAGE.relative_to(ROOT)}")
-    return rc
+    def files(rows):
+        return (CSV_PATH, csv_text(rows)), (PAGE, replace_section(PAGE.read_text(encoding="utf-8"), section(rows), BEGIN))
+
+    return generated_main(argv, __doc__.split("\n")[0], table_rows, files, "update_tables.py",
+                          lambda rows: f"{len(rows)} listings -> {CSV_PATH.relative_to(ROOT)}, {PAGE.relative_to(ROOT)}")
 
 if __name__ == "__main__":
     sys.exit(main())

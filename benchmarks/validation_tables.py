@@ -337,9 +337,10 @@ def table_rows(data: Path = DATA) -> list[dict]:
     return rows
 
 
-def csv_text(rows: list[dict]) -> str:
+def csv_text(rows: list[dict], columns: list[str] = COLUMNS) -> str:
+    """The CSV of ``rows`` (default columns :data:`COLUMNS`)."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
     w.writeheader()
     w.writerows(rows)
     return buf.getvalue()
@@ -421,20 +422,30 @@ def replace_section(page: str, new: str, begin: str = BEGIN) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    def files(rows):
+        page = replace_section(PAGE.read_text(encoding="utf-8"), section(rows))
+        return (CSV_PATH, csv_text(rows)), (PAGE, page)
+
+    return generated_main(argv, __doc__.split("\n")[0], table_rows, files, "validation_tables.py",
+                          lambda rows: f"{len({r['listing'] for r in rows})} listings, {len(rows)} runs -> "
+                                       f"{CSV_PATH.relative_to(ROOT)}, {PAGE.relative_to(ROOT)}")
+
+
+def generated_main(argv, description: str, rows_of, files_of, script: str, summary) -> int:
+    """The command line of a table script: ``rows_of()`` read from the listings (exit 2 naming the listing it
+    cannot read), ``files_of(rows)`` the ``(path, text)`` pairs written, or with ``--check`` compared
+    (:func:`write_or_check`), and ``summary(rows)`` printed after a write."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--check", action="store_true", help="exit 1 if the CSV or the page is out of date")
     args = ap.parse_args(argv)
     try:
-        rows = table_rows()
+        rows = rows_of()
     except ListingError as err:
         print(f"cannot read a listing: {err}", file=sys.stderr)
         return 2
-    page = PAGE.read_text(encoding="utf-8")
-    rc = write_or_check(((CSV_PATH, csv_text(rows)), (PAGE, replace_section(page, section(rows)))), args.check,
-                        "validation_tables.py")
+    rc = write_or_check(files_of(rows), args.check, script)
     if rc == 0 and not args.check:
-        print(f"{len({r['listing'] for r in rows})} listings, {len(rows)} runs -> {CSV_PATH.relative_to(ROOT)}, "
-              f"{PAGE.relative_to(ROOT)}")
+        print(summary(rows))
     return rc
 
 
