@@ -125,7 +125,8 @@ def _by_prediction(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, r
 
 
 def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabState, ranked: list, loops,
-                          chi2_fit: float, validate_run: bool, on_plant: bool, notes: list, timing: dict, say):
+                          chi2_fit: float, validate_run: bool, on_plant: bool, notes: list, timing: dict, say,
+                          plant_made: bool = False):
     """The choice of a recording that oscillates by itself (rule 9, :mod:`vlab.diagnose.instability_cause`):
     the best-fitting candidate whose linear loop is unstable and whose rerun reproduces the oscillation, with
     that rerun as ``res.validation``; the candidates rerun in vain are listed as rejected. None when nothing
@@ -141,7 +142,7 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
     growth = recorded_growth_rate(res.instability, problem.data.recording.duration_s)
     cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit, c_hat=res.overdispersion,
                          plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant,
-                         growth_1_s=growth)
+                         growth_1_s=growth, plant_made=plant_made)
     timing["instability_cause"] = time.perf_counter() - t
     notes.append(cause.note(f0))
     for tr in cause.tried:
@@ -253,7 +254,8 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
         chosen, alts = passing, []
     if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
         chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,
-                                             search.validate_run, search.on_plant, notes, timing, say), []
+                                             search.validate_run, search.on_plant, notes, timing, say,
+                                             search.plant_made), []
     elif chosen is not None and search.validate_run and data_has_signals(res.data) and \
             any(needs_rerun_check(h) for h in [chosen] + alts):
         say("separating look-alikes by rerun")

@@ -38,7 +38,8 @@ rejected by the FRF rules). The physics of an instability decides instead:
    unstable loop are rerun -- the whole record from rest, as it was
    recorded, so that the oscillation has the recording's time to grow --
    in the order of their fit (single effects
-   first, then pairs), at most :data:`MAX_RERUNS`. The best-supported
+   first, then pairs; for a recording the MuJoCo plant made, their fit on that plant's linearisation,
+   :func:`plant_order`), at most :data:`MAX_RERUNS`. The best-supported
    candidate is rerun even when its linear loop is stable: the loop analysis
    is a screen that saves reruns, and near the stability boundary (a limit
    cycle of small amplitude) the linearisation cannot resolve the sign of
@@ -416,8 +417,19 @@ class _Loops:
         return near > 0 and self.poles(h, x, sigma) == 2 * near
 
 
+def plant_order(cands: list, model) -> list:
+    """``cands``, single effects first and then pairs, each ordered by its chi-square at its FE fit on the
+    plant's linearisation ``model`` (:class:`~vlab.diagnose.fit.plantfit.PlantModel`): for a recording the
+    MuJoCo plant made, the model it was made with. The FE order carries the FE/plant difference, second order
+    in the referral, enough to put a look-alike first (a lag before the delay that made the recording)."""
+    key = lambda h: model.chi2(h, h.params_)  # noqa: E731
+    return (sorted((h for h in cands if not isinstance(h, Combination)), key=key)
+            + sorted((h for h in cands if isinstance(h, Combination)), key=key))
+
+
 def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, loops, *, chi2_0: float,
-                 c_hat: float, plant: str, seed: int, on_plant: bool, growth_1_s: float = 0.0) -> CauseSearch:
+                 c_hat: float, plant: str, seed: int, on_plant: bool, growth_1_s: float = 0.0,
+                 plant_made: bool = False) -> CauseSearch:
     """Find the library effect that makes the loop oscillate at the recording's self-excited frequency.
 
     Parameters
@@ -445,6 +457,9 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     growth_1_s : float
         The least growth rate [1/s] of the recorded oscillation's loop (:func:`recorded_growth_rate`): a
         chain effect stable at its fit is moved to where its loop grows that fast (0: to the boundary).
+    plant_made : bool
+        The recording names the MuJoCo plant that made it: the candidates are tried in their order on that
+        plant's linearisation (:func:`plant_order`), not the FE model's.
 
     Returns
     -------
@@ -469,7 +484,10 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
 
     # a nominal loop the model calls unstable (or cannot count) while its replay is not: no screen
     screen = poles(None) == 0
-    for h in _supported(ranked, chi2_0, problem.n_obs, c_hat, problem.policy.evidence):
+    cands = _supported(ranked, chi2_0, problem.n_obs, c_hat, problem.policy.evidence)
+    if plant_made and loops_of.model is not None:
+        cands = plant_order(cands, loops_of.model)
+    for h in cands:
         if len(out.tried) >= MAX_RERUNS:
             break
         z = None
