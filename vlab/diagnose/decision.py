@@ -255,9 +255,11 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     a flat model-error floor does not cover -- a 0.05 % frequency difference moves the line at a peak of
     damping ratio 0.002 by tens of per cent -- so a remainder confined to one line is not reported.
     Where a validation rerun was made, its misfit must also be resolved from what an exact model leaves
-    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). A choice with a nonlinear part is not judged: its
-    linear model is a describing function, whose error is not a remainder, and its value was fitted through
-    that describing function, so the rerun's misfit measures that fit as much as what is left.
+    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). A choice with a nonlinear part is judged by its
+    rerun alone -- its linear model is a describing function, whose error is not a remainder -- and what
+    the rerun leaves beyond what an exact model leaves is reported with ``nonlinear_choice`` set: part of it
+    may be the error of the choice's own value, fitted through that describing function, and part an
+    effect the choice does not hold (a remainder is never dropped for being hard to attribute).
 
     Parameters
     ----------
@@ -274,24 +276,23 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
         (an exact model's; None when unknown), ``judged_on``, ``chi2`` and ``chi2_limit`` [1] and
         ``peak``/``peak_limit`` [1] of the chosen lab, ``modes`` (whose fit still disagrees), ``points``
         (where the sensitivity ranking puts the remainder), ``largest_line`` (``frequency_hz``, ``point``,
-        ``squared_residual``); None when nothing is left beyond the limits.
+        ``squared_residual``), ``nonlinear_choice``; None when nothing is left beyond the limits.
     """
     if res.selected is None:
         return None
     v = res.validation
-    if any(p.effect in NONLINEAR for p in res.selected_parts):
-        return None
+    nonlinear = any(p.effect in NONLINEAR for p in res.selected_parts)
     state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
     r = problem.residual(state, test=True)
-    if profiled(problem, state):  # modes moved within their model form, as for the mismatch test
+    if nonlinear:  # judged by its rerun alone
+        inside = True if v is None else not remainder_resolved(v.misfit_after, v.noise_misfit)
+    elif profiled(problem, state):  # modes moved within their model form, as for the mismatch test
         rp, x, k = profile_state(problem, state)
         inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()
                   and float(x @ x) <= problem.nuisance_limit(k))
     else:
         inside = float(r @ r) <= problem.noise_chi2()
-    if inside:
-        return None
-    if v is not None and not remainder_resolved(v.misfit_after, v.noise_misfit):
+    if inside or (v is not None and not remainder_resolved(v.misfit_after, v.noise_misfit)):
         return None
     if v is not None:
         after, noise, judged = v.misfit_after, v.noise_misfit, f"the validation rerun ({v.plant})"
@@ -306,7 +307,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
             "misfit_nominal_decades": float(misfit_0), "judged_on": judged,
             "chi2": float(r @ r), "chi2_limit": problem.noise_chi2(), "peak": problem.peak_of(r),
             "peak_limit": problem.peak_limit(), "modes": [m.mode for m in loc.modes if m.flagged],
-            "points": list(loc.points), "largest_line": _largest_line(problem, r)}
+            "points": list(loc.points), "largest_line": _largest_line(problem, r), "nonlinear_choice": nonlinear}
 
 
 def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list) -> None:
@@ -350,4 +351,6 @@ def _remainder_note(rem: dict, problem: Problem) -> str:
     noise = rem["noise_misfit_decades"]
     return (f"on {rem['judged_on']} the selected effect leaves a misfit of {rem['misfit_decades']:.3g} {unit}"
             + (f", resolved from the {noise:.3g} an exact model leaves" if noise is not None else "")
-            + (f" ({'; '.join(where)})" if where else ""))
+            + (f" ({'; '.join(where)})" if where else "")
+            + ("; the choice is nonlinear: part of this may be the error of its own value, fitted through a "
+               "describing function" if rem.get("nonlinear_choice") else ""))
