@@ -30,14 +30,15 @@ LISTINGS = "update_benchmark_draw_*.txt"
 BEGIN = "<!-- generated: update_tables.py -->"
 
 COLUMNS = [
-    "listing", "seed", "controller", "k_lo", "k_hi", "threshold_model_form", "vlab_commit", "provenance",
-    "effect_cases", "named_right", "wrong", "missed", "null_cases", "null_refused", "updated", "halved",
+    "listing", "seed", "structures", "controller", "k_lo", "k_hi", "threshold_model_form", "vlab_commit", "provenance",
+    "effect_cases", "named_right", "wrong", "missed", "errors", "null_cases", "null_refused", "null_false_alarms",
+    "updated", "halved",
     "floor_error", "above_twice_floor", "halved_above_twice_floor", "original_above_0_06", "updated_at_most_0_03",
     "damping_within_10pct", "err_original_median", "err_updated_median",
 ]
 
-HEAD = re.compile(r"^# python benchmarks/update_benchmark\.py --draw (\d+) .*--controller (\w+) --k ([\d.]+) ([\d.]+)"
-                  r".*?(?:vlab at (\w+))?\)?$")
+HEAD = re.compile(r"^# python benchmarks/update_benchmark\.py --draw (\d+) --structures ([\w ]+?) --controller (\w+) "
+                  r"--k ([\d.]+) ([\d.]+).*?(?:vlab at ([\w-]+))?\)?$")
 FORM = re.compile(r"model_form (\w+)\)")
 CASE = re.compile(r"^\s*(\d+) (.+?)\s+(-|\d+\.\d+)\s+(\d\.\d{4})?\s+(refused|\d\.\d{4})\s+(pass|FAIL|-)"
                   r"(?:\s+(pass|FAIL|-))?(?:\s+(nan|\d+\.\d+)\s+(pass|FAIL))?\s+(\d+)s\s+(.*)$")
@@ -92,16 +93,19 @@ def parse_listing(name: str, text: str) -> dict:
     measured = [c["err_orig"] for c in nul if c["err_orig"] is not None]  # the nominal design on the plant
     floor = statistics.median(measured) if measured else None
     above = [c for c in upd if floor is not None and c["err_orig"] >= 2 * floor]
+    null_ok = [c for c in nul if c["diagnosis"].startswith("right")]  # no mismatch found: the update refused
     row = {
-        "listing": name, "seed": int(head.group(1)), "controller": head.group(2), "k_lo": head.group(3),
-        "k_hi": head.group(4), "threshold_model_form": form.group(1) if form else "",
-        "vlab_commit": head.group(5) or "",
+        "listing": name, "seed": int(head.group(1)), "structures": head.group(2), "controller": head.group(3),
+        "k_lo": head.group(4), "k_hi": head.group(5), "threshold_model_form": form.group(1) if form else "",
+        "vlab_commit": head.group(6) or "",
         "provenance": ("fresh" if any(x.startswith("# a seed not") for x in lines)
                        else "seen" if any(x.startswith("# a check on") for x in lines) else ""),
         "effect_cases": len(eff), "named_right": sum(c["diagnosis"].startswith("right") for c in eff),
         "wrong": sum(c["diagnosis"].startswith("WRONG") for c in eff),
         "missed": sum(c["diagnosis"].startswith(("missed", "not named")) for c in eff),
-        "null_cases": len(nul), "null_refused": sum(c["err_upd"] is None for c in nul), "updated": len(upd),
+        "errors": sum(c["diagnosis"].startswith("ERROR") for c in cases),
+        "null_cases": len(nul), "null_refused": sum(c["err_upd"] is None for c in null_ok),
+        "null_false_alarms": sum(c["diagnosis"].startswith("WRONG") for c in nul), "updated": len(upd),
         "halved": sum(c["half"] == "pass" for c in upd), "floor_error": "" if floor is None else f"{floor:.4f}",
         "above_twice_floor": "" if floor is None else len(above),
         "halved_above_twice_floor": "" if floor is None else sum(c["half"] == "pass" for c in above),
@@ -115,10 +119,11 @@ def parse_listing(name: str, text: str) -> dict:
     right_all = sum(c["diagnosis"].startswith("right") for c in cases)  # the summary counts right nulls too
     wrong_all = sum(c["diagnosis"].startswith("WRONG") for c in cases)
     stated = {"right (all cases)": s["diag"][0], "wrong (all cases)": s["diag"][1], "missed": s["diag"][2],
-              "null_refused": s["null"][0], "null_cases": s["null"][1], "updated": s["upd"][0],
+              "nulls without an update": s["null"][0], "null_cases": s["null"][1], "updated": s["upd"][0],
               "effect_cases": s["upd"][1], "halved": s["upd"][2], "updated_at_most_0_03": s["upd"][4],
               "original_above_0_06": s["upd"][5], "damping_within_10pct": s["upd"][6]}
-    counted = dict(row, **{"right (all cases)": right_all, "wrong (all cases)": wrong_all})
+    counted = dict(row, **{"right (all cases)": right_all, "wrong (all cases)": wrong_all,
+                           "nulls without an update": sum(c["err_upd"] is None for c in nul)})
     differ = {k: (counted[k], v) for k, v in stated.items() if counted[k] != v}
     if differ:
         raise ListingError(f"{name}: case lines and summary disagree (from the lines, stated): {differ}")
@@ -138,18 +143,18 @@ def csv_text(rows: list[dict]) -> str:
 
 def section(rows: list[dict], link_prefix: str = "data/") -> str:
     """The page's generated section: one table row a listing."""
-    lines = [BEGIN, "", "| listing | seed | controller | k | thresholds | seed was | named right | wrong | missed | "
-             "nulls refused | error halved | halved, original >= 2x floor | floor | <= 0.03 where > 0.06 | "
+    lines = [BEGIN, "", "| listing | seed | structures | controller | k | thresholds | seed was | named right | wrong | "
+             "missed | errors | nulls refused (false alarms) | error halved | halved, original >= 2x floor | floor | <= 0.03 where > 0.06 | "
              "damping within 10 % | err original / updated (median) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         above = ("n/a" if r["above_twice_floor"] == ""
                  else f"{r['halved_above_twice_floor']}/{r['above_twice_floor']}")
         lines.append(
-            f"| [{r['listing']}]({link_prefix}{r['listing']}) | {r['seed']} | {r['controller']} | "
+            f"| [{r['listing']}]({link_prefix}{r['listing']}) | {r['seed']} | {r['structures']} | {r['controller']} | "
             f"{r['k_lo']}-{r['k_hi']} | {r['threshold_model_form']} | {r['provenance'] or 'not stated'} | "
-            f"{r['named_right']}/{r['effect_cases']} | {r['wrong']} | {r['missed']} | "
-            f"{r['null_refused']}/{r['null_cases']} | {r['halved']}/{r['updated']} | {above} | "
+            f"{r['named_right']}/{r['effect_cases']} | {r['wrong']} | {r['missed']} | {r['errors']} | "
+            f"{r['null_refused']}/{r['null_cases']} ({r['null_false_alarms']}) | {r['halved']}/{r['updated']} | {above} | "
             f"{r['floor_error'] or 'not measured'} | {r['updated_at_most_0_03']}/{r['original_above_0_06']} | "
             f"{r['damping_within_10pct']}/{r['updated']} | {r['err_original_median']} / {r['err_updated_median']} |")
     lines += ["", END]

@@ -211,3 +211,31 @@ def test_a_selected_effects_chi2_is_compared_on_the_footing_of_its_fit(c_fit, c_
     assert m and m.group(1) == _fmt(c_fit) and m.group(2) == _fmt(chi2_sel)
     assert float(m.group(1)) >= float(m.group(2)) * (1 - 1e-3)
     assert f"chi2 {c_fit:.4g} -> {chi2_sel:.4g} " in "\n".join(_mismatch_lines(res))
+
+
+def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reported(monkeypatch):
+    """A saturation chosen for a recording of a saturating loop with a grounded spring as well: its linear model
+    (a describing function) cannot judge a remainder, its rerun can. Resolved from what an exact model leaves
+    (0.00606 against 0.00116 decades), the remainder is reported with the rerun's chi-square, no single-line
+    statistic, and the caveat flag; not resolved (0.00140), nothing is reported."""
+    import vlab.diagnose.decision as decision
+    from vlab.diagnose.effects.hypotheses import Saturation
+
+    sat = Saturation()
+    located = SimpleNamespace(modes=[SimpleNamespace(mode=1, flagged=True), SimpleNamespace(mode=2, flagged=False)],
+                              points=(21, 14))
+    monkeypatch.setattr(decision, "locate", lambda problem, state: located)
+    problem = SimpleNamespace(residual=lambda state, test: np.array([3.0, 4.0]), noise_chi2=lambda: 3056.0,
+                              peak_limit=lambda: 53.5, peak_of=lambda r: 16.0, data=None)
+
+    def res_with(after: float):
+        v = SimpleNamespace(misfit_after=after, noise_misfit=0.00116, chi2_after=9946.0, plant="MuJoCo plant")
+        return SimpleNamespace(selected=sat, selected_parts=(sat,), validation=v, plant_refit=None,
+                               selected_state=lambda: "the lab with the saturation")
+
+    rem = decision.remainder_of(res_with(0.00606), problem, 0.056)
+    assert rem["nonlinear_choice"] is True and rem["chi2"] == 9946.0 and rem["chi2_limit"] == 3056.0
+    assert rem["peak"] is None and rem["largest_line"] is None
+    assert rem["modes"] == [1] and rem["points"] == [21, 14] and rem["judged_on"].startswith("the validation rerun")
+    assert "describing function" in decision._remainder_note(rem, problem)
+    assert decision.remainder_of(res_with(0.00140), problem, 0.056) is None

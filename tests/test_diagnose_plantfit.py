@@ -209,8 +209,10 @@ class _TablePlant:
         return self.at_fe[h.label]
 
     def refit(self, h, x0):
-        from vlab.diagnose.fit.plantfit import PlantRefit
+        from vlab.diagnose.fit.plantfit import PlantRefit, refit_index
 
+        if refit_index(h, chain=self.chain_refit) is None:  # as PlantModel.refit: nothing to refit
+            return None
         x = np.asarray(x0, dtype=float)
         return PlantRefit(h.param_names[0], float(x[0]), float(x[0]), x, None, self.at_fe[h.label],
                           self.refitted[h.label], 1, 0.0)
@@ -269,6 +271,21 @@ def test_the_best_fits_of_the_same_kind_are_compared_on_the_plant_however_far_be
     assert at5.label not in note and mass.label not in note  # beyond the three best of the kind; another kind
 
 
+def test_refit_index_takes_a_single_chain_effect_only_with_chain():
+    """With ``chain`` a single one-parameter effect of the hardware chain is refitted on the plant (index 0); a
+    nonlinear one (saturation), a pair of chain effects and anything without ``chain`` keep their former
+    answer: a mode-moving structural parameter only."""
+    from vlab.diagnose.effects.hypotheses import (ActuatorGain, ActuatorLag, AddedMass, Combination, LoopDelay,
+                                                  Saturation, SensorLag)
+    from vlab.diagnose.fit.plantfit import refit_index
+
+    for h in (LoopDelay(channel=7), ActuatorLag(channel="all"), SensorLag(channel=5), ActuatorGain(channel=9)):
+        assert refit_index(h, chain=True) == 0 and refit_index(h) is None, h.label
+    assert refit_index(Saturation(), chain=True) is None
+    assert refit_index(Combination(first=LoopDelay(channel=7), second=ActuatorLag(channel=5)), chain=True) is None
+    assert refit_index(AddedMass(point=3)) == 0 and refit_index(AddedMass(point=3), chain=True) == 0
+
+
 def test_a_chain_effect_is_compared_on_the_plant_only_for_a_recording_the_plant_made():
     """A hidden 139.2 Hz actuator lag on channel 7 under LQDRF, recorded on the MuJoCo plant: on the FE model a
     delay of 1.81 ms on that channel fits (chi-square 72.5) better than the lag (94.6): the loop the data were
@@ -283,8 +300,8 @@ def test_a_chain_effect_is_compared_on_the_plant_only_for_a_recording_the_plant_
     for h, x, chi2 in ((delay, 0.00181, 72.5), (lag, 139.9, 94.6)):
         h.params_, h.chi2_ = np.array([x]), chi2
     model = _TablePlant({delay.label: 109.4, lag.label: 0.5}, {delay.label: 109.1, lag.label: 0.46})
-    chosen, _refit, _alts, note = choose_on_plant(model, delay, [], [delay, lag])
-    assert chosen is delay and note is None
+    chosen, refit, _alts, note = choose_on_plant(model, delay, [], [delay, lag])
+    assert chosen is delay and refit is None and note is None
     model.chain_refit = True
     chosen, refit, alts, note = choose_on_plant(model, delay, [], [delay, lag])
     assert chosen is lag and refit.chi2 == 0.46 and alts == []

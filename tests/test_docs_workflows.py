@@ -62,6 +62,9 @@ def test_a_workflow_page_runs_as_shown(page, tmp_path):
                MPLBACKEND="Agg")
     lines = prompt_lines((ROOT / page).read_text(encoding="utf-8"))
     assert lines, f"{page}: no $ line"
+    # each line runs in its own shell: a page whose later lines rely on an earlier cd or export would need one
+    carried = [f"{page}:{n}: {cmd}" for n, cmd in lines if cmd.split()[0] in ("cd", "export", "source", ".")]
+    assert not carried, f"lines whose effect would not reach the next line here: {carried}"
     for n, cmd in lines:
         run = subprocess.run(["bash", "-c", cmd], cwd=tmp_path, env=env, capture_output=True, text=True,
                              timeout=900)

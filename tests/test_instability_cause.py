@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from vlab.diagnose.fit.rules import branch, nearest_mode, reproduces_oscillation
-from vlab.diagnose.instability_cause import destabilising_value, recorded_growth_rate, recorded_mode_band
+from vlab.diagnose.fit.boundary import destabilising_value, recorded_mode_band
+from vlab.diagnose.instability_cause import recorded_growth_rate
 from vlab.diagnose.model.labmodel import LabState
 from vlab.diagnose.model.nominal import nominal_design
 from vlab.diagnose.model.nyquist import loop_stability, poles_near, unstable_closed_loop_poles, zeros_in_box
@@ -336,11 +337,13 @@ def test_a_rerun_oscillating_where_the_recording_and_the_linear_loop_do_not_is_t
 def test_a_recording_the_plant_made_tries_its_candidates_in_their_order_on_the_plant():
     """A 2.49 ms delay on grid channel 1 under LQG, recorded on the MuJoCo plant, oscillating at 0.81 Hz: on the
     FE model a 141 Hz lag on that channel fits as well as the delay (chi-square 590.6 against 591.4) and would be
-    rerun first; on the plant's linearisation the delay is ahead. Singles stay before pairs whatever the
-    plant's chi-squares."""
+    rerun first; on the plant's linearisation the delay is ahead (the order is by quasi-BIC there). Singles stay
+    before pairs whatever the plant's chi-squares."""
     from types import SimpleNamespace
 
     import numpy as np
+
+    import math
 
     from vlab.diagnose.effects.hypotheses import ActuatorLag, Combination, LoopDelay
     from vlab.diagnose.instability_cause import plant_order
@@ -350,5 +353,6 @@ def test_a_recording_the_plant_made_tries_its_candidates_in_their_order_on_the_p
     pair = Combination(first=LoopDelay(channel=1), second=ActuatorLag(channel=3))
     pair.params_ = np.array([0.00247, 50.0])
     table = {lag.label: 400.0, delay.label: 12.0, pair.label: 1.0}
-    model = SimpleNamespace(chi2=lambda h, x: table[h.label])
+    info = lambda chi2, k: (chi2 + 2 * k, chi2 + k * math.log(1000))  # noqa: E731 -- Problem.information
+    model = SimpleNamespace(chi2=lambda h, x: table[h.label], problem=SimpleNamespace(information=info))
     assert plant_order([lag, delay, pair], model) == [delay, lag, pair]

@@ -214,3 +214,5 @@ def test_close_modes_keep_their_joint_fit_when_another_modes_fit_fails():
     for fit, (fn, z, _a) in zip(fits[1:], modes[1:]):
         assert fit.n_modes_in_band == 2
         assert fit.freq_hz == pytest.approx(fn, rel=1e-4) and fit.damping_ratio == pytest.approx(z, rel=1e-3)
+    with pytest.raises(MeasurementError, match="half_band_hz must be one value or one per mode"):
+        fit_each_mode(f, h, fm, halves[:2], response="displacement")

@@ -274,7 +274,8 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     dict or None
         ``misfit_decades`` (left by the choice: the rerun's, else the linear model's), ``noise_misfit_decades``
         (an exact model's; None when unknown), ``judged_on``, ``chi2`` and ``chi2_limit`` [1] and
-        ``peak``/``peak_limit`` [1] of the chosen lab, ``modes`` (whose fit still disagrees), ``points``
+        ``peak``/``peak_limit`` [1] of the chosen lab (of a nonlinear choice: its rerun's chi-square, no peak
+        and no largest line; its modes and points placed by its describing-function model), ``modes`` (whose fit still disagrees), ``points``
         (where the sensitivity ranking puts the remainder), ``largest_line`` (``frequency_hz``, ``point``,
         ``squared_residual``), ``nonlinear_choice``; None when nothing is left beyond the limits.
     """
@@ -303,11 +304,15 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
             noise = noise_misfit(problem.data.h[m], problem.data.var[m], problem.weight_mag[m])
         after, judged = res.misfit_selected, "the linear model"
     loc = locate(problem, state)
+    # a nonlinear choice's statistics are its rerun's (chi-square on the fit's footing); its linear model, a
+    # describing function, only places the remainder
+    chi2, peak = (float(v.chi2_after), None) if nonlinear else (float(r @ r), problem.peak_of(r))
     return {"misfit_decades": float(after), "noise_misfit_decades": None if noise is None else float(noise),
             "misfit_nominal_decades": float(misfit_0), "judged_on": judged,
-            "chi2": float(r @ r), "chi2_limit": problem.noise_chi2(), "peak": problem.peak_of(r),
+            "chi2": chi2, "chi2_limit": problem.noise_chi2(), "peak": peak,
             "peak_limit": problem.peak_limit(), "modes": [m.mode for m in loc.modes if m.flagged],
-            "points": list(loc.points), "largest_line": _largest_line(problem, r), "nonlinear_choice": nonlinear}
+            "points": list(loc.points), "largest_line": None if nonlinear else _largest_line(problem, r),
+            "nonlinear_choice": nonlinear}
 
 
 def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list) -> None:

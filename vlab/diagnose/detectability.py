@@ -40,8 +40,8 @@ concealed in it, recorded with its metadata naming that plant) is read by the di
 form -- the replay plant *is* the structure, but for the effect -- referred through that plant's replay
 with the referral's second-order variance (:func:`vlab.diagnose.data.measured.refer_to_model`), whose
 structure-to-plant term ``e`` is then zero: the test is rule 1 alone (no profile, no nuisance test), with
-the noise, the 0.5 % floor and that variance. These are the thresholds of a concealed effect recorded on
-the plant (``benchmarks/update_benchmark.py --draw``).
+the noise, the 0.5 % floor and that variance. These are the thresholds of an effect concealed in an
+exported plant and recorded there.
 
 Effects with more than one parameter (friction: force and equivalent dashpot) are left out, as are the
 pairs. An effect whose null value lies inside its range (a gain of 1) gets a threshold on each side.

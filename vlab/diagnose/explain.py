@@ -59,8 +59,8 @@ class Search:
     loops : tuple of int
         Feedback points.
     plant_made : bool
-        The recording names the MuJoCo plant that made it and is compared with that plant: a chosen effect
-        of the hardware chain is refitted and compared with its look-alikes there too
+        The recording names the MuJoCo plant that made it and is compared with that plant: a chosen single
+        effect of the hardware chain is refitted and compared with its look-alikes there too
         (:class:`vlab.diagnose.fit.plantfit.PlantModel`'s ``chain_refit``).
     """
 
@@ -264,8 +264,8 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
                                           plant="mujoco" if search.on_plant else "linear", seed=RERUN_SEED)
         timing["tie_break"] = time.perf_counter() - t
     res.alternatives = alts
-    chain = search.plant_made and not isinstance(chosen, Combination)
-    if chosen is not None and search.on_plant and (chosen.spec_level or chain) and not search.self_excited:
+    chain = search.plant_made and chosen is not None and chosen.in_chain  # a single chain effect (not a pair)
+    if chosen is not None and search.on_plant and chosen.spec_level and not search.self_excited:
         say("refitting on the MuJoCo plant's linearisation")
         t = time.perf_counter()
         chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain)

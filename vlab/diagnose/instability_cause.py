@@ -25,9 +25,9 @@ rejected by the FRF rules). The physics of an instability decides instead:
    is unstable at all. A hardware-chain candidate whose loop does not grow
    on the recorded mode at its fitted value (stable, or unstable on
    another mode: a limit cycle's FRFs are no linear response) is moved
-   (:func:`destabilising_value`), if the FRFs still support it there, to
+   (:func:`~vlab.diagnose.fit.boundary.destabilising_value`), if the FRFs still support it there, to
    the nearest value at which a loop pole on that mode
-   (:func:`recorded_mode_band`, counted by the argument principle,
+   (:func:`~vlab.diagnose.fit.boundary.recorded_mode_band`, counted by the argument principle,
    :func:`vlab.diagnose.model.nyquist.poles_near`), and no pole elsewhere, grows
    at least as fast as the recording did: an oscillation that grew
    ``r``-fold within a record of ``T`` seconds needs a pole with
@@ -70,7 +70,6 @@ Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, Theorem 4.9).
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 
@@ -80,6 +79,7 @@ from ..errors import ModelError, SpecError, VlabError
 from ..io.recording import Recording
 from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
+from .fit.boundary import destabilising_value, moved_to, recorded_mode_band
 from .fit.plantfit import PlantModel
 from .fit.rules import NONLINEAR, branch, evidence, nearest_mode, reproduces_oscillation
 from .fit.selection import rerun_key
@@ -89,11 +89,6 @@ from .validate import Validation, validate
 
 #: Most candidates rerun in the search for the cause (each a rerun of the analysed record, 1-5 s on the BCC).
 MAX_RERUNS = 3
-
-#: Grid points from a candidate's fitted value to each bound of its range, searched for the stability
-#: boundary, and the bisections that then narrow it (:func:`destabilising_value`).
-BOUNDARY_STEPS = 12
-BOUNDARY_BISECTIONS = 6
 
 
 @dataclass
@@ -283,91 +278,6 @@ def plant_own_oscillation(v: Validation, recording: Recording, excitation_point:
     return float(osc.frequency_hz) if st.trusted and st.unstable_poles == 0 else None
 
 
-def destabilising_value(h: Hypothesis, problem, unstable_at) -> float | None:
-    """The value of ``h``'s one parameter nearest its fit at which the loop is unstable, or None.
-
-    From the fitted value toward each bound of the parameter's range (:meth:`Hypothesis.space`),
-    :data:`BOUNDARY_STEPS` values (geometric for a log-scale parameter) are checked with ``unstable_at(x)``;
-    the first unstable one and the stable one before it are bisected :data:`BOUNDARY_BISECTIONS` times and the
-    unstable end kept. Of the two sides, the one whose value fits the FRFs better (chi-square) is returned.
-
-    Parameters
-    ----------
-    h : Hypothesis
-        Fitted, one parameter.
-    problem : Problem
-        Its data (the chi-square of the moved value).
-    unstable_at : callable ``float -> bool``
-        Whether the lab with ``h`` of that size has an unstable loop (one that grows at least at the
-        recorded rate, :func:`recorded_growth_rate`).
-
-    Returns
-    -------
-    float or None
-        [SI], None when no value in the range makes the loop unstable.
-    """
-    if h.n_params != 1:
-        return None
-    _trials, lo, hi = h.space(problem.base, problem.ctx)
-    x0, log = float(h.params_[0]), bool(h.log_scale[0])
-    found = []
-    for bound in (float(hi[0]), float(lo[0])):
-        if not math.isfinite(bound) or bound == x0 or (log and not (bound > 0 and x0 > 0)):
-            continue
-        grid = (np.geomspace if log else np.linspace)(x0, bound, BOUNDARY_STEPS + 1)[1:]
-        stable = x0
-        for x in grid:
-            if unstable_at(float(x)):
-                a, b = stable, float(x)
-                for _ in range(BOUNDARY_BISECTIONS):
-                    m = math.sqrt(a * b) if log else 0.5 * (a + b)
-                    a, b = (a, m) if unstable_at(m) else (m, b)
-                found.append(b)
-                break
-            stable = float(x)
-    if not found:
-        return None
-    return min(found, key=lambda x: _chi2(problem, h, x))
-
-
-def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist_hz: float) -> tuple[float, float]:
-    """The frequencies [Hz] on which a loop pole counts as the recorded oscillation's (:func:`search_cause`):
-    with ``same_mode`` (above the measured band) the interval of the natural frequency nearest
-    ``frequency_hz`` (:func:`~vlab.diagnose.fit.rules.nearest_mode`) up to half-way to its neighbours, else
-    the branch between the two natural frequencies that bracket it (:func:`~vlab.diagnose.fit.rules.branch`);
-    both within ``(0, nyquist_hz]``; ``natural_hz`` the structure's natural frequencies [Hz]. The same criterion by which a rerun reproduces it
-    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation`)."""
-    f = np.sort(np.asarray([x for x in np.ravel(natural_hz) if np.isfinite(x) and x > 0], dtype=float))
-    if same_mode and f.size:
-        m = nearest_mode(frequency_hz, f)
-        below, above = f[f < m], f[f > m]
-        lo = 0.5 * (m + below[-1]) if below.size else 0.0
-        hi = 0.5 * (m + above[0]) if above.size else nyquist_hz
-    else:
-        lo, hi = branch(frequency_hz, f)
-    return float(max(lo, 0.0)), float(min(hi, nyquist_hz))
-
-
-def _chi2(problem, h: Hypothesis, x: float) -> float:
-    """Chi-square of ``h`` of size ``x`` on the fit's footing (the linearly whitened residuals)."""
-    r = problem.residual(problem.state_for(h, np.array([x])))
-    return float(r @ r)
-
-
-def _moved(h: Hypothesis, problem, x: float, chi2_0: float, c_hat: float) -> Hypothesis | None:
-    """A copy of ``h`` at ``x`` with its chi-square there, if the FRFs still support it over the nominal lab
-    (quasi-BIC evidence the policy's ``evidence``, overdispersion ``c_hat``)."""
-    g = copy.copy(h)
-    g.params_ = np.array([x])
-    g.chi2_ = _chi2(problem, h, x)
-    g.aic_, g.bic_ = problem.information(g.chi2_, g.n_params)
-    g.misfit_ = problem.misfit(problem.state_for(h, g.params_))
-    g.moved_from_ = float(h.params_[0])
-    # the FRF fit's interval no longer holds the value: what is known is the side of the stability boundary
-    g.ci95_ = np.array([[x, np.nan]]) if x > g.moved_from_ else np.array([[np.nan, x]])
-    return g if evidence(g, None, chi2_0=chi2_0, n_obs=problem.n_obs, c_hat=c_hat) >= problem.policy.evidence else None
-
-
 def _supported(ranked: list, chi2_0: float, n_obs: int, c_hat: float, min_evidence: float) -> list:
     """The candidates the FRF data support over the nominal lab (overdispersion ``c_hat``; quasi-BIC evidence
     at least ``min_evidence``): single effects first, then pairs, each in BIC order."""
@@ -418,11 +328,23 @@ class _Loops:
 
 
 def plant_order(cands: list, model) -> list:
-    """``cands``, single effects first and then pairs, each ordered by its chi-square at its FE fit on the
-    plant's linearisation ``model`` (:class:`~vlab.diagnose.fit.plantfit.PlantModel`): for a recording the
-    MuJoCo plant made, the model it was made with. The FE order carries the FE/plant difference, second order
-    in the referral, enough to put a look-alike first (a lag before the delay that made the recording)."""
-    key = lambda h: model.chi2(h, h.params_)  # noqa: E731
+    """The candidates in their order of fit on the plant's linearisation: for a recording the MuJoCo plant made,
+    the model it was made with (the FE order carries the FE/plant difference, second order in the referral).
+
+    Parameters
+    ----------
+    cands : list of Hypothesis
+        Fitted (``params_`` set).
+    model : PlantModel
+        :class:`~vlab.diagnose.fit.plantfit.PlantModel` (``chi2(h, x)``, ``problem.information``).
+
+    Returns
+    -------
+    list of Hypothesis
+        Single effects first, then pairs, each by its quasi-BIC there at its FE fit (a state that cannot be
+        built: last).
+    """
+    key = lambda h: model.problem.information(model.chi2(h, h.params_), h.n_params)[1]  # noqa: E731
     return (sorted((h for h in cands if not isinstance(h, Combination)), key=key)
             + sorted((h for h in cands if isinstance(h, Combination)), key=key))
 
@@ -498,7 +420,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             # it does
             if h.n_params == 1 and state_of(h).spec is base.spec and not on_mode(h, h.params_):
                 x = destabilising_value(h, problem, lambda v: on_mode(h, v))
-                g = None if x is None else _moved(h, problem, x, chi2_0, c_hat)
+                g = None if x is None else moved_to(h, problem, x, chi2_0, c_hat)
                 if g is not None:
                     out.moved.append((h.label, float(h.params_[0]), x))
                     h, z = g, poles(g)

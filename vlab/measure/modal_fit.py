@@ -359,10 +359,16 @@ def fit_each_mode(freq_hz, h, modes_hz, half_band_hz, *, response: str = "veloci
 
     Raises
     ------
-    Nothing of its own: a fit that raises MeasurementError (bad or non-finite arrays included) gives None.
+    MeasurementError
+        ``half_band_hz`` neither one value nor one per mode. Otherwise nothing: a fit that raises
+        MeasurementError (bad or non-finite arrays included) gives None.
     """
     modes = [float(x) for x in np.atleast_1d(modes_hz)]
-    halves = np.broadcast_to(np.asarray(half_band_hz, dtype=float), (len(modes),))
+    halves = np.asarray(half_band_hz, dtype=float)
+    if halves.ndim > 1 or halves.size not in (1, len(modes)):
+        raise MeasurementError(f"{name}: half_band_hz must be one value or one per mode ({len(modes)}), "
+                               f"got shape {halves.shape}")
+    halves = np.broadcast_to(halves.ravel(), (len(modes),))
 
     def fit(idx: list[int]) -> list[ModeFit]:
         return fit_modes(freq_hz, h, [modes[j] for j in idx], response=response,

@@ -220,10 +220,10 @@ class PlantModel:
     chain_refit : bool
         Refit a single effect of the hardware chain too (:func:`refit_index` with ``chain``): for a recording
         the MuJoCo plant made, compared with that plant. The data were referred through the plant's replay,
-        so a change of the chain is the change it makes in the *plant's* loop; fitted on the FE model, whose
-        loop differs from the plant's (FRFs 18-36 % apart at the BCC's peaks), it carries that difference to
-        second order (the referral's error, :func:`vlab.diagnose.data.measured.refer_to_model`), enough to
-        read a lag's corner 0.5 % off and to let a delay fit the lag's data better than the lag.
+        so a change of the chain is the change it makes in the *plant's* loop; fitted in the FE model's loop,
+        whose FRFs differ from the plant's by tens of per cent at lightly damped peaks, it carries that
+        difference to second order (the referral's error, :func:`vlab.diagnose.data.measured.refer_to_model`),
+        which can bias a lag's corner and order a delay before the lag that made the data.
 
     Attributes
     ----------
@@ -284,10 +284,10 @@ class PlantModel:
 
     def refit(self, h: Hypothesis, x0, index: int | None = None, *, half_width: float = SCAN_HALF_WIDTH,
               points: int = SCAN_POINTS) -> PlantRefit | None:
-        """Refit the mode-moving parameter of ``h``, starting from ``x0`` [SI] (the FE fit), the others held.
+        """Refit one parameter of ``h``, starting from ``x0`` [SI] (the FE fit), the others held.
 
-        ``index`` picks the parameter (default :func:`refit_index`: the one
-        mode-moving parameter of ``h``).
+        ``index`` picks the parameter (default :func:`refit_index`: the one mode-moving parameter of ``h``, or
+        with :attr:`chain_refit` the one parameter of a single chain effect).
 
         A chi-square scan of ``points`` values (odd; default :data:`SCAN_POINTS`)
         within ``+-half_width`` in ``ln p`` (default :data:`SCAN_HALF_WIDTH`),
