@@ -318,15 +318,17 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
 def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list) -> None:
     """Rule 10 on the choice of ``res`` (in place): test the remainder it leaves on the data of ``problem``
     (:func:`remainder_of`); keep it as ``res.remainder`` when the choice is identified (no look-alike within
-    the policy's evidence), else reject the choice -- the mismatch then lies outside the library -- naming
-    its look-alikes in ``notes``; ``chi2_fit``: the nominal lab's chi-square on the fits' footing, for the
+    the policy's evidence) or nonlinear (its remainder may be its own value's error), else reject the choice
+    -- the mismatch then lies outside the library -- naming its look-alikes in ``notes``; ``chi2_fit``: the nominal lab's chi-square on the fits' footing, for the
     location from the fits."""
     if res.selected is None:
         return
     rem = remainder_of(res, problem, res.misfit_nominal)
     if rem is None:
         return
-    if not res.alternatives:
+    # a nonlinear choice's remainder may be its own value's error (fitted through a describing function): it is
+    # reported, and does not by itself reject the choice
+    if not res.alternatives or rem["nonlinear_choice"]:
         res.remainder = rem
         notes.append(_remainder_note(rem, problem))
         return

@@ -117,9 +117,11 @@ def _remainder_text(rem: dict | None, unit: str = "decades") -> str:
     if line:
         where.append(f"largest at {_fmt(line['frequency_hz'])} Hz, point {line['point']}")
     noise = rem.get("noise_misfit_decades")
+    why = ("; the choice is nonlinear: part of it may be the error of its value, fitted through a describing "
+           "function)" if rem.get("nonlinear_choice") else "), outside the library")
     return (f" Explained in part: a remainder is left (misfit {_fmt(rem['misfit_decades'], 3)} {unit} on "
             f"{rem['judged_on']}" + (f", an exact model leaves {_fmt(noise, 3)}" if noise is not None else "")
-            + (f"; {'; '.join(where)}" if where else "") + "), outside the library.")
+            + (f"; {'; '.join(where)}" if where else "") + why + ".")
 
 
 def _best_rejected_text(res: dict) -> str:
