@@ -232,7 +232,7 @@ def detectability(
     Each loop (the thresholds, the look-alikes, the naming) is estimated from its first item (on stderr); a loop
     estimated beyond 30 min stops there unless --yes.
     """
-    from ..diagnose.detectability import detectability as run, figure
+    from ..diagnose.detectability import MODEL_FORMS, detectability as run, figure
     from ..diagnose.effects.hypotheses import EFFECTS
     from ..experiment.results import jsonable
     from ..io.atomic import atomic_dir
@@ -243,6 +243,8 @@ def detectability(
     unknown = [e for e in effect or () if e not in EFFECTS]
     if unknown:
         raise OptionError(f"--effect {', '.join(unknown)}: not an effect of the library ({', '.join(EFFECTS)})")
+    if model_form not in MODEL_FORMS:
+        raise OptionError(f"--model-form {model_form!r}: use one of {', '.join(MODEL_FORMS)}")
     spec = checks.load_structure(structure)
     checks.seed(seed)
     out_path = checks.out_dir(out, DETECT_OUT, overwrite) if out is not None else None

@@ -285,8 +285,8 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     nonlinear = any(p.effect in NONLINEAR for p in res.selected_parts)
     state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
     r = problem.residual(state, test=True)
-    if nonlinear:  # judged by its rerun alone
-        inside = True if v is None else not remainder_resolved(v.misfit_after, v.noise_misfit)
+    if nonlinear:  # judged by its rerun alone (below): without one, nothing to judge
+        inside = v is None
     elif profiled(problem, state):  # modes moved within their model form, as for the mismatch test
         rp, x, k = profile_state(problem, state)
         inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()
