@@ -33,3 +33,24 @@ def emit(lines: list[str], out: str | None) -> int:
         with atomic_file(Path(out), overwrite=True) as tmp:
             tmp.write_text(text + "\n")
     return 0
+
+
+def vlab_commit() -> str:
+    """The commit of the vlab checkout this benchmark imports (``git describe --always --dirty``: ``-dirty``
+    when its tracked files differ from the commit), or ``unknown`` outside a git checkout."""
+    import subprocess
+
+    import vlab
+
+    root = Path(vlab.__file__).resolve().parents[1]
+    try:
+        out = subprocess.run(["git", "-C", str(root), "describe", "--always", "--dirty", "--abbrev=7"],
+                             capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return "unknown"
+    return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+
+
+def command_header(script: str, argv: list[str]) -> list[str]:
+    """The listing's first lines: the command as run (``python benchmarks/<script> <argv>``) and the commit."""
+    return [f"# python benchmarks/{script} " + " ".join(argv), f"# vlab at {vlab_commit()}"]

@@ -173,6 +173,7 @@ from functools import lru_cache
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from _listing import command_header  # noqa: E402
 
 from vlab.diagnose import diagnose  # noqa: E402
 from vlab.diagnose.data.replay import rerun  # noqa: E402
@@ -1067,6 +1068,8 @@ def main(argv=None) -> int:
     ap.add_argument("--keep-recordings", type=str, default=None,
                     help="--tier 3: keep each case's recording, truth and diagnosis in this folder")
     args = ap.parse_args(argv)
+    print("\n".join(command_header("diagnose_benchmark.py", sys.argv[1:] if argv is None else list(argv))),
+          flush=True)
     if args.kept and args.tier != 3:
         return _run_kept(args)
     if args.tier == 3:

@@ -63,6 +63,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _listing import vlab_commit
+
 import vlab
 from vlab.design import design_controller
 from vlab.diagnose.effects import specedit
@@ -374,7 +376,7 @@ def run_drawn(case: dict, work: Path, controller: str = "mfdrf") -> dict:
     plant = export_mjcf(build_plant(case["edit"](nominal)), work / "plant.xml")
     lab = default_chain(controller, noise_m_s=1e-6, **case["chain"])
     fe = build_fe_model(nominal)
-    design = design_controller(fe, controller, seed=0, period_s=lab.period_s)
+    design = design_controller(fe, controller, seed=case["seed"], period_s=lab.period_s)  # as vlab experiment
     cfg = ExperimentConfig(structure=nominal.name, controller=controller, chain=lab, plant="mujoco", mjcf=plant,
                            seed=case["seed"])
     m = measure(cfg, fe, design, decay_rate_1_s=slowest_decay_rate(fe, design))
@@ -468,7 +470,7 @@ def main_draw(a) -> None:
     todo = cases if a.limit is None else cases[:a.limit]
     header = [f"# python benchmarks/update_benchmark.py --draw {a.draw} --structures {' '.join(a.structures)} "
               f"--controller {a.controller} --k {a.k[0]:g} {a.k[1]:g}"
-              + (f" --limit {a.limit}" if a.limit is not None else "") + f"   ({time.strftime('%Y-%m-%d')})",
+              + (f" --limit {a.limit}" if a.limit is not None else "") + f"   ({time.strftime('%Y-%m-%d')}; vlab at {vlab_commit()})",
               "# thresholds: " + ", ".join(f"{k}: {_rel(v)}" for k, v in thr_files.items()) + " (closed loop, "
               f"{a.controller}, model_form plant)",
               "# k: size / detection threshold (distance from the null value: _size); err: average peak level error "

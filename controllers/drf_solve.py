@@ -10,13 +10,26 @@ independently of the optimiser and returns the best start as a
 feasible before infeasible. ``converged`` is ``False`` with the reason
 whenever the optimiser failed or the answer violates a constraint, so a gain
 is never returned silently wrong.
+
+The minimax programs (MFDRF's largest row sum, LQDRF's largest performance
+ratio) can have a whole face of optimal gains: on the hanging grid, starts that
+reach the same ``gamma`` end at gains whose closed-loop damping ratios differ
+by up to 25 %, so the design would depend on the random starts' seed. The
+best start is therefore followed by a second, lexicographic stage
+(:func:`_least_norm`): among the gains whose objective stays within
+:data:`TIE_TOL` of the optimum, the one of least Frobenius norm (the least
+feedback among equally good designs; a strictly convex objective, so one gain
+where that face is convex). Source: lexicographic optimisation of a
+degenerate program (K. Miettinen, *Nonlinear Multiobjective Optimization*,
+1999, Sec. 2.6); the minimum-norm choice among minimisers as in least-norm
+least squares.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize
@@ -28,6 +41,10 @@ from .errors import readonly
 from .performance import _damping_and_gradient, modes
 
 __all__: list[str] = []  # helpers of controllers.mfdrf and controllers.lqdrf only
+
+#: Relative rise of the objective (``gamma`` or ``beta``) allowed to the least-norm stage: far below any
+#: precision the design is stated to (the thesis prints 2-4 digits) and above SLSQP's accuracy of the optimum.
+TIE_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -44,6 +61,8 @@ class _Program:
         ``x -> (objective, gradient)``.
     constraints : list of dict
         SLSQP inequality constraints ``g(x) >= 0`` with their Jacobians.
+    bound : int
+        Index in ``x`` of the objective's bound variable (the epigraph form: ``fun(x) = x[bound]``).
     bounds : list of (float or None, float or None), or None
     fill : callable
         ``fill(x, d)`` sets the variables after the ``p`` gains of a start with gain parameters ``d``.
@@ -57,6 +76,7 @@ class _Program:
     n_var: int
     fun: Callable
     constraints: list
+    bound: int
     bounds: list | None
     fill: Callable
     objective_of: Callable
@@ -75,7 +95,52 @@ def _run(prob: _Problem, program: _Program, base: _Base, *, rng: np.random.Gener
         return _infeasible_design(prob, program, base, time_unit_s, t0)
     x0s = _start_vectors(prob, rng, base.d, diagonal, n_starts, program.n_var, base.c, program.fill)
     records = _solve(x0s, program.fun, program.constraints, program.bounds, maxiter, ftol)
-    return _finish(prob, program, records, base, time_unit_s, t0)
+    design = _finish(prob, program, records, base, time_unit_s, t0)
+    if not design.converged:
+        return design
+    x, note = _least_norm(prob, program, base, design.gain, maxiter, ftol)
+    if x is None:
+        return replace(design, message=f"{design.message}; {note}")
+    D = prob.D(base.c * x[:prob.p])
+    return _design_of(prob, program, D, base.eps, converged=True, message=f"{design.message}; {note}",
+                      iterations=design.iterations, starts=design.starts, t=time_unit_s, t0=t0)
+
+
+def _least_norm(prob: _Problem, program: _Program, base: _Base, D_best: np.ndarray, maxiter: int,
+                ftol: float) -> tuple[np.ndarray | None, str]:
+    """The second stage of :func:`_run` (module notes): from the best gain ``D_best``, the gain of least
+    ``||D||_F`` whose objective is within :data:`TIE_TOL` of ``D_best``'s, under every constraint of
+    ``program``. Returns its variables ``x`` and a note, or None and the reason when that stage fails or
+    its end point does not verify (the best start's gain is then kept)."""
+    p, c = prob.p, base.c
+    # ||D||_F^2 = sum_q w_q d_q^2: a diagonal entry counts once, an off-diagonal one twice
+    w = np.array([np.sum(prob.D(np.eye(p)[q]) ** 2) for q in range(p)])
+    obj0 = program.objective_of(D_best)
+    x0 = np.zeros(program.n_var)
+    x0[:p] = D_best[prob.pi, prob.pj] / c
+    program.fill(x0, c * x0[:p])
+    cap = x0[program.bound] * (1.0 + TIE_TOL)
+    bounds = list(program.bounds) if program.bounds is not None else [(None, None)] * program.n_var
+    lo = bounds[program.bound][0]
+    bounds[program.bound] = (lo, cap)
+
+    def fun(x):
+        g = np.zeros(program.n_var)
+        g[:p] = w * x[:p]
+        return 0.5 * float(np.sum(w * x[:p] ** 2)), g
+
+    res = minimize(fun, x0, jac=True, method="SLSQP", constraints=program.constraints, bounds=bounds,
+                   options={"maxiter": int(maxiter), "ftol": float(ftol)})
+    D = prob.D(c * res.x[:p])
+    viol, _ = _violations(prob, D, base.eps, c)
+    obj = program.objective_of(D)
+    if not res.success or viol or not obj <= obj0 * (1.0 + 2.0 * TIE_TOL):
+        why = res.message if not res.success else "; ".join(viol) if viol else f"objective {obj:.6g} > {obj0:.6g}"
+        return None, f"least-norm stage not taken ({why})"
+    n0, n1 = float(np.linalg.norm(D_best)), float(np.linalg.norm(D))
+    if n1 > n0:
+        return None, "least-norm stage not taken (no smaller gain)"
+    return res.x, f"least-norm gain among the optima (||D||_F {n0:.6g} -> {n1:.6g})"
 
 
 def _solve(x0s, fun, cons, bounds, maxiter, ftol):

@@ -175,4 +175,4 @@ def _lqdrf_program(prob: _Problem, base: _Base, ref: np.ndarray, *, diagonal: bo
         x[ib] = float(np.max(J / ref)) if np.all(np.isfinite(J)) else 10.0
 
     kind = "LQDRF" + ("-diagonal" if diagonal else "") + ("-LQR-normalised" if lqr_normalised else "")
-    return _Program(kind, n_var, _bound_objective(ib, n_var), cons, bounds, fill, objective_of, active)
+    return _Program(kind, n_var, _bound_objective(ib, n_var), cons, ib, bounds, fill, objective_of, active)

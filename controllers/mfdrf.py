@@ -174,4 +174,4 @@ def _mfdrf_program(prob: _Problem, base: _Base) -> _Program:
         x[p:p + n_off] = np.abs(d[off]) / c
         x[ig] = _gamma(prob.D(d)) / c
 
-    return _Program("MFDRF", n_var, _bound_objective(ig, n_var), cons, bounds, fill, _gamma, active)
+    return _Program("MFDRF", n_var, _bound_objective(ig, n_var), cons, ig, bounds, fill, _gamma, active)
