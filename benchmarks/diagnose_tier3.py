@@ -89,7 +89,8 @@ def thresholds(controller: str) -> tuple:
     ``"lqdrf"``), as :class:`vlab.diagnose.detectability.Threshold` objects.
 
     Read from ``docs/validation/data/detectability_bcc_<controller>.json``, computed there first when missing
-    (:func:`update_benchmark.draw_thresholds`: minutes).
+    (:func:`update_benchmark.draw_thresholds` with the model form derived, as a real recording is read:
+    minutes).
 
     Raises
     ------
@@ -99,7 +100,7 @@ def thresholds(controller: str) -> tuple:
     from update_benchmark import draw_thresholds
 
     cache = ROOT / "docs" / "validation" / "data" / f"detectability_bcc_{controller}.json"
-    d = draw_thresholds("bcc", controller, cache)
+    d = draw_thresholds("bcc", controller, cache, model_form="derived")
     return tuple(Threshold(effect=t["effect"], location=t["location"], parameter=t["parameter"], null=t["null"],
                            threshold=t["threshold"], bound=t["bound"], by=t.get("detected_by"))
                  for t in d["thresholds"])

@@ -226,19 +226,28 @@ def _rel(path: Path) -> str:
         return str(path)
 
 
-def draw_thresholds(structure: str, controller: str, cache: Path) -> dict:
+def draw_thresholds(structure: str, controller: str, cache: Path, model_form: str = "plant") -> dict:
     """The detection thresholds of ``structure``'s closed-loop test with ``controller`` (cached as JSON).
 
-    :func:`vlab.diagnose.detectability.detectability` with ``model_form="plant"``: a recording the MuJoCo
-    plant made, referred through that plant's replay without a model form, as the diagnosis reads the
-    benchmark's recordings (their metadata name the plant that made them); restricted to
-    :data:`DRAW_EFFECTS`, no naming thresholds. Computed once and written to ``cache``."""
+    :func:`vlab.diagnose.detectability.detectability` with ``model_form``: ``"plant"`` (default) for a
+    recording the MuJoCo plant made, referred through that plant's replay without a model form, as the
+    diagnosis reads the benchmark's recordings (their metadata name the plant that made them); ``"derived"``
+    for a recording of another source read as real data (tier 3); restricted to :data:`DRAW_EFFECTS`, no
+    naming thresholds. Computed once and written to ``cache``; a cache of another model form is refused.
+
+    Raises
+    ------
+    ValueError
+        ``cache`` holds the thresholds of another model form."""
     import json
     if cache.exists():
-        return json.loads(cache.read_text())
+        d = json.loads(cache.read_text())
+        if d.get("model_form") != model_form:
+            raise ValueError(f"{cache}: thresholds of model form {d.get('model_form')!r}, {model_form!r} asked")
+        return d
     from vlab.diagnose.detectability import detectability
     t0 = time.perf_counter()
-    d = detectability(structure, controller, effects=DRAW_EFFECTS, model_form="plant", naming=False).as_dict()
+    d = detectability(structure, controller, effects=DRAW_EFFECTS, model_form=model_form, naming=False).as_dict()
     d["seconds"] = time.perf_counter() - t0
     cache.parent.mkdir(parents=True, exist_ok=True)
     cache.write_text(json.dumps(d, indent=1, default=float))

@@ -70,10 +70,11 @@ from .data.readers import read_data
 from .data.reference import replay_reference
 from .data.warmstart import GUARD_DECAY
 from .effects.hypotheses import library
-from .model.labmodel import LabState, natural_frequencies, predict_frf
+from .model.labmodel import LabState, PointModes, natural_frequencies, point_modes_of, predict_frf
 from .fit.plantfit import plant_modes
 from .model.modelform import damping_by_frequency, frf_model_form, model_form_uncertainty, plant_shape_uncertainty
 from .model.nominal import nominal_design, settling_time
+from .model.shapemixing import mixing_shape_uncertainty
 from .problem.context import context_for
 from .problem.residuals import Problem
 from .thresholds import N_BISECT_REPORTED, DetectionTest, Threshold, effect_thresholds, referral_variance
@@ -165,7 +166,10 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
     model lacks), with their frequencies (calibration residual and the plant's discretisation), damping
     (the spec's printed rounding, by the nearest FE mode) and shapes (``sqrt(1 - MAC)`` of the default
     plant against the converged one, :func:`vlab.diagnose.model.modelform.plant_shape_uncertainty`);
-    through another replay or none, the FE model's modes, frequencies and damping only.
+    through another replay or none, the FE model's modes, frequencies, damping and shapes: the mixing that
+    the structure's own frequency uncertainty (the calibration residual) implies
+    (:func:`_shape_uncertainty`). On the plant's modes the shapes carry the plant's measured discretisation
+    only (its modes include ones the FE model lacks, whose mixing is not derived).
 
     Parameters
     ----------
@@ -181,23 +185,38 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
     (ModelFormUncertainty, FrfModelForm)
     """
     f_nom, _, _ = natural_frequencies(nominal)
+    pts = tuple(dict.fromkeys(tuple(data.output_points) + nominal.actuators))
     ref_modes = None
     if reference_plant == "mujoco":
         try:
-            ref_modes = plant_modes(nominal.spec, tuple(dict.fromkeys(tuple(data.output_points) + nominal.actuators)))
+            ref_modes = plant_modes(nominal.spec, pts)
         except VlabError as exc:
             if notes is not None:
                 notes.append(f"the replay plant's modes are not available ({exc}): the model form perturbs the FE "
                              "model's modes")
     if ref_modes is None:
         mf = model_form_uncertainty(nominal.spec, f_nom, compared_with="plant" if reference_plant == "mujoco" else "fe")
-        shape_rel = None
+        shape_rel = _shape_uncertainty(mf, point_modes_of(nominal, pts, "the nominal FE model"))
     else:
         f_ref = ref_modes.omega / (2 * np.pi)
         mf = damping_by_frequency(model_form_uncertainty(nominal.spec, f_ref, compared_with="plant"), f_nom, f_ref)
         shape_rel = plant_shape_uncertainty(nominal.spec, f_ref)
     return mf, frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
                               output_points=data.output_points, uncertainty=mf, modes=ref_modes, shape_rel=shape_rel)
+
+
+def _shape_uncertainty(mf, modes: PointModes) -> np.ndarray | None:
+    """Each FE mode's relative shape uncertainty at the points, shape (n,) [1], or None where there is none:
+    the mixing that the structure's own frequency uncertainty implies
+    (:func:`vlab.diagnose.model.shapemixing.mixing_shape_uncertainty`), from ``mf``'s calibration residual,
+    the component that describes the structure rather than a mesh or a plant."""
+    cal = mf.components.get("calibration")
+    if cal is None or not len(cal):
+        return None
+    n = len(modes.omega)
+    cal = np.asarray(cal, dtype=float)
+    out = mixing_shape_uncertainty(modes, cal[np.minimum(np.arange(n), len(cal) - 1)])
+    return out if np.any(out > 0) else None
 
 
 def replay_referral(nominal: LabState, data: FrfData, mf) -> np.ndarray | None:

@@ -1,0 +1,84 @@
+"""The uncertainty of the mode shapes that a model's frequency uncertainty implies.
+
+A model whose natural frequencies are uncertain by ``sigma_i`` (relative, one standard uncertainty) is
+uncertain in its stiffness and mass; the same perturbation that moves the frequencies mixes the modes. To
+first order (R. L. Fox and M. P. Kapoor, "Rates of change of eigenvalues and eigenvectors", *AIAA J.* 6
+(1968) 2426-2429) a perturbation whose matrix in the mass-normalised modal coordinates is ``E`` moves
+
+    omega_i^2  by  E_ii,                 phi_i  by  sum_{j != i} E_ji / (omega_i^2 - omega_j^2) phi_j.
+
+The frequency uncertainty fixes the diagonal's standard deviation, ``std(E_ii) = 2 omega_i^2 sigma_i``
+(``d omega^2 / omega^2 = 2 d omega / omega``). The off-diagonal entries are not measured; vlab takes the
+largest that a perturbation of one sign (a stiffness or a mass change, positive semi-definite) allows,
+``|E_ij| <= sqrt(E_ii E_jj)``, i.e. ``std(E_ij) = 2 omega_i omega_j sqrt(sigma_i sigma_j)``: an upper bound,
+so the shapes are not claimed more certain than the frequencies allow. The mixing coefficient of mode
+``j`` into mode ``i`` is then uncertain by
+
+    c_ij = 2 omega_i omega_j sqrt(sigma_i sigma_j) / |omega_i^2 - omega_j^2|,
+
+large for close modes (the BCC's 8.8/9.5 Hz pair: about 1 % for a frequency uncertainty of 0.05 %) and
+small for well-separated ones. Measured at the points, mode ``i``'s shape changes by ``c_ij`` times mode
+``j``'s root-mean-square shape there; relative to its own, the modes' contributions add in quadrature:
+
+    s_i = sqrt( sum_{j != i} (c_ij rms_j / rms_i)^2 ).
+
+``s_i`` is what :func:`vlab.diagnose.model.modelform.frf_model_form` takes as a shape's relative
+uncertainty (each point's shape entry a parameter of standard uncertainty ``s_i rms_i``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .labmodel import PointModes
+
+__all__ = ["MAX_MIXING", "mixing_shape_uncertainty"]
+
+#: Largest relative shape uncertainty [1], of one pair's mixing and of a mode's total: first-order perturbation
+#: theory holds while the mixing is small; at 1 the model no longer tells the mode's shape at the points (it
+#: may be anything of its own size there), and a larger number would not describe a larger uncertainty.
+MAX_MIXING = 1.0
+
+
+def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray) -> np.ndarray:
+    """Relative uncertainty of each mode's shape at the points implied by the frequency uncertainty (module notes).
+
+    Parameters
+    ----------
+    modes : PointModes
+        The modes (angular frequencies ``omega`` [rad/s], shape (n,); shapes at the points, shape (n_p, n)).
+    frequency_rel : ndarray, shape (n,)
+        One standard uncertainty of each mode's frequency, relative [1]; 0 or NaN: that mode's frequency is
+        taken as exact (it neither mixes nor is mixed).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``s_i`` [1]: the shape's change at the points relative to its root-mean-square there, at most
+        :data:`MAX_MIXING`; 0 for a mode without shape at the points.
+
+    Raises
+    ------
+    ValueError
+        ``frequency_rel`` of another length than the modes, or negative.
+
+    Source: first-order eigenvector perturbation, Fox & Kapoor (1968); the bound on the off-diagonal modal
+    perturbation is the Cauchy-Schwarz inequality of a semi-definite matrix.
+    """
+    w = np.asarray(modes.omega, dtype=float)
+    s = np.asarray(frequency_rel, dtype=float)
+    if s.shape != w.shape:
+        raise ValueError(f"frequency_rel: {s.shape[0] if s.ndim else 0} values for {w.size} modes")
+    s = np.where(np.isfinite(s), s, 0.0)
+    if np.any(s < 0):
+        raise ValueError(f"frequency_rel: negative value {float(s.min())}")
+    rms = np.sqrt(np.mean(np.asarray(modes.shapes, dtype=float) ** 2, axis=0))
+    gap = np.abs(w[:, None] ** 2 - w[None, :] ** 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = 2.0 * np.outer(w, w) * np.sqrt(np.outer(s, s)) / gap
+        c = np.where(np.isfinite(c), np.minimum(c, MAX_MIXING), MAX_MIXING)
+        np.fill_diagonal(c, 0.0)
+        c = np.where(np.outer(s, s) > 0, c, 0.0)
+        rel = c * rms[None, :] / rms[:, None]
+    rel = np.where(np.isfinite(rel), rel, 0.0)
+    return np.where(rms > 0, np.minimum(np.sqrt(np.sum(rel**2, axis=1)), MAX_MIXING), 0.0)
