@@ -63,6 +63,10 @@ def diagnose(
     mjcf: str = opt(None, "--mjcf", help="the nominal plant as an MJCF file (from `vlab export-mjcf`, edited): the "
                                          "recorded force is replayed on it (default: the plant built from the "
                                          "structure); needs a MuJoCo-plant recording"),
+    design: str = opt(None, "--design", metavar="<design.json>",
+                      help="the gains the controller ran with (the JSON of `vlab design --json`, or the lab's own: "
+                           "controller, gain_n_s_per_m): used as they are instead of a redesign (default: the "
+                           "controller designed as vlab designs it); direct rate feedback only"),
     reference_column: str = opt(None, "--reference-column",
                                 help="modal tables: compare with this column's frequencies (e.g. analytical_hz, "
                                      "a published analysis) instead of vlab's model; the model predicts what "
@@ -99,6 +103,7 @@ def diagnose(
     _check_choices(estimator, plant, resolution)
     checks.input_file("--recording", recording)
     checks.input_file("--baseline", baseline)
+    checks.input_file("--design", design)
     checks.mjcf_input(mjcf)
     expect_output(out_path)
     with stages("diagnose", "reading the recording", quiet=quiet or out_fmt != "table") as say:
@@ -108,7 +113,8 @@ def diagnose(
                                controller=None if controller is None else controller.value, force=force,
                                overwrite=False, reference_column=reference_column, model_form=model_form,
                                false_alarm_rate=false_alarm_rate, progress=say, test=setup, estimator=estimator,
-                               confirm=_confirm(yes, quiet or out_fmt != "table"), log_freq=log_freq)
+                               confirm=_confirm(yes, quiet or out_fmt != "table"), log_freq=log_freq,
+                               design=design)
     res.files = {k: out_path / Path(v).relative_to(tmp) for k, v in res.files.items()}
     if out_fmt == "json":
         print_json(res.as_dict())

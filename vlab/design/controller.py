@@ -184,6 +184,60 @@ def design_controller(
     return _lqg_design(fe, p)
 
 
+DRF_CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag")
+
+
+def drf_of_gain(fe: FEModel, controller: str, gain_n_s_per_m, *, model: str | None = None,
+                period_s: float | None = None, source: str = "a given gain") -> ControllerDesign:
+    """The direct rate feedback of a given gain ``D`` -- the gains a laboratory ran, or an earlier design's --
+    as :func:`design_controller` returns its own: the closed loop on the same design model, its performance
+    indices, the realization ``F11 = -D`` (Eq. 5.1).
+
+    Parameters
+    ----------
+    fe : FEModel
+    controller : {"mfdrf", "lqdrf", "lqdrf-diag"}
+        The law the gain belongs to (its design settings choose the design model and the performance weights).
+    gain_n_s_per_m : array_like, shape (n_c, n_c)
+        ``D`` [N*s/m], ``u = -D y`` with ``y`` the collocated velocities [m/s], actuators in the structure's
+        order.
+    model, period_s
+        As :func:`design_controller`.
+    source : str
+        Where the gain came from (the design's message).
+
+    Returns
+    -------
+    ControllerDesign
+        ``converged`` True (nothing was optimised); ``gamma_lb_s_per_in`` the gain's largest row sum of
+        ``|D|`` (Eq. 4.31); ``beta_thesis_units`` None.
+
+    Raises
+    ------
+    ModelError
+        Not a DRF controller, or a gain of another shape than (n_c, n_c), or not finite.
+    """
+    if controller not in DRF_CONTROLLERS:
+        raise ModelError(f"a gain matrix describes a direct rate feedback ({', '.join(DRF_CONTROLLERS)}), "
+                         f"not {controller!r}")
+    p = _problem(fe, controller, model, None, period_s)
+    n_c = p.b.shape[1]
+    d_si = np.asarray(gain_n_s_per_m, dtype=float)
+    if d_si.shape != (n_c, n_c) or not np.all(np.isfinite(d_si)):
+        raise ModelError(f"the {controller} gain must be a finite ({n_c}, {n_c}) matrix for the structure's {n_c} "
+                         f"actuators [N*s/m], got shape {d_si.shape}")
+    d_cs = d_si * INCH_M / LBF_N / CS_S  # lbf per (in/cs): the design's own unit system
+    md = cl_modes(p.a - p.b @ d_cs @ p.cm, time_unit_s=CS_S)
+    perf = feedback_performance(p.a, p.b, d_cs @ p.cm, p.q, p.r, p.x0)
+    gamma = float(np.max(np.sum(np.abs(d_si), axis=1)) * INCH_M / LBF_N)
+    return ControllerDesign(
+        p.name, controller, p.model, d_si, md.damping_ratios, md.frequencies_hz, np.asarray(perf), gamma, None,
+        True, f"the gain of {source} (not designed)",
+        -d_si, np.zeros((n_c, 0)), np.zeros((0, n_c)), np.zeros((0, 0)),
+        {"d": d_si}, {"gain_thesis_lb_s_per_in": d_si * INCH_M / LBF_N}, (), p.period,
+    )
+
+
 @dataclass(frozen=True)
 class _Problem:
     """A design problem in the thesis unit system: the design model, its settings, ``(A, B, C)``, the LQ

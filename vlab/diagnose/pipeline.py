@@ -355,7 +355,7 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
              force: bool = False, mjcf: str | Path | None = None,
              reference_column: str | None = None, model_form: str = "auto",
              false_alarm_rate: float = 0.01, confirm=None, test=None, estimator: str = "auto",
-             log_freq: bool = False) -> DiagnosisResult:
+             log_freq: bool = False, design: str | Path | None = None) -> DiagnosisResult:
     """Diagnose a recording against the nominal laboratory (``vlab diagnose``).
 
     Parameters
@@ -373,7 +373,7 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
         The test that made the recording, a ``test.toml`` (:func:`vlab.io.setup_file.read_setup`): what a
         recording without vlab's sidecar leaves unsaid (controller, chain, excitation point and period, node
         map, sensors); see :class:`~vlab.diagnose.reading.Options`.
-    controller, plant, resolution_hz, seed, baseline, replay, force, mjcf, reference_column, model_form, validate_run
+    controller, plant, resolution_hz, seed, baseline, replay, force, mjcf, reference_column, model_form, validate_run, design
         What was recorded, what it is compared with and whether it is rerun: each as the attribute of the
         same name of :class:`~vlab.diagnose.reading.Options` (defaults as there).
     out_dir : str or Path, optional
@@ -424,7 +424,8 @@ def diagnose(structure: str | StructureSpec | None, recording_path: str | Path, 
     opt = Options(controller=controller, plant=plant, resolution_hz=resolution_hz, seed=seed, baseline=baseline,
                   replay=replay, force=force, mjcf=mjcf, reference_column=reference_column, model_form=model_form,
                   validate_run=validate_run, confirm=confirm,
-                  test=read_setup(test) if isinstance(test, (str, Path)) else test, estimator=estimator)
+                  test=read_setup(test) if isinstance(test, (str, Path)) else test, estimator=estimator,
+                  design=design)
     search = Search(effects, shortlist, pairs, validate_run, False, False, ())
     with one_blas_thread():
         res = _run(structure, recording_path, opt, search, floor=floor, policy=policy, progress=progress)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError, ModelError, OptionError, VlabError
+from ..design.gains_file import design_from_file
 from ..fe import FEModel, build_fe_model
 from ..io.setup_file import RecordingSetup, apply_setup
 from ..io.recording import Recording
@@ -111,6 +112,11 @@ class Options:
     estimator : {"auto", "periodic", "h1", "transient"}
         How the FRFs of time histories are estimated, the baseline's too
         (:func:`vlab.diagnose.data.frfestimate.choose_estimator`; ``auto`` chooses by the force).
+    design : str or Path, optional
+        The gains the controller ran with, a design file (:mod:`vlab.design.gains_file`: the JSON of
+        ``vlab design --json``, or a laboratory's own gains): the nominal lab's controller is that gain, not
+        a redesign (which would give another where the design has changed, or where the lab's gains were
+        not vlab's). A direct rate feedback only.
     """
 
     controller: str | None = None
@@ -127,6 +133,7 @@ class Options:
     confirm: Callable[[dict], None] | None = None
     test: RecordingSetup | None = None
     estimator: str = "auto"
+    design: str | Path | None = None
 
 
 @dataclass(frozen=True)
@@ -302,9 +309,10 @@ def _refer_through_plant(inp: dict, notes: list, say) -> None:
 
 
 def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, period_s: float, on_plant: bool,
-                 mjcf, notes: list) -> LabState:
-    """The nominal lab: the controller that ran, designed on the spec's own mesh at ``period_s``; the FE model
-    meshed as the MuJoCo plant resolves the structure when ``on_plant``."""
+                 mjcf, notes: list, design_file=None) -> LabState:
+    """The nominal lab: the controller that ran, designed on the spec's own mesh at ``period_s`` (or the gains
+    of ``design_file``, :func:`vlab.design.gains_file.design_from_file`); the FE model meshed as the MuJoCo
+    plant resolves the structure when ``on_plant``."""
     model_spec = plant_resolution(spec) if on_plant else spec
     fe_model = fe if model_spec is spec else build_fe_model(model_spec)
     if model_spec is not spec:
@@ -313,7 +321,13 @@ def _nominal_lab(spec: StructureSpec, fe: FEModel, setup, controller: str, perio
                      f"{fe_model.n} DOF instead of {fe.n}); the controller is the one designed on the spec's own "
                      "mesh")
     chain = with_hardware(recorded_chain(setup, period_s), spec)  # the structure file's [hardware] settings
-    design = nominal_design(fe, controller, setup.seed, period_s=chain.period_s, reduction=setup.reduction)
+    if design_file is not None:
+        if controller == "none":
+            raise OptionError(f"--design {design_file}: the recording ran no controller (open loop)")
+        design = design_from_file(fe, design_file, controller=controller, period_s=chain.period_s)
+        notes.append(f"the controller's gains from {design_file} (not redesigned)")
+    else:
+        design = nominal_design(fe, controller, setup.seed, period_s=chain.period_s, reduction=setup.reduction)
     lab = LabState(model_spec, fe_model, chain, design, mjcf=None if mjcf is None else str(mjcf))
     if on_plant:  # the model holds the coil forces over the plant's own physics step, as that plant does
         try:  # the plant built from the structure file (the model's finer mesh is the FE model's alone)
@@ -458,7 +472,7 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
     replaying = opt.replay and opt.baseline is None and what == "recording"
     on_plant = ((opt.validate_run or replaying) and what == "recording" and plant != "linear" and has_mujoco
                 and replay_plant == "mujoco")
-    nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes)
+    nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes, opt.design)
     data = read_data(spec, fe, path, what, obj, resolution_hz=opt.resolution_hz, band_hz=band,
                      settle_of=lambda: settling_time(nominal, band), period_s=period_s, estimator=opt.estimator)
     if acquired:  # from here on the recording is the acquired one on the controller's clock
