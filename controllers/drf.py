@@ -34,7 +34,10 @@ How the problems are solved (differences from the thesis' NEWSUMT-A)
   reported infeasible with the limiting modes), then random symmetric
   positive definite perturbations ``D0^1/2 M D0^1/2`` with ``M`` drawn from
   ``numpy.random.default_rng(seed)`` (reproducible). The best feasible
-  converged start is returned; each start is recorded.
+  converged start is kept (each start is recorded) and followed by a
+  least-norm stage: among the gains whose objective is within a relative
+  1e-6 of it, the one of least Frobenius norm, so that a face of optima gives
+  one gain whatever the seed (:mod:`controllers.drf_solve`).
 * "The first n_m modes" are the closed-loop eigenvalues sorted by ``|lambda|``
   with a real eigenvalue counting one half (see
   :func:`controllers.performance.select_modes`); an over-damped mode whose

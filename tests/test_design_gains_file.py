@@ -118,3 +118,24 @@ def test_a_recording_with_the_labs_own_gains_is_diagnosed_with_them(tmp_path, fe
     assert any("gains from" in n for n in with_gains.notes)
     redesigned = diagnose("bcc", rec, plant="linear", validate_run=False, effects=("actuator_gain",))
     assert redesigned.mismatch
+
+
+def test_the_design_files_period_is_checked_against_a_recordings(tmp_path, fe):
+    """A vlab recording's sample interval is the controller's period: a design file that says another is
+    refused; a modal table (open-loop modes) leaves the design file unused, with a note."""
+    from vlab.diagnose import diagnose
+    from vlab.errors import OptionError
+
+    d = design_controller(fe, "mfdrf")
+    cfg = ExperimentConfig(structure="bcc", controller="mfdrf", plant="linear", chain=HardwareChain(noise_m_s=1e-6),
+                           duration_s=40.0)
+    rec = tmp_path / "rec.uff"
+    write_recording(rec, measure(cfg, fe, d, metadata={"structure": "bcc", "controller": "mfdrf"}).loop.recording)
+    gains = tmp_path / "design.json"
+    gains.write_text(json.dumps({"controller": "mfdrf", "gain_n_s_per_m": d.gain.tolist(), "period_s": 0.001}))
+    with pytest.raises(OptionError, match="contradicts the recording's sample interval"):
+        diagnose("bcc", rec, plant="linear", design=gains, validate_run=False)
+    table = tmp_path / "modes.csv"
+    table.write_text("mode,frequency_hz,damping_ratio\n1,1.853,0.004\n2,4.801,0.002\n")
+    r = diagnose("bcc", table, design=gains)
+    assert any("design file" in n and "not used" in n for n in r.notes)

@@ -55,8 +55,12 @@ def read_gains_file(path: str | Path) -> dict:
     if controller not in DRF_CONTROLLERS:
         raise DataFileError(f"{path}: field 'controller': {controller!r} -- only the gains of a direct rate "
                             f"feedback ({', '.join(DRF_CONTROLLERS)}) are read from a file")
+    raw = doc["gain_n_s_per_m"]
+    rows = raw if isinstance(raw, list) else [raw]
+    if any(isinstance(v, bool) for r in rows for v in (r if isinstance(r, list) else [r])):
+        raise DataFileError(f"{path}: field 'gain_n_s_per_m': true/false is no gain [N*s/m]")
     try:
-        gain = np.asarray(doc["gain_n_s_per_m"], dtype=float)
+        gain = np.asarray(raw, dtype=float)
     except (TypeError, ValueError) as exc:
         raise DataFileError(f"{path}: field 'gain_n_s_per_m': not a matrix of numbers ({exc})") from exc
     if gain.ndim != 2 or gain.shape[0] != gain.shape[1] or gain.size == 0 or not np.all(np.isfinite(gain)):
@@ -106,4 +110,4 @@ def design_from_file(fe: FEModel, path: str | Path, *, controller: str | None = 
         return drf_of_gain(fe, d["controller"], d["gain_n_s_per_m"], model=d["reduction"],
                            period_s=period_s if period_s is not None else d["period_s"], source=str(path))
     except ModelError as exc:
-        raise DataFileError(f"{path}: {exc}") from exc
+        raise DataFileError(f"{path}: field 'gain_n_s_per_m': {exc}") from exc

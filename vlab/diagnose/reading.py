@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError, ModelError, OptionError, VlabError
-from ..design.gains_file import design_from_file
+from ..design.gains_file import design_from_file, read_gains_file
 from ..fe import FEModel, build_fe_model
 from ..io.setup_file import RecordingSetup, apply_setup
 from ..io.recording import Recording
@@ -237,6 +237,39 @@ def _period_note(controller: str, what: str, period_s: float, thesis_s: float) -
     return f"the {controller} controller is realised at a {period_s * 1e3:g} ms sampling period ({src})"
 
 
+def _controller_period(what: str, obj, controller: str, design_file, notes: list) -> tuple[float, object]:
+    """The controller's sampling period [s] and the design file to use (None for a modal table, which holds
+    open-loop modes): a lab recording's own sample interval; else the design file's ``period_s`` where it
+    gives one; else the thesis's (Sec. 5.3). A note says which.
+
+    Raises
+    ------
+    OptionError
+        The design file's period contradicts a lab recording's sample interval.
+    DataFileError
+        The design file is malformed (:func:`vlab.design.gains_file.read_gains_file`).
+    """
+    from ..design import thesis_period_s
+
+    acquired = what == "recording" and not is_lab_recording(obj)
+    period_s = float(obj.dt_s) if what == "recording" and not acquired else thesis_period_s(controller)
+    if design_file is not None and what == "modal":
+        notes.append(f"a modal table holds open-loop modes: the design file {design_file} is not used")
+        design_file = None
+    if controller == "none":
+        return period_s, design_file
+    file_period = read_gains_file(design_file)["period_s"] if design_file is not None else None
+    if file_period is not None and (acquired or what == "frf"):
+        notes.append(f"the {controller} controller is realised at a {file_period * 1e3:g} ms sampling period (the "
+                     f"design file {design_file})")
+        return file_period, design_file
+    if file_period is not None and abs(file_period - period_s) > 1e-9 * period_s:
+        raise OptionError(f"--design {design_file}: its period_s {file_period:g} s contradicts the recording's "
+                          f"sample interval {period_s:g} s (the controller's period)")
+    notes.append(_period_note(controller, "acquired" if acquired else what, period_s, thesis_period_s(controller)))
+    return period_s, design_file
+
+
 def _refer(inp: dict, opt: Options, notes: list, timing: dict, say) -> None:
     """Refer the data of ``inp`` to the model through the reference (baseline, replay or none); sets ``data``,
     ``replayed``, ``same_record`` and ``reference`` in ``inp``."""
@@ -447,8 +480,6 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
         notes.append(f"a modal table holds open-loop modes: compared with the open-loop model (controller "
                      f"{controller!r} ignored)")
         controller = "none"
-    from ..design import thesis_period_s
-
     say("reading data")
     if detect_kind(path) == "modal":
         what, obj = "modal", read_modal_csv(path, spec, reference_column=opt.reference_column)
@@ -463,16 +494,12 @@ def read_inputs(structure: str | StructureSpec | None, recording_path: str | Pat
     has_mujoco = importlib.util.find_spec("mujoco") is not None
     replay_plant = setup.plant or ("mujoco" if has_mujoco else "linear")  # the plant that made the recording
     plant = "linear" if opt.plant == "auto" and setup.plant == "linear" else opt.plant
-    # the controller's sampling period: a lab recording's own sample interval, else the thesis's (Sec. 5.3)
     acquired = what == "recording" and not is_lab_recording(obj)
-    period_s = float(obj.dt_s) if what == "recording" and not acquired else thesis_period_s(controller)
-    if controller != "none":
-        notes.append(_period_note(controller, "acquired" if acquired else what, period_s,
-                                  thesis_period_s(controller)))
+    period_s, design_file = _controller_period(what, obj, controller, opt.design, notes)
     replaying = opt.replay and opt.baseline is None and what == "recording"
     on_plant = ((opt.validate_run or replaying) and what == "recording" and plant != "linear" and has_mujoco
                 and replay_plant == "mujoco")
-    nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes, opt.design)
+    nominal = _nominal_lab(spec, fe, setup, controller, period_s, on_plant, opt.mjcf, notes, design_file)
     data = read_data(spec, fe, path, what, obj, resolution_hz=opt.resolution_hz, band_hz=band,
                      settle_of=lambda: settling_time(nominal, band), period_s=period_s, estimator=opt.estimator)
     if acquired:  # from here on the recording is the acquired one on the controller's clock

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..design.controller import DRF_CONTROLLERS
 from .shape_results import paired_model_shapes, shapes_report_lines, shapes_summary, write_shape_outputs
 
 
@@ -79,8 +80,6 @@ def write_json(path: Path, obj: dict) -> Path:
     path.write_text(json.dumps(jsonable(obj), indent=2) + "\n")
     return path
 
-
-DRF_CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag")
 
 
 
