@@ -29,6 +29,11 @@ __all__ = ["design_from_file", "read_gains_file"]
 def read_gains_file(path: str | Path) -> dict:
     """The fields of a design file (module notes), checked.
 
+    Parameters
+    ----------
+    path : str or Path
+        The JSON design file.
+
     Returns
     -------
     dict
