@@ -15,7 +15,7 @@ omega_i omega_j sqrt(sigma_i sigma_j)``: an upper bound under that assumption (a
 can exceed it), so the shapes are not claimed more certain than the frequencies allow. The mixing
 coefficient of mode ``j`` into mode ``i`` is then uncertain by
 
-    c_ij = 2 omega_i omega_j sqrt(sigma_i sigma_j) / |omega_i^2 - omega_j^2|,
+    c_ij = 2 omega_i omega_j sqrt(sigma_i sigma_j) / abs(omega_i^2 - omega_j^2),
 
 large for close modes (the BCC's 8.8/9.5 Hz pair: 0.66 % for a frequency uncertainty of 0.05 %; with the
 other modes, 0.49 % and 0.94 % of modes 3 and 4 at the points) and small for well-separated ones. Measured at the points, mode ``i``'s shape changes by ``c_ij`` times mode
