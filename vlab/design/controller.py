@@ -185,6 +185,8 @@ def design_controller(
 
 
 DRF_CONTROLLERS = ("mfdrf", "lqdrf", "lqdrf-diag")
+#: A rate-feedback gain of 1 lbf*s/in (the thesis's unit, Tables 7, 11, 15) in N*s/m.
+LB_S_PER_IN_SI = LBF_N / INCH_M
 
 
 def drf_of_gain(fe: FEModel, controller: str, gain_n_s_per_m, *, model: str | None = None,
@@ -226,15 +228,16 @@ def drf_of_gain(fe: FEModel, controller: str, gain_n_s_per_m, *, model: str | No
     if d_si.shape != (n_c, n_c) or not np.all(np.isfinite(d_si)):
         raise ModelError(f"the {controller} gain must be a finite ({n_c}, {n_c}) matrix for the structure's {n_c} "
                          f"actuators [N*s/m], got shape {d_si.shape}")
-    d_cs = d_si * INCH_M / LBF_N / CS_S  # lbf per (in/cs): the design's own unit system
+    d_thesis = d_si / LB_S_PER_IN_SI
+    d_cs = d_thesis / CS_S  # lbf per (in/cs): the design's own unit system
     md = cl_modes(p.a - p.b @ d_cs @ p.cm, time_unit_s=CS_S)
     perf = feedback_performance(p.a, p.b, d_cs @ p.cm, p.q, p.r, p.x0)
-    gamma = float(np.max(np.sum(np.abs(d_si), axis=1)) * INCH_M / LBF_N)
+    gamma = float(np.max(np.sum(np.abs(d_thesis), axis=1)))
     return ControllerDesign(
         p.name, controller, p.model, d_si, md.damping_ratios, md.frequencies_hz, np.asarray(perf), gamma, None,
         True, f"the gain of {source} (not designed)",
         -d_si, np.zeros((n_c, 0)), np.zeros((0, n_c)), np.zeros((0, 0)),
-        {"d": d_si}, {"gain_thesis_lb_s_per_in": d_si * INCH_M / LBF_N}, (), p.period,
+        {"d": d_si}, {"gain_thesis_lb_s_per_in": d_thesis}, (), p.period,
     )
 
 
@@ -307,7 +310,7 @@ def _drf_design(p: _Problem, seed: int, n_starts: int | None) -> ControllerDesig
         des = lqdrf(a, b, cm, q, r, x0, zeta_min=st.zeta_min, n_modes=st.n_modes,
                     diagonal=p.controller == "lqdrf-diag", n_starts=4 if n_starts is None else n_starts, seed=seed,
                     time_unit_s=CS_S)
-    d_si = des.gain_per_s * LBF_N / INCH_M
+    d_si = des.gain_per_s * LB_S_PER_IN_SI
     gamma = float(des.gamma * CS_S)  # lb*s/in
     perf = des.performance_index if des.performance_index is not None else feedback_performance(
         a, b, des.gain @ cm, q, r, x0)
