@@ -476,10 +476,13 @@ def main_draw(a) -> None:
         thr_files[name] = cache
         thr = draw_thresholds(name, a.controller, cache)
         cases += draw_cases(a.draw, name, a.controller, thr, k_range=tuple(a.k))
-    todo = cases if a.limit is None else cases[:a.limit]
+    numbered = list(enumerate(cases if a.limit is None else cases[:a.limit]))
+    if a.only is not None:
+        numbered = [(i, c) for i, c in numbered if i in a.only]
     header = [f"# python benchmarks/update_benchmark.py --draw {a.draw} --structures {' '.join(a.structures)} "
               f"--controller {a.controller} --k {a.k[0]:g} {a.k[1]:g}"
-              + (f" --limit {a.limit}" if a.limit is not None else "") + f"   ({time.strftime('%Y-%m-%d')}; vlab at {vlab_commit()})",
+              + (f" --limit {a.limit}" if a.limit is not None else "")
+              + (f" --only {' '.join(map(str, a.only))}" if a.only is not None else "") + f"   ({time.strftime('%Y-%m-%d')}; vlab at {vlab_commit()})",
               "# thresholds: " + ", ".join(f"{k}: {_rel(v)}" for k, v in thr_files.items()) + " (closed loop, "
               f"{a.controller}, model_form plant)",
               "# k: size / detection threshold (distance from the null value: _size); err: average peak level error "
@@ -501,7 +504,7 @@ def main_draw(a) -> None:
 
     for line in header:
         print(line, flush=True)
-    for i, case in enumerate(todo):
+    for i, case in numbered:
         try:
             row = run_drawn(case, base / f"draw{a.draw}_{i}", a.controller)
         except Exception as exc:  # noqa: BLE001 -- reported, not dropped
@@ -520,7 +523,8 @@ def main_draw(a) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", choices=("cantilever", "bcc", "grid", "all", "chain"), default="cantilever")
-    ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case numbers (0-based)")
+    ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these case numbers (0-based; with --draw: "
+                                                                     "the numbers in the draw)")
     ap.add_argument("--controller", choices=("mfdrf", "lqdrf"), default="mfdrf",
                     help="the controller of the recording and of both designs")
     ap.add_argument("--work", default=None, help="folder for the cases' files (default: a temporary folder)")
