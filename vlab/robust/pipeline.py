@@ -115,7 +115,7 @@ def run_pipeline(cfg: StudyConfig, *, scheduler: str | None = "local", workers: 
         check_scheduler(scheduler)
     n_proc = workers or default_workers()
     where = ("this process" if scheduler is None else
-             f"a Dask LocalCluster of {n_proc} processes" if scheduler == "local"
+             f"a Dask LocalCluster of {n_proc} process{'es' if n_proc != 1 else ''}" if scheduler == "local"
              else f"the Dask scheduler {scheduler}")
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
