@@ -239,3 +239,80 @@ def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reporte
     assert rem["modes"] == [1] and rem["points"] == [21, 14] and rem["judged_on"].startswith("the validation rerun")
     assert "describing function" in decision._remainder_note(rem, problem)
     assert decision.remainder_of(res_with(0.00140), problem, 0.056) is None
+
+
+def _lookalike_case(monkeypatch, reruns: dict):
+    """A linear choice ``A`` whose rerun leaves a remainder (2.4e-5 against the 7.9e-6 decades an exact model
+    leaves) and its look-alikes with the rerun misfits ``reruns`` (label -> decades; ``friction`` is nonlinear
+    and never rerun); the remainder judged as :func:`remainder_of` judges a rerun, by
+    :func:`remainder_resolved`."""
+    import vlab.diagnose.decision as decision
+
+    noise = 7.9e-6
+    monkeypatch.setattr(decision, "remainder_of", lambda res, problem, m0: None if not remainder_resolved(
+        res.validation.misfit_after, res.validation.noise_misfit) else {"misfit_decades": res.validation.misfit_after})
+
+    def hyp(label, effect="member_stiffness"):
+        return SimpleNamespace(label=label, effect=effect, misfit_=1e-4)
+
+    def val(after):
+        return SimpleNamespace(misfit_before=5e-3, misfit_after=after, noise_misfit=noise)
+
+    looks = [hyp(k, "friction" if k == "friction" else "member_stiffness") for k in reruns]
+    res = SimpleNamespace(selected=hyp("A", "joint_flexibility"), validation=val(2.4e-5), plant_refit="refit A",
+                          alternatives=looks, rejected=[], misfit_selected=1e-4, misfit_nominal=5e-3)
+    called = []
+
+    def rerun(h):
+        called.append(h.label)
+        return val(reruns[h.label]), f"refit {h.label}"
+    rem = {"misfit_decades": 2.4e-5, "noise_misfit_decades": noise}
+    return decision, res, rem, rerun, called
+
+
+def test_a_look_alike_whose_rerun_leaves_no_remainder_replaces_the_choice(monkeypatch):
+    """The linear fits cannot tell the choice from its look-alikes; the rerun on the plant that made the
+    recording can: of the look-alikes that leave no remainder there the least misfit is selected, another
+    clean one stays its look-alike, one with a remainder is dropped, a nonlinear one is not rerun."""
+    decision, res, rem, rerun, called = _lookalike_case(
+        monkeypatch, {"B": 9.0e-6, "C": 3.0e-5, "E": 8.5e-6, "friction": 1e-6})
+    notes = []
+    assert decision.separated_by_rerun(res, None, rem, rerun, notes) is True
+    assert res.selected.label == "E" and res.plant_refit == "refit E" and res.validation.misfit_after == 8.5e-6
+    assert [a.label for a in res.alternatives] == ["B"] and "friction" not in called
+    assert res.rejected[0]["label"] == "A" and "E leaves none and is selected" in notes[0]
+
+
+def test_look_alikes_that_all_leave_a_remainder_change_nothing(monkeypatch):
+    decision, res, rem, rerun, _ = _lookalike_case(monkeypatch, {"B": 2.0e-5, "C": 3.0e-5})
+    notes = []
+    assert decision.separated_by_rerun(res, None, rem, rerun, notes) is False
+    assert res.selected.label == "A" and [a.label for a in res.alternatives] == ["B", "C"] and not res.rejected
+    assert "each leaves a remainder too" in notes[0]
+
+
+def test_a_choice_refitted_on_the_plant_is_judged_on_the_plants_linearisation(monkeypatch):
+    """The plant's value in the FE model carries the FE/plant difference of what the effect does: a joint
+    refitted on the MuJoCo plant leaves chi-square 5662 there (limit 7158) and 35434 on the FE model. The
+    remainder is judged on the footing of the refit; without the plant's lab it falls back to the FE one."""
+    import vlab.diagnose.decision as decision
+
+    monkeypatch.setattr(decision, "locate", lambda problem, state: SimpleNamespace(modes=[], points=()))
+    monkeypatch.setattr(decision, "profiled", lambda problem, state: False)
+
+    def footing(chi2):
+        return SimpleNamespace(residual=lambda state, test: np.array([np.sqrt(chi2)]), noise_chi2=lambda: 7158.0,
+                               peak_limit=lambda: 60.4, peak_of=lambda r: float(r @ r), data=None)
+    fe, plant = footing(35434.0), footing(5662.0)
+    joint = SimpleNamespace(effect="joint_flexibility", label="joint_flexibility(point=14)")
+    v = SimpleNamespace(misfit_after=2.4e-5, noise_misfit=7.9e-6, plant="MuJoCo plant")
+
+    def res_with(refit):
+        return SimpleNamespace(selected=joint, selected_parts=(joint,), validation=v, plant_refit=refit,
+                               misfit_selected=1e-4, selected_state=lambda: "the FE lab")
+    refit = SimpleNamespace(state="the FE lab at the plant's value", plant_state="the plant's lab",
+                            plant_problem=plant)
+    assert decision.remainder_of(res_with(refit), fe, 5e-3) is None
+    rem = decision.remainder_of(res_with(SimpleNamespace(state="the FE lab at the plant's value", plant_state=None,
+                                                         plant_problem=None)), fe, 5e-3)
+    assert rem is not None and rem["chi2"] == pytest.approx(35434.0)

@@ -123,6 +123,20 @@ def test_update_appends_commented_entries_and_keeps_the_original_text(tmp_path):
         update(EXAMPLE, tmp_path / "diag", out=out)
 
 
+def test_the_look_alikes_of_the_selection_are_named_in_the_written_file(tmp_path):
+    cant = load_spec(EXAMPLE)
+    sel = [_sel("added_mass", {"point": 6}, "mass_kg", 0.012, 0.011, 0.013)]
+    looks = ["added_mass(point=5)", "member_stiffness(member=beam, segment=[5, 6])"]
+    out = tmp_path / "updated.toml"
+    update(EXAMPLE, _diagnosis(tmp_path, cant, sel, alternatives=looks), out=out)
+    text = out.read_text(encoding="utf-8")
+    assert ("# The data could not tell it from: added_mass(point=5); member_stiffness(member=beam, segment=[5, 6])"
+            in text)
+    out2 = tmp_path / "alone.toml"
+    update(EXAMPLE, _diagnosis(tmp_path, cant, sel), out=out2)
+    assert "could not tell" not in out2.read_text(encoding="utf-8")
+
+
 @pytest.mark.parametrize("change, message", [
     ({"selected": []}, "nothing selected .no mismatch was found"),
     ({"outside_library": True}, "outside vlab's library"),

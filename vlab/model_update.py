@@ -287,7 +287,8 @@ def _comment(e: dict, recording: str) -> str:
     return f"# {e['effect']} ({where}): {name} = {x:.6g}, 95 % interval [{ci[0]:.4g}, {ci[1]:.4g}]{refit}\n"
 
 
-def updated_text(original: str, spec: StructureSpec, selected: list[dict], recording: str) -> tuple[str, list]:
+def updated_text(original: str, spec: StructureSpec, selected: list[dict], recording: str,
+                 look_alikes=()) -> tuple[str, list]:
     """The structure file ``original`` with the selected effects appended as commented entries.
 
     Parameters
@@ -300,6 +301,9 @@ def updated_text(original: str, spec: StructureSpec, selected: list[dict], recor
         ``diagnosis.json``'s ``selected`` entries (:func:`check_diagnosis`).
     recording : str
         Name of the diagnosed recording (in every entry's source).
+    look_alikes : sequence of str
+        The diagnosis's ``alternatives``: effects the data could not tell from the selection, named in a
+        comment (the entries are the selection's; a user who knows the structure may choose another).
 
     Returns
     -------
@@ -308,6 +312,9 @@ def updated_text(original: str, spec: StructureSpec, selected: list[dict], recor
     """
     head = (f"\n\n# ---- added by `vlab update` from the diagnosis of {recording} (vlab diagnose) ----\n"
             "# Each entry below is physics the diagnosis found missing from the model above, at its fitted value.\n")
+    if look_alikes:
+        head += ("# The data could not tell it from: " + "; ".join(look_alikes)
+                 + " (look-alikes: they fit these data as well; see the diagnosis).\n")
     parts, entries = [head], []
     for e in selected:
         parts.append("\n" + _comment(e, recording))
@@ -480,7 +487,8 @@ def update(structure: str | Path | StructureSpec, diagnosis: str | Path, *, out:
     selected = check_diagnosis(d, spec, file)
     src = Path(str((d.get("data") or {}).get("source") or "recording"))
     recording = f"{src.parent.name}/{src.name}" if src.parent.name else src.name  # e.g. mass6/recording.uff
-    text, entries = updated_text(spec.path.read_text(encoding="utf-8"), spec, selected, recording)
+    text, entries = updated_text(spec.path.read_text(encoding="utf-8"), spec, selected, recording,
+                                 [str(a) for a in d.get("alternatives") or []])
     where = str(target or "the updated structure")
     try:
         doc = tomllib.loads(text)

@@ -22,10 +22,13 @@ Sources: as :mod:`vlab.diagnose.fit.rules` and :mod:`vlab.diagnose.policy`.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .data.measured import FrfData
 from ..errors import ModelError, SpecError
+from .effects.hypothesis import Combination
 from .fit.locate import extra_resonances, locate, resonance_limit
 from .fit.resonances import unpaired_peaks
 from .fit.confirm import improves_on_nominal, remainder_resolved, worsens
@@ -248,7 +251,8 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     """Rule 10: what the choice of ``res`` leaves, when it is beyond what the mismatch test allows.
 
     The same covariance as the mismatch test (noise, floor and model form): the chosen lab -- refitted on the
-    MuJoCo plant's linearisation where it was -- must leave the data within the total chi-square limit
+    MuJoCo plant's linearisation where it was, and judged there (:func:`_footing`) -- must leave the data
+    within the total chi-square limit
     (and, with a model form carried, its modes within their model form); a lab that does not leaves a
     remainder. The single-line test is not applied here: one line at a lightly damped resonance carries
     the effect's own representation error (how a mass is attached: its offset and rotary inertia), which
@@ -283,7 +287,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
         return None
     v = res.validation
     nonlinear = any(p.effect in NONLINEAR for p in res.selected_parts)
-    state = res.plant_refit.state if res.plant_refit is not None else res.selected_state()
+    problem, state = _footing(res, problem)
     r = problem.residual(state, test=True)
     if nonlinear:  # judged by its rerun alone (below): without one, nothing to judge
         inside = v is None
@@ -315,12 +319,37 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
             "nonlinear_choice": nonlinear}
 
 
-def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list) -> None:
+def _footing(res: DiagnosisResult, problem: Problem) -> tuple[Problem, object]:
+    """The problem and the lab on which the choice of ``res`` is judged: for a choice refitted on the MuJoCo
+    plant's linearisation, that linearisation with the data referred to it (the footing of its refit's
+    chi-square: the plant's value in the FE model carries the FE/plant difference of what the effect does);
+    else ``problem`` and the chosen FE lab."""
+    r = res.plant_refit
+    if r is not None and r.plant_state is not None and r.plant_problem is not None:
+        return r.plant_problem, r.plant_state
+    return problem, (r.state if r is not None else res.selected_state())
+
+
+def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float, notes: list,
+                     rerun=None) -> None:
     """Rule 10 on the choice of ``res`` (in place): test the remainder it leaves on the data of ``problem``
     (:func:`remainder_of`); keep it as ``res.remainder`` when the choice is identified (no look-alike within
-    the policy's evidence) or nonlinear (its remainder may be its own value's error), else reject the choice
-    -- the mismatch then lies outside the library -- naming its look-alikes in ``notes``; ``chi2_fit``: the nominal lab's chi-square on the fits' footing, for the
-    location from the fits."""
+    the policy's evidence) or nonlinear (its remainder may be its own value's error). A linear choice that
+    leaves a remainder and has look-alikes gives way to the look-alike whose own validation rerun leaves none
+    (:func:`separated_by_rerun`, with ``rerun``); failing that it is rejected -- the mismatch then lies outside
+    the library -- and its look-alikes are named in ``notes``.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+    problem : Problem
+    chi2_fit : float
+        The nominal lab's chi-square on the fits' footing [1], for the location from the fits.
+    notes : list of str
+    rerun : callable ``(h) -> (Validation, PlantRefit or None) or None``, optional
+        The validation rerun of a look-alike ``h`` on the plant the choice was validated on (its plant refit,
+        where the choice has one); None: look-alikes are not rerun.
+    """
     if res.selected is None:
         return
     rem = remainder_of(res, problem, res.misfit_nominal)
@@ -332,6 +361,8 @@ def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float,
         res.remainder = rem
         notes.append(_remainder_note(rem, problem))
         return
+    if rerun is not None and res.validation is not None and separated_by_rerun(res, problem, rem, rerun, notes):
+        return
     h = res.selected
     before, after, noise = _misfits(res, res.misfit_nominal)
     looks = [a.label for a in res.alternatives]
@@ -342,6 +373,65 @@ def settle_remainder(res: DiagnosisResult, problem: Problem, *, chi2_fit: float,
                  f"{', ...' if len(looks) > 4 else ''}): a fit biased by what is left and not separated from other "
                  "effects names nothing; the mismatch lies outside the library, nothing is selected")
     drop_selection(res, res.misfit_nominal, chi2_fit, outside=True)
+
+
+def separated_by_rerun(res: DiagnosisResult, problem: Problem, rem: dict, rerun, notes: list) -> bool:
+    """Rule 10's look-alikes by rerun: the choice of ``res`` leaves the remainder ``rem`` on its validation
+    rerun; each linear single look-alike is rerun the same way (``rerun``, on the plant that made the
+    recording, with its own refit there) and judged by the same test (:func:`remainder_of`). The linear fits
+    could not tell these effects apart; the rerun, which carries what the linear models leave out (the plant's
+    own shapes and discretisation), can. Of the look-alikes that leave no remainder the one with the least
+    rerun misfit replaces the choice (in place, ``True`` returned); the others that leave none stay its
+    look-alikes (the rerun does not tell them apart either), those that leave a remainder are dropped. None
+    leaves none: ``res`` is unchanged and ``False`` returned.
+
+    Parameters
+    ----------
+    res : DiagnosisResult
+        With a selected choice, its validation and look-alikes (``res.alternatives``).
+    problem : Problem
+    rem : dict
+        The choice's remainder (:func:`remainder_of`).
+    rerun : callable
+        As in :func:`settle_remainder`; it may return None (no rerun possible for that effect).
+    notes : list of str
+
+    Returns
+    -------
+    bool
+    """
+    clean, tried = [], []
+    for h in res.alternatives:
+        if isinstance(h, Combination) or h.effect in NONLINEAR:
+            continue
+        out = rerun(h)
+        if out is None:
+            continue
+        trial = copy.copy(res)
+        trial.selected, trial.validation, trial.plant_refit, trial.misfit_selected = h, out[0], out[1], float(
+            h.misfit_)
+        tried.append(f"{h.label}: {out[0].misfit_after:.3g} decades")
+        if remainder_of(trial, problem, res.misfit_nominal) is None:
+            clean.append((out[0].misfit_after, h, out))
+    if not tried:
+        return False
+    first = res.selected
+    tail = (f"the best candidate, {first.label}, leaves a remainder on its validation rerun "
+            f"({rem['misfit_decades']:.3g} decades, an exact model {rem['noise_misfit_decades'] or float('nan'):.3g});"
+            f" its look-alikes rerun the same way leave {', '.join(tried)}")
+    if not clean:
+        notes.append(tail + ": each leaves a remainder too")
+        return False
+    clean.sort(key=lambda c: c[0])
+    _, h, (v, refit) = clean[0]
+    res.rejected.append(rejection(first, "leaves a remainder on its rerun that a look-alike does not leave",
+                                  v.misfit_before, res.validation.misfit_after, res.validation.noise_misfit))
+    res.selected, res.validation, res.plant_refit, res.misfit_selected = h, v, refit, float(h.misfit_)
+    res.alternatives = [c[1] for c in clean[1:]]
+    notes.append(tail + f": {h.label} leaves none and is selected"
+                 + (f"; the rerun does not tell it from {', '.join(a.label for a in res.alternatives)}"
+                    if res.alternatives else ""))
+    return True
 
 
 def _remainder_note(rem: dict, problem: Problem) -> str:

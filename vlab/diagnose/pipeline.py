@@ -201,6 +201,33 @@ def _validated(res: DiagnosisResult, problem: Problem, plant: str, notes: list, 
     timing["validate"] = time.perf_counter() - t
 
 
+def _lookalike_rerun(res: DiagnosisResult, problem: Problem, plant: str, chain: bool, notes: list):
+    """The validation rerun of a look-alike ``h`` of the choice of ``res``, as :func:`_validated` made the
+    choice's: on the plant its validation ran on, refitted first on the MuJoCo plant's linearisation where the
+    choice was (``chain``: a chain effect is refitted there too). Returns ``rerun(h) -> (Validation, PlantRefit
+    or None) or None`` (None: no refit or no rerun possible for ``h``; the reason is noted)."""
+    on = plant if res.validation is None or res.validation.plant.startswith("MuJoCo") else "linear"
+    model = []
+
+    def rerun(h):
+        try:
+            refit = None
+            if res.plant_refit is not None and on != "linear":
+                if not model:
+                    model.append(PlantModel(problem, chain_refit=chain))
+                refit = model[0].refit(h, h.params_)
+                if refit is None:
+                    return None
+            state = refit.state if refit is not None else problem.fitted_state(h)
+            key = rerun_key(h) + ("@plant" if refit is not None else "")
+            return validate(problem, res.nominal, state, plant=on, spec_level=h.spec_level, seed=RERUN_SEED,
+                            key=key), refit
+        except (VlabError, ImportError) as exc:
+            notes.append(f"the look-alike {h.label} could not be rerun: {exc}")
+            return None
+    return rerun
+
+
 def _source_named(inp: Inputs) -> bool:
     """The recording's metadata names the vlab plant that made it."""
     return isinstance(inp.metadata.get("plant"), str) and inp.metadata.get("plant") != ""
@@ -473,7 +500,15 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
         if res.selected is not None and not self_excited:
             say("testing the remainder")
             t = time.perf_counter()
-            settle_remainder(res, problem, chi2_fit=res.chi2_fit, notes=notes)
+            first = res.selected
+            settle_remainder(res, problem, chi2_fit=res.chi2_fit, notes=notes,
+                             rerun=_lookalike_rerun(res, problem, inp.plant, inp.on_plant and _made_by_vlab(inp),
+                                                    notes))
+            if res.selected is not None and res.selected is not first:  # a look-alike separated by its rerun
+                thr = threshold_of(problem, res.nominal, problem.ctx, res.selected)
+                res.threshold = None if thr is None else thr.as_dict()
+                if problem.ctx.closed_loop:
+                    res.loop = "closed" if all(p.effect in CONTROLLER_PATH for p in res.selected_parts) else "both"
             timing["remainder"] = time.perf_counter() - t
             _on_structure(res, structure, notes, timing, say)
     finally:

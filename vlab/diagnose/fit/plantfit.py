@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.optimize
@@ -187,6 +187,11 @@ class PlantRefit:
     start : str
         Where ``fe_value`` came from: ``"FE fit"``, or for a second effect found on the plant
         (:mod:`vlab.diagnose.fit.plantpair`) the fit on the data referred through the first.
+    plant_state : LabState or None
+        The lab with those parameters and the plant's modes (:meth:`PlantModel.state`): what ``chi2`` was
+        computed with; None where the refit was not evaluated on the plant.
+    plant_problem : Problem or None
+        The data on the plant's linearisation (:attr:`PlantModel.problem`), the footing of ``chi2``.
     """
 
     name: str
@@ -199,6 +204,8 @@ class PlantRefit:
     n_evaluations: int
     seconds: float
     start: str = "FE fit"
+    plant_state: LabState | None = field(default=None, repr=False, compare=False)
+    plant_problem: Problem | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         """JSON-ready summary."""
@@ -308,6 +315,7 @@ class PlantModel:
         t0 = time.perf_counter()
         n0 = self.n_linearisations
         seen: dict[float, float] = {}
+        best: list = [math.inf, None]  # the least chi-square evaluated and its lab (the plant's modes)
 
         def params(u: float) -> np.ndarray:
             x = x0.copy()
@@ -317,7 +325,13 @@ class PlantModel:
         def chi2(u: float) -> float:
             u = float(u)
             if u not in seen:
-                seen[u] = self.chi2(h, params(u))
+                try:
+                    st = self.state(h, params(u))
+                    seen[u] = self.problem.chi2(st)
+                except (ModelError, SpecError):
+                    st, seen[u] = None, math.inf
+                if seen[u] < best[0]:
+                    best[:] = [seen[u], st]
             return seen[u]
 
         step = half_width / (points // 2)
@@ -328,7 +342,8 @@ class PlantModel:
         u_best = min(seen, key=seen.get)  # the least chi-square seen, scan points included
         x = params(u_best)
         return PlantRefit(h.param_names[i], float(x0[i]), float(x[i]), x, h.apply(self.base, x, self.ctx),
-                          chi2(0.0), seen[u_best], self.n_linearisations - n0, time.perf_counter() - t0)
+                          chi2(0.0), seen[u_best], self.n_linearisations - n0, time.perf_counter() - t0,
+                          plant_state=best[1], plant_problem=self.problem)
 
 
 def _bracketed(chi2, grid: np.ndarray, step: float, bounds: tuple[float, float]) -> float:
@@ -376,6 +391,7 @@ def refit_parts(model: PlantModel, pair: Combination, r: PlantRefit, parts) -> P
         r1 = None if i is None else model.refit(pair, r.params, i)
         if r1 is not None and r1.chi2 < r.chi2:
             r = replace(r, value=float(r1.params[j]), params=r1.params, state=r1.state, chi2=r1.chi2,
+                        plant_state=r1.plant_state, plant_problem=r1.plant_problem,
                         n_evaluations=r.n_evaluations + r1.n_evaluations,
                         seconds=r.seconds + r1.seconds)
     return r

@@ -66,7 +66,9 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    as much is not selected: the mismatch lies outside the library.
 10. **The remainder** (:func:`vlab.diagnose.fit.confirm.remainder_resolved`): what a selected choice leaves is tested against what an
     exact model leaves; a resolved remainder is reported with its size and place (the choice explains part
-    of the mismatch), never dropped.
+    of the mismatch), never dropped. A linear choice with look-alikes that leaves a remainder on its rerun
+    gives way to a look-alike whose own rerun leaves none, else nothing is named
+    (:func:`vlab.diagnose.decision.settle_remainder`).
 11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when the recording holds a self-excited
     oscillation that the nominal replay does not (:mod:`vlab.measure.instability`), a choice is selected only
     if its validation rerun's own oscillation -- its strongest self-excited line at its loop point, the

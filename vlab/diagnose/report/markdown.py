@@ -99,6 +99,10 @@ def _mismatch_lines(res: dict) -> list[str]:
         arrow = "" if chi2_sel is None else f" -> {chi2_sel:.4g}"
         c0, cp = nominal_fit_chi2(s), s["chi2_nominal"]
         tested = "" if c0 == cp else f"; the mismatch tests' statistic: {cp:.4g}"
+        refit = (res.get("validated") or {}).get("refit") or {}
+        if refit.get("chi2") is not None:  # the footing the choice was judged on (its remainder, rule 10)
+            within = "within" if refit["chi2"] <= s["chi2_limit"] else "beyond"
+            tested += f"; refitted on the MuJoCo plant's linearisation: chi2 {refit['chi2']:.4g}, {within} the limit"
         lines += [f"**Mismatch: {sel}.** chi2 {c0:.4g}{arrow} "
                   f"(noise limit {s['chi2_limit']:.4g}, N = {s['n_obs']}{tested}){peak}.", ""]
         for x in res["selected"]:
