@@ -25,7 +25,7 @@ from .detectability import threshold_of
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
 from .fit.locate import located_point_ids
-from .fit.plantchoice import choose_on_plant, reduce_pair_on_plant
+from .fit.plantchoice import choose_on_plant, explains_on_plant, pair_needed_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
 from .fit.rules import (needs_pairs, needs_rerun_check, part_alone, passing_single, prune, select, shortlisted,
@@ -77,7 +77,8 @@ class Search:
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
                     pool: list[Hypothesis], chain: bool = False) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`); a pair
-    is first checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
+    gives way to a single effect that explains the data there (:func:`_single_on_plant`), else a pair the
+    plant can carry is checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
     look-alikes and the fits of ``res.ranked`` the FE model orders by less than its difference from the plant
     (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
     ``pool`` is searched next to it (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`). Sets
@@ -89,6 +90,11 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
         notes.append(f"the MuJoCo plant could not be linearised for a refit: {exc}")
         return chosen
     if isinstance(chosen, Combination):
+        single = _single_on_plant(res, model, chosen, notes)
+        if single is not None:
+            return single
+        if not chosen.spec_level:  # the plant cannot carry the pair: its rerun and value stay the FE model's
+            return chosen
         reduced, res.plant_refit, note = reduce_pair_on_plant(model, chosen, res.ranked)
         if note is not None:
             notes.append(note)
@@ -105,6 +111,50 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     if chosen is not single:
         res.alternatives = looks  # the pair's look-alikes on the plant, not those of the single effect
     return chosen
+
+
+def _on_plant_checked(h: Hypothesis) -> bool:
+    """Whether rule 5 (the MuJoCo plant's linearisation) applies to the choice ``h``: a spec-level effect, or
+    a pair with a spec-level part that moves modes (its other part may be one the plant cannot carry)."""
+    return h.spec_level or (isinstance(h, Combination) and any(p.spec_level and p.moves_modes for p in h.parts))
+
+
+def _single_on_plant(res: DiagnosisResult, model: PlantModel, pair: Combination, notes: list) -> Hypothesis | None:
+    """A single effect that replaces the FE model's pair on the plant's linearisation, or None.
+
+    The FE model orders candidates by no more than its difference from the plant (:func:`choose_on_plant`),
+    and a second effect fitted on the FE model can absorb that difference (rule 5 of
+    :mod:`vlab.diagnose.fit.rules`); a pair whose other part cannot be rerun on the plant (a dashpot or
+    friction at a point) is not reduced by :func:`reduce_pair_on_plant`'s pair rule, which asks nothing of a
+    nonlinear second part. So the pair's mode-moving, spec-level part is compared on the plant with its
+    look-alikes and the same physics at the located places, as a single choice is; where the winner,
+    refitted there, leaves the data within the mismatch test's limits (:func:`explains_on_plant`), or the
+    pair scored there does not pass the pair rule against it (:func:`pair_needed_on_plant`), no second
+    effect is needed and it is the choice (``res.plant_refit`` and ``res.alternatives`` set, a note
+    added)."""
+    part = next((p for p in pair.parts if p.spec_level and p.moves_modes), None)
+    own = None if part is None else next(
+        (h for h in res.ranked if not isinstance(h, Combination) and h.label == part.label), None)
+    if own is None:
+        return None
+    best, refit, alts, note = choose_on_plant(model, own, [], res.ranked, places=res.location.places)
+    if refit is None:
+        return None
+    limit = model.problem.noise_chi2()
+    if explains_on_plant(model, best, refit):
+        why = f"leaves the data within the mismatch test's limits (chi-square {refit.chi2:.4g}, limit {limit:.4g})"
+    elif not pair_needed_on_plant(model, pair, part, best, refit):
+        why = (f"leaves chi-square {refit.chi2:.4g} (limit {limit:.4g}), and the pair scored there does not pass "
+               "the pair rule against it")
+    else:
+        return None
+    res.plant_refit, res.alternatives = refit, alts
+    if note is not None:
+        notes.append(note)
+    notes.append(f"on the MuJoCo plant's linearisation {best.label} alone, refitted there, {why}: the second "
+                 f"effect of the FE model's pair {pair.label} absorbed the FE/plant difference; {best.label} is "
+                 "selected")
+    return best
 
 
 def _by_prediction(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, ranked: list, alts: list,
@@ -265,7 +315,7 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
         timing["tie_break"] = time.perf_counter() - t
     res.alternatives = alts
     chain = search.plant_made and chosen is not None and chosen.in_chain  # a single chain effect (not a pair)
-    if chosen is not None and search.on_plant and chosen.spec_level and not search.self_excited:
+    if chosen is not None and search.on_plant and _on_plant_checked(chosen) and not search.self_excited:
         say("refitting on the MuJoCo plant's linearisation")
         t = time.perf_counter()
         chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain)

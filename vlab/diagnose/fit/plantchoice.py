@@ -143,6 +143,69 @@ def _within_model_accuracy(model: PlantModel, h: Hypothesis, x) -> bool:
         return False
 
 
+def explains_on_plant(model: PlantModel, h: Hypothesis, refit: PlantRefit) -> bool:
+    """Whether ``h``, refitted on the plant's linearisation (``refit``), leaves the data there within the
+    limits of the tests that declared the mismatch, as the remainder of a choice is judged
+    (:func:`vlab.diagnose.decision.remainder_of`): its modes within their model form where one is carried
+    (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), else the total chi-square within its
+    limit (:meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`; the single-line test is not applied,
+    for the reason given there).
+
+    Parameters
+    ----------
+    model : PlantModel
+    h : Hypothesis
+        A single effect (fitted).
+    refit : PlantRefit
+        Its refit on the plant.
+
+    Returns
+    -------
+    bool
+    """
+    if model.problem.model_form_frf is not None:
+        return _within_model_accuracy(model, h, refit.params)
+    return bool(refit.chi2 <= model.problem.noise_chi2())
+
+
+def pair_needed_on_plant(model: PlantModel, pair: Combination, main: Hypothesis, single: Hypothesis,
+                         single_refit: PlantRefit) -> bool:
+    """Whether the FE model's ``pair`` is still needed on the plant's linearisation beside the best single
+    effect found there (``single``, refitted there as ``single_refit``): the pair scored there as
+    :func:`reduce_pair_on_plant` scores it (its part ``main`` refitted), and the pair rule of the selection
+    (:func:`vlab.diagnose.fit.rules.passes_pair_rule`) applied with that single effect as the one the pair
+    must beat -- the quasi-BIC evidence and, for a pair without a nonlinear part that does not bring the
+    data within the noise, the share of the single effect's chi-square its second effect explains.
+
+    Parameters
+    ----------
+    model : PlantModel
+    pair : Combination
+        Fitted on the FE model.
+    main : Hypothesis
+        Its part refitted on the plant (one that moves modes).
+    single : Hypothesis
+    single_refit : PlantRefit
+
+    Returns
+    -------
+    bool
+        False also where the pair cannot be scored on the plant.
+    """
+    try:
+        out = _scored(model, pair, pair.params_, main)
+    except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
+        return False
+    if not math.isfinite(out[0].chi2_):
+        return False
+    s_pair, s1 = out[0], PlantScore(single_refit.chi2, single.n_params)
+    n_obs = model.problem.n_obs
+    c_hat = max(1.0, s1.chi2_ / max(n_obs - s1.n_params, 1))
+    ev = evidence(s_pair, s1, chi2_0=math.inf, n_obs=n_obs, c_hat=c_hat)
+    exempt = any(p.effect in NONLINEAR for p in pair.parts) or s_pair.chi2_ <= model.problem.noise_chi2()
+    return passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, model.problem.policy)
+
+
 #: Search effort on the plant, not decision thresholds (a candidate not compared there keeps its FE
 #: ranking): most look-alikes of a selected single effect scored on the plant by :func:`choose_on_plant`,
 #: how many of the best of them (with the selected one) are refitted there (a refit takes ~11

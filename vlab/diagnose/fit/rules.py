@@ -43,7 +43,11 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    rule, on the plant that made the recording)
    (:func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
 5. **On the MuJoCo plant's linearisation**, for a spec-level choice on a
-   recording of the MuJoCo plant: a pair must pass the pair rule again
+   recording of the MuJoCo plant: a pair gives way to its mode-moving, spec-level part -- compared there
+   with its look-alikes and the same physics at the located places -- when that single effect, refitted
+   there, leaves the data within the mismatch test's limits
+   (:func:`vlab.diagnose.fit.plantchoice.explains_on_plant`; also for a pair whose other part the plant
+   cannot carry); else a pair must pass the pair rule again
    there (:func:`passes_pair_rule` in
    :func:`vlab.diagnose.fit.plantchoice.reduce_pair_on_plant`), else the
    better of its parts is chosen; a single effect is compared there with its
