@@ -379,8 +379,9 @@ def separated_by_rerun(res: DiagnosisResult, problem: Problem, rem: dict, rerun,
     """Rule 10's look-alikes by rerun: the choice of ``res`` leaves the remainder ``rem`` on its validation
     rerun; each linear single look-alike is rerun the same way (``rerun``, on the plant that made the
     recording, with its own refit there) and judged by the same test (:func:`remainder_of`). The linear fits
-    could not tell these effects apart; the rerun, which carries what the linear models leave out (the plant's
-    own shapes and discretisation), can. Of the look-alikes that leave no remainder the one with the least
+    could not tell these effects apart; the rerun carries what the linear models leave out (the plant's own
+    shapes, discretisation and level dependence), so it may (it need not: a true effect refitted on the
+    linearisation can leave a resolved rerun misfit of its own). Of the look-alikes that leave no remainder the one with the least
     rerun misfit replaces the choice (in place, ``True`` returned); the others that leave none stay its
     look-alikes (the rerun does not tell them apart either), those that leave a remainder are dropped. None
     leaves none: ``res`` is unchanged and ``False`` returned.

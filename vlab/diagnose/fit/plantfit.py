@@ -277,10 +277,15 @@ class PlantModel:
 
     def chi2(self, h: Hypothesis | None, x) -> float:
         """Chi-square of ``h`` of size ``x`` on the plant's linearisation (infinity where it cannot be built)."""
+        return self._chi2_state(h, x)[0]
+
+    def _chi2_state(self, h: Hypothesis | None, x) -> tuple[float, LabState | None]:
+        """:meth:`chi2` and the lab it was computed with (None where it cannot be built)."""
         try:
-            return self.problem.chi2(self.state(h, x))
+            st = self.state(h, x)
+            return self.problem.chi2(st), st
         except (ModelError, SpecError):
-            return math.inf
+            return math.inf, None
 
     def _log_bounds(self, h: Hypothesis, x0: np.ndarray, i: int) -> tuple[float, float]:
         """The range of ``h``'s parameter ``i`` (its search space) in ``ln(p / x0[i])``, ``x0[i] > 0``; a lower
@@ -325,11 +330,7 @@ class PlantModel:
         def chi2(u: float) -> float:
             u = float(u)
             if u not in seen:
-                try:
-                    st = self.state(h, params(u))
-                    seen[u] = self.problem.chi2(st)
-                except (ModelError, SpecError):
-                    st, seen[u] = None, math.inf
+                seen[u], st = self._chi2_state(h, params(u))
                 if seen[u] < best[0]:
                     best[:] = [seen[u], st]
             return seen[u]

@@ -46,8 +46,9 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    recording of the MuJoCo plant: a pair gives way to its mode-moving, spec-level part -- compared there
    with its look-alikes and the same physics at the located places -- when that single effect, refitted
    there, leaves the data within the mismatch test's limits
-   (:func:`vlab.diagnose.fit.plantchoice.explains_on_plant`; also for a pair whose other part the plant
-   cannot carry); else a pair must pass the pair rule again
+   (:func:`vlab.diagnose.fit.plantchoice.explains_on_plant`) or the pair, scored there, does not pass the
+   pair rule against it (:func:`vlab.diagnose.fit.plantchoice.pair_needed_on_plant`; also for a pair whose
+   other part the plant cannot carry); else a pair must pass the pair rule again
    there (:func:`passes_pair_rule` in
    :func:`vlab.diagnose.fit.plantchoice.reduce_pair_on_plant`), else the
    better of its parts is chosen; a single effect is compared there with its
