@@ -478,6 +478,9 @@ def main_draw(a) -> None:
         cases += draw_cases(a.draw, name, a.controller, thr, k_range=tuple(a.k))
     numbered = list(enumerate(cases if a.limit is None else cases[:a.limit]))
     if a.only is not None:
+        beyond = sorted(i for i in a.only if not 0 <= i < len(numbered))
+        if beyond:
+            raise SystemExit(f"--only {' '.join(map(str, beyond))}: the draw has cases 0-{len(numbered) - 1}")
         numbered = [(i, c) for i, c in numbered if i in a.only]
     header = [f"# python benchmarks/update_benchmark.py --draw {a.draw} --structures {' '.join(a.structures)} "
               f"--controller {a.controller} --k {a.k[0]:g} {a.k[1]:g}"
