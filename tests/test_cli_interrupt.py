@@ -147,3 +147,32 @@ def test_interrupt_leaves_old_or_complete_new_folder(pickled_result, tmp_path):
 def test_interrupt_real_simulation(tmp_path):
     """As above with the real 40 s linear simulation (about 20 s a run)."""
     _interrupt_runs(tmp_path, "-", range(4), 25.0)
+
+
+EXIT_DRIVER = """
+import atexit, os, signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+import rerun  # registers its own exit callback, as a command writing a .rrd does
+
+def late_ctrl_c():  # registered before the CLI's callback, so it runs after it: a Ctrl-C during exit
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(2)
+
+atexit.register(late_ctrl_c)
+from vlab.cli import app
+app(["modes", "bcc"], prog_name="vlab", standalone_mode=False)
+print("done", flush=True)
+"""
+
+
+def test_ctrl_c_during_interpreter_exit_prints_no_traceback(tmp_path):
+    """A Ctrl-C that lands in the libraries' exit callbacks after a complete command ends the process by
+    the signal, without a traceback (Python's own handler would raise inside the callback and print one)."""
+    driver = tmp_path / "driver.py"
+    driver.write_text(EXIT_DRIVER)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, str(driver)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert "done" in proc.stdout, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert proc.returncode == -signal.SIGINT, (proc.returncode, proc.stderr)

@@ -121,6 +121,7 @@ class VlabGroup(TyperGroup):
             raise Exit(exit_code(exc, command)) from None
         finally:
             restore()
+            _default_sigint_at_exit()
             clear_interrupt_request()  # an in-process caller's later writes are not refused
             from ..io.manifest import release_lock
 
@@ -167,6 +168,30 @@ def _interrupted() -> None:
         text = f"interrupted after the outputs were written to {out_path}"
     err_console.print(escape(text), soft_wrap=True, highlight=False)
     raise Exit(130) from None
+
+
+def _default_sigint_at_exit() -> None:
+    """At interpreter exit, before the libraries' own exit callbacks, give SIGINT its default action.
+
+    The command is over when its exit callbacks run (rerun's flushes its runtime); a Ctrl-C landing
+    there would raise a ``KeyboardInterrupt`` inside the callback and print a traceback after a complete
+    run. With the default action the process ends by the signal instead, as it does once Python has
+    finished its callbacks. Exit callbacks run last-registered first, so the callback is registered
+    again after every command (which may have imported such a library).
+    """
+    import atexit
+
+    atexit.unregister(_sigint_default_if_python_handler)
+    atexit.register(_sigint_default_if_python_handler)
+
+
+def _sigint_default_if_python_handler() -> None:
+    import signal
+    import threading
+
+    if (threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _install_sigint_flag():
