@@ -18,7 +18,7 @@ pytest.importorskip("mujoco")
 from vlab.diagnose.data.batchrerun import batch_key, rerun_together, why_apart  # noqa: E402
 from vlab.sim.batch_plant import layout  # noqa: E402
 from vlab.diagnose.data.measured import FrfData  # noqa: E402
-from vlab.diagnose.data.replay import mujoco_plant, rerun  # noqa: E402
+from vlab.diagnose.data.replay import expectation, mujoco_plant, rerun  # noqa: E402
 from vlab.diagnose.data.rerun_jobs import last_reruns_note, reruns  # noqa: E402
 from vlab.diagnose.data.warmstart import rerun_window  # noqa: E402
 from vlab.diagnose.effects import specedit  # noqa: E402
@@ -71,6 +71,8 @@ def _value_only(lab: LabState) -> list[LabState]:
 
 
 def _single(state: LabState, data: FrfData, seed: int) -> Recording:
+    """The rerun made alone, as :func:`reruns` makes them: noise-free (the seed then changes nothing)."""
+    state = expectation(state)
     force = np.asarray(data.recording["force9"])
     start, period, stop = rerun_window(data, data.recording.dt_s)
     return rerun(state, force, excitation_point=9, measured_points=PTS, plant="mujoco", seed=seed, start=start,
@@ -97,6 +99,24 @@ def test_value_only_candidates_are_one_batch_bit_for_bit(controller, periodic):
         ref = _single(st, data, 4)
         assert float(ref.metadata["start_s"]) == (2.0 if periodic else 0.0)
         assert _same(ref, r)
+
+
+def test_rerun_together_draws_the_single_reruns_sensor_noise():
+    """With the sensor noise on (``reruns`` turns it off, a rerun being the expected response), one batch draws
+    each simulation's noise as the single loop does: bit for bit the single noisy reruns."""
+    lab = _lab("mfdrf")
+    data = _data(lab)
+    states = _value_only(lab)
+    force = np.asarray(data.recording["force9"])
+    start, period, stop = rerun_window(data, data.recording.dt_s)
+    got = rerun_together(states, [mujoco_plant(st, PTS) for st in states], force, excitation_point=9,
+                         measured_points=PTS, seed=4, start=start, period=period, stop=stop, nthread=1)
+    for st, r in zip(states, got):
+        ref = rerun(st, force, excitation_point=9, measured_points=PTS, plant="mujoco", seed=4, start=start,
+                    period=period, stop=stop)[0]
+        assert _same(ref, r)
+    quiet = reruns(_Problem(data), [(states[0], None)], "mujoco", seed=4, workers=1)[0]
+    assert not _same(got[0], quiet)  # the noise was there to draw, and reruns leave it out
 
 
 def test_a_pair_goes_to_processes_by_default():

@@ -84,6 +84,14 @@ def _refine(f: np.ndarray, logm: np.ndarray, i: int) -> tuple[float, float]:
     return float(f[i] + xv), float(c0 + c1 * xv + c2 * xv * xv)
 
 
+def _log_magnitude(freq_hz, h, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An FRF checked by :func:`frf_arrays`: its frequencies [Hz], ``|H|`` and ``ln|H|`` (``|H|`` floored at
+    1e-300), each of shape (n_freq,); raises :class:`MeasurementError` as :func:`frf_arrays`."""
+    f, hh = frf_arrays(freq_hz, h, name)
+    mag = np.abs(hh)
+    return f, mag, np.log(np.maximum(mag, 1e-300))
+
+
 @dataclass(frozen=True)
 class Peak:
     """A resonance peak of an FRF magnitude.
@@ -101,6 +109,12 @@ class Peak:
     freq_hz: float
     magnitude: float
     index: int
+
+
+def _peak_at(f: np.ndarray, logm: np.ndarray, i: int) -> Peak:
+    """The :class:`Peak` at line ``i`` of ``ln|H|`` (``logm``, shape (n_freq,)), refined by :func:`_refine`."""
+    fp, lm = _refine(f, logm, i)
+    return Peak(freq_hz=fp, magnitude=math.exp(lm), index=i)
 
 
 def refine_peak(freq_hz, h, index: int, *, name: str = "frf") -> Peak:
@@ -123,11 +137,10 @@ def refine_peak(freq_hz, h, index: int, *, name: str = "frf") -> Peak:
     MeasurementError
         Bad arrays or index out of range.
     """
-    f, hh = frf_arrays(freq_hz, h, name)
+    f, _, logm = _log_magnitude(freq_hz, h, name)
     if not 0 <= index < f.size:
         raise MeasurementError(f"{name}: peak index {index} outside 0..{f.size - 1}")
-    fp, lm = _refine(f, np.log(np.maximum(np.abs(hh), 1e-300)), int(index))
-    return Peak(freq_hz=fp, magnitude=math.exp(lm), index=int(index))
+    return _peak_at(f, logm, int(index))
 
 
 def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peaks: int | None = None,
@@ -159,8 +172,7 @@ def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peak
     MeasurementError
         Bad arrays or an empty band.
     """
-    f, hh = frf_arrays(freq_hz, h, name)
-    mag = np.abs(hh)
+    f, mag, logm = _log_magnitude(freq_hz, h, name)
     lo, hi = (f[0], f[-1]) if band_hz is None else band_hz
     sel = np.flatnonzero((f >= lo) & (f <= hi))
     if sel.size < 3:
@@ -172,12 +184,7 @@ def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peak
     if n_peaks is not None and idx.size > n_peaks:
         keep = np.sort(np.argsort(prom)[::-1][:n_peaks])
         idx = idx[keep]
-    logm = np.log(np.maximum(mag, 1e-300))
-    out = []
-    for i in idx:
-        fp, lm = _refine(f, logm, int(i))
-        out.append(Peak(freq_hz=fp, magnitude=math.exp(lm), index=int(i)))
-    return out
+    return [_peak_at(f, logm, int(i)) for i in idx]
 
 
 def _nearest_max(f: np.ndarray, mag: np.ndarray, near_hz: float, half_band_hz: float, name: str) -> int:
@@ -231,12 +238,11 @@ def half_power_damping(freq_hz, h, peak_hz: float, *, search_half_band_hz: float
     -----
     Source: Ewins, *Modal Testing*, 2nd ed., Sec. 4.3.
     """
-    f, hh = frf_arrays(freq_hz, h, name)
-    mag = np.abs(hh)
+    f, mag, logm = _log_magnitude(freq_hz, h, name)
     df = float(np.median(np.diff(f)))
     hb = max(0.05 * peak_hz, 2 * df) if search_half_band_hz is None else search_half_band_hz
     i = _nearest_max(f, mag, peak_hz, hb, name)
-    fn, lm = _refine(f, np.log(np.maximum(mag, 1e-300)), i)
+    fn, lm = _refine(f, logm, i)
     level2 = math.exp(2 * lm) / 2.0  # |H|^2 at half power
     inv = 1.0 / np.maximum(mag**2, 1e-300)
     target = 1.0 / level2
@@ -299,15 +305,12 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
     MeasurementError
         No line within the search band.
     """
-    f, hh = frf_arrays(freq_hz, h, name)
-    mag = np.abs(hh)
-    logm = np.log(np.maximum(mag, 1e-300))
+    f, mag, logm = _log_magnitude(freq_hz, h, name)
     near = np.atleast_1d(np.asarray(near_hz, dtype=float))
     hbs = np.broadcast_to(np.asarray(half_band_hz, dtype=float), near.shape)
     out = np.empty(near.size)
     for k, (fk, hb) in enumerate(zip(near, hbs)):
-        i = _nearest_max(f, mag, fk, hb, name)
-        out[k] = math.exp(_refine(f, logm, i)[1])
+        out[k] = _peak_at(f, logm, _nearest_max(f, mag, fk, hb, name)).magnitude
     return out
 
 

@@ -265,11 +265,12 @@ def replay_reference(data: FrfData, nominal: LabState, plant: str,
     SimulationError
         The replay diverged.
     """
-    from .replay import at_amplitude, frf_of, rerun, rerun_split
+    from .replay import at_amplitude, expectation, frf_of, rerun, rerun_split
     from .warmstart import recorded_window
 
     rec = data.recording
     force = np.asarray(rec[f"force{data.excitation_point}"])
+    nominal = expectation(nominal)  # noise-free, as its zero variance says
     if level != 1.0:
         nominal, force = at_amplitude(nominal, level), force * level
     start, period, stop = recorded_window(data, rec.dt_s, guard_s=guard_s)

@@ -139,6 +139,31 @@ def at_amplitude(state: LabState, scale: float) -> LabState:
                    rms_force_n={p: v * scale for p, v in state.rms_force_n.items()})
 
 
+def expectation(state: LabState) -> LabState:
+    """The lab whose controller's sensor noise is off: what a rerun predicts is the response expected for
+    the recorded force, the recording's own noise being counted once, in the data's variance.
+
+    A rerun with the sensor noise of the recorded chain adds a second, independent noise to the compared
+    FRFs and time histories: an exact model's rerun then misses the recording by about ``sqrt(2)`` times
+    what the recording's noise alone leaves, which is where a remainder starts to count as resolved
+    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). The noise's share of a nonlinear element's
+    action (a friction's dither, a clip's) is left out with it: the chain's noise (``noise_m_s``) is
+    orders below a recorded test's response.
+
+    Parameters
+    ----------
+    state : LabState
+
+    Returns
+    -------
+    LabState
+        ``state`` itself where its chain has no noise.
+    """
+    if state.chain.noise_m_s == 0.0:
+        return state
+    return replace(state, chain=replace(state.chain, noise_m_s=0.0))
+
+
 def linear_plant(state: LabState):
     """The exact linear plant of a lab state: proportional modal damping of the spec, point dashpots,
     and Coulomb friction (:class:`FrictionPlant`) where the state has it.

@@ -9,7 +9,9 @@ cores (:func:`vlab.diagnose.data.replay.rerun_split`). The nominal lab's MuJoCo 
 background process while the hypotheses are fitted (:func:`start_background_rerun`).
 
 Each single rerun is :func:`vlab.diagnose.data.replay.rerun` (the 2 kHz loop, warm-started where the
-excitation is periodic, :mod:`vlab.diagnose.data.warmstart`).
+excitation is periodic, :mod:`vlab.diagnose.data.warmstart`), without the controller's sensor noise
+(:func:`vlab.diagnose.data.replay.expectation`): a rerun is the model's expected response to the recorded
+force, compared with a recording whose noise the data's variance already carries.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from ...errors import VlabError
 from .batchrerun import batch_key, rerun_together, why_apart
 from ..model.labmodel import LabState
 from .measured import FrfData
-from .replay import at_amplitude, mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
+from .replay import at_amplitude, expectation, mujoco_plant, recording_of, rerun, rerun_payload, rerun_split
 from ..model.nominal import settling_time
 from .warmstart import GUARD_DECAY, guard_ticks, recorded_window
 
@@ -135,6 +137,7 @@ def start_background_rerun(problem, state: LabState, key: str, plant: str, *, se
     if data.recording is None:
         return False
     force = np.asarray(data.recording[f"force{data.excitation_point}"])
+    state = expectation(state)
     if window is None:
         window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s)
     try:
@@ -274,7 +277,8 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         States and their cache keys (None: not cached).
     plant : {"linear", "mujoco"}
     seed : int
-        Seed of the controller's sensor noise.
+        Seed of the controller's sensor noise (a key of the cache: the reruns are made without that noise,
+        :func:`~vlab.diagnose.data.replay.expectation`).
     workers : int
         Parallel processes when more than one rerun is needed (falls back to one process where a pool cannot
         start); each rerun still running in the background (:func:`start_background_rerun`) holds one of
@@ -299,10 +303,9 @@ def reruns(problem, jobs: list, plant: str, *, seed: int = 0, workers: int = 2, 
         (a plant that cannot be built, a diverged run).
     """
     data: FrfData = problem.data
-    force = np.asarray(data.recording[f"force{data.excitation_point}"])
-    if amplitude != 1.0:
-        force = force * amplitude
-        jobs = [(at_amplitude(st, amplitude), k) for st, k in jobs]
+    force = np.asarray(data.recording[f"force{data.excitation_point}"]) * amplitude
+    # the model's expected response (module notes), at the asked level
+    jobs = [(expectation(st if amplitude == 1.0 else at_amplitude(st, amplitude)), k) for st, k in jobs]
     window = recorded_window(data, data.recording.dt_s, guard_s=problem.guard_s) if window is None else window
     pts = tuple(data.output_points)
     cache, pending = problem.run.reruns, problem.run.background

@@ -53,9 +53,9 @@ GUARD_PERIODS = 1
 #: gives the FRF of a one-period guard to 1.6e-6 (relative, largest line), a quarter period to 5e-4.
 GUARD_DECAY = 1e-3
 
-#: Analysed periods a rerun simulates (after the guard period). A rerun's only noise is the controller's
-#: sensor noise (1e-6 m/s), so one period gives its FRF and its time history to far better than the
-#: recording's noise; the recording keeps all its analysed periods. A chosen length.
+#: Analysed periods a rerun simulates (after the guard period). A rerun is noise-free
+#: (:func:`vlab.diagnose.data.replay.expectation`), so one period gives its FRF and its time history to the
+#: start error the guard leaves; the recording keeps all its analysed periods. A chosen length.
 RERUN_PERIODS = 1
 
 #: Lines of the excitation below this fraction of its largest are left out of the start.
