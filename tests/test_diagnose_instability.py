@@ -91,3 +91,38 @@ def test_open_loop_recordings_are_not_searched(tmp_path):
     write_recording(path, rec)
     d = vlab.diagnose("bcc", path, validate_run=False).as_dict()
     assert d["instability"] is None
+
+
+def test_an_oscillation_no_candidate_reproduces_is_left_as_the_remainder_of_the_frf_choice():
+    """Candidates rerun in vain for the cause of an oscillation: the FRF choice is judged by the FRF rules, its
+    own rejection for the oscillation is withdrawn (selected and rejected would contradict), the others stay
+    rejected, and the verdict states the oscillation as unexplained; without such reruns nothing is chosen."""
+    from types import SimpleNamespace
+
+    from vlab.diagnose.explain import _oscillation_left_unexplained
+    from vlab.diagnose.report.verdict import verdict
+
+    why = "does not reproduce the self-excited oscillation at 14.01 Hz"
+    rejected = [{"effect": "saturation", "label": "saturation(channel=2)", "reason": why},
+                {"effect": "saturation", "label": "saturation(channel=5)", "reason": why}]
+    res = SimpleNamespace(instability={"unstable": True, "in_replay": False, "frequency_hz": 14.006},
+                          rejected=list(rejected))
+    chosen = SimpleNamespace(label="saturation(channel=2)")
+    notes = []
+    assert _oscillation_left_unexplained(res, chosen, notes)
+    assert res.instability["unexplained"] is True
+    assert [r["label"] for r in res.rejected] == ["saturation(channel=5)"]
+    assert "14.01 Hz" in notes[-1] and "unexplained remainder" in notes[-1]
+    idle = SimpleNamespace(instability={"unstable": True, "frequency_hz": 14.0}, rejected=[])
+    assert not _oscillation_left_unexplained(idle, chosen, [])  # nothing rerun: no FRF choice instead
+    assert not _oscillation_left_unexplained(SimpleNamespace(instability={}, rejected=list(rejected)), None, [])
+    stats = {"chi2_nominal": 8629.0, "chi2_limit": 3056.0, "peak_nominal": 261.3, "peak_limit": 53.46,
+             "n_obs": 2364, "mismatch_tests": [{"test": "chi2", "statistic": 8629.0, "limit": 3056.0}]}
+    selected = [{"effect": "saturation", "location": {"channel": 2}, "parameters": {"limit_n": 0.00884},
+                 "ci95": {"limit_n": [0.00869, 0.00901]}}]
+    text = verdict({"mismatch": True, "statistics": stats, "rejected": res.rejected, "ranked": [],
+                    "data": {"kind": "recording"}, "selected": selected,
+                    "instability": {**res.instability, "summary": "the loop is unstable"}})
+    assert "Selected: saturation at channel 2" in text
+    assert ("oscillation at 14.01 Hz is not reproduced by the rerun of any candidate tried: it remains "
+            "unexplained") in text

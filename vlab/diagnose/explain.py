@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -262,6 +262,59 @@ def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, 
     return ranked
 
 
+def _frf_choice(res: DiagnosisResult, problem: Problem, chosen, alts: list, ranked: list, search: Search,
+                notes: list, timing: dict, say) -> tuple:
+    """The choice by the FRFs (rules 5-6 and the look-alikes' rerun): a pair gives way to a part that explains
+    the data alone, a choice that leaves a mismatch test failing to a single effect that passes them, and
+    look-alikes that the data cannot separate are rerun where the choice's kind needs it. Returns
+    ``(chosen, alternatives)``."""
+    if isinstance(chosen, Combination):
+        alone = part_alone(_parts_fitted(problem, chosen, ranked), problem)
+        if alone is not None:
+            notes.append(f"{chosen.label}: {alone.label} alone explains the data within the model's accuracy "
+                         "(the mismatch tests pass after its modes are moved within their model form); the "
+                         "other part is not needed and is not selected")
+            chosen, alts = alone, []
+    passing = passing_single(chosen, ranked, problem, search.shortlist)
+    if passing is not None:
+        notes.append(f"{chosen.label} does not explain the data by the statistic that declared the mismatch (with "
+                     "its modes moved within their model form it leaves them beyond a test, or fits them no "
+                     f"better than the nominal lab); {passing.label} does and is the choice")
+        chosen, alts = passing, []
+    if chosen is not None and search.validate_run and data_has_signals(res.data) and \
+            any(needs_rerun_check(h) for h in [chosen] + alts):
+        say("separating look-alikes by rerun")
+        t = time.perf_counter()
+        chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes,
+                                          plant="mujoco" if search.on_plant else "linear", seed=RERUN_SEED)
+        timing["tie_break"] = time.perf_counter() - t
+    return chosen, alts
+
+
+def _oscillation_left_unexplained(res: DiagnosisResult, chosen, notes: list) -> bool:
+    """Whether the search for the cause of a self-excited oscillation, having rerun candidates in vain, leaves
+    the oscillation as an unexplained remainder of an FRF choice (True: ``res.instability["unexplained"]`` is
+    set and the note says so) rather than leaving nothing selected; the choice's own rejection for the
+    oscillation is withdrawn.
+
+    The oscillation is one property of the recording that a candidate must reproduce; a candidate the FRFs
+    select that does not is an explanation in part, like one that leaves a remainder on the FRFs (rule 10),
+    and is judged by the same rules -- the oscillation is then stated as what is left. Without reruns, or
+    without an FRF choice, nothing is selected.
+    """
+    tried = [r for r in res.rejected if str(r.get("reason", "")).startswith("does not reproduce the self-excited")]
+    if chosen is None or not tried:
+        return False
+    f0 = res.instability["frequency_hz"]
+    res.instability["unexplained"] = True
+    # the FRF choice is judged below by the FRF rules; the others stay rejected for the oscillation
+    res.rejected = [r for r in res.rejected if not (r in tried and r["label"] == chosen.label)]
+    notes.append(f"no candidate's rerun reproduces the self-excited oscillation at {f0:.2f} Hz "
+                 f"({', '.join(r['label'] for r in tried)}): the FRFs are explained as far as the library allows "
+                 "and the oscillation is left as an unexplained remainder")
+    return True
+
+
 def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2_fit: float, noise_only: dict | None,
             notes: list, timing: dict, say) -> None:
     """Stages 3-5 on a mismatch: fill ``res.ranked``, ``res.selected`` (or None, with the reason in ``notes``),
@@ -289,30 +342,15 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
     ranked = res.ranked = screen_and_fit(problem, nominal, ctx, res.location.sensitivity, search, timing, say)
     chosen, c_hat, alts = select(ranked, chi2_fit, problem.n_obs, problem.policy)
     res.overdispersion = c_hat
-    if isinstance(chosen, Combination) and not search.self_excited:
-        alone = part_alone(_parts_fitted(problem, chosen, ranked), problem)
-        if alone is not None:
-            notes.append(f"{chosen.label}: {alone.label} alone explains the data within the model's accuracy "
-                         "(the mismatch tests pass after its modes are moved within their model form); the "
-                         "other part is not needed and is not selected")
-            chosen, alts = alone, []
-    passing = None if search.self_excited else passing_single(chosen, ranked, problem, search.shortlist)
-    if passing is not None:
-        notes.append(f"{chosen.label} does not explain the data by the statistic that declared the mismatch (with "
-                     "its modes moved within their model form it leaves them beyond a test, or fits them no "
-                     f"better than the nominal lab); {passing.label} does and is the choice")
-        chosen, alts = passing, []
     if search.self_excited:  # the cause of the oscillation decides, not the FRF fit
-        chosen, alts = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit,
-                                             search.validate_run, search.on_plant, notes, timing, say,
-                                             search.plant_made), []
-    elif chosen is not None and search.validate_run and data_has_signals(res.data) and \
-            any(needs_rerun_check(h) for h in [chosen] + alts):
-        say("separating look-alikes by rerun")
-        t = time.perf_counter()
-        chosen, alts = tie_break_by_rerun(problem, chosen, alts, ranked, notes,
-                                          plant="mujoco" if search.on_plant else "linear", seed=RERUN_SEED)
-        timing["tie_break"] = time.perf_counter() - t
+        cause = _cause_of_oscillation(res, problem, nominal, ranked, search.loops, chi2_fit, search.validate_run,
+                                      search.on_plant, notes, timing, say, search.plant_made)
+        if cause is not None or not _oscillation_left_unexplained(res, chosen, notes):
+            chosen, alts = cause, []
+        else:  # the FRFs explained as far as the library allows; the oscillation is reported as the remainder
+            search = replace(search, self_excited=False)
+    if not search.self_excited:
+        chosen, alts = _frf_choice(res, problem, chosen, alts, ranked, search, notes, timing, say)
     res.alternatives = alts
     chain = search.plant_made and chosen is not None and chosen.in_chain  # a single chain effect (not a pair)
     if chosen is not None and search.on_plant and _on_plant_checked(chosen) and not search.self_excited:

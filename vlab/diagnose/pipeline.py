@@ -488,6 +488,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             explain(res, problem, problem.ctx, search, chi2_fit=res.chi2_fit, noise_only=res.noise_only, notes=notes,
                     timing=timing, say=say)
             res.location.points, res.location.members = located_from_fits(res, res.chi2_fit)
+            # no candidate reproduced the oscillation: the FRF choice is judged as any other, the oscillation left
+            self_excited = self_excited and not osc.get("unexplained")
         structure = None if self_excited else _structure_problem(res, inp, problem, notes, timing, say)
         if structure is not None and isinstance(res.selected, Combination) and \
                 not any(p.effect in NONLINEAR for p in res.selected.parts):  # a nonlinear pair: judged by rerun

@@ -82,7 +82,9 @@ class DiagnosisResult:
     instability : dict or None
         For time histories, what :func:`vlab.measure.instability.find_instability` saw in the recording
         (its ``as_dict()``, plus ``in_replay``: whether the nominal plant's replay oscillates too, None when
-        there was no replay, and ``summary``); None for FRFs, modal tables and open-loop recordings (without
+        there was no replay, ``summary``, ``cause`` where a candidate's rerun reproduced it, and ``unexplained``
+        where none did and the FRF choice was judged with the oscillation as its remainder); None for FRFs,
+        modal tables and open-loop recordings (without
         feedback the lab's structure cannot oscillate by itself).
     outside_library : bool
         The best effect of the library was rejected (its validation made the fit worse, or it explained

@@ -221,7 +221,11 @@ def _verdict_body(res: dict, s: dict, n) -> str:
                      f"{_fmt(v['noise_misfit'], 3)}")
         text += "."
     text += _remainder_text(res.get("remainder"), misfit_unit(res))
-    cause = (res.get("instability") or {}).get("cause")
+    osc = res.get("instability") or {}
+    if osc.get("unexplained"):
+        text += (f" The self-excited oscillation at {_fmt(osc['frequency_hz'], 4)} Hz is not reproduced by the rerun of "
+                 "any candidate tried: it remains unexplained.")
+    cause = osc.get("cause")
     if cause:
         text += (f" Its rerun oscillates by itself too (at {', '.join(_fmt(f, 4) for f in cause['rerun_frequencies_hz'][:2])}"
                  " Hz): the cause of the oscillation; a limit cycle's FRFs are not the lab's linear response, so the "
