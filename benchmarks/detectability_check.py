@@ -6,7 +6,7 @@ For effects of the library on the BCC (open loop, or ``--controller``), the thre
 scaled), each with its own seed of excitation and sensor noise (seeds not used by the threshold
 computation), and diagnosed blind (:func:`vlab.diagnose`). Printed: per effect and factor, how often the
 diagnosis says "no significant mismatch" (expected at 0.5x) and how often it names the effect at its
-location (expected at 3x). Issue 24's targets: >= 80 % "no mismatch" at 0.5x, >= 90 % named at 3x.
+location (expected at 3x). The targets: >= 80 % "no mismatch" at 0.5x, >= 90 % named at 3x.
 The naming threshold (:mod:`vlab.diagnose.naming`, every one-parameter effect of the library a
 look-alike) is checked the same way: recordings at 2x it, the effect expected named.
 The recordings come from the FE model's own linear plant in the time domain: the check tests the

@@ -41,8 +41,8 @@ rerun used, ``validated.parameters``), the misfit reduction of the validation re
 time domain; also the share that is 5x lower *or* within 1.5x of the misfit
 the measured noise alone leaves, ``validated.noise_misfit``, since a small
 effect's misfit cannot fall 5x below a noise floor it starts less than 5x
-above), false alarms on the no-effect cases, time per case. Targets
-(issue 6): >= 90 % right, parameter error within 15 %, misfit >= 5x lower,
+above), false alarms on the no-effect cases, time per case. Targets:
+>= 90 % right, parameter error within 15 %, misfit >= 5x lower,
 no false alarms, < 2 min per case. With ``--jobs 1`` (the default) each
 case is diagnosed alone on the machine (its recording and baseline are
 simulated in two processes before), so its time is the time a user waits;
@@ -63,7 +63,7 @@ recording's metadata names the plant; :mod:`vlab.diagnose.data.reference`). With
 record of the same spectrum (other phases, other noise) and the diagnosis gets
 it as its measured baseline (``vlab diagnose --baseline``) instead.
 
-Tier 2 (``--tier 2``; issue 24 item 2: "a reality that is not the model").
+Tier 2 (``--tier 2``): a reality that is not the model.
 Tier 1 (the default, all of the above) records on the very plant the
 diagnosis replays. In tier 2 the recordings come from a plant the diagnosis
 does not use, and the diagnosis is unchanged (it replays the recorded force
@@ -366,7 +366,7 @@ def draw_effect(rng, family: str, st: LabState, ctx: Context, used: set, size_of
 
 # ------------------------------------------------------------------ tier 2 ---
 
-#: Tier 2: effects are drawn at least this many times their detect-and-name threshold (issue 24 item 2).
+#: Tier 2: effects are drawn at least this many times their detect-and-name threshold.
 MIN_THRESHOLD_RATIO = 2.0
 #: Tier 2: every K-th case without any effect by default (at least a third of the cases).
 TIER2_NULL_EVERY = 3
@@ -521,8 +521,8 @@ def draw_perturbation(rng, structure: str) -> tuple[StructureSpec, dict]:
 
 @lru_cache(maxsize=None)
 def _thresholds(structure: str, controller: str, effect: str, noise_m_s: float) -> tuple:
-    """The thresholds at which the diagnosis detects *and names* ``effect`` at every location (issue 24 item 3:
-    "the smallest size the standard test can detect and name"): :func:`vlab.diagnose.detectability.detectability`
+    """The thresholds at which the diagnosis detects *and names* ``effect`` at every location (the
+    smallest size the standard test can detect and name): :func:`vlab.diagnose.detectability.detectability`
     with its naming thresholds, each ``threshold`` replaced by the size from which the effect is named (None
     where it is detected but never named in its range: such a draw is redrawn). The detection test is the
     diagnosis's own, profiled within the model form."""
@@ -532,8 +532,8 @@ def _thresholds(structure: str, controller: str, effect: str, noise_m_s: float) 
     return tuple(replace(t, threshold=t.named_at) for t in det.thresholds)
 
 
-#: Tier 2: effects are drawn at this range of multiples of their detect-and-name threshold (log-uniform; issue 24
-#: item 3: "benchmark cases are drawn at 1-5x that threshold", and its target counts effects at >= 2x).
+#: Tier 2: effects are drawn at this range of multiples of their detect-and-name threshold (log-uniform; within
+#: the 1-5x of that threshold the cases are to be drawn at, and at >= 2x, where the target counts effects).
 THRESHOLD_WINDOW = (2.0, 5.0)
 
 
@@ -736,8 +736,8 @@ def make_case(i: int, seed: int, plant: str = "linear", structures: tuple[str, .
     """Draw case ``i``: structure, controller, concealed effects (``plant`` limits the families).
 
     ``null_every`` = K > 0 makes every K-th case (i = K-1, 2K-1, ...) one without any effect and the others
-    one or two effects, so that a run of n cases holds floor(n / K) nulls for certain (issue 28: "at least
-    a quarter"); 0 draws "no effect" with probability 1/4 (the earlier listings).
+    one or two effects, so that a run of n cases holds floor(n / K) nulls for certain (the requirement: at
+    least a quarter); 0 draws "no effect" with probability 1/4 (the earlier listings).
 
     ``tier`` 2 (``plant`` must be ``"mujoco"``) adds ``"tier": 2``, the converged plant's options
     (``plant_options``, :func:`converged_plant_options`) and the seed of the tier's own random stream
@@ -867,7 +867,7 @@ def run_case(case: dict, workdir: str, noise: float = 0.01, baseline: bool = Fal
     t0 = time.perf_counter()
     path = os.path.join(workdir, f"case{case['index']}.uff")
     # the baseline: the same test on the unmodified plant, excited by another record of the same spectrum
-    # (other phases) and with other noise: nothing of the recording's realisation is shared (issue 28 item 5)
+    # (other phases) and with other noise: nothing of the recording's realisation is shared
     if tier == 2:
         sim = _simulate_on_plant
         runs = [(truth_state, force, exc, meas, noise_seed, case["plant_options"])]
@@ -1226,7 +1226,7 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     _print_stage_times(results)
     if summary["errors"]:
         print("errors:", summary["errors"])
-    # one line: what issue 24 item 2 asks of each tier
+    # one line: each tier's targets (right effect and location, false alarms, parameter error, time per case)
     pe = (f"median {100 * summary['param_error_median']:.2f} %, max {100 * summary['param_error_max']:.1f} %, "
           f"within 20 %: {100 * summary['param_within_20pct_share']:.0f} %" if perr else "none")
     thr = (f", effects at >= {summary['threshold_ratio_min']:.3g}x their "

@@ -3,8 +3,8 @@
 The lab's default MuJoCo plant (:func:`vlab.sim.build_plant` with the automatic
 options: two to four Gauss hinges per member segment, the lab's 0.5 ms step)
 is a discretisation of the structure; its error is one component of the
-model-form uncertainty of the plant the diagnosis replays a recording on
-(issue 24). This script measures it against a *converged* plant built from
+model-form uncertainty of the plant the diagnosis replays a recording on.
+This script measures it against a *converged* plant built from
 the same spec with about twice the links and a 25 us step
 (:func:`converged_options`):
 
@@ -76,9 +76,9 @@ Usage::
 
     python benchmarks/plant_model_form.py bcc|grid|all [--out DIR]
 
-Source: issue 24 (model-form uncertainty, tier 2 of the diagnosis benchmark);
-docs/experiments.md (a converged BCC plant: more hinges, 25 us step); MAC:
-Allemang & Brown (1982).
+Used by: the model-form uncertainty of tier 2 of the diagnosis benchmark
+(benchmarks/diagnose_benchmark.py --tier 2). Sources: docs/experiments.md (a
+converged BCC plant: more hinges, 25 us step); MAC: Allemang & Brown (1982).
 """
 
 from __future__ import annotations

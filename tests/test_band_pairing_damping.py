@@ -1,4 +1,4 @@
-"""The modal damping targets and the virtual modal test pair modes one-to-one over a band (issue 25, item 4).
+"""The modal damping targets and the virtual modal test pair modes one-to-one over a band.
 
 Both used to pair the first n FE modes against more plant modes
 (:func:`vlab.sim.pairing.pair_modes` on FE modes 1..n only): a plant mode

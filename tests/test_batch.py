@@ -253,7 +253,7 @@ def test_displacements_sampled_as_run_loop(bcc):
 
 
 def test_per_channel_hardware_chain_matches_run_loop(bcc):
-    """HardwareChain's per-channel entries (issue 28: a delay, a lag, a force limit on one coil channel, a lag on
+    """HardwareChain's per-channel entries (a delay, a lag, a force limit on one coil channel, a lag on
     one sensor) are read by the batch as run_loop applies them: the same signals, bit for bit."""
     fe, plant, lqg = bcc
     sim = MujocoPlant(plant)

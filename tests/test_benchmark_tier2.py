@@ -1,4 +1,4 @@
-"""Tier 2 of the diagnosis benchmark (benchmarks/diagnose_benchmark.py --tier 2; issue 24 item 2): the case
+"""Tier 2 of the diagnosis benchmark (benchmarks/diagnose_benchmark.py --tier 2): the case
 generation, without simulating the converged plant or running a diagnosis.
 
 Checked: the converged plant's options come from assets/model_form (benchmarks/plant_model_form.py) and reach
@@ -169,7 +169,7 @@ def test_tier2_recording_reaches_the_diagnosis_without_its_seeds(db, tmp_path, m
 
 
 def test_threshold_sizer_draws_within_the_window(db):
-    """Tier 2 sizes each effect at 2-5 times its detection threshold at the drawn place (issue 24 item 3),
+    """Tier 2 sizes each effect at 2-5 times its detection threshold at the drawn place,
     on the side of the drawn value, within the searched range; a place without a threshold keeps its size."""
     mass = Threshold("added_mass", {"point": 6}, "mass_kg", 0.0, 0.01, 5.0, "chi2")
     lag = Threshold("actuator_lag", {"channel": "all"}, "corner_hz", None, 700.0, 2.5, "chi2")

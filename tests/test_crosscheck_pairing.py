@@ -1,4 +1,4 @@
-"""One-to-one MAC pairing of FE and plant modes over a common band (issue 25, item 4).
+"""One-to-one MAC pairing of FE and plant modes over a common band.
 
 The trap (found on the grid): FE modes n and n+1 look alike at the measured
 points, plant mode n+1 resembles FE mode n slightly better than plant mode n

@@ -1,4 +1,4 @@
-"""Units of ``vlab design --json`` / ``vlab modes --json`` and the controllers' sampling periods (issue 25, items 3, 5).
+"""Units of ``vlab design --json`` / ``vlab modes --json`` and the controllers' sampling periods.
 
 Every number of the JSON is converted back here independently: the LQ gains
 are recomputed in the dissertation's unit system (inch, lbf, centisecond;

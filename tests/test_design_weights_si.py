@@ -1,4 +1,4 @@
-"""The ``[design]`` weights of a structure of one's own in SI (issue 44): ``units = "SI"`` or ``"thesis"``.
+"""The ``[design]`` weights of a structure of one's own in SI: ``units = "SI"`` or ``"thesis"``.
 
 The SI weights are checked against designs made here in SI with scipy alone (no vlab conversion): the
 LQR gain from the SI Riccati equation, the Kalman gain of the alpha-shifted SI filter, the LQDRF objective
@@ -211,7 +211,7 @@ def test_init_bcc_and_grid_write_thesis_units(tmp_path):
 
 
 def test_gamma_in_si_is_the_largest_row_sum_of_the_si_gain(tmp_path):
-    """``ControllerDesign.gamma_n_s_per_m``: the DRF objective in N*s/m beside ``gamma`` in lbf*s/in (issue 44)."""
+    """``ControllerDesign.gamma_n_s_per_m``: the DRF objective in N*s/m beside ``gamma`` in lbf*s/in."""
     from vlab.fe import build_fe_model
     from vlab.spec import load_spec
     from vlab.templates import write_template

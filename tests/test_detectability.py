@@ -1,4 +1,4 @@
-"""Detection thresholds (vlab.diagnose.detectability, `vlab detectability`; issue 24 item 3).
+"""Detection thresholds (vlab.diagnose.detectability, `vlab detectability`).
 
 The threshold is computed from the frequency-domain model of the lab with the effect; it is checked
 here against the diagnosis itself on time-domain recordings of the 2 kHz loop on the linear plant, with

@@ -110,7 +110,7 @@ def test_profiled_search_finds_a_step_either_way_from_the_first_order_threshold(
 
 
 def test_profiled_threshold_against_drawn_model_form_errors():
-    """The profiled threshold (issue 24: the diagnosis's own test within the model form) checked by drawing
+    """The profiled threshold (the diagnosis's own test within the model form) checked by drawing
     the model-form errors it assumes: the reference modes' frequencies, damping ratios and shapes moved by
     independent normal draws of their standard uncertainty, on top of the effect, and the diagnosis's decision
     (profiled chi-square, largest line and the two nuisance tests) made on each. A damping change of mode 1, which

@@ -220,7 +220,7 @@ def test_reruns_are_cached_per_seed(mass_run, monkeypatch):
 
 
 def test_open_loop_sensor_gain_is_found_on_the_recorded_sensor_channel(tmp_path):
-    """Open loop, the recorded channel of a feedback sensor is that sensor's signal (issue 25 item 10): a
+    """Open loop, the recorded channel of a feedback sensor is that sensor's signal: a
     sensor reading 1.4x at point 7 scales only vel7. Before sensor_gain was tried open loop, no library
     effect could explain it."""
     fe = nominal_fe_model("bcc")

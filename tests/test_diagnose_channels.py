@@ -1,4 +1,4 @@
-"""Controller-path effects located on one channel (issue 28, item 4).
+"""Controller-path effects located on one channel.
 
 The library proposes ``loop_delay``, ``actuator_lag``, ``sensor_lag``,
 ``actuator_gain``, ``sensor_gain`` and ``saturation`` on every controller

@@ -1,4 +1,4 @@
-"""A recording whose loop went unstable is reported as such first (issue 24 item 4).
+"""A recording whose loop went unstable is reported as such first.
 
 The recordings come from the linear FE plant in the 2 kHz loop with the MFDRF controller: one with
 the nominal hardware chain (stable), one with a computation delay of 30 periods, twice the amplifier

@@ -1,4 +1,4 @@
-"""`vlab diagnose --mjcf FILE`: the nominal plant given as an MJCF file is the reference (issue 28, item 1).
+"""`vlab diagnose --mjcf FILE`: the nominal plant given as an MJCF file is the reference.
 
 A recording made on an edited plant (0.12 kg added beside point 6, as the tutorial does it) is diagnosed
 with that same file as the nominal plant: the recording and its replay then differ only by the noise,

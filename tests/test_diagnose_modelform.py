@@ -1,4 +1,4 @@
-"""Model-form uncertainty in the diagnosis of modal tables (issue 24, items 1 and 6).
+"""Model-form uncertainty in the diagnosis of modal tables.
 
 Checked against things the diagnosis does not compute itself: the dissertation's tables read directly
 from their CSV files, the grid calibration's documented residual, and per-mode uncertainty columns

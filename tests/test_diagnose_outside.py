@@ -1,4 +1,4 @@
-"""A mismatch outside the library is located and said to be so (issue 24 item 5).
+"""A mismatch outside the library is located and said to be so.
 
 The truth is a tuned-mass absorber (0.3 kg on a spring tuned to 12 Hz with 3 % damping) hung at point 6
 of the BCC: a degree of freedom the library has no effect for. It is built into the linear plant (the FE

@@ -1,4 +1,4 @@
-"""The diagnosis's reference (issue 28): the simulation by default, the recording's metadata honoured, and a
+"""The diagnosis's reference: the simulation by default, the recording's metadata honoured, and a
 selection that obeys its own validation."""
 
 from __future__ import annotations
@@ -120,7 +120,7 @@ def test_a_linear_recording_is_referred_through_its_replay(tmp_path):
 
 @pytest.mark.slow
 def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_path):
-    """Issue 28: `vlab experiment` with its defaults (the MuJoCo plant, MFDRF), then `vlab diagnose` with only
+    """`vlab experiment` with its defaults (the MuJoCo plant, MFDRF), then `vlab diagnose` with only
     the structure and the recording: "no significant mismatch" (before: a false alarm selecting a member
     stiffness and an actuator lag whose validation made the fit 4900x worse)."""
     exp = tmp_path / "exp"
@@ -139,7 +139,7 @@ def test_the_default_recording_diagnosed_without_any_option_has_no_mismatch(tmp_
 
 
 def test_a_baseline_excited_by_another_record_does_not_make_an_unchanged_structure_a_mismatch(tmp_path):
-    """Issue 28 item 5: the nominal lab recorded twice with two records of the same spectrum (other phases,
+    """The nominal lab recorded twice with two records of the same spectrum (other phases,
     other noise); one is the other's baseline. The decision is "no mismatch"; the record is told apart."""
     from vlab.diagnose.data.readers import read_uff_any
     from vlab.diagnose.data.reference import shares_excitation_record

@@ -1,4 +1,4 @@
-"""Every excitation reproduces the linear plant's exact FRF at the modes (issue 25, items 6-8).
+"""Every excitation reproduces the linear plant's exact FRF at the modes.
 
 The reference is the closed-loop FRF of the FE model with the sampled-data
 controller (hold, delay, filter), computed in the frequency domain by

@@ -103,7 +103,7 @@ def test_self_excited_oscillation_is_flagged():
 
 
 def test_mfdrf_on_the_mujoco_plant_meets_the_issue_targets(fe):
-    """BCC MFDRF on the MuJoCo plant: frequencies within 1 %, peak level ratios 0.9-1.1 (issue 5)."""
+    """BCC MFDRF on the MuJoCo plant: frequencies within 1 %, peak level ratios 0.9-1.1."""
     r = run_experiment(ExperimentConfig(plant="mujoco", resolution_hz=0.1, periods=2), fe)
     assert not r.warnings
     for m in r.modes:

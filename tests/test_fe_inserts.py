@@ -9,8 +9,9 @@ slender bar of length ``L``: ``1/2 rho*A * integral_0^L wdot(s)^2 ds`` plus,
 for a rotation with a component along the bar, ``1/2 rho*Ip * L * (twist
 rate)^2``. The closed form is written out here, independently of vlab.
 
-Issue 25, item 1: the inserts' mass, already on the node DOFs, was carried
-across the offset a second time (10 % too much rotary inertia at BCC point 7).
+The inserts' mass, already on the node DOFs, must not be carried across the
+offset a second time (that would give 10 % too much rotary inertia at BCC
+point 7).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Self-excited oscillations in a recording (vlab.measure.instability; issue 24 item 4).
+"""Self-excited oscillations in a recording (vlab.measure.instability).
 
 Synthetic recordings whose content is known by construction (a periodic
 multisine force through a resonance, a sine that grows and saturates, a mode

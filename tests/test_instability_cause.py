@@ -1,4 +1,4 @@
-"""The loop's stability (Nyquist) and the search for the cause of a self-excited oscillation (issue 24 item 4).
+"""The loop's stability (Nyquist) and the search for the cause of a self-excited oscillation.
 
 Checked against independent references: the eigenvalues of a state-space closed loop, and vlab's
 time-domain 2 kHz loop on the linear FE plant (a different path from the frequency-domain model) on

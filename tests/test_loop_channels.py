@@ -1,4 +1,4 @@
-"""Per-channel controller-path settings of the hardware chain (issue 28, item 3).
+"""Per-channel controller-path settings of the hardware chain.
 
 A delay, a lag corner or a force limit on one channel only. The references
 are independent of the loop's code:

@@ -1,4 +1,4 @@
-"""Sensor noise in the recorded channels (issue 25, item 10).
+"""Sensor noise in the recorded channels.
 
 A velocity sensor's noise is in what is recorded; at a collocated sensor the
 recorded channel and the controller's input are the same numbers. The

@@ -1,4 +1,4 @@
-"""Phase of the digital loop (ZOH + 1.35-period delay + 677 Hz RC) with a probe plant (issue 25, item 2).
+"""Phase of the digital loop (ZOH + 1.35-period delay + 677 Hz RC) with a probe plant.
 
 The probe plant returns a chosen sinusoid as its sensor velocity, whatever
 force it gets, and records the force applied over each physics step. With a

@@ -1,4 +1,4 @@
-"""An edited MJCF is measured as edited, or refused (issue 25, items 9 and 11).
+"""An edited MJCF is measured as edited, or refused.
 
 The plant's recorded velocities come from its own ``vel<ID>`` sensors, at the
 sampling instant; edits vlab cannot honour are refused naming the file and the

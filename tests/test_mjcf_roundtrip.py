@@ -295,7 +295,7 @@ def round_trip(source: str, edit: str, tmp_path: Path) -> None:
 
 def test_the_beam_along_x_designs_as_the_beam_along_y(tmp_path):
     """`vlab design` of the beam turned along x (bending rotation ry), with the loop's margins: the same
-    closed loop and gains as the template along y (issue 44, 'Prove it': a member along x through design)."""
+    closed loop and gains as the template along y (a member along x through design)."""
     along_x = _beam_along_x(tmp_path)
     along_y = tmp_path / "along_y.toml"  # written by _beam_along_x
     x, y = (json.loads(_cli("design", p, "--margins", "--format", "json")) for p in (along_x, along_y))

@@ -1,4 +1,4 @@
-"""FE models that double precision cannot resolve are refused (issue 26, "EI x 1e30 runs without a word")."""
+"""FE models that double precision cannot resolve are refused, not run without a word (e.g. EI x 1e30)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A structure of one's own through the whole pipeline (issue 27, item 3): examples/cantilever_tip_mass.toml.
+"""A structure of one's own through the whole pipeline: examples/cantilever_tip_mass.toml.
 
 Modes against the Euler-Bernoulli closed form of a cantilever with a tip mass (scipy brentq, independent of
 vlab's FE), the MuJoCo plant against the FE model (`vlab crosscheck`), an MFDRF design checked by the

@@ -1,4 +1,4 @@
-"""The Python API (issue 27, item 5): ``import vlab`` gives the documented entry points; the tutorial runs."""
+"""The Python API: ``import vlab`` gives the documented entry points; the tutorial runs."""
 
 from __future__ import annotations
 

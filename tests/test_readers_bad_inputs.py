@@ -1,4 +1,4 @@
-"""Readers refuse corrupted inputs with the exact location of the problem (issue 26, item 5).
+"""Readers refuse corrupted inputs with the exact location of the problem.
 
 The corpus is ``tests/bad_inputs/readers_cases.py``: good files written by
 vlab's own writers, corrupted programmatically. Each case must raise the

@@ -1,4 +1,4 @@
-"""Property-based fuzzing of vlab's readers (issue 26): UFF 58 time histories (binary
+"""Property-based fuzzing of vlab's readers: UFF 58 time histories (binary
 and ASCII), UFF 58 FRFs, UFF 55 mode shapes, modal CSV and structure TOML.
 
 Good files are written by vlab's own writers (the TOML is the shipped

@@ -1,4 +1,4 @@
-"""`vlab reproduce`'s diagnosis of the dissertation's measurements (issue 24, item 6)."""
+"""`vlab reproduce`'s diagnosis of the dissertation's measurements."""
 
 from __future__ import annotations
 

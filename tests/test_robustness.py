@@ -212,7 +212,7 @@ def test_dask_local_cluster_gives_the_in_process_results(small_study, monkeypatc
     Both sides run with the BLAS threads of a Dask worker: its nanny starts the worker processes with
     ``OPENBLAS_NUM_THREADS=1`` (``distributed.nanny.pre-spawn-environ``), while this process has one thread
     per core unless the conftest set one for a pytest-xdist worker; threaded and single-threaded OpenBLAS
-    sum in another order (here from about 90 rows; issue 42 saw 8-digit differences on a machine with more
+    sum in another order (here from about 90 rows; 8-digit differences have been seen on a machine with more
     cores). Within rtol 1e-9 (:data:`ENERGY_RTOL` for the ill-conditioned
     energy index), not bit for bit: the samples are the same draws, but another process may still differ in
     the last bits.

@@ -128,13 +128,13 @@ def test_inplane_redundants_are_in_equilibrium(bare):
 def test_cross_check_one_to_one_against_both_fe_meshes(spec, bare):
     """Modes paired one-to-one by MAC over a common band, against the thesis mesh and the plant's resolution.
 
-    Measured (issue 25, item 4), tree plant (two links per 0.373 m top-beam segment, four on the 0.746 m
+    Measured, tree plant (two links per 0.373 m top-beam segment, four on the 0.746 m
     one, one on the 22 mm ones; 208 DOF, 187 with one link throughout): thesis mesh -- all 12 modes within 1.35 %
     (mode 7, -1.35 %: the FE's one-element top-beam segments), mode 12 -0.25 %, MAC >= 0.998; FE at the
     plant's resolution (top beam 4, bars 3-4 elements per segment) -- all 12 within 0.18 %, mode 12
     +0.03 %, MAC >= 0.998. With one link per top-beam segment (the former default) mode 12 was -3.28 %
-    (thesis mesh) and -2.99 % (plant resolution), MAC 0.91/0.90: see the next test. The forest plant (issue 29,
-    item 5; 165 DOF): thesis mesh within 1.34 %, plant resolution within 0.20 %, MAC >= 0.998.
+    (thesis mesh) and -2.99 % (plant resolution), MAC 0.91/0.90: see the next test. The forest plant
+    (165 DOF): thesis mesh within 1.34 %, plant resolution within 0.20 %, MAC >= 0.998.
     """
     thesis = crosscheck(bare, 12)
     fine = crosscheck(bare, 12, mesh="plant")

@@ -1,4 +1,4 @@
-"""Structure files of one's own (issue 27, item 3): `vlab init`, the [test] and [design] tables, the
+"""Structure files of one's own: `vlab init`, the [test] and [design] tables, the
 structure argument of every command (a name or a .toml path; a clear error, exit 2)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The rerun viewer that ``vlab experiment --spawn`` starts listens on the loopback address only (issue 26).
+"""The rerun viewer that ``vlab experiment --spawn`` starts listens on the loopback address only.
 
 rerun-sdk 0.41's own ``RecordingStream.spawn`` starts ``rerun --port P`` and
 the viewer's gRPC server then listens on 0.0.0.0 (``rerun --help``: "--bind

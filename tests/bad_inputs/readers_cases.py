@@ -1,4 +1,4 @@
-"""Bad-input corpus of vlab's readers (issue 26, item 5): structure TOML, UFF 58 time
+"""Bad-input corpus of vlab's readers: structure TOML, UFF 58 time
 histories, UFF 58 FRFs, UFF 55 mode shapes, modal CSV and MJCF plants.
 
 Every case writes a good file with vlab's own writer (or copies a shipped one),
