@@ -17,7 +17,10 @@ from vlab.experiment.config import default_chain
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
+from vlab.diagnose.report.verdict import verdict
+
 from _recordings import record_linear as _record
+from _verdict_numbers import unexplained_numbers
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +79,8 @@ def test_json_and_report(mass_run):
     assert top["effect"] in EFFECTS
     assert d["validated"]["misfit_after"] < d["validated"]["misfit_before"]
     json.dumps(d)  # serialisable as it stands
+    text = verdict(json.loads(json.dumps(d)))  # the verdict of the JSON as written
+    assert "Selected: added_mass at point 6" in text and unexplained_numbers(text, d) == [], text
     files = mass_run.files
     assert files["report"].read_text().startswith("# vlab diagnosis")
     assert json.loads(files["json"].read_text())["selected"][0]["effect"] == "added_mass"
