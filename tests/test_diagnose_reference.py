@@ -160,3 +160,29 @@ def test_a_baseline_excited_by_another_record_does_not_make_an_unchanged_structu
     assert not shares_excitation_record(data, rec_b)
     assert shares_excitation_record(data, rec_a)
     assert not shares_excitation_record(data, None)
+
+
+def test_a_level_dependence_is_added_to_the_data_or_to_data_and_baseline():
+    """A replay plant's level dependence (relative variance per line) is the data's variance times |H|^2: on the
+    baseline the data were referred through (the baseline's too, and the relative variance kept for the
+    validation's reruns), or on the data alone (the recording's own, referred through a linear replay)."""
+    from vlab.diagnose.data.measured import FrfData
+    from vlab.diagnose.data.reference import with_level_dependence
+
+    lines = np.array([1.0, 2.0, 3.0])
+    h = np.array([[1.0 + 1.0j, 2.0], [0.5j, 1.0], [3.0, -1.0]])
+    var = np.full(h.shape, 1e-4)
+    rel = np.array([[0.01, 0.0], [0.04, 0.02], [0.0, 0.09]])
+    data = FrfData("x", "recording", lines, h, var, 9, (5, 6))
+    own = with_level_dependence(data, rel, on_baseline=False)
+    assert np.allclose(own.var, var + rel * np.abs(h) ** 2)
+    assert own.var_baseline is None and own.var_distortion is None
+    based = replace(data, h_baseline=2.0 * h, var_baseline=np.zeros(h.shape))
+    both = with_level_dependence(based, rel, on_baseline=True)
+    assert np.allclose(both.var, var + rel * np.abs(h) ** 2)
+    assert np.allclose(both.var_baseline, 4.0 * rel * np.abs(h) ** 2)
+    assert both.var_distortion is rel or np.array_equal(both.var_distortion, rel)
+    with pytest.raises(ValueError, match="shape"):
+        with_level_dependence(data, rel[:2], on_baseline=False)
+    with pytest.raises(ValueError, match="baseline"):
+        with_level_dependence(data, rel, on_baseline=True)

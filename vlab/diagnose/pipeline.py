@@ -47,7 +47,7 @@ from ..io.setup_file import read_setup
 from ..measure.instability import find_instability
 from ..spec import StructureSpec
 from .data.measured import FrfData
-from .data.reference import RERUN_SEED, referred_through_replay, with_replay_distortion
+from .data.reference import RERUN_SEED, referred_through_replay, with_level_dependence, with_replay_distortion
 from .data.replay import LOW_LEVEL
 from .data.run import DiagnosisRun, one_blas_thread
 from .data.rerun_jobs import stop_background
@@ -244,7 +244,8 @@ def _structure_problem(res: DiagnosisResult, inp: Inputs, problem: Problem, note
                        say) -> tuple[Problem, str] | None:
     """The structure's own problem for stage 5a/5b: for a recording that names no vlab plant and was referred
     through the MuJoCo plant's replay, its data referred through the FE model's own linear replay, the mesh
-    converged (:func:`vlab.diagnose.fit.onstructure.converged_lab`); the model form the diagnosis used, taken
+    converged (:func:`vlab.diagnose.fit.onstructure.converged_lab`), with the MuJoCo replay's level dependence
+    in their variance as on the plant's footing; the model form the diagnosis used, taken
     for that model's modes (:mod:`vlab.diagnose.fit.onstructure`: the MuJoCo referral puts the plant's
     discretisation into every mode-moving parameter), with what the data were referred through, in words.
     None when there is no choice or no such recording, or it cannot be built (a note says why)."""
@@ -258,6 +259,11 @@ def _structure_problem(res: DiagnosisResult, inp: Inputs, problem: Problem, note
         # the referral H_model / H_replay corrects the loop's and the estimator's effects, which the file's
         # mesh carries as well as a finer one (and replays many times faster): it is taken there
         data, _replay, kind = referred_through_replay(raw, lab, "linear", guard_s=inp.guard_s)
+        rel = problem.data.var_distortion if isinstance(problem.data, FrfData) else None
+        if rel is not None and np.shape(rel) == data.h.shape:
+            # whether the structure shares the plant's level dependence is not known: the variance the plant's
+            # footing gives it is counted here too, though this replay is linear
+            data = with_level_dependence(data, rel, on_baseline=False)
         sigma = float(np.min(problem.model_form.frequency_rel)) if problem.model_form is not None else 0.0
         lab, factor, change = converged_lab(lab, inp.band_hz, sigma) if sigma > 0 else (lab, 1, float("nan"))
         mf, mf_frf = frf_model_form_of(lab, data, "linear") if problem.model_form_frf is not None else (None, None)

@@ -413,6 +413,42 @@ def with_replay_distortion(data: FrfData, nominal: LabState, plant: str,
         raise OptionError("the replay's level dependence needs data referred through a replay of its recording")
     low, low_rec, _kind = replay_reference(data, nominal, plant, guard_s=guard_s, level=LOW_LEVEL)
     rel = distortion_variance((data.h_baseline,), (low.h,))
+    return with_level_dependence(data, rel, on_baseline=True), float(np.sqrt(rel.max())), low_rec
+
+
+def with_level_dependence(data: FrfData, rel: np.ndarray, *, on_baseline: bool) -> FrfData:
+    """``data`` with a plant's level dependence, the relative variance ``rel`` per line
+    (:func:`~vlab.diagnose.data.replay.distortion_variance`), added to its variance (module notes of
+    :func:`with_replay_distortion`).
+
+    Parameters
+    ----------
+    data : FrfData
+        FRFs ``h`` [(m/s)/N], shape (n_f, n_o).
+    rel : ndarray, shape (n_f, n_o)
+        Relative complex variance [1].
+    on_baseline : bool
+        True: the variance is the replay's, the baseline the data were referred through (``var_baseline`` gets
+        it too and ``var_distortion`` is set: the validation's reruns on that plant carry it,
+        :mod:`vlab.diagnose.validate`); False: it is the recording's own, unknown level dependence, referred
+        through a replay that has none (a linear one): only ``var`` gets it.
+
+    Returns
+    -------
+    FrfData
+        ``var`` + ``rel |h|^2`` [((m/s)/N)^2] (and, on the baseline, ``var_baseline`` + ``rel |h_baseline|^2``).
+
+    Raises
+    ------
+    ValueError
+        ``rel`` not of the shape of ``data.h``, or ``on_baseline`` without ``data.h_baseline``.
+    """
+    rel = np.asarray(rel, dtype=float)
+    if rel.shape != data.h.shape:
+        raise ValueError(f"level dependence of shape {rel.shape} for FRFs of shape {data.h.shape}")
+    if not on_baseline:
+        return replace(data, var=data.var + rel * np.abs(data.h) ** 2)
+    if data.h_baseline is None:
+        raise ValueError("a level dependence on the baseline needs data referred through a baseline")
     var_base = (data.var_baseline if data.var_baseline is not None else 0.0) + rel * np.abs(data.h_baseline) ** 2
-    return (replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base, var_distortion=rel),
-            float(np.sqrt(rel.max())), low_rec)
+    return replace(data, var=data.var + rel * np.abs(data.h) ** 2, var_baseline=var_base, var_distortion=rel)
