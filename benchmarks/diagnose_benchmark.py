@@ -952,9 +952,22 @@ def _print_stage_times(results: list) -> None:
               ", ".join(f"{k} {np.median(v):.1f} ({len(v)})" for k, v in stages.items()))
 
 
+#: A member piece that an earlier edit of the drawn spec split off (``vlab.diagnose.effects.specedit``): ``beam[6-7]``.
+_PIECE = re.compile(r"^(?P<member>.+)\[(?P<a>\d+)-(?P<b>\d+)\]$")
+
+
+def _located(loc: dict) -> dict:
+    """A location in the nominal spec's terms: a member piece ``m[a-b]`` of a spec an earlier concealed effect
+    split (a compound case's second draw) is segment ``[a, b]`` of member ``m``, as the diagnosis names it."""
+    out = {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in loc.items()}
+    m = _PIECE.match(str(out.get("member", ""))) if "segment" not in out else None
+    if m:
+        out.update(member=m["member"], segment=[int(m["a"]), int(m["b"])])
+    return out
+
+
 def _same_location(a: dict, b: dict) -> bool:
-    return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in a.items()} == \
-        {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in b.items()}
+    return _located(a) == _located(b)
 
 
 def score(case: dict) -> dict:

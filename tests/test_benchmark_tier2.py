@@ -192,3 +192,13 @@ def test_threshold_sizer_draws_within_the_window(db):
         assert size_of(rng, "actuator_gain", {"channel": 9}, "gain", 1.2) <= 1.5  # held within the range
     assert min(ratios) >= 2.0 - 1e-9 and max(ratios) <= 5.0 + 1e-9 and max(ratios) - min(ratios) > 1.0
     assert size_of(rng, "added_mass", {"point": 2}, "mass_kg", 0.3) == 0.3  # no threshold there: kept
+
+
+def test_a_member_piece_of_a_split_spec_is_its_segment(db):
+    """A compound case's second draw on a spec the first split (a softened joint splits its beam into pieces
+    ``beam[a-b]``) names the piece; the diagnosis, on the nominal spec, names the segment: the same place."""
+    assert db._same_location({"member": "beam[6-7]"}, {"member": "beam", "segment": [6, 7]})
+    assert db._same_location({"member": "beam", "segment": (6, 7)}, {"member": "beam[6-7]"})
+    assert not db._same_location({"member": "beam[6-7]"}, {"member": "beam", "segment": [7, 8]})
+    assert not db._same_location({"member": "beam[6-7]"}, {"member": "beam"})
+    assert db._same_location({"point": 7}, {"point": 7}) and not db._same_location({"point": 7}, {"point": 8})

@@ -12,7 +12,9 @@ import numpy as np
 from vlab.diagnose.data.measured import FrfData
 from vlab.diagnose.effects.structural import AddedMass, ModalDamping
 from vlab.diagnose.fit.estimate import fit_hypothesis
-from vlab.diagnose.fit.rules import part_alone, passing_single
+from vlab.diagnose.effects.hypotheses import Combination
+from vlab.diagnose.fit.passing import both_parts_needed, passing_choice, passing_single
+from vlab.diagnose.fit.rules import part_alone
 from vlab.diagnose.model.labmodel import LabState, point_modes_of, predict_frf
 from vlab.diagnose.model.modelform import ModelFormUncertainty, frf_model_form, perturbed_modes
 from vlab.diagnose.problem.context import context_for
@@ -62,7 +64,7 @@ def test_no_part_alone_when_the_second_change_lies_beyond_the_model_form():
 
 
 def test_a_choice_that_fails_the_mismatch_tests_gives_way_to_a_single_effect_that_passes_them():
-    """Rule 3's last step (vlab.diagnose.fit.rules.passing_single): the mass, ranked first, cannot make mode
+    """Rule 3's last step (vlab.diagnose.fit.passing.passing_single): the mass, ranked first, cannot make mode
     3's damping; the damping change passes every test that declared the mismatch and is the choice."""
     problem = _problem(0.3)
     damping, mass = _parts(problem)
@@ -70,3 +72,37 @@ def test_a_choice_that_fails_the_mismatch_tests_gives_way_to_a_single_effect_tha
     assert passing_single(damping, [damping, mass], problem, 5) is None  # the choice passes: kept
     assert passing_single(mass, [mass, damping], problem, 0) is None  # none examined
     assert passing_single(None, [mass, damping], problem, 5) is None
+
+
+def _two_changes() -> Problem:
+    """Data: mode 3's damping raised to 0.008 and 20 g added at point 6, 1 % noise; every mode's frequency
+    uncertain by 0.2 % (the model form)."""
+    fe = nominal_fe_model("bcc")
+    lab = LabState(fe.spec, fe, HardwareChain(noise_m_s=0.0), None)
+    f = np.arange(40, 500) * 0.05
+    ctx = context_for(lab, (2.0, 25.0), None)
+    changed = AddedMass(point=6).apply(ModalDamping(mode=MODE).apply(lab, np.array([0.008]), ctx),
+                                       np.array([0.02]), ctx)
+    h = predict_frf(changed, f, **KW)
+    data = FrfData("closed-form.uff", "frf", f, h, (1e-2 * np.abs(h)) ** 2, 9, (3, 6))
+    n = len(point_modes_of(lab, PTS).omega)
+    unc = ModelFormUncertainty(np.full(n, SIGMA), np.full(n, np.inf), {}, {})
+    mf = frf_model_form(lab, f, uncertainty=unc, **KW)
+    return Problem(data, lab, context_for(lab, (2.0, 25.0), data), floor=0.0, model_form_frf=mf,
+                   profile_nominal=True)
+
+
+def test_where_no_single_effect_passes_the_pair_that_does_and_needs_both_parts_is_the_choice():
+    """Rule 3's last step for pairs (vlab.diagnose.fit.passing.passing_choice): neither change alone passes the
+    tests that declared the mismatch; the pair of both does, each part needed beside the other by the
+    likelihood-ratio test, and replaces the single choice."""
+    problem = _two_changes()
+    damping = fit_hypothesis(ModalDamping(mode=MODE), problem)
+    mass = fit_hypothesis(AddedMass(point=6), problem)
+    pair = fit_hypothesis(Combination(first=ModalDamping(mode=MODE), second=AddedMass(point=6)), problem)
+    assert np.allclose(pair.params_, [0.008, 0.02], rtol=0.02)
+    assert passing_single(damping, [damping, mass, pair], problem, 5) is None  # no single effect passes
+    assert both_parts_needed(pair, [damping, mass, pair], problem)
+    assert passing_choice(damping, [damping, mass, pair], problem, 5) is pair
+    assert passing_choice(pair, [pair, damping, mass], problem, 5) is None  # the choice passes: kept
+    assert passing_choice(damping, [damping, mass, pair], problem, 0) is None  # none examined

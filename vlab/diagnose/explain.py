@@ -11,7 +11,6 @@ look-alikes on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfi
 
 from __future__ import annotations
 
-import copy
 import time
 from dataclasses import dataclass, replace
 
@@ -25,10 +24,11 @@ from .detectability import threshold_of
 from .effects.hypotheses import Combination, Hypothesis, library
 from .fit.estimate import fit_hypothesis, fit_pairs, rank, screen, trials_for
 from .fit.locate import located_point_ids
+from .fit.passing import parts_fitted, passing_choice
 from .fit.plantchoice import choose_on_plant, explains_on_plant, pair_needed_on_plant, reduce_pair_on_plant
 from .fit.plantfit import PlantModel
 from .fit.plantpair import second_effect_on_plant
-from .fit.rules import (needs_pairs, needs_rerun_check, part_alone, passing_single, prune, select, shortlisted,
+from .fit.rules import (needs_pairs, needs_rerun_check, part_alone, prune, select, shortlisted,
                         too_small_to_name)
 from .fit.selection import CONTROLLER_PATH, data_has_signals, tie_break_by_rerun
 from .fit.separation import inseparable, separation_note
@@ -206,22 +206,6 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
     return cause.chosen
 
 
-def _parts_fitted(problem: Problem, pair: Combination, ranked: list) -> list:
-    """The parts of ``pair``, each fitted alone: the ranked single fit of the same label, else a new fit of a
-    copy (a part that cannot be fitted is left out)."""
-    singles = {h.label: h for h in ranked if not isinstance(h, Combination)}
-    out = []
-    for part in pair.parts:
-        h = singles.get(part.label)
-        if h is None:
-            try:
-                h = fit_hypothesis(copy.copy(part), problem)
-            except (VlabError, ValueError, np.linalg.LinAlgError):
-                continue
-        out.append(h)
-    return out
-
-
 def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, search: Search, timing: dict,
                    say) -> list:
     """Screen every hypothesis of the library of the lab ``nominal`` (context ``ctx``) on the data of
@@ -269,17 +253,19 @@ def _frf_choice(res: DiagnosisResult, problem: Problem, chosen, alts: list, rank
     look-alikes that the data cannot separate are rerun where the choice's kind needs it. Returns
     ``(chosen, alternatives)``."""
     if isinstance(chosen, Combination):
-        alone = part_alone(_parts_fitted(problem, chosen, ranked), problem)
+        alone = part_alone(parts_fitted(problem, chosen, ranked), problem)
         if alone is not None:
             notes.append(f"{chosen.label}: {alone.label} alone explains the data within the model's accuracy "
                          "(the mismatch tests pass after its modes are moved within their model form); the "
                          "other part is not needed and is not selected")
             chosen, alts = alone, []
-    passing = passing_single(chosen, ranked, problem, search.shortlist)
+    passing = passing_choice(chosen, ranked, problem, search.shortlist)
     if passing is not None:
         notes.append(f"{chosen.label} does not explain the data by the statistic that declared the mismatch (with "
                      "its modes moved within their model form it leaves them beyond a test, or fits them no "
-                     f"better than the nominal lab); {passing.label} does and is the choice")
+                     f"better than the nominal lab); {passing.label} does"
+                     + (", no single effect does, and each of its parts is needed beside the other"
+                        if isinstance(passing, Combination) else "") + ", and is the choice")
         chosen, alts = passing, []
     if chosen is not None and search.validate_run and data_has_signals(res.data) and \
             any(needs_rerun_check(h) for h in [chosen] + alts):

@@ -62,7 +62,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     the pair is reduced whenever its better part alone leaves only what its
     modes' model form allows (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`),
     whatever the pair rule says: a second effect is then not needed (the
-    likelihood-ratio question of the policy answered by the model form).
+    likelihood-ratio question of the policy answered by the model form); and a pair that
+    leaves only that where its better part alone does not is exempt from the rule's share of the
+    remainder (the statistic that declared the mismatch judges, :mod:`vlab.diagnose.fit.passing`).
 
     Parameters
     ----------
@@ -107,7 +109,12 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     # leaves only what its modes' own model form allows (a second part would absorb that difference)
     inside = not nonlinear and _within_model_accuracy(model, pair.parts[i1], values[i1] if r1 is None else r1.params)
     policy = model.problem.policy
-    if not inside and passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), nonlinear, policy):
+    # exempt from explaining the remainder's share: a pair with a nonlinear part (judged by rerun), or one that
+    # passes the tests that declared the mismatch where its better part alone does not (as on the FE model,
+    # vlab.diagnose.fit.passing: a mismatch declared by its modes' moves, with a chi-square near the noise's)
+    exempt = nonlinear or (not inside and _within_model_accuracy(
+        model, pair, pair.params_ if r_pair is None else r_pair.params))
+    if not inside and passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, policy):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])

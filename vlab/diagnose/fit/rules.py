@@ -33,8 +33,9 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
    one of whose parts, fitted alone, passes the mismatch tests with its
    modes profiled within their model form is replaced by that part: the
    other is a passenger (:func:`part_alone`). A choice that still fails a test of the mismatch gives way to
-   the best-ranked single effect that passes them all (:func:`passing_single`): the statistic that
-   declared the mismatch judges what explains it.
+   the best-ranked single effect that passes them all, else to the best-ranked pair that does and needs
+   both its parts (:func:`vlab.diagnose.fit.passing.passing_choice`): the statistic that declared the
+   mismatch judges what explains it.
 4. **Look-alikes by rerun**, when the choice or a look-alike is one only a
    rerun separates (:func:`needs_rerun_check`) and the data are time
    histories: the least time-domain error of a rerun wins, and a pair with a
@@ -98,14 +99,14 @@ import math
 
 import numpy as np
 
-from ...errors import ModelError, VlabError
+from ...errors import ModelError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis, PointDamping
 from ..model.labmodel import LabState
 from ..policy import DEFAULT_POLICY, DecisionPolicy
 from ..problem.derived import without_floor
 from ..problem.residuals import Problem
-from ..problem.nuisance import improves_on_nominal, moves_left, profiled, within_model_accuracy
+from ..problem.nuisance import within_model_accuracy
 from .locate import at_places
 
 
@@ -292,61 +293,6 @@ def part_alone(parts: list[Hypothesis], problem: Problem) -> Hypothesis | None:
     """
     ok = [h for h in parts if within_model_accuracy(problem, problem.fitted_state(h))]
     return min(ok, key=lambda h: h.chi2_) if ok else None
-
-
-def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem: Problem,
-                   most: int) -> Hypothesis | None:
-    """Rule 3, after :func:`part_alone`: the single effect that explains the data where the choice does not.
-
-    The selection ranks on the fit's footing, where the model form enters to first order only; the mismatch
-    may have been declared by a test on another footing -- the nominal lab's modes profiled within their
-    model form, which must move beyond it (most often one mode's damping ratio, many standard uncertainties).
-    A choice that leaves the data beyond any of the tests that declared the mismatch
-    (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: the chi-square, the largest line and the
-    moves), or that does not fit the data significantly better than the nominal lab by their statistic
-    (:func:`vlab.diagnose.problem.nuisance.improves_on_nominal`), has not explained it, however much
-    chi-square it removes on the fit's footing: an effect that shifts every mode a little (a member's
-    rigidity) absorbs there a model error that the profiled test already allows. The first of the ranked
-    single effects that passes both is then the choice: it explains the data by the statistic that found
-    the mismatch. Where the nominal lab was profiled, the
-    single effects are examined in the order of the moves they leave to first order
-    (:func:`vlab.diagnose.problem.nuisance.moves_left`), else in their rank.
-
-    Parameters
-    ----------
-    chosen : Hypothesis or None
-        The choice of :func:`select` (a single effect or a pair), fitted.
-    ranked : list of Hypothesis
-        All fitted hypotheses, best first.
-    problem : Problem
-    most : int
-        Ranked single effects examined at most (each costs a profile of its modes).
-
-    Returns
-    -------
-    Hypothesis or None
-        The passing single effect; None where ``chosen`` passes, is None, or no examined single effect passes.
-    """
-    def passes(h: Hypothesis) -> bool:  # a lab that cannot be built or profiled does not pass
-        try:
-            st = problem.fitted_state(h)
-            return within_model_accuracy(problem, st) and improves_on_nominal(problem, st, h.n_params)
-        except (VlabError, ValueError, np.linalg.LinAlgError):
-            return False
-
-    def left(h: Hypothesis) -> float:
-        try:
-            return moves_left(problem, problem.fitted_state(h))
-        except (VlabError, ValueError, np.linalg.LinAlgError):
-            return math.inf
-
-    if chosen is None or passes(chosen):
-        return None
-    singles = [h for h in ranked if not isinstance(h, Combination) and h is not chosen]
-    if profiled(problem, problem.base):  # those that leave the least to move first (a first-order estimate)
-        order = {id(h): left(h) for h in singles}
-        singles = sorted(singles, key=lambda h: order[id(h)])
-    return next((h for h in singles[:most] if passes(h)), None)
 
 
 def evidence(better: Hypothesis | None, worse: Hypothesis | None, *, chi2_0: float, n_obs: int,
