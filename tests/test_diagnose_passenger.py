@@ -95,7 +95,7 @@ def _two_changes() -> Problem:
 def test_where_no_single_effect_passes_the_pair_that_does_and_needs_both_parts_is_the_choice():
     """Rule 3's last step for pairs (vlab.diagnose.fit.passing.passing_choice): neither change alone passes the
     tests that declared the mismatch; the pair of both does, each part needed beside the other by the
-    likelihood-ratio test, and replaces the single choice."""
+    likelihood-ratio test, and replaces a single choice that explains less than half of the chi-square."""
     problem = _two_changes()
     damping = fit_hypothesis(ModalDamping(mode=MODE), problem)
     mass = fit_hypothesis(AddedMass(point=6), problem)
@@ -103,6 +103,10 @@ def test_where_no_single_effect_passes_the_pair_that_does_and_needs_both_parts_i
     assert np.allclose(pair.params_, [0.008, 0.02], rtol=0.02)
     assert passing_single(damping, [damping, mass, pair], problem, 5) is None  # no single effect passes
     assert both_parts_needed(pair, [damping, mass, pair], problem)
-    assert passing_choice(damping, [damping, mass, pair], problem, 5) is pair
-    assert passing_choice(pair, [pair, damping, mass], problem, 5) is None  # the choice passes: kept
-    assert passing_choice(damping, [damping, mass, pair], problem, 0) is None  # none examined
+    chi2_0 = problem.chi2(problem.base)
+    assert damping.chi2_ > 0.5 * chi2_0  # the damping change alone removes less than half: no explanation
+    assert passing_choice(damping, [damping, mass, pair], problem, 5, chi2_0) is pair
+    assert passing_choice(pair, [pair, damping, mass], problem, 5, chi2_0) is None  # the choice passes: kept
+    assert passing_choice(damping, [damping, mass, pair], problem, 0, chi2_0) is None  # none examined
+    # a single choice that removes more than half of the chi-square stays (its remainder is reported)
+    assert passing_choice(damping, [damping, mass, pair], problem, 5, 2.5 * damping.chi2_) is None

@@ -247,7 +247,7 @@ def screen_and_fit(problem: Problem, nominal: LabState, ctx, sensitivity: list, 
 
 
 def _frf_choice(res: DiagnosisResult, problem: Problem, chosen, alts: list, ranked: list, search: Search,
-                notes: list, timing: dict, say) -> tuple:
+                chi2_fit: float, notes: list, timing: dict, say) -> tuple:
     """The choice by the FRFs (rules 5-6 and the look-alikes' rerun): a pair gives way to a part that explains
     the data alone, a choice that leaves a mismatch test failing to a single effect that passes them, and
     look-alikes that the data cannot separate are rerun where the choice's kind needs it. Returns
@@ -259,7 +259,7 @@ def _frf_choice(res: DiagnosisResult, problem: Problem, chosen, alts: list, rank
                          "(the mismatch tests pass after its modes are moved within their model form); the "
                          "other part is not needed and is not selected")
             chosen, alts = alone, []
-    passing = passing_choice(chosen, ranked, problem, search.shortlist)
+    passing = passing_choice(chosen, ranked, problem, search.shortlist, chi2_fit)
     if passing is not None:
         notes.append(f"{chosen.label} does not explain the data by the statistic that declared the mismatch (with "
                      "its modes moved within their model form it leaves them beyond a test, or fits them no "
@@ -336,7 +336,7 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
         else:  # the FRFs explained as far as the library allows; the oscillation is reported as the remainder
             search = replace(search, self_excited=False)
     if not search.self_excited:
-        chosen, alts = _frf_choice(res, problem, chosen, alts, ranked, search, notes, timing, say)
+        chosen, alts = _frf_choice(res, problem, chosen, alts, ranked, search, chi2_fit, notes, timing, say)
     res.alternatives = alts
     chain = search.plant_made and chosen is not None and chosen.in_chain  # a single chain effect (not a pair)
     if chosen is not None and search.on_plant and _on_plant_checked(chosen) and not search.self_excited:

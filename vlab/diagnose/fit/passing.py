@@ -32,6 +32,7 @@ from ..effects.hypotheses import Combination, Hypothesis
 from ..problem.nuisance import improves_on_nominal, moves_left, profiled, within_model_accuracy
 from ..problem.residuals import Problem
 from .estimate import fit_hypothesis
+from .rules import explains_remainder
 
 __all__ = ["both_parts_needed", "parts_fitted", "passing_choice", "passing_single"]
 
@@ -142,9 +143,14 @@ def both_parts_needed(pair: Combination, ranked: list[Hypothesis], problem: Prob
 
 
 def passing_choice(chosen: Hypothesis | None, ranked: list[Hypothesis], problem: Problem,
-                   most: int) -> Hypothesis | None:
+                   most: int, chi2_0: float) -> Hypothesis | None:
     """Rule 3's last step (module notes): the single effect, else the pair, that explains the data by the
     statistic that declared the mismatch where ``chosen`` does not.
+
+    A pair replaces only a choice that is no explanation by the selection's own definition either: one that
+    removes less than the policy's ``explained_share`` of the nominal chi-square ``chi2_0``
+    (:func:`vlab.diagnose.fit.rules.explains_remainder`); one that removes more stays, and what it leaves is
+    reported as its remainder (rule 10) rather than given to a second effect.
 
     Parameters
     ----------
@@ -155,6 +161,8 @@ def passing_choice(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     problem : Problem
     most : int
         Ranked single effects, and ranked pairs, examined at most (each costs a profile of its modes).
+    chi2_0 : float
+        The nominal lab's chi-square on the fits' footing [1].
 
     Returns
     -------
@@ -164,7 +172,7 @@ def passing_choice(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
     if chosen is None or _passes(chosen, problem):
         return None
     single = _first_passing_single(chosen, ranked, problem, most)
-    if single is not None:
+    if single is not None or explains_remainder(chi2_0, chosen.chi2_, problem.policy):
         return single
     pairs = [h for h in ranked if isinstance(h, Combination) and h is not chosen][:most]
     return next((p for p in pairs if _passes(p, problem) and both_parts_needed(p, ranked, problem)), None)
