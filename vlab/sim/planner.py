@@ -88,6 +88,7 @@ import numpy as np
 
 from ..errors import ModelError, ResourceError, SimulationError
 from ..spec import StructureSpec
+from ..spec.changes import cut_from
 from .attachments import AttachmentPlanner
 from .hinges import SHEAR_SHORT_PHI, auto_links, hinge_layout
 from .plan import AXIS, Z_AXIS, Body, Joint, Plan, Visual, p3, point_mass, rod
@@ -474,14 +475,22 @@ class _Planner(AttachmentPlanner, PrestressPlanner):
         return b
 
     def _segments(self, member_id: str, flexible_length: float) -> int:
-        """Links (hinges) of one segment of ``member_id``: explicit, else from its length."""
+        """Links (hinges) of one segment of ``member_id``: explicit, else from its length. A piece an edit cut
+        from a member (:func:`vlab.spec.changes.piece_id`) has its member's explicit setting unless it has
+        its own, so that an edited member keeps the resolution its settings give the whole member."""
         per = self.spec.mujoco.get("segments", {})
         if not isinstance(per, dict):
             raise SimulationError(f"{self.spec._file()}: [mujoco] segments must be a table {{ <member id> = <int> }}")
-        if self.opts.member_segments and member_id in self.opts.member_segments:
-            n = self.opts.member_segments[member_id]
+        given = self.opts.member_segments or {}
+        parent = cut_from(member_id)
+        if member_id in given:
+            n = given[member_id]
         elif member_id in per:
             n = per[member_id]
+        elif parent is not None and parent in given:
+            n = given[parent]
+        elif parent is not None and parent in per:
+            n = per[parent]
         else:
             n = self.opts.segments_per_element or auto_links(flexible_length)
             member = next(m for m in self.spec.members if m.id == member_id)

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from typing import Any, Callable
 
 from ..errors import SpecError
@@ -49,6 +50,43 @@ from .structure import Damping, Member, Quantity
 
 #: The change tables this module reads, in the order they are applied.
 CHANGE_TABLES = ("member_stiffness", "joint_flexibility", "mode_damping")
+
+
+#: A member piece's id: the member it was cut from and its end points, ``beam[4-5]``.
+_PIECE_ID = re.compile(r"^(?P<member>.+)\[(?P<a>-?\d+)-(?P<b>-?\d+)\](?:_\d+)?$")
+
+
+def piece_id(member_id: str, a: int, b: int) -> str:
+    """The id of the piece of member ``member_id`` from point ``a`` to point ``b`` (``beam[4-5]``), given to the
+    members an edit of some segments' rigidity splits a member into.
+
+    Parameters
+    ----------
+    member_id : str
+    a, b : int
+        Point ids of the piece's ends.
+
+    Returns
+    -------
+    str
+    """
+    return f"{member_id}[{a}-{b}]"
+
+
+def cut_from(member_id: str) -> str | None:
+    """The id of the member a piece was cut from (the inverse of :func:`piece_id`, also with the ``_2``
+    suffix :func:`unique_id` may add), else None.
+
+    Parameters
+    ----------
+    member_id : str
+
+    Returns
+    -------
+    str or None
+    """
+    m = _PIECE_ID.match(member_id)
+    return None if m is None else m["member"]
 
 
 def unique_id(existing: set[str], base: str) -> str:
@@ -110,7 +148,7 @@ def split_segments(spec, rigidity: dict[frozenset, float], source: str):
         # pieces: runs of consecutive segments with the same new rigidity (or none)
         edges = [0] + [i for i in range(1, len(ei)) if ei[i] != ei[i - 1]] + [len(ei)]
         for a, b in zip(edges[:-1], edges[1:]):
-            tag = f"{m.id}[{m.points[a]}-{m.points[b]}]" if len(edges) > 2 else m.id
+            tag = piece_id(m.id, m.points[a], m.points[b]) if len(edges) > 2 else m.id
             sec_name = m.section
             if ei[a] is not None:
                 old = spec.sections[m.section]

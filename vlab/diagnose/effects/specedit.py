@@ -23,7 +23,7 @@ import dataclasses
 
 from ...errors import SpecError
 from ...spec import Damping, LumpedMass, Member, Quantity, Spring, StructureSpec, Support
-from ...spec.changes import unique_id
+from ...spec.changes import piece_id, unique_id
 
 _SOURCE = "diagnosis: {}"
 
@@ -163,7 +163,7 @@ def scale_segments(spec: StructureSpec, factors: dict[tuple[int, int], float], *
         nseg = len(m.points) - 1
         edges = sorted({0, nseg, *segs, *(i + 1 for i in segs)})
         for a, b in zip(edges[:-1], edges[1:]):
-            tag = f"{m.id}[{m.points[a]}-{m.points[b]}]"
+            tag = piece_id(m.id, m.points[a], m.points[b])
             if b == a + 1 and a in segs:
                 sec = _scaled_section(spec, sections, m.section, segs[a], f"{effect}:{tag}")
             else:
