@@ -188,6 +188,7 @@ from vlab.lab.excitation import pseudo_random  # noqa: E402
 from vlab.experiment.config import TESTS, default_chain  # noqa: E402
 from vlab.io.recording import Recording  # noqa: E402
 from vlab.spec import ASSETS_DIR, Quantity, StructureSpec, load_spec  # noqa: E402
+from vlab.spec.changes import piece_ends  # noqa: E402
 from vlab.units import G_SI  # noqa: E402
 
 RES_HZ = 0.05
@@ -952,17 +953,14 @@ def _print_stage_times(results: list) -> None:
               ", ".join(f"{k} {np.median(v):.1f} ({len(v)})" for k, v in stages.items()))
 
 
-#: A member piece that an earlier edit of the drawn spec split off (``vlab.diagnose.effects.specedit``): ``beam[6-7]``.
-_PIECE = re.compile(r"^(?P<member>.+)\[(?P<a>\d+)-(?P<b>\d+)\]$")
-
-
 def _located(loc: dict) -> dict:
     """A location in the nominal spec's terms: a member piece ``m[a-b]`` of a spec an earlier concealed effect
-    split (a compound case's second draw) is segment ``[a, b]`` of member ``m``, as the diagnosis names it."""
+    split (a compound case's second draw, :func:`vlab.spec.changes.piece_id`) is segment ``[a, b]`` of member
+    ``m``, as the diagnosis names it."""
     out = {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in loc.items()}
-    m = _PIECE.match(str(out.get("member", ""))) if "segment" not in out else None
-    if m:
-        out.update(member=m["member"], segment=[int(m["a"]), int(m["b"])])
+    ends = piece_ends(str(out.get("member", ""))) if "segment" not in out else None
+    if ends is not None:
+        out.update(member=ends[0], segment=[ends[1], ends[2]])
     return out
 
 

@@ -17,7 +17,7 @@ from vlab.diagnose.effects import specedit
 from vlab.sim import SimOptions
 from vlab.sim.crosscheck import crosscheck
 from vlab.spec import load_spec
-from vlab.spec.changes import cut_from, piece_id, unique_id
+from vlab.spec.changes import cut_from, piece_ends, piece_id, unique_id
 
 
 def test_a_piece_id_names_the_member_it_was_cut_from():
@@ -26,6 +26,7 @@ def test_a_piece_id_names_the_member_it_was_cut_from():
     assert cut_from(unique_id({"beam[4-5]"}, "beam[4-5]")) == "beam"  # beam[4-5]_2
     assert cut_from("bar_10_12[10-11]") == "bar_10_12"
     assert cut_from("beam") is None and cut_from("beam[4]") is None
+    assert piece_ends("beam[4-5]_2") == ("beam", 4, 5) and piece_ends("beam") is None
 
 
 @pytest.mark.parametrize("how", ["options", "spec"])

@@ -73,9 +73,25 @@ def piece_id(member_id: str, a: int, b: int) -> str:
     return f"{member_id}[{a}-{b}]"
 
 
+def piece_ends(member_id: str) -> tuple[str, int, int] | None:
+    """The member a piece was cut from and the piece's end points (the inverse of :func:`piece_id`, also with
+    the ``_2`` suffix :func:`unique_id` may add), else None.
+
+    Parameters
+    ----------
+    member_id : str
+
+    Returns
+    -------
+    (str, int, int) or None
+        ``(member, a, b)``.
+    """
+    m = _PIECE_ID.match(member_id)
+    return None if m is None else (m["member"], int(m["a"]), int(m["b"]))
+
+
 def cut_from(member_id: str) -> str | None:
-    """The id of the member a piece was cut from (the inverse of :func:`piece_id`, also with the ``_2``
-    suffix :func:`unique_id` may add), else None.
+    """The id of the member a piece was cut from (:func:`piece_ends`), else None.
 
     Parameters
     ----------
@@ -85,8 +101,8 @@ def cut_from(member_id: str) -> str | None:
     -------
     str or None
     """
-    m = _PIECE_ID.match(member_id)
-    return None if m is None else m["member"]
+    ends = piece_ends(member_id)
+    return None if ends is None else ends[0]
 
 
 def unique_id(existing: set[str], base: str) -> str:

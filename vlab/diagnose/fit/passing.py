@@ -15,9 +15,9 @@ ranked pair that passes both and needs both its parts -- each part alone, fitted
 the likelihood-ratio test at the policy's false-alarm rate (:meth:`vlab.diagnose.policy.DecisionPolicy.
 needed`), so that neither is a passenger -- is the choice: the selection's own pair rule asks a second
 effect to remove the policy's ``explained_share`` of the chi-square its first leaves, which a mismatch
-declared by the moves of a few modes, with a chi-square near the noise's, cannot show (a joint softened
-beside a segment of the same beam, in a recording of a finer plant: the pair 2604 against 2870 for the
-best single effect, 9 %, while the single effect left the moves beyond their limit and the pair did not).
+declared by the moves of a few modes, with a total chi-square near the noise's, cannot show -- the share of a
+chi-square that is mostly noise says nothing of what a second effect explains. A pair replaces only a choice
+that is no explanation by that definition either (:func:`passing_choice`).
 """
 
 from __future__ import annotations
