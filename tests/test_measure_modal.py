@@ -193,6 +193,27 @@ def test_peak_level_errors():
         peak_levels(F, sdof_receptance(F), [30.0], half_band_hz=1.0)
 
 
+
+def test_peak_level_is_a_peak_not_the_windows_edge_on_a_neighbours_flank():
+    """Two SDOF receptances summed, a strong mode at 9.0 Hz and a weak one at 9.6 Hz, on 0.05 Hz lines. A
+    window of 9.04-9.72 Hz starts on the strong mode's falling flank, whose first line stands higher
+    than the weak mode's peak: the level is the weak mode's peak (the only local maximum inside), which moving
+    the window's start by a line does not change. A window holding no peak is refused."""
+    f = np.arange(0.0, 15.0, 0.05)
+    h = sdof_receptance(f, fn=9.0, zeta=0.01, m=0.2) + sdof_receptance(f, fn=9.6, zeta=0.01, m=1.0)
+    mag = np.abs(h)
+    i_peak = int(np.argmin(np.abs(f - 9.65)))
+    i_edge = int(np.argmin(np.abs(f - 9.05)))
+    assert mag[i_edge] > mag[i_peak]  # the flank's line is the window's highest
+    fine = np.linspace(9.4, 9.8, 4001)
+    true_peak = np.abs(sdof_receptance(fine, fn=9.0, zeta=0.01, m=0.2) + sdof_receptance(fine, fn=9.6, zeta=0.01,
+                                                                                         m=1.0)).max()
+    for start in (9.04, 9.06):  # the window, up to 9.72 Hz, starts on either side of the 9.05 Hz line
+        lvl = peak_levels(f, h, [(start + 9.72) / 2], half_band_hz=(9.72 - start) / 2)[0]
+        assert lvl == pytest.approx(true_peak, rel=0.02)
+    with pytest.raises(MeasurementError, match="no peak"):
+        peak_levels(f, h, [9.3], half_band_hz=0.2)  # 9.1-9.5 Hz: the flank and the valley only
+
 def test_close_modes_keep_their_joint_fit_when_another_modes_fit_fails():
     """Two close modes (8.75 and 9.42 Hz, bands overlapping) fitted together recover their poles from a
     closed-form FRF, also when the fit of another group fails (a mode damped at 0.95 of critical has no

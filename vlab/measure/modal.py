@@ -188,10 +188,20 @@ def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peak
 
 
 def _nearest_max(f: np.ndarray, mag: np.ndarray, near_hz: float, half_band_hz: float, name: str) -> int:
+    """The highest peak of ``|H|`` (``mag``, shape (n_freq,)) within ``half_band_hz`` of ``near_hz`` [Hz]: a line
+    inside the FRF at least as high as both its neighbours. The highest line of the window is not enough: where
+    the mode shows no peak at the point (a closed-loop mode beside an antiresonance), it is the window's edge on
+    a neighbouring mode's flank, and its level depends on where the window ends. Raises
+    :class:`MeasurementError` when the window holds no line, or no peak."""
     sel = np.flatnonzero((f >= near_hz - half_band_hz) & (f <= near_hz + half_band_hz))
     if sel.size == 0:
         raise MeasurementError(f"{name}: no line within {half_band_hz} Hz of {near_hz} Hz")
-    return int(sel[np.argmax(mag[sel])])
+    inner = sel[(sel > 0) & (sel < f.size - 1)]
+    peaks = inner[(mag[inner] >= mag[inner - 1]) & (mag[inner] >= mag[inner + 1])]
+    if peaks.size == 0:
+        raise MeasurementError(f"{name}: no peak of |H| (a line above both neighbours) within {half_band_hz:.4g} Hz "
+                               f"of {near_hz:.4g} Hz: the mode does not show as a peak at this point")
+    return int(peaks[np.argmax(mag[peaks])])
 
 
 def half_power_damping(freq_hz, h, peak_hz: float, *, search_half_band_hz: float | None = None,
@@ -214,8 +224,8 @@ def half_power_damping(freq_hz, h, peak_hz: float, *, search_half_band_hz: float
         FRF. Exact for an SDOF mobility; for a receptance the error is of
         order ``zeta^2``.
     peak_hz : float
-        Approximate peak frequency [Hz]; the highest line within
-        ``search_half_band_hz`` of it is used.
+        Approximate peak frequency [Hz]; the highest peak (a line above both
+        neighbours) within ``search_half_band_hz`` of it is used.
     search_half_band_hz : float, optional
         Default: 5 % of ``peak_hz`` or two lines, whichever is wider.
     name : str
@@ -282,9 +292,10 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
                 name: str = "frf") -> np.ndarray:
     """Peak magnitudes ``|H|`` near given frequencies (the dissertation's "peak levels").
 
-    For each frequency the highest line within ``half_band_hz`` is refined
-    by a parabola through ``ln|H|`` (Sec. 5.4.1: "Peak levels ... were then
-    determined at each natural frequency").
+    For each frequency the highest peak within ``half_band_hz`` (a line at
+    least as high as both its neighbours) is refined by a parabola through
+    ``ln|H|`` (Sec. 5.4.1: "Peak levels ... were then determined at each
+    natural frequency").
 
     Parameters
     ----------
@@ -303,7 +314,8 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
     Raises
     ------
     MeasurementError
-        No line within the search band.
+        No line, or no peak, within the search band (a mode that does not show
+        as a peak at this point).
     """
     f, mag, logm = _log_magnitude(freq_hz, h, name)
     near = np.atleast_1d(np.asarray(near_hz, dtype=float))
