@@ -96,6 +96,27 @@ def test_growth_still_going_at_the_end():
     assert "still growing" in check.summary()
 
 
+
+@pytest.mark.parametrize("cycles_per_period, periodic", [(410.0, True), (410.016, True), (410.25, False),
+                                                         (410.5, False)])
+def test_period_change_is_measured_clear_of_the_filters_end(cycles_per_period, periodic):
+    """A steady sine of frequency f0 changes by 2 |sin(pi f0 T)| over the excitation's period T (closed form):
+    0 on a harmonic of the excitation (f0 T an integer), 0.10 at f0 T = 410.016, 1.41 and 2 at a quarter and
+    half a cycle off. The change is measured where the zero-phase band-pass filter's response to the record's end
+    does not reach (it made a sine on a harmonic look changed by 0.26): within 1 % of the closed form, and a
+    sine closer to a harmonic than the detector's period gate is not a self-excited oscillation."""
+    rng, x, y = _base(5)
+    f0 = cycles_per_period / (PERIOD / FS)
+    t = np.arange(N) / FS
+    sine = 2e-3 * np.sin(2 * np.pi * f0 * t + 0.3)  # above the force's band: incoherent with it
+    check = find_instability(_recording(x, {"vel6": y + sine}), feedback_points=(6,))
+    expected = 2 * abs(np.sin(np.pi * cycles_per_period))
+    assert check.unstable is not periodic
+    if not periodic:
+        top = check.oscillations[0]
+        assert abs(top.frequency_hz - f0) < 0.05
+        assert top.period_change == pytest.approx(expected, rel=0.01)
+
 def test_period_of_the_force():
     rng = np.random.default_rng(3)
     x = _multisine(rng)

@@ -80,6 +80,10 @@ MIN_LINE_SHARE = 1e-3
 #: A self-excited line's envelope varies less than this (std/mean) [-]: two thirds of the Rayleigh value.
 MAX_ENVELOPE_CV = 2 / 3 * ENVELOPE_CV_RAYLEIGH
 #: With a periodic force, a self-excited line changes at least this much (norm ratio) from one period to the next.
+#: A chosen margin, not derived from a stated error rate: a steady oscillation at ``f0`` changes by
+#: ``2 |sin(pi f0 T)|`` over a period ``T``, so 0.3 leaves undetected the oscillations within 0.048 / T of a
+#: harmonic of the excitation (a tenth of all frequencies), while noise alone changes a line 30 dB over its floor
+#: by a few hundredths.
 MIN_PERIOD_CHANGE = 0.3
 #: Segments of the record over which the growth of a line is fitted.
 N_SEGMENTS = 8
@@ -239,6 +243,43 @@ def force_period(x: np.ndarray) -> int | None:
     return None
 
 
+def filter_settling(sos: np.ndarray, *, level: float = MIN_LINE_SHARE) -> int:
+    """Samples after which the impulse response of the filter ``sos`` (second-order sections, shape
+    (n_sections, 6)) holds less than ``level`` of its amplitude: its energy from there on is below
+    ``level**2`` of the whole (the -60 dB of :data:`MIN_LINE_SHARE` by default, the level below which a line
+    is not counted). ``sosfiltfilt`` runs the filter both ways, so the samples this close to either end of a
+    record carry the filter's response to the record's edge.
+
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        A stable filter (:func:`scipy.signal.butter` with ``output="sos"``).
+    level : float
+        Amplitude ratio [-], in (0, 1).
+
+    Returns
+    -------
+    int
+        Settling time [samples], at least 1.
+
+    Raises
+    ------
+    ValueError
+        ``level`` outside (0, 1).
+    """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level}")
+    n = 1024
+    while True:  # lengthen the impulse response until its tail is negligible
+        imp = np.zeros(n)
+        imp[0] = 1.0
+        h = signal.sosfilt(sos, imp)
+        tail = np.cumsum((h * h)[::-1])[::-1]
+        if tail[-max(n // 8, 1)] < level ** 2 * tail[0] or n >= 1 << 24:
+            return int(np.flatnonzero(tail >= level ** 2 * tail[0])[-1]) + 1
+        n *= 4
+
+
 def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int | None):
     """Band-pass ``y`` around ``f0`` and measure the line in the record's second half.
 
@@ -249,9 +290,10 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     began); ``envelope_cv``, std/mean of the Hilbert envelope over the second
     half with that slope divided out (a limit cycle holds its level there once
     it has grown; a tenth cut at the end against the filter's edge);
-    ``period_change``, the norm of the difference of the last two periods
-    over the last one's (None without a periodic force or with fewer than
-    three periods); ``late_rms``, the line's RMS over the second half [units of ``y``].
+    ``period_change``, the norm of the line's change over one period, ``z(t) - z(t - P)``, over the last
+    period's worth of samples clear of the band-pass filter's end transient (:func:`filter_settling`), over the
+    norm of ``z(t)`` there (None without a periodic force, or where the record holds no such span of at least
+    half a period); ``late_rms``, the line's RMS over the second half [units of ``y``].
     """
     half = max(2.0 * df, 0.02 * f0)
     lo, hi = max(f0 - half, 0.05 * df), min(f0 + half, 0.49 * fs)
@@ -274,9 +316,14 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     cv = float(np.std(env) / np.mean(env)) if env.size and np.mean(env) > 0 else math.inf
     change = None
     if period is not None and len(z) >= 3 * period:
-        last, prev = z[-period:], z[-2 * period:-period]
-        norm = float(np.linalg.norm(last))
-        change = float(np.linalg.norm(last - prev) / norm) if norm > 0 else None
+        # the zero-phase filter's response to the record's end reaches back over its settling time: a periodic
+        # line looks changed there, so the span compared ends before it
+        end = len(z) - filter_settling(sos)
+        start = max(end - period, period)
+        if end - start >= period // 2:
+            now, before = z[start:end], z[start - period:end - period]
+            norm = float(np.linalg.norm(now))
+            change = float(np.linalg.norm(now - before) / norm) if norm > 0 else None
     late_rms = math.sqrt(float(np.mean(z[len(z) // 2:] ** 2)))
     return sigma, se, float(rms.max() / rms[0]), cv, change, late_rms
 
