@@ -217,7 +217,8 @@ def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reporte
     """A saturation chosen for a recording of a saturating loop with a grounded spring as well: its linear model
     (a describing function) cannot judge a remainder, its rerun can. Resolved from what an exact model leaves
     (0.00606 against 0.00116 decades), the remainder is reported with the rerun's chi-square, no single-line
-    statistic, and the caveat flag; not resolved (0.00140), nothing is reported."""
+    statistic, and the caveat flag; not resolved (0.00140), nothing is reported -- unless the phase, which the
+    fit used, is resolved."""
     import vlab.diagnose.decision as decision
     from vlab.diagnose.effects.hypotheses import Saturation
 
@@ -226,10 +227,11 @@ def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reporte
                               points=(21, 14))
     monkeypatch.setattr(decision, "locate", lambda problem, state: located)
     problem = SimpleNamespace(residual=lambda state, test: np.array([3.0, 4.0]), noise_chi2=lambda: 3056.0,
-                              peak_limit=lambda: 53.5, peak_of=lambda r: 16.0, data=None)
+                              peak_limit=lambda: 53.5, peak_of=lambda r: 16.0, data=None, use_phase=True)
 
-    def res_with(after: float):
-        v = SimpleNamespace(misfit_after=after, noise_misfit=0.00116, chi2_after=9946.0, plant="MuJoCo plant")
+    def res_with(after: float, phase: float = float("nan")):
+        v = SimpleNamespace(misfit_after=after, noise_misfit=0.00116, chi2_after=9946.0, plant="MuJoCo plant",
+                            phase_misfit_after=phase)
         return SimpleNamespace(selected=sat, selected_parts=(sat,), validation=v, plant_refit=None,
                                selected_state=lambda: "the lab with the saturation")
 
@@ -239,6 +241,14 @@ def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reporte
     assert rem["modes"] == [1] and rem["points"] == [21, 14] and rem["judged_on"].startswith("the validation rerun")
     assert "describing function" in decision._remainder_note(rem, problem)
     assert decision.remainder_of(res_with(0.00140), problem, 0.056) is None
+    # the magnitude within, the phase not (a lag left out): on the fit's footing, magnitude and phase, where an
+    # exact model leaves sqrt(2) x the magnitude's misfit; resolved beyond sqrt(2) x that (0.00232)
+    rem = decision.remainder_of(res_with(0.00140, phase=0.0040), problem, 0.056)
+    assert rem["misfit_decades"] == 0.0040 and rem["noise_misfit_decades"] == pytest.approx(np.sqrt(2) * 0.00116)
+    assert rem["judged_on"].endswith("magnitude and phase")
+    assert decision.remainder_of(res_with(0.00140, phase=0.0020), problem, 0.056) is None
+    problem.use_phase = False  # a fit without the phase is not judged on it
+    assert decision.remainder_of(res_with(0.00140, phase=0.0040), problem, 0.056) is None
 
 
 def _lookalike_case(monkeypatch, reruns: dict):

@@ -23,6 +23,7 @@ Sources: as :mod:`vlab.diagnose.fit.rules` and :mod:`vlab.diagnose.policy`.
 from __future__ import annotations
 
 import copy
+import math
 
 import numpy as np
 
@@ -297,10 +298,13 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
                   and float(x @ x) <= problem.nuisance_limit(k))
     else:
         inside = float(r @ r) <= problem.noise_chi2()
-    if inside or (v is not None and not remainder_resolved(v.misfit_after, v.noise_misfit)):
+    if inside:
         return None
     if v is not None:
-        after, noise, judged = v.misfit_after, v.noise_misfit, f"the validation rerun ({v.plant})"
+        measure = _rerun_remainder(v, problem, nonlinear)
+        if measure is None:
+            return None
+        after, noise, judged = measure
     else:
         noise = None
         if isinstance(problem.data, FrfData):
@@ -317,6 +321,28 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
             "peak_limit": problem.peak_limit(), "modes": [m.mode for m in loc.modes if m.flagged],
             "points": list(loc.points), "largest_line": None if nonlinear else _largest_line(problem, r),
             "nonlinear_choice": nonlinear}
+
+
+def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float, str] | None:
+    """The misfit a choice's validation rerun ``v`` leaves, the misfit an exact model leaves on the same
+    measure [decades] and the words for it, when the first is resolved from the second
+    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`); None when it is not.
+
+    The log magnitude's misfit first. A choice judged by its rerun alone (``nonlinear``: its linear model is a
+    describing function) on data fitted with their phase (``problem.use_phase``) is judged on the phase too,
+    the footing its fit used: a lag or a delay left out turns the phase more than the magnitude
+    (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`). An exact model's complex log misfit is
+    ``sqrt(2)`` times its magnitude's: for circular noise the log magnitude takes half the variance
+    (:func:`vlab.diagnose.problem.misfits.noise_misfit`), the phase the other half.
+    """
+    where = f"the validation rerun ({v.plant})"
+    if remainder_resolved(v.misfit_after, v.noise_misfit):
+        return float(v.misfit_after), float(v.noise_misfit), where
+    if nonlinear and problem.use_phase and math.isfinite(v.phase_misfit_after):
+        noise = math.sqrt(2.0) * v.noise_misfit
+        if remainder_resolved(v.phase_misfit_after, noise):
+            return float(v.phase_misfit_after), float(noise), where + ", magnitude and phase"
+    return None
 
 
 def _footing(res: DiagnosisResult, problem: Problem) -> tuple[Problem, object]:
