@@ -201,6 +201,34 @@ def test_a_pair_with_a_nonlinear_part_is_checked_against_either_part_alone():
     assert _parts_alone(linear, [ei, AddedMass(point=3), linear], None) == []
 
 
+
+def test_a_linear_effect_beside_a_nonlinear_choice_is_offered_to_the_rerun_by_the_likelihood_ratio():
+    """A saturation's fits carry its describing function's error (an overdispersion of hundreds): the pair of
+    it with a linear effect is offered to the rerun check when its chi-square falls below the single's by the
+    likelihood-ratio limit of one parameter at the single's overdispersion, c_hat chi2.isf(alpha, 1); the best
+    such pair by chi-square, never a pair of two nonlinear effects, and nothing for a linear choice."""
+    from types import SimpleNamespace
+    from vlab.diagnose.effects.hypotheses import AddedMass, Combination, MemberStiffness, Saturation
+    from vlab.diagnose.fit.selection import pair_beside
+
+    n_obs = 3924
+    sat, mass, ei = Saturation(channel=9), AddedMass(point=6), MemberStiffness(member="beam", segment=(5, 6))
+    with_mass, with_ei = Combination(first=mass, second=Saturation(channel=9)), Combination(first=sat, second=ei)
+    two_sat = Combination(first=Saturation(channel=9), second=Saturation(channel=5))
+    _fitted(sat, mass, ei, with_mass, with_ei, two_sat)
+    sat.chi2_ = 1.4e6
+    c_hat = sat.chi2_ / (n_obs - 1)
+    limit = DEFAULT_POLICY.lr_limit(1, c_hat)
+    problem = SimpleNamespace(n_obs=n_obs, policy=DEFAULT_POLICY)
+    two_sat.chi2_ = 1.0  # the best fit, but both parts nonlinear
+    with_ei.chi2_ = sat.chi2_ - 0.5 * limit
+    for drop, expected in ((1.5 * limit, with_mass), (0.9 * limit, None)):
+        with_mass.chi2_ = sat.chi2_ - drop
+        got = pair_beside(sat, [sat, mass, ei, with_mass, with_ei, two_sat], problem)
+        assert got is expected
+    with_mass.chi2_ = sat.chi2_ - 1.5 * limit
+    assert pair_beside(mass, [sat, mass, with_mass], problem) is None  # a linear choice
+
 def _fitted(*hyps):
     """Give hypotheses fitted-looking attributes (the values do not enter the rerun decision)."""
     for h in hyps:

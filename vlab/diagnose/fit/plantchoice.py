@@ -51,7 +51,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
     and each of its parts alone (at its value in the pair) are scored on the
-    plant's linearisation, and the same rule decides. A part alone that
+    plant's linearisation, and the same rule decides -- except for a pair with a nonlinear part, which its
+    rerun judged (rule 4, :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`) and which is kept here
+    (refitted): its linearisation is a describing function. A part alone that
     moves modes is refitted there (:meth:`PlantModel.refit`); in the pair,
     the part with the better BIC alone is refitted and the other held at its
     FE value for the decision; a pair that is kept then has its other part
@@ -114,7 +116,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     # vlab.diagnose.fit.passing: a mismatch declared by its modes' moves, with a chi-square near the noise's)
     exempt = nonlinear or (not inside and _within_model_accuracy(
         model, pair, pair.params_ if r_pair is None else r_pair.params))
-    if not inside and passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, policy):
+    # a pair with a nonlinear part was judged by its rerun (rule 4): its linearisation here is a describing
+    # function, whose error dominates the chi-square and leaves the evidence nothing to judge the second part by
+    if not inside and (nonlinear or passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, policy)):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])

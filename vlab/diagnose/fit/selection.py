@@ -218,9 +218,58 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
         if plant == "mujoco" and all(h.spec_level for h in cands):
             best = _best_on_mujoco(problem, cands, errors, best, notes, seed)
     alone = singles.get(best.label)
+    if not alone and (pair := pair_beside(best, ranked, problem)) is not None:
+        # a nonlinear single effect: the linear fits cannot judge a second effect beside it, its rerun can
+        for h in (best, pair):  # the linear reruns' errors, where the MuJoCo plant cannot carry the two
+            if h.label not in errors:
+                errors[h.label] = _linear_time_error(problem, h, seed)
+        alone, best = [best], pair
     if alone:
         best = _pair_or_its_better_part(problem, best, alone, errors, notes, plant=plant, seed=seed)
     return best, [h for h in [chosen] + alts if h is not best]
+
+
+def pair_beside(single: Hypothesis, ranked: list, problem: Problem) -> Hypothesis | None:
+    """The best-fitting pair (lowest chi-square in ``ranked``) of the nonlinear single effect ``single`` with
+    a linear effect, when its chi-square falls below the single's by the likelihood-ratio limit of one added
+    parameter at the single's overdispersion (:meth:`vlab.diagnose.policy.DecisionPolicy.lr_limit`); None
+    otherwise, and for a linear ``single``.
+
+    A nonlinear effect's linear model is a describing function at one amplitude: the fits' chi-square carries
+    its error (an overdispersion of hundreds on a saturating loop), which the evidence of a pair over the single
+    divides out, so a linear effect beside it that the data need is not selected by the fits. The rerun judges
+    it (:func:`_pair_or_its_better_part`), as it judges every pair with a nonlinear part.
+
+    Parameters
+    ----------
+    single : Hypothesis
+        The chosen effect.
+    ranked : list of Hypothesis
+        The fitted hypotheses, pairs among them (:class:`Combination`).
+    problem : Problem
+        For the number of residuals and the policy.
+
+    Returns
+    -------
+    Combination or None
+    """
+    if isinstance(single, Combination) or single.effect not in NONLINEAR:
+        return None
+    pairs = [g for g in ranked if isinstance(g, Combination) and math.isfinite(g.chi2_)
+             and any(p.label == single.label for p in g.parts)
+             and all(p.effect not in NONLINEAR for p in g.parts if p.label != single.label)]
+    if not pairs:
+        return None
+    pair = min(pairs, key=lambda g: g.chi2_)
+    c_hat = max(1.0, single.chi2_ / max(problem.n_obs - single.n_params, 1))
+    needed = problem.policy.needed(single.chi2_, pair.chi2_, pair.n_params - single.n_params, c_hat)
+    return pair if needed else None
+
+
+def _linear_time_error(problem: Problem, h: Hypothesis, seed: int) -> float:
+    """The time-domain error of ``h``'s rerun on the linear plant (inf when it fails)."""
+    run, = reruns(problem, _rerun_jobs(problem, [h]), "linear", seed=seed)
+    return float("inf") if isinstance(run, VlabError) else time_error(run, problem.data)
 
 
 def _rerun_candidates(problem: Problem, chosen: Hypothesis, alts: list, max_candidates: int) -> list:
