@@ -294,8 +294,10 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
 
     For each frequency the highest peak within ``half_band_hz`` (a line at
     least as high as both its neighbours) is refined by a parabola through
-    ``ln|H|`` (Sec. 5.4.1: "Peak levels ... were then determined at each
-    natural frequency").
+    ``ln|H|``; where the window holds no peak (a heavily damped mode, or one
+    beside an antiresonance at this point), the level at the frequency
+    itself, ``ln|H|`` interpolated between its lines (Sec. 5.4.1: "Peak
+    levels ... were then determined at each natural frequency").
 
     Parameters
     ----------
@@ -314,15 +316,21 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
     Raises
     ------
     MeasurementError
-        No line, or no peak, within the search band (a mode that does not show
-        as a peak at this point).
+        No line within the search band.
     """
     f, mag, logm = _log_magnitude(freq_hz, h, name)
     near = np.atleast_1d(np.asarray(near_hz, dtype=float))
     hbs = np.broadcast_to(np.asarray(half_band_hz, dtype=float), near.shape)
     out = np.empty(near.size)
     for k, (fk, hb) in enumerate(zip(near, hbs)):
-        out[k] = _peak_at(f, logm, _nearest_max(f, mag, fk, hb, name)).magnitude
+        try:
+            out[k] = _peak_at(f, logm, _nearest_max(f, mag, fk, hb, name)).magnitude
+        except MeasurementError as exc:
+            if not f[0] <= fk <= f[-1] or "no peak" not in str(exc):
+                raise
+            # no peak in the window (a heavily damped mode, or one beside an antiresonance at this point): the
+            # level at the natural frequency itself, ln|H| interpolated between its lines
+            out[k] = math.exp(float(np.interp(fk, f, logm)))
     return out
 
 
