@@ -386,6 +386,18 @@ def test_a_recording_of_unknown_source_is_answered_on_the_structure_with_the_pla
     assert joint["plant_fit"] == {name: 6000.0} and "fe_fit" not in joint
     assert mass["parameters"] == {"mass_kg": 0.45} and mass["ci95"]["mass_kg"] == [0.44, 0.5]
     assert mass["plant_fit"] == {"mass_kg": 0.5}
+    # the structure's model rejected by its own data (chi-square 10 beyond a limit of 5) where the plant's passes
+    # (4 within 5): the plant's values, each interval widened to hold the structure's value
+    bad = StructureFit(sf.params, sf.ci95, 10.0, "its replay", 0.1, chi2_limit=5.0)
+    plant = SimpleNamespace(params=np.array([6000.0, 0.5]), chi2=4.0, plant_problem=SimpleNamespace(noise_chi2=lambda: 5.0))
+    res = SimpleNamespace(selected=pair, plant_refit=plant, structure_fit=bad)
+    joint, mass = DiagnosisResult._selected_entries(res)
+    assert joint["parameters"][name] == 6000.0 and joint["ci95"][name] == [4800.0, 7200.0]  # FE's, scaled 6000/5000
+    assert joint["structure_fit"] == {name: 5200.0} and "plant_fit" not in joint
+    assert mass["parameters"] == {"mass_kg": 0.5} and mass["ci95"]["mass_kg"] == [0.4, 0.6]
+    assert mass["structure_fit"] == {"mass_kg": 0.45}
+    plant.chi2 = 6.0  # both rejected: the structure's model stands
+    assert DiagnosisResult._selected_entries(res)[0]["parameters"][name] == 5200.0
 
 
 def test_the_chosen_effect_is_refitted_on_the_plant_however_far_off_its_fe_value_lies_there():

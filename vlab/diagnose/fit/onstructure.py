@@ -82,6 +82,8 @@ class StructureFit:
         The likelihood the value maximises, in words (:mod:`vlab.diagnose.fit.robust`).
     t_dof, t_scale : float or None
         The Student-t likelihood's degrees of freedom and scale [1], None on the normal likelihood.
+    chi2_limit : float or None
+        The mismatch test's total chi-square limit on the structure's problem [1] (None: not known).
     """
 
     params: np.ndarray
@@ -92,6 +94,14 @@ class StructureFit:
     likelihood: str = "normal likelihood (least squares)"
     t_dof: float | None = None
     t_scale: float | None = None
+    chi2_limit: float | None = None
+
+    @property
+    def adequate(self) -> bool:
+        """Whether the structure's model with this value leaves its data within the mismatch test's limit there
+        (True where the limit is not known): a model its own data reject at the test's false-alarm rate is no
+        model of them, and its value no estimate."""
+        return self.chi2_limit is None or not self.chi2 > self.chi2_limit
 
     def as_dict(self) -> dict:
         """JSON-ready summary (parameters and their 95 % intervals SI, in the hypothesis's order)."""
@@ -99,7 +109,8 @@ class StructureFit:
                 "ci95": [[float(a), float(b)] for a, b in self.ci95], "chi2": float(self.chi2),
                 "reference": self.reference, "seconds": float(self.seconds), "likelihood": self.likelihood,
                 "t_dof": None if self.t_dof is None else float(self.t_dof),
-                "t_scale": None if self.t_scale is None else float(self.t_scale)}
+                "t_scale": None if self.t_scale is None else float(self.t_scale),
+                "chi2_limit": None if self.chi2_limit is None else float(self.chi2_limit)}
 
 
 def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> StructureFit | None:
@@ -149,11 +160,12 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
         tf = t_fit(g, footing, np.asarray(g.params_, dtype=float))
     except (VlabError, ValueError, np.linalg.LinAlgError):
         tf = None
+    limit = float(problem.noise_chi2())
     if tf is None or not np.all(np.isfinite(tf.params)) or not tf.nll < tf.nll_nominal:
         return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
-                            reference, time.perf_counter() - t)
+                            reference, time.perf_counter() - t, chi2_limit=limit)
     return StructureFit(tf.params, tf.ci95, footing.chi2(footing.state_for(g, tf.params)), reference,
-                        time.perf_counter() - t, tf.describe(), tf.dof, tf.scale)
+                        time.perf_counter() - t, tf.describe(), tf.dof, tf.scale, chi2_limit=limit)
 
 
 def spanning(ci95: np.ndarray, *values: np.ndarray) -> np.ndarray:

@@ -175,7 +175,9 @@ class DiagnosisResult:
         vlab plant and was compared through the MuJoCo plant's replay it is the structure's own model's
         (``structure_fit``, :mod:`vlab.diagnose.fit.onstructure`), with its 95 % interval widened to hold the
         plant's value (the two references' difference is a model-form uncertainty the fit's interval does
-        not carry). Otherwise a parameter refitted on the MuJoCo plant's linearisation is reported at its
+        not carry) -- unless the structure's model fails the mismatch test with it where the plant's passes
+        (:meth:`structure_value_stands`): then the plant's value, its interval widened to hold the
+        structure's, given as ``structure_fit``. Otherwise a parameter refitted on the MuJoCo plant's linearisation is reported at its
         refitted value -- it belongs to the plant that made the recording, the plant the rerun uses -- with
         the FE fit's interval scaled by refitted / FE value (the data's information about the parameter is the
         same; the model that centres it is not), and the FE model's value as ``plant_fit``'s counterpart
@@ -192,10 +194,13 @@ class DiagnosisResult:
                     ci[j] = ci[j] * (b / a)
                     fe_fit[j] = float(a)
             x = np.asarray(r.params, dtype=float)
-        sf = self.structure_fit
+        sf, structure_value = self.structure_fit, None
         if sf is not None and len(sf.params) == len(x):
-            plant_fit, fe_fit = x, {}
-            x, ci = np.asarray(sf.params, dtype=float), spanning(sf.ci95, plant_fit)
+            if structure_value_stands(sf, r):
+                plant_fit, fe_fit = x, {}
+                x, ci = np.asarray(sf.params, dtype=float), spanning(sf.ci95, plant_fit)
+            else:  # the plant's value, its interval widened to hold the structure's
+                structure_value, ci = np.asarray(sf.params, dtype=float), spanning(ci, sf.params)
         parts = h.parts if isinstance(h, Combination) else (h,)
         out, i = [], 0
         for part in parts:
@@ -208,6 +213,8 @@ class DiagnosisResult:
                 e["fe_fit"] = {n: fe_fit[j] for n, j in zip(names, idx) if j in fe_fit}
             if plant_fit is not None:
                 e["plant_fit"] = {n: float(plant_fit[j]) for n, j in zip(names, idx)}
+            if structure_value is not None:
+                e["structure_fit"] = {n: float(structure_value[j]) for n, j in zip(names, idx)}
             out.append(e)
             i += part.n_params
         return out
@@ -229,10 +236,19 @@ class DiagnosisResult:
         dist = {k: v for k, v in sep.get("distance_chi2", {}).items() if k in alternatives}
         return {"limit_chi2": sep["limit_chi2"], "distance_chi2": dist} if dist else None
 
+    def structure_value_stands(self) -> bool:
+        """Whether the value fitted on the structure's own model is the answer (:func:`structure_value_stands`)."""
+        return structure_value_stands(self.structure_fit, self.plant_refit)
+
     def _value_reference(self) -> str | None:
         """The model the selected parameters belong to, in words (None when nothing is selected)."""
         if self.selected is None:
             return None
+        if self.structure_fit is not None and not self.structure_value_stands():
+            sf = self.structure_fit
+            return (f"the MuJoCo plant's linearisation (the parameter refitted there): the structure's FE model, "
+                    f"the data referred through {sf.reference}, leaves chi-square {sf.chi2:.4g} with its own value, "
+                    f"beyond its limit {sf.chi2_limit:.4g}, and the interval spans that value")
         if self.structure_fit is not None:
             return f"the structure's FE model, the data referred through {self.structure_fit.reference}"
         if self.plant_refit is not None:
@@ -334,3 +350,26 @@ class DiagnosisResult:
             "timing_s": dict(self.timing_s),
             "files": {k: str(v) for k, v in self.files.items()},
         })
+
+
+def structure_value_stands(structure_fit, plant_refit) -> bool:
+    """Whether the value fitted on the structure's own model is the answer: it is, unless that model with it
+    fails the mismatch test on its own footing (:attr:`vlab.diagnose.fit.onstructure.StructureFit.adequate`)
+    while the MuJoCo plant's linearisation with its refitted value passes it on its own -- then the plant's
+    value is the estimate (the model the data do not reject) and the structure's widens its interval.
+
+    Parameters
+    ----------
+    structure_fit : StructureFit or None
+    plant_refit : PlantRefit or None
+        With ``chi2`` [1] and ``plant_problem`` (its footing, whose ``noise_chi2()`` is the test's limit).
+
+    Returns
+    -------
+    bool
+        True also where either is missing.
+    """
+    sf, r = structure_fit, plant_refit
+    if sf is None or sf.adequate or r is None or getattr(r, "plant_problem", None) is None:
+        return True
+    return not r.chi2 <= r.plant_problem.noise_chi2()
