@@ -117,6 +117,21 @@ def test_period_change_is_measured_clear_of_the_filters_end(cycles_per_period, p
         assert abs(top.frequency_hz - f0) < 0.05
         assert top.period_change == pytest.approx(expected, rel=0.01)
 
+
+def test_a_transient_beside_a_forced_line_is_not_an_oscillation():
+    """A lightly damped start-up transient (41.05 Hz, decaying at 0.15 1/s) beside a periodic line of the same
+    band (41.0 Hz, a harmonic of the 10 s excitation period): the forced line holds the band's amplitude up,
+    so its slope over the record's second half (-0.026 1/s) shows no decay, and the period change is large
+    (0.67); but the part that does not repeat, z(t) - z(t - T), falls e^(0.15 T) = 4.5-fold from one period
+    to the next: a transient, not a self-excited oscillation."""
+    rng, x, y = _base(7)
+    t = np.arange(N) / FS
+    period_s = PERIOD / FS
+    forced = 1e-3 * np.sin(2 * np.pi * 410.0 / period_s * t)
+    transient = 3e-3 * np.exp(-0.15 * t) * np.sin(2 * np.pi * 410.5 / period_s * t + 0.4)
+    check = find_instability(_recording(x, {"vel6": y + forced + transient}), feedback_points=(6,))
+    assert not check.unstable, check.summary()
+
 def test_period_of_the_force():
     rng = np.random.default_rng(3)
     x = _multisine(rng)
