@@ -30,11 +30,7 @@ response of a stable, lightly damped closed-loop mode (the loop's start-up
 transient) does; a line whose amplitude falls by ``GROWTH_FACTOR`` or more
 over the record's second half, its slope beyond three standard errors, is
 such a transient (a grid LQG loop's 14 Hz mode decaying at 0.045-0.049 1/s,
-``zeta`` = 0.0005, still 38 dB over the floor a minute after the start); so
-is, with a periodic force, a line whose part that does not repeat,
-``z(t) - z(t - T)``, was ``GROWTH_FACTOR`` or more times larger one period
-earlier (a transient beside a forced response: the forced part holds the
-line's amplitude up, so its slope alone may not show the decay).
+``zeta`` = 0.0005, still 38 dB over the floor a minute after the start).
 
 ``LINE_TO_FLOOR`` (1e3, 30 dB): a Welch estimate of a noise spectrum with
 ``nu = 2 n_avg`` degrees of freedom exceeds its mean by a factor ``x`` with
@@ -130,7 +126,8 @@ class Oscillation:
         (0 for a sine, 0.52 for a noise-driven mode).
     period_change : float or None
         Change of the line from one excitation period to the next [-] (None:
-        the force is not periodic).
+        the force is not periodic, or no half period clear of the filter's
+        end transient).
     """
 
     channel: str
@@ -287,7 +284,7 @@ def filter_settling(sos: np.ndarray, *, level: float = MIN_LINE_SHARE) -> int:
 def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int | None):
     """Band-pass ``y`` around ``f0`` and measure the line in the record's second half.
 
-    Returns ``(sigma, se, rise, envelope_cv, period_change, late_rms, fall)``: ``sigma`` [1/s]
+    Returns ``(sigma, se, rise, envelope_cv, period_change, late_rms)``: ``sigma`` [1/s]
     and ``se``, the slope of ln RMS over the second half's segments (of
     N_SEGMENTS in all) and its standard error; ``rise``, the largest segment
     RMS over the first one's (how much the line grew since the record
@@ -297,9 +294,7 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     ``period_change``, the norm of the line's change over one period, ``z(t) - z(t - P)``, over the last
     period's worth of samples clear of the band-pass filter's end transient (:func:`filter_settling`), over the
     norm of ``z(t)`` there (None without a periodic force, or where the record holds no such span of at least
-    half a period); ``late_rms``, the line's RMS over the second half [units of ``y``]; ``fall``, how many
-    times larger the non-repeating part ``z(t) - z(t - P)`` was one period earlier than over the last span
-    clear of the end (spans of at most a period, at least half of one; None without them).
+    half a period); ``late_rms``, the line's RMS over the second half [units of ``y``].
     """
     half = max(2.0 * df, 0.02 * f0)
     lo, hi = max(f0 - half, 0.05 * df), min(f0 + half, 0.49 * fs)
@@ -323,22 +318,15 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     i0, i1 = len(env) // 2, max(end, len(env) // 2)
     env = env[i0:i1] * np.exp(-sigma * np.arange(i0, i1) / fs)
     cv = float(np.std(env) / np.mean(env)) if env.size and np.mean(env) > 0 else math.inf
-    change = fall = None
+    change = None
     if period is not None and len(z) >= 3 * period:
         start = max(end - period, period)
         if end - start >= period // 2:
             now, before = z[start:end], z[start - period:end - period]
             norm = float(np.linalg.norm(now))
             change = float(np.linalg.norm(now - before) / norm) if norm > 0 else None
-        # the part that does not repeat, one period apart: a transient's falls, a self-excited line's does not
-        span = min(period, end - 2 * period)
-        if span >= period // 2:
-            d = [z[end - k * period - span:end - k * period] - z[end - (k + 1) * period - span:end - (k + 1) * period]
-                 for k in (0, 1)]
-            n_now, n_before = (float(np.linalg.norm(v)) for v in d)
-            fall = n_before / n_now if n_now > 0 else None
     late_rms = math.sqrt(float(np.mean(z[len(z) // 2:] ** 2)))
-    return sigma, se, float(rms.max() / rms[0]), cv, change, late_rms, fall
+    return sigma, se, float(rms.max() / rms[0]), cv, change, late_rms
 
 
 def _incoherent_spectrum(x: np.ndarray | None, y: np.ndarray, gxx: np.ndarray | None, kw: dict):
@@ -378,14 +366,12 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
         f0 = float(f[i] + shift * df)
         sl = slice(max(i - 2, 0), min(i + 3, len(f)))
         amp = math.sqrt(float(np.sum(gnn[sl])) * df / 1.5)  # Hann window: noise bandwidth 1.5 bins
-        sigma, se, rise, cv, change, late_rms, fall = _line_statistics(y_full, fs, f0, df, period)
+        sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
         if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
             continue  # below what the lab's converters resolve next to the response
         growing = sigma > 3 * se and math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR
         if sigma < -3 * se and math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR:
             continue  # it dies out: the free response of a stable mode
-        if fall is not None and fall >= GROWTH_FACTOR and not growing:
-            continue  # what does not repeat with the force dies out: a stable mode's start-up, beside a forced part
         if change is not None and change < MIN_PERIOD_CHANGE:
             continue  # it repeats with the force: a forced (possibly nonlinear) response
         if not (cv < MAX_ENVELOPE_CV or growing):
