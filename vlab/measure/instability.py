@@ -289,8 +289,8 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     N_SEGMENTS in all) and its standard error; ``rise``, the largest segment
     RMS over the first one's (how much the line grew since the record
     began); ``envelope_cv``, std/mean of the Hilbert envelope over the second
-    half with that slope divided out, up to the filter's end transient (a limit cycle holds its level there
-    once it has grown; inf where the transient covers the second half);
+    half with that slope divided out (a limit cycle holds its level there once it has grown; a tenth cut at
+    the end against the filter's edge);
     ``period_change``, the norm of the line's change over one period, ``z(t) - z(t - P)``, over the last
     period's worth of samples clear of the band-pass filter's end transient (:func:`filter_settling`), over the
     norm of ``z(t)`` there (None without a periodic force, or where the record holds no such span of at least
@@ -311,11 +311,11 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     late = slice(N_SEGMENTS // 2, None)
     coef, cov = np.polyfit(t[late], np.log(rms[late]), 1, cov=True)
     sigma, se = float(coef[0]), float(math.sqrt(max(cov[0, 0], 0.0)))
-    # the zero-phase filter's response to the record's end reaches back over its settling time: a steady or
-    # periodic line looks changed there, so the envelope and the period's change are measured before it
+    # the zero-phase filter's response to the record's end reaches back over its settling time: a periodic line
+    # looks changed there, so the period's change is measured before it
     end = len(z) - filter_settling(sos)
     env = np.abs(signal.hilbert(z))
-    i0, i1 = len(env) // 2, max(end, len(env) // 2)
+    i0, i1 = len(env) // 2, len(env) - len(env) // 10
     env = env[i0:i1] * np.exp(-sigma * np.arange(i0, i1) / fs)
     cv = float(np.std(env) / np.mean(env)) if env.size and np.mean(env) > 0 else math.inf
     change = None
