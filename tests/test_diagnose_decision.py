@@ -326,3 +326,27 @@ def test_a_choice_refitted_on_the_plant_is_judged_on_the_plants_linearisation(mo
     rem = decision.remainder_of(res_with(SimpleNamespace(state="the FE lab at the plant's value", plant_state=None,
                                                          plant_problem=None)), fe, 5e-3)
     assert rem is not None and rem["chi2"] == pytest.approx(35434.0)
+
+
+def test_what_an_exact_model_leaves_in_magnitude_and_phase():
+    """Drawn noise: circular complex relative errors of variance s^2 on 20000 lines; the expected complex log
+    misfit is s / ln 10, sqrt(2) times the log magnitude's (the sample's misfits agree within 2 %). A model form
+    acting on the phase only (d ln H = j x, as at a resonance) adds to the complex misfit and not to the
+    magnitude's."""
+    from vlab.diagnose.problem.misfits import (complex_log_misfit, exact_model_errors, exact_phase_misfit,
+                                               log_misfit)
+
+    rng = np.random.default_rng(3)
+    n, s = 20000, 0.01
+    h = np.exp(1j * rng.uniform(0, 2 * np.pi, n)) * rng.uniform(0.5, 2.0, n)
+    err = s / np.sqrt(2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    measured, var, w = h * (1 + err), (s * np.abs(h)) ** 2, np.ones(n)
+    phase = exact_phase_misfit(measured, var, w)
+    mag, _ = exact_model_errors(measured, var, w)
+    assert phase == pytest.approx(np.sqrt(2) * mag, rel=1e-3)
+    assert complex_log_misfit(h, measured, w) == pytest.approx(phase, rel=0.02)
+    assert log_misfit(h, measured, w) == pytest.approx(mag, rel=0.02)
+    sens, sigma = np.full((n, 1), 1j), np.array([0.03])  # the phase moved by 0.03 rad at one sigma
+    assert exact_model_errors(measured, var, w, sens=sens, sigma=sigma)[0] == pytest.approx(mag)
+    expected = np.sqrt(np.mean(var / np.abs(measured) ** 2) + 0.03**2)  # the noise's and the model form's variance
+    assert exact_phase_misfit(measured, var, w, sens=sens, sigma=sigma) == pytest.approx(expected / np.log(10), rel=1e-9)

@@ -331,15 +331,17 @@ def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float
     The log magnitude's misfit first. A choice judged by its rerun alone (``nonlinear``: its linear model is a
     describing function) on data fitted with their phase (``problem.use_phase``) is judged on the phase too,
     the footing its fit used: a lag or a delay left out turns the phase more than the magnitude
-    (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`). An exact model's complex log misfit is
-    ``sqrt(2)`` times its magnitude's: for circular noise the log magnitude takes half the variance
-    (:func:`vlab.diagnose.problem.misfits.noise_misfit`), the phase the other half.
+    (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`), against what an exact model leaves there,
+    the noise's whole variance and the model form's in magnitude and phase
+    (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; ``sqrt(2)`` times the magnitude's where a
+    validation does not carry it: for circular noise the log magnitude takes half the variance).
     """
     where = f"the validation rerun ({v.plant})"
     if remainder_resolved(v.misfit_after, v.noise_misfit):
         return float(v.misfit_after), float(v.noise_misfit), where
     if nonlinear and problem.use_phase and math.isfinite(v.phase_misfit_after):
-        noise = math.sqrt(2.0) * v.noise_misfit
+        noise = getattr(v, "noise_phase_misfit", float("nan"))
+        noise = noise if math.isfinite(noise) else math.sqrt(2.0) * v.noise_misfit
         if remainder_resolved(v.phase_misfit_after, noise):
             return float(v.phase_misfit_after), float(noise), where + ", magnitude and phase"
     return None

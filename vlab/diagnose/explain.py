@@ -75,7 +75,7 @@ class Search:
 
 
 def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, notes: list,
-                    pool: list[Hypothesis], chain: bool = False) -> Hypothesis:
+                    pool: list[Hypothesis], chain: bool = False, reran: bool = False) -> Hypothesis:
     """Refit the chosen effect on the MuJoCo plant's linearisation (:mod:`vlab.diagnose.fit.plantfit`); a pair
     gives way to a single effect that explains the data there (:func:`_single_on_plant`), else a pair the
     plant can carry is checked there (:func:`reduce_pair_on_plant`), a single effect is compared there with its
@@ -83,7 +83,8 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     (:func:`choose_on_plant`) and, when it leaves more than noise there, a second effect from
     ``pool`` is searched next to it (:func:`vlab.diagnose.fit.plantpair.second_effect_on_plant`). Sets
     ``res.plant_refit`` (and ``res.alternatives``); returns the choice. ``chain``: a chain effect is refitted
-    and compared there too (:attr:`Search.plant_made`)."""
+    and compared there too (:attr:`Search.plant_made`). ``reran``: look-alikes and pairs with a nonlinear part
+    were judged by rerun (:func:`tie_break_by_rerun` ran), which a pair with a nonlinear part then stands by."""
     try:
         model = PlantModel(problem, chain_refit=chain)
     except (VlabError, ImportError) as exc:
@@ -95,7 +96,7 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
             return single
         if not chosen.spec_level:  # the plant cannot carry the pair: its rerun and value stay the FE model's
             return chosen
-        reduced, res.plant_refit, note = reduce_pair_on_plant(model, chosen, res.ranked)
+        reduced, res.plant_refit, note = reduce_pair_on_plant(model, chosen, res.ranked, judged_by_rerun=reran)
         if note is not None:
             notes.append(note)
             res.alternatives = [h for h in res.alternatives if h is not reduced]
@@ -342,7 +343,8 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
     if chosen is not None and search.on_plant and _on_plant_checked(chosen) and not search.self_excited:
         say("refitting on the MuJoCo plant's linearisation")
         t = time.perf_counter()
-        chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain)
+        chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain,
+                                 reran=search.validate_run and data_has_signals(res.data))
         timing["plant_refit"] = time.perf_counter() - t
     if too_small_to_name(chosen, noise_only):  # beyond the noise, within the model's accuracy: located, not named
         res.too_small, res.too_small_candidates = True, [chosen] + list(alts)

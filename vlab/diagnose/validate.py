@@ -69,7 +69,7 @@ from .data.measured import FrfData
 from .data.replay import LOW_LEVEL, distortion_variance, frf_of, time_error
 from .data.rerun_jobs import last_reruns_note, reruns, window_for
 from .model.labmodel import LabState
-from .problem.misfits import complex_log_misfit, exact_errors_of, log_misfit
+from .problem.misfits import complex_log_misfit, exact_errors_of, exact_phase_misfit_of, log_misfit
 
 
 
@@ -111,6 +111,9 @@ class Validation:
         The reruns' chi-square on the fit's footing [1] (module notes); NaN where not computed.
     target_var : ndarray, shape (n_f, n_o), or None
         The variance of ``target`` [((m/s)/N)^2].
+    noise_phase_misfit : float
+        What an exact model leaves on ``phase_misfit_*``'s footing, magnitude and phase [decades]
+        (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; NaN where the fit does not use the phase).
     """
 
     plant: str
@@ -130,6 +133,7 @@ class Validation:
     chi2_before: float = float("nan")
     chi2_after: float = float("nan")
     target_var: np.ndarray | None = None
+    noise_phase_misfit: float = float("nan")
 
     def as_dict(self) -> dict:
         """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
@@ -137,7 +141,8 @@ class Validation:
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
                 "noise_misfit": self.noise_misfit, "noise_time_error": self.noise_time_error,
                 "chi2_before": self.chi2_before, "chi2_after": self.chi2_after,
-                **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after}
+                **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after,
+                    "noise_phase_misfit": self.noise_phase_misfit}
                    if np.isfinite(self.phase_misfit_before) else {})}
 
 
@@ -292,7 +297,8 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s,
-                      target_var)
+                      target_var, exact_phase_misfit_of(problem, target, target_var) if problem.use_phase
+                      else float("nan"))
 
 
 def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None) -> float:

@@ -84,6 +84,9 @@ class StructureFit:
         The Student-t likelihood's degrees of freedom and scale [1], None on the normal likelihood.
     chi2_limit : float or None
         The mismatch test's total chi-square limit on the structure's problem [1] (None: not known).
+    chi2_least : float or None
+        The least chi-square reached there [1] (the least-squares fit's; ``chi2`` is at the reported value,
+        which on the t likelihood is not the least-squares optimum).
     """
 
     params: np.ndarray
@@ -95,13 +98,15 @@ class StructureFit:
     t_dof: float | None = None
     t_scale: float | None = None
     chi2_limit: float | None = None
+    chi2_least: float | None = None
 
     @property
     def adequate(self) -> bool:
-        """Whether the structure's model with this value leaves its data within the mismatch test's limit there
-        (True where the limit is not known): a model its own data reject at the test's false-alarm rate is no
-        model of them, and its value no estimate."""
-        return self.chi2_limit is None or not self.chi2 > self.chi2_limit
+        """Whether the structure's model, at its best value, leaves its data within the mismatch test's limit
+        there (True where the limit is not known): a model its own data reject at the test's false-alarm rate is
+        no model of them, and its value no estimate."""
+        best = self.chi2 if self.chi2_least is None else min(self.chi2, self.chi2_least)
+        return self.chi2_limit is None or not best > self.chi2_limit
 
     def as_dict(self) -> dict:
         """JSON-ready summary (parameters and their 95 % intervals SI, in the hypothesis's order)."""
@@ -110,7 +115,8 @@ class StructureFit:
                 "reference": self.reference, "seconds": float(self.seconds), "likelihood": self.likelihood,
                 "t_dof": None if self.t_dof is None else float(self.t_dof),
                 "t_scale": None if self.t_scale is None else float(self.t_scale),
-                "chi2_limit": None if self.chi2_limit is None else float(self.chi2_limit)}
+                "chi2_limit": None if self.chi2_limit is None else float(self.chi2_limit),
+                "chi2_least": None if self.chi2_least is None else float(self.chi2_least)}
 
 
 def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> StructureFit | None:
@@ -163,9 +169,10 @@ def fit_on_structure(problem: Problem, h: Hypothesis, reference: str) -> Structu
     limit = float(problem.noise_chi2())
     if tf is None or not np.all(np.isfinite(tf.params)) or not tf.nll < tf.nll_nominal:
         return StructureFit(np.asarray(g.params_, dtype=float), np.asarray(g.ci95_, dtype=float), float(g.chi2_),
-                            reference, time.perf_counter() - t, chi2_limit=limit)
+                            reference, time.perf_counter() - t, chi2_limit=limit, chi2_least=float(g.chi2_))
     return StructureFit(tf.params, tf.ci95, footing.chi2(footing.state_for(g, tf.params)), reference,
-                        time.perf_counter() - t, tf.describe(), tf.dof, tf.scale, chi2_limit=limit)
+                        time.perf_counter() - t, tf.describe(), tf.dof, tf.scale, chi2_limit=limit,
+                        chi2_least=float(g.chi2_))
 
 
 def spanning(ci95: np.ndarray, *values: np.ndarray) -> np.ndarray:

@@ -40,8 +40,8 @@ from .plantfit import PlantModel, PlantRefit, PlantScore, map_on_plant, refit_in
 from .rules import NONLINEAR, evidence, passes_pair_rule
 
 
-def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> tuple[Hypothesis, PlantRefit | None,
-                                                                                     str | None]:
+def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list, *,
+                         judged_by_rerun: bool = False) -> tuple[Hypothesis, PlantRefit | None, str | None]:
     """Apply the pair rule of the selection again on the plant's linearisation.
 
     The FE fit selects a pair only if it beats the best single effect by
@@ -51,9 +51,9 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     absorbing the FE/plant model-form difference left next to a mode-moving
     effect (grid joint 11 with a spurious added mass at 18). Here the pair
     and each of its parts alone (at its value in the pair) are scored on the
-    plant's linearisation, and the same rule decides -- except for a pair with a nonlinear part, which its
-    rerun judged (rule 4, :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`) and which is kept here
-    (refitted): its linearisation is a describing function. A part alone that
+    plant's linearisation, and the same rule decides -- except for a pair with a nonlinear part that its
+    rerun judged (``judged_by_rerun``: rule 4, :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`), kept
+    here (refitted): its linearisation is a describing function. A part alone that
     moves modes is refitted there (:meth:`PlantModel.refit`); in the pair,
     the part with the better BIC alone is refitted and the other held at its
     FE value for the decision; a pair that is kept then has its other part
@@ -77,6 +77,8 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
         The fitted hypotheses: a part's own FE fit there decides which part
         is refitted in the pair and is returned when the pair is reduced to
         it (a part without one is fitted on the FE model then).
+    judged_by_rerun : bool
+        Pairs with a nonlinear part were judged by rerun (the data hold time histories and reruns ran).
 
     Returns
     -------
@@ -116,9 +118,10 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list) -> 
     # vlab.diagnose.fit.passing: a mismatch declared by its modes' moves, with a chi-square near the noise's)
     exempt = nonlinear or (not inside and _within_model_accuracy(
         model, pair, pair.params_ if r_pair is None else r_pair.params))
-    # a pair with a nonlinear part was judged by its rerun (rule 4): its linearisation here is a describing
+    # a pair with a nonlinear part that its rerun judged (rule 4): its linearisation here is a describing
     # function, whose error dominates the chi-square and leaves the evidence nothing to judge the second part by
-    if not inside and (nonlinear or passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, policy)):
+    reran = nonlinear and judged_by_rerun
+    if not inside and (reran or passes_pair_rule(ev, (s1.chi2_, s_pair.chi2_), exempt, policy)):
         others = [p for p in pair.parts if p is not main and refit_index(pair, p) is not None]
         if r_pair is not None and others:  # the other part moves modes too: refit it, then the main one again
             r_pair = refit_parts(model, pair, r_pair, others + [main])

@@ -219,11 +219,14 @@ def tie_break_by_rerun(problem: Problem, chosen: Hypothesis, alts: list, ranked:
             best = _best_on_mujoco(problem, cands, errors, best, notes, seed)
     alone = singles.get(best.label)
     if not alone and (pair := pair_beside(best, ranked, problem)) is not None:
-        # a nonlinear single effect: the linear fits cannot judge a second effect beside it, its rerun can
-        for h in (best, pair):  # the linear reruns' errors, where the MuJoCo plant cannot carry the two
+        # a nonlinear single effect: the linear fits cannot judge a second effect beside it, its rerun can -- the
+        # pair against the better of its parts, the linear one's single fit among them where there is one
+        alone = [best] + [g for g in ranked if not isinstance(g, Combination) and g.label != best.label
+                          and any(p.label == g.label for p in pair.parts)][:1]
+        for h in alone + [pair]:  # the linear reruns' errors, where the MuJoCo plant cannot carry the two
             if h.label not in errors:
                 errors[h.label] = _linear_time_error(problem, h, seed)
-        alone, best = [best], pair
+        best = pair
     if alone:
         best = _pair_or_its_better_part(problem, best, alone, errors, notes, plant=plant, seed=seed)
     return best, [h for h in [chosen] + alts if h is not best]

@@ -159,6 +159,42 @@ def exact_model_errors(target: np.ndarray, target_var: np.ndarray, weight: np.nd
     return misfit, exact_time_error(target, rel_var, force_amplitude)
 
 
+def exact_phase_misfit(target: np.ndarray, target_var: np.ndarray, weight: np.ndarray, *,
+                       sens: np.ndarray | None = None, sigma: np.ndarray | None = None) -> float:
+    """Expected :func:`complex_log_misfit` of an exact model against measured FRFs [decades]: magnitude and phase.
+
+    ``E|ln(h / h_true)|^2 = s^2`` for a small circular relative error of variance ``s^2 = var / |h|^2`` (twice
+    the log magnitude's share, :func:`noise_misfit`), plus the model form's first-order variance of the complex
+    ``ln H``, ``sum_k |d ln H / d theta_k|^2 sigma_k^2`` -- at a resonance mostly phase
+    (``d ln H / d ln w_n = j / zeta - 1``), which the log magnitude's share
+    (:func:`exact_model_errors`) leaves out.
+
+    Parameters
+    ----------
+    target, target_var, weight, sens, sigma
+        As :func:`exact_model_errors`.
+
+    Returns
+    -------
+    float
+        [decades]
+    """
+    var = np.asarray(target_var, dtype=float) / np.maximum(np.abs(target) ** 2, 1e-300)
+    if sens is not None and sigma is not None and np.size(sigma):
+        var = var + np.sum(np.abs(sens) ** 2 * sigma**2, axis=-1)
+    w = np.asarray(weight, dtype=float)
+    return float(np.sqrt(np.sum(w * var) / np.sum(w)) / np.log(10.0))
+
+
+def exact_phase_misfit_of(problem, target: np.ndarray, target_var: np.ndarray) -> float:
+    """:func:`exact_phase_misfit` of the problem's used lines against ``target`` (shape (n_f, n_o)) and
+    ``target_var`` (its variance, same shape) with its weights and model form, as :func:`exact_errors_of`
+    [decades]."""
+    mask, mf = problem.mask, problem.model_form_frf
+    return exact_phase_misfit(target[mask], target_var[mask], problem.weight_mag[mask],
+                              sens=None if mf is None else mf.sens[mask], sigma=None if mf is None else mf.sigma)
+
+
 def exact_errors_of(problem, target: np.ndarray, target_var: np.ndarray) -> tuple[float, float]:
     """:func:`exact_model_errors` of the problem's used lines against ``target`` (shape (n_f, n_o), the FRFs a
     rerun is compared with, and ``target_var`` their variance): with its weights, its model form, its

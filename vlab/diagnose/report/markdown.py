@@ -113,6 +113,9 @@ def _mismatch_lines(res: dict) -> list[str]:
                 fe = (" (fitted on the structure's own model, the data referred through its linear replay; the "
                       "value fitted through the MuJoCo plant's replay: "
                       + ", ".join(f"{k} = {v:.4g}" for k, v in x["plant_fit"].items()) + ")")
+            if x.get("structure_fit"):
+                fe += ("; the structure's own model, which these data reject, fitted "
+                       + ", ".join(f"{k} = {v:.4g}" for k, v in x["structure_fit"].items()))
             lines.append(f"- {x['effect']} at {_loc(x['location'])}: {_params(x['parameters'], x['ci95'])}{fe}")
         lines.append("")
     return lines
