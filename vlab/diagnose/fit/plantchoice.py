@@ -131,18 +131,22 @@ def reduce_pair_on_plant(model: PlantModel, pair: Combination, ranked: list, *,
         h1 = fit_hypothesis(copy.copy(pair.parts[i1]), model.fe_problem)
     if r1 is not None:  # refit again from its own FE value, which the report quotes as the start
         r1 = model.refit(h1, h1.params_)
+    return h1, r1, _reduced_note(h1.label, pair.label, inside, ev, (s1.chi2_, s_pair.chi2_), policy)
+
+
+def _reduced_note(single: str, pair: str, inside: bool, ev: float, chi2s: tuple, policy) -> str:
+    """The note of :func:`reduce_pair_on_plant` when the pair (label ``pair``) gives way to ``single``: its part
+    alone leaves only the model form's allowance (``inside``), or the pair fails the pair rule there (``ev``, the
+    evidence for it; ``chi2s``, the single's and the pair's chi-square)."""
     if inside:
-        note = (f"on the MuJoCo plant's linearisation {h1.label} alone leaves only what its modes' own model-form "
+        return (f"on the MuJoCo plant's linearisation {single} alone leaves only what its modes' own model-form "
                 f"uncertainty allows (their frequencies, damping and shapes moved within it): the second effect of "
-                f"the pair {pair.label} absorbed the model's own error; {h1.label} is selected")
-    else:
-        note = (f"on the MuJoCo plant's linearisation {h1.label} alone fits as well as the pair {pair.label} "
-                f"(quasi-BIC evidence for the pair {ev:.3g} < {policy.evidence:g}, or its second effect removes "
-                f"{100 * (1 - s_pair.chi2_ / s1.chi2_):.0f} % of the chi-square {s1.chi2_:.4g} the first leaves, "
-                f"less than the {100 * policy.explained_share:.0f} % an explanation accounts for): the second "
-                f"effect absorbed the FE/plant model-form difference; "
-                f"{h1.label} is selected")
-    return h1, r1, note
+                f"the pair {pair} absorbed the model's own error; {single} is selected")
+    return (f"on the MuJoCo plant's linearisation {single} alone fits as well as the pair {pair} "
+            f"(quasi-BIC evidence for the pair {ev:.3g} < {policy.evidence:g}, or its second effect removes "
+            f"{100 * (1 - chi2s[1] / chi2s[0]):.0f} % of the chi-square {chi2s[0]:.4g} the first leaves, "
+            f"less than the {100 * policy.explained_share:.0f} % an explanation accounts for): the second "
+            f"effect absorbed the FE/plant model-form difference; {single} is selected")
 
 
 def _within_model_accuracy(model: PlantModel, h: Hypothesis, x) -> bool:
