@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import MeasurementError
-from .modal import average_peak_error, peak_levels
+from .modal import average_peak_error, paired_peak_levels, peak_levels
 from .modal_fit import fit_each_mode, fit_half_bands
 
 
@@ -106,23 +106,28 @@ def compare_modes(
     df = float(np.median(np.diff(freq_hz)))
     modes_hz = np.asarray(modes_hz, dtype=float)
     halves = fit_half_bands(freq_hz, modes_hz, damping_hint)
-    results = []
-    for h in (h_analysis, h_experiment):
-        # all modes at once (overlapping bands of close modes fitted together), else one by one
-        fits = fit_each_mode(freq_hz, h, modes_hz, halves, response=response)
-        vals = []
-        for fit, fm, half in zip(fits, modes_hz, halves):
-            if fit is None:
-                vals.append((np.nan, np.nan, np.nan))
-                continue
-            try:
-                lvl = peak_levels(freq_hz, h, [fit.freq_hz], half_band_hz=max(half / 3, 2 * df))[0]
-            except MeasurementError:
-                lvl = np.nan
-            vals.append((fit.freq_hz, fit.damping_ratio, lvl))
-        results.append(vals)
+    # all modes at once (overlapping bands of close modes fitted together), else one by one
+    fits = [fit_each_mode(freq_hz, h, modes_hz, halves, response=response) for h in (h_analysis, h_experiment)]
     out = []
-    for i, ((fa, za, pa), (fe, ze, pe)) in enumerate(zip(*results)):
+    for i, (fit_a, fit_e, half) in enumerate(zip(*fits, halves)):
+        fa, za = (fit_a.freq_hz, fit_a.damping_ratio) if fit_a is not None else (np.nan, np.nan)
+        fe, ze = (fit_e.freq_hz, fit_e.damping_ratio) if fit_e is not None else (np.nan, np.nan)
+        pa = pe = np.nan
+        if fit_a is not None and fit_e is not None:
+            try:  # both read by one rule on one window (paired_peak_levels)
+                pa, pe = paired_peak_levels(freq_hz, h_analysis, h_experiment, fa, fe,
+                                            half_band_hz=max(half / 3, 2 * df))
+            except MeasurementError:
+                pass
+        else:  # one FRF's mode not identified: the other's level alone, for the record
+            for fit, h, which in ((fit_a, h_analysis, "a"), (fit_e, h_experiment, "e")):
+                if fit is None:
+                    continue
+                try:
+                    lvl = peak_levels(freq_hz, h, [fit.freq_hz], half_band_hz=max(half / 3, 2 * df))[0]
+                except MeasurementError:
+                    lvl = np.nan
+                pa, pe = (lvl, pe) if which == "a" else (pa, lvl)
         out.append(ModeComparison(i + 1, fa, fe, za, ze, pa, pe, pa / pe if pe else np.nan, response))
     return out
 

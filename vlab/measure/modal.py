@@ -334,6 +334,54 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
     return out
 
 
+def paired_peak_levels(freq_hz, h_analysis, h_experiment, near_analysis_hz: float, near_experiment_hz: float, *,
+                       half_band_hz: float, name: str = "frf") -> tuple[float, float]:
+    """One mode's peak levels in an analytical and a measured FRF, read by one rule on one window.
+
+    The window spans both natural frequencies: centred between them, half width ``half_band_hz`` plus half
+    their difference. Where both FRFs hold a peak there (a line at least as high as both neighbours), each
+    level is its highest peak refined by a parabola through ``ln|H|``; where either holds none (a heavily
+    damped mode, or one beside an antiresonance at this point), both are read at their own natural
+    frequencies (``ln|H|`` interpolated). A ratio of a peak to a level read by the other rule, or on another
+    window, compares two quantities: a 6 mHz offset of the natural frequency put a flank's maximum inside one
+    window and outside the other.
+
+    Parameters
+    ----------
+    freq_hz, name
+        As :func:`frf_arrays`.
+    h_analysis, h_experiment : array_like, complex, shape (n_freq,)
+        The two FRFs on the same lines (same units).
+    near_analysis_hz, near_experiment_hz : float
+        The mode's natural frequency in each [Hz].
+    half_band_hz : float
+        Search half width [Hz] about each.
+
+    Returns
+    -------
+    (float, float)
+        The analytical and the measured level, in FRF units (Sec. 5.4.1).
+
+    Raises
+    ------
+    MeasurementError
+        Bad arrays, or no line within the window.
+    """
+    f, mag_a, log_a = _log_magnitude(freq_hz, h_analysis, name)
+    _, mag_e, log_e = _log_magnitude(freq_hz, h_experiment, name)
+    centre = 0.5 * (near_analysis_hz + near_experiment_hz)
+    half = half_band_hz + 0.5 * abs(near_analysis_hz - near_experiment_hz)
+    try:
+        i_a, i_e = (_nearest_max(f, mag, centre, half, name) for mag in (mag_a, mag_e))
+    except MeasurementError as exc:
+        if "no peak" not in str(exc) or not (f[0] <= min(near_analysis_hz, near_experiment_hz)
+                                            and max(near_analysis_hz, near_experiment_hz) <= f[-1]):
+            raise
+        return (math.exp(float(np.interp(near_analysis_hz, f, log_a))),
+                math.exp(float(np.interp(near_experiment_hz, f, log_e))))
+    return _peak_at(f, log_a, i_a).magnitude, _peak_at(f, log_e, i_e).magnitude
+
+
 def peak_level_ratios(analysis_levels, experiment_levels) -> np.ndarray:
     """Analytical/experimental peak level ratios per mode (Tables 10, 19-21).
 
