@@ -431,3 +431,33 @@ def test_a_minimum_beyond_the_scan_edge_is_followed_to_within_a_step():
     assert u == pytest.approx(0.30) and abs(u - 0.31) <= 0.03
     assert _bracketed(lambda x: (x - 0.31) ** 2, grid, 0.06, (-np.inf, 0.2)) == pytest.approx(0.18)
     assert _bracketed(lambda x: (x + 0.05) ** 2, grid, 0.06, (-np.inf, np.inf)) == pytest.approx(-0.06)
+
+
+def test_a_plant_override_is_undone_where_the_structures_own_model_rejects_it(monkeypatch):
+    """Rule 5 on a recording no vlab plant made: the plant's linearisation preferred a joint at 2 to the FE
+    model's softer segment 1-2. Both fitted on the structure's own problem: the FE model's choice is restored
+    only where it passes the mismatch test's total chi-square there and the plant's does not (the chi-squares
+    and the limit 1.063e4 of the case that showed it); otherwise the plant's choice stands."""
+    from types import SimpleNamespace
+
+    import vlab.diagnose.pipeline as pipeline
+    from vlab.diagnose.effects.hypotheses import MemberStiffness
+
+    seg, joint = MemberStiffness(member="beam", segment=(1, 2)), JointFlexibility(point=2)
+    seg.misfit_ = 0.01
+    on_fe = SimpleNamespace(noise_chi2=lambda: 1.063e4)
+    monkeypatch.setattr(pipeline, "threshold_of", lambda *a, **k: None)
+
+    def run(chi2s: dict):
+        monkeypatch.setattr(pipeline, "fit_hypothesis", lambda h, problem: SimpleNamespace(chi2_=chi2s[h.label]))
+        res = SimpleNamespace(selected=joint, fe_choice=seg, alternatives=["x"], plant_refit="refit",
+                              misfit_selected=0.5, nominal=None, threshold=None)
+        notes = []
+        pipeline._plant_override_on_structure(res, SimpleNamespace(ctx=None), on_fe, notes)
+        return res, notes
+
+    res, notes = run({joint.label: 5.606e6, seg.label: 5243.0})
+    assert res.selected is seg and res.alternatives == [] and res.plant_refit is None and "restored" in notes[0]
+    for chi2s in ({joint.label: 9000.0, seg.label: 5243.0}, {joint.label: 5.6e6, seg.label: 2e4}):
+        res, notes = run(chi2s)
+        assert res.selected is joint and notes == []

@@ -343,8 +343,10 @@ def explain(res: DiagnosisResult, problem: Problem, ctx, search: Search, *, chi2
     if chosen is not None and search.on_plant and _on_plant_checked(chosen) and not search.self_excited:
         say("refitting on the MuJoCo plant's linearisation")
         t = time.perf_counter()
+        fe_choice = chosen
         chosen = _refit_on_plant(res, problem, chosen, notes, library(nominal, ctx, effects=search.effects), chain,
                                  reran=search.validate_run and data_has_signals(res.data))
+        res.fe_choice = fe_choice if chosen is not fe_choice else None
         timing["plant_refit"] = time.perf_counter() - t
     if too_small_to_name(chosen, noise_only):  # beyond the noise, within the model's accuracy: located, not named
         res.too_small, res.too_small_candidates = True, [chosen] + list(alts)

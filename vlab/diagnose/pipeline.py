@@ -317,6 +317,36 @@ def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, o
     res.threshold = None if thr is None else thr.as_dict()
 
 
+def _plant_override_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, notes: list) -> None:
+    """Rule 5 on a recording no vlab plant made: the MuJoCo plant's linearisation replaced the FE model's choice
+    (``res.fe_choice``), but that plant is a model of the structure too, with its own discretisation (a hinge
+    chain cannot make a segment fifty times softer). Both choices are fitted on the structure's own problem
+    ``on_fe``; the FE model's is restored where it passes the mismatch test's total chi-square there and the
+    plant's does not -- the data reject the plant's choice on the structure's own model
+    (:class:`vlab.diagnose.fit.onstructure.StructureFit`'s adequacy, for the kind and place). Sets
+    ``res.selected`` (its alternatives cleared, the plant refit dropped) and a note."""
+    plant_choice, fe_choice = res.selected, res.fe_choice
+    if plant_choice is None or fe_choice is None:
+        return
+    try:
+        fits = [fit_hypothesis(copy.deepcopy(h), on_fe) for h in (plant_choice, fe_choice)]
+    except (VlabError, ValueError, np.linalg.LinAlgError) as exc:
+        notes.append(f"the plant's choice could not be checked on the structure's own model ({exc})")
+        return
+    limit = on_fe.noise_chi2()
+    (c_plant, c_fe) = (float(g.chi2_) for g in fits)
+    if not (c_fe <= limit < c_plant):
+        return
+    notes.append(f"on the structure's own model {fe_choice.label}, the FE model's choice, leaves chi-square "
+                 f"{c_fe:.4g}, within the mismatch test's limit {limit:.4g}, and {plant_choice.label}, which the MuJoCo "
+                 f"plant's linearisation preferred, {c_plant:.4g}: the recording is not the plant's, whose "
+                 f"discretisation decided there; {fe_choice.label} is restored")
+    res.selected, res.alternatives, res.misfit_selected = fe_choice, [], float(fe_choice.misfit_)
+    res.plant_refit, res.fe_choice = None, None
+    thr = threshold_of(problem, res.nominal, problem.ctx, fe_choice)
+    res.threshold = None if thr is None else thr.as_dict()
+
+
 def _on_structure(res: DiagnosisResult, structure: tuple[Problem, str] | None, notes: list, timing: dict,
                   say) -> None:
     """Stage 5b: the choice's value fitted again on the structure's own problem and set as
@@ -505,6 +535,8 @@ def _run(structure, recording_path, opt: Options, how: Search, *, floor: float, 
             # no candidate reproduced the oscillation: the FRF choice is judged as any other, the oscillation left
             self_excited = self_excited and not osc.get("unexplained")
         structure = None if self_excited else _structure_problem(res, inp, problem, notes, timing, say)
+        if structure is not None and res.fe_choice is not None:
+            _plant_override_on_structure(res, problem, structure[0], notes)
         if structure is not None and isinstance(res.selected, Combination) and \
                 not any(p.effect in NONLINEAR for p in res.selected.parts):  # a nonlinear pair: judged by rerun
             _pair_on_structure(res, problem, structure[0], inp.on_plant, notes, timing, say)

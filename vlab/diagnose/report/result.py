@@ -68,6 +68,8 @@ class DiagnosisResult:
         For a recording that names no vlab plant, the selected effect fitted again on the structure's own
         model, the data referred through its linear replay (:mod:`vlab.diagnose.fit.onstructure`): the
         reported value.
+    fe_choice : Hypothesis or None
+        The FE model's choice where the MuJoCo plant's linearisation replaced it (rule 5), else None.
     rejected : list of dict
         Candidates the validation rerun rejected (they made the FRF misfit or the time-domain error
         worse): ``effect``, ``label``, ``misfit_before``, ``misfit_after`` [decades], ``time_error_before``,
@@ -131,6 +133,7 @@ class DiagnosisResult:
     overdispersion: float = 1.0
     plant_refit: PlantRefit | None = None
     structure_fit: StructureFit | None = None
+    fe_choice: Hypothesis | None = None
     peak_nominal: float = float("nan")
     peak_limit: float = float("nan")
     noise_only: dict | None = None
