@@ -231,7 +231,7 @@ def test_a_nonlinear_choice_is_judged_by_its_rerun_and_what_it_leaves_is_reporte
 
     def res_with(after: float, phase: float = float("nan")):
         v = SimpleNamespace(misfit_after=after, noise_misfit=0.00116, chi2_after=9946.0, plant="MuJoCo plant",
-                            phase_misfit_after=phase)
+                            phase_misfit_after=phase, noise_phase_misfit=float("nan"))
         return SimpleNamespace(selected=sat, selected_parts=(sat,), validation=v, plant_refit=None,
                                selected_state=lambda: "the lab with the saturation")
 

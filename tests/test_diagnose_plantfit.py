@@ -450,7 +450,7 @@ def test_a_plant_override_is_undone_where_the_structures_own_model_rejects_it(mo
 
     def run(chi2s: dict):
         monkeypatch.setattr(pipeline, "fit_hypothesis", lambda h, problem: SimpleNamespace(chi2_=chi2s[h.label]))
-        res = SimpleNamespace(selected=joint, fe_choice=seg, alternatives=["x"], plant_refit="refit",
+        res = SimpleNamespace(selected=joint, fe_choice=seg, loop="closed", alternatives=["x"], plant_refit="refit",
                               misfit_selected=0.5, nominal=None, threshold=None)
         notes = []
         pipeline._plant_override_on_structure(res, SimpleNamespace(ctx=None), on_fe, notes)

@@ -340,7 +340,7 @@ def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float
     if remainder_resolved(v.misfit_after, v.noise_misfit):
         return float(v.misfit_after), float(v.noise_misfit), where
     if nonlinear and problem.use_phase and math.isfinite(v.phase_misfit_after):
-        noise = getattr(v, "noise_phase_misfit", float("nan"))
+        noise = v.noise_phase_misfit
         noise = noise if math.isfinite(noise) else math.sqrt(2.0) * v.noise_misfit
         if remainder_resolved(v.phase_misfit_after, noise):
             return float(v.phase_misfit_after), float(noise), where + ", magnitude and phase"

@@ -304,16 +304,23 @@ def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, o
     part = next((h for h in res.ranked if h.label == judged.part.label and not isinstance(h, Combination)), None)
     if part is None:
         part = fit_hypothesis(copy.deepcopy(judged.part), problem)
-    res.selected, res.alternatives, res.misfit_selected = part, [], float(part.misfit_)
-    if res.loop == "both" and part.effect in CONTROLLER_PATH:  # as the choice's loop is set in stage 4
+    _reselect(res, problem, part, notes, refit_on_plant=on_plant)
+
+
+def _reselect(res: DiagnosisResult, problem: Problem, h, notes: list, *, refit_on_plant: bool) -> None:
+    """Make the fitted hypothesis ``h`` the choice of ``res`` after stage 5 (in place): no look-alikes, its
+    misfit, the loop a chain effect sits in, its plant refit (a spec-level single effect refitted on the MuJoCo
+    plant's linearisation with ``refit_on_plant``, else none) and its detection threshold."""
+    res.selected, res.alternatives, res.misfit_selected = h, [], float(h.misfit_)
+    if res.loop == "both" and h.effect in CONTROLLER_PATH:  # as the choice's loop is set in stage 4
         res.loop = "closed"
     res.plant_refit = None
-    if on_plant and part.spec_level:
+    if refit_on_plant and h.spec_level and not isinstance(h, Combination):
         try:
-            res.plant_refit = PlantModel(problem).refit(part, part.params_)
+            res.plant_refit = PlantModel(problem).refit(h, h.params_)
         except (VlabError, ImportError) as exc:
-            notes.append(f"{part.label} could not be refitted on the MuJoCo plant's linearisation: {exc}")
-    thr = threshold_of(problem, res.nominal, problem.ctx, part)
+            notes.append(f"{h.label} could not be refitted on the MuJoCo plant's linearisation: {exc}")
+    thr = threshold_of(problem, res.nominal, problem.ctx, h)
     res.threshold = None if thr is None else thr.as_dict()
 
 
@@ -341,10 +348,8 @@ def _plant_override_on_structure(res: DiagnosisResult, problem: Problem, on_fe: 
                  f"{c_fe:.4g}, within the mismatch test's limit {limit:.4g}, and {plant_choice.label}, which the MuJoCo "
                  f"plant's linearisation preferred, {c_plant:.4g}: the recording is not the plant's, whose "
                  f"discretisation decided there; {fe_choice.label} is restored")
-    res.selected, res.alternatives, res.misfit_selected = fe_choice, [], float(fe_choice.misfit_)
-    res.plant_refit, res.fe_choice = None, None
-    thr = threshold_of(problem, res.nominal, problem.ctx, fe_choice)
-    res.threshold = None if thr is None else thr.as_dict()
+    res.fe_choice = None
+    _reselect(res, problem, fe_choice, notes, refit_on_plant=False)
 
 
 def _on_structure(res: DiagnosisResult, structure: tuple[Problem, str] | None, notes: list, timing: dict,

@@ -112,22 +112,15 @@ def compare_modes(
     for i, (fit_a, fit_e, half) in enumerate(zip(*fits, halves)):
         fa, za = (fit_a.freq_hz, fit_a.damping_ratio) if fit_a is not None else (np.nan, np.nan)
         fe, ze = (fit_e.freq_hz, fit_e.damping_ratio) if fit_e is not None else (np.nan, np.nan)
-        pa = pe = np.nan
-        if fit_a is not None and fit_e is not None:
-            try:  # both read by one rule on one window (paired_peak_levels)
-                pa, pe = paired_peak_levels(freq_hz, h_analysis, h_experiment, fa, fe,
-                                            half_band_hz=max(half / 3, 2 * df))
-            except MeasurementError:
-                pass
-        else:  # one FRF's mode not identified: the other's level alone, for the record
-            for fit, h, which in ((fit_a, h_analysis, "a"), (fit_e, h_experiment, "e")):
-                if fit is None:
-                    continue
-                try:
-                    lvl = peak_levels(freq_hz, h, [fit.freq_hz], half_band_hz=max(half / 3, 2 * df))[0]
-                except MeasurementError:
-                    lvl = np.nan
-                pa, pe = (lvl, pe) if which == "a" else (pa, lvl)
+        hb = max(half / 3, 2 * df)
+        try:
+            if fit_a is not None and fit_e is not None:  # both read by one rule on one window
+                pa, pe = paired_peak_levels(freq_hz, h_analysis, h_experiment, fa, fe, half_band_hz=hb)
+            else:  # one FRF's mode not identified: the other's level alone, for the record
+                pa, pe = (np.nan if np.isnan(fm) else peak_levels(freq_hz, h, [fm], half_band_hz=hb)[0]
+                          for h, fm in ((h_analysis, fa), (h_experiment, fe)))
+        except MeasurementError:
+            pa = pe = np.nan
         out.append(ModeComparison(i + 1, fa, fe, za, ze, pa, pe, pa / pe if pe else np.nan, response))
     return out
 

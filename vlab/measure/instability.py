@@ -311,15 +311,15 @@ def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int
     late = slice(N_SEGMENTS // 2, None)
     coef, cov = np.polyfit(t[late], np.log(rms[late]), 1, cov=True)
     sigma, se = float(coef[0]), float(math.sqrt(max(cov[0, 0], 0.0)))
-    # the zero-phase filter's response to the record's end reaches back over its settling time: a periodic line
-    # looks changed there, so the period's change is measured before it
-    end = len(z) - filter_settling(sos)
     env = np.abs(signal.hilbert(z))
     i0, i1 = len(env) // 2, len(env) - len(env) // 10
     env = env[i0:i1] * np.exp(-sigma * np.arange(i0, i1) / fs)
     cv = float(np.std(env) / np.mean(env)) if env.size and np.mean(env) > 0 else math.inf
     change = None
     if period is not None and len(z) >= 3 * period:
+        # the zero-phase filter's response to the record's end reaches back over its settling time: a periodic
+        # line looks changed there, so the period's change is measured before it
+        end = len(z) - filter_settling(sos)
         start = max(end - period, period)
         if end - start >= period // 2:
             now, before = z[start:end], z[start - period:end - period]

@@ -187,19 +187,28 @@ def find_peaks(freq_hz, h, *, band_hz: tuple[float, float] | None = None, n_peak
     return [_peak_at(f, logm, int(i)) for i in idx]
 
 
+class _NoPeak(MeasurementError):
+    """A search window holds lines but no peak (the mode does not show as a peak at this point)."""
+
+
+def _level_at(f: np.ndarray, logm: np.ndarray, f0: float) -> float:
+    """``|H|`` at ``f0`` [Hz], ``ln|H|`` (``logm``, shape (n_freq,)) interpolated between its lines."""
+    return math.exp(float(np.interp(f0, f, logm)))
+
+
 def _nearest_max(f: np.ndarray, mag: np.ndarray, near_hz: float, half_band_hz: float, name: str) -> int:
     """The highest peak of ``|H|`` (``mag``, shape (n_freq,)) within ``half_band_hz`` of ``near_hz`` [Hz]: a line
     inside the FRF at least as high as both its neighbours. The highest line of the window is not enough: where
     the mode shows no peak at the point (a closed-loop mode beside an antiresonance), it is the window's edge on
     a neighbouring mode's flank, and its level depends on where the window ends. Raises
-    :class:`MeasurementError` when the window holds no line, or no peak."""
+    :class:`MeasurementError` when the window holds no line, :class:`_NoPeak` (one) when it holds no peak."""
     sel = np.flatnonzero((f >= near_hz - half_band_hz) & (f <= near_hz + half_band_hz))
     if sel.size == 0:
         raise MeasurementError(f"{name}: no line within {half_band_hz} Hz of {near_hz} Hz")
     inner = sel[(sel > 0) & (sel < f.size - 1)]
     peaks = inner[(mag[inner] >= mag[inner - 1]) & (mag[inner] >= mag[inner + 1])]
     if peaks.size == 0:
-        raise MeasurementError(f"{name}: no peak of |H| (a line above both neighbours) within {half_band_hz:.4g} Hz "
+        raise _NoPeak(f"{name}: no peak of |H| (a line above both neighbours) within {half_band_hz:.4g} Hz "
                                f"of {near_hz:.4g} Hz: the mode does not show as a peak at this point")
     return int(peaks[np.argmax(mag[peaks])])
 
@@ -325,12 +334,8 @@ def peak_levels(freq_hz, h, near_hz: Sequence[float], *, half_band_hz: float | S
     for k, (fk, hb) in enumerate(zip(near, hbs)):
         try:
             out[k] = _peak_at(f, logm, _nearest_max(f, mag, fk, hb, name)).magnitude
-        except MeasurementError as exc:
-            if not f[0] <= fk <= f[-1] or "no peak" not in str(exc):
-                raise
-            # no peak in the window (a heavily damped mode, or one beside an antiresonance at this point): the
-            # level at the natural frequency itself, ln|H| interpolated between its lines
-            out[k] = math.exp(float(np.interp(fk, f, logm)))
+        except _NoPeak:  # a heavily damped mode, or one beside an antiresonance: the level at the frequency itself
+            out[k] = _level_at(f, logm, fk)
     return out
 
 
@@ -373,12 +378,8 @@ def paired_peak_levels(freq_hz, h_analysis, h_experiment, near_analysis_hz: floa
     half = half_band_hz + 0.5 * abs(near_analysis_hz - near_experiment_hz)
     try:
         i_a, i_e = (_nearest_max(f, mag, centre, half, name) for mag in (mag_a, mag_e))
-    except MeasurementError as exc:
-        if "no peak" not in str(exc) or not (f[0] <= min(near_analysis_hz, near_experiment_hz)
-                                            and max(near_analysis_hz, near_experiment_hz) <= f[-1]):
-            raise
-        return (math.exp(float(np.interp(near_analysis_hz, f, log_a))),
-                math.exp(float(np.interp(near_experiment_hz, f, log_e))))
+    except _NoPeak:
+        return _level_at(f, log_a, near_analysis_hz), _level_at(f, log_e, near_experiment_hz)
     return _peak_at(f, log_a, i_a).magnitude, _peak_at(f, log_e, i_e).magnitude
 
 
