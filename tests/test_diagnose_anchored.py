@@ -96,6 +96,33 @@ def test_a_second_effect_that_is_there_is_kept():
     assert judged.keep
 
 
+def test_a_part_stranded_by_its_trials_is_refitted_from_its_value_in_the_pair(stiffened, monkeypatch):
+    """The likelihood-ratio test's null is the part's best fit alone. A fit from the part's own trials that
+    stops in a local minimum (here: its result replaced by the chi-square at a value 30 x the truth, as a
+    stranded local fit returns it) must not make the partner look needed: the part is fitted again from its
+    value in the pair, and with the partner effectively rigid the pair adds nothing."""
+    import vlab.diagnose.fit.anchored as anchored
+
+    _, _, pr = stiffened
+    real = anchored.fit_anchored
+
+    def stranded_from_trials(h, problem, *, starts=None, iterations=anchored.ANCHOR_ITERATIONS):
+        if starts is not None or h.label != SEGMENT.label:
+            return real(h, problem, starts=starts, iterations=iterations)
+        x = np.array([30.0 * EI_TRUE])
+        h.params_, h.chi2_ = x, problem.chi2(h.apply(problem.base, x, problem.ctx))
+        return h, problem
+
+    monkeypatch.setattr(anchored, "fit_anchored", stranded_from_trials)
+    seg, _ = real(copy.deepcopy(SEGMENT), pr)
+    pair = Combination(first=copy.deepcopy(SEGMENT), second=JointFlexibility(point=3))
+    pair = fit_hypothesis(pair, pr, starts=np.r_[seg.params_, 1e9][None, :])
+    judged = pair_on_anchor(pair, pr)
+    assert judged.part.label == SEGMENT.label
+    assert judged.part.params_[0] == pytest.approx(EI_TRUE, rel=0.02)  # the fit from the pair's value
+    assert not judged.keep
+
+
 def test_the_stiffened_segment_moves_the_modes_as_the_independent_simulator_does():
     """The effect itself is not the mismatch: vlab's segment stiffening and the reference simulator's
     (benchmarks.reference_sim, written without vlab's code) move every mode below 40 Hz alike, both at four

@@ -254,9 +254,14 @@ class Combination(Hypothesis):
     def label(self) -> str:
         return " + ".join(h.label for h in self.parts)
 
-    def _split(self, x):
+    def split(self, x=None) -> tuple[np.ndarray, np.ndarray]:
+        """The values [SI] of the first and the second part in the pair's parameter vector ``x`` (shape
+        ``(n_params,)``; default: the fitted ``params_``), of shapes ``(k1,)`` and ``(k2,)``.
+
+        Raises AttributeError when ``x`` is not given and the pair is not fitted."""
+        x = np.asarray(self.params_ if x is None else x, dtype=float)
         k = self.parts[0].n_params
-        return np.asarray(x[:k]), np.asarray(x[k:])
+        return x[:k], x[k:]
 
     def _space(self, state, ctx):
         t1, l1, u1 = self.parts[0].space(state, ctx)
@@ -265,7 +270,7 @@ class Combination(Hypothesis):
         return trials, np.concatenate([l1, l2]), np.concatenate([u1, u2])
 
     def _apply(self, state, x, ctx):
-        a, b = self._split(x)
+        a, b = self.split(x)
         (h1, x1), (h2, x2) = sorted(((self.parts[0], a), (self.parts[1], b)), key=lambda t: t[0].stage)
         return h2.apply(h1.apply(state, x1, ctx), x2, ctx)
 

@@ -23,7 +23,13 @@ carried: it changes little when a mode's sensitivities are only moved along the 
 
 A pair is judged the same way (:func:`pair_on_anchor`): its second effect must be needed with the
 covariance anchored at its better part alone -- the null hypothesis of that likelihood-ratio test is the
-part alone, and the test's covariance is the null's.
+part alone, and the test's covariance is the null's. The null is the part's *best* fit alone: each part is
+fitted from its own trials and from its value in the pair. Trials spread about the nominal value can leave a
+local fit far from a value the data put near the other end of the parameter's range (a segment many times
+softer than nominal); the pair, started elsewhere, finds that value, and with its other part near that
+part's null value (a joint effectively rigid) beats the stranded fit by a margin the test would credit to
+the other part -- a passenger. Started from the restriction of the pair's own fit, the part alone is at
+least as good as the pair with its partner removed, to the fit's tolerance.
 """
 
 from __future__ import annotations
@@ -111,6 +117,15 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
     return h, cur
 
 
+def _alone_anchored(part: Hypothesis, x_in_pair: np.ndarray, problem: Problem) -> tuple[Hypothesis, Problem]:
+    """``part`` (a copy) fitted alone with its own anchor (:func:`fit_anchored`) from its own trials and from its
+    value ``x_in_pair`` [SI] in the pair, the better of the two (lower chi-square on its own footing; module
+    notes: the likelihood-ratio test's null is the part's best fit alone)."""
+    fits = [fit_anchored(copy.deepcopy(part), problem),
+            fit_anchored(copy.deepcopy(part), problem, starts=np.asarray(x_in_pair, dtype=float)[None, :])]
+    return min(fits, key=lambda t: t[0].chi2_)
+
+
 @dataclass(frozen=True)
 class PairOnAnchor:
     """A pair judged with the model form anchored at its better part alone (:func:`pair_on_anchor`).
@@ -146,7 +161,8 @@ class PairOnAnchor:
 def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
     """Judge ``pair`` with the model form anchored at its better part alone (module notes).
 
-    Each part is fitted alone with its own anchor (:func:`fit_anchored`); the better one (lower chi-square
+    Each part is fitted alone with its own anchor (:func:`fit_anchored`), from its trials and from its value in
+    the pair; the better one (lower chi-square
     on its own footing) is the null hypothesis; the pair is fitted on that footing from its own parameters,
     and kept when the part alone is not within the model's accuracy there
     (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: its modes moved within their model form,
@@ -170,7 +186,7 @@ def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
     ModelError, SpecError
         As the fits.
     """
-    fits = [fit_anchored(copy.deepcopy(p), problem) for p in pair.parts]
+    fits = [_alone_anchored(p, x, problem) for p, x in zip(pair.parts, pair.split())]
     part, footing = min(fits, key=lambda t: t[0].chi2_)
     both = fit_hypothesis(copy.deepcopy(pair), footing, starts=np.asarray(pair.params_, dtype=float)[None, :])
     n = footing.n_obs

@@ -89,8 +89,10 @@ def passing_single(chosen: Hypothesis | None, ranked: list[Hypothesis], problem:
 
 
 def parts_fitted(problem: Problem, pair: Combination, ranked: list[Hypothesis]) -> list[Hypothesis]:
-    """The parts of ``pair``, each fitted alone: the ranked single fit of the same label, else a new fit of a
-    copy on ``problem``; a part that cannot be fitted is left out.
+    """The parts of ``pair``, each fitted alone: the better of the ranked single fit of the same label (else a
+    new fit of a copy on ``problem`` from its trials) and a fit started from the part's value in the pair (the
+    likelihood-ratio test's null is the part's best fit alone; :mod:`vlab.diagnose.fit.anchored`'s notes say
+    why its trials alone do not suffice); a part that cannot be fitted is left out.
 
     Parameters
     ----------
@@ -106,14 +108,15 @@ def parts_fitted(problem: Problem, pair: Combination, ranked: list[Hypothesis]) 
     """
     singles = {h.label: h for h in ranked if not isinstance(h, Combination)}
     out = []
-    for part in pair.parts:
-        h = singles.get(part.label)
-        if h is None:
+    for part, x in zip(pair.parts, pair.split()):
+        fits = [singles[part.label]] if part.label in singles else []
+        for starts in ([] if fits else [None]) + [x[None, :]]:
             try:
-                h = fit_hypothesis(copy.copy(part), problem)
+                fits.append(fit_hypothesis(copy.copy(part), problem, starts=starts))
             except (VlabError, ValueError, np.linalg.LinAlgError):
                 continue
-        out.append(h)
+        if fits:
+            out.append(min(fits, key=lambda h: h.chi2_))
     return out
 
 
