@@ -23,7 +23,8 @@ measure, yet periodic), an oscillation the loop makes itself does not -- and
 below ``MAX_ENVELOPE_CV``) or grows significantly. A lightly damped mode
 driven by sensor noise through the feedback is a narrowband Gaussian process
 whose envelope is Rayleigh distributed, with coefficient of variation
-``sqrt(4/pi - 1) = 0.52`` (Bendat & Piersol, Sec. 3.4.3); a sine has 0 -- and
+``sqrt(4/pi - 1) = 0.52`` over a long record (Bendat & Piersol, Sec. 3.4.3); a sine has 0 (the gate's false-alarm
+rate is not bounded over short windows: :data:`MAX_ENVELOPE_CV`) -- and
 (c) not decaying: an unstable loop's oscillation grows until a nonlinearity
 holds it (a limit cycle) and never dies out by itself, while the free
 response of a stable, lightly damped closed-loop mode (the loop's start-up
@@ -77,7 +78,11 @@ ENVELOPE_CV_RAYLEIGH = math.sqrt(4 / math.pi - 1)
 #: A line smaller than this share of its channel's RMS (second half) is not counted [-] (-60 dB: below the
 #: dynamic range of a 12-bit converter, 72 dB, less a usual headroom; the numerical floor of a noise-free run).
 MIN_LINE_SHARE = 1e-3
-#: A self-excited line's envelope varies less than this (std/mean) [-]: two thirds of the Rayleigh value.
+#: A self-excited line's envelope varies less than this (std/mean) [-]: two thirds of the Rayleigh value. A chosen
+#: number without a stated false-alarm rate: over a window holding few of a noise-driven mode's correlation times
+#: (``pi zeta f0 T_w``) the Rayleigh envelope's estimated coefficient falls below it often (measured by
+#: ``benchmarks/envelope_null.py``: in 2-85 % of records for ``pi zeta f0 T_w`` from 7.5 down to 0.2), so
+#: without a periodic force (no period-change gate) a stable, lightly damped mode can pass for a limit cycle.
 MAX_ENVELOPE_CV = 2 / 3 * ENVELOPE_CV_RAYLEIGH
 #: With a periodic force, a self-excited line changes at least this much (norm ratio) from one period to the next.
 #: A chosen margin, not derived from a stated error rate: a steady oscillation at ``f0`` changes by
