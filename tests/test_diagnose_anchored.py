@@ -98,7 +98,7 @@ def test_a_second_effect_that_is_there_is_kept():
 
 def test_a_part_stranded_by_its_trials_is_refitted_from_its_value_in_the_pair(stiffened, monkeypatch):
     """The likelihood-ratio test's null is the part's best fit alone. A fit from the part's own trials that
-    stops in a local minimum (here: its result replaced by the chi-square at a value 30 x the truth, as a
+    stops in a local minimum (here: its result replaced by the chi-square at a value 10 x the truth, as a
     stranded local fit returns it) must not make the partner look needed: the part is fitted again from its
     value in the pair, and with the partner effectively rigid the pair adds nothing."""
     import vlab.diagnose.fit.anchored as anchored
@@ -109,7 +109,7 @@ def test_a_part_stranded_by_its_trials_is_refitted_from_its_value_in_the_pair(st
     def stranded_from_trials(h, problem, *, starts=None, iterations=anchored.ANCHOR_ITERATIONS):
         if starts is not None or h.label != SEGMENT.label:
             return real(h, problem, starts=starts, iterations=iterations)
-        x = np.array([30.0 * EI_TRUE])
+        x = np.array([10.0 * EI_TRUE])
         h.params_, h.chi2_ = x, problem.chi2(h.apply(problem.base, x, problem.ctx))
         return h, problem
 

@@ -110,3 +110,22 @@ def test_where_no_single_effect_passes_the_pair_that_does_and_needs_both_parts_i
     assert passing_choice(damping, [damping, mass, pair], problem, 0, chi2_0) is None  # none examined
     # a single choice that removes more than half of the chi-square stays (its remainder is reported)
     assert passing_choice(damping, [damping, mass, pair], problem, 5, 2.5 * damping.chi2_) is None
+
+
+def test_a_ranked_part_stranded_by_its_trials_does_not_make_the_other_part_needed():
+    """The likelihood-ratio test's null is each part's best fit alone: where the ranked fit of the damping change
+    stopped in a local minimum (here: its result replaced by the chi-square at a quarter of the true value, as
+    a stranded local fit returns it), the part is fitted again from its value in the pair, and the added mass
+    beside it, with nothing to explain, is not needed."""
+    import copy
+
+    problem = _problem(0.3)
+    damping, mass = _parts(problem)
+    stranded = copy.copy(damping)
+    stranded.params_ = np.array([0.002])
+    stranded.chi2_ = problem.chi2(stranded.apply(problem.base, stranded.params_, problem.ctx))
+    assert stranded.chi2_ > 2 * damping.chi2_
+    pair = fit_hypothesis(Combination(first=ModalDamping(mode=MODE), second=AddedMass(point=6)), problem,
+                          starts=np.array([[0.008, 1e-4]]))
+    assert not both_parts_needed(pair, [stranded, mass, pair], problem)
+    assert not both_parts_needed(pair, [damping, mass, pair], problem)

@@ -59,6 +59,7 @@ from .fit.locate import locate
 from .fit.anchored import pair_on_anchor
 from .fit.estimate import fit_hypothesis
 from .fit.onstructure import converged_lab, fit_on_structure
+from .fit.passing import parts_fitted
 from .fit.plantfit import PlantModel
 from .fit.rules import NONLINEAR, beyond_noise, changed_beyond_noise
 from .fit.selection import CONTROLLER_PATH, located_from_fits, rerun_key
@@ -301,7 +302,8 @@ def _pair_on_structure(res: DiagnosisResult, problem: Problem, on_fe: Problem, o
     timing["pair_on_structure"] = time.perf_counter() - t
     if judged.keep:
         return
-    part = next((h for h in res.ranked if h.label == judged.part.label and not isinstance(h, Combination)), None)
+    # the part's best fit alone on ``problem`` (from its trials and from its value in the pair, as judged)
+    part = next((h for h in parts_fitted(problem, pair, res.ranked) if h.label == judged.part.label), None)
     if part is None:
         part = fit_hypothesis(copy.deepcopy(judged.part), problem)
     _reselect(res, problem, part, notes, refit_on_plant=on_plant)

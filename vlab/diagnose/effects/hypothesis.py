@@ -254,14 +254,28 @@ class Combination(Hypothesis):
     def label(self) -> str:
         return " + ".join(h.label for h in self.parts)
 
-    def split(self, x=None) -> tuple[np.ndarray, np.ndarray]:
-        """The values [SI] of the first and the second part in the pair's parameter vector ``x`` (shape
-        ``(n_params,)``; default: the fitted ``params_``), of shapes ``(k1,)`` and ``(k2,)``.
+    def split(self, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The values of the first and the second part in a parameter vector of the pair.
 
-        Raises AttributeError when ``x`` is not given and the pair is not fitted."""
+        Parameters
+        ----------
+        x : ndarray, shape (n_params,), optional
+            Parameters [SI], the first part's then the second's (default: the fitted ``params_``).
+
+        Returns
+        -------
+        first : ndarray, shape (k1,)
+        second : ndarray, shape (k2,)
+            Copies [SI].
+
+        Raises
+        ------
+        AttributeError
+            ``x`` not given and the pair not fitted.
+        """
         x = np.asarray(self.params_ if x is None else x, dtype=float)
         k = self.parts[0].n_params
-        return x[:k], x[k:]
+        return x[:k].copy(), x[k:].copy()
 
     def _space(self, state, ctx):
         t1, l1, u1 = self.parts[0].space(state, ctx)

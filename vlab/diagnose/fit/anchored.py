@@ -28,8 +28,8 @@ fitted from its own trials and from its value in the pair. Trials spread about t
 local fit far from a value the data put near the other end of the parameter's range (a segment many times
 softer than nominal); the pair, started elsewhere, finds that value, and with its other part near that
 part's null value (a joint effectively rigid) beats the stranded fit by a margin the test would credit to
-the other part -- a passenger. Started from the restriction of the pair's own fit, the part alone is at
-least as good as the pair with its partner removed, to the fit's tolerance.
+the other part -- a passenger. Started from the restriction of the pair's own fit, the part alone is, on the
+footing it starts on, at least as good as the pair with its partner removed, to the fit's tolerance.
 """
 
 from __future__ import annotations
@@ -162,9 +162,8 @@ def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
     """Judge ``pair`` with the model form anchored at its better part alone (module notes).
 
     Each part is fitted alone with its own anchor (:func:`fit_anchored`), from its trials and from its value in
-    the pair; the better one (lower chi-square
-    on its own footing) is the null hypothesis; the pair is fitted on that footing from its own parameters,
-    and kept when the part alone is not within the model's accuracy there
+    the pair; the better one (lower chi-square on its own footing) is the null hypothesis; the pair is fitted
+    on that footing from its own parameters, and kept when the part alone is not within the model's accuracy there
     (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: its modes moved within their model form,
     the mismatch tests pass -- then a second effect has nothing to explain), and the pair passes the pair
     rule (a pair with a nonlinear part, or one that brings the data within the noise, is exempt from

@@ -49,7 +49,7 @@ def _passes(h: Hypothesis, problem: Problem) -> bool:
 
 def _first_passing_single(chosen: Hypothesis, ranked: list[Hypothesis], problem: Problem,
                           most: int) -> Hypothesis | None:
-    """The first of the ranked single effects (not ``chosen``) that passes, examined in the order of the moves
+    """The first of the ranked single effects (not of ``chosen``'s label) that passes, examined in the order of the moves
     they leave to first order where the nominal lab was profiled (:func:`moves_left`), else in their rank."""
     def left(h: Hypothesis) -> float:
         try:
@@ -57,7 +57,7 @@ def _first_passing_single(chosen: Hypothesis, ranked: list[Hypothesis], problem:
         except (VlabError, ValueError, np.linalg.LinAlgError):
             return math.inf
 
-    singles = [h for h in ranked if not isinstance(h, Combination) and h is not chosen]
+    singles = [h for h in ranked if not isinstance(h, Combination) and h.label != chosen.label]
     if profiled(problem, problem.base):
         order = {id(h): left(h) for h in singles}
         singles = sorted(singles, key=lambda h: order[id(h)])
@@ -98,6 +98,7 @@ def parts_fitted(problem: Problem, pair: Combination, ranked: list[Hypothesis]) 
     ----------
     problem : Problem
     pair : Combination
+        Fitted (``params_`` set).
     ranked : list of Hypothesis
         Fitted hypotheses (their single fits are reused).
 
@@ -105,6 +106,11 @@ def parts_fitted(problem: Problem, pair: Combination, ranked: list[Hypothesis]) 
     -------
     list of Hypothesis
         Fitted, in the pair's order; shorter than ``pair.parts`` where a part could not be fitted.
+
+    Raises
+    ------
+    AttributeError
+        ``pair`` not fitted.
     """
     singles = {h.label: h for h in ranked if not isinstance(h, Combination)}
     out = []
@@ -128,7 +134,7 @@ def both_parts_needed(pair: Combination, ranked: list[Hypothesis], problem: Prob
     Parameters
     ----------
     pair : Combination
-        Fitted (``chi2_``).
+        Fitted (``params_``, ``chi2_``).
     ranked : list of Hypothesis
         Fitted hypotheses (their single fits are reused).
     problem : Problem
