@@ -206,7 +206,8 @@ def recorded_growth_rate(instability: dict, duration_s: float) -> float:
 
 
 def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int, loops):
-    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one.
+    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one: a
+    rerun is the model's noise-free expected response (``noise_free``).
 
     Parameters
     ----------
@@ -232,7 +233,7 @@ def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int
         return None
     signals = {f"force{excitation_point}": force[ran]}
     signals.update({f"vel{p}": np.asarray(x)[ran] for p, x in v.v_after.items()})
-    return find_instability(Recording.from_signals(recording.dt_s, signals), feedback_points=loops)
+    return find_instability(Recording.from_signals(recording.dt_s, signals), feedback_points=loops, noise_free=True)
 
 
 def plant_own_oscillation(v: Validation, recording: Recording, excitation_point: int, loops,

@@ -92,8 +92,10 @@ MAX_ENVELOPE_CV = 2 / 3 * ENVELOPE_CV_RAYLEIGH
 MIN_PERIOD_CHANGE = 0.3
 #: Segments of the record over which the growth of a line is fitted.
 N_SEGMENTS = 8
-#: A line still grows when its amplitude rises by at least this factor over the record's second half (slope > 3 se);
-#: it decays (a stable mode's transient) when it falls by as much (slope < -3 se).
+#: In a measured record, a line still grows when its amplitude rises by at least this factor over the record's second
+#: half (slope > 3 se); it decays (a stable mode's transient) when it falls by as much (slope < -3 se). A chosen margin
+#: against a noise-driven line's wandering envelope (over few correlation times its slope looks significant; see
+#: MAX_ENVELOPE_CV), without a stated error rate; a noise-free simulation needs none (``find_instability(noise_free=)``).
 GROWTH_FACTOR = 2.0
 
 
@@ -122,7 +124,8 @@ class Oscillation:
         Its standard error [1/s].
     growing : bool
         Still growing at the end: ``sigma`` more than 3 standard errors above
-        0 and a rise of at least :data:`GROWTH_FACTOR` over the second half.
+        0 and, in a measured record, a rise of at least :data:`GROWTH_FACTOR`
+        over the second half.
     rise : float
         Largest segment RMS over the first segment's [-]: how much the line
         grew since the record began.
@@ -348,8 +351,9 @@ def _incoherent_spectrum(x: np.ndarray | None, y: np.ndarray, gxx: np.ndarray | 
 
 
 def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarray | None, gxx: np.ndarray | None,
-                          kw: dict, period: int | None) -> list[Oscillation]:
-    """The self-excited lines of one velocity channel (the rule of the module notes)."""
+                          kw: dict, period: int | None, noise_free: bool = False) -> list[Oscillation]:
+    """The self-excited lines of one velocity channel (the rule of the module notes; ``noise_free`` as
+    :func:`find_instability`'s)."""
     fs, df = kw["fs"], kw["fs"] / kw["nperseg"]
     f, gnn, coh = _incoherent_spectrum(None if x is None else x[skip:], y_full[skip:], gxx, kw)
     band = (f > 2 * df) & (f < 0.45 * fs)
@@ -374,11 +378,13 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
         sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
         if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
             continue  # below what the lab's converters resolve next to the response
-        growing = sigma > 3 * se and math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR
-        if sigma < -3 * se and math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR:
+        # in a measured record a noise-driven line's envelope wanders: only a change by GROWTH_FACTOR counts; in
+        # a noise-free simulation nothing makes it wander, and any significant change is the line's own
+        growing = sigma > 3 * se and (noise_free or math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR)
+        if sigma < -3 * se and (noise_free or math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR):
             continue  # it dies out: the free response of a stable mode
-        if change is not None and change < MIN_PERIOD_CHANGE:
-            continue  # it repeats with the force: a forced (possibly nonlinear) response
+        if change is not None and change < MIN_PERIOD_CHANGE and not growing:
+            continue  # it repeats with the force: a forced (possibly nonlinear) response (a growing line does not)
         if not (cv < MAX_ENVELOPE_CV or growing):
             continue  # a Rayleigh envelope: a mode driven by noise, stable
         found.append(Oscillation(name, point, f0, amp, float(gnn[i] / floor), float(coh[i]),
@@ -387,7 +393,7 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
 
 
 def find_instability(recording: Recording, *, force_channel: str | None = None,
-                     feedback_points=(), skip_s: float = 0.0) -> InstabilityCheck:
+                     feedback_points=(), skip_s: float = 0.0, noise_free: bool = False) -> InstabilityCheck:
     """Look for self-excited oscillations (and their growth) in every velocity channel of a recording.
 
     Parameters
@@ -404,6 +410,14 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
     skip_s : float
         Seconds at the start left out of the spectra (a start-up transient),
         not of the growth fit.
+    noise_free : bool
+        The record is a noise-free simulation (a model's expected response to
+        the recorded force): no noise makes a line's envelope wander, so a line
+        whose amplitude changes significantly over the record's second half
+        (slope beyond three standard errors) grows or dies out by itself,
+        whatever the factor (:data:`GROWTH_FACTOR` guards a measured record's
+        noise-driven lines only), and a growing line is not periodic with the
+        force whatever its change from one period to the next.
 
     Returns
     -------
@@ -452,7 +466,7 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
         y_full = np.asarray(recording[name], dtype=float)
         if not np.all(np.isfinite(y_full)):
             raise MeasurementError(f"channel {name}: non-finite samples")
-        found += _channel_oscillations(name, y_full, skip, x, gxx, kw, period)
+        found += _channel_oscillations(name, y_full, skip, x, gxx, kw, period, noise_free)
     found.sort(key=lambda o: -o.line_to_floor)
     loop_point = None
     if found:
