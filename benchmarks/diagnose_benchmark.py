@@ -1215,7 +1215,7 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
           f"them apart: dBIC < 10 or predictions within the one-parameter chi-square limit): {100 * summary['right_or_lookalike_share']:.0f} %")
     if perr:
         print(f"parameter error: median {100 * summary['param_error_median']:.2f} %, max "
-              f"{100 * summary['param_error_max']:.1f} %, within 15 %: {100 * summary['param_within_15pct_share']:.0f} %")
+              f"{100 * summary['param_error_max']:.2f} %, within 15 %: {100 * summary['param_within_15pct_share']:.0f} %")
     if rerr:
         print("parameter error of the values the MuJoCo rerun used (the mode-moving ones refitted on the plant's "
               "linearisation, the others at their FE fit; "

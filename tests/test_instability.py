@@ -223,3 +223,23 @@ def test_a_decaying_mode_is_a_transient_not_an_oscillation():
     held = 0.02 * np.exp(-0.0002 * w * np.minimum(t, 5.0)) * np.sin(w * t)
     check = find_instability(_recording(x, {"vel8": y + held}), feedback_points=(8,))
     assert check.unstable and abs(check.frequency_hz - 37.03) < 0.05
+
+
+@pytest.mark.parametrize("rate_1_s", [0.025, -0.025])
+def test_a_noise_free_rerun_judges_a_slow_change_by_its_significance(rate_1_s):
+    """A line on a harmonic of the excitation (41.0 Hz, above the force's band: incoherent with it) that grows or
+    decays at 0.025 1/s changes by e^(0.025 T) - 1 = 0.28 from one 10 s period to the next and by 1.45 over the
+    record's second half: in a measured record the detector cannot tell it from a forced line or a noise-driven
+    envelope (below its period and growth gates). A noise-free rerun has no noise to make an envelope wander:
+    there the significant growth is the loop's own, an oscillation; the significant decay a stable transient."""
+    rng, x, y = _base(9)
+    t = np.arange(N) / FS
+    line = 2e-3 * np.exp(rate_1_s * t) * np.sin(2 * np.pi * 410.0 / (PERIOD / FS) * t + 0.2)
+    rec = _recording(x, {"vel6": y + line})
+    assert not find_instability(rec, feedback_points=(6,)).unstable
+    check = find_instability(rec, feedback_points=(6,), noise_free=True)
+    assert check.unstable is (rate_1_s > 0), check.summary()
+    if rate_1_s > 0:
+        o = check.oscillations[0]
+        assert o.growing and o.growth_rate_1_s == pytest.approx(rate_1_s, rel=0.3)  # the filter's end lowers it
+        assert abs(o.frequency_hz - 41.0) < 0.05
