@@ -19,7 +19,11 @@ The fit is then iterated: fit, re-anchor the covariance at the fitted lab, fit a
 value moves by less than a tenth of its own 95 % interval (iterated generalised least squares, the
 covariance re-evaluated at each estimate: Carroll & Ruppert, *Transformation and Weighting in Regression*,
 1988, Sec. 2.2; the covariance's dependence on the parameter is not differentiated, nor its determinant
-carried: it changes little when a mode's sensitivities are only moved along the frequency axis).
+carried: it changes little when a mode's sensitivities are only moved along the frequency axis). The
+iteration need not converge -- each fit's chi-square is on its own anchor, and the iterates can cycle or
+run away -- so the fit returned is the iterate whose lab the mismatch test's own statistic prefers: the
+least ``|r|^2 + |x|^2`` with its modes moved within their model form
+(:func:`vlab.diagnose.problem.nuisance.profile_state`), one footing for all of them.
 
 A pair is judged the same way (:func:`pair_on_anchor`): its second effect must be needed with the
 covariance anchored at its better part alone -- the null hypothesis of that likelihood-ratio test is the
@@ -35,15 +39,17 @@ footing it starts on, at least as good as the pair with its partner removed, to 
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import VlabError
 from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..model.labmodel import LabState
 from ..model.modelform import model_form_at
-from ..problem.nuisance import within_model_accuracy
+from ..problem.nuisance import profile_state, profiled, within_model_accuracy
 from ..problem.residuals import Problem
 from .estimate import fit_hypothesis
 from .rules import NONLINEAR, evidence, passes_pair_rule
@@ -94,8 +100,10 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
     Returns
     -------
     h : Hypothesis
+        The iterate the mismatch test's statistic prefers (module notes): ``h`` itself or a fitted copy.
     anchored : Problem
-        ``problem`` anchored at ``h``'s last fitted lab, the footing of ``h.chi2_``.
+        The footing of that iterate's ``chi2_``: ``problem`` anchored at the previous iterate's lab (``problem``
+        itself for the first fit).
 
     Raises
     ------
@@ -106,15 +114,33 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
     if problem.model_form_frf is None or not isinstance(problem.data, FrfData) or h.n_params == 0:
         return h, problem
     cur = problem
+    iterates = [(_profiled_statistic(problem, h), copy.deepcopy(h), cur)]
     for _ in range(max(int(iterations), 0)):
         x = np.asarray(h.params_, dtype=float)
         cur = anchored_problem(problem, problem.state_for(h, x))
         h = fit_hypothesis(h, cur, starts=x[None, :])
+        iterates.append((_profiled_statistic(problem, h), copy.deepcopy(h), cur))
         width = np.abs(np.diff(np.asarray(h.ci95_, dtype=float), axis=1))[:, 0]
         moved = np.abs(np.asarray(h.params_, dtype=float) - x)
         if np.all(np.isfinite(width)) and np.all(moved <= ANCHOR_TOLERANCE * width):
             break
-    return h, cur
+    _, best, footing = min(iterates, key=lambda t: t[0])
+    return best, footing
+
+
+def _profiled_statistic(problem: Problem, h: Hypothesis) -> float:
+    """The mismatch test's statistic of ``h``'s fitted lab on ``problem``: ``|r|^2 + |x|^2`` with its modes moved
+    within their model form (:func:`vlab.diagnose.problem.nuisance.profile_state`) -- one footing for every
+    iterate of :func:`fit_anchored`, whose own chi-squares are each on their own anchor; inf where the lab
+    cannot be built or profiled."""
+    try:
+        st = problem.fitted_state(h)
+        if not profiled(problem, st):
+            return float(problem.chi2(st, test=True))
+        r, x, _ = profile_state(problem, st)
+    except (VlabError, ValueError, np.linalg.LinAlgError):
+        return math.inf
+    return float(r @ r + x @ x)
 
 
 def _alone_anchored(part: Hypothesis, x_in_pair: np.ndarray, problem: Problem) -> tuple[Hypothesis, Problem]:
