@@ -205,9 +205,9 @@ def recorded_growth_rate(instability: dict, duration_s: float) -> float:
     return max(bound, 0.0)
 
 
-def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int, loops):
-    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one: a
-    rerun is the model's noise-free expected response (``noise_free``).
+def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int, loops, *,
+                      unstable_loop: bool = False):
+    """:func:`find_instability` of a validation's modified rerun (its analysed window), or None without one.
 
     Parameters
     ----------
@@ -219,6 +219,9 @@ def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int
         Point of the recorded force ``force<ID>``.
     loops : tuple of int
         Feedback points.
+    unstable_loop : bool
+        The rerun lab's linear loop has an unstable pole (the generalised Nyquist count): any significant
+        growth of a line in the noise-free rerun is that pole's (:func:`find_instability`'s ``unstable_loop``).
 
     Returns
     -------
@@ -233,7 +236,8 @@ def rerun_oscillation(v: Validation, recording: Recording, excitation_point: int
         return None
     signals = {f"force{excitation_point}": force[ran]}
     signals.update({f"vel{p}": np.asarray(x)[ran] for p, x in v.v_after.items()})
-    return find_instability(Recording.from_signals(recording.dt_s, signals), feedback_points=loops, noise_free=True)
+    return find_instability(Recording.from_signals(recording.dt_s, signals), feedback_points=loops,
+                            unstable_loop=unstable_loop)
 
 
 def plant_own_oscillation(v: Validation, recording: Recording, excitation_point: int, loops,
@@ -431,7 +435,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
                 out.stable.append(h.label)
                 continue
         tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural,
-                                    same_mode=out.above_band, plant=plant, seed=seed)
+                                    same_mode=out.above_band, plant=plant, seed=seed, unstable_loop=bool(z))
         out.tried.append(dict(tried, unstable_poles=z))
         if tried["reproduced"]:
             out.chosen, out.validation = h, v
@@ -440,9 +444,11 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
 
 
 def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: float, loops, *, natural,
-                     same_mode: bool, plant: str, seed: int) -> tuple[dict, Validation | None]:
+                     same_mode: bool, plant: str, seed: int,
+                     unstable_loop: bool = False) -> tuple[dict, Validation | None]:
     """Rerun the whole record with ``h`` and check its self-excited lines against the recording's: the entry of
-    :attr:`CauseSearch.tried` (without ``unstable_poles``) and the rerun (None when it failed)."""
+    :attr:`CauseSearch.tried` (without ``unstable_poles``) and the rerun (None when it failed); ``unstable_loop``:
+    ``h``'s linear loop has an unstable pole (:func:`rerun_oscillation`)."""
     data = problem.data
     entry = {"effect": h.effect, "label": h.label, "rerun_frequencies_hz": [], "reproduced": False}
     try:
@@ -450,7 +456,7 @@ def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: fl
                      spec_level=h.spec_level, seed=seed, key=rerun_key(h), whole_record=True)
     except (VlabError, ImportError) as exc:
         return dict(entry, error=str(exc)), None
-    check = rerun_oscillation(v, data.recording, data.excitation_point, loops)
+    check = rerun_oscillation(v, data.recording, data.excitation_point, loops, unstable_loop=unstable_loop)
     entry["reproduced"] = reproduces_oscillation(frequency_hz, check, natural_hz=natural, same_mode=same_mode,
                                                  tolerance=problem.policy.oscillation_tolerance)
     if check is not None and check.unstable:

@@ -86,7 +86,7 @@ def _instability(check, replayed, loops) -> dict | None:
     out["in_replay"] = None
     text = check.summary()
     if check.unstable and replayed is not None:
-        again = find_instability(replayed, feedback_points=loops, noise_free=True)  # a replay is noise-free
+        again = find_instability(replayed, feedback_points=loops)
         f0 = check.frequency_hz
         out["in_replay"] = bool(again.unstable and any(abs(o.frequency_hz - f0) <= max(0.02 * f0, 2 * again.resolution_hz)
                                                       for o in again.oscillations))

@@ -32,6 +32,10 @@ transient) does; a line whose amplitude falls by ``GROWTH_FACTOR`` or more
 over the record's second half, its slope beyond three standard errors, is
 such a transient (a grid LQG loop's 14 Hz mode decaying at 0.045-0.049 1/s,
 ``zeta`` = 0.0005, still 38 dB over the floor a minute after the start).
+A line that rises by ``GROWTH_FACTOR`` over the second half is growing (a stable mode building up from
+rest rises by less); in the rerun of a loop whose linearisation has an unstable pole
+(``unstable_loop``), any significant rise is that pole's growth, and a growing line is not periodic
+with the force.
 
 ``LINE_TO_FLOOR`` (1e3, 30 dB): a Welch estimate of a noise spectrum with
 ``nu = 2 n_avg`` degrees of freedom exceeds its mean by a factor ``x`` with
@@ -92,10 +96,12 @@ MAX_ENVELOPE_CV = 2 / 3 * ENVELOPE_CV_RAYLEIGH
 MIN_PERIOD_CHANGE = 0.3
 #: Segments of the record over which the growth of a line is fitted.
 N_SEGMENTS = 8
-#: In a measured record, a line still grows when its amplitude rises by at least this factor over the record's second
-#: half (slope > 3 se); it decays (a stable mode's transient) when it falls by as much (slope < -3 se). A chosen margin
-#: against a noise-driven line's wandering envelope (over few correlation times its slope looks significant; see
-#: MAX_ENVELOPE_CV), without a stated error rate; a noise-free simulation needs none (``find_instability(noise_free=)``).
+#: A line still grows when its amplitude rises by at least this factor over the record's second half (slope > 3 se);
+#: it decays (a stable mode's transient) when it falls by as much (slope < -3 se). A stable, lightly damped mode that
+#: builds up from rest, as a record or a rerun started at rest does, grows as ``1 - exp(-a t)``: from the record's
+#: middle to its end by ``1 + exp(-a T / 2) < 2``, so a rise of 2 over the second half is no such build-up; it also
+#: guards a measured record's noise-driven lines, whose envelopes wander (see MAX_ENVELOPE_CV). A loop known to have
+#: an unstable pole needs no factor (``find_instability(unstable_loop=)``).
 GROWTH_FACTOR = 2.0
 
 
@@ -351,8 +357,8 @@ def _incoherent_spectrum(x: np.ndarray | None, y: np.ndarray, gxx: np.ndarray | 
 
 
 def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarray | None, gxx: np.ndarray | None,
-                          kw: dict, period: int | None, noise_free: bool = False) -> list[Oscillation]:
-    """The self-excited lines of one velocity channel (the rule of the module notes; ``noise_free`` as
+                          kw: dict, period: int | None, unstable_loop: bool = False) -> list[Oscillation]:
+    """The self-excited lines of one velocity channel (the rule of the module notes; ``unstable_loop`` as
     :func:`find_instability`'s)."""
     fs, df = kw["fs"], kw["fs"] / kw["nperseg"]
     f, gnn, coh = _incoherent_spectrum(None if x is None else x[skip:], y_full[skip:], gxx, kw)
@@ -378,10 +384,10 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
         sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
         if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
             continue  # below what the lab's converters resolve next to the response
-        # in a measured record a noise-driven line's envelope wanders: only a change by GROWTH_FACTOR counts; in
-        # a noise-free simulation nothing makes it wander, and any significant change is the line's own
-        growing = sigma > 3 * se and (noise_free or math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR)
-        if sigma < -3 * se and (noise_free or math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR):
+        # a loop with an unstable pole (a noise-free rerun of it) grows by itself at any rate; otherwise a rise of
+        # GROWTH_FACTOR tells growth from a stable mode's build-up or a noise-driven envelope's wandering
+        growing = sigma > 3 * se and (unstable_loop or math.exp(sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR)
+        if sigma < -3 * se and math.exp(-sigma * len(y_full) / (2 * fs)) >= GROWTH_FACTOR:
             continue  # it dies out: the free response of a stable mode
         if change is not None and change < MIN_PERIOD_CHANGE and not growing:
             continue  # it repeats with the force: a forced (possibly nonlinear) response (a growing line does not)
@@ -393,7 +399,7 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
 
 
 def find_instability(recording: Recording, *, force_channel: str | None = None,
-                     feedback_points=(), skip_s: float = 0.0, noise_free: bool = False) -> InstabilityCheck:
+                     feedback_points=(), skip_s: float = 0.0, unstable_loop: bool = False) -> InstabilityCheck:
     """Look for self-excited oscillations (and their growth) in every velocity channel of a recording.
 
     Parameters
@@ -410,14 +416,13 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
     skip_s : float
         Seconds at the start left out of the spectra (a start-up transient),
         not of the growth fit.
-    noise_free : bool
-        The record is a noise-free simulation (a model's expected response to
-        the recorded force): no noise makes a line's envelope wander, so a line
-        whose amplitude changes significantly over the record's second half
-        (slope beyond three standard errors) grows or dies out by itself,
-        whatever the factor (:data:`GROWTH_FACTOR` guards a measured record's
-        noise-driven lines only), and a growing line is not periodic with the
-        force whatever its change from one period to the next.
+    unstable_loop : bool
+        The record is a noise-free simulation of a loop whose linearisation
+        has an unstable pole (a candidate's rerun in the search for an
+        oscillation's cause): a line whose amplitude grows significantly
+        (slope beyond three standard errors over the record's second half)
+        is that pole's growth whatever the factor (:data:`GROWTH_FACTOR`),
+        and a growing line is not periodic with the force.
 
     Returns
     -------
@@ -466,7 +471,7 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
         y_full = np.asarray(recording[name], dtype=float)
         if not np.all(np.isfinite(y_full)):
             raise MeasurementError(f"channel {name}: non-finite samples")
-        found += _channel_oscillations(name, y_full, skip, x, gxx, kw, period, noise_free)
+        found += _channel_oscillations(name, y_full, skip, x, gxx, kw, period, unstable_loop)
     found.sort(key=lambda o: -o.line_to_floor)
     loop_point = None
     if found:

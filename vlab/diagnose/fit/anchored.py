@@ -88,8 +88,8 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
     Parameters
     ----------
     h : Hypothesis
-        Fitted in place (as :func:`vlab.diagnose.fit.estimate.fit_hypothesis`); its ``chi2_`` is on the
-        returned problem.
+        Fitted in place (as :func:`vlab.diagnose.fit.estimate.fit_hypothesis`), left at the last iterate; use
+        the returned one.
     problem : Problem
         FRF data with their model form anchored at the nominal lab (without one, a plain fit).
     starts : ndarray, shape (n, k), optional
@@ -124,6 +124,8 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
         moved = np.abs(np.asarray(h.params_, dtype=float) - x)
         if np.all(np.isfinite(width)) and np.all(moved <= ANCHOR_TOLERANCE * width):
             break
+    if not any(np.isfinite(t[0]) for t in iterates):  # no iterate could be profiled: the last, as fitted
+        return h, cur
     _, best, footing = min(iterates, key=lambda t: t[0])
     return best, footing
 
