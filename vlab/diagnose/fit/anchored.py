@@ -147,11 +147,12 @@ def _profiled_statistic(problem: Problem, h: Hypothesis) -> float:
 
 def _alone_anchored(part: Hypothesis, x_in_pair: np.ndarray, problem: Problem) -> tuple[Hypothesis, Problem]:
     """``part`` (a copy) fitted alone with its own anchor (:func:`fit_anchored`) from its own trials and from its
-    value ``x_in_pair`` [SI] in the pair, the better of the two (lower chi-square on its own footing; module
-    notes: the likelihood-ratio test's null is the part's best fit alone)."""
+    value ``x_in_pair`` [SI] in the pair, the better of the two by the mismatch test's own statistic (one
+    footing for both: :func:`_profiled_statistic`; module notes: the likelihood-ratio test's null is the part's
+    best fit alone)."""
     fits = [fit_anchored(copy.deepcopy(part), problem),
             fit_anchored(copy.deepcopy(part), problem, starts=np.asarray(x_in_pair, dtype=float)[None, :])]
-    return min(fits, key=lambda t: t[0].chi2_)
+    return min(fits, key=lambda t: _profiled_statistic(problem, t[0]))
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,8 @@ def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
     """Judge ``pair`` with the model form anchored at its better part alone (module notes).
 
     Each part is fitted alone with its own anchor (:func:`fit_anchored`), from its trials and from its value in
-    the pair; the better one (lower chi-square on its own footing) is the null hypothesis; the pair is fitted
+    the pair; the better one by the mismatch test's own statistic (:func:`_profiled_statistic`, one footing for
+    all, where each chi-square is on its own anchor) is the null hypothesis; the pair is fitted
     on that footing from its own parameters, and kept when the part alone is not within the model's accuracy there
     (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`: its modes moved within their model form,
     the mismatch tests pass -- then a second effect has nothing to explain), and the pair passes the pair
@@ -214,7 +216,7 @@ def pair_on_anchor(pair: Combination, problem: Problem) -> PairOnAnchor:
         As the fits.
     """
     fits = [_alone_anchored(p, x, problem) for p, x in zip(pair.parts, pair.split())]
-    part, footing = min(fits, key=lambda t: t[0].chi2_)
+    part, footing = min(fits, key=lambda t: _profiled_statistic(problem, t[0]))
     both = fit_hypothesis(copy.deepcopy(pair), footing, starts=np.asarray(pair.params_, dtype=float)[None, :])
     n = footing.n_obs
     c_hat = max(1.0, both.chi2_ / max(n - both.n_params, 1))
