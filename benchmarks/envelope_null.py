@@ -89,6 +89,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--csv", help="write the table here")
     a = ap.parse_args(argv)
+    if a.records < 1:
+        ap.error(f"--records must be at least 1, got {a.records}")
+    if not a.seconds >= 2.0:  # the detector needs 256 samples at 2 kHz, and a resonator 20 time constants' lead
+        ap.error(f"--seconds must be at least 2, got {a.seconds:g}")
     rng = np.random.default_rng(a.seed)
     rows = []
     t0 = time.perf_counter()

@@ -34,8 +34,8 @@ such a transient (a grid LQG loop's 14 Hz mode decaying at 0.045-0.049 1/s,
 ``zeta`` = 0.0005, still 38 dB over the floor a minute after the start).
 A line that rises by ``GROWTH_FACTOR`` over the second half is growing (a stable mode building up from
 rest rises by less); in the rerun of a loop whose linearisation has an unstable pole
-(``unstable_loop``), any significant rise is that pole's growth, and a growing line is not periodic
-with the force.
+(``unstable_loop``), any significant rise is that pole's growth. A growing line is not periodic with
+the force, whatever its change from one period to the next (the period gate does not apply to it).
 
 ``LINE_TO_FLOOR`` (1e3, 30 dB): a Welch estimate of a noise spectrum with
 ``nu = 2 n_avg`` degrees of freedom exceeds its mean by a factor ``x`` with
