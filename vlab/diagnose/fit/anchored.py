@@ -23,7 +23,7 @@ carried: it changes little when a mode's sensitivities are only moved along the 
 iteration need not converge -- each fit's chi-square is on its own anchor, and the iterates can cycle or
 run away -- so the fit returned is the iterate whose lab the mismatch test's own statistic prefers: the
 least ``|r|^2 + |x|^2`` with its modes moved within their model form
-(:func:`vlab.diagnose.problem.nuisance.profile_state`), one footing for all of them.
+(:func:`vlab.diagnose.problem.nuisance.profiled_statistic`), one footing for all of them.
 
 A pair is judged the same way (:func:`pair_on_anchor`): its second effect must be needed with the
 covariance anchored at its better part alone -- the null hypothesis of that likelihood-ratio test is the
@@ -49,7 +49,7 @@ from ..data.measured import FrfData
 from ..effects.hypotheses import Combination, Hypothesis
 from ..model.labmodel import LabState
 from ..model.modelform import model_form_at
-from ..problem.nuisance import profile_state, profiled, within_model_accuracy
+from ..problem.nuisance import profiled, profiled_statistic, within_model_accuracy
 from ..problem.residuals import Problem
 from .estimate import fit_hypothesis
 from .rules import NONLINEAR, evidence, passes_pair_rule
@@ -131,18 +131,15 @@ def fit_anchored(h: Hypothesis, problem: Problem, *, starts: np.ndarray | None =
 
 
 def _profiled_statistic(problem: Problem, h: Hypothesis) -> float:
-    """The mismatch test's statistic of ``h``'s fitted lab on ``problem``: ``|r|^2 + |x|^2`` with its modes moved
-    within their model form (:func:`vlab.diagnose.problem.nuisance.profile_state`) -- one footing for every
-    iterate of :func:`fit_anchored`, whose own chi-squares are each on their own anchor; inf where the lab
-    cannot be built or profiled."""
+    """The mismatch test's statistic of ``h``'s fitted lab on ``problem``
+    (:func:`vlab.diagnose.problem.nuisance.profiled_statistic`: its modes moved within their model form; the
+    test's chi-square where the lab is not profiled) -- one footing for every iterate of :func:`fit_anchored`,
+    whose own chi-squares are each on their own anchor; inf where the lab cannot be built."""
     try:
         st = problem.fitted_state(h)
-        if not profiled(problem, st):
-            return float(problem.chi2(st, test=True))
-        r, x, _ = profile_state(problem, st)
+        return profiled_statistic(problem, st) if profiled(problem, st) else float(problem.chi2(st, test=True))
     except (VlabError, ValueError, np.linalg.LinAlgError):
         return math.inf
-    return float(r @ r + x @ x)
 
 
 def _alone_anchored(part: Hypothesis, x_in_pair: np.ndarray, problem: Problem) -> tuple[Hypothesis, Problem]:

@@ -224,6 +224,16 @@ def profile_state(problem, state: LabState) -> tuple[np.ndarray, np.ndarray, int
 _PROFILES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
+def profiled_statistic(problem, state: LabState) -> float:
+    """The mismatch test's statistic of ``state``: ``S = |r|^2 + |x|^2`` [1] after its modes are moved within
+    their model form (:func:`profile_state`) -- the chi-square of the residual plus that of the moves, the
+    quantity :func:`within_model_accuracy` compares with the problem's limit.
+
+    Raises ModelError or SpecError where ``state``'s modes cannot be computed (as :func:`profile_state`)."""
+    r, x, _ = profile_state(problem, state)
+    return float(r @ r + x @ x)
+
+
 def profiled(problem, state: LabState) -> bool:
     """Whether ``state`` is compared with the data of ``problem`` with its modes profiled: the problem carries
     a model form, and the lab carries its own modes or the problem's mismatch test profiled the nominal lab's
