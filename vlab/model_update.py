@@ -549,7 +549,10 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         ``average_peak_level_error`` [1], ``modes`` (``mode``, ``frequency_predicted_hz``,
         ``frequency_measured_hz``, ``damping_ratio_predicted``, ``damping_ratio_measured``,
         ``peak_level_ratio``), ``damping_ratio_largest_relative_difference`` [1] (``|measured / predicted
-        - 1|`` over the modes), ``warnings``.
+        - 1|`` over the modes), ``warnings``, ``not_meaningful`` (those of the warnings that make the run's
+        FRF comparison not meaningful, :func:`vlab.experiment.checks.not_meaningful`: a self-excited oscillation
+        or limit cycle, whose response is not the loop's linear response -- the errors above then do not test
+        the prediction).
 
     Raises
     ------
@@ -560,6 +563,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
         As :func:`vlab.experiment.runner.run_experiment`.
     """
     from .fe import build_fe_model
+    from .experiment.checks import not_meaningful
     from .experiment.config import ExperimentConfig, default_chain
     from .diagnose.instability_cause import oscillation_cause
     from .experiment.runner import run_experiment
@@ -584,7 +588,7 @@ def verify(original: str | Path | StructureSpec, updated: str | Path | Structure
                        "frequency_measured_hz": m.frequency_measured_hz,
                        "damping_ratio_predicted": m.damping_predicted, "damping_ratio_measured": m.damping_measured,
                        "peak_level_ratio": float(m.peak_level_ratio)} for m in r.modes],
-            "warnings": list(r.warnings)}
+            "warnings": list(r.warnings), "not_meaningful": not_meaningful(r.warnings)}
         dev = [abs(m["damping_ratio_measured"] / m["damping_ratio_predicted"] - 1) for m in out[label]["modes"]
                if m["damping_ratio_predicted"] and np.isfinite(m["damping_ratio_measured"])]
         out[label]["damping_ratio_largest_relative_difference"] = max(dev) if dev else None
