@@ -7,6 +7,7 @@ that must change the decision when (and only when) they change the weights.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -226,3 +227,21 @@ def test_a_malformed_plant_model_form_file_is_named(tmp_path, monkeypatch):
         modelform.plant_discretisation(load_spec("bcc"), np.array([1.85]))
     with pytest.raises(DataFileError, match="bcc.json"):
         modelform.plant_shape_uncertainty(load_spec("bcc"), np.array([1.85]))
+
+
+def test_the_plants_discretisation_above_the_band_is_read_and_bounded_from_below(tmp_path, monkeypatch):
+    """A mode takes its own entry (within 3 %), else the largest entry up to its frequency: the discretisation
+    grows with frequency. The cache tells frequencies of the same count apart."""
+    from vlab.diagnose.model import modelform
+
+    rows = [{"frequency_default_hz": 1.0, "frequency_rel": 0.001, "mac": 1.0}]
+    above = [{"frequency_default_hz": 50.0, "frequency_rel": 0.004, "mac": 0.99},
+             {"frequency_default_hz": 100.0, "frequency_rel": 0.05, "mac": 0.95}]
+    (tmp_path / "bcc.json").write_text(json.dumps({"modes": rows, "above_band_modes": above}))
+    monkeypatch.setattr(modelform, "MODEL_FORM_DIR", tmp_path)
+    rel, _src = modelform.plant_discretisation(load_spec("bcc"), np.array([1.0, 50.5, 70.0, 99.0, 300.0, 0.5]))
+    assert list(rel) == [0.001, 0.004, 0.004, 0.05, 0.05, 0.05]
+    spec = load_spec("bcc")
+    a = modelform.model_form_uncertainty(spec, np.array([1.0, 50.0]), compared_with="plant")
+    b = modelform.model_form_uncertainty(spec, np.array([1.0, 100.0]), compared_with="plant")
+    assert a.components["plant"][1] == 0.004 and b.components["plant"][1] == 0.05

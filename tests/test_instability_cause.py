@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from vlab.diagnose.fit.rules import branch, nearest_mode, reproduces_oscillation
+from vlab.diagnose.fit.identity import branch, nearest_mode, plausible_branches, plausible_modes, reproduces_oscillation
 from vlab.diagnose.fit.boundary import destabilising_value, recorded_mode_band
 from vlab.diagnose.instability_cause import recorded_growth_rate
 from vlab.diagnose.model.labmodel import LabState
@@ -219,6 +219,74 @@ def test_above_the_band_the_oscillating_mode_must_be_the_same():
     assert not reproduces_oscillation(134.0, _check(130.0), natural_hz=natural)
 
 
+def test_the_recordings_identity_carries_the_models_frequency_uncertainty():
+    """Closed forms: 42.94 Hz lies at log distances 0.1510 and 0.1542 from modes at 36.92 and 50.1 Hz. With each
+    mode within w = z sigma of the model's, 50.1 Hz may be the nearest when 0.1542 - w <= 0.1510 + w, w >= 0.0016."""
+    natural = [36.92, 50.1]
+    z = 2.5758  # the two-sided 1 % quantile
+    assert list(plausible_modes(42.94, natural)) == [36.92]
+    assert list(plausible_modes(42.94, natural, [0.002, 0.002], z)) == [36.92, 50.1]   # w = 0.0052
+    assert list(plausible_modes(42.94, natural, [0.0005, 0.0005], z)) == [36.92]       # w = 0.0013
+    # a rerun on the model oscillating nearest the other mode (the default plant's 47.44 Hz against a converged
+    # plant's 42.94 Hz): the same mode only within the model's uncertainty
+    assert not reproduces_oscillation(42.94, _check(47.44), natural_hz=natural, same_mode=True)
+    assert reproduces_oscillation(42.94, _check(47.44), natural_hz=natural, same_mode=True,
+                                  sigma_rel=[0.002, 0.002], z=z)
+    # a branch is plausible when the frequency may lie between its two modes: 20.5 Hz within 5 % of 20 Hz
+    four = [10.0, 20.0, 40.0, 80.0]
+    assert plausible_branches(20.5, four) == [(20.0, 40.0)]
+    assert plausible_branches(20.5, four, [0.05] * 4, 1.0) == [(10.0, 20.0), (20.0, 40.0)]
+    assert plausible_branches(20.5, four, [0.01] * 4, 1.0) == [(20.0, 40.0)]
+    assert reproduces_oscillation(20.5, _check(15.0), natural_hz=four, sigma_rel=[0.05] * 4, z=1.0)
+    assert not reproduces_oscillation(20.5, _check(15.0), natural_hz=four)
+    # the loop poles' band follows the same sets: 75 Hz may be nearest 40 Hz when each mode may move 30 %
+    assert recorded_mode_band(75.0, four, True, 1000.0, sigma_rel=[0.3] * 4, z=1.0) == (30.0, 1000.0)
+    assert recorded_mode_band(20.5, four, False, 1000.0, sigma_rel=[0.05] * 4, z=1.0) == (10.0, 40.0)
+    with pytest.raises(ValueError, match="sigma_rel"):
+        plausible_modes(42.94, natural, [0.01], z)
+
+
+def _lines(*lines, resolution=0.25):
+    """A rerun's instability check from ``(frequency [Hz], amplitude [m/s], point)``, the first the strongest."""
+    osc = [SimpleNamespace(frequency_hz=f, amplitude_m_s=a, point=p) for f, a, p in lines]
+    return SimpleNamespace(unstable=True, resolution_hz=resolution, frequency_hz=lines[0][0], oscillations=osc)
+
+
+def test_a_rerun_with_a_second_oscillation_the_recording_would_have_shown_does_not_reproduce_it():
+    """A limit cycle's spectrum is its fundamental and harmonics. A rerun line at 85.77 Hz beside its 47.44 Hz
+    oscillation, a tenth of its amplitude, would stand (0.1)^2 x 1.86e7 = 1.9e5 over the floor of a recording
+    whose oscillation stands 1.86e7 over it: above the detector's 1e3, so the recording lacks it. At 0.005 of the
+    amplitude it would stand 465 over the floor: the recording could not have shown it."""
+    from vlab.diagnose.fit.identity import second_oscillation
+
+    natural, z = [36.92, 50.07, 88.1], 2.5758
+    kw = dict(natural_hz=natural, same_mode=True, sigma_rel=[0.004] * 3, z=z)
+    recorded = {"frequency_hz": 42.94, "resolution_hz": 0.244,
+                "oscillations": [{"point": 9, "frequency_hz": 42.94, "line_to_floor": 1.86e7}]}
+    two = _lines((47.44, 1.0, 9), (94.88, 0.3, 9), (85.77, 0.1, 9))
+    assert second_oscillation(two, recorded, **kw) == 85.77
+    assert reproduces_oscillation(42.94, two, **kw)                       # its oscillation alone: the same mode
+    assert not reproduces_oscillation(42.94, two, recorded=recorded, **kw)
+    weak = _lines((47.44, 1.0, 9), (85.77, 0.005, 9))
+    assert second_oscillation(weak, recorded, **kw) is None
+    assert reproduces_oscillation(42.94, weak, recorded=recorded, **kw)
+    harmonic = _lines((47.44, 1.0, 9), (94.9, 0.3, 9), (142.3, 0.1, 9))  # 2 f0 and 3 f0 within 2 k lines
+    assert second_oscillation(harmonic, recorded, **kw) is None
+    # a line the recording holds too (within 2 %) is no second oscillation; nor is one at a point where the
+    # recorded oscillation is not measured (no footing)
+    both = dict(recorded, oscillations=recorded["oscillations"] + [{"point": 9, "frequency_hz": 86.5,
+                                                                    "line_to_floor": 1e4}])
+    assert second_oscillation(two, both, **kw) is None
+    assert second_oscillation(_lines((47.44, 1.0, 9), (85.77, 0.1, 5)), recorded, **kw) is None
+
+
+def test_the_identity_quantile_is_the_two_sided_normal_quantile_at_the_false_alarm_rate():
+    from vlab.diagnose.policy import DecisionPolicy
+
+    assert DecisionPolicy(false_alarm_rate=0.01).identity_quantile == pytest.approx(2.5758, abs=1e-4)
+    assert DecisionPolicy(false_alarm_rate=0.05).identity_quantile == pytest.approx(1.9600, abs=1e-4)
+
+
 class _Stub:
     """A one-parameter hypothesis on [0.1, 50] fitted at 2.0 (log or linear scale), scored by a parabola."""
 
@@ -274,6 +342,7 @@ def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stab
 
     class Loops:
         band = None
+        model = None
 
         def __init__(self, *a):
             self.on = "stub"
@@ -299,8 +368,10 @@ def test_the_best_supported_candidate_is_rerun_even_when_its_linear_loop_is_stab
     monkeypatch.setattr(ic, "structure_modes", lambda state: (np.array([5.0, 14.0, 30.0]),))
     monkeypatch.setattr(ic, "_supported", lambda *a: cands)
     monkeypatch.setattr(ic, "_rerun_candidate", rerun)
+    monkeypatch.setattr(ic, "model_form_uncertainty",
+                        lambda *a, **k: SimpleNamespace(frequency_rel=np.full(3, 0.01), describe=lambda: "stub"))
     problem = SimpleNamespace(ctx=SimpleNamespace(band_hz=(0.5, 10.0)), n_obs=100,
-                              policy=SimpleNamespace(evidence=10.0))
+                              policy=SimpleNamespace(evidence=10.0, identity_quantile=2.5758))
     out = ic.search_cause(problem, None, cands, 14.0, (5,), chi2_0=1e4, c_hat=1.0, plant="linear", seed=0,
                           on_plant=False, growth_1_s=0.0)
     # a nonlinear candidate too: its linear loop is a describing function at one amplitude

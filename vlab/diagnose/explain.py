@@ -193,7 +193,7 @@ def _cause_of_oscillation(res: DiagnosisResult, problem: Problem, nominal: LabSt
     growth = recorded_growth_rate(res.instability, problem.data.recording.duration_s)
     cause = search_cause(problem, nominal, ranked, f0, loops, chi2_0=chi2_fit, c_hat=res.overdispersion,
                          plant="mujoco" if on_plant else "linear", seed=RERUN_SEED, on_plant=on_plant,
-                         growth_1_s=growth, plant_made=plant_made)
+                         growth_1_s=growth, plant_made=plant_made, recorded=res.instability)
     timing["instability_cause"] = time.perf_counter() - t
     notes.append(cause.note(f0))
     for tr in cause.tried:

@@ -49,12 +49,16 @@ rejected by the FRF rules). The physics of an instability decides instead:
    (saturation, friction): its linear loop is a describing function at one
    amplitude, which cannot say where a limit cycle sets in. The first whose rerun
    oscillates by itself on the recording's branch
-   (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation` with the plant's
+   (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation` with the plant's
    natural frequencies) is the cause. Above the measured band the model's
    modes are known only to their discretisation error (the default and
-   converged MuJoCo BCC plants put modes 10-11 at 87/95 and 77/80 Hz), so
-   there the rerun must oscillate nearest the same natural frequency as the
-   recording (the mode the loop drives unstable), not on the same branch.
+   converged MuJoCo BCC plants put two modes at 77.6/80.4 and 88.4/90.8 Hz),
+   so there the rerun must oscillate nearest the same natural frequency as
+   the recording (the mode the loop drives unstable), not on the same branch.
+   Either identity is the recording's only up to the model's frequency
+   error: a rerun counts when its identity is one the recording's
+   oscillation may have on a structure whose natural frequencies lie within
+   their model-form uncertainty of the model's (:mod:`vlab.diagnose.fit.identity`).
 
 Its validation is that rerun; the rules that judge an explanation by the FRF
 misfit's fall (a partial explanation, rule 10) do not apply to it, since the
@@ -81,9 +85,12 @@ from ..measure.instability import find_instability
 from .effects.hypothesis import Combination, Hypothesis
 from .fit.boundary import destabilising_value, moved_to, recorded_mode_band
 from .fit.plantfit import PlantModel
-from .fit.rules import NONLINEAR, branch, evidence, nearest_mode, reproduces_oscillation
+from .fit.identity import (branch, plausible_branches, plausible_modes, reproduces_oscillation,
+                           second_oscillation)
+from .fit.rules import NONLINEAR, evidence
 from .fit.selection import rerun_key
 from .model.labmodel import LabState, structure_modes
+from .model.modelform import model_form_uncertainty
 from .model.nyquist import loop_stability, poles_near
 from .validate import Validation, validate
 
@@ -110,12 +117,18 @@ class CauseSearch:
     on : str
         The structure the loops were checked on.
     branch_hz : tuple of float
-        The natural frequencies bracketing the recorded oscillation (the branch a rerun must oscillate on).
+        The natural frequencies [Hz] bracketing the branches the recorded oscillation may lie on
+        (:func:`~vlab.diagnose.fit.identity.plausible_branches`: the lowest and the highest), the branches a
+        rerun must oscillate on.
     above_band : bool
-        The oscillation lies above the measured band: a rerun's self-excited line counts when it lies nearest
-        the same natural frequency (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation`, ``same_mode``).
-    mode_hz : float
-        The natural frequency [Hz] of the checked structure nearest the recorded oscillation.
+        The oscillation lies above the measured band: a rerun's self-excited line counts when its nearest
+        natural frequency may be the recording's (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation`,
+        ``same_mode``).
+    modes_hz : tuple of float
+        The natural frequencies [Hz] of the checked structure that may be nearest the recorded oscillation
+        (:func:`~vlab.diagnose.fit.identity.plausible_modes`).
+    sigma_source : str
+        The model-form uncertainty of the natural frequencies, in words (the intervals' source).
     moved : list of (str, float, float)
         Candidates moved from their fitted value to the nearest value at which the loop grows at
         ``growth_1_s`` on the recorded mode: label, fitted and moved values [SI].
@@ -131,7 +144,8 @@ class CauseSearch:
     branch_hz: tuple = ()
     moved: list = field(default_factory=list)
     above_band: bool = False
-    mode_hz: float = float("nan")
+    modes_hz: tuple = ()
+    sigma_source: str = ""
     growth_1_s: float = 0.0
 
     def note(self, frequency_hz: float) -> str:
@@ -146,15 +160,19 @@ class CauseSearch:
         head = (f"cause of the self-excited oscillation at {frequency_hz:.2f} Hz searched among the candidates "
                 f"whose linear loop is unstable on {self.on} (generalised Nyquist criterion), and the best-supported one, "
                 f"and whose rerun "
-                + (f"oscillates by itself on the same mode (above the measured band, where the model's modes are "
-                   f"known to their discretisation error: nearest the natural frequency {self.mode_hz:.4g} Hz)"
+                + (f"oscillates by itself on the same mode (above the measured band: nearest one of the natural "
+                   f"frequencies {', '.join(f'{m:.4g}' for m in self.modes_hz)} Hz"
                    if self.above_band else
-                   f"oscillates on the same branch (between the natural frequencies {lo:.4g} and {hi:.4g} Hz)"))
+                   f"oscillates on the same branch (between the natural frequencies {lo:.4g} and {hi:.4g} Hz")
+                + (f"; the structure's natural frequencies within their {self.sigma_source})" if self.sigma_source
+                   else ")"))
         runs = "; ".join(f"{t['label']}: "
                          + ("linear loop not checked" if t["unstable_poles"] is None
                             else f"{t['unstable_poles']} unstable poles") + ", rerun oscillating at "
                          + (", ".join(f"{x:.2f}" for x in t["rerun_frequencies_hz"][:2]) + " Hz"
                             if t["rerun_frequencies_hz"] else "nothing")
+                         + (f" and a second oscillation at {t['second_oscillation_hz']:.2f} Hz the recording lacks"
+                            if t.get("second_oscillation_hz") is not None else "")
                          + (" (reproduced)" if t["reproduced"] else "") for t in self.tried)
         stable = (f"; stable loops, not rerun: {', '.join(self.stable[:4])}"
                   + (f" and {len(self.stable) - 4} more" if len(self.stable) > 4 else "")) if self.stable else ""
@@ -356,7 +374,7 @@ def plant_order(cands: list, model) -> list:
 
 def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, loops, *, chi2_0: float,
                  c_hat: float, plant: str, seed: int, on_plant: bool, growth_1_s: float = 0.0,
-                 plant_made: bool = False) -> CauseSearch:
+                 plant_made: bool = False, recorded: dict | None = None) -> CauseSearch:
     """Find the library effect that makes the loop oscillate at the recording's self-excited frequency.
 
     Parameters
@@ -387,6 +405,10 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     plant_made : bool
         The recording names the MuJoCo plant that made it: the candidates are tried in their order on that
         plant's linearisation (:func:`plant_order`), not the FE model's.
+    recorded : dict, optional
+        The recording's instability check (``InstabilityCheck.as_dict()``): a rerun holding a second
+        oscillation the recording would have shown does not reproduce it
+        (:func:`~vlab.diagnose.fit.identity.second_oscillation`). None: not checked.
 
     Returns
     -------
@@ -401,9 +423,16 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     loops_of = _Loops(problem, nominal, on_plant)
     base = loops_of.state(None)
     natural = structure_modes(base)[0]
-    out = CauseSearch(on=loops_of.on, branch_hz=branch(frequency_hz, natural), growth_1_s=float(growth_1_s),
-                      above_band=frequency_hz > problem.ctx.band_hz[1], mode_hz=nearest_mode(frequency_hz, natural))
-    loops_of.band = recorded_mode_band(frequency_hz, natural, out.above_band, 0.5 / base.chain.period_s)
+    mf = model_form_uncertainty(base.spec, np.asarray(natural), compared_with="fe" if loops_of.model is None else "plant")
+    zq = problem.policy.identity_quantile
+    ident = dict(sigma_rel=mf.frequency_rel, z=zq, recorded=recorded)
+    spans = plausible_branches(frequency_hz, natural, mf.frequency_rel, zq) or [branch(frequency_hz, natural)]
+    out = CauseSearch(on=loops_of.on, branch_hz=(spans[0][0], spans[-1][1]), growth_1_s=float(growth_1_s),
+                      above_band=frequency_hz > problem.ctx.band_hz[1],
+                      modes_hz=tuple(float(m) for m in plausible_modes(frequency_hz, natural, mf.frequency_rel, zq)),
+                      sigma_source=f"{zq:.3g}-sigma intervals: {mf.describe()}")
+    loops_of.band = recorded_mode_band(frequency_hz, natural, out.above_band, 0.5 / base.chain.period_s,
+                                       sigma_rel=mf.frequency_rel, z=zq)
     poles, state_of = loops_of.poles, loops_of.state
 
     def on_mode(h: Hypothesis, x) -> bool:
@@ -434,7 +463,7 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             if z == 0 and out.tried and h.effect not in NONLINEAR:
                 out.stable.append(h.label)
                 continue
-        tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural,
+        tried, v = _rerun_candidate(problem, nominal, h, frequency_hz, loops, natural=natural, ident=ident,
                                     same_mode=out.above_band, plant=plant, seed=seed, unstable_loop=bool(z))
         out.tried.append(dict(tried, unstable_poles=z))
         if tried["reproduced"]:
@@ -443,12 +472,13 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     return out
 
 
-def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: float, loops, *, natural,
+def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: float, loops, *, natural, ident: dict,
                      same_mode: bool, plant: str, seed: int,
                      unstable_loop: bool = False) -> tuple[dict, Validation | None]:
     """Rerun the whole record with ``h`` and check its self-excited lines against the recording's: the entry of
-    :attr:`CauseSearch.tried` (without ``unstable_poles``) and the rerun (None when it failed); ``unstable_loop``:
-    ``h``'s linear loop has an unstable pole (:func:`rerun_oscillation`)."""
+    :attr:`CauseSearch.tried` (without ``unstable_poles``) and the rerun (None when it failed); ``ident``: the
+    natural frequencies' ``sigma_rel`` and ``z`` (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation`);
+    ``unstable_loop``: ``h``'s linear loop has an unstable pole (:func:`rerun_oscillation`)."""
     data = problem.data
     entry = {"effect": h.effect, "label": h.label, "rerun_frequencies_hz": [], "reproduced": False}
     try:
@@ -457,8 +487,12 @@ def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: fl
     except (VlabError, ImportError) as exc:
         return dict(entry, error=str(exc)), None
     check = rerun_oscillation(v, data.recording, data.excitation_point, loops, unstable_loop=unstable_loop)
-    entry["reproduced"] = reproduces_oscillation(frequency_hz, check, natural_hz=natural, same_mode=same_mode,
-                                                 tolerance=problem.policy.oscillation_tolerance)
+    kw = dict(natural_hz=natural, same_mode=same_mode, tolerance=problem.policy.oscillation_tolerance,
+              sigma_rel=ident["sigma_rel"], z=ident["z"])
+    entry["reproduced"] = reproduces_oscillation(frequency_hz, check, **kw)
+    if entry["reproduced"] and ident.get("recorded") is not None:
+        extra = second_oscillation(check, ident["recorded"], **kw)
+        entry["reproduced"], entry["second_oscillation_hz"] = extra is None, extra
     if check is not None and check.unstable:
         entry["rerun_frequencies_hz"] = list(dict.fromkeys(round(o.frequency_hz, 2) for o in check.oscillations))
     return entry, v

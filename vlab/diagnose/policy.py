@@ -99,6 +99,13 @@ class DecisionPolicy:
             raise OptionError(f"false-alarm rate {self.false_alarm_rate!r} must lie in (0, 0.5)")
 
     @property
+    def identity_quantile(self) -> float:
+        """``z`` [1]: the two-sided standard normal quantile at the false-alarm rate, the half-width (in standard
+        uncertainties) of the interval within which a structure's natural frequency lies around its model's
+        but with probability ``alpha`` (the identity of an oscillation, :mod:`vlab.diagnose.fit.identity`)."""
+        return float(scipy.stats.norm.isf(0.5 * self.false_alarm_rate))
+
+    @property
     def test_rate(self) -> float:
         """Rate of each of the :data:`MISMATCH_TESTS` mismatch tests [1] (Šidák)."""
         return 1.0 - (1.0 - self.false_alarm_rate) ** (1.0 / MISMATCH_TESTS)

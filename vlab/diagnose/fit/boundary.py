@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from ..effects.hypothesis import Hypothesis
-from .rules import branch, evidence, nearest_mode
+from .identity import plausible_branches, plausible_modes
+from .rules import evidence
 
 #: Grid points from a candidate's fitted value to each bound of its range, searched for the stability
 #: boundary, and the bisections that then narrow it (:func:`destabilising_value`).
@@ -73,21 +74,30 @@ def destabilising_value(h: Hypothesis, problem, unstable_at) -> float | None:
     return min(found, key=lambda x: _chi2(problem, h, x))
 
 
-def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist_hz: float) -> tuple[float, float]:
+def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist_hz: float, *,
+                       sigma_rel=None, z: float = 0.0) -> tuple[float, float]:
     """The frequencies [Hz] on which a loop pole counts as the recorded oscillation's (:func:`search_cause`):
-    with ``same_mode`` (above the measured band) the interval of the natural frequency nearest
-    ``frequency_hz`` (:func:`~vlab.diagnose.fit.rules.nearest_mode`) up to half-way to its neighbours, else
-    the branch between the two natural frequencies that bracket it (:func:`~vlab.diagnose.fit.rules.branch`);
-    both within ``(0, nyquist_hz]``; ``natural_hz`` the structure's natural frequencies [Hz]. The same criterion by which a rerun reproduces it
-    (:func:`~vlab.diagnose.fit.rules.reproduces_oscillation`)."""
-    f = np.sort(np.asarray([x for x in np.ravel(natural_hz) if np.isfinite(x) and x > 0], dtype=float))
+    with ``same_mode`` (above the measured band) the intervals of the natural frequencies that may be nearest
+    ``frequency_hz`` (:func:`~vlab.diagnose.fit.identity.plausible_modes`), each up to half-way to its
+    neighbours, else the branches it may lie on (:func:`~vlab.diagnose.fit.identity.plausible_branches`); from
+    the lowest to the highest, within ``(0, nyquist_hz]``; ``natural_hz`` the structure's natural frequencies
+    [Hz], ``sigma_rel`` their relative model-form uncertainty [1] and ``z`` the intervals' half-width in standard
+    uncertainties (none: the nearest mode or the branch alone). The same criterion by which a rerun reproduces
+    it (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation`)."""
+    f = np.asarray(natural_hz, dtype=float).ravel()
+    keep = np.isfinite(f) & (f > 0)
+    s = None if sigma_rel is None else np.asarray(sigma_rel, dtype=float).ravel()[keep]
+    f = f[keep]
     if same_mode and f.size:
-        m = nearest_mode(frequency_hz, f)
-        below, above = f[f < m], f[f > m]
-        lo = 0.5 * (m + below[-1]) if below.size else 0.0
-        hi = 0.5 * (m + above[0]) if above.size else nyquist_hz
+        fs = np.sort(f)
+        spans = []
+        for m in plausible_modes(frequency_hz, f, s, z):
+            below, above = fs[fs < m], fs[fs > m]
+            spans.append((0.5 * (m + below[-1]) if below.size else 0.0,
+                          0.5 * (m + above[0]) if above.size else nyquist_hz))
     else:
-        lo, hi = branch(frequency_hz, f)
+        spans = plausible_branches(frequency_hz, f, s, z) or [(0.0, math.inf)]
+    lo, hi = min(a for a, _b in spans), max(b for _a, b in spans)
     return float(max(lo, 0.0)), float(min(hi, nyquist_hz))
 
 

@@ -75,13 +75,14 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
     of the mismatch), never dropped. A linear choice with look-alikes that leaves a remainder on its rerun
     gives way to a look-alike whose own rerun leaves none, else nothing is named
     (:func:`vlab.diagnose.decision.settle_remainder`).
-11. **The oscillation reproduced** (:func:`reproduces_oscillation`): when the recording holds a self-excited
-    oscillation that the nominal replay does not (:mod:`vlab.measure.instability`), a choice is selected only
-    if its validation rerun's own oscillation -- its strongest self-excited line at its loop point, the
-    recording's by the same definition -- lies at the same frequency (within the policy's
-    ``oscillation_tolerance``) or on the same branch (between the same two natural frequencies,
-    :func:`branch`). The candidates tried are those whose linear loop is unstable
-    (:mod:`vlab.diagnose.instability_cause`).
+11. **The oscillation reproduced** (:func:`vlab.diagnose.fit.identity.reproduces_oscillation`): when the
+    recording holds a self-excited oscillation that the nominal replay does not
+    (:mod:`vlab.measure.instability`), a choice is selected only if its validation rerun's own oscillation --
+    its strongest self-excited line at its loop point, the recording's by the same definition -- lies at the
+    same frequency (within the policy's ``oscillation_tolerance``) or on a branch (between two natural
+    frequencies) or, above the band, nearest a mode that the recording's may have within the model's
+    frequency uncertainty (:mod:`vlab.diagnose.fit.identity`). The candidates tried are those whose linear
+    loop is unstable (:mod:`vlab.diagnose.instability_cause`).
 
 Where the mismatch is reported once effects are fitted is
 :func:`vlab.diagnose.fit.selection.located_from_fits`; which parameter of a
@@ -444,90 +445,3 @@ def explains(res, chi2_0: float) -> bool:
         return True
     v = res.validation
     return v is not None and v.misfit_after <= (1.0 - share) * v.misfit_before
-
-
-def branch(frequency_hz: float, natural_hz) -> tuple[float, float]:
-    """The two natural frequencies [Hz] of ``natural_hz`` that bracket ``frequency_hz`` (0 or inf past the ends).
-
-    For collocated feedback each closed-loop root-locus branch runs between neighbouring open-loop poles and
-    zeros, which interlace, so the interval between two natural frequencies names the branch (Preumont,
-    *Vibration Control of Active Structures*, 3rd ed., 2011, Sec. 7.2)."""
-    f = np.sort(np.asarray(natural_hz, dtype=float))
-    below, above = f[f <= frequency_hz], f[f > frequency_hz]
-    return (float(below[-1]) if below.size else 0.0, float(above[0]) if above.size else math.inf)
-
-
-def nearest_mode(frequency_hz: float, natural_hz) -> float:
-    """The natural frequency [Hz] of ``natural_hz`` nearest ``frequency_hz`` (relative distance; nan if none).
-
-    A self-excited oscillation of a lightly damped structure under velocity feedback is a mode driven
-    unstable by the loop's phase: the root-locus branch that crosses the imaginary axis departs from that
-    mode's open-loop pole, and the limit cycle lies close to it (Preumont, *Vibration Control of Active
-    Structures*, 3rd ed., 2011, Sec. 7.2), so the nearest mode names which one oscillates.
-
-    Parameters
-    ----------
-    frequency_hz : float
-        The oscillation's frequency [Hz], > 0.
-    natural_hz : array_like, shape (n,)
-        Natural frequencies [Hz]; non-finite and non-positive values are ignored.
-
-    Returns
-    -------
-    float
-        The nearest by relative distance (``|ln(f / frequency_hz)|``) [Hz]; nan when none is left.
-    """
-    f = np.asarray(natural_hz, dtype=float)
-    f = f[np.isfinite(f) & (f > 0)]
-    if not f.size:
-        return math.nan
-    return float(f[np.argmin(np.abs(np.log(f / frequency_hz)))])
-
-
-def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,
-                           tolerance: float = DEFAULT_POLICY.oscillation_tolerance,
-                           same_mode: bool = False) -> bool:
-    """Rule 9: whether a rerun oscillates by itself at the recording's self-excited frequency.
-
-    Parameters
-    ----------
-    frequency_hz : float
-        The recording's self-excited frequency [Hz].
-    rerun_check : InstabilityCheck or None
-        :func:`vlab.measure.instability.find_instability` of the candidate's
-        validation rerun (None: no rerun, which does not reproduce it). Only its oscillation is
-        compared: its strongest line at its loop point (``rerun_check.frequency_hz``), the definition of
-        the recording's ``frequency_hz``. Its weaker lines are not: a rerun that diverges holds self-excited
-        lines all over the spectrum (one such rerun held 70, from 11.6 to 261 Hz), and one of them would
-        match any recorded oscillation.
-    natural_hz : array_like, optional
-        Natural frequencies [Hz] of the rerun's structure: a self-excited line on the same branch
-        (:func:`branch`, between the same two natural frequencies) counts too. A limit cycle's
-        frequency depends on its amplitude and on the structure's high modes, which no model-form
-        uncertainty of the band covers: the same 8.2 ms delay on one channel of the BCC oscillated at
-        43.0 Hz on the converged MuJoCo plant and at 48.2 Hz on the default one, both between its
-        modes at 36.9 and 50.1 Hz.
-    same_mode : bool
-        Compare the mode that oscillates instead of the branch: a line counts when its nearest natural
-        frequency (:func:`nearest_mode`) is the recording's. For an oscillation above the measured band,
-        where the model's modes are known only to their discretisation error: a mode's frequency may
-        move past its neighbour's midpoint there (the branch would change) while it stays the nearest
-        mode of its own limit cycle unless the error exceeds half the modes' spacing.
-
-    Returns
-    -------
-    bool
-        True when the rerun's oscillation lies within the relative ``tolerance`` (the policy's
-        ``oscillation_tolerance``) of ``frequency_hz`` (or two of its spectral lines, whichever is
-        wider), or on its branch (its mode with ``same_mode``).
-    """
-    if rerun_check is None or not rerun_check.unstable:
-        return False
-    f_rerun = rerun_check.frequency_hz
-    if abs(f_rerun - frequency_hz) <= max(tolerance * frequency_hz, 2 * rerun_check.resolution_hz):
-        return True
-    if natural_hz is None or not np.size(natural_hz):
-        return False
-    if same_mode:
-        return nearest_mode(f_rerun, natural_hz) == nearest_mode(frequency_hz, natural_hz)
-    return branch(f_rerun, natural_hz) == branch(frequency_hz, natural_hz)

@@ -264,15 +264,17 @@ def _nearest(ref_hz: np.ndarray, f_hz: float, tol: float = 0.03) -> int | None:
 
 
 def _plant_table(spec: StructureSpec, column: str) -> tuple[np.ndarray, np.ndarray, str] | None:
-    """``(frequency_default_hz, column)`` of every mode of ``assets/model_form/<name>.json`` and the file name;
-    None without the file. Raises DataFileError (naming the file) when it is malformed."""
+    """``(frequency_default_hz, column)`` of every mode of ``assets/model_form/<name>.json`` (the band's
+    ``modes`` and the ``above_band_modes``) and the file name; None without the file. Raises DataFileError
+    (naming the file) when it is malformed."""
     path = MODEL_FORM_DIR / f"{spec.name}.json"
     if not path.is_file():
         return None
     try:
         obj = json.loads(path.read_text())
-        f_d = np.array([float(m["frequency_default_hz"]) for m in obj["modes"]])
-        val = np.array([float(m[column]) for m in obj["modes"]])
+        rows = list(obj["modes"]) + list(obj.get("above_band_modes", []))
+        f_d = np.array([float(m["frequency_default_hz"]) for m in rows])
+        val = np.array([float(m[column]) for m in rows])
     except (ValueError, KeyError, TypeError) as exc:
         raise DataFileError(f"{path}: malformed plant model-form file ({exc!r}): regenerate it with "
                             f"python benchmarks/plant_model_form.py {spec.name}") from None
@@ -315,8 +317,8 @@ def plant_shape_uncertainty(spec: StructureSpec, freq_hz: np.ndarray) -> np.ndar
 def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.ndarray, str] | None:
     """``|ln(f_default / f_converged)|`` of the MuJoCo plant per mode, from ``assets/model_form/<name>.json``.
 
-    Each model mode takes the entry whose default-plant frequency is nearest to its own (within 3 %);
-    modes without one get the largest value of the file.
+    Each model mode takes the entry whose default-plant frequency is nearest to its own (within 3 %), else the
+    largest of the entries up to its frequency (the discretisation grows with frequency), or of the file.
 
     Parameters
     ----------
@@ -341,8 +343,11 @@ def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.n
     out = np.full(len(freq_hz), rel.max())
     for i, f in enumerate(np.asarray(freq_hz)):
         j = _nearest(f_d, f)
+        below = rel[f_d <= f]
         if j is not None:
             out[i] = rel[j]
+        elif below.size:
+            out[i] = below.max()
     return out, f"the default MuJoCo plant against a converged one ({name}, {f_d.size} modes)"
 
 
@@ -369,7 +374,7 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     Returns
     -------
     ModelFormUncertainty
-        Cached per spec object, ``n`` and ``compared_with``.
+        Cached per spec object, frequencies and ``compared_with``.
 
     Raises
     ------
@@ -381,7 +386,8 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     if compared_with not in COMPONENTS:
         raise ModelError(f"unknown comparison {compared_with!r}; use one of {sorted(COMPONENTS)}")
     n = len(freq_hz)
-    hit = _CACHE.get((id(spec), n, compared_with))
+    key = (id(spec), tuple(np.asarray(freq_hz, dtype=float).round(9)), compared_with)  # the plant part reads them
+    hit = _CACHE.get(key)
     if hit is not None and hit[0] is spec:
         return hit[1]
     if spec.model_form is not None:  # stated by the structure's author: replaces the calibration residual
@@ -406,7 +412,7 @@ def model_form_uncertainty(spec: StructureSpec, freq_hz: np.ndarray, *,
     sources["damping"] = "printed rounding of the spec's measured damping ratios; assumed ones not compared"
     freq = np.sqrt(sum(comp[k] ** 2 for k in COMPONENTS[compared_with]))
     out = ModelFormUncertainty(freq, comp["damping"], comp, sources)
-    _CACHE[(id(spec), n, compared_with)] = (spec, out)  # the spec is kept, so its id is not reused while cached
+    _CACHE[key] = (spec, out)  # the spec is kept, so its id is not reused while cached
     return out
 
 
