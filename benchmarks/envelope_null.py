@@ -64,12 +64,12 @@ def noise_driven_mode(f0: float, zeta: float, seconds: float, rng: np.random.Gen
 def measure(f0: float, zeta: float, seconds: float, records: int, rng: np.random.Generator) -> dict:
     """The coefficient of variation's quantiles and the gate's and the detector's pass rates for one mode."""
     n = int(seconds * FS_HZ)
-    nper = instability._block(n)
+    nper = instability.welch_block(n)
     df = FS_HZ / nper
     cvs, alarms = [], 0
     for _ in range(records):
         y = noise_driven_mode(f0, zeta, seconds, rng)
-        cvs.append(instability._line_statistics(y, FS_HZ, f0, df, None)[3])
+        cvs.append(instability.line_statistics(y, FS_HZ, f0, df, None)[3])
         rec = Recording(1.0 / FS_HZ, (Channel("vel1", 1, "velocity", y),))
         alarms += bool(instability.find_instability(rec, force_channel=None).unstable)
     cvs = np.asarray(cvs)

@@ -414,7 +414,7 @@ def run_drawn(case: dict, work: Path, controller: str = "mfdrf") -> dict:
     dz = _damping_deviation(v["updated"]["modes"])
     row.update(e_original=e0, e_updated=e1, damping_dev=dz, seconds=time.perf_counter() - t0,
                half=e1 <= 0.5 * e0, below_003=(e1 <= 0.03) if e0 > 0.06 else None, damping_ok=dz <= 0.10,
-               not_meaningful=[w.split(";")[0] for w in v["updated"]["not_meaningful"]])
+               not_meaningful={k: [w.split(";")[0] for w in v[k]["not_meaningful"]] for k in ("original", "updated")})
     return row
 
 
@@ -429,8 +429,8 @@ def _draw_line(i: int, case: dict, row: dict) -> str:
         ok = "pass" if case["expect"] is None else "-"
         e0 = f"{row['e_floor']:9.4f}" if "e_floor" in row else f"{'':9s}"
         return head + f"{e0} {'refused':>9s} {ok:>6s} {'':6s} {'':7s} {'':6s}" + tail + f" [{row['refused']}]"
-    osc = (f" [the updated design's run on the plant: {'; '.join(row['not_meaningful'])}: its FRF comparison is not "
-           "meaningful]") if row.get("not_meaningful") else ""
+    osc = "".join(f" [the {k} design's run on the plant: {'; '.join(w)}: its FRF comparison is not meaningful]"
+                  for k, w in row.get("not_meaningful", {}).items() if w)
     return (head + f"{row['e_original']:9.4f} {row['e_updated']:9.4f} {b[row['half']]:>6s} {b[row['below_003']]:>6s} "
             f"{row['damping_dev']:7.3f} {b[row['damping_ok']]:>6s}" + tail + osc)
 
@@ -452,11 +452,11 @@ def _draw_summary(done: list) -> list[str]:
              f"error halved {n(upd, lambda r: r['half'])}/{len(upd)}, "
              f"<= 0.03 where the original > 0.06: {n(big, lambda r: r['below_003'])}/{len(big)}, "
              f"damping within 10 %: {n(upd, lambda r: r['damping_ok'])}/{len(upd)}"]
-    osc = [r for r in upd if r.get("not_meaningful")]
+    osc = [r for r in upd if any(r.get("not_meaningful", {}).values())]
     if osc:
-        lines.append(f"# of the updates, {len(osc)} ran into a self-excited oscillation or limit cycle on the plant (the "
-                     "design's loop unstable there: counted as they came, though their errors do not test the updated "
-                     "model's linear prediction)")
+        lines.append(f"# of the updates, {len(osc)} ran into a self-excited oscillation or limit cycle on the plant with the "
+                     "original or the updated design (the loop unstable there: counted as they came, though such a run's "
+                     "error does not test a linear prediction)")
     fl = [r["e_floor"] for _, r in nul if "e_floor" in r]
     if fl:
         lines.append("# floor (null cases: the nominal design run on the unchanged plant): average peak level error "

@@ -230,8 +230,8 @@ def test_a_malformed_plant_model_form_file_is_named(tmp_path, monkeypatch):
 
 
 def test_the_plants_discretisation_above_the_band_is_read_and_bounded_from_below(tmp_path, monkeypatch):
-    """A mode takes its own entry (within 3 %), else the largest entry up to its frequency: the discretisation
-    grows with frequency. The cache tells frequencies of the same count apart."""
+    """A mode takes its own entry (within 3 %), else the largest entry up to its frequency (the discretisation
+    grows with frequency), else the lowest entry's. The cache tells frequencies of the same count apart."""
     from vlab.diagnose.model import modelform
 
     rows = [{"frequency_default_hz": 1.0, "frequency_rel": 0.001, "mac": 1.0}]
@@ -239,8 +239,8 @@ def test_the_plants_discretisation_above_the_band_is_read_and_bounded_from_below
              {"frequency_default_hz": 100.0, "frequency_rel": 0.05, "mac": 0.95}]
     (tmp_path / "bcc.json").write_text(json.dumps({"modes": rows, "above_band_modes": above}))
     monkeypatch.setattr(modelform, "MODEL_FORM_DIR", tmp_path)
-    rel, _src = modelform.plant_discretisation(load_spec("bcc"), np.array([1.0, 50.5, 70.0, 99.0, 300.0, 0.5]))
-    assert list(rel) == [0.001, 0.004, 0.004, 0.05, 0.05, 0.05]
+    rel, _src = modelform.plant_discretisation(load_spec("bcc"), np.array([1.0, 50.5, 70.0, 99.0, 300.0, 0.5, 0.0]))
+    assert list(rel) == [0.001, 0.004, 0.004, 0.05, 0.05, 0.001, 0.001]  # below every entry: the lowest one's
     spec = load_spec("bcc")
     a = modelform.model_form_uncertainty(spec, np.array([1.0, 50.0]), compared_with="plant")
     b = modelform.model_form_uncertainty(spec, np.array([1.0, 100.0]), compared_with="plant")

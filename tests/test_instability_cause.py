@@ -244,6 +244,16 @@ def test_the_recordings_identity_carries_the_models_frequency_uncertainty():
     assert recorded_mode_band(20.5, four, False, 1000.0, sigma_rel=[0.05] * 4, z=1.0) == (10.0, 40.0)
     with pytest.raises(ValueError, match="sigma_rel"):
         plausible_modes(42.94, natural, [0.01], z)
+    with pytest.raises(ValueError, match="sigma_rel"):
+        recorded_mode_band(42.94, natural, True, 1000.0, sigma_rel=[0.01], z=z)
+
+
+def test_a_recording_made_by_the_rerun_plant_has_no_frequency_uncertainty():
+    """The recording's structure is the reruns' when the plant that made it is the one they run on."""
+    import vlab.diagnose.instability_cause as ic
+
+    problem = SimpleNamespace(policy=SimpleNamespace(identity_quantile=2.5758))
+    assert ic._frequency_uncertainty(problem, None, [5.0, 14.0], on_plant=True, same_plant=True) == (None, 0.0, "")
 
 
 def _lines(*lines, resolution=0.25):
@@ -277,7 +287,21 @@ def test_a_rerun_with_a_second_oscillation_the_recording_would_have_shown_does_n
     both = dict(recorded, oscillations=recorded["oscillations"] + [{"point": 9, "frequency_hz": 86.5,
                                                                     "line_to_floor": 1e4}])
     assert second_oscillation(two, both, **kw) is None
-    assert second_oscillation(_lines((47.44, 1.0, 9), (85.77, 0.1, 5)), recorded, **kw) is None
+    # a point the recorded oscillation does not reach does not judge; one it reaches does, against the rerun's
+    # oscillation there or, where it has none there, its largest
+    elsewhere = _lines((47.44, 1.0, 9), (85.77, 0.1, 5))
+    assert second_oscillation(elsewhere, recorded, **kw) is None
+    at5 = dict(recorded, oscillations=recorded["oscillations"] + [{"point": 5, "frequency_hz": 42.94,
+                                                                   "line_to_floor": 1e7}])
+    assert second_oscillation(elsewhere, at5, **kw) == 85.77
+    # the recorded oscillation's identity is the rerun's oscillation's: a rerun oscillating on both modes that
+    # may be the recorded one's (47.44 and 38.0 Hz, nearest 50.07 and 36.92) holds two oscillations
+    assert second_oscillation(_lines((47.44, 1.0, 9), (38.0, 0.2, 9)), recorded, **kw) == 38.0
+    # a recorded harmonic (2 x 42.94 Hz) excuses a rerun line at its frequency only, not one of its mode
+    harm = dict(recorded, oscillations=recorded["oscillations"] + [{"point": 9, "frequency_hz": 85.88,
+                                                                    "line_to_floor": 1e4}])
+    assert second_oscillation(_lines((47.44, 1.0, 9), (80.0, 0.1, 9)), harm, **kw) == 80.0
+    assert second_oscillation(_lines((47.44, 1.0, 9), (86.5, 0.1, 9)), harm, **kw) is None
 
 
 def test_the_identity_quantile_is_the_two_sided_normal_quantile_at_the_false_alarm_rate():

@@ -423,16 +423,16 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
     loops_of = _Loops(problem, nominal, on_plant)
     base = loops_of.state(None)
     natural = structure_modes(base)[0]
-    mf = model_form_uncertainty(base.spec, np.asarray(natural), compared_with="fe" if loops_of.model is None else "plant")
-    zq = problem.policy.identity_quantile
-    ident = dict(sigma_rel=mf.frequency_rel, z=zq, recorded=recorded)
-    spans = plausible_branches(frequency_hz, natural, mf.frequency_rel, zq) or [branch(frequency_hz, natural)]
+    on = loops_of.model is not None
+    sigma, zq, source = _frequency_uncertainty(problem, base, natural, on_plant=on, same_plant=plant_made and on)
+    ident = dict(sigma_rel=sigma, z=zq, recorded=recorded)
+    spans = plausible_branches(frequency_hz, natural, sigma, zq) or [branch(frequency_hz, natural)]
     out = CauseSearch(on=loops_of.on, branch_hz=(spans[0][0], spans[-1][1]), growth_1_s=float(growth_1_s),
                       above_band=frequency_hz > problem.ctx.band_hz[1],
-                      modes_hz=tuple(float(m) for m in plausible_modes(frequency_hz, natural, mf.frequency_rel, zq)),
-                      sigma_source=f"{zq:.3g}-sigma intervals: {mf.describe()}")
+                      modes_hz=tuple(float(m) for m in plausible_modes(frequency_hz, natural, sigma, zq)),
+                      sigma_source=source)
     loops_of.band = recorded_mode_band(frequency_hz, natural, out.above_band, 0.5 / base.chain.period_s,
-                                       sigma_rel=mf.frequency_rel, z=zq)
+                                       sigma_rel=sigma, z=zq)
     poles, state_of = loops_of.poles, loops_of.state
 
     def on_mode(h: Hypothesis, x) -> bool:
@@ -470,6 +470,19 @@ def search_cause(problem, nominal: LabState, ranked: list, frequency_hz: float, 
             out.chosen, out.validation = h, v
             break
     return out
+
+
+def _frequency_uncertainty(problem, base: LabState, natural, *, on_plant: bool, same_plant: bool) -> tuple:
+    """``(sigma_rel, z, source)`` of the checked structure's natural frequencies ``natural`` [Hz] against the
+    recording's structure (:mod:`vlab.diagnose.fit.identity`): none where the recording was made by the plant
+    the loops are checked and rerun on (``same_plant``: its structure is the rerun's), else the model-form
+    uncertainty (:func:`~vlab.diagnose.model.modelform.model_form_uncertainty`, the plant's discretisation
+    ``on_plant``, the FE mesh's on the FE model) and the policy's ``identity_quantile``."""
+    if same_plant:
+        return None, 0.0, ""
+    mf = model_form_uncertainty(base.spec, np.asarray(natural), compared_with="plant" if on_plant else "fe")
+    zq = problem.policy.identity_quantile
+    return mf.frequency_rel, zq, f"{zq:.3g}-sigma intervals: {mf.describe()}"
 
 
 def _rerun_candidate(problem, nominal: LabState, h: Hypothesis, frequency_hz: float, loops, *, natural, ident: dict,

@@ -227,8 +227,20 @@ class InstabilityCheck:
                 "oscillations": [o.as_dict() for o in self.oscillations]}
 
 
-def _block(n: int) -> int:
-    """Largest power of two with at least MIN_AVERAGES half-overlapping blocks in ``n`` samples (>= 64)."""
+def welch_block(n: int) -> int:
+    """The Welch block length of :func:`find_instability` for a record of ``n`` samples.
+
+    Parameters
+    ----------
+    n : int
+        Samples in the record.
+
+    Returns
+    -------
+    int
+        The largest power of two giving at least :data:`MIN_AVERAGES` half-overlapping blocks in ``n`` samples,
+        at least 64 and at most ``n`` [samples].
+    """
     nper = 2 ** int(math.floor(math.log2(max(2 * n / (MIN_AVERAGES + 1), 64))))
     return max(64, min(nper, n))
 
@@ -295,20 +307,42 @@ def filter_settling(sos: np.ndarray, *, level: float = MIN_LINE_SHARE) -> int:
         n *= 4
 
 
-def _line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int | None):
-    """Band-pass ``y`` around ``f0`` and measure the line in the record's second half.
+def line_statistics(y: np.ndarray, fs: float, f0: float, df: float, period: int | None):
+    """Band-pass ``y`` around ``f0`` and measure the line in the record's second half (the statistics by which
+    :func:`find_instability` judges a line).
 
-    Returns ``(sigma, se, rise, envelope_cv, period_change, late_rms)``: ``sigma`` [1/s]
-    and ``se``, the slope of ln RMS over the second half's segments (of
-    N_SEGMENTS in all) and its standard error; ``rise``, the largest segment
-    RMS over the first one's (how much the line grew since the record
-    began); ``envelope_cv``, std/mean of the Hilbert envelope over the second
-    half with that slope divided out (a limit cycle holds its level there once it has grown; a tenth cut at
-    the end against the filter's edge);
-    ``period_change``, the norm of the line's change over one period, ``z(t) - z(t - P)``, over the last
-    period's worth of samples clear of the band-pass filter's end transient (:func:`filter_settling`), over the
-    norm of ``z(t)`` there (None without a periodic force, or where the record holds no such span of at least
-    half a period); ``late_rms``, the line's RMS over the second half [units of ``y``].
+    Parameters
+    ----------
+    y : ndarray, shape (n,)
+        One channel's record [any unit].
+    fs : float
+        Sampling rate [Hz].
+    f0 : float
+        The line's frequency [Hz].
+    df : float
+        Spectral resolution of the line's spectrum [Hz] (the pass band is ``f0 +- max(2 df, 0.02 f0)``).
+    period : int or None
+        Samples per period of a periodic force (:func:`force_period`); None: no period change measured.
+
+    Returns
+    -------
+    tuple
+        ``(sigma, se, rise, envelope_cv, period_change, late_rms)``: ``sigma`` [1/s]
+        and ``se``, the slope of ln RMS over the second half's segments (of
+        N_SEGMENTS in all) and its standard error; ``rise``, the largest segment
+        RMS over the first one's (how much the line grew since the record
+        began); ``envelope_cv``, std/mean of the Hilbert envelope over the second
+        half with that slope divided out (a limit cycle holds its level there once it has grown; a tenth cut at
+        the end against the filter's edge);
+        ``period_change``, the norm of the line's change over one period, ``z(t) - z(t - P)``, over the last
+        period's worth of samples clear of the band-pass filter's end transient (:func:`filter_settling`), over the
+        norm of ``z(t)`` there (None without a periodic force, or where the record holds no such span of at least
+        half a period); ``late_rms``, the line's RMS over the second half [units of ``y``]. A pass band outside
+        ``(0, fs/2)`` or a silent segment gives ``(0, inf, 1, inf, None, 0)``.
+
+    Raises
+    ------
+    nothing of its own (scipy's filter design errors for a malformed rate).
     """
     half = max(2.0 * df, 0.02 * f0)
     lo, hi = max(f0 - half, 0.05 * df), min(f0 + half, 0.49 * fs)
@@ -381,7 +415,7 @@ def _channel_oscillations(name: str, y_full: np.ndarray, skip: int, x: np.ndarra
         f0 = float(f[i] + shift * df)
         sl = slice(max(i - 2, 0), min(i + 3, len(f)))
         amp = math.sqrt(float(np.sum(gnn[sl])) * df / 1.5)  # Hann window: noise bandwidth 1.5 bins
-        sigma, se, rise, cv, change, late_rms = _line_statistics(y_full, fs, f0, df, period)
+        sigma, se, rise, cv, change, late_rms = line_statistics(y_full, fs, f0, df, period)
         if late_rms < MIN_LINE_SHARE * math.sqrt(float(np.mean(y_full[len(y_full) // 2:] ** 2))):
             continue  # below what the lab's converters resolve next to the response
         # a loop with an unstable pole (a noise-free rerun of it) grows by itself at any rate; otherwise a rise of
@@ -454,7 +488,7 @@ def find_instability(recording: Recording, *, force_channel: str | None = None,
     if n < 256:
         raise MeasurementError(f"recording: {n} samples after skipping {skip_s:g} s; at least 256 are needed "
                                f"to look for an oscillation")
-    nper = _block(n)
+    nper = welch_block(n)
     kw = dict(fs=fs, window="hann", nperseg=nper, noverlap=nper // 2, detrend="constant")
     df = fs / nper
     n_avg = 1 + (n - nper) // (nper - nper // 2)

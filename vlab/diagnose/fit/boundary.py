@@ -86,6 +86,8 @@ def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist
     it (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation`)."""
     f = np.asarray(natural_hz, dtype=float).ravel()
     keep = np.isfinite(f) & (f > 0)
+    if sigma_rel is not None and np.size(sigma_rel) != f.size:
+        raise ValueError(f"sigma_rel has {np.size(sigma_rel)} values for {f.size} natural frequencies")
     s = None if sigma_rel is None else np.asarray(sigma_rel, dtype=float).ravel()[keep]
     f = f[keep]
     if same_mode and f.size:

@@ -35,12 +35,14 @@ from ..policy import DEFAULT_POLICY
 
 
 def branch(frequency_hz: float, natural_hz) -> tuple[float, float]:
-    """The two natural frequencies [Hz] of ``natural_hz`` that bracket ``frequency_hz`` (0 or inf past the ends).
+    """The two natural frequencies [Hz] of ``natural_hz`` that bracket ``frequency_hz`` (0 or inf past the ends;
+    non-finite and non-positive values ignored).
 
     For collocated feedback each closed-loop root-locus branch runs between neighbouring open-loop poles and
     zeros, which interlace, so the interval between two natural frequencies names the branch (Preumont,
     *Vibration Control of Active Structures*, 3rd ed., 2011, Sec. 7.2)."""
-    f = np.sort(np.asarray(natural_hz, dtype=float))
+    f = np.asarray(natural_hz, dtype=float).ravel()
+    f = np.sort(f[np.isfinite(f) & (f > 0)])
     below, above = f[f <= frequency_hz], f[f > frequency_hz]
     return (float(below[-1]) if below.size else 0.0, float(above[0]) if above.size else math.inf)
 
@@ -173,12 +175,15 @@ def second_oscillation(rerun_check, recorded: dict, natural_hz=None, *,
 
     A limit cycle is one periodic orbit, whose spectrum is its fundamental and the fundamental's harmonics. A
     rerun line that is neither the rerun's oscillation nor one of its harmonics (``k f0`` within ``2 k``
-    spectral lines) nor a recorded line (:func:`reproduces_oscillation`'s criterion against each line the
-    recording holds) is a second oscillation. The recording would have shown it where, scaled to the recorded
-    oscillation at the same point, it stands :data:`vlab.measure.instability.LINE_TO_FLOOR` above that
-    channel's floor: ``(a / a0)^2 l0 >= LINE_TO_FLOOR``, ``a / a0`` the line's amplitude over the rerun's
-    oscillation at that point, ``l0`` the recorded oscillation's line-to-floor ratio there (the detector's own
-    threshold; a point where either is missing does not judge).
+    spectral lines), nor at a recorded line's frequency (the relative ``tolerance`` or two lines), nor of the
+    identity of another recorded oscillation (:func:`reproduces_oscillation`'s criterion against each recorded
+    line that is not the recorded oscillation or its harmonic: the recorded oscillation's own identity is the
+    rerun's oscillation's, and a rerun oscillating on two of its plausible modes holds two oscillations) is a
+    second oscillation. The recording would have shown it where, scaled to the recorded oscillation at the
+    same point, it stands :data:`vlab.measure.instability.LINE_TO_FLOOR` above that channel's floor:
+    ``(a / a0)^2 l0 >= LINE_TO_FLOOR``, ``a / a0`` the line's amplitude over the rerun's oscillation at that
+    point (its largest anywhere, where it has none there), ``l0`` the recorded oscillation's line-to-floor
+    ratio there (the detector's own threshold; a point the recorded oscillation does not reach does not judge).
 
     Parameters
     ----------
@@ -205,20 +210,31 @@ def second_oscillation(rerun_check, recorded: dict, natural_hz=None, *,
     f0, res = rerun_check.frequency_hz, rerun_check.resolution_hz
     lines = list(recorded["oscillations"])
     f_rec, res_rec = float(recorded["frequency_hz"]), float(recorded["resolution_hz"])
-    own = {o.point: o.amplitude_m_s for o in rerun_check.oscillations if abs(o.frequency_hz - f0) <= 2 * res}
+    own = {o.point: o.amplitude_m_s for o in rerun_check.oscillations if _harmonic(o.frequency_hz, f0, res) == 1}
     floor_of = {int(y["point"]): float(y["line_to_floor"]) for y in lines
-                if abs(float(y["frequency_hz"]) - f_rec) <= 2 * res_rec}
+                if _harmonic(float(y["frequency_hz"]), f_rec, res_rec) == 1}
+    # other recorded oscillations (not the recorded one, nor its harmonics): matched by identity as well
+    others = [float(y["frequency_hz"]) for y in lines if not _harmonic(float(y["frequency_hz"]), f_rec, res_rec)]
     kw = dict(tolerance=tolerance, same_mode=same_mode, sigma_rel=sigma_rel, z=z)
     for o in rerun_check.oscillations:
-        k = max(round(o.frequency_hz / f0), 1)
-        if abs(o.frequency_hz - k * f0) <= 2 * k * res:
+        f = o.frequency_hz
+        if _harmonic(f, f0, res) or any(abs(f - float(y["frequency_hz"])) <= max(tolerance * f, 2 * res)
+                                        for y in lines):
             continue
-        if any(_same_oscillation(float(y["frequency_hz"]), o.frequency_hz, res, natural_hz, **kw) for y in lines):
+        if any(_same_oscillation(g, f, res, natural_hz, **kw) for g in others):
             continue
-        a0, l0 = own.get(o.point), floor_of.get(o.point)
+        a0 = own.get(o.point) or max(own.values(), default=0.0)  # the rerun's oscillation at that point, else its largest
+        l0 = floor_of.get(o.point)
         if a0 and l0 and (o.amplitude_m_s / a0) ** 2 * l0 >= LINE_TO_FLOOR:
-            return float(o.frequency_hz)
+            return float(f)
     return None
+
+
+def _harmonic(f: float, f0: float, resolution_hz: float) -> int:
+    """``k`` when ``f`` [Hz] is the ``k``-th harmonic of ``f0`` [Hz] (within ``2 k`` spectral lines of
+    ``resolution_hz``), else 0."""
+    k = max(round(f / f0), 1)
+    return k if abs(f - k * f0) <= 2 * k * resolution_hz else 0
 
 
 def reproduces_oscillation(frequency_hz: float, rerun_check, natural_hz=None, *,

@@ -318,7 +318,7 @@ def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.n
     """``|ln(f_default / f_converged)|`` of the MuJoCo plant per mode, from ``assets/model_form/<name>.json``.
 
     Each model mode takes the entry whose default-plant frequency is nearest to its own (within 3 %), else the
-    largest of the entries up to its frequency (the discretisation grows with frequency), or of the file.
+    largest of the entries up to its frequency (the discretisation grows with frequency), or the lowest entry's.
 
     Parameters
     ----------
@@ -342,12 +342,9 @@ def plant_discretisation(spec: StructureSpec, freq_hz: np.ndarray) -> tuple[np.n
     f_d, rel, name = table
     out = np.full(len(freq_hz), rel.max())
     for i, f in enumerate(np.asarray(freq_hz)):
-        j = _nearest(f_d, f)
+        j = _nearest(f_d, f) if f > 0 else int(np.argmin(f_d))
         below = rel[f_d <= f]
-        if j is not None:
-            out[i] = rel[j]
-        elif below.size:
-            out[i] = below.max()
+        out[i] = rel[j] if j is not None else below.max() if below.size else rel[np.argmin(f_d)]
     return out, f"the default MuJoCo plant against a converged one ({name}, {f_d.size} modes)"
 
 
