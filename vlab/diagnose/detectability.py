@@ -168,8 +168,9 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
     plant against the converged one, :func:`vlab.diagnose.model.modelform.plant_shape_uncertainty`);
     through another replay or none, the FE model's modes, frequencies, damping and shapes: the mixing that
     the structure's own frequency uncertainty (the calibration residual) implies
-    (:func:`_shape_uncertainty`). On the plant's modes the shapes carry the plant's measured discretisation
-    only (its modes include ones the FE model lacks, whose mixing is not derived).
+    (:func:`_shape_uncertainty`). On the plant's modes the shapes carry both, in quadrature: the plant's
+    measured discretisation and the mixing the calibration residual implies among the plant's modes (the
+    structure's own uncertainty, whichever model describes it).
 
     Parameters
     ----------
@@ -200,9 +201,16 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
     else:
         f_ref = ref_modes.omega / (2 * np.pi)
         mf = damping_by_frequency(model_form_uncertainty(nominal.spec, f_ref, compared_with="plant"), f_nom, f_ref)
-        shape_rel = plant_shape_uncertainty(nominal.spec, f_ref)
+        shape_rel = _root_sum_square(plant_shape_uncertainty(nominal.spec, f_ref), _shape_uncertainty(mf, ref_modes))
     return mf, frf_model_form(nominal, data.freq_hz, excitation_point=data.excitation_point,
                               output_points=data.output_points, uncertainty=mf, modes=ref_modes, shape_rel=shape_rel)
+
+
+def _root_sum_square(*parts) -> np.ndarray | None:
+    """Independent relative uncertainties combined in quadrature (GUM, JCGM 100:2008, Eq. (10)), each shape (n,)
+    or None (absent); None when all are."""
+    given = [np.asarray(p, dtype=float) for p in parts if p is not None]
+    return np.sqrt(sum(p**2 for p in given)) if given else None
 
 
 def _shape_uncertainty(mf, modes: PointModes) -> np.ndarray | None:
