@@ -128,7 +128,8 @@ def _problem_of(inp: Inputs, *, floor: float, model_form: str, baseline, policy:
         data, low_replay = _with_plant_distortion(inp, notes)
     if isinstance(data, FrfData) and mf_mode == "derived":
         mf, mf_frf = frf_model_form_of(nominal, data, inp.replay_plant if inp.replayed is not None else None, notes)
-        notes.append(f"compared within the model's own uncertainty: {mf.describe()}")
+        used = [x for lab, x in zip(mf_frf.labels, mf_frf.sigma) if lab.startswith("f")]  # the modes the FRFs feel
+        notes.append(f"compared within the model's own uncertainty: {mf.describe(used)}")
     elif isinstance(data, FrfData):
         why = ("the recording's metadata names the vlab plant that made it" if made_by_vlab and
                model_form == "auto" else "a measured baseline of the same structure" if model_form == "auto"

@@ -146,9 +146,10 @@ class ModelFormUncertainty:
         freq = np.sqrt(sum(v**2 for k, v in comp.items() if k != "damping"))
         return ModelFormUncertainty(freq, self.damping_rel, comp, {**self.sources, component: why})
 
-    def describe(self) -> str:
-        """One sentence: the frequency uncertainty's range and its sources."""
-        f = self.frequency_rel
+    def describe(self, frequency_rel=None) -> str:
+        """One sentence: the frequency uncertainty's range [%] (of ``frequency_rel``, e.g. the modes an FRF model
+        form uses, where given; else of every mode) and its sources."""
+        f = self.frequency_rel if frequency_rel is None or not np.size(frequency_rel) else np.asarray(frequency_rel)
         parts = "; ".join(f"{k}: {v}" for k, v in self.sources.items())
         return (f"model-form uncertainty of the natural frequencies {100 * f.min():.3g}-{100 * f.max():.3g} % "
                 f"(1 sigma; {parts})")
