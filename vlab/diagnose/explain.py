@@ -106,7 +106,8 @@ def _refit_on_plant(res: DiagnosisResult, problem: Problem, chosen: Hypothesis, 
     if note is not None:
         notes.append(note)
     single = chosen
-    chosen, res.plant_refit, looks, note = second_effect_on_plant(model, chosen, res.plant_refit, pool)
+    chosen, res.plant_refit, looks, note = second_effect_on_plant(model, chosen, res.plant_refit, pool,
+                                                                  ranked=res.ranked)
     if note is not None:
         notes.append(note)
     if chosen is not single:

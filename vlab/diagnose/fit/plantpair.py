@@ -67,6 +67,8 @@ from .rules import NONLINEAR, evidence, passes_pair_rule
 
 #: What a pair's plant refit starts from (``PlantRefit.start``): the second effect's value fitted on the referred data.
 REFERRED_FIT = "fit on the data referred through the first effect"
+#: ... or, for a pair of the FE model's fits (:func:`fe_pairs`), its values fitted on the FE model.
+FE_FIT = "fit on the FE model"
 
 
 def referred_through(model: PlantModel, h: Hypothesis, x_fe, x_plant) -> Problem:
@@ -151,7 +153,8 @@ def refit_pair(model: PlantModel, pair: Combination, x, chi2_at_x: float) -> Pla
 
 def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None,
                            pool: list[Hypothesis], *, n_fit: int = N_FIT, refit_best: int = PAIRS_REFITTED,
-                           max_nfev: int = 40) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+                           max_nfev: int = 40, ranked: list | None = None
+                           ) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """Search a second effect next to the selected single ``chosen`` when the plant leaves more than noise.
 
     The data are referred through ``chosen`` (:func:`referred_through`); every
@@ -194,6 +197,12 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         (default :data:`PAIRS_REFITTED`).
     max_nfev : int
         Evaluation budget of each joint fit on the referred data.
+    ranked : list of Hypothesis, optional
+        The fits on the FE model (:func:`vlab.diagnose.fit.estimate.rank`): its ``refit_best`` best pairs that
+        fit better than ``chosen`` there and do not extend it (:func:`fe_pairs`) are refitted on the plant from
+        their own values and judged beside the extensions. A single that fails on the plant leaves the choice
+        open among the FE model's better explanations, not only among its own extensions: the FE model may have
+        preferred the single by a margin no larger than its difference from the plant.
 
     Returns
     -------
@@ -228,10 +237,48 @@ def second_effect_on_plant(model: PlantModel, chosen: Hypothesis, refit: PlantRe
         return chosen, refit, [], note
     single, single_chi2, single_test, referred = found
     pairs = _pairs_on_referred(chosen, referred, pool, n_fit, max_nfev)
+    k = chosen.n_params
+    starts = {c.label: np.concatenate([x_plant, np.asarray(c.params_[k:], dtype=float)]) for c in pairs}
+    others = fe_pairs(chosen, ranked or [], set(starts), refit_best)
+    starts.update({c.label: np.asarray(c.params_, dtype=float) for c in others})
+    pairs = pairs + others
     if not pairs:
         return chosen, refit, [], None
-    refits, plant_chi2 = _refit_on_plant(model, pairs, x_plant, chosen.n_params, refit_best)
-    return _judge_pair(model, chosen, refit, pairs, refits, plant_chi2, single, single_chi2, single_test)
+    refits, plant_chi2 = _refit_on_plant(model, pairs, starts, refit_best, len(others))
+    for c in others:
+        if c.label in refits:
+            refits[c.label] = (c, replace(refits[c.label][1], start=FE_FIT))
+    return _judge_pair(model, chosen, refit, pairs, refits, plant_chi2, single, single_chi2, single_test,
+                       beside=bool(others))
+
+
+def fe_pairs(chosen: Hypothesis, ranked: list, known: set, n: int) -> list:
+    """The ``n`` best pairs of ``ranked`` (FE chi-square, ``chi2_``) that fit better than ``chosen`` on the FE
+    model, are not among ``known`` (labels) and do not extend ``chosen``, that the plant can carry (every part
+    spec-level) and whose parts are linear (a nonlinear part is judged by rerun,
+    :func:`vlab.diagnose.fit.selection.tie_break_by_rerun`).
+
+    Parameters
+    ----------
+    chosen : Hypothesis
+        The selected single effect (``chi2_`` set).
+    ranked : list of Hypothesis
+        Fits on the FE model.
+    known : set of str
+        Labels already searched.
+    n : int
+        How many at most.
+
+    Returns
+    -------
+    list of Combination
+        Best first.
+    """
+    c0 = getattr(chosen, "chi2_", math.inf)
+    out = [c for c in ranked if isinstance(c, Combination) and c.spec_level and c.label not in known
+           and c.parts[0].label != chosen.label and not any(p.effect in NONLINEAR for p in c.parts)
+           and math.isfinite(getattr(c, "chi2_", math.inf)) and c.chi2_ < c0]
+    return sorted(out, key=lambda c: c.chi2_)[:max(int(n), 0)]
 
 
 def _single_on_plant(model: PlantModel, chosen: Hypothesis, x_plant: np.ndarray) -> tuple[tuple | None, str | None]:
@@ -269,33 +316,32 @@ def _pairs_on_referred(chosen: Hypothesis, referred: Problem, pool: list[Hypothe
     return pairs
 
 
-def _refit_on_plant(model: PlantModel, pairs: list, x_plant: np.ndarray, k: int, refit_best: int) -> tuple:
-    """Score every pair on the plant (the first effect at its plant value ``x_plant``, the second at its
-    referred fit) and refit the ``refit_best`` best there: ``(label -> (pair, PlantRefit), label -> plant
-    chi-square, refitted where it was)``."""
-    def on_plant(c: Combination) -> np.ndarray:
-        return np.concatenate([x_plant, np.asarray(c.params_[k:], dtype=float)])
-
-    at_fit = {c.label: model.chi2(c, on_plant(c)) for c in pairs}
-    best_at_fit = sorted(pairs, key=lambda c: at_fit[c.label])[:refit_best]
-    done = map_on_plant(refit_pair, model, [(c, on_plant(c), at_fit[c.label]) for c in best_at_fit])
+def _refit_on_plant(model: PlantModel, pairs: list, starts: dict, refit_best: int, extra: int = 0) -> tuple:
+    """Score every pair on the plant at its start (``starts``: label -> values [SI]; an extension of the
+    chosen effect: that effect at its plant value, the second at its referred fit) and refit the
+    ``refit_best + extra`` best there: ``(label -> (pair, PlantRefit), label -> plant chi-square, refitted where
+    it was)``."""
+    at_fit = {c.label: model.chi2(c, starts[c.label]) for c in pairs}
+    best_at_fit = sorted(pairs, key=lambda c: at_fit[c.label])[:refit_best + extra]
+    done = map_on_plant(refit_pair, model, [(c, starts[c.label], at_fit[c.label]) for c in best_at_fit])
     refits = {c.label: (c, r) for c, r in zip(best_at_fit, done) if r is not None}
     plant_chi2 = {c.label: refits[c.label][1].chi2 if c.label in refits else at_fit[c.label] for c in pairs}
     return refits, plant_chi2
 
 
 def _judge_pair(model: PlantModel, chosen: Hypothesis, refit: PlantRefit | None, pairs: list, refits: dict,
-                plant_chi2: dict, single, single_chi2: float,
-                single_test: tuple[float, float]) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
+                plant_chi2: dict, single, single_chi2: float, single_test: tuple[float, float],
+                beside: bool = False) -> tuple[Hypothesis, PlantRefit | None, list, str | None]:
     """The best refitted pair against the single effect on the plant by the pair rule; the answer of
-    :func:`second_effect_on_plant` with its note."""
+    :func:`second_effect_on_plant` with its note (``beside``: the FE model's better pairs were among them)."""
     plant = model.problem
     k = chosen.n_params
     head = (f"{chosen.label} leaves more than the noise on the MuJoCo plant's linearisation (chi-square "
             f"{single_test[0]:.4g}, largest residual {single_test[1]:.3g}, limits "
             f"{plant.noise_chi2():.4g} and {plant.peak_limit():.3g}): a second effect searched on the data "
-            "referred through it; on the plant: "
-            + ", ".join(f"{c.parts[1].label}: {plant_chi2[c.label]:.4g}" for c in pairs))
+            "referred through it" + (", beside the FE model's better pairs" if beside else "") + "; on the plant: "
+            + ", ".join(f"{c.parts[1].label if c.parts[0].label == chosen.label else c.label}: "
+                        f"{plant_chi2[c.label]:.4g}" for c in pairs))
     if not refits:
         return chosen, refit, [], head + "; none could be refitted there, the single effect stays"
     best, r = min(refits.values(), key=lambda t: t[1].chi2)
