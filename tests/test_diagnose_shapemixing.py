@@ -66,3 +66,19 @@ def test_the_structures_own_model_form_carries_the_close_pairs_shapes():
         by_mode[int(label[3:].split("@")[0])] = s
     assert max(by_mode, key=by_mode.get) in (3, 4)
     assert 0.004 < max(by_mode.values()) < 0.03
+
+
+def test_per_point_the_mixing_is_the_partners_shape_there_and_its_rms_is_the_modes_value():
+    """Two modes at 9 and 10 Hz, shapes [[1, 2], [1, 0]] at two points (rms 1 and sqrt(2)): mode 1 moves by
+    c_12 phi_2(p) at point p, so s_1(p) = c_12 |phi_2(p)| / rms_1 -- 2 c_12 at the first point, 0 at the second
+    -- and the root-mean-square of s_1(p) over the points is the per-mode s_1."""
+    w = 2 * np.pi * np.array([9.0, 10.0])
+    sigma = np.array([5e-4, 5e-4])
+    shapes = np.array([[1.0, 2.0], [1.0, 0.0]])
+    c12 = 2 * w[0] * w[1] * 5e-4 / (w[1] ** 2 - w[0] ** 2)
+    at = mixing_shape_uncertainty(_modes(w, shapes), sigma, per_point=True)
+    assert at.shape == (2, 2)
+    assert at[0, 0] == pytest.approx(2 * c12) and at[1, 0] == 0.0
+    assert at[0, 1] == pytest.approx(c12 / np.sqrt(2)) and at[1, 1] == pytest.approx(c12 / np.sqrt(2))
+    s = mixing_shape_uncertainty(_modes(w, shapes), sigma)
+    assert s == pytest.approx(np.sqrt(np.mean(at**2, axis=0)))

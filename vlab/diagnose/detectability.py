@@ -214,7 +214,7 @@ def _root_sum_square(*parts) -> np.ndarray | None:
 
 
 def _shape_uncertainty(mf, modes: PointModes) -> np.ndarray | None:
-    """Each FE mode's relative shape uncertainty at the points, shape (n,) [1], or None where there is none:
+    """Each mode's relative shape uncertainty at each point, shape (n_points, n) [1], or None where there is none:
     the mixing that the structure's own frequency uncertainty implies
     (:func:`vlab.diagnose.model.shapemixing.mixing_shape_uncertainty`), from ``mf``'s calibration residual,
     the component that describes the structure rather than a mesh or a plant."""
@@ -223,7 +223,7 @@ def _shape_uncertainty(mf, modes: PointModes) -> np.ndarray | None:
         return None
     n = len(modes.omega)
     cal = np.asarray(cal, dtype=float)
-    out = mixing_shape_uncertainty(modes, cal[np.minimum(np.arange(n), len(cal) - 1)])
+    out = mixing_shape_uncertainty(modes, cal[np.minimum(np.arange(n), len(cal) - 1)], per_point=True)
     return out if np.any(out > 0) else None
 
 

@@ -80,10 +80,8 @@ ROUNDING_SIGMA = 1.0 / math.sqrt(12.0)
 
 
 def printed_resolution(text: str) -> float:
-    """The resolution a number is printed to: one unit in its last written digit.
-
-    ``"1.899"`` -> 0.001, ``"0.04"`` -> 0.01, ``"1.5e-3"`` -> 1e-4,
-    ``"1200"`` -> 1 (trailing zeros of an integer are taken as written).
+    """The resolution a number is printed to: one unit in its last written digit (``"1.899"`` -> 0.001, ``"0.04"``
+    -> 0.01, ``"1.5e-3"`` -> 1e-4, ``"1200"`` -> 1: trailing zeros of an integer are taken as written).
 
     Parameters
     ----------
@@ -93,8 +91,7 @@ def printed_resolution(text: str) -> float:
     Returns
     -------
     float
-        The resolution, in the number's own unit; NaN for text that is not a
-        decimal number.
+        The resolution, in the number's own unit; NaN for text that is not a decimal number.
     """
     s = text.strip().lower().lstrip("+-")
     mant, _, exp = s.partition("e")
@@ -141,8 +138,7 @@ class ModelFormUncertainty:
 
     def without(self, component: str, why: str) -> "ModelFormUncertainty":
         """A copy with the frequency component ``component`` removed (``why`` replaces its source)."""
-        comp = dict(self.components)
-        comp[component] = np.zeros_like(self.frequency_rel)
+        comp = {**self.components, component: np.zeros_like(self.frequency_rel)}
         freq = np.sqrt(sum(v**2 for k, v in comp.items() if k != "damping"))
         return ModelFormUncertainty(freq, self.damping_rel, comp, {**self.sources, component: why})
 
@@ -527,8 +523,9 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
         The modes to perturb: those of the plant the data were referred through (its linearisation,
         with modes the FE model does not have, such as the MuJoCo BCC's crosspiece-arm mode at 8.6 Hz);
         default the FE model's.
-    shape_rel : ndarray, shape (n_modes,), optional
-        Relative uncertainty of each mode's shape (:func:`plant_shape_uncertainty`); each point of each
+    shape_rel : ndarray, shape (n_modes,) or (n_pts, n_modes), optional
+        Relative uncertainty of each mode's shape (:func:`plant_shape_uncertainty`), or of its entry at each
+        point (rows: the points ``output_points`` then the lab's actuators, once each); each point of each
         in-band mode with a positive value becomes a parameter. Default: shapes exact.
 
     Returns
@@ -547,14 +544,20 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
         sf = uncertainty.frequency_rel[min(r, n_u - 1)]
         sz = uncertainty.damping_rel[r] if r < n_u else np.inf
-        ss = float(shape_rel[r]) if shape_rel is not None and r < len(shape_rel) else 0.0
-        for which, j, s_p in [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss) for j in range(len(pts))]:
+        ss = _shape_sigma(shape_rel, r, len(pts))
+        for which, j, s_p in [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss[j]) for j in range(len(pts))]:
             if not np.isfinite(s_p) or s_p <= 0:
                 continue
             params.append((which, int(r), j))
             sig.append(s_p)
             labels.append(f"{which}{r + 1}" + (f"@{pts[j]}" if j is not None else ""))
     return FrfModelForm(_sensitivities(state, pm0, params, f, kw), np.array(sig), tuple(labels), pm0)
+
+
+def _shape_sigma(shape_rel, r: int, n_pts: int) -> np.ndarray:
+    """Mode ``r``'s shape uncertainty [1] at ``n_pts`` points from ``shape_rel`` (shape (n,) or (n_pts, n))."""
+    a = np.zeros((n_pts, 0)) if shape_rel is None else np.atleast_2d(np.asarray(shape_rel, dtype=float))
+    return a[np.arange(n_pts) % a.shape[0], r] if r < a.shape[1] else np.zeros(n_pts)
 
 
 def _sensitivities(state: LabState, pm: PointModes, params: list, f: np.ndarray, kw: dict) -> np.ndarray:

@@ -23,11 +23,18 @@ other modes, 0.49 % and 0.94 % of modes 3 and 4 at the points) and small for wel
 
     s_i = sqrt( sum_{j != i} (c_ij rms_j / rms_i)^2 ).
 
-``s_i`` is what :func:`vlab.diagnose.model.modelform.frf_model_form` takes as a shape's relative
-uncertainty (each point's shape entry a parameter of standard uncertainty ``s_i rms_i``). Those
-parameters are independent from point to point, whereas a mixing moves every point along mode ``j``'s
-shape at once: the variance at each point agrees on average, the correlation between points is not
-carried (a broader covariance than the mixing's).
+At one point ``p`` the mixing moves mode ``i``'s shape by ``sum_j c_ij phi_j(p)`` times a standard normal,
+whose standard deviation relative to the mode's RMS is
+
+    s_i(p) = sqrt( sum_{j != i} (c_ij phi_j(p) / rms_i)^2 )
+
+(``per_point``): ``s_i`` is its root-mean-square over the points, and at a point where the partners' shapes
+are large -- the BCC's beam end, point 9, where the 8.8 Hz mode moves the 9.5 Hz one by 1.85 times ``s_i`` --
+the average understates it. :func:`vlab.diagnose.model.modelform.frf_model_form` takes ``s_i(p)`` as the
+relative standard uncertainty of each point's shape entry (a parameter of standard uncertainty
+``s_i(p) rms_i``). Those parameters are independent from point to point, whereas a mixing moves every point
+along mode ``j``'s shape at once: the variance at each point is the mixing's, the correlation between points
+is not carried (a broader covariance than the mixing's).
 """
 
 from __future__ import annotations
@@ -44,7 +51,7 @@ __all__ = ["MAX_MIXING", "mixing_shape_uncertainty"]
 MAX_MIXING = 1.0
 
 
-def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray) -> np.ndarray:
+def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray, *, per_point: bool = False) -> np.ndarray:
     """Relative uncertainty of each mode's shape at the points implied by the frequency uncertainty (module notes).
 
     Parameters
@@ -55,11 +62,15 @@ def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray) -> np
         One standard uncertainty of each mode's frequency, relative [1]; 0 or NaN: that mode's frequency is
         taken as exact (it neither mixes nor is mixed).
 
+    per_point : bool
+        Return ``s_i(p)`` at each point instead of ``s_i`` (module notes).
+
     Returns
     -------
-    ndarray, shape (n,)
-        ``s_i`` [1]: the shape's change at the points relative to its root-mean-square there, at most
-        :data:`MAX_MIXING`; 0 for a mode without shape at the points.
+    ndarray, shape (n,), or (n_p, n) with ``per_point``
+        ``s_i`` [1]: the shape's change at the points relative to its root-mean-square there (or ``s_i(p)``,
+        its change at each point relative to that root-mean-square), at most :data:`MAX_MIXING`; 0 for a mode
+        without shape at the points.
 
     Raises
     ------
@@ -76,13 +87,17 @@ def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray) -> np
     s = np.where(np.isfinite(s), s, 0.0)
     if np.any(s < 0):
         raise ValueError(f"frequency_rel: negative value {float(s.min())}")
-    rms = np.sqrt(np.mean(np.asarray(modes.shapes, dtype=float) ** 2, axis=0))
+    shapes = np.asarray(modes.shapes, dtype=float)
+    rms = np.sqrt(np.mean(shapes**2, axis=0))
     gap = np.abs(w[:, None] ** 2 - w[None, :] ** 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         c = 2.0 * np.outer(w, w) * np.sqrt(np.outer(s, s)) / gap
         c = np.where(np.isfinite(c), np.minimum(c, MAX_MIXING), MAX_MIXING)
         np.fill_diagonal(c, 0.0)
         c = np.where(np.outer(s, s) > 0, c, 0.0)
-        rel = c * rms[None, :] / rms[:, None]
-    rel = np.where(np.isfinite(rel), rel, 0.0)
-    return np.where(rms > 0, np.minimum(np.sqrt(np.sum(rel**2, axis=1)), MAX_MIXING), 0.0)
+        # at each point p: sum_j (c_ij phi_j(p))^2 / rms_i^2, shape (n_p, n)
+        at = np.einsum("ij,pj->pi", c**2, shapes**2) / rms[None, :] ** 2
+    at = np.where(np.isfinite(at), at, 0.0)
+    if per_point:
+        return np.where(rms[None, :] > 0, np.minimum(np.sqrt(at), MAX_MIXING), 0.0)
+    return np.where(rms > 0, np.minimum(np.sqrt(np.mean(at, axis=0)), MAX_MIXING), 0.0)
