@@ -202,3 +202,19 @@ def test_a_member_piece_of_a_split_spec_is_its_segment(db):
     assert not db._same_location({"member": "beam[6-7]"}, {"member": "beam", "segment": [7, 8]})
     assert not db._same_location({"member": "beam[6-7]"}, {"member": "beam"})
     assert db._same_location({"point": 7}, {"point": 7}) and not db._same_location({"point": 7}, {"point": 8})
+
+
+def test_above_the_band_modes_pair_by_shape_then_frequency_and_stop_at_the_first_unpaired():
+    """benchmarks/plant_model_form.py's above-band pairing on constructed modes: two arm-like modes of the same
+    shape at the sites (8.6 Hz in the band, 74 Hz above it) pair with the default modes nearest in frequency, not
+    across the band; the list stops at the first converged mode with no default mode of its shape (MAC < 0.9)."""
+    pmf = _load("plant_model_form")
+    arm, bend, odd = [0.0, 1.0, -1.0], [1.0, 0.0, -1.0], [1.0, -2.0, 1.0]
+    conv = {"sampled_hz": np.array([1.0, 8.6, 74.0, 76.5, 77.0]),
+            "shapes": np.array([[1.0, 1.0, 1.0], arm, arm, odd, bend]).T}
+    default = {"sampled_hz": np.array([1.0, 8.63, 73.6, 77.6]),
+               "shapes": np.array([[1.0, 1.0, 1.0], arm, arm, bend]).T}
+    rows = pmf._above_band(default, conv, 2, {0, 1})
+    assert [(r["converged_mode"], r["default_mode"]) for r in rows] == [(3, 3)]
+    assert rows[0]["frequency_rel"] == pytest.approx(math.log(74.0 / 73.6))
+    assert rows[0]["mac"] == pytest.approx(1.0)

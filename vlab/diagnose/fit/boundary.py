@@ -84,21 +84,17 @@ def recorded_mode_band(frequency_hz: float, natural_hz, same_mode: bool, nyquist
     [Hz], ``sigma_rel`` their relative model-form uncertainty [1] and ``z`` the intervals' half-width in standard
     uncertainties (none: the nearest mode or the branch alone). The same criterion by which a rerun reproduces
     it (:func:`~vlab.diagnose.fit.identity.reproduces_oscillation`)."""
-    f = np.asarray(natural_hz, dtype=float).ravel()
-    keep = np.isfinite(f) & (f > 0)
-    if sigma_rel is not None and np.size(sigma_rel) != f.size:
-        raise ValueError(f"sigma_rel has {np.size(sigma_rel)} values for {f.size} natural frequencies")
-    s = None if sigma_rel is None else np.asarray(sigma_rel, dtype=float).ravel()[keep]
-    f = f[keep]
-    if same_mode and f.size:
-        fs = np.sort(f)
+    modes = plausible_modes(frequency_hz, natural_hz, sigma_rel, z)  # checks sigma_rel, drops unusable values
+    if same_mode and modes.size:
+        f = np.asarray(natural_hz, dtype=float).ravel()
+        fs = np.sort(f[np.isfinite(f) & (f > 0)])
         spans = []
-        for m in plausible_modes(frequency_hz, f, s, z):
+        for m in modes:
             below, above = fs[fs < m], fs[fs > m]
             spans.append((0.5 * (m + below[-1]) if below.size else 0.0,
                           0.5 * (m + above[0]) if above.size else nyquist_hz))
     else:
-        spans = plausible_branches(frequency_hz, f, s, z) or [(0.0, math.inf)]
+        spans = plausible_branches(frequency_hz, natural_hz, sigma_rel, z) or [(0.0, math.inf)]
     lo, hi = min(a for a, _b in spans), max(b for _a, b in spans)
     return float(max(lo, 0.0)), float(min(hi, nyquist_hz))
 

@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from ...measure.instability import LINE_TO_FLOOR
 from ..policy import DEFAULT_POLICY
 
 
@@ -205,8 +206,6 @@ def second_oscillation(rerun_check, recorded: dict, natural_hz=None, *,
     KeyError
         ``recorded`` without those keys.
     """
-    from ...measure.instability import LINE_TO_FLOOR
-
     f0, res = rerun_check.frequency_hz, rerun_check.resolution_hz
     lines = list(recorded["oscillations"])
     f_rec, res_rec = float(recorded["frequency_hz"]), float(recorded["resolution_hz"])

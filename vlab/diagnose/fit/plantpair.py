@@ -273,6 +273,10 @@ def fe_pairs(chosen: Hypothesis, ranked: list, known: set, n: int) -> list:
     -------
     list of Combination
         Best first.
+
+    Raises
+    ------
+    nothing: a fit without a finite ``chi2_`` is left out.
     """
     c0 = getattr(chosen, "chi2_", math.inf)
     out = [c for c in ranked if isinstance(c, Combination) and c.spec_level and c.label not in known
