@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from .. import units
-from .reader import TableReader, read_direction, read_dof, read_point
+from .reader import TableReader, is_number, read_direction, read_dof, read_point
 from .structure import (Crosspiece, LumpedMass, Member, Quantity, RigidInsert, Section, Spring, StringElement,
                         Support)
 
@@ -81,7 +81,7 @@ def read_points(p: TableReader) -> dict[int, tuple[float, float]]:
         xy = coords.raw(key, types=(list,))
         if not key.isdigit():
             coords.fail(key, "point ids must be positive integers")
-        if len(xy) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in xy):
+        if len(xy) != 2 or not all(is_number(x) for x in xy):
             coords.fail(key, f"expected [x, y], got {xy!r}")
         xy_m = (xy[0] * scale, xy[1] * scale)
         if not all(math.isfinite(x) and abs(x) <= MAX_COORDINATE_M for x in xy_m):

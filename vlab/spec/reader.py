@@ -5,7 +5,7 @@ A :class:`TableReader` reads the fields of one table and raises
 (``"bcc.toml: field 'members[0].section': ..."``); it converts every physical
 value ``{ value, unit, source }`` to SI and refuses a value outside
 :data:`vlab.spec.PLAUSIBLE_RANGES`. The functions below read the values several tables
-share: a direction, a DOF name, a point id, a list of point ids, a number in a range.
+share: a direction, a DOF name, a point id, a list of point ids, a number in a range, a fraction in [0, 1).
 """
 
 from __future__ import annotations
@@ -271,7 +271,7 @@ def read_direction(r: TableReader, key: str) -> tuple[float, float]:
         If it is not two finite numbers, or a zero vector other than ``gravity``.
     """
     v = r.raw(key, types=(list,))
-    if len(v) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+    if len(v) != 2 or not all(is_number(x) for x in v):
         r.fail(key, f"expected [x, y], got {v!r}")
     if not all(math.isfinite(x) for x in v):
         r.fail(key, f"expected finite [x, y], got {v!r}")
@@ -340,6 +340,17 @@ def read_number(r: TableReader, key: str, default: Any = ..., *, low: float = 0.
     return float(v)
 
 
+def is_number(v: Any) -> bool:
+    """Whether the TOML value ``v`` (as read) is a number: an int or a float, not a boolean (``True`` is an int)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def is_fraction(v: Any) -> bool:
+    """Whether the TOML value ``v`` is a number (:func:`is_number`) in [0, 1): a damping ratio, a relative
+    uncertainty."""
+    return is_number(v) and 0.0 <= v < 1.0
+
+
 def read_damping_ratio(r: TableReader, key: str) -> int | float:
     """A required damping ratio of table ``r``, in [0, 1) [-]; SpecError naming the field.
 
@@ -360,7 +371,7 @@ def read_damping_ratio(r: TableReader, key: str) -> int | float:
         The field is missing, not a number, or outside [0, 1).
     """
     ratio = r.raw(key, types=(int, float))
-    if isinstance(ratio, bool) or not 0.0 <= ratio < 1.0:
+    if not is_fraction(ratio):
         r.fail(key, f"a damping ratio must be in [0, 1), got {ratio!r}")
     return ratio
 

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..errors import SpecError
 from ..io.confine import confined_file
-from .reader import TableReader, read_damping_ratio, read_number, read_point, read_points_list
+from .reader import TableReader, is_fraction, is_number, read_damping_ratio, read_number, read_point, read_points_list
 from .structure import DATA_DIR, DOF_NAMES, Damping, Instrumentation, ModelFormDeclared, StructureTest
 
 #: Response quantities a test can compare (Sec. 5.4.2: BCC displacement, Fig. 22; grid velocity, Figs. 23-31).
@@ -106,7 +106,7 @@ def read_damping(dr: TableReader | None) -> Damping | None:
         return None
     ratios = dr.raw("modal_ratios", types=(list,))
     for z in ratios:
-        if not isinstance(z, (int, float)) or isinstance(z, bool) or not 0.0 <= z < 1.0:
+        if not is_fraction(z):
             dr.fail("modal_ratios", f"damping ratios must be in [0, 1), got {z!r}")
     default = read_damping_ratio(dr, "default_ratio")
     damping = Damping(tuple(float(z) for z in ratios), float(default), dr.str("source"))
@@ -130,8 +130,7 @@ def read_model_form(mr: TableReader | None) -> ModelFormDeclared | None:
         return None
     fr = mr.raw("frequency_rel", types=(int, float, list))
     vals = fr if isinstance(fr, list) else [fr]
-    if not vals or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0
-                       for v in vals):
+    if not vals or not all(is_fraction(v) for v in vals):
         mr.fail("frequency_rel", f"expected a relative uncertainty in [0, 1) or a list of them, got {fr!r}")
     model_form = ModelFormDeclared(tuple(float(v) for v in vals), mr.str("source"))
     mr.done()
@@ -263,8 +262,8 @@ def read_test(r: TableReader | None, instr: Instrumentation | None, points: dict
     if instr is None:
         r.fail("", "a [test] table needs an [instrumentation] table (actuators, sensors, excitation point)")
     band = r.raw("band_hz", types=(list,))
-    if (len(band) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-                                  for x in band) or not 0 <= band[0] < band[1] <= MAX_TEST_BAND_HZ):
+    if (len(band) != 2 or not all(is_number(x) and math.isfinite(x) for x in band)
+            or not 0 <= band[0] < band[1] <= MAX_TEST_BAND_HZ):
         r.fail("band_hz", f"expected [low, high] with 0 <= low < high <= {MAX_TEST_BAND_HZ:g} Hz, got {band!r}")
     res = read_number(r, "resolution_hz")
     if res > (band[1] - band[0]) / 4:
