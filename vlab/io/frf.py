@@ -119,6 +119,11 @@ class FRF:
                    input_name=self.input_name, output_point=self.output_point,
                    input_point=self.input_point, n_averages=self.n_averages)
 
+    def _require(self, response: str, method: str) -> None:
+        """MeasurementError naming ``method`` unless this FRF's response is ``response``."""
+        if self.response != response:
+            raise MeasurementError(f"FRF {self.name}: {method} needs a {response} FRF, not {self.response}")
+
     def to_displacement(self) -> FRF:
         """Displacement FRF (DFRF) from a velocity FRF (VFRF): ``H_d = H_v / (i 2 pi f)``.
 
@@ -130,8 +135,7 @@ class FRF:
         MeasurementError
             If :attr:`response` is not ``"velocity"``.
         """
-        if self.response != "velocity":
-            raise MeasurementError(f"FRF {self.name}: to_displacement needs a velocity FRF, not {self.response}")
+        self._require("velocity", "to_displacement")
         keep = self.freq_hz > 0
         f = self.freq_hz[keep]
         c = None if self.coherence is None else self.coherence[keep]
@@ -145,8 +149,7 @@ class FRF:
         MeasurementError
             If :attr:`response` is not ``"displacement"``.
         """
-        if self.response != "displacement":
-            raise MeasurementError(f"FRF {self.name}: to_velocity needs a displacement FRF, not {self.response}")
+        self._require("displacement", "to_velocity")
         return self._with(self.freq_hz, self.h * (2j * np.pi * self.freq_hz), self.coherence, "velocity")
 
     def __eq__(self, other: object) -> bool:
