@@ -163,14 +163,12 @@ class SampleDelay(Block):
         Sampling period ``dt`` [s].
     delay_periods : float
         Delay ``D >= 0`` in sampling periods (may be fractional; 1.35 for the PC-1000).
-    size : int
-        Number of channels.
     initial_value : float or array_like, shape (size,)
         Output before the first delayed sample arrives.
     offset_s : float
         Time of sample 0 [s].
-    name : str
-        Used in error messages.
+    size, name
+        As :class:`vlab.lab.block.Block`: the number of channels and the name used in error messages.
 
     Raises
     ------
@@ -342,12 +340,10 @@ class RCLowPass(Block):
         Integration step ``h`` [s] (the physics step, e.g. 0.5 ms / 10) used by :meth:`update`.
     corner_hz : float
         Corner frequency ``f_c`` [Hz]; 677 Hz in the laboratory (Sec. 5.3).
-    size : int
-        Number of channels.
     initial_value : float or array_like, shape (size,)
         Initial capacitor voltage ``y[0]``.
-    name : str
-        Used in error messages.
+    size, name
+        As :class:`vlab.lab.block.Block`: the number of channels and the name used in error messages.
 
     Raises
     ------
@@ -464,10 +460,8 @@ class CurrentAmplifier(Block):
         Output per unit input (e.g. [N/N] or [A/V]).
     limit : float or array_like, shape (size,), optional
         Saturation level (> 0) in output units; ``None`` for a linear amplifier.
-    size : int
-        Number of channels.
-    name : str
-        Used in error messages.
+    size, name
+        As :class:`vlab.lab.block.Block`: the number of channels and the name used in error messages.
 
     Attributes
     ----------
@@ -524,10 +518,8 @@ class SensorNoise(Block):
         Standard deviation [m/s] per channel, >= 0.
     seed : int or numpy.random.Generator
         Seed of (or) the generator; required so runs are reproducible.
-    size : int
-        Number of channels.
-    name : str
-        Used in error messages.
+    size, name
+        As :class:`vlab.lab.block.Block`: the number of channels and the name used in error messages.
 
     Raises
     ------

@@ -140,10 +140,8 @@ def output_delay(chain: HardwareChain, actuators, freq_hz) -> np.ndarray:
     ----------
     chain : HardwareChain
         Its ``delay_of`` each channel [periods], ``period_s`` and ``filter_hz`` (None: no filter).
-    actuators : sequence of int, length n_act
-        Actuator point ids, channel order.
-    freq_hz : ndarray, shape (n_f,)
-        Frequencies [Hz].
+    actuators, freq_hz
+        As :func:`actuator_path`.
 
     Returns
     -------
