@@ -137,6 +137,10 @@ a sidecar), and are diagnosed by ``vlab diagnose`` with the options a user witho
 for the loop used, every second case a null case (half of those closed loop); scored as tiers 1 and 2, with
 the passengers (effects selected beside the true one) counted.
 
+A compound case (two effects concealed together) is right when both are named and nothing else; otherwise
+it is scored as "a part named with the remainder stated" when only true effects are named and the diagnosis
+reports a remainder (``remainder`` in diagnosis.json), else as "neither".
+
 What it does not measure: real hardware.
 
 Usage::
@@ -991,6 +995,9 @@ def score(case: dict) -> dict:
     # a passenger: an effect selected beside a true one found (an effect selected instead is just wrong)
     found = [h for h in matched if h is not None]
     out["passengers"] = len(sel) - len(found) if found else 0
+    if len(truths) > 1:  # a compound: named in full, or a part named (nothing else) with its remainder stated
+        part = bool(found) and len(sel) == len(found) and d.get("remainder") is not None
+        out["compound"] = "in full" if out["right"] else "remainder stated" if part else "neither"
     # the selection reported with look-alikes the data cannot tell from it (dBIC < 10, or predictions within the
     # one-parameter limit, vlab.diagnose.fit.separation): is the truth one?
     # (a pair's look-alikes are pairs, "a + b", matched in either order)
@@ -1044,7 +1051,8 @@ def _line(r: dict, s: dict) -> str:
     return (f"case {r['index']:3d} {r['structure']:4s} {r['controller']:5s} truth {truth} -> {got}: "
             f"{'OK' if s['right'] else 'WRONG (the right one among its look-alikes)' if s['lookalike'] else 'WRONG'}"
             f" ({r['time_generate_s']:.0f} + {r['time_diagnose_s']:.0f} s)" + tier2
-            + (" [an effect drawn below visibility]" if r.get("hidden") else ""))
+            + (" [an effect drawn below visibility]" if r.get("hidden") else "")
+            + (f" [compound: {s['compound']}]" if s.get("compound", "in full") != "in full" else ""))
 
 
 def main(argv=None) -> int:
@@ -1200,6 +1208,9 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
         "time_error_ratio_median": float(np.median(tr)) if tr else None,
         "false_alarms": sum(s["false_alarm"] for s in no_eff),
         "passengers": sum(s.get("passengers", 0) for s in with_eff),
+        "compound_cases": sum("compound" in s for s in with_eff),
+        "compound_in_full": sum(s.get("compound") == "in full" for s in with_eff),
+        "compound_remainder_stated": sum(s.get("compound") == "remainder stated" for s in with_eff),
         "right_param20_count": sum(s["right"] and all(e <= 0.20 for e in s["param_errors"]) for s in with_eff),
         "hidden_effect_cases": [r["index"] for r in results if r.get("hidden")],
         "diagnose_time_s_median": float(np.median(td)), "diagnose_time_s_max": float(np.max(td)),
@@ -1229,6 +1240,9 @@ def _summarise(results: list, wall_s: float, json_path: str | None) -> int:
     if tr:
         print(f"time-domain error reduction: median {summary['time_error_ratio_median']:.1f}x")
     print(f"false alarms on no-effect cases: {summary['false_alarms']} of {summary['no_effect']}")
+    if summary["compound_cases"]:
+        print(f"compound cases: {summary['compound_cases']}; named in full {summary['compound_in_full']}, a part "
+              f"named with the remainder stated {summary['compound_remainder_stated']} (target: every one either)")
     print(f"cases with an effect drawn below visibility ({100 * VISIBLE:g} % on every line, 8 tries): "
           f"{summary['hidden_effect_cases'] or 'none'}")
     print(f"time per case: diagnosis median {summary['diagnose_time_s_median']:.0f} s, max "

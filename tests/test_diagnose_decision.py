@@ -308,11 +308,11 @@ def test_a_choice_refitted_on_the_plant_is_judged_on_the_plants_linearisation(mo
     import vlab.diagnose.decision as decision
 
     monkeypatch.setattr(decision, "locate", lambda problem, state: SimpleNamespace(modes=[], points=()))
-    monkeypatch.setattr(decision, "profiled", lambda problem, state: False)
+    monkeypatch.setattr(decision, "within_model_accuracy", lambda problem, state: within_noise(problem, state))
 
     def footing(chi2):
-        return SimpleNamespace(residual=lambda state, test: np.array([np.sqrt(chi2)]), noise_chi2=lambda: 7158.0,
-                               peak_limit=lambda: 60.4, peak_of=lambda r: float(r @ r), data=None)
+        return SimpleNamespace(residual=lambda state, test: np.full(1000, np.sqrt(chi2 / 1000)), noise_chi2=lambda: 7158.0,
+                               peak_limit=lambda: 60.4, peak_of=lambda r: float(np.max(r**2)), data=None)
     fe, plant = footing(35434.0), footing(5662.0)
     joint = SimpleNamespace(effect="joint_flexibility", label="joint_flexibility(point=14)")
     v = SimpleNamespace(misfit_after=2.4e-5, noise_misfit=7.9e-6, plant="MuJoCo plant")
@@ -326,6 +326,38 @@ def test_a_choice_refitted_on_the_plant_is_judged_on_the_plants_linearisation(mo
     rem = decision.remainder_of(res_with(SimpleNamespace(state="the FE lab at the plant's value", plant_state=None,
                                                          plant_problem=None)), fe, 5e-3)
     assert rem is not None and rem["chi2"] == pytest.approx(35434.0)
+
+
+def within_noise(problem, state) -> bool:
+    """The unprofiled mismatch tests on a stand-in problem: the total chi-square and the largest line."""
+    r = problem.residual(state, test=True)
+    return float(r @ r) <= problem.noise_chi2() and problem.peak_of(r) <= problem.peak_limit()
+
+
+def test_a_remainder_on_one_line_is_judged_by_the_line_test(monkeypatch):
+    """The tests that declare a mismatch judge the choice too: a choice whose total chi-square is within its
+    limit but whose largest line is not leaves a remainder -- when the rerun confirms it, by its misfit or by
+    its own largest line beyond the line limit; a rerun within both leaves none."""
+    import vlab.diagnose.decision as decision
+
+    monkeypatch.setattr(decision, "locate", lambda problem, state: SimpleNamespace(modes=[], points=(3,)))
+    monkeypatch.setattr(decision, "within_model_accuracy", lambda problem, state: within_noise(problem, state))
+    monkeypatch.setattr(decision, "_largest_line", lambda problem, r: None)
+    r = np.array([9.0, 1.0, 1.0])  # chi-square 83 within 4827; one line 81 beyond 57.1
+    problem = SimpleNamespace(residual=lambda state, test: r, noise_chi2=lambda: 4827.0, peak_limit=lambda: 57.1,
+                              peak_of=lambda r: float(np.max(r**2)), data=None)
+    gain = SimpleNamespace(effect="actuator_gain", label="actuator_gain(channel=9)")
+
+    def res_with(v):
+        return SimpleNamespace(selected=gain, selected_parts=(gain,), validation=v, plant_refit=None,
+                               misfit_selected=1e-4, selected_state=lambda: "the lab")
+    quiet = dict(misfit_after=8.7e-3, noise_misfit=7.1e-3, plant="MuJoCo plant")  # ratio 1.23 < sqrt(2)
+    assert decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=28.8)), problem, 3e-2) is None
+    rem = decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=84.4)), problem, 3e-2)
+    assert rem is not None and rem["peak"] == pytest.approx(81.0) and rem["peak_limit"] == 57.1
+    assert rem["points"] == [3]
+    r[:] = [5.0, 1.0, 1.0]  # the line within its limit too: nothing left, whatever the rerun
+    assert decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=84.4)), problem, 3e-2) is None
 
 
 def test_what_an_exact_model_leaves_in_magnitude_and_phase():

@@ -35,7 +35,7 @@ from .fit.resonances import unpaired_peaks
 from .fit.confirm import improves_on_nominal, remainder_resolved, worsens
 from .fit.rules import NONLINEAR, explained_share, explains
 from .fit.selection import located_from_fits
-from .problem.nuisance import profile_state, profiled
+from .problem.nuisance import within_model_accuracy
 from ..measure.instability import LINE_TO_FLOOR
 from .problem.misfits import noise_misfit
 from .problem.residuals import Problem
@@ -251,16 +251,16 @@ def _largest_line(problem: Problem, r: np.ndarray) -> dict | None:
 def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dict | None:
     """Rule 10: what the choice of ``res`` leaves, when it is beyond what the mismatch test allows.
 
-    The same covariance as the mismatch test (noise, floor and model form): the chosen lab -- refitted on the
-    MuJoCo plant's linearisation where it was, and judged there (:func:`_footing`) -- must leave the data
-    within the total chi-square limit
-    (and, with a model form carried, its modes within their model form); a lab that does not leaves a
-    remainder. The single-line test is not applied here: one line at a lightly damped resonance carries
-    the effect's own representation error (how a mass is attached: its offset and rotary inertia), which
-    a flat model-error floor does not cover -- a 0.05 % frequency difference moves the line at a peak of
-    damping ratio 0.002 by tens of per cent -- so a remainder confined to one line is not reported.
-    Where a validation rerun was made, its misfit must also be resolved from what an exact model leaves
-    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). A choice with a nonlinear part is judged by its
+    The same tests and covariance as the mismatch test (noise, floor and model form): the chosen lab --
+    refitted on the MuJoCo plant's linearisation where it was, and judged there (:func:`_footing`) -- must
+    leave the data within the total chi-square limit and the largest single line within its limit (with a
+    model form carried: after its modes are moved within their model form, and those moves within their
+    limit; :func:`vlab.diagnose.problem.nuisance.within_model_accuracy`); a lab that does not leaves a
+    remainder. A test that declares the mismatch of the nominal lab judges the chosen lab too, so a choice
+    that leaves one line beyond the limit the nominal lab was held to has not explained the data.
+    Where a validation rerun was made, it must confirm the remainder on the same footing: its misfit resolved
+    from what an exact model leaves (:func:`vlab.diagnose.fit.confirm.remainder_resolved`), or its largest
+    line beyond the line limit (:func:`_rerun_remainder`). A choice with a nonlinear part is judged by its
     rerun alone -- its linear model is a describing function, whose error is not a remainder -- and what
     the rerun leaves beyond what an exact model leaves is reported with ``nonlinear_choice`` set: part of it
     may be the error of the choice's own value, fitted through that describing function, and part an
@@ -292,12 +292,8 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     r = problem.residual(state, test=True)
     if nonlinear:  # judged by its rerun alone (below): without one, nothing to judge
         inside = v is None
-    elif profiled(problem, state):  # modes moved within their model form, as for the mismatch test
-        rp, x, k = profile_state(problem, state)
-        inside = (float(rp @ rp + x @ x) <= problem.noise_chi2()
-                  and float(x @ x) <= problem.nuisance_limit(k))
-    else:
-        inside = float(r @ r) <= problem.noise_chi2()
+    else:  # the mismatch test's three tests, modes moved within their model form where it is carried
+        inside = within_model_accuracy(problem, state)
     if inside:
         return None
     if v is not None:
@@ -328,7 +324,10 @@ def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float
     measure [decades] and the words for it, when the first is resolved from the second
     (:func:`vlab.diagnose.fit.confirm.remainder_resolved`); None when it is not.
 
-    The log magnitude's misfit first. A choice judged by its rerun alone (``nonlinear``: its linear model is a
+    The log magnitude's misfit first; then the rerun's largest line (``v.peak_after``, on the footing of its
+    chi-square) against the mismatch test's line limit (:meth:`Problem.peak_limit`): a remainder confined to
+    a few lines adds little to a misfit over all of them, as a local mismatch adds little to the total
+    chi-square (:meth:`Problem.peak`). A choice judged by its rerun alone (``nonlinear``: its linear model is a
     describing function) on data fitted with their phase (``problem.use_phase``) is judged on the phase too,
     the footing its fit used: a lag or a delay left out turns the phase more than the magnitude
     (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`), against what an exact model leaves there,
@@ -338,6 +337,10 @@ def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float
     """
     where = f"the validation rerun ({v.plant})"
     if remainder_resolved(v.misfit_after, v.noise_misfit):
+        return float(v.misfit_after), float(v.noise_misfit), where
+    peak = getattr(v, "peak_after", float("nan"))
+    if math.isfinite(peak) and peak > problem.peak_limit() and math.isfinite(v.noise_misfit):
+        where += f", its largest line {peak:.3g} beyond the line limit {problem.peak_limit():.3g}"
         return float(v.misfit_after), float(v.noise_misfit), where
     if nonlinear and problem.use_phase and math.isfinite(v.phase_misfit_after):
         noise = v.noise_phase_misfit
@@ -475,8 +478,11 @@ def _remainder_note(rem: dict, problem: Problem) -> str:
     if line:
         where.append(f"largest at {line['frequency_hz']:.2f} Hz on the sensor at point {line['point']}")
     noise = rem["noise_misfit_decades"]
+    exact = ""
+    if noise is not None:  # resolved by the misfit, or only compared with it (a remainder on a few lines)
+        resolved = remainder_resolved(rem["misfit_decades"], noise)
+        exact = f"{', resolved from' if resolved else ' against'} the {noise:.3g} an exact model leaves"
     return (f"on {rem['judged_on']} the selected effect leaves a misfit of {rem['misfit_decades']:.3g} {unit}"
-            + (f", resolved from the {noise:.3g} an exact model leaves" if noise is not None else "")
-            + (f" ({'; '.join(where)})" if where else "")
+            + exact + (f" ({'; '.join(where)})" if where else "")
             + ("; the choice is nonlinear: part of this may be the error of its own value, fitted through a "
                "describing function" if rem.get("nonlinear_choice") else ""))

@@ -114,6 +114,10 @@ class Validation:
     noise_phase_misfit : float
         What an exact model leaves on ``phase_misfit_*``'s footing, magnitude and phase [decades]
         (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; NaN where the fit does not use the phase).
+    peak_after : float
+        The modified rerun's largest squared residual of one line on the footing of ``chi2_after`` [1]
+        (:meth:`~vlab.diagnose.problem.residuals.Problem.peak_of`), for the mismatch test's line limit; NaN
+        where not computed.
     """
 
     plant: str
@@ -134,13 +138,14 @@ class Validation:
     chi2_after: float = float("nan")
     target_var: np.ndarray | None = None
     noise_phase_misfit: float = float("nan")
+    peak_after: float = float("nan")
 
     def as_dict(self) -> dict:
         """Summary for diagnosis.json (its NaN values become null there, :func:`vlab.experiment.results.jsonable`)."""
         return {"plant": self.plant, "misfit_before": self.misfit_before, "misfit_after": self.misfit_after,
                 "time_error_before": self.time_error_before, "time_error_after": self.time_error_after,
                 "noise_misfit": self.noise_misfit, "noise_time_error": self.noise_time_error,
-                "chi2_before": self.chi2_before, "chi2_after": self.chi2_after,
+                "chi2_before": self.chi2_before, "chi2_after": self.chi2_after, "peak_after": self.peak_after,
                 **({"phase_misfit_before": self.phase_misfit_before, "phase_misfit_after": self.phase_misfit_after,
                     "noise_phase_misfit": self.noise_phase_misfit}
                    if np.isfinite(self.phase_misfit_before) else {})}
@@ -289,23 +294,32 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
         target_var = data.var_recorded if (recorded and data.var_recorded is not None) else data.var
 
     floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
-    chi2s = chi2_in_data_frame(problem, lb, target, extra), chi2_in_data_frame(problem, la, target, extra)
+    rb, ra = residual_in_data_frame(problem, lb, target, extra), residual_in_data_frame(problem, la, target, extra)
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))
     return Validation(desc, log_misfit(hb[mask], target[mask], w), log_misfit(ha[mask], target[mask], w),
                       time_error(runs[0], data), time_error(runs[1], data), floor_misfit, hb, ha,
                       {p: _on_recording_axis(runs[0], p, rec) for p in pts},
-                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target, *chi2s,
-                      target_var, exact_phase_misfit_of(problem, target, target_var) if problem.use_phase
-                      else float("nan"))
+                      {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target,
+                      float(rb @ rb), float(ra @ ra), target_var,
+                      exact_phase_misfit_of(problem, target, target_var) if problem.use_phase else float("nan"),
+                      problem.peak_of(ra))
 
 
 def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None) -> float:
-    """Chi-square [1] of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit (module notes):
-    ``h`` referred into the data's frame, ``h * H_data / target`` (the factor that took ``target`` to the data
-    ``problem.data.h``; 1 where it is not finite), through
-    :meth:`~vlab.diagnose.problem.residuals.Problem.frf_chi2`.
+    """Chi-square [1] of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit: ``|r|^2`` of
+    :func:`residual_in_data_frame` of ``problem``, ``h``, ``target`` and ``extra_var`` (raises as it does)."""
+    r = residual_in_data_frame(problem, h, target, extra_var)
+    return float(r @ r)
+
+
+def residual_in_data_frame(problem, h: np.ndarray, target: np.ndarray,
+                           extra_var: np.ndarray | None = None) -> np.ndarray:
+    """Weighted residuals of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit (module
+    notes): ``h`` referred into the data's frame, ``h * H_data / target`` (the factor that took ``target`` to
+    the data ``problem.data.h``; 1 where it is not finite), through
+    :meth:`~vlab.diagnose.problem.residuals.Problem.frf_residual`.
 
     Parameters
     ----------
@@ -318,11 +332,17 @@ def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np
 
     Returns
     -------
-    float
+    ndarray, shape (n_obs,)
+        [1]; its square sum is the chi-square, its largest line :meth:`Problem.peak_of`.
+
+    Raises
+    ------
+    ValueError
+        ``h`` of another shape than the data's.
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         frame = problem.data.h / target
-    return problem.frf_chi2(h * np.where(np.isfinite(frame), frame, 1.0), extra_var)
+    return problem.frf_residual(h * np.where(np.isfinite(frame), frame, 1.0), extra_var)
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

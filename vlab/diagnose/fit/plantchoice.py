@@ -165,9 +165,8 @@ def explains_on_plant(model: PlantModel, h: Hypothesis, refit: PlantRefit) -> bo
     """Whether ``h``, refitted on the plant's linearisation (``refit``), leaves the data there within the
     limits of the tests that declared the mismatch, as the remainder of a choice is judged
     (:func:`vlab.diagnose.decision.remainder_of`): its modes within their model form where one is carried
-    (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), else the total chi-square within its
-    limit (:meth:`~vlab.diagnose.problem.residuals.Problem.noise_chi2`; the single-line test is not applied,
-    for the reason given there).
+    (:func:`vlab.diagnose.problem.nuisance.within_model_accuracy`), else the total chi-square and the
+    largest line within their limits (:meth:`~vlab.diagnose.problem.residuals.Problem.within_noise`).
 
     Parameters
     ----------
@@ -183,7 +182,12 @@ def explains_on_plant(model: PlantModel, h: Hypothesis, refit: PlantRefit) -> bo
     """
     if model.problem.model_form_frf is not None:
         return _within_model_accuracy(model, h, refit.params)
-    return bool(refit.chi2 <= model.problem.noise_chi2())
+    try:
+        return bool(refit.chi2 <= model.problem.noise_chi2()
+                    and model.problem.peak(model.state(h, np.asarray(refit.params, dtype=float)))
+                    <= model.problem.peak_limit())
+    except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
+        return False
 
 
 def pair_needed_on_plant(model: PlantModel, pair: Combination, main: Hypothesis, single: Hypothesis,

@@ -370,10 +370,17 @@ class Problem:
 
     def frf_chi2(self, h: np.ndarray, extra_var: np.ndarray | None = None) -> float:
         """Chi-square [1] of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``) on the fits'
-        footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only), with
-        ``extra_var`` (shape (n_f, n_o), a relative complex variance [1] per line, e.g. a rerun plant's own
-        uncertainty) added to each line's noise; a line that is not finite counts as :meth:`residual`'s
-        does. Raises ValueError for another shape."""
+        footing: ``|r|^2`` of :meth:`frf_residual` with its ``extra_var``. Raises ValueError for another shape."""
+        r = self.frf_residual(h, extra_var)
+        return float(r @ r)
+
+    def frf_residual(self, h: np.ndarray, extra_var: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residuals of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``), shape
+        (n_obs,), on the fits' footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF
+        data only), with ``extra_var`` (shape (n_f, n_o), a relative complex variance [1] per line, e.g. a
+        rerun plant's own uncertainty) added to each line's noise; a line that is not finite counts as
+        :meth:`residual`'s does (:meth:`peak_of` takes its largest line). Raises ValueError for another
+        shape."""
         h = np.asarray(h)
         if h.shape != self.data.h.shape:
             raise ValueError(f"FRFs of shape {h.shape} compared with data of shape {self.data.h.shape}")
@@ -383,8 +390,7 @@ class Problem:
             ps = np.sqrt(self.part_sigma**2 + np.asarray(extra_var, dtype=float)[self.mask] / 2.0)
             r = line_residual(h[self.mask], self.data.h[self.mask], ps, form="log", use_phase=self.use_phase)
             r = whitened(r, self._whitener(ps))
-        r = np.where(np.isfinite(r), r, PENALTY)
-        return float(r @ r)
+        return np.where(np.isfinite(r), r, PENALTY)
 
     def _frf_residual(self, hm: np.ndarray, test: bool = False) -> np.ndarray:
         r = self.line_residual(hm[self.mask], test=test)
