@@ -980,6 +980,8 @@ def score(case: dict) -> dict:
     out = {"right": False, "lookalike": False, "false_alarm": False, "param_errors": [], "misfit_ratio": None, "time_ratio": None,
            "noise_ratio": None, "refit_errors": [], "passengers": 0}
     if d is None:
+        if len(truths) > 1:  # a compound that was not diagnosed is neither named nor its remainder stated
+            out["compound"] = "neither"
         return out
     sel = d["selected"]
     if not truths:

@@ -103,3 +103,23 @@ def test_a_kept_recording_of_another_draw_is_refused_and_nothing_is_diagnosed(t3
     assert r["result"] is None and "not the case drawn now" in r["error"] and not (sub / "rediagnosis").exists()
     missing = t3.kept_case(cases[1], tmp_path)
     assert missing["result"] is None and "truth.json" in missing["error"]
+
+
+def test_a_compound_is_scored_in_full_by_part_with_its_remainder_or_neither(t3):
+    """Two effects concealed together: both named is right; one of them named with a remainder stated (and
+    nothing else named) is the other outcome the criterion accepts; one named without a remainder, or a
+    case not diagnosed, is neither."""
+    mass = {"effect": "added_mass", "location": {"point": 6}, "parameters": {"mass_kg": 0.1}}
+    gain = {"effect": "actuator_gain", "location": {"channel": 9}, "parameters": {"gain": 1.07}}
+
+    def outcome(sel, remainder=None, result=True):
+        d = {"selected": sel, "mismatch": True, "alternatives": [], "validated": {}, "remainder": remainder}
+        return t3.score({"truth": [mass, gain], "result": d if result else None}).get("compound")
+    assert outcome([mass, gain]) == "in full"
+    assert outcome([gain], remainder={"misfit_decades": 0.01}) == "remainder stated"
+    assert outcome([gain]) == "neither"
+    assert outcome([gain, {**mass, "location": {"point": 5}}], remainder={"misfit_decades": 0.01}) == "neither"
+    assert outcome([], result=False) == "neither"
+    single = t3.score({"truth": [mass], "result": {"selected": [mass], "mismatch": True, "alternatives": [],
+                                                    "validated": {}}})
+    assert "compound" not in single

@@ -20,7 +20,7 @@ from vlab.diagnose.policy import DEFAULT_POLICY, DecisionPolicy
 from vlab.diagnose.problem.context import context_for
 from vlab.diagnose.problem.residuals import Problem
 from vlab.diagnose.data.replay import distortion_variance
-from vlab.diagnose.validate import chi2_in_data_frame
+from vlab.diagnose.validate import chi2_in_data_frame, residual_in_data_frame
 from vlab.lab.loop import HardwareChain
 from vlab.models import nominal_fe_model
 
@@ -70,6 +70,19 @@ def test_the_nominal_rerun_in_the_data_frame_is_the_nominal_lab():
     before is the fit's own nominal chi-square, so the two cannot disagree."""
     problem, nominal, rec, hb, _ha = _case(0.5)
     assert chi2_in_data_frame(problem, hb, rec) == pytest.approx(problem.chi2(nominal), rel=1e-9)
+
+
+def test_a_reruns_residual_in_the_data_frame_is_the_labs_in_either_form():
+    """The rerun's residual vector referred as the data are is the nominal lab's own, in the fits' log form
+    and in the tests' relative form, whose largest line the line limit judges (the two forms differ there)."""
+    problem, nominal, rec, hb, _ha = _case(0.5)
+    for test in (False, True):
+        np.testing.assert_allclose(residual_in_data_frame(problem, hb, rec, test=test),
+                                   problem.residual(nominal, test=test), rtol=1e-8, atol=1e-10)
+    log_peak = problem.peak_of(residual_in_data_frame(problem, hb, rec))
+    relative_peak = problem.peak_of(residual_in_data_frame(problem, hb, rec, test=True))
+    assert relative_peak == pytest.approx(problem.peak_of(problem.residual(nominal, test=True)), rel=1e-8)
+    assert abs(relative_peak / log_peak - 1.0) > 1e-3
 
 
 def test_the_right_effect_is_confirmed_and_the_wrong_one_rejected_on_a_plant_a_sigma_off():

@@ -355,7 +355,11 @@ def test_a_remainder_on_one_line_is_judged_by_the_line_test(monkeypatch):
     assert decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=28.8)), problem, 3e-2) is None
     rem = decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=84.4)), problem, 3e-2)
     assert rem is not None and rem["peak"] == pytest.approx(81.0) and rem["peak_limit"] == 57.1
-    assert rem["points"] == [3]
+    assert rem["points"] == [3] and rem["rerun_peak"] == 84.4 and rem["rerun_peak_limit"] == 57.1
+    assert "largest line 84.4 beyond the line limit 57.1" in rem["judged_on"]
+    unknown = dict(quiet, noise_misfit=float("nan"))  # no exact-model misfit: the line alone still confirms
+    rem = decision.remainder_of(res_with(SimpleNamespace(**unknown, peak_after=84.4)), problem, 3e-2)
+    assert rem is not None and rem["noise_misfit_decades"] is None
     r[:] = [5.0, 1.0, 1.0]  # the line within its limit too: nothing left, whatever the rerun
     assert decision.remainder_of(res_with(SimpleNamespace(**quiet, peak_after=84.4)), problem, 3e-2) is None
 

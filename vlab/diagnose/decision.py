@@ -257,7 +257,10 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     model form carried: after its modes are moved within their model form, and those moves within their
     limit; :func:`vlab.diagnose.problem.nuisance.within_model_accuracy`); a lab that does not leaves a
     remainder. A test that declares the mismatch of the nominal lab judges the chosen lab too, so a choice
-    that leaves one line beyond the limit the nominal lab was held to has not explained the data.
+    that leaves one line beyond the limit the nominal lab was held to has not explained the data -- also
+    where that line is the effect's own representation error (how a mass is attached: its offset and rotary
+    inertia, at a lightly damped resonance), which is then reported for what it is: the model with the
+    effect does not reproduce that line.
     Where a validation rerun was made, it must confirm the remainder on the same footing: its misfit resolved
     from what an exact model leaves (:func:`vlab.diagnose.fit.confirm.remainder_resolved`), or its largest
     line beyond the line limit (:func:`_rerun_remainder`). A choice with a nonlinear part is judged by its
@@ -280,7 +283,9 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
         ``misfit_decades`` (left by the choice: the rerun's, else the linear model's), ``noise_misfit_decades``
         (an exact model's; None when unknown), ``judged_on``, ``chi2`` and ``chi2_limit`` [1] and
         ``peak``/``peak_limit`` [1] of the chosen lab (of a nonlinear choice: its rerun's chi-square, no peak
-        and no largest line; its modes and points placed by its describing-function model), ``modes`` (whose fit still disagrees), ``points``
+        and no largest line; its modes and points placed by its describing-function model),
+        ``rerun_peak``/``rerun_peak_limit`` [1] (the validation rerun's largest line and its limit; None
+        without a rerun), ``modes`` (whose fit still disagrees), ``points``
         (where the sensitivity ranking puts the remainder), ``largest_line`` (``frequency_hz``, ``point``,
         ``squared_residual``), ``nonlinear_choice``; None when nothing is left beyond the limits.
     """
@@ -288,6 +293,7 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
         return None
     v = res.validation
     nonlinear = any(p.effect in NONLINEAR for p in res.selected_parts)
+    data_problem = problem  # the validation's statistics were computed on it
     problem, state = _footing(res, problem)
     r = problem.residual(state, test=True)
     if nonlinear:  # judged by its rerun alone (below): without one, nothing to judge
@@ -296,11 +302,12 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
         inside = within_model_accuracy(problem, state)
     if inside:
         return None
+    rerun_peak = None
     if v is not None:
-        measure = _rerun_remainder(v, problem, nonlinear)
+        measure = _rerun_remainder(v, data_problem, nonlinear)
         if measure is None:
             return None
-        after, noise, judged = measure
+        after, noise, judged, rerun_peak = measure
     else:
         noise = None
         if isinstance(problem.data, FrfData):
@@ -314,39 +321,46 @@ def remainder_of(res: DiagnosisResult, problem: Problem, misfit_0: float) -> dic
     return {"misfit_decades": float(after), "noise_misfit_decades": None if noise is None else float(noise),
             "misfit_nominal_decades": float(misfit_0), "judged_on": judged,
             "chi2": chi2, "chi2_limit": problem.noise_chi2(), "peak": peak,
-            "peak_limit": problem.peak_limit(), "modes": [m.mode for m in loc.modes if m.flagged],
+            "peak_limit": problem.peak_limit(), "rerun_peak": rerun_peak,
+            "rerun_peak_limit": None if rerun_peak is None else data_problem.peak_limit(),
+            "modes": [m.mode for m in loc.modes if m.flagged],
             "points": list(loc.points), "largest_line": None if nonlinear else _largest_line(problem, r),
             "nonlinear_choice": nonlinear}
 
 
-def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float, str] | None:
-    """The misfit a choice's validation rerun ``v`` leaves, the misfit an exact model leaves on the same
-    measure [decades] and the words for it, when the first is resolved from the second
-    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`); None when it is not.
+def _rerun_remainder(v, problem: Problem, nonlinear: bool) -> tuple[float, float | None, str, float | None] | None:
+    """Whether a choice's validation rerun ``v`` confirms a remainder, on the data of ``problem`` (the
+    problem the validation's statistics were computed on): the misfit it leaves [decades], the misfit an
+    exact model leaves on the same measure [decades] (None where unknown), the words for it and the rerun's
+    largest squared line residual [1] (None where not computed); None when the rerun confirms nothing.
 
-    The log magnitude's misfit first; then the rerun's largest line (``v.peak_after``, on the footing of its
+    First the log magnitude's misfit, resolved from what an exact model leaves
+    (:func:`vlab.diagnose.fit.confirm.remainder_resolved`). A choice judged by its rerun alone (``nonlinear``:
+    its linear model is a describing function) on data fitted with their phase (``problem.use_phase``) is
+    then judged on the phase too, the footing its fit used: a lag or a delay left out turns the phase more
+    than the magnitude (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`), against what an exact model
+    leaves there, the noise's whole variance and the model form's in magnitude and phase
+    (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; ``sqrt(2)`` times the magnitude's where a
+    validation does not carry it: for circular noise the log magnitude takes half the variance). Last the
+    rerun's largest line (``v.peak_after``, the tests' relative-error form with the covariance of its
     chi-square) against the mismatch test's line limit (:meth:`Problem.peak_limit`): a remainder confined to
     a few lines adds little to a misfit over all of them, as a local mismatch adds little to the total
-    chi-square (:meth:`Problem.peak`). A choice judged by its rerun alone (``nonlinear``: its linear model is a
-    describing function) on data fitted with their phase (``problem.use_phase``) is judged on the phase too,
-    the footing its fit used: a lag or a delay left out turns the phase more than the magnitude
-    (:func:`vlab.diagnose.problem.misfits.complex_log_misfit`), against what an exact model leaves there,
-    the noise's whole variance and the model form's in magnitude and phase
-    (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; ``sqrt(2)`` times the magnitude's where a
-    validation does not carry it: for circular noise the log magnitude takes half the variance).
+    chi-square (:meth:`Problem.peak`).
     """
     where = f"the validation rerun ({v.plant})"
-    if remainder_resolved(v.misfit_after, v.noise_misfit):
-        return float(v.misfit_after), float(v.noise_misfit), where
     peak = getattr(v, "peak_after", float("nan"))
-    if math.isfinite(peak) and peak > problem.peak_limit() and math.isfinite(v.noise_misfit):
-        where += f", its largest line {peak:.3g} beyond the line limit {problem.peak_limit():.3g}"
-        return float(v.misfit_after), float(v.noise_misfit), where
+    peak = float(peak) if math.isfinite(peak) else None
+    noise = float(v.noise_misfit) if math.isfinite(v.noise_misfit) else None
+    if remainder_resolved(v.misfit_after, v.noise_misfit):
+        return float(v.misfit_after), noise, where, peak
     if nonlinear and problem.use_phase and math.isfinite(v.phase_misfit_after):
-        noise = v.noise_phase_misfit
-        noise = noise if math.isfinite(noise) else math.sqrt(2.0) * v.noise_misfit
-        if remainder_resolved(v.phase_misfit_after, noise):
-            return float(v.phase_misfit_after), float(noise), where + ", magnitude and phase"
+        noise_phase = v.noise_phase_misfit
+        noise_phase = noise_phase if math.isfinite(noise_phase) else math.sqrt(2.0) * v.noise_misfit
+        if remainder_resolved(v.phase_misfit_after, noise_phase):
+            return float(v.phase_misfit_after), float(noise_phase), where + ", magnitude and phase", peak
+    if peak is not None and peak > problem.peak_limit():
+        where += f", its largest line {peak:.3g} beyond the line limit {problem.peak_limit():.3g}"
+        return float(v.misfit_after), noise, where, peak
     return None
 
 

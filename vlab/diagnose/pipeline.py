@@ -27,8 +27,8 @@ one policy (:class:`vlab.diagnose.policy.DecisionPolicy`, from the user's false-
    parameter).
 6. **Decide** (:func:`vlab.diagnose.decision.apply_gates`, :func:`vlab.diagnose.decision.remainder_of`):
    the choice stands only if its validation does not make the fit worse, it beats the nominal lab on its
-   fit's footing (likelihood-ratio test) and explains the larger part of the mismatch; what it leaves, when resolved,
-   is reported as a remainder.
+   fit's footing (likelihood-ratio test) and explains the larger part of the mismatch; what it leaves beyond
+   the mismatch test's limits is reported as a remainder.
 7. **Report** (:mod:`vlab.diagnose.report.markdown`): the verdict is written from the result's own
    statistics, so that its numbers are the JSON's.
 """

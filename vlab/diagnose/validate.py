@@ -115,9 +115,9 @@ class Validation:
         What an exact model leaves on ``phase_misfit_*``'s footing, magnitude and phase [decades]
         (:func:`vlab.diagnose.problem.misfits.exact_phase_misfit`; NaN where the fit does not use the phase).
     peak_after : float
-        The modified rerun's largest squared residual of one line on the footing of ``chi2_after`` [1]
-        (:meth:`~vlab.diagnose.problem.residuals.Problem.peak_of`), for the mismatch test's line limit; NaN
-        where not computed.
+        The modified rerun's largest squared residual of one line [1] with the covariance of ``chi2_after``,
+        in the tests' relative-error form (:meth:`~vlab.diagnose.problem.residuals.Problem.peak_of`), for the
+        mismatch test's line limit; NaN where not computed.
     """
 
     plant: str
@@ -295,6 +295,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
 
     floor_misfit, time_noise = exact_errors_of(problem, target, target_var)
     rb, ra = residual_in_data_frame(problem, lb, target, extra), residual_in_data_frame(problem, la, target, extra)
+    peak_after = problem.peak_of(residual_in_data_frame(problem, la, target, extra, test=True))
     rec = data.recording
     phases = ((complex_log_misfit(hb[mask], target[mask], w), complex_log_misfit(ha[mask], target[mask], w))
               if problem.use_phase else (float("nan"), float("nan")))
@@ -304,7 +305,7 @@ def _compared(problem, desc: str, kind: str, runs: list, pts: tuple, low: list |
                       {p: _on_recording_axis(runs[1], p, rec) for p in pts}, *phases, time_noise, target,
                       float(rb @ rb), float(ra @ ra), target_var,
                       exact_phase_misfit_of(problem, target, target_var) if problem.use_phase else float("nan"),
-                      problem.peak_of(ra))
+                      peak_after)
 
 
 def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None) -> float:
@@ -314,12 +315,13 @@ def chi2_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np
     return float(r @ r)
 
 
-def residual_in_data_frame(problem, h: np.ndarray, target: np.ndarray,
-                           extra_var: np.ndarray | None = None) -> np.ndarray:
+def residual_in_data_frame(problem, h: np.ndarray, target: np.ndarray, extra_var: np.ndarray | None = None,
+                           *, test: bool = False) -> np.ndarray:
     """Weighted residuals of a rerun's FRFs ``h`` compared with ``target`` on the footing of the fit (module
     notes): ``h`` referred into the data's frame, ``h * H_data / target`` (the factor that took ``target`` to
     the data ``problem.data.h``; 1 where it is not finite), through
-    :meth:`~vlab.diagnose.problem.residuals.Problem.frf_residual`.
+    :meth:`~vlab.diagnose.problem.residuals.Problem.frf_residual` (``test``: in the tests' relative-error
+    form, whose largest line :meth:`~vlab.diagnose.problem.residuals.Problem.peak_limit` judges).
 
     Parameters
     ----------
@@ -329,6 +331,8 @@ def residual_in_data_frame(problem, h: np.ndarray, target: np.ndarray,
         [(m/s)/N].
     extra_var : ndarray, shape (n_f, n_o), optional
         Relative variance [1] added to each line's noise (:func:`~vlab.diagnose.data.replay.distortion_variance`).
+    test : bool
+        The tests' relative error instead of the fits' log ratio.
 
     Returns
     -------
@@ -342,7 +346,7 @@ def residual_in_data_frame(problem, h: np.ndarray, target: np.ndarray,
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         frame = problem.data.h / target
-    return problem.frf_residual(h * np.where(np.isfinite(frame), frame, 1.0), extra_var)
+    return problem.frf_residual(h * np.where(np.isfinite(frame), frame, 1.0), extra_var, test=test)
 
 
 def _on_recording_axis(run: Recording, p: int, rec: Recording) -> np.ndarray:

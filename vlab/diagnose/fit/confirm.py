@@ -20,7 +20,8 @@ recording that oscillates by itself is judged on its FRF misfit alone: its limit
 linear covariance nor matched sample by sample.
 
 The remainder (rule 10, :func:`remainder_resolved`) is what a selected choice leaves beyond what an exact
-model leaves.
+model leaves (the misfit's side of :func:`vlab.diagnose.decision.remainder_of`, which also applies the line
+test).
 
 Sources: the likelihood-ratio test (Wilks, Ann. Math. Stat. 9 (1938) 60-62) with overdispersion (Burnham &
 Anderson, *Model Selection and Multimodel Inference*, 2nd ed., 2002, Sec. 6.2); misfits of independent parts

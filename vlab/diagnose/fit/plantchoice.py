@@ -183,9 +183,9 @@ def explains_on_plant(model: PlantModel, h: Hypothesis, refit: PlantRefit) -> bo
     if model.problem.model_form_frf is not None:
         return _within_model_accuracy(model, h, refit.params)
     try:
-        return bool(refit.chi2 <= model.problem.noise_chi2()
-                    and model.problem.peak(model.state(h, np.asarray(refit.params, dtype=float)))
-                    <= model.problem.peak_limit())
+        state = refit.plant_state
+        state = model.state(h, np.asarray(refit.params, dtype=float)) if state is None else state
+        return model.problem.within_noise(state)
     except (ModelError, SpecError, np.linalg.LinAlgError, ValueError):
         return False
 

@@ -70,8 +70,10 @@ the rules live elsewhere (:mod:`vlab.diagnose.fit.estimate`, :mod:`vlab.diagnose
 9. **Not explained** (:func:`explains`): a choice that removes less than the policy's ``explained_share`` of
    the nominal chi-square, leaves the data out of the noise and whose rerun does not lower the FRF misfit by
    as much is not selected: the mismatch lies outside the library.
-10. **The remainder** (:func:`vlab.diagnose.fit.confirm.remainder_resolved`): what a selected choice leaves is tested against what an
-    exact model leaves; a resolved remainder is reported with its size and place (the choice explains part
+10. **The remainder** (:func:`vlab.diagnose.decision.remainder_of`): what a selected choice leaves is judged
+    by the mismatch test's own tests (total chi-square, largest line, the modes' moves) and, on its
+    validation rerun, against what an exact model leaves (:func:`vlab.diagnose.fit.confirm.remainder_resolved`)
+    or by the rerun's largest line; a remainder is reported with its size and place (the choice explains part
     of the mismatch), never dropped. A linear choice with look-alikes that leaves a remainder on its rerun
     gives way to a look-alike whose own rerun leaves none, else nothing is named
     (:func:`vlab.diagnose.decision.settle_remainder`).

@@ -374,21 +374,22 @@ class Problem:
         r = self.frf_residual(h, extra_var)
         return float(r @ r)
 
-    def frf_residual(self, h: np.ndarray, extra_var: np.ndarray | None = None) -> np.ndarray:
+    def frf_residual(self, h: np.ndarray, extra_var: np.ndarray | None = None, *, test: bool = False) -> np.ndarray:
         """Weighted residuals of FRFs ``h`` (shape (n_f, n_o), [(m/s)/N], compared with ``data.h``), shape
-        (n_obs,), on the fits' footing: the noise, the floor and the whitened model form of :meth:`chi2` (FRF
-        data only), with ``extra_var`` (shape (n_f, n_o), a relative complex variance [1] per line, e.g. a
-        rerun plant's own uncertainty) added to each line's noise; a line that is not finite counts as
-        :meth:`residual`'s does (:meth:`peak_of` takes its largest line). Raises ValueError for another
-        shape."""
+        (n_obs,): the noise, the floor and the whitened model form of :meth:`chi2` (FRF data only), with
+        ``extra_var`` (shape (n_f, n_o), a relative complex variance [1] per line, e.g. a rerun plant's own
+        uncertainty) added to each line's noise; the fits' log ratio, with ``test`` the tests' relative error
+        (:mod:`.forms`: the form :meth:`peak_limit` and :meth:`noise_chi2` hold for); a line that is not
+        finite counts as :meth:`residual`'s does. Raises ValueError for another shape."""
         h = np.asarray(h)
         if h.shape != self.data.h.shape:
             raise ValueError(f"FRFs of shape {h.shape} compared with data of shape {self.data.h.shape}")
         if extra_var is None:
-            r = self._frf_residual(h)
+            r = self._frf_residual(h, test)
         else:
             ps = np.sqrt(self.part_sigma**2 + np.asarray(extra_var, dtype=float)[self.mask] / 2.0)
-            r = line_residual(h[self.mask], self.data.h[self.mask], ps, form="log", use_phase=self.use_phase)
+            r = line_residual(h[self.mask], self.data.h[self.mask], ps, form="relative" if test else "log",
+                              use_phase=self.use_phase)
             r = whitened(r, self._whitener(ps))
         return np.where(np.isfinite(r), r, PENALTY)
 

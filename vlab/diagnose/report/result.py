@@ -101,9 +101,8 @@ class DiagnosisResult:
         The mismatch tests the nominal lab failed (:func:`vlab.diagnose.decision.mismatch_tests`: ``test``,
         ``statistic``, ``limit``); empty when there is no mismatch.
     remainder : dict or None
-        What the selected effect leaves, when it is resolved from what an exact model leaves
-        (:func:`vlab.diagnose.decision.remainder_of`); None when nothing resolved is left or nothing is
-        selected.
+        What the selected effect leaves beyond the mismatch test's limits, confirmed by its validation rerun
+        (:func:`vlab.diagnose.decision.remainder_of`); None when nothing is left or nothing is selected.
     threshold : dict or None
         The detection threshold of the selected effect on these data, on the side of its fitted value
         (:func:`vlab.diagnose.detectability.threshold_of`, ``Threshold.as_dict()``); None without a selected
