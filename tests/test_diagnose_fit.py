@@ -293,7 +293,8 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     pair = Combination(first=ActuatorLag(), second=Saturation())
     _fitted(lag, sat, pair)
     errors = {("linear", pair.label): 0.275, ("linear", sat.label): 0.328, ("linear", lag.label): 0.35,
-              ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162, "resolution": 0.01}
+              ("mujoco", pair.label): 0.041, ("mujoco", sat.label): 0.162, ("mujoco", lag.label): 0.30,
+              "resolution": 0.01}
     # a recording of the linear plant: the fall 0.328 -> 0.275 is resolved against 0.01 (0.0320 > 1e-4) but is
     # 30 % of what the saturation leaves beyond it (0.1075): the second part does not explain the remainder
     best, asked, notes, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "linear")
@@ -315,6 +316,11 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     best, asked, notes, seeds = _tie_break_with(monkeypatch, pair, [pair, sat, lag], errors, "mujoco")
     assert best.label == pair.label and asked == ["linear", "mujoco"] and seeds == {7}
     assert "MuJoCo plant" in notes[-1]
+    # each part is rerun on the MuJoCo plant: the lag, the better part on the linear plant, is the worse one
+    # there, and a pair that beats only it while the saturation alone is as good holds a passenger
+    swapped = {**errors, ("linear", lag.label): 0.30, ("mujoco", sat.label): 0.0411}
+    best, _, notes, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], swapped, "mujoco")
+    assert best.label == sat.label and f"{sat.label} alone: 0.0411" in notes[-1]
     # a MuJoCo rerun that fails leaves the linear reruns, on a plant other than the recording's: no
     # resolution is known there, the better part alone is kept, and the note says why
     errors[("mujoco", "fail")] = SimulationError("the plant diverged")

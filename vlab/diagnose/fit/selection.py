@@ -308,8 +308,10 @@ def _best_on_mujoco(problem: Problem, cands: list, errors: dict, best: Hypothesi
 def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, errors: dict, notes: list, *,
                              plant: str, seed: int) -> Hypothesis:
     """The pair ``best`` if its rerun resolves a fall of the time-domain error below the better of its parts
-    ``alone``, else that part: as every pair, it must beat its better part; on the MuJoCo plant where both can
-    be carried by it (:func:`tie_break_by_rerun`). Appends a line to ``notes``.
+    ``alone``, else that part: as every pair, it must beat its better part; on the MuJoCo plant where it can
+    carry them (:func:`tie_break_by_rerun`), each part rerun there too, so that the better part is the better
+    one on the plant that judges (a pair that beats only its worse part holds a passenger). Appends a line
+    to ``notes``.
 
     The quadrature rule of the validation (:meth:`vlab.diagnose.policy.DecisionPolicy.resolved`): the pair is
     kept when ``e_single^2 - e_pair^2`` exceeds the square of the time-domain error an exact model leaves
@@ -322,13 +324,17 @@ def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, er
     single = min(alone, key=lambda g: errors[g.label])
     e_pair, e_single = errors[best.label], errors[single.label]
     where, on_recordings_plant = "linear FE plant", plant == "linear"
+    parts = [g for g in alone if g.spec_level]  # the parts the MuJoCo plant can carry
     if plant == "mujoco" and best.spec_level and single.spec_level:
-        runs = reruns(problem, _rerun_jobs(problem, (best, single)), "mujoco", seed=seed)
+        # every part the plant carries is rerun there: the better part is the better one on that plant, the
+        # footing of the judgement (the linear plant's ranking of the parts need not be the recording plant's)
+        runs = reruns(problem, _rerun_jobs(problem, (best, *parts)), "mujoco", seed=seed)
         failed = [r for r in runs if isinstance(r, VlabError)]
         if failed:
             where += f" (the MuJoCo rerun failed: {failed[0]})"
         else:
-            e_pair, e_single = (time_error(r, problem.data) for r in runs)
+            e_pair, *e_parts = (time_error(r, problem.data) for r in runs)
+            single, e_single = min(zip(parts, e_parts), key=lambda ge: ge[1])
             how = last_reruns_note(problem)
             where, on_recordings_plant = "MuJoCo plant" + (f" ({how})" if how else ""), True
     resolution = rerun_resolution(problem) if on_recordings_plant else float("nan")
