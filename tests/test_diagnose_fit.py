@@ -321,6 +321,7 @@ def test_a_saturation_pair_is_judged_on_the_mujoco_plant_when_the_recording_came
     swapped = {**errors, ("linear", lag.label): 0.30, ("mujoco", sat.label): 0.0411}
     best, _, notes, _ = _tie_break_with(monkeypatch, pair, [pair, sat, lag], swapped, "mujoco")
     assert best.label == sat.label and f"{sat.label} alone: 0.0411" in notes[-1]
+    assert f"{lag.label} alone: 0.3 (" in notes[-1]  # every part's error on the plant is in the note
     # a MuJoCo rerun that fails leaves the linear reruns, on a plant other than the recording's: no
     # resolution is known there, the better part alone is kept, and the note says why
     errors[("mujoco", "fail")] = SimulationError("the plant diverged")

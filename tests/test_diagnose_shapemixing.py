@@ -82,3 +82,21 @@ def test_per_point_the_mixing_is_the_partners_shape_there_and_its_rms_is_the_mod
     assert at[0, 1] == pytest.approx(c12 / np.sqrt(2)) and at[1, 1] == pytest.approx(c12 / np.sqrt(2))
     s = mixing_shape_uncertainty(_modes(w, shapes), sigma)
     assert s == pytest.approx(np.sqrt(np.mean(at**2, axis=0)))
+
+
+def test_a_per_point_shape_uncertainty_with_the_wrong_rows_is_refused():
+    """frf_model_form takes a shape uncertainty per mode (the same at every point) or one row per point; a
+    per-point array of another row count is an error naming both counts, not silently wrapped."""
+    from vlab.diagnose.detectability import nominal_test
+    from vlab.diagnose.model.modelform import frf_model_form, model_form_uncertainty
+    from vlab.diagnose.model.nominal import natural_frequencies
+
+    spec, lab, data, _ctx = nominal_test("bcc", "none")
+    fr, _, _ = natural_frequencies(lab)
+    mf = model_form_uncertainty(spec, fr, compared_with="fe")
+    kw = dict(excitation_point=data.excitation_point, output_points=data.output_points, uncertainty=mf)
+    n_pts = len(dict.fromkeys(tuple(data.output_points) + lab.actuators))
+    with pytest.raises(ValueError, match=f"2 rows for the {n_pts} points"):
+        frf_model_form(lab, data.freq_hz[:50], shape_rel=np.full((2, len(fr)), 1e-3), **kw)
+    ok = frf_model_form(lab, data.freq_hz[:50], shape_rel=np.full((n_pts, len(fr)), 1e-3), **kw)
+    assert any(label.startswith("phi") for label in ok.labels)

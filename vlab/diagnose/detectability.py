@@ -208,7 +208,7 @@ def frf_model_form_of(nominal: LabState, data: FrfData, reference_plant: str | N
 
 def _root_sum_square(*parts) -> np.ndarray | None:
     """Independent relative uncertainties combined in quadrature (GUM, JCGM 100:2008, Eq. (10)), each shape (n,)
-    or None (absent); None when all are."""
+    or (n_points, n) (broadcast: a per-mode value holds at every point), or None (absent); None when all are."""
     given = [np.asarray(p, dtype=float) for p in parts if p is not None]
     return np.sqrt(sum(p**2 for p in given)) if given else None
 

@@ -272,11 +272,7 @@ def fe_pairs(chosen: Hypothesis, ranked: list, known: set, n: int) -> list:
     Returns
     -------
     list of Combination
-        Best first.
-
-    Raises
-    ------
-    nothing: a fit without a finite ``chi2_`` is left out.
+        Best first; a fit without a finite ``chi2_`` is left out (no error is raised for it).
     """
     c0 = getattr(chosen, "chi2_", math.inf)
     out = [c for c in ranked if isinstance(c, Combination) and c.spec_level and c.label not in known

@@ -325,6 +325,7 @@ def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, er
     e_pair, e_single = errors[best.label], errors[single.label]
     where, on_recordings_plant = "linear FE plant", plant == "linear"
     parts = [g for g in alone if g.spec_level]  # the parts the MuJoCo plant can carry
+    others: list = []  # the other parts' errors, where they were rerun on the plant
     if plant == "mujoco" and best.spec_level and single.spec_level:
         # every part the plant carries is rerun there: the better part is the better one on that plant, the
         # footing of the judgement (the linear plant's ranking of the parts need not be the recording plant's)
@@ -337,6 +338,7 @@ def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, er
             single, e_single = min(zip(parts, e_parts), key=lambda ge: ge[1])
             how = last_reruns_note(problem)
             where, on_recordings_plant = "MuJoCo plant" + (f" ({how})" if how else ""), True
+            others = [f"{g.label} alone: {e:.3g}" for g, e in zip(parts, e_parts) if g is not single]
     resolution = rerun_resolution(problem) if on_recordings_plant else float("nan")
     fall, left = e_single**2 - e_pair**2, e_single**2 - resolution**2
     share = problem.policy.explained_share
@@ -351,7 +353,7 @@ def _pair_or_its_better_part(problem: Problem, best: Hypothesis, alone: list, er
                f"that: {'the pair is kept' if keep else 'the part alone is kept'} (a resolved fall of at least "
                f"{100 * share:g} % explains the remainder)")
     notes.append(f"pair with a nonlinear effect checked by rerun on the {where}: {best.label}: {e_pair:.3g}, "
-                 f"{single.label} alone: {e_single:.3g} ({why})")
+                 f"{single.label} alone: {e_single:.3g}" + "".join(f", {o}" for o in others) + f" ({why})")
     return best if keep else single
 
 

@@ -67,6 +67,7 @@ from ...fe import build_fe_model, modal_analysis
 from ...spec import ASSETS_DIR, MAX_ELEMENTS_PER_SEGMENT, StructureSpec
 from .labmodel import LabState, PointModes, point_modes_of
 from .modal_changes import changed_mode_frfs, moved_modes
+from .shapemixing import shape_sigma_at
 
 #: Folder of the plants' measured discretisation (``python benchmarks/plant_model_form.py``).
 MODEL_FORM_DIR = ASSETS_DIR / "model_form"
@@ -531,6 +532,11 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     Returns
     -------
     FrfModelForm
+
+    Raises
+    ------
+    ValueError
+        A two-dimensional ``shape_rel`` whose rows are not one per point.
     """
     f = np.asarray(freq_hz, dtype=float)
     pts = tuple(dict.fromkeys(tuple(output_points) + state.actuators))
@@ -544,7 +550,7 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
     for r in np.flatnonzero((fr >= lo) & (fr <= hi)):
         sf = uncertainty.frequency_rel[min(r, n_u - 1)]
         sz = uncertainty.damping_rel[r] if r < n_u else np.inf
-        ss = _shape_sigma(shape_rel, r, len(pts))
+        ss = shape_sigma_at(shape_rel, r, pts)
         for which, j, s_p in [("f", None, sf), ("zeta", None, sz)] + [("phi", j, ss[j]) for j in range(len(pts))]:
             if not np.isfinite(s_p) or s_p <= 0:
                 continue
@@ -552,12 +558,6 @@ def frf_model_form(state: LabState, freq_hz: np.ndarray, *, excitation_point: in
             sig.append(s_p)
             labels.append(f"{which}{r + 1}" + (f"@{pts[j]}" if j is not None else ""))
     return FrfModelForm(_sensitivities(state, pm0, params, f, kw), np.array(sig), tuple(labels), pm0)
-
-
-def _shape_sigma(shape_rel, r: int, n_pts: int) -> np.ndarray:
-    """Mode ``r``'s shape uncertainty [1] at ``n_pts`` points from ``shape_rel`` (shape (n,) or (n_pts, n))."""
-    a = np.zeros((n_pts, 0)) if shape_rel is None else np.atleast_2d(np.asarray(shape_rel, dtype=float))
-    return a[np.arange(n_pts) % a.shape[0], r] if r < a.shape[1] else np.zeros(n_pts)
 
 
 def _sensitivities(state: LabState, pm: PointModes, params: list, f: np.ndarray, kw: dict) -> np.ndarray:

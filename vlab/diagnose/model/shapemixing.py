@@ -43,7 +43,7 @@ import numpy as np
 
 from .labmodel import PointModes
 
-__all__ = ["MAX_MIXING", "mixing_shape_uncertainty"]
+__all__ = ["MAX_MIXING", "mixing_shape_uncertainty", "shape_sigma_at"]
 
 #: Largest relative shape uncertainty [1], of one pair's mixing and of a mode's total: first-order perturbation
 #: theory holds while the mixing is small; at 1 the model no longer tells the mode's shape at the points (it
@@ -101,3 +101,34 @@ def mixing_shape_uncertainty(modes: PointModes, frequency_rel: np.ndarray, *, pe
     if per_point:
         return np.where(rms[None, :] > 0, np.minimum(np.sqrt(at), MAX_MIXING), 0.0)
     return np.where(rms > 0, np.minimum(np.sqrt(np.mean(at, axis=0)), MAX_MIXING), 0.0)
+
+
+def shape_sigma_at(shape_rel, r: int, points: tuple) -> np.ndarray:
+    """Mode ``r``'s relative shape uncertainty [1] at each of ``points``, shape (len(points),).
+
+    Parameters
+    ----------
+    shape_rel : ndarray or None
+        Shape (n,): each mode's value, the same at every point (:func:`mixing_shape_uncertainty`); or
+        (len(points), n): one row per point (``per_point``); None: shapes exact.
+    r : int
+        Mode index (0-based); a mode ``shape_rel`` does not cover has 0.
+    points : tuple of int
+        The points, in the rows' order.
+
+    Returns
+    -------
+    ndarray, shape (len(points),)
+
+    Raises
+    ------
+    ValueError
+        A two-dimensional ``shape_rel`` whose rows are not one per point.
+    """
+    n_pts = len(points)
+    if shape_rel is None:
+        return np.zeros(n_pts)
+    a = np.atleast_2d(np.asarray(shape_rel, dtype=float))
+    if np.ndim(shape_rel) == 2 and a.shape[0] != n_pts:
+        raise ValueError(f"shape_rel has {a.shape[0]} rows for the {n_pts} points {tuple(points)}")
+    return a[np.arange(n_pts) % a.shape[0], r] if r < a.shape[1] else np.zeros(n_pts)
